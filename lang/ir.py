@@ -1,0 +1,369 @@
+"""The IR: a fully evaluated scene, the contract between the compiler and the runtime.
+
+Frozen dataclasses, no Lark and no Embree here, and numpy only as plain arrays inside mesh
+shapes. Everything is in POV-Ray's left-handed world space. Every object remembers the span
+of the source that made it, so the runtime can blame a line.
+
+Conventions
+- Vec3 is a tuple of 3 floats. Colors are RGBFT 5-tuples (red, green, blue, filter,
+  transmit) already in the *working* colour space of the scene (see Settings.assumed_gamma).
+- Matrix is a 4x4 row-major tuple of 4 tuples; it maps column vectors: p' = M @ (p, 1).
+  `Object.transform` maps object space to world space. Pattern transforms
+  (`Pigment.transform` …) map pattern space to world space; a pattern is evaluated at
+  inverse(transform) @ p_world. The evaluator composes them exactly like POV-Ray (a texture
+  given before an object's transform moves with the object).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from lang.diagnostics import Span
+
+IR_VERSION = 1
+
+Vec3 = tuple[float, float, float]
+Color = tuple[float, float, float, float, float]
+Matrix = tuple[
+    tuple[float, float, float, float],
+    tuple[float, float, float, float],
+    tuple[float, float, float, float],
+    tuple[float, float, float, float],
+]
+
+IDENTITY: Matrix = (
+    (1.0, 0.0, 0.0, 0.0),
+    (0.0, 1.0, 0.0, 0.0),
+    (0.0, 0.0, 1.0, 0.0),
+    (0.0, 0.0, 0.0, 1.0),
+)
+BLACK: Color = (0.0, 0.0, 0.0, 0.0, 0.0)
+WHITE: Color = (1.0, 1.0, 1.0, 0.0, 0.0)
+
+
+# ------------------------------------------------------------------ textures
+@dataclass(frozen=True)
+class Pigment:
+    """`pattern` is "solid" (uses `color`), or a pattern name such as "checker", "hexagon",
+    "brick", "gradient" … For "checker"/"hexagon"/"brick" the sub-pigments are in `list`
+    (2 or 3 entries, each a Pigment; a plain colour becomes a solid Pigment). For the
+    continuous patterns `color_map` holds (value, Color) pairs sorted by value, or
+    `pigment_map` holds (value, Pigment) pairs. `params` holds pattern-specific numbers
+    (e.g. {"orientation": (0,1,0)} for gradient, "mortar" for brick), `turbulence` …
+    Defaults follow POV-Ray: a missing pigment is solid black (POV's default texture)."""
+
+    pattern: str = "solid"
+    color: Color = BLACK
+    list: tuple[Pigment, ...] = ()
+    color_map: tuple[tuple[float, Color], ...] = ()
+    pigment_map: tuple[tuple[float, Pigment], ...] = ()
+    transform: Matrix = IDENTITY
+    params: dict[str, Any] = field(default_factory=dict)
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Reflection:
+    """`reflection` in a finish: min/max are colours (RGB 3-tuples). POV-Ray's plain
+    `reflection 0.75` means min = max = 0.75 grey."""
+
+    min: Vec3 = (0.0, 0.0, 0.0)
+    max: Vec3 = (0.0, 0.0, 0.0)
+    fresnel: bool = False
+    falloff: float = 1.0
+    exponent: float = 1.0
+    metallic: float = 0.0
+
+
+@dataclass(frozen=True)
+class Finish:
+    """POV-Ray 3.7 defaults. `ambient` and `emission` are RGB 3-tuples. `metallic` is the
+    metallic amount (0 = off, `metallic` alone = 1). `roughness` is POV's (specular size);
+    `phong_size` likewise for phong."""
+
+    ambient: Vec3 = (0.1, 0.1, 0.1)
+    emission: Vec3 = (0.0, 0.0, 0.0)
+    diffuse: float = 0.6
+    diffuse_back: float = 0.0
+    brilliance: float = 1.0
+    specular: float = 0.0
+    roughness: float = 0.05
+    phong: float = 0.0
+    phong_size: float = 40.0
+    metallic: float = 0.0
+    reflection: Reflection = field(default_factory=Reflection)
+    conserve_energy: bool = False
+    crand: float = 0.0
+    irid: tuple[float, float, float] | None = None  # (amount, thickness, turbulence)
+
+
+@dataclass(frozen=True)
+class Normal:
+    """A normal perturbation pattern (`bumps 0.5 scale 0.2` …)."""
+
+    pattern: str
+    depth: float = 0.5
+    transform: Matrix = IDENTITY
+    params: dict[str, Any] = field(default_factory=dict)
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Interior:
+    ior: float = 1.0
+    fade_distance: float = 0.0
+    fade_power: float = 0.0
+    fade_color: Vec3 = (0.0, 0.0, 0.0)
+    caustics: float = 0.0
+    dispersion: float = 1.0
+
+
+@dataclass(frozen=True)
+class Texture:
+    """One texture layer. `layers` holds further layers on top (POV's layered textures),
+    outermost last."""
+
+    pigment: Pigment = field(default_factory=Pigment)
+    finish: Finish = field(default_factory=Finish)
+    normal: Normal | None = None
+    layers: tuple[Texture, ...] = ()
+    span: Span | None = None
+
+
+# -------------------------------------------------------------------- shapes
+@dataclass(frozen=True)
+class Sphere:
+    center: Vec3
+    radius: float
+
+
+@dataclass(frozen=True)
+class Plane:
+    """Points p with dot(normal, p) = distance (normal as written, not normalised: POV-Ray
+    normalises it and scales the distance accordingly, and so must the runtime).
+    The inside is the side the normal points away from."""
+
+    normal: Vec3
+    distance: float
+
+
+@dataclass(frozen=True)
+class Box:
+    corner1: Vec3
+    corner2: Vec3
+
+
+@dataclass(frozen=True)
+class Polygon:
+    """A planar polygon; POV-Ray's point list, possibly several closed sub-polygons
+    (a sub-polygon closes when a point repeats its first point). Even-odd fill."""
+
+    points: tuple[Vec3, ...]
+
+
+@dataclass(frozen=True)
+class Triangle:
+    p1: Vec3
+    p2: Vec3
+    p3: Vec3
+    normals: tuple[Vec3, Vec3, Vec3] | None = None  # smooth_triangle
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Indexed triangles (mesh, mesh2, and later tessellated nurbs/subdivision).
+    `vertices` is float64 (N,3), `faces` int32 (M,3), `normals` optional (N,3) per vertex,
+    `uvs` optional (N,2). `face_textures` optional per-face texture index into `textures`."""
+
+    vertices: Any
+    faces: Any
+    normals: Any = None
+    uvs: Any = None
+    textures: tuple[Texture, ...] = ()
+    face_textures: Any = None
+    smooth: bool = False
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    base: Vec3
+    cap: Vec3
+    radius: float
+    open: bool = False
+
+
+@dataclass(frozen=True)
+class Cone:
+    base: Vec3
+    base_radius: float
+    cap: Vec3
+    cap_radius: float
+    open: bool = False
+
+
+@dataclass(frozen=True)
+class Torus:
+    major: float
+    minor: float
+
+
+@dataclass(frozen=True)
+class Disc:
+    center: Vec3
+    normal: Vec3
+    radius: float
+    hole_radius: float = 0.0
+
+
+@dataclass(frozen=True)
+class CSG:
+    """op: "union" | "merge" | "intersection" | "difference". Children carry their own
+    (already composed, world-space) transforms and resolved textures."""
+
+    op: str
+    children: tuple[Object, ...]
+
+
+@dataclass(frozen=True)
+class Unsupported:
+    """A shape strala parses but cannot render yet; the evaluator has already warned."""
+
+    keyword: str
+
+
+Shape = (
+    Sphere | Plane | Box | Polygon | Triangle | Mesh | Cylinder | Cone | Torus | Disc | CSG
+    | Unsupported
+)
+
+
+@dataclass(frozen=True)
+class Object:
+    """A renderable object. `transform` maps the shape's own coordinates to world space
+    (for CSG children it is their full transform, the parent's already folded in).
+    `texture` is fully resolved (inherited from CSG parents, #default applied)."""
+
+    shape: Shape
+    transform: Matrix = IDENTITY
+    texture: Texture = field(default_factory=Texture)
+    interior: Interior = field(default_factory=Interior)
+    no_shadow: bool = False
+    no_reflection: bool = False
+    no_image: bool = False
+    hollow: bool = False
+    inverse: bool = False
+    double_illuminate: bool = False
+    clipped_by: tuple[Object, ...] = ()
+    span: Span | None = None
+
+
+# -------------------------------------------------------------- camera, lights
+@dataclass(frozen=True)
+class Camera:
+    """Final camera vectors after POV-Ray's rules (look_at, angle, sky, transforms) have been
+    applied. A primary ray for normalised screen coords (sx, sy) in [-0.5, 0.5] (sx to the
+    right, sy up) has direction `direction + sx*right + sy*up` from `location` (perspective),
+    or origin `location + sx*right + sy*up` and direction `direction` (orthographic).
+    `right` defaults to <1.33,0,0> as in POV-Ray (so a square image is squeezed unless the
+    scene sets `right x*image_width/image_height`, exactly as POV-Ray renders it)."""
+
+    kind: str = "perspective"  # perspective | orthographic (others later)
+    location: Vec3 = (0.0, 0.0, 0.0)
+    direction: Vec3 = (0.0, 0.0, 1.0)
+    right: Vec3 = (1.33, 0.0, 0.0)
+    up: Vec3 = (0.0, 1.0, 0.0)
+    sky: Vec3 = (0.0, 1.0, 0.0)
+    angle: float | None = None
+    aperture: float = 0.0
+    focal_point: Vec3 | None = None
+    blur_samples: int = 0
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class AreaLight:
+    axis1: Vec3
+    axis2: Vec3
+    size1: int
+    size2: int
+    adaptive: int = 0
+    jitter: bool = False
+    circular: bool = False
+    orient: bool = False
+
+
+@dataclass(frozen=True)
+class Light:
+    """kind: "point" | "spotlight" | "parallel" | "cylinder". `color` is RGB in the working
+    space. Spot angles (radius, falloff) are in degrees as in POV-Ray."""
+
+    position: Vec3
+    color: Vec3 = (1.0, 1.0, 1.0)
+    kind: str = "point"
+    point_at: Vec3 = (0.0, 0.0, 1.0)
+    radius: float = 30.0
+    falloff: float = 45.0
+    tightness: float = 0.0
+    area: AreaLight | None = None
+    shadowless: bool = False
+    fade_distance: float | None = None
+    fade_power: float | None = None
+    looks_like: Object | None = None
+    span: Span | None = None
+
+
+# ------------------------------------------------------------------ settings
+@dataclass(frozen=True)
+class Radiosity:
+    """POV-Ray's keywords mapped to the radiosity method, plus strala's extensions."""
+
+    count: int = 35
+    error_bound: float = 1.8
+    recursion_limit: int = 2
+    brightness: float = 1.0
+    gray_threshold: float = 0.0
+    patch_size: float | None = None
+    max_patches: int = 20000
+    tolerance: float = 1e-4
+    method: str = "gauss_seidel"  # gauss_seidel | progressive | direct
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Fog:
+    color: Color
+    distance: float
+    fog_type: int = 1
+
+
+@dataclass(frozen=True)
+class Settings:
+    """`version` is the scene's `#version` at the end of parsing (None when the scene has no
+    #version directive). `assumed_gamma` is None when the scene does not set it.
+
+    POV-Ray 3.7's gamma rules (the runtime applies them): the working gamma is
+    `assumed_gamma` when given; otherwise 1.0 if version >= 3.7, else *legacy* (no gamma
+    handling: working values are written to the file unchanged). With a working gamma g,
+    a working value c is the linear value c**g, and the file gets the sRGB encoding of the
+    linear value."""
+
+    assumed_gamma: float | None = None
+    version: float | None = None
+    max_trace_level: int = 5
+    adc_bailout: float = 1.0 / 255.0
+    ambient_light: Vec3 = (1.0, 1.0, 1.0)
+    radiosity: Radiosity | None = None
+    charset: str = "ascii"
+
+
+@dataclass(frozen=True)
+class Scene:
+    camera: Camera
+    lights: tuple[Light, ...] = ()
+    objects: tuple[Object, ...] = ()
+    settings: Settings = field(default_factory=Settings)
+    background: Color = BLACK
+    sky_sphere: tuple[Pigment, ...] | None = None
+    fog: Fog | None = None
+    files: tuple[str, ...] = ()  # every source file read (for caches and dependency tracking)

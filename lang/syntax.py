@@ -1,0 +1,259 @@
+"""The syntax tree: small node classes, each with the Span it came from.
+
+The grammar is about shape, not meaning: a block body is a flat sequence of elements
+(keywords, expressions, commas, map entries, nested blocks and directives). Which keyword
+takes which arguments is the schema's business, applied by the evaluator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from lang.diagnostics import Span
+
+
+@dataclass(slots=True)
+class Node:
+    span: Span
+
+
+# ----------------------------------------------------------------- expressions
+@dataclass(slots=True)
+class Number(Node):
+    value: float
+
+
+@dataclass(slots=True)
+class String(Node):
+    value: str
+
+
+@dataclass(slots=True)
+class Ident(Node):
+    """A user name (declared value, macro, array, function)."""
+
+    name: str
+
+
+@dataclass(slots=True)
+class Const(Node):
+    """A built-in value keyword: x y z t u v pi clock true false on off yes no, image_width…"""
+
+    name: str
+
+
+@dataclass(slots=True)
+class Vector(Node):
+    items: list[Node]
+
+
+@dataclass(slots=True)
+class Unary(Node):
+    op: str  # "-", "+", "!"
+    operand: Node
+
+
+@dataclass(slots=True)
+class Binary(Node):
+    op: str  # "+ - * / < <= > >= = != & |"
+    left: Node
+    right: Node
+
+
+@dataclass(slots=True)
+class Ternary(Node):
+    cond: Node
+    then: Node
+    other: Node
+
+
+@dataclass(slots=True)
+class Call(Node):
+    """`name(args)`: a built-in function (keyword name), a macro, a user function or spline."""
+
+    name: str
+    args: list[Node]
+    builtin: bool  # True when `name` is a reserved built-in function keyword
+
+
+@dataclass(slots=True)
+class Member(Node):
+    """`expr.x`, `expr.red` …"""
+
+    target: Node
+    name: str
+
+
+@dataclass(slots=True)
+class Index(Node):
+    """`A[i]` (one index per node; `A[i][j]` nests)."""
+
+    target: Node
+    index: Node
+
+
+@dataclass(slots=True)
+class ColorCtor(Node):
+    """A colour literal.
+
+    `kind` is the colour keyword (`rgb`, `rgbf`, `rgbt`, `rgbft`, `srgb`, `srgbf`, `srgbt`,
+    `srgbft`) or None for `color X`. `value` is its main argument (None in the old
+    `color red 1 green .5` form). `parts` are trailing component settings such as
+    `filter 0.5`, in order: (component keyword, expression).
+    """
+
+    kind: str | None
+    value: Node | None
+    parts: list[tuple[str, Node]] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class Block(Node):
+    """`keyword { body }`, also `keyword(params) { body }` (function) — usable as a value."""
+
+    keyword: str
+    body: list[Node]
+    params: list[str] | None = None
+    keyword_span: Span | None = None
+    close_span: Span | None = None
+
+
+@dataclass(slots=True)
+class ArrayLit(Node):
+    """`array[d1][d2] { items }`; `items` is None when no initialiser is given.
+    Nested initialisers `{ {1,2}, {3,4} }` appear as nested lists of nodes."""
+
+    dims: list[Node]
+    items: list | None
+    mixed: bool = False
+
+
+# ------------------------------------------------------------- body elements
+@dataclass(slots=True)
+class Keyword(Node):
+    """A reserved word standing as an item head (`translate`, `metallic`, `checker` …)."""
+
+    name: str
+
+
+@dataclass(slots=True)
+class Comma(Node):
+    pass
+
+
+@dataclass(slots=True)
+class MapEntry(Node):
+    """`[ elements ]` inside color_map, pigment_map, normal_map, texture_map …"""
+
+    body: list[Node]
+
+
+# ----------------------------------------------------------------- directives
+@dataclass(slots=True)
+class Include(Node):
+    path: Node
+
+
+@dataclass(slots=True)
+class Declare(Node):
+    """`#declare` / `#local` NAME (or NAME[i][j]) = value"""
+
+    local: bool
+    name: str
+    indices: list[Node]
+    value: Node
+    name_span: Span | None = None
+
+
+@dataclass(slots=True)
+class Undef(Node):
+    name: str
+
+
+@dataclass(slots=True)
+class If(Node):
+    """`#if/#elseif/#else/#end`: branches are (condition, body); a final else has cond None."""
+
+    branches: list[tuple[Node | None, list[Node]]]
+
+
+@dataclass(slots=True)
+class IfDef(Node):
+    name: str
+    indices: list[Node]
+    negate: bool  # True for #ifndef
+    then: list[Node]
+    other: list[Node] | None
+
+
+@dataclass(slots=True)
+class SwitchCase(Node):
+    """One `#case (v)` or `#range (lo, hi)` clause; `values` has one or two nodes, or none
+    for `#else`. `body` ends at `#break`, the next clause, or `#end` (fall-through)."""
+
+    values: list[Node] | None
+    is_range: bool
+    body: list[Node]
+    breaks: bool
+
+
+@dataclass(slots=True)
+class Switch(Node):
+    value: Node
+    cases: list[SwitchCase]
+
+
+@dataclass(slots=True)
+class While(Node):
+    cond: Node
+    body: list[Node]
+
+
+@dataclass(slots=True)
+class For(Node):
+    var: str
+    start: Node
+    end: Node
+    step: Node | None
+    body: list[Node]
+
+
+@dataclass(slots=True)
+class MacroDef(Node):
+    name: str
+    params: list[str]
+    body: list[Node]
+
+
+@dataclass(slots=True)
+class Version(Node):
+    value: Node
+
+
+@dataclass(slots=True)
+class Message(Node):
+    """`#debug`, `#warning`, `#error` with a string expression."""
+
+    kind: str
+    value: Node
+
+
+@dataclass(slots=True)
+class Default(Node):
+    body: list[Node]
+
+
+@dataclass(slots=True)
+class FileOp(Node):
+    """`#fopen ID "name" read|write|append`, `#fclose ID`, `#read (ID, vars…)`,
+    `#write (ID, values…)`."""
+
+    op: str
+    handle: str
+    args: list[Node]
+    mode: str | None = None
+
+
+@dataclass(slots=True)
+class SourceFile(Node):
+    body: list[Node]
