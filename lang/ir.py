@@ -233,7 +233,17 @@ class Unsupported:
 
 
 Shape = (
-    Sphere | Plane | Box | Polygon | Triangle | Mesh | Cylinder | Cone | Torus | Disc | CSG
+    Sphere
+    | Plane
+    | Box
+    | Polygon
+    | Triangle
+    | Mesh
+    | Cylinder
+    | Cone
+    | Torus
+    | Disc
+    | CSG
     | Unsupported
 )
 

@@ -257,3 +257,8 @@ class FileOp(Node):
 @dataclass(slots=True)
 class SourceFile(Node):
     body: list[Node]
+
+
+@dataclass(slots=True)
+class Break(Node):
+    """`#break`: ends a `#case` clause, or leaves a `#while`/`#for` loop."""
