@@ -1,0 +1,52 @@
+"""Shared test fixtures: repository paths, the POV-Ray marker, the CLI as a subprocess."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, settings
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "examples"
+SEED = ROOT.parent / "shared" / "seed" / "000_5c225423005c2bbd.txt"
+
+# Two cores and a ray tracer under test: keep property tests small and free of deadlines
+# (the first call into numpy-heavy code is slow and would trip hypothesis' 200 ms deadline).
+settings.register_profile(
+    "strala", max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "strala"))
+
+
+def pytest_collection_modifyitems(config, items):
+    """`povray`-marked tests need the oracle; skip them (visibly) where it is not installed."""
+    if shutil.which("povray"):
+        return
+    skip = pytest.mark.skip(reason="POV-Ray is not installed (apt-get install povray)")
+    for item in items:
+        if "povray" in item.keywords:
+            item.add_marker(skip)
+
+
+def run_cli(*args: str, cwd: Path | None = None, extra: tuple[str, ...] = ()):
+    """Run `python -m runtime.cli ARGS` the way a user would, from the repo root by default."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return subprocess.run(
+        [sys.executable, *extra, "-m", "runtime.cli", *args],
+        cwd=cwd or ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+
+
+@pytest.fixture
+def cli():
+    return run_cli

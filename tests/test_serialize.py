@@ -1,0 +1,205 @@
+"""IR ⇄ JSON: round trips, versioning, numpy mesh arrays, and errors for foreign input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import ir, serialize
+from lang.diagnostics import Span
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+num = st.floats(allow_nan=False, width=64)  # ±inf is legal in the IR (JSON "Infinity")
+vec3 = st.tuples(finite, finite, finite)
+color = st.tuples(finite, finite, finite, finite, finite)
+matrix = st.tuples(*[st.tuples(finite, finite, finite, finite)] * 4)
+spans = st.builds(
+    Span,
+    file=st.text(min_size=1, max_size=20),
+    line=st.integers(1, 10_000),
+    col=st.integers(1, 500),
+    end_line=st.integers(1, 10_000),
+    end_col=st.integers(1, 500),
+)
+params = st.dictionaries(
+    st.text(min_size=1, max_size=8).filter(lambda k: k != serialize.TYPE_KEY),
+    st.one_of(num, st.integers(), st.booleans(), st.text(max_size=5), vec3),
+    max_size=3,
+)
+pigments = st.recursive(
+    st.builds(ir.Pigment, color=color, span=st.none() | spans),
+    lambda inner: st.builds(
+        ir.Pigment,
+        pattern=st.sampled_from(["checker", "hexagon", "brick"]),
+        list=st.lists(inner, min_size=2, max_size=3).map(tuple),
+        color_map=st.lists(st.tuples(finite, color), max_size=3).map(tuple),
+        transform=matrix,
+        params=params,
+        span=st.none() | spans,
+    ),
+    max_leaves=5,
+)
+finishes = st.builds(
+    ir.Finish,
+    ambient=vec3,
+    specular=finite,
+    metallic=finite,
+    reflection=st.builds(ir.Reflection, min=vec3, max=vec3, fresnel=st.booleans()),
+    irid=st.none() | st.tuples(finite, finite, finite),
+)
+textures = st.builds(ir.Texture, pigment=pigments, finish=finishes, span=st.none() | spans)
+tuple_meshes = st.integers(1, 4).flatmap(
+    lambda n: st.builds(
+        ir.Mesh,
+        vertices=st.lists(vec3, min_size=n, max_size=n).map(tuple),
+        faces=st.lists(st.tuples(*[st.integers(0, n - 1)] * 3), min_size=1, max_size=3).map(tuple),
+    )
+)
+shapes = st.one_of(
+    st.builds(ir.Sphere, center=vec3, radius=finite),
+    st.builds(ir.Plane, normal=vec3, distance=finite),
+    st.builds(ir.Box, corner1=vec3, corner2=vec3),
+    st.builds(ir.Polygon, points=st.lists(vec3, max_size=5).map(tuple)),
+    tuple_meshes,
+    st.builds(ir.Unsupported, keyword=st.sampled_from(["blob", "text", "lathe"])),
+)
+objects = st.builds(
+    ir.Object,
+    shape=shapes,
+    transform=matrix,
+    texture=textures,
+    no_shadow=st.booleans(),
+    span=st.none() | spans,
+)
+csg = st.builds(
+    ir.Object,
+    shape=st.builds(
+        ir.CSG, op=st.sampled_from(["union", "difference"]), children=st.lists(objects).map(tuple)
+    ),
+)
+lights = st.builds(
+    ir.Light,
+    position=vec3,
+    color=vec3,
+    kind=st.sampled_from(["point", "spotlight", "parallel"]),
+    fade_distance=st.none() | num,
+    area=st.none() | st.builds(ir.AreaLight, vec3, vec3, st.integers(1, 9), st.integers(1, 9)),
+)
+settings_ = st.builds(
+    ir.Settings,
+    assumed_gamma=st.none() | finite,
+    version=st.none() | st.sampled_from([3.5, 3.7]),
+    radiosity=st.none() | st.builds(ir.Radiosity, count=st.integers(1, 1000), span=spans),
+)
+scenes = st.builds(
+    ir.Scene,
+    camera=st.builds(ir.Camera, location=vec3, angle=st.none() | finite, span=st.none() | spans),
+    lights=st.lists(lights, max_size=3).map(tuple),
+    objects=st.lists(st.one_of(objects, csg), max_size=4).map(tuple),
+    settings=settings_,
+    background=color,
+    fog=st.none() | st.builds(ir.Fog, color=color, distance=finite),
+    files=st.lists(st.text(max_size=10), max_size=3).map(tuple),
+)
+
+
+@given(scenes)
+def test_round_trip_is_identity(scene):
+    text = serialize.dumps(scene)
+    assert serialize.loads(text) == scene
+
+
+@given(scenes)
+def test_document_is_versioned_json(scene):
+    doc = json.loads(serialize.dumps(scene, indent=1))
+    assert doc["format"] == "strala-ir"
+    assert doc["version"] == ir.IR_VERSION
+    assert doc["scene"]["$type"] == "Scene"
+
+
+def test_spans_are_kept():
+    span = Span("scene.pov", 12, 3, 14, 2)
+    scene = ir.Scene(camera=ir.Camera(), objects=(ir.Object(ir.Sphere((0, 0, 0), 1), span=span),))
+    back = serialize.loads(serialize.dumps(scene))
+    assert back.objects[0].span == span
+    assert isinstance(back.objects[0].span, Span)
+
+
+def test_numpy_mesh_arrays_are_inline_and_come_back_as_tuples():
+    verts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.5]], dtype=np.float64)
+    faces = np.array([[0, 1, 2]], dtype=np.int32)
+    mesh = ir.Mesh(vertices=verts, faces=faces, normals=None, uvs=np.zeros((3, 2)))
+    scene = ir.Scene(camera=ir.Camera(), objects=(ir.Object(mesh),))
+    doc = json.loads(serialize.dumps(scene))
+    assert doc["scene"]["objects"][0]["shape"]["vertices"] == verts.tolist()
+    back = serialize.loads(serialize.dumps(scene)).objects[0].shape
+    np.testing.assert_array_equal(np.asarray(back.vertices), verts)
+    np.testing.assert_array_equal(np.asarray(back.faces), faces)
+    assert np.asarray(back.faces).dtype.kind == "i"  # integers stay integers
+    assert back.normals is None
+    assert np.asarray(back.uvs).shape == (3, 2)
+
+
+def test_numpy_scalars_in_params_become_plain_numbers():
+    pig = ir.Pigment(pattern="gradient", params={"frequency": np.float64(2.5), "n": np.int32(3)})
+    back = serialize.loads(serialize.dumps(ir.Scene(camera=ir.Camera(), sky_sphere=(pig,))))
+    assert back.sky_sphere[0].params == {"frequency": 2.5, "n": 3}
+    assert type(back.sky_sphere[0].params["n"]) is int
+
+
+def test_infinity_round_trips():
+    light = ir.Light(position=(0, 0, 0), fade_distance=float("inf"))
+    scene = ir.Scene(camera=ir.Camera(), lights=(light,))
+    assert serialize.loads(serialize.dumps(scene)).lights[0].fade_distance == float("inf")
+
+
+def _doc(**changes) -> str:
+    doc = json.loads(serialize.dumps(ir.Scene(camera=ir.Camera())))
+    doc.update(changes)
+    return json.dumps(doc)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("{not json", "not JSON"),
+        ("[1, 2]", "not a strala-ir document"),
+        (_doc(format="other"), "not a strala-ir document"),
+        (_doc(version=ir.IR_VERSION + 1), "not supported"),
+        (_doc(scene={"$type": "Sphere", "center": [0, 0, 0], "radius": 1}), "not a Scene"),
+        (_doc(scene={"$type": "Teapot"}), "unknown IR type 'Teapot'"),
+        (_doc(scene={"$type": "Scene", "camera": {"$type": "Camera"}, "spin": 1}), "no field"),
+        (_doc(scene={"$type": "Scene"}), "cannot build Scene"),
+    ],
+)
+def test_foreign_documents_are_rejected_with_a_reason(text, message):
+    with pytest.raises(serialize.IRFormatError, match=message):
+        serialize.loads(text)
+
+
+def test_non_ir_values_are_refused():
+    class Teapot:
+        pass
+
+    pig = ir.Pigment(params={"x": Teapot()})
+    with pytest.raises(TypeError, match="Teapot"):
+        serialize.dumps(ir.Scene(camera=ir.Camera(), sky_sphere=(pig,)))
+    with pytest.raises(TypeError, match="reserved key"):
+        serialize.dumps(ir.Scene(camera=ir.Camera(), sky_sphere=(ir.Pigment(params={"$type": 1}),)))
+
+
+def test_serialize_module_does_not_import_numpy():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    code = "import sys, lang.serialize; print('numpy' in sys.modules)"
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=root, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "False"
