@@ -51,7 +51,7 @@ ITEM_WORDS = frozenset(
     black_hole blob blur_samples bokeh bounded_by box boxed bozo brick brick_size
     brightness brilliance bump_map bump_size bumps camera caustics cells charset checker
     circular clipped_by collect color_map colour_map component composite confidence
-    cone conic_sweep conserve_energy contained_by control0 control1 coords count crackle crand
+    cone conic_sweep default conserve_energy contained_by control0 control1 coords count crackle crand
     cube cubic cubic_spline cubic_wave cutaway_textures cylinder cylindrical density
     density_file density_map dents df3 difference diffuse direction disc dispersion
     dispersion_samples dist_exp distance double_illuminate eccentricity emission
@@ -84,7 +84,7 @@ ITEM_WORDS = frozenset(
     subsurface superellipsoid sys target text texture texture_list texture_map tga
     thickness threshold tiff tightness tile2 tiles tiling tolerance toroidal torus
     trace_level transform translate translucency triangle triangle_wave triangular ttf
-    turb_depth turbulence type u_steps uint16be uint16le uint8 ultra_wide_angle up
+    turb_depth turbulence type union u_steps uint16be uint16le uint8 ultra_wide_angle up
     use_alpha use_color use_colour use_index utf8 uv_indices uv_mapping uv_vectors
     v_steps variance vertex_vectors warp water_level waves width wood wrinkles xyz
     exr hdr read write metric lemon inside_vector

@@ -222,6 +222,13 @@ class _Builder(Transformer):
         tok = children[0]
         return syntax.Keyword(_tok_span(self.file, tok), str(tok))
 
+    def semicolon(self, meta, children):
+        """A stray `;` (after a macro's result value, as POV-Ray scenes write it): no element."""
+        return None
+
+    def fparam(self, meta, children):
+        return _Param(str(children[0]))
+
     def comma(self, meta, children):
         return syntax.Comma(self._span(meta, children))
 
@@ -330,13 +337,26 @@ class _Builder(Transformer):
 
     def function_block(self, meta, children):
         head = children[0]
-        params = [str(c) for c in children[1:] if isinstance(c, Token) and c.type == "IDENT"]
-        has_params = any(isinstance(c, Token) and c.type == "IDENT" for c in children[1:])
+        params = [c.name for c in children[1:] if isinstance(c, _Param)]
+        has_params = any(isinstance(c, _Param) for c in children[1:]) or any(
+            isinstance(c, Token) and c.type == "LPAR" for c in children
+        )
         return syntax.Block(
             self._span(meta, children),
             "function",
             self._nodes(children[1:]),
             params=params if has_params else None,
+            keyword_span=_tok_span(self.file, head),
+        )
+
+    def sized_function_block(self, meta, children):
+        """`function W, H { pattern }` (an image of a pattern): the sizes lead the body."""
+        head = children[0]
+        return syntax.Block(
+            self._span(meta, children),
+            "function",
+            self._nodes(children[1:]),
+            params=None,
             keyword_span=_tok_span(self.file, head),
         )
 
@@ -480,9 +500,8 @@ class _Builder(Transformer):
 
     def fileio(self, meta, children):
         op = str(children[0]).lstrip("#").strip()
-        return syntax.FileOp(
-            self._span(meta, children), op, str(children[1]), self._nodes(children[2:])
-        )
+        args = [c for c in self._nodes(children[2:]) if not isinstance(c, syntax.Comma)]
+        return syntax.FileOp(self._span(meta, children), op, str(children[1]), args)
 
     def break_(self, meta, children):
         return syntax.Break(self._span(meta, children))
