@@ -51,7 +51,8 @@ ITEM_WORDS = frozenset(
     black_hole blob blur_samples bokeh bounded_by box boxed bozo brick brick_size
     brightness brilliance bump_map bump_size bumps camera caustics cells charset checker
     circular clipped_by collect color_map colour_map component composite confidence
-    cone conic_sweep default conserve_energy contained_by control0 control1 coords count crackle crand
+    cone conic_sweep default conserve_energy contained_by control0 control1 coords count
+    crackle crand
     cube cubic cubic_spline cubic_wave cutaway_textures cylinder cylindrical density
     density_file density_map dents df3 difference diffuse direction disc dispersion
     dispersion_samples dist_exp distance double_illuminate eccentricity emission
