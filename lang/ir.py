@@ -217,6 +217,47 @@ class Disc:
 
 
 @dataclass(frozen=True)
+class Nurbs:
+    """A NURBS surface (`nv > 0`), or a curve (`nv == 0`) rendered as a tube of `radius`.
+    `points` are Euclidean, u varying fastest (index = j*nu + i); `weights` one per point.
+    Knot vectors are complete (length n + degree + 1), validated by the evaluator.
+    `tolerance` is the chord-error bound in world units (None: from the camera)."""
+
+    u_degree: int
+    v_degree: int
+    nu: int
+    nv: int
+    points: tuple[Vec3, ...]
+    weights: tuple[float, ...]
+    u_knots: tuple[float, ...]
+    v_knots: tuple[float, ...] = ()
+    tolerance: float | None = None
+    radius: float = 0.0
+
+
+@dataclass(frozen=True)
+class Subdivision:
+    """A subdivision surface (`faces` given) or curve (`faces` empty: `points` is the control
+    polygon, rendered as a tube of `radius`). scheme: catmull_clark | loop | bilinear for
+    surfaces; midpoint (with `m`) | chaikin | four_point | bezier for curves. `creases` are
+    (v0, v1, sharpness) with sharpness inf for an infinitely sharp edge."""
+
+    scheme: str
+    points: tuple[Vec3, ...]
+    faces: tuple[tuple[int, ...], ...] = ()
+    levels: int | None = 3
+    tolerance: float | None = None
+    adaptive: bool = False
+    creases: tuple[tuple[int, int, float], ...] = ()
+    corners: tuple[int, ...] = ()
+    boundary: str = "sharp"  # sharp: edges and corners kept; smooth: edges only
+    limit: bool = False
+    m: float = 6.0
+    radius: float = 0.0
+    closed: bool = False  # curves: the control polygon is closed
+
+
+@dataclass(frozen=True)
 class CSG:
     """op: "union" | "merge" | "intersection" | "difference". Children carry their own
     (already composed, world-space) transforms and resolved textures."""
