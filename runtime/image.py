@@ -1,0 +1,128 @@
+"""Image files through OpenImageIO: PNG, EXR, TIFF and JPEG, written atomically.
+
+The renderer produces a working-space image; `runtime.color` turns it into display values
+(8/16-bit files, sRGB-encoded or legacy as POV-Ray would write them) or linear values (EXR).
+Files are written to a temporary name in the destination folder and then renamed over the
+target, so an interrupted or failed render never leaves a truncated image behind.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+
+from lang import ir
+
+
+@dataclass(frozen=True)
+class Format:
+    name: str
+    bits: tuple[int, ...]  # allowed bit depths, default first
+    linear: bool  # float file holding linear light (EXR) rather than display values
+
+
+FORMATS: dict[str, Format] = {
+    ".png": Format("png", (8, 16), False),
+    ".tif": Format("tiff", (8, 16), False),
+    ".tiff": Format("tiff", (8, 16), False),
+    ".jpg": Format("jpeg", (8,), False),
+    ".jpeg": Format("jpeg", (8,), False),
+    ".exr": Format("exr", (32, 16), True),
+}
+
+
+class ImageFormatError(ValueError):
+    """The output name or bit depth cannot be written."""
+
+
+def output_format(path: str | os.PathLike, bits: int | None = None) -> tuple[Format, int]:
+    """The file format chosen by `path`'s extension and the bit depth to write.
+
+    Called before rendering, so a bad name fails in a millisecond, not after the render."""
+    ext = Path(path).suffix.lower()
+    fmt = FORMATS.get(ext)
+    if fmt is None:
+        known = ", ".join(sorted({f.name.upper() for f in FORMATS.values()}))
+        raise ImageFormatError(f"cannot write `{ext or Path(path).name}` images (use {known})")
+    if bits is None:
+        return fmt, fmt.bits[0]
+    if bits not in fmt.bits:
+        allowed = " or ".join(str(b) for b in fmt.bits)
+        raise ImageFormatError(f"{fmt.name.upper()} files are {allowed}-bit, not {bits}-bit")
+    return fmt, bits
+
+
+def save_render(
+    path: str | os.PathLike, working: np.ndarray, settings: ir.Settings, bits: int | None = None
+) -> None:
+    """Write a rendered working-space (H, W, 3) image with the scene's gamma rules applied."""
+    from runtime import color  # the colour pipeline belongs to runtime.color
+
+    fmt, depth = output_format(path, bits)
+    pixels = (
+        color.to_linear(working, settings) if fmt.linear else color.to_display(working, settings)
+    )
+    write_pixels(path, pixels, depth)
+
+
+def write_pixels(path: str | os.PathLike, pixels: np.ndarray, bits: int | None = None) -> None:
+    """Write (H, W, C) float pixels: display values in [0, 1] for PNG/TIFF/JPEG (quantised
+    with rounding, as POV-Ray does), linear floats for EXR (half when bits == 16)."""
+    fmt, depth = output_format(path, bits)
+    pixels = np.asarray(pixels)
+    if pixels.ndim != 3 or pixels.shape[2] not in (1, 3, 4):
+        raise ValueError(f"expected an (H, W, 1|3|4) image, got shape {pixels.shape}")
+    height, width, channels = pixels.shape
+    if fmt.linear:
+        dtype = oiio.HALF if depth == 16 else oiio.FLOAT
+        data = np.ascontiguousarray(pixels, dtype=np.float32)
+    else:
+        scale = 255.0 if depth == 8 else 65535.0
+        dtype = oiio.UINT8 if depth == 8 else oiio.UINT16
+        quantised = np.rint(np.clip(pixels, 0.0, 1.0) * scale)
+        data = np.ascontiguousarray(quantised, dtype=np.uint8 if depth == 8 else np.uint16)
+    spec = oiio.ImageSpec(width, height, channels, dtype)
+    spec.attribute("Software", "strala")
+    if fmt.name == "jpeg":
+        spec.attribute("Compression", "jpeg:95")
+    elif fmt.name == "exr":
+        spec.attribute("compression", "zip")
+
+    target = Path(path)
+    # same folder, so os.replace is an atomic rename; same extension, so OIIO picks the format
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}{target.suffix}")
+    try:
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None:
+            raise OSError(f"cannot write {target}: {oiio.geterror()}")
+        if not out.open(str(tmp), spec):
+            raise OSError(f"cannot write {target}: {out.geterror()}")
+        ok = out.write_image(data)
+        err = out.geterror() if not ok else ""
+        out.close()
+        if not ok:
+            raise OSError(f"cannot write {target}: {err}")
+        os.replace(tmp, target)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """Read any image OpenImageIO knows as float32 (H, W, C); integer files scale to [0, 1]."""
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise OSError(f"cannot read {path}: {oiio.geterror()}")
+    try:
+        data = inp.read_image(format=oiio.FLOAT)
+        if data is None:
+            raise OSError(f"cannot read {path}: {inp.geterror()}")
+    finally:
+        inp.close()
+    data = np.asarray(data, dtype=np.float32)
+    return data.reshape(data.shape[0], data.shape[1], -1)

@@ -1,0 +1,131 @@
+"""Image output: formats by extension, bit depths, quantisation, atomic replacement."""
+
+from __future__ import annotations
+
+import sys
+import types
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+import runtime
+from lang import ir
+from runtime import image
+
+
+def _ramp(h=6, w=5, c=3) -> np.ndarray:
+    return np.linspace(0.0, 1.0, h * w * c, dtype=np.float32).reshape(h, w, c)
+
+
+@pytest.mark.parametrize(
+    "name, bits, step",
+    [
+        ("a.png", 8, 1 / 255),
+        ("a.png", 16, 1 / 65535),
+        ("a.tif", 8, 1 / 255),
+        ("a.tiff", 16, 1 / 65535),
+    ],
+)
+def test_integer_formats_round_trip_within_half_a_step(tmp_path, name, bits, step):
+    pixels = _ramp()
+    image.write_pixels(tmp_path / name, pixels, bits)
+    back = image.read_image(tmp_path / name)
+    assert back.shape == pixels.shape
+    assert np.max(np.abs(back - pixels)) <= step / 2 + 1e-6
+
+
+def test_exr_keeps_linear_floats_beyond_one(tmp_path):
+    pixels = _ramp() * 7.5  # HDR values must survive, not be clipped
+    image.write_pixels(tmp_path / "a.exr", pixels)
+    np.testing.assert_array_equal(image.read_image(tmp_path / "a.exr"), pixels)
+    image.write_pixels(tmp_path / "h.exr", pixels, 16)
+    np.testing.assert_allclose(image.read_image(tmp_path / "h.exr"), pixels, rtol=1e-3)
+
+
+def test_jpeg_is_close(tmp_path):
+    pixels = np.full((16, 16, 3), 0.5, dtype=np.float32)
+    image.write_pixels(tmp_path / "a.jpg", pixels)
+    assert np.max(np.abs(image.read_image(tmp_path / "a.jpg") - 0.5)) < 0.02
+
+
+@given(hnp.arrays(np.float32, (3, 4, 3), elements=st.floats(-2, 3, width=32)))
+def test_8bit_quantisation_rounds_and_clips(tmp_path_factory, pixels):
+    path = tmp_path_factory.mktemp("q") / "q.png"
+    image.write_pixels(path, pixels, 8)
+    stored = np.rint(image.read_image(path) * 255).astype(int)
+    expected = np.rint(np.clip(pixels.astype(np.float64), 0, 1) * 255).astype(int)
+    # float32 → 8 bits: ties may round either way, nothing else may differ
+    assert np.max(np.abs(stored - expected)) <= 1
+    assert np.mean(stored == expected) > 0.9
+
+
+@pytest.mark.parametrize(
+    "name, bits, message",
+    [
+        ("a.bmpx", None, "cannot write `.bmpx`"),
+        ("noext", None, "cannot write `noext`"),
+        ("a.jpg", 16, "JPEG files are 8-bit"),
+        ("a.png", 32, "PNG files are 8 or 16-bit"),
+    ],
+)
+def test_bad_names_and_depths_are_refused_before_rendering(name, bits, message):
+    with pytest.raises(image.ImageFormatError, match=message):
+        image.output_format(name, bits)
+
+
+def test_extension_is_case_insensitive():
+    assert image.output_format("OUT.PNG") == (image.FORMATS[".png"], 8)
+    assert image.output_format("x.exr")[1] == 32
+
+
+def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path, monkeypatch):
+    target = tmp_path / "keep.png"
+    image.write_pixels(target, _ramp())
+    before = target.read_bytes()
+
+    class Exploding:
+        def open(self, *a):
+            return True
+
+        def write_image(self, *a):
+            raise KeyboardInterrupt  # the user pressing ^C mid-write
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(image.oiio.ImageOutput, "create", staticmethod(lambda name: Exploding()))
+    with pytest.raises(KeyboardInterrupt):
+        image.write_pixels(target, np.zeros((6, 5, 3)))
+    assert target.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.png"]
+
+
+def test_successful_write_leaves_only_the_target(tmp_path):
+    image.write_pixels(tmp_path / "one.png", _ramp())
+    image.write_pixels(tmp_path / "one.png", _ramp() * 0.5)  # overwrite in place
+    assert [p.name for p in tmp_path.iterdir()] == ["one.png"]
+    assert image.read_image(tmp_path / "one.png").max() == pytest.approx(0.5, abs=1 / 255)
+
+
+def test_bad_shape_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="shape"):
+        image.write_pixels(tmp_path / "a.png", np.zeros((4, 4)))
+
+
+def test_save_render_uses_display_values_for_png_and_linear_for_exr(tmp_path, monkeypatch):
+    calls = []
+    stub = types.ModuleType("runtime.color")
+    stub.to_display = lambda w, s: calls.append("display") or np.clip(w * 0.5, 0, 1)
+    stub.to_linear = lambda w, s: calls.append("linear") or w * 2.0
+    monkeypatch.setitem(sys.modules, "runtime.color", stub)
+    monkeypatch.setattr(runtime, "color", stub, raising=False)
+    working = np.full((2, 3, 3), 0.8, dtype=np.float32)
+
+    image.save_render(tmp_path / "a.png", working, ir.Settings())
+    image.save_render(tmp_path / "a.exr", working, ir.Settings())
+    assert calls == ["display", "linear"]
+    assert image.read_image(tmp_path / "a.png") == pytest.approx(0.4, abs=1 / 255)
+    assert image.read_image(tmp_path / "a.exr") == pytest.approx(1.6)
