@@ -1,0 +1,39 @@
+"""Every numerical tolerance of the geometry runtime, each with the reason for its size.
+
+Offsets are scale-aware: a ray that leaves a surface ignores hits closer than a distance
+relative to where it starts and to the size of the object it might hit, never a fixed
+epsilon that is too large for a small scene and too small for one a million units away.
+"""
+
+from __future__ import annotations
+
+# float64 carries ~1e-16 relative precision; a hit point computed as o + t*d, through a
+# transform and back, is off by a few hundred ulps of |o| at worst, so 1e-9 * |origin| clears
+# it with a wide margin while staying invisible at any scene scale.
+ORIGIN_REL: float = 1e-9
+
+# Near-tangent quadratic roots are only accurate to ~sqrt(eps) ~ 1.5e-8 of the object's size,
+# so a ray leaving such a point must skip the twin root: 1e-7 of the object's size.
+OBJECT_REL: float = 1e-7
+
+# Absolute floor for rays starting at the world origin on a tiny object: below any geometry
+# strala can represent meaningfully, above float64 noise at unit scale.
+ABS_FLOOR: float = 1e-12
+
+# Embree intersects in float32 (~6e-8 relative): its hit distance can be off by a few ulps of
+# the coordinates involved, so triangle rays start 1e-5 of (|origin| + mesh size) further out
+# (the reported t is refined in float64 afterwards).
+EMBREE_REL: float = 1e-5
+
+# Newton refinement steps for a float32 (Embree) or eigenvalue (torus) root: each step
+# doubles the correct digits, two take a 1e-7 guess to float64 precision.
+NEWTON_STEPS: int = 2
+
+# A quartic root is accepted as real when its imaginary part is below this fraction of its
+# magnitude (+1): eigenvalue solvers smear a double (tangent) root into a conjugate pair of
+# size ~sqrt(eps).
+QUARTIC_IMAG_REL: float = 1e-6
+
+# A direction component below this is treated as parallel to an axis / a plane (avoids
+# inf*0 = nan in slab tests and plane intersections); far below any real direction component.
+PARALLEL_EPS: float = 1e-300

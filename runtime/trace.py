@@ -1,0 +1,337 @@
+"""The one closest-hit / any-hit interface over analytic shapes and Embree triangles.
+
+The tracer owns a list of *nodes* (world-space intersectables: a leaf primitive with its
+transform, or a CSG tree) and one `TriangleSet` (every triangle of the scene, traced by
+Embree). A node reports all its surface crossings along each ray as candidates
+(t, leaf, face, flip); the tracer keeps the nearest candidate inside (tmin, tmax) and only
+then computes normals, once per hit. t is invariant under the object transform because
+object-space directions are left unnormalised, so no conversion is needed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from runtime import tolerances as tol
+from runtime import transform as tf
+
+# ----------------------------------------------------------------------------- hits
+
+
+@dataclass
+class Hits:
+    """Closest hits for a batch of N rays (structure of arrays)."""
+
+    t: np.ndarray  # (N,) float64, inf on a miss
+    obj: np.ndarray  # (N,) int32 index into Prepared.objects, -1 on a miss
+    point: np.ndarray  # (N,3) float64 world hit point origin + t*dir
+    normal: np.ndarray  # (N,3) float64 unit world normal as the surface defines it
+    # (outward for solids, flipped for `inverse` and for the subtracted part of a
+    # difference); not flipped toward the ray.
+    prim: np.ndarray | None = None  # (N,) int32 face index within a mesh leaf, -1 otherwise
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.obj >= 0
+
+
+def empty_hits(n: int) -> Hits:
+    return Hits(
+        t=np.full(n, np.inf),
+        obj=np.full(n, -1, dtype=np.int32),
+        point=np.full((n, 3), np.nan),
+        normal=np.zeros((n, 3)),
+        prim=np.full(n, -1, dtype=np.int32),
+    )
+
+
+# ---------------------------------------------------------------------- candidates
+
+
+@dataclass
+class Cands:
+    """All surface crossings of a node along N rays: (N,K) arrays; t = inf where none."""
+
+    t: np.ndarray
+    leaf: np.ndarray  # int32 leaf (object) index
+    face: np.ndarray  # int8 primitive-specific face id (box side, cylinder cap …)
+    flip: np.ndarray  # bool: normal flipped (inverse, subtracted CSG part)
+
+    @staticmethod
+    def concat(parts: list[Cands]) -> Cands:
+        return Cands(
+            np.concatenate([p.t for p in parts], axis=1),
+            np.concatenate([p.leaf for p in parts], axis=1),
+            np.concatenate([p.face for p in parts], axis=1),
+            np.concatenate([p.flip for p in parts], axis=1),
+        )
+
+
+class Leaf:
+    """One analytic primitive (object space) placed in the world by `matrix`."""
+
+    def __init__(self, prim, matrix: np.ndarray, index: int, inverse: bool = False):
+        self.prim = prim
+        self.index = index
+        self.inverse = inverse
+        self.identity = tf.is_identity(matrix)
+        self.m = matrix
+        self.m_inv = tf.inverse(matrix)
+        lo, hi = prim.bounds()
+        if inverse:
+            lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+        self.lo, self.hi = tf.aabb_transform(matrix, np.asarray(lo, float), np.asarray(hi, float))
+        self.leaves = [index]
+        if np.all(np.isfinite(self.lo)):
+            self.size = float(np.linalg.norm(self.hi - self.lo))
+        else:
+            stretch = float(np.linalg.svd(matrix[:3, :3], compute_uv=False).max())
+            self.size = prim.size * stretch
+
+    def to_object(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.identity:
+            return o, d
+        return tf.apply_points(self.m_inv, o), tf.apply_dirs(self.m_inv, d)
+
+    def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
+        oo, do = self.to_object(o, d)
+        t, face = self.prim.crossings(oo, do)
+        shape = t.shape
+        return Cands(
+            t,
+            np.full(shape, self.index, dtype=np.int32),
+            face.astype(np.int8, copy=False),
+            np.full(shape, self.inverse, dtype=bool),
+        )
+
+    def inside(self, p: np.ndarray) -> np.ndarray:
+        po = p if self.identity else tf.apply_points(self.m_inv, p)
+        return self.prim.inside(po) ^ self.inverse
+
+    def normals(self, o: np.ndarray, d: np.ndarray, t: np.ndarray, face: np.ndarray) -> np.ndarray:
+        """Unit world normals at o + t*d (before any flip)."""
+        oo, do = self.to_object(o, d)
+        n = self.prim.normal(oo + t[:, None] * do, face)
+        if self.identity:
+            return tf.normalize(n)
+        return tf.apply_normals(self.m_inv, n)
+
+
+class CsgNode:
+    """intersection / difference / merge (union is flattened away by `prepare`, but a union
+    nested inside another CSG stays a node so that `inside` is right). Interval logic the
+    way POV-Ray does it: a child's crossing is a crossing of the whole if the point is inside
+    (or outside) the other children."""
+
+    def __init__(self, op: str, children: list, inverse: bool = False):
+        self.op = op
+        self.children = children
+        self.inverse = inverse
+        self.leaves = [i for c in children for i in c.leaves]
+        los = np.array([c.lo for c in children])
+        his = np.array([c.hi for c in children])
+        if inverse:
+            self.lo, self.hi = np.full(3, -np.inf), np.full(3, np.inf)
+        elif op == "intersection":
+            self.lo, self.hi = los.max(axis=0), his.min(axis=0)
+        elif op == "difference":
+            self.lo, self.hi = los[0], his[0]
+        else:
+            self.lo, self.hi = los.min(axis=0), his.max(axis=0)
+        self.size = max(c.size for c in children)
+
+    def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
+        parts = []
+        for i, child in enumerate(self.children):
+            c = child.crossings(o, d)
+            if self.op != "union":
+                keep = self._keep(i, c, o, d)
+                c.t = np.where(keep, c.t, np.inf)
+                if self.op == "difference" and i > 0:
+                    c.flip = ~c.flip
+            parts.append(c)
+        out = Cands.concat(parts)
+        if self.inverse:
+            out.flip = ~out.flip
+        return out
+
+    def _keep(self, i: int, c: Cands, o: np.ndarray, d: np.ndarray) -> np.ndarray:
+        keep = np.isfinite(c.t)
+        for k in range(c.t.shape[1]):
+            col = keep[:, k]
+            if not col.any():
+                continue
+            rows = np.nonzero(col)[0]
+            p = o[rows] + c.t[rows, k, None] * d[rows]
+            ok = np.ones(len(rows), dtype=bool)
+            for j, other in enumerate(self.children):
+                if j == i:
+                    continue
+                ins = other.inside(p)
+                if self.op == "intersection":
+                    ok &= ins
+                elif self.op == "merge":
+                    ok &= ~ins
+                elif self.op == "difference":
+                    if i == 0:
+                        ok &= ~ins
+                    elif j == 0:
+                        ok &= ins
+                    else:
+                        ok &= ~ins
+            keep[rows, k] = ok
+        return keep
+
+    def inside(self, p: np.ndarray) -> np.ndarray:
+        ins = [c.inside(p) for c in self.children]
+        if self.op == "intersection":
+            r = np.logical_and.reduce(ins)
+        elif self.op == "difference":
+            r = ins[0] & ~np.logical_or.reduce(ins[1:]) if len(ins) > 1 else ins[0]
+        else:
+            r = np.logical_or.reduce(ins)
+        return r ^ self.inverse
+
+
+# --------------------------------------------------------------------------- tracer
+
+
+def default_tmin(origins: np.ndarray) -> np.ndarray:
+    """Scale-aware ray start offset (see tolerances.ORIGIN_REL)."""
+    return tol.ORIGIN_REL * np.linalg.norm(origins, axis=1) + tol.ABS_FLOOR
+
+
+def slab_hits(o, d, lo, hi, tmin, tmax) -> np.ndarray:
+    """(N,) bool: does the ray segment (tmin, tmax) touch the box [lo, hi]?"""
+    if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)):
+        # A half-infinite box still culls on its finite sides; keep it simple: no culling.
+        return np.ones(len(o), dtype=bool)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        t1 = (lo - o) * inv
+        t2 = (hi - o) * inv
+    # 0 * inf = nan for rays parallel to a slab and starting on its plane: count as inside.
+    tn = np.where(np.isnan(t1), -np.inf, np.minimum(t1, t2)).max(axis=1)
+    tfar = np.where(np.isnan(t2), np.inf, np.maximum(t1, t2)).min(axis=1)
+    # Widen by a relative margin so a hit exactly on the box surface is never culled.
+    pad = 1e-9 * (np.abs(tn) + np.abs(tfar)) + 1e-12
+    return (tn - pad <= tfar + pad) & (tfar + pad >= tmin) & (tn - pad <= tmax)
+
+
+class Tracer:
+    """Closest-hit and any-hit queries over a prepared scene.
+
+    nodes: world-space analytic nodes (Leaf / CsgNode); triangles: a TriangleSet or None;
+    flags: dict flag name -> (n_objects,) bool array ("no_image", "no_reflection",
+    "no_shadow"); sizes: (n_objects,) characteristic object sizes for the self-hit floor."""
+
+    def __init__(self, nodes: list, triangles, flags: dict[str, np.ndarray], sizes: np.ndarray):
+        self.nodes = nodes
+        self.triangles = triangles
+        self.flags = flags
+        self.sizes = np.asarray(sizes, dtype=np.float64)
+        self.leaf_by_index: dict[int, Leaf] = {}
+        for n in nodes:
+            self._register(n)
+
+    def _register(self, node) -> None:
+        if isinstance(node, Leaf):
+            self.leaf_by_index[node.index] = node
+        else:
+            for c in node.children:
+                self._register(c)
+
+    # ------------------------------------------------------------------ queries
+    def closest(self, origins, directions, tmin=None, tmax=None, skip: str | None = None) -> Hits:
+        o = np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 3)
+        d = np.ascontiguousarray(directions, dtype=np.float64).reshape(-1, 3)
+        n = len(o)
+        tmin_a = (
+            default_tmin(o)
+            if tmin is None
+            else np.broadcast_to(np.asarray(tmin, dtype=np.float64), (n,)).copy()
+        )
+        tmax_a = (
+            np.full(n, np.inf)
+            if tmax is None
+            else np.broadcast_to(np.asarray(tmax, dtype=np.float64), (n,)).copy()
+        )
+        hits = empty_hits(n)
+        if n == 0:
+            return hits
+        skipped = self.flags.get(skip) if skip else None
+        face = np.zeros(n, dtype=np.int8)
+        flip = np.zeros(n, dtype=bool)
+        for node in self.nodes:
+            if skipped is not None and skipped[node.leaves].all():
+                continue
+            limit = np.minimum(hits.t, tmax_a)
+            rows = np.nonzero(slab_hits(o, d, node.lo, node.hi, tmin_a, limit))[0]
+            if len(rows) == 0:
+                continue
+            c = node.crossings(o[rows], d[rows])
+            floor = np.maximum(tmin_a[rows, None], tol.OBJECT_REL * self.sizes[c.leaf])
+            valid = (c.t > floor) & (c.t < limit[rows, None])
+            if skipped is not None:
+                valid &= ~skipped[c.leaf]
+            tt = np.where(valid, c.t, np.inf)
+            k = np.argmin(tt, axis=1)
+            r = np.arange(len(rows))
+            best = tt[r, k]
+            better = best < hits.t[rows]
+            if not better.any():
+                continue
+            rb = rows[better]
+            kb = k[better]
+            hits.t[rb] = best[better]
+            hits.obj[rb] = c.leaf[better, kb]
+            face[rb] = c.face[better, kb]
+            flip[rb] = c.flip[better, kb]
+        analytic = hits.obj >= 0
+        if self.triangles is not None:
+            self.triangles.closest(o, d, tmin_a, np.minimum(hits.t, tmax_a), skip, hits)
+        hits.point = o + np.where(np.isfinite(hits.t), hits.t, np.nan)[:, None] * d
+        # Normals once per winning analytic leaf (Embree hits filled theirs already).
+        won = analytic & (hits.prim < 0) & (hits.obj >= 0)
+        if won.any():
+            ids = hits.obj[won]
+            rows_all = np.nonzero(won)[0]
+            for leaf_id in np.unique(ids):
+                rows = rows_all[ids == leaf_id]
+                leaf = self.leaf_by_index[int(leaf_id)]
+                nrm = leaf.normals(o[rows], d[rows], hits.t[rows], face[rows])
+                hits.normal[rows] = np.where(flip[rows, None], -nrm, nrm)
+        return hits
+
+    def occluded(self, origins, directions, tmax, tmin=None) -> np.ndarray:
+        """(N,) bool: is anything (not `no_shadow`) in (tmin, tmax) along the ray?"""
+        o = np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 3)
+        d = np.ascontiguousarray(directions, dtype=np.float64).reshape(-1, 3)
+        n = len(o)
+        tmin_a = (
+            default_tmin(o)
+            if tmin is None
+            else np.broadcast_to(np.asarray(tmin, dtype=np.float64), (n,)).copy()
+        )
+        tmax_a = np.broadcast_to(np.asarray(tmax, dtype=np.float64), (n,)).copy()
+        blocked = np.zeros(n, dtype=bool)
+        skipped = self.flags.get("no_shadow")
+        for node in self.nodes:
+            if skipped is not None and skipped[node.leaves].all():
+                continue
+            open_rows = ~blocked & slab_hits(o, d, node.lo, node.hi, tmin_a, tmax_a)
+            rows = np.nonzero(open_rows)[0]
+            if len(rows) == 0:
+                continue
+            c = node.crossings(o[rows], d[rows])
+            floor = np.maximum(tmin_a[rows, None], tol.OBJECT_REL * self.sizes[c.leaf])
+            valid = (c.t > floor) & (c.t < tmax_a[rows, None])
+            if skipped is not None:
+                valid &= ~skipped[c.leaf]
+            blocked[rows] = valid.any(axis=1)
+        if self.triangles is not None and not blocked.all():
+            rows = np.nonzero(~blocked)[0]
+            blocked[rows] = self.triangles.occluded(o[rows], d[rows], tmin_a[rows], tmax_a[rows])
+        return blocked

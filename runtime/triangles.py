@@ -1,0 +1,192 @@
+"""All triangle geometry (triangle, smooth_triangle, mesh, mesh2, tessellated surfaces)
+traced by Embree (embreex), with every hit refined in float64.
+
+Embree works in float32, so the triangles are stored relative to the centre of their
+bounding box (far-away meshes keep their precision), rays start a float32-aware distance
+further out (tolerances.EMBREE_REL), and the reported distance is recomputed in float64
+against the hit triangle's plane, with the normal (geometric, or interpolated for smooth
+triangles) computed in float64 from the refined point.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from lang import ir
+from runtime import tolerances as tol
+from runtime import transform as tf
+from runtime.shapes import barycentric
+
+# Embree's "no hit" distance sentinel in embreex; its float32 tfar must stay finite.
+_FAR = np.float32(1e37)
+
+
+def _leaf_triangles(obj: ir.Object):
+    """World-space (T,3,3) vertices and (T,3,3) vertex normals (or None) of a leaf."""
+    m = tf.as_matrix(obj.transform)
+    m_inv = tf.inverse(m)
+    shape = obj.shape
+    if isinstance(shape, ir.Triangle):
+        v = np.array([shape.p1, shape.p2, shape.p3], dtype=np.float64)
+        tri = tf.apply_points(m, v)[None]
+        if shape.normals is None:
+            return tri, None
+        vn = tf.apply_normals(m_inv, np.asarray(shape.normals, dtype=np.float64))
+        return tri, vn[None]
+    verts = tf.apply_points(m, np.asarray(shape.vertices, dtype=np.float64).reshape(-1, 3))
+    faces = np.asarray(shape.faces, dtype=np.int64).reshape(-1, 3)
+    tri = verts[faces]
+    normals = shape.normals
+    if normals is None and shape.smooth:
+        normals = _vertex_normals(verts, faces)
+        vn = normals[faces]
+    elif normals is not None:
+        n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+        vn = tf.apply_normals(m_inv, n)[faces]
+    else:
+        vn = None
+    return tri, vn
+
+
+def _vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals (for `smooth` meshes that give none)."""
+    fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
+    acc = np.zeros_like(verts)
+    for k in range(3):
+        np.add.at(acc, faces[:, k], fn)
+    return tf.normalize(acc)
+
+
+class TriangleSet:
+    """Every triangle of the scene; `leaves` is [(object index, ir.Object)]."""
+
+    def __init__(self, leaves: list[tuple[int, ir.Object]]):
+        tris, vns, leaf_of, local = [], [], [], []
+        self.sizes: dict[int, float] = {}
+        for index, obj in leaves:
+            tri, vn = _leaf_triangles(obj)
+            tris.append(tri)
+            if vn is None:
+                vn = np.full_like(tri, np.nan)
+            vns.append(vn)
+            leaf_of.append(np.full(len(tri), index, dtype=np.int32))
+            local.append(np.arange(len(tri), dtype=np.int32))
+            if len(tri):
+                flat = tri.reshape(-1, 3)
+                self.sizes[index] = float(np.linalg.norm(flat.max(axis=0) - flat.min(axis=0)))
+        self.tri = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+        self.vn = np.concatenate(vns) if vns else np.zeros((0, 3, 3))
+        self.smooth = ~np.isnan(self.vn[:, 0, 0])
+        self.leaf_of = np.concatenate(leaf_of) if leaf_of else np.zeros(0, np.int32)
+        self.local = np.concatenate(local) if local else np.zeros(0, np.int32)
+        self.v0 = self.tri[:, 0]
+        self.e1 = self.tri[:, 1] - self.tri[:, 0]
+        self.e2 = self.tri[:, 2] - self.tri[:, 0]
+        self.ng = tf.normalize(np.cross(self.e1, self.e2))
+        flat = self.tri.reshape(-1, 3)
+        lo = flat.min(axis=0) if len(flat) else np.zeros(3)
+        hi = flat.max(axis=0) if len(flat) else np.zeros(3)
+        self.offset = (lo + hi) / 2
+        self.extent = float(np.linalg.norm(hi - lo))
+        self.flags: dict[str, np.ndarray] = {}
+        self._scenes: dict[str | None, tuple] = {}
+        self._lock = threading.Lock()
+
+    # ------------------------------------------------------------------ embree
+    def _scene(self, skip: str | None):
+        """The Embree scene without the triangles whose object carries `skip` (built once)."""
+        with self._lock:
+            if skip not in self._scenes:
+                keep = np.ones(len(self.tri), dtype=bool)
+                flag = self.flags.get(skip) if skip else None
+                if flag is not None and len(flag):
+                    keep = ~flag[self.leaf_of]
+                ids = np.nonzero(keep)[0].astype(np.int64)
+                scene = None
+                if len(ids):
+                    from embreex import rtcore_scene
+                    from embreex.mesh_construction import TriangleMesh
+
+                    scene = rtcore_scene.EmbreeScene()
+                    verts = np.ascontiguousarray((self.tri[ids] - self.offset).astype(np.float32))
+                    TriangleMesh(scene, verts)
+                self._scenes[skip] = (scene, ids)
+            return self._scenes[skip]
+
+    def _start(self, o: np.ndarray, tmin: np.ndarray) -> np.ndarray:
+        """Float32-safe start distance for rays from o (see tolerances.EMBREE_REL)."""
+        reach = np.linalg.norm(o - self.offset, axis=1) + self.extent
+        return np.maximum(tmin, tol.EMBREE_REL * reach)
+
+    def _cast(self, scene, o, d, start, far, query):
+        eo = np.ascontiguousarray(((o - self.offset) + start[:, None] * d).astype(np.float32))
+        ed = np.ascontiguousarray(d.astype(np.float32))
+        dist = np.clip(far - start, 0.0, float(_FAR)).astype(np.float32)
+        if query == "OCCLUDED":
+            return scene.run(eo, ed, dists=dist.copy(), query="OCCLUDED")
+        return scene.run(eo, ed, dists=dist.copy(), output=1)
+
+    # ----------------------------------------------------------------- queries
+    def refine_t(self, tri: np.ndarray, o: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """float64 distance to the planes of triangles `tri` (indices) along o + t d."""
+        n = self.ng[tri]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.einsum("ij,ij->i", self.v0[tri] - o, n) / np.einsum("ij,ij->i", d, n)
+
+    def closest(self, o, d, tmin, limit, skip, hits) -> None:
+        """Update `hits` in place where a triangle is nearer than `limit`."""
+        scene, ids = self._scene(skip)
+        if scene is None:
+            return
+        rows = np.nonzero(limit > tmin)[0]
+        start = self._start(o[rows], tmin[rows])
+        # A refined hit can land at or before tmin (the ray started on that triangle): cast
+        # again from just past it. Three rounds settle every case seen in practice.
+        for _ in range(3):
+            if len(rows) == 0:
+                return
+            orow, drow = o[rows], d[rows]
+            res = self._cast(scene, orow, drow, start, limit[rows], "INTERSECT")
+            got = res["primID"] >= 0
+            if not got.any():
+                return
+            rows, orow, drow, start = rows[got], orow[got], drow[got], start[got]
+            tri = ids[res["primID"][got]]
+            t = self.refine_t(tri, orow, drow)
+            ok = np.isfinite(t) & (t > tmin[rows]) & (t < limit[rows])
+            if ok.any():
+                self._record(hits, rows[ok], tri[ok], t[ok], orow[ok], drow[ok])
+            retry = ~ok & (t <= tmin[rows])
+            t_e = start + res["tfar"][got].astype(np.float64)
+            rows = rows[retry]
+            start = t_e[retry] + tol.EMBREE_REL * (np.abs(t_e[retry]) + self.extent)
+
+    def _record(self, hits, rows, tri, t, o, d) -> None:
+        hits.t[rows] = t
+        hits.obj[rows] = self.leaf_of[tri]
+        hits.prim[rows] = self.local[tri]
+        p = o + t[:, None] * d
+        n = self.ng[tri].copy()
+        sm = self.smooth[tri]
+        if sm.any():
+            ts = tri[sm]
+            u, v = barycentric(p[sm], self.v0[ts], self.e1[ts], self.e2[ts])
+            vn = self.vn[ts]
+            n[sm] = tf.normalize(
+                (1 - u - v)[:, None] * vn[:, 0] + u[:, None] * vn[:, 1] + v[:, None] * vn[:, 2]
+            )
+        hits.normal[rows] = n
+
+    def occluded(self, o, d, tmin, tmax) -> np.ndarray:
+        scene, _ = self._scene("no_shadow")
+        if scene is None or len(o) == 0:
+            return np.zeros(len(o), dtype=bool)
+        start = self._start(o, tmin)
+        out = np.zeros(len(o), dtype=bool)
+        live = tmax > start
+        if live.any():
+            res = self._cast(scene, o[live], d[live], start[live], tmax[live], "OCCLUDED")
+            out[live] = res != -1
+        return out
