@@ -1,0 +1,548 @@
+"""The `strala` command: render, check and compile scenes.
+
+`check` must start fast (well under 0.3 s) and must not import numpy, Embree or
+OpenImageIO, so this module imports only the standard library and `lang` at the top; the
+heavy `runtime` modules are imported inside the commands that render.
+
+Exit codes: 0 ok, 1 the scene (or an input file) has errors, 2 bad command line,
+3 internal error (one line; the traceback only with --debug), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import TextIO
+
+from lang.diagnostics import Diagnostic, SceneError, Severity, Span
+
+COMMANDS = ("render", "check", "compile", "fmt")
+SCENE_SUFFIXES = (".scene", ".pov", ".inc", ".ini", ".json")
+POVRAY_DEFAULT_SIZE = (320, 240)  # POV-Ray's image size when +W/+H are not given
+DEFAULT_AA_THRESHOLD = 0.3  # POV-Ray's Antialias_Threshold default
+FILE_NOT_READABLE = "E0900"
+
+
+class UsageError(Exception):
+    """A bad command line found after argparse (exit code 2)."""
+
+
+# ------------------------------------------------------------ POV-Ray options
+# Options that take a separate value: the token after them is never translated.
+_VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
+_VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height"}
+# Display, verbosity, pause and statistics switches change nothing in a file render.
+_IGNORED = ("D", "V", "P", "X", "GA", "GD", "GF", "GR", "GS", "GW", "GI", "GP", "UA", "UD")
+_FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
+_OWN_SHORT = {"-o", "-W", "-H", "-L", "-q", "-h"}
+
+
+def _ini_tokens(path: Path) -> list[str]:
+    """POV-Ray INI file → command-line tokens (the main section only; `;` comments)."""
+    keys = {
+        "input_file_name": "+I",
+        "output_file_name": "+O",
+        "width": "+W",
+        "height": "+H",
+        "antialias_threshold": "+A",
+        "antialias_depth": "+R",
+        "library_path": "+L",
+        "clock": "+K",
+        "work_threads": "+WT",
+    }
+    tokens: list[str] = []
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise UsageError(f"cannot read {path}: {exc.strerror}") from None
+    for raw in text.splitlines():
+        line = raw.split(";", 1)[0].strip()
+        if not line:
+            continue
+        if line.startswith("["):
+            break  # named sections are for POV-Ray's +I<ini>[section]; strala reads the main one
+        if line[0] in "+-":
+            tokens.extend(line.split())
+            continue
+        key, sep, value = line.partition("=")
+        key, value = key.strip().lower(), value.strip().strip('"')
+        if not sep:
+            continue
+        if key == "antialias":
+            tokens.append("+A" if value.lower() in ("on", "true", "yes", "1") else "-A")
+        elif key in keys:
+            tokens.append(keys[key] + value)
+    return tokens
+
+
+def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
+    """Rewrite POV-Ray style switches (`+W512 +A0.3 +Oout.png +Iscene.pov -D`) and INI
+    files into strala options. Unknown `+X` switches are dropped with a warning."""
+    out: list[str] = []
+    after_value_option = False
+    pending = list(argv)
+    while pending:
+        tok = pending.pop(0)
+        if after_value_option:
+            out.append(tok)
+            after_value_option = False
+            continue
+        if tok in _VALUE_OPTIONS:
+            out.append(tok)
+            after_value_option = True
+            continue
+        if tok.lower().endswith(".ini") and not tok.startswith(("+", "-")):
+            pending[:0] = _ini_tokens(Path(tok))
+            continue
+        if len(tok) < 2 or tok[0] not in "+-" or tok.startswith("--"):
+            out.append(tok)
+            continue
+        sign, body = tok[0], tok[1:]
+        if sign == "-" and tok[:2] in _OWN_SHORT:
+            out.append(tok)  # strala's own short option (-W512, -o…): argparse judges it
+            after_value_option = tok in _VALUE_OPTIONS
+            continue
+        upper = body.upper()
+        head, rest = upper[:1], body[1:]
+        if upper in _IGNORED or (head == "G" and len(upper) <= 3):
+            continue
+        if sign == "-":
+            out.append("--no-aa" if head == "A" else tok)
+        elif upper.startswith("WT") and rest[1:].isdigit():
+            out += ["--threads", rest[1:]]
+        elif head in "WH" and rest:
+            out += ["-" + head, rest]
+        elif head == "A":
+            out += ["--aa", rest] if rest else ["--aa"]
+        elif head == "R" and rest:
+            out += ["--aa-depth", rest]
+        elif head in "OIL":
+            value = rest or (pending.pop(0) if pending else "")
+            if not value:
+                raise UsageError(f"{tok} needs a value")
+            out += {"O": ["-o", value], "I": [value], "L": ["-L", value]}[head]
+        elif head == "K" and rest and rest[0] in "0123456789.-":
+            out += ["--clock", rest]
+        elif head == "F" and rest[:1].upper() in _FILE_TYPES:
+            out += ["--output-type", _FILE_TYPES[rest[0].upper()]]
+            if rest[1:].isdigit():
+                out += ["--bits", rest[1:]]
+        else:
+            warn.append(f"ignoring POV-Ray option {tok}")
+    return out
+
+
+def _looks_like_render(argv: Sequence[str]) -> bool:
+    """`strala scene.pov +W512` and `strala +Iscene.pov` render, as `povray` would."""
+    if not argv or argv[0] in COMMANDS:
+        return False
+    first = argv[0]
+    return first.startswith("+") or first.lower().endswith(SCENE_SUFFIXES)
+
+
+# ----------------------------------------------------------------- argparse
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="strala",
+        description="Compile and render POV-Ray 3.7 scenes (and strala's .scene extensions).",
+        epilog="POV-Ray style options work too: strala +Iscene.pov +W512 +H512 +A0.3 +Oout.png",
+    )
+    parser.add_argument("--version", action="version", version=f"strala {_version()}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    common.add_argument(
+        "-L",
+        "--library",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="extra #include search folder (repeatable)",
+    )
+
+    r = sub.add_parser("render", parents=[common], help="render a scene to an image")
+    r.add_argument("file", help="scene file (.scene, .pov) or compiled IR (.json)")
+    r.add_argument(
+        "-o", "--output", metavar="OUT", help="image file (default: SCENE.png beside it)"
+    )
+    r.add_argument("-W", "--width", type=_positive_int, metavar="W", help="width (default 320)")
+    r.add_argument("-H", "--height", type=_positive_int, metavar="H", help="height (default 240)")
+    r.add_argument(
+        "--aa",
+        type=_threshold,
+        nargs="?",
+        const=DEFAULT_AA_THRESHOLD,
+        metavar="T",
+        help=f"adaptive anti-aliasing threshold (alone: {DEFAULT_AA_THRESHOLD})",
+    )
+    r.add_argument("--no-aa", dest="aa", action="store_const", const=None, help="no anti-aliasing")
+    r.add_argument("--aa-depth", type=_aa_depth, default=3, metavar="N", help="1..9 (default 3)")
+    r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
+    r.add_argument("--bits", type=int, choices=(8, 16, 32), help="PNG/TIFF 8|16, EXR 16|32")
+    r.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
+    r.add_argument("--output-type", choices=tuple(_FILE_TYPES.values()), help=argparse.SUPPRESS)
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
+    r.set_defaults(func=cmd_render)
+
+    c = sub.add_parser("check", parents=[common], help="report every diagnostic, render nothing")
+    c.add_argument("files", nargs="+", metavar="FILE")
+    c.add_argument("--format", choices=("text", "json", "sarif"), default="text")
+    c.set_defaults(func=cmd_check)
+
+    k = sub.add_parser("compile", parents=[common], help="write the evaluated scene (IR) as JSON")
+    k.add_argument("file")
+    k.add_argument("-o", "--output", metavar="OUT", help="JSON file, `-` for stdout")
+    k.add_argument("--clock", type=float, default=0.0)
+    k.add_argument("--indent", type=int, default=None, help="pretty-print with this indent")
+    k.add_argument("-q", "--quiet", action="store_true")
+    k.set_defaults(func=cmd_compile)
+
+    f = sub.add_parser("fmt", help="format scene files in place (canonical layout)")
+    f.add_argument("files", nargs="+", metavar="FILE")
+    f.add_argument("--check", action="store_true", help="change nothing; exit 1 if unformatted")
+    f.add_argument("--stdout", action="store_true", help="print the result instead of writing")
+    f.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    f.set_defaults(func=cmd_fmt)
+    return parser
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("strala")
+    except Exception:  # running from a source tree that was never installed
+        return "0+unknown"
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _threshold(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0.0 <= value <= 3.0:
+        raise argparse.ArgumentTypeError(f"threshold must lie in [0, 3], got {value}")
+    return value
+
+
+def _aa_depth(text: str) -> int:
+    value = _positive_int(text)
+    if value > 9:
+        raise argparse.ArgumentTypeError(f"depth must lie in 1..9, got {value}")
+    return value
+
+
+# -------------------------------------------------------------- diagnostics
+class _Sources:
+    """Source lines per file, read once, for the caret display."""
+
+    def __init__(self) -> None:
+        self._lines: dict[str, list[str] | None] = {}
+
+    def lines(self, file: str) -> list[str] | None:
+        if file not in self._lines:
+            try:
+                text = Path(file).read_text(encoding="utf-8", errors="replace")
+                self._lines[file] = text.splitlines()
+            except OSError:
+                self._lines[file] = None
+        return self._lines[file]
+
+
+def _counts(diags: Iterable[Diagnostic]) -> tuple[int, int]:
+    diags = list(diags)
+    errors = sum(d.severity is Severity.ERROR for d in diags)
+    warnings = sum(d.severity is Severity.WARNING for d in diags)
+    return errors, warnings
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def print_diagnostics(diags: Sequence[Diagnostic], stream: TextIO, summary: bool = True) -> None:
+    sources = _Sources()
+    for d in diags:
+        print(d.format(sources.lines(d.span.file)), file=stream)
+    errors, warnings = _counts(diags)
+    if summary and (errors or warnings):
+        print(f"{_plural(errors, 'error')}, {_plural(warnings, 'warning')}", file=stream)
+
+
+def _missing(path: str) -> Diagnostic | None:
+    """A diagnostic when the input file cannot be read (never a traceback)."""
+    p = Path(path)
+    reason = None
+    if not p.exists():
+        reason = "no such file"
+    elif p.is_dir():
+        reason = "it is a folder"
+    elif not os.access(p, os.R_OK):
+        reason = "permission denied"
+    if reason is None:
+        return None
+    return Diagnostic(
+        Severity.ERROR, FILE_NOT_READABLE, f"cannot read `{path}`: {reason}", Span(path, 1, 1, 1, 1)
+    )
+
+
+def _compile(path: str, libraries: Sequence[str], *, clock: float = 0.0, file_io: bool = True):
+    """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic."""
+    missing = _missing(path)
+    if missing is not None:
+        return None, [missing]
+    from lang.evaluate import compile_file
+
+    result = compile_file(path, tuple(libraries), clock=clock, allow_file_io=file_io)
+    return result.scene, list(result.diagnostics)
+
+
+# ------------------------------------------------------------------ commands
+def cmd_check(args: argparse.Namespace) -> int:
+    diags: list[Diagnostic] = []
+    for file in args.files:
+        diags += _compile(file, args.library, file_io=False)[1]
+    errors, warnings = _counts(diags)
+    if args.format == "json":
+        doc = {
+            "files": list(args.files),
+            "errors": errors,
+            "warnings": warnings,
+            "diagnostics": [d.to_json() for d in diags],
+        }
+        print(json.dumps(doc, indent=2))
+    elif args.format == "sarif":
+        print(json.dumps(_sarif(diags), indent=2))
+    else:
+        print_diagnostics(diags, sys.stdout)
+    return 1 if errors else 0
+
+
+def _sarif(diags: Sequence[Diagnostic]) -> dict:
+    levels = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "note"}
+    results = []
+    for d in diags:
+        result = {
+            "ruleId": d.code,
+            "level": levels[d.severity],
+            "message": {"text": d.message + (f" (hint: {d.hint})" if d.hint else "")},
+            "locations": [
+                {
+                    "physicalLocation": {
+                        "artifactLocation": {"uri": Path(d.span.file).as_posix()},
+                        "region": {
+                            "startLine": d.span.line,
+                            "startColumn": d.span.col,
+                            "endLine": d.span.end_line,
+                            "endColumn": d.span.end_col,
+                        },
+                    }
+                }
+            ],
+        }
+        results.append(result)
+    return {
+        "version": "2.1.0",
+        "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
+        "runs": [
+            {"tool": {"driver": {"name": "strala", "version": _version()}}, "results": results}
+        ],
+    }
+
+
+def _load_scene(args: argparse.Namespace, clock: float):
+    """(scene or None, diagnostics) from a scene file or a compiled IR document."""
+    if args.file.lower().endswith(".json"):
+        missing = _missing(args.file)
+        if missing is not None:
+            return None, [missing]
+        from lang import serialize
+
+        try:
+            return serialize.loads(Path(args.file).read_text(encoding="utf-8")), []
+        except serialize.IRFormatError as exc:
+            span = Span(args.file, 1, 1, 1, 1)
+            return None, [Diagnostic(Severity.ERROR, "E0901", f"bad IR document: {exc}", span)]
+    return _compile(args.file, args.library, clock=clock)
+
+
+def output_path(scene_file: str, output: str | None, suffix: str) -> Path:
+    """POV-Ray's naming: SCENE.png beside the scene; a folder gets SCENE.png inside it; a
+    name without an extension gets one."""
+    stem = Path(scene_file).stem
+    if output is None:
+        return Path(scene_file).with_name(stem + suffix)
+    if output.endswith(("/", os.sep)) or Path(output).is_dir():
+        return Path(output) / (stem + suffix)
+    if not Path(output).suffix:
+        return Path(output + suffix)
+    return Path(output)
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from runtime import image  # numpy + OpenImageIO: only now
+
+    out = output_path(args.file, args.output, args.output_type or ".png")
+    try:
+        image.output_format(out, args.bits)
+    except image.ImageFormatError as exc:
+        raise UsageError(str(exc)) from None
+    if not out.parent.is_dir():
+        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+
+    scene, diags = _load_scene(args, args.clock)
+    print_diagnostics(diags, sys.stderr, summary=False)
+    if scene is None or _counts(diags)[0]:
+        return 1
+
+    from runtime.progress import Progress
+    from runtime.render import render_scene
+
+    # as POV-Ray: a side not given keeps its default, whatever the other one is
+    width = args.width or POVRAY_DEFAULT_SIZE[0]
+    height = args.height or POVRAY_DEFAULT_SIZE[1]
+
+    start = time.perf_counter()
+    bar = Progress("rendering", enabled=False if args.quiet else None)
+    try:
+        pixels = render_scene(
+            scene,
+            width,
+            height,
+            antialias=args.aa,
+            aa_depth=args.aa_depth,
+            threads=args.threads,
+            progress=bar,
+        )
+    except SceneError as exc:
+        bar.close()
+        print_diagnostics([exc.diagnostic], sys.stderr, summary=False)
+        return 1
+    bar.close()
+    try:
+        image.save_render(out, pixels, scene.settings, args.bits)
+    except OSError as exc:
+        print(f"strala: error: {exc}", file=sys.stderr)
+        return 1
+    if not args.quiet:
+        took = time.perf_counter() - start
+        print(f"wrote {out} ({width}x{height}, {took:.2f} s)", file=sys.stderr)
+    return 0
+
+
+def cmd_compile(args: argparse.Namespace) -> int:
+    from lang import serialize
+
+    scene, diags = _compile(args.file, args.library, clock=args.clock)
+    print_diagnostics(diags, sys.stderr, summary=False)
+    if scene is None or _counts(diags)[0]:
+        return 1
+    text = serialize.dumps(scene, indent=args.indent)
+    if args.output == "-":
+        sys.stdout.write(text + "\n")
+        return 0
+    out = output_path(args.file, args.output, ".json")
+    if not out.parent.is_dir():
+        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    try:
+        _write_text_atomically(out, text + "\n")
+    except OSError as exc:
+        print(f"strala: error: cannot write {out}: {exc.strerror}", file=sys.stderr)
+        return 1
+    if not args.quiet:
+        print(f"wrote {out}", file=sys.stderr)
+    return 0
+
+
+def cmd_fmt(args: argparse.Namespace) -> int:
+    from lang.format import format_source
+
+    status = 0
+    for file in args.files:
+        missing = _missing(file)
+        if missing is not None:
+            print_diagnostics([missing], sys.stderr, summary=False)
+            status = 1
+            continue
+        path = Path(file)
+        text = path.read_text(encoding="utf-8", errors="surrogateescape")
+        formatted = format_source(text)
+        if args.stdout:
+            sys.stdout.write(formatted)
+        elif args.check:
+            if formatted != text:
+                print(f"would reformat {file}", file=sys.stderr)
+                status = 1
+        elif formatted != text:
+            _write_text_atomically(path, formatted)
+            print(f"reformatted {file}", file=sys.stderr)
+    return status
+
+
+def _write_text_atomically(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8", errors="surrogateescape")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+# --------------------------------------------------------------------- main
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if _looks_like_render(argv):
+        argv.insert(0, "render")
+    parser = build_parser()
+    warnings: list[str] = []
+    try:
+        argv = translate_povray_args(argv, warnings)
+    except UsageError as exc:
+        parser.error(str(exc))
+    args = parser.parse_args(argv)  # exits 2 on a bad command line
+    if not getattr(args, "quiet", False):
+        for w in warnings:
+            print(f"strala: warning: {w}", file=sys.stderr)
+    try:
+        return args.func(args)
+    except UsageError as exc:
+        print(f"strala {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("\nstrala: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # the last line of defence: never a bare traceback
+        print(f"internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        if args.debug:
+            import traceback
+
+            traceback.print_exc()
+        else:
+            print("(run with --debug for the traceback)", file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())
