@@ -1,0 +1,369 @@
+"""`strala lsp`: a Language Server Protocol server on stdio.
+
+Diagnostics come from the same parser and evaluator as `strala check` (file writes and reads
+are off while a file is evaluated here). Completion and hover come from the schema's word
+lists and the names declared so far; structure (symbols, folds, definitions) from the syntax
+tree. Diagnostics are debounced so typing stays smooth on large scenes.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+from lsprotocol import types as T
+from pygls.lsp.server import LanguageServer
+
+from lang import keywords, outline
+from lang.diagnostics import Diagnostic, Severity, Span
+from lang.format import format_source
+from lang.parser import parse
+
+DEBOUNCE_SECONDS = 0.15  # long enough to coalesce a burst of keystrokes, short enough to feel live
+
+_SEVERITY = {
+    Severity.ERROR: T.DiagnosticSeverity.Error,
+    Severity.WARNING: T.DiagnosticSeverity.Warning,
+    Severity.NOTE: T.DiagnosticSeverity.Information,
+}
+
+
+def uri_to_path(uri: str) -> str:
+    parsed = urlparse(uri)
+    if parsed.scheme == "file":
+        return unquote(parsed.path)
+    return uri
+
+
+def path_to_uri(path: str) -> str:
+    return Path(path).resolve().as_uri()
+
+
+def to_range(span: Span) -> T.Range:
+    return T.Range(
+        start=T.Position(line=max(span.line - 1, 0), character=max(span.col - 1, 0)),
+        end=T.Position(line=max(span.end_line - 1, 0), character=max(span.end_col - 1, 0)),
+    )
+
+
+def to_lsp_diagnostic(d: Diagnostic) -> T.Diagnostic:
+    message = d.message + (f"\nhint: {d.hint}" if d.hint else "")
+    return T.Diagnostic(
+        range=to_range(d.span),
+        message=message,
+        severity=_SEVERITY[d.severity],
+        code=d.code,
+        source="strala",
+    )
+
+
+def analyse(text: str, path: str) -> list[Diagnostic]:
+    """Parse and evaluate without touching the file system beyond reading includes."""
+    try:
+        from lang.evaluate import compile_source
+    except ImportError:  # the evaluator is optional for a syntax-only check
+        _, diags = parse(text, path)
+        return diags
+    result = compile_source(text, path, library_paths=_library_paths(), allow_file_io=False)
+    return [d for d in result.diagnostics if d.span.file == path] or [
+        d for d in result.diagnostics if d.severity is Severity.ERROR
+    ]
+
+
+def _library_paths() -> list[str]:
+    env = os.environ.get("STRALA_LIBRARY_PATH", "")
+    return [p for p in env.split(os.pathsep) if p]
+
+
+def _keyword_docs() -> dict[str, str]:
+    """One-line docs per keyword from the schema, when it provides them."""
+    try:
+        from lang import schema
+    except ImportError:
+        return {}
+    docs = getattr(schema, "keyword_docs", None)
+    if callable(docs):
+        try:
+            return dict(docs())
+        except Exception:  # a schema bug must not take the editor down
+            return {}
+    return {}
+
+
+def _block_items(block: str) -> list[str] | None:
+    """Keywords valid inside `block`, from the schema when it provides them."""
+    try:
+        from lang import schema
+    except ImportError:
+        return None
+    items = getattr(schema, "items_for", None)
+    if callable(items):
+        try:
+            found = items(block)
+        except Exception:
+            return None
+        return list(found) if found is not None else None
+    return None
+
+
+class StralaServer(LanguageServer):
+    def __init__(self) -> None:
+        super().__init__("strala", "0.1.0", text_document_sync_kind=T.TextDocumentSyncKind.Full)
+        self._pending: dict[str, asyncio.TimerHandle] = {}
+        self._docs: dict[str, str] | None = None
+
+    @property
+    def keyword_docs(self) -> dict[str, str]:
+        if self._docs is None:
+            self._docs = _keyword_docs()
+        return self._docs
+
+    def publish(self, uri: str) -> None:
+        doc = self.workspace.get_text_document(uri)
+        diags = analyse(doc.source, uri_to_path(uri))
+        self.text_document_publish_diagnostics(
+            T.PublishDiagnosticsParams(
+                uri=uri, version=doc.version, diagnostics=[to_lsp_diagnostic(d) for d in diags]
+            )
+        )
+
+    def schedule(self, uri: str, delay: float = DEBOUNCE_SECONDS) -> None:
+        loop = asyncio.get_event_loop()
+        old = self._pending.pop(uri, None)
+        if old is not None:
+            old.cancel()
+        self._pending[uri] = loop.call_later(delay, self._run, uri)
+
+    def _run(self, uri: str) -> None:
+        self._pending.pop(uri, None)
+        self.publish(uri)
+
+
+server = StralaServer()
+
+
+@server.feature(T.TEXT_DOCUMENT_DID_OPEN)
+def did_open(ls: StralaServer, params: T.DidOpenTextDocumentParams) -> None:
+    ls.publish(params.text_document.uri)
+
+
+@server.feature(T.TEXT_DOCUMENT_DID_CHANGE)
+def did_change(ls: StralaServer, params: T.DidChangeTextDocumentParams) -> None:
+    ls.schedule(params.text_document.uri)
+
+
+@server.feature(T.TEXT_DOCUMENT_DID_SAVE)
+def did_save(ls: StralaServer, params: T.DidSaveTextDocumentParams) -> None:
+    ls.publish(params.text_document.uri)
+
+
+@server.feature(T.TEXT_DOCUMENT_DID_CLOSE)
+def did_close(ls: StralaServer, params: T.DidCloseTextDocumentParams) -> None:
+    ls.text_document_publish_diagnostics(
+        T.PublishDiagnosticsParams(uri=params.text_document.uri, diagnostics=[])
+    )
+
+
+def _tree(ls: StralaServer, uri: str):
+    doc = ls.workspace.get_text_document(uri)
+    tree, _ = parse(doc.source, uri_to_path(uri))
+    return doc, tree
+
+
+def _included_definitions(path: str, tree, depth: int = 0) -> dict[str, list[Span]]:
+    """Definitions from the files this one includes (scene folder, library paths, stdlib)."""
+    out: dict[str, list[Span]] = {}
+    if depth > 8:
+        return out
+    for name, _span in outline.includes(tree):
+        found = resolve_include(name, path)
+        if found is None:
+            continue
+        try:
+            text = Path(found).read_text(encoding="latin-1")
+        except OSError:
+            continue
+        sub, _ = parse(text, found)
+        for k, v in _included_definitions(found, sub, depth + 1).items():
+            out.setdefault(k, []).extend(v)
+        for k, v in outline.definitions(sub).items():
+            out.setdefault(k, []).extend(v)
+    return out
+
+
+def resolve_include(name: str, including: str) -> str | None:
+    here = Path(including).parent
+    stdlib = Path(__file__).resolve().parent.parent / "stdlib"
+    for folder in [here, *map(Path, _library_paths()), stdlib]:
+        candidate = folder / name
+        if candidate.is_file():
+            return str(candidate)
+    return None
+
+
+@server.feature(T.TEXT_DOCUMENT_COMPLETION, T.CompletionOptions(trigger_characters=["#", "."]))
+def completion(ls: StralaServer, params: T.CompletionParams) -> T.CompletionList:
+    doc, tree = _tree(ls, params.text_document.uri)
+    path = uri_to_path(params.text_document.uri)
+    line, col = params.position.line + 1, params.position.character + 1
+    offset = doc.offset_at_position(params.position)
+    blocks = outline.open_blocks_before(doc.source, offset)
+    items: list[T.CompletionItem] = []
+    allowed = _block_items(blocks[-1]) if blocks else None
+    words = allowed if allowed is not None else sorted(keywords.ITEM_WORDS)
+    docs = ls.keyword_docs
+    for w in words:
+        items.append(
+            T.CompletionItem(label=w, kind=T.CompletionItemKind.Keyword, detail=docs.get(w))
+        )
+    for w in sorted(keywords.FUNCTIONS):
+        items.append(T.CompletionItem(label=w, kind=T.CompletionItemKind.Function))
+    names = dict(_included_definitions(path, tree))
+    for k, v in outline.definitions(tree).items():
+        # only names declared before the cursor, as the evaluator would see them
+        before = [s for s in v if (s.line, s.col) <= (line, col)]
+        if before:
+            names.setdefault(k, []).extend(before)
+    for name in sorted(names):
+        items.append(T.CompletionItem(label=name, kind=T.CompletionItemKind.Variable))
+    return T.CompletionList(is_incomplete=False, items=items)
+
+
+@server.feature(T.TEXT_DOCUMENT_HOVER)
+def hover(ls: StralaServer, params: T.HoverParams) -> T.Hover | None:
+    doc, tree = _tree(ls, params.text_document.uri)
+    path = uri_to_path(params.text_document.uri)
+    word = outline.word_at(doc.source, params.position.line + 1, params.position.character + 1)
+    if not word:
+        return None
+    if word in keywords.ALL_WORDS:
+        text = ls.keyword_docs.get(word) or _word_class(word)
+        return T.Hover(
+            contents=T.MarkupContent(kind=T.MarkupKind.Markdown, value=f"**{word}** — {text}")
+        )
+    for sym in _all_symbols(tree):
+        if sym.name == word:
+            where = f"{Path(sym.name_span.file).name}:{sym.name_span.line}"
+            return T.Hover(
+                contents=T.MarkupContent(
+                    kind=T.MarkupKind.Markdown,
+                    value=f"**{word}**: {sym.kind} {sym.detail} (declared at {where})",
+                )
+            )
+    defs = _included_definitions(path, tree).get(word)
+    if defs:
+        s = defs[0]
+        return T.Hover(
+            contents=T.MarkupContent(
+                kind=T.MarkupKind.Markdown,
+                value=f"**{word}** (declared at {Path(s.file).name}:{s.line})",
+            )
+        )
+    return None
+
+
+def _word_class(word: str) -> str:
+    if word in keywords.FUNCTIONS:
+        return "built-in function"
+    if word in keywords.CONSTANTS:
+        return "built-in constant"
+    if word in keywords.COLOR_TYPES or word in keywords.COLOR_WORDS:
+        return "colour"
+    return "keyword"
+
+
+def _all_symbols(tree) -> list[outline.Symbol]:
+    out: list[outline.Symbol] = []
+
+    def walk(items):
+        for s in items:
+            out.append(s)
+            walk(s.children)
+
+    walk(outline.symbols(tree))
+    return out
+
+
+@server.feature(T.TEXT_DOCUMENT_DEFINITION)
+def definition(ls: StralaServer, params: T.DefinitionParams) -> list[T.Location] | None:
+    doc, tree = _tree(ls, params.text_document.uri)
+    path = uri_to_path(params.text_document.uri)
+    line, col = params.position.line + 1, params.position.character + 1
+    for name, span in outline.includes(tree):
+        if span.line <= line <= span.end_line:
+            found = resolve_include(name, path)
+            if found:
+                start = T.Range(
+                    start=T.Position(line=0, character=0), end=T.Position(line=0, character=0)
+                )
+                return [T.Location(uri=path_to_uri(found), range=start)]
+    word = outline.word_at(doc.source, line, col)
+    if not word:
+        return None
+    spans = outline.definitions(tree).get(word) or _included_definitions(path, tree).get(word)
+    if not spans:
+        return None
+    return [
+        T.Location(
+            uri=params.text_document.uri if s.file == path else path_to_uri(s.file),
+            range=to_range(s),
+        )
+        for s in spans
+    ]
+
+
+_SYMBOL_KIND = {
+    "declare": T.SymbolKind.Variable,
+    "local": T.SymbolKind.Variable,
+    "macro": T.SymbolKind.Function,
+    "object": T.SymbolKind.Object,
+    "camera": T.SymbolKind.Event,
+    "light": T.SymbolKind.Constant,
+    "settings": T.SymbolKind.Namespace,
+}
+
+
+@server.feature(T.TEXT_DOCUMENT_DOCUMENT_SYMBOL)
+def document_symbol(ls: StralaServer, params: T.DocumentSymbolParams) -> list[T.DocumentSymbol]:
+    _, tree = _tree(ls, params.text_document.uri)
+
+    def convert(sym: outline.Symbol) -> T.DocumentSymbol:
+        return T.DocumentSymbol(
+            name=sym.name,
+            kind=_SYMBOL_KIND.get(sym.kind, T.SymbolKind.Object),
+            range=to_range(sym.span),
+            selection_range=to_range(sym.name_span),
+            detail=sym.detail or None,
+            children=[convert(c) for c in sym.children],
+        )
+
+    return [convert(s) for s in outline.symbols(tree)]
+
+
+@server.feature(T.TEXT_DOCUMENT_FOLDING_RANGE)
+def folding_range(ls: StralaServer, params: T.FoldingRangeParams) -> list[T.FoldingRange]:
+    _, tree = _tree(ls, params.text_document.uri)
+    return [
+        T.FoldingRange(start_line=a - 1, end_line=b - 1) for a, b in outline.folding_ranges(tree)
+    ]
+
+
+@server.feature(T.TEXT_DOCUMENT_FORMATTING)
+def formatting(ls: StralaServer, params: T.DocumentFormattingParams) -> list[T.TextEdit]:
+    doc = ls.workspace.get_text_document(params.text_document.uri)
+    new = format_source(doc.source)
+    if new == doc.source:
+        return []
+    lines = doc.source.split("\n")
+    end = T.Position(line=len(lines), character=0)
+    return [T.TextEdit(range=T.Range(start=T.Position(line=0, character=0), end=end), new_text=new)]
+
+
+def main() -> None:
+    server.start_io()
+
+
+if __name__ == "__main__":
+    main()

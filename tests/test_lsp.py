@@ -1,0 +1,133 @@
+"""The language server end to end: a real client over stdio (pytest-lsp)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest_lsp
+from lsprotocol import types as T
+from pytest_lsp import ClientServerConfig, LanguageClient, client_capabilities
+
+ROOT = Path(__file__).resolve().parent.parent
+
+BROKEN = """#declare Radius = 1;
+#declare Gold = rgb <1, 0.8, 0.2>;
+#macro Ball(P)
+  sphere { P, Radius pigment { Gold } }
+#end
+sphere { <0,0,0>, Radius
+  pigment { Gold }
+}
+}
+Ball(<1,0,0>)
+"""
+
+
+@pytest_lsp.fixture(
+    config=ClientServerConfig(
+        server_command=[sys.executable, "-m", "lang.lsp"],
+        server_env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+)
+async def client(lsp_client: LanguageClient):
+    await lsp_client.initialize_session(
+        T.InitializeParams(
+            capabilities=client_capabilities("visual-studio-code"),
+            root_uri=ROOT.as_uri(),
+        )
+    )
+    yield
+    await lsp_client.shutdown_session()
+
+
+def _open(client: LanguageClient, path: Path, text: str) -> str:
+    uri = path.as_uri()
+    client.text_document_did_open(
+        T.DidOpenTextDocumentParams(
+            text_document=T.TextDocumentItem(uri=uri, language_id="pov", version=1, text=text)
+        )
+    )
+    return uri
+
+
+async def test_diagnostics_on_open_point_at_the_stray_brace(client: LanguageClient, tmp_path):
+    uri = _open(client, tmp_path / "broken.pov", BROKEN)
+    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    diags = client.diagnostics[uri]
+    errors = [d for d in diags if d.severity == T.DiagnosticSeverity.Error]
+    assert errors, diags
+    stray = [d for d in errors if d.range.start.line == 8]
+    assert stray and stray[0].range.start.character == 0
+    assert "unmatched" in stray[0].message
+
+
+async def test_diagnostics_follow_changes(client: LanguageClient, tmp_path):
+    uri = _open(client, tmp_path / "a.pov", BROKEN)
+    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    fixed = BROKEN.replace("}\n}\nBall", "}\nBall")
+    client.text_document_did_change(
+        T.DidChangeTextDocumentParams(
+            text_document=T.VersionedTextDocumentIdentifier(uri=uri, version=2),
+            content_changes=[T.TextDocumentContentChangeWholeDocument(text=fixed)],
+        )
+    )
+    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    errors = [d for d in client.diagnostics[uri] if d.severity == T.DiagnosticSeverity.Error]
+    assert not [d for d in errors if "unmatched" in d.message]
+
+
+async def test_completion_hover_definition_symbols_folding_formatting(
+    client: LanguageClient, tmp_path
+):
+    text = BROKEN.replace("}\n}\nBall", "}\nBall")
+    uri = _open(client, tmp_path / "b.pov", text)
+    doc = T.TextDocumentIdentifier(uri=uri)
+
+    # completion inside `pigment {` on line 7 offers declared names and keywords
+    result = await client.text_document_completion_async(
+        T.CompletionParams(text_document=doc, position=T.Position(line=6, character=12))
+    )
+    labels = {i.label for i in result.items}
+    assert {"Gold", "Radius", "Ball"} <= labels
+    assert "checker" in labels
+
+    # hover on `Radius` in line 6 tells where it was declared
+    hov = await client.text_document_hover_async(
+        T.HoverParams(text_document=doc, position=T.Position(line=5, character=20))
+    )
+    assert hov is not None and "Radius" in hov.contents.value and ":1" in hov.contents.value
+
+    # go to definition of `Gold` used on line 7
+    locs = await client.text_document_definition_async(
+        T.DefinitionParams(text_document=doc, position=T.Position(line=6, character=13))
+    )
+    assert locs and locs[0].range.start.line == 1
+
+    symbols = await client.text_document_document_symbol_async(
+        T.DocumentSymbolParams(text_document=doc)
+    )
+    names = [s.name for s in symbols]
+    assert names[:3] == ["Radius", "Gold", "Ball"] and "sphere" in names
+
+    folds = await client.text_document_folding_range_async(T.FoldingRangeParams(text_document=doc))
+    assert any(f.start_line == 2 and f.end_line == 4 for f in folds)  # the macro
+
+    edits = await client.text_document_formatting_async(
+        T.DocumentFormattingParams(
+            text_document=doc, options=T.FormattingOptions(tab_size=2, insert_spaces=True)
+        )
+    )
+    assert edits and "  pigment { Gold }" in edits[0].new_text
+
+
+async def test_definition_of_include_opens_the_stdlib_file(client: LanguageClient, tmp_path):
+    uri = _open(client, tmp_path / "c.pov", '#include "colors.inc"\nsphere { 0, 1 }\n')
+    locs = await client.text_document_definition_async(
+        T.DefinitionParams(
+            text_document=T.TextDocumentIdentifier(uri=uri),
+            position=T.Position(line=0, character=12),
+        )
+    )
+    assert locs and locs[0].uri.endswith("stdlib/colors.inc")
