@@ -7,6 +7,7 @@ tiles costs nothing, and the bar never writes to a pipe or a log file unless for
 
 from __future__ import annotations
 
+import math
 import shutil
 import sys
 import time
@@ -18,6 +19,8 @@ ProgressFn = Callable[[float, float], None]
 
 def format_seconds(seconds: float) -> str:
     """`4.2s`, `3m05s`, `1h02m` — short enough for a status line."""
+    if not math.isfinite(seconds):
+        return "--"  # an ETA from a vanishingly small fraction done
     if seconds < 60:
         return f"{seconds:.1f}s"
     minutes, secs = divmod(int(round(seconds)), 60)

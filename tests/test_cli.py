@@ -1,0 +1,374 @@
+"""The `strala` command line: options (strala and POV-Ray style), exit codes, output names,
+diagnostics instead of tracebacks, `check` staying free of numpy, and the progress bar."""
+
+from __future__ import annotations
+
+import io
+import json
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import EXAMPLES, ROOT, SEED, run_cli
+from hypothesis import given
+from hypothesis import strategies as st
+
+from runtime import cli
+from runtime.progress import Progress, format_seconds
+
+EX3 = EXAMPLES / "ex3.scene"
+needs_evaluator = pytest.mark.skipif(
+    not (ROOT / "lang" / "evaluate.py").exists(), reason="lang.evaluate has not landed yet"
+)
+needs_renderer = pytest.mark.skipif(
+    not (ROOT / "runtime" / "render.py").exists(), reason="runtime.render has not landed yet"
+)
+
+
+# ------------------------------------------------------------ POV-Ray options
+def _translate(*argv: str) -> tuple[list[str], list[str]]:
+    warnings: list[str] = []
+    return cli.translate_povray_args(list(argv), warnings), warnings
+
+
+def test_povray_switches_become_strala_options():
+    out, warnings = _translate(
+        "+Iscene.pov", "+W512", "+H384", "+A0.3", "+R4", "+Oout.png", "+L", "/inc", "+WT2"
+    )
+    assert out == [
+        "scene.pov", "-W", "512", "-H", "384", "--aa", "0.3", "--aa-depth", "4",
+        "-o", "out.png", "-L", "/inc", "--threads", "2",
+    ]  # fmt: skip
+    assert warnings == []
+
+
+def test_display_switches_are_ignored_and_unknown_ones_warned():
+    out, warnings = _translate("-D", "+D", "-V", "+V", "-P", "+GA", "+Q9", "scene.pov")
+    assert out == ["scene.pov"]
+    assert warnings == ["ignoring POV-Ray option +Q9"]
+
+
+def test_aa_switch_forms():
+    assert _translate("+A")[0] == ["--aa"]
+    assert _translate("-A")[0] == ["--no-aa"]
+    assert _translate("+FN16")[0] == ["--output-type", ".png", "--bits", "16"]
+    assert _translate("+K0.25")[0] == ["--clock", "0.25"]
+
+
+def test_values_of_strala_options_are_not_translated():
+    out, _ = _translate("-o", "+odd.png", "-L", "+dir", "-W512", "-q")
+    assert out == ["-o", "+odd.png", "-L", "+dir", "-W512", "-q"]
+
+
+def test_ini_file_becomes_options(tmp_path):
+    ini = tmp_path / "render.ini"
+    ini.write_text(
+        "; POV-Ray INI\nInput_File_Name=scene.pov\nWidth = 64\nHeight=48\nAntialias=On\n"
+        "Antialias_Threshold=0.2\n+Oout.png\n[other]\nWidth=9999\n"
+    )
+    out, _ = _translate(str(ini))
+    assert out == ["scene.pov", "-W", "64", "-H", "48", "--aa", "--aa", "0.2", "-o", "out.png"]
+
+
+@given(st.lists(st.sampled_from(["+D", "-D", "+V", "-V", "+P", "-P", "+GA", "-GA", "+X"])))
+def test_ignored_switches_never_reach_argparse(switches):
+    out, warnings = _translate(*switches, "scene.pov")
+    assert out == ["scene.pov"] and warnings == []
+
+
+def test_bare_scene_or_plus_option_means_render():
+    assert cli._looks_like_render(["scene.pov", "+W10"])
+    assert cli._looks_like_render(["+Iscene.pov"])
+    assert not cli._looks_like_render(["check", "scene.pov"])
+    assert not cli._looks_like_render(["--help"])
+
+
+# ----------------------------------------------------------------- outputs
+@pytest.mark.parametrize(
+    "scene, output, expected",
+    [
+        ("dir/ex3.scene", None, "dir/ex3.png"),
+        ("ex3.pov", "out.exr", "out.exr"),
+        ("ex3.pov", "renders/", "renders/ex3.png"),
+        ("ex3.pov", "final", "final.png"),
+    ],
+)
+def test_output_names_follow_povray(scene, output, expected):
+    assert cli.output_path(scene, output, ".png") == Path(expected)
+
+
+def test_output_into_an_existing_folder(tmp_path):
+    assert cli.output_path("a/ex3.pov", str(tmp_path), ".png") == tmp_path / "ex3.png"
+
+
+# --------------------------------------------------------------- exit codes
+def test_missing_file_is_a_diagnostic_not_a_traceback(tmp_path, capsys):
+    missing = str(tmp_path / "nope.pov")
+    assert cli.main(["check", missing]) == 1
+    out = capsys.readouterr().out
+    assert f"{missing}:1:1: error: cannot read" in out
+    assert "Traceback" not in out
+
+
+def test_missing_file_in_render_exits_1(tmp_path, capsys):
+    assert cli.main(["render", str(tmp_path / "nope.pov"), "-q"]) == 1
+    assert "no such file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["render"],
+        ["render", "x.pov", "-W", "0"],
+        ["render", "x.pov", "--aa", "lots"],
+        ["render", "x.pov", "--aa-depth", "12"],
+        ["frobnicate", "x"],
+        [],
+    ],
+)
+def test_bad_command_lines_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 2
+    assert "usage:" in capsys.readouterr().err
+
+
+def test_unwritable_output_is_a_usage_error_before_rendering(tmp_path, capsys):
+    scene = tmp_path / "s.pov"
+    scene.write_text("sphere { 0, 1 }\n")
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "x.bmpx")]) == 2
+    assert "cannot write `.bmpx` images" in capsys.readouterr().err
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "no" / "x.png")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert cli.main(["render", str(scene), "-o", str(tmp_path / "x.jpg"), "--bits", "16"]) == 2
+
+
+def test_internal_errors_are_one_line_unless_debug(monkeypatch, capsys, tmp_path):
+    def boom(args):
+        raise RuntimeError("kaboom")
+
+    monkeypatch.setattr(cli, "cmd_check", boom)
+    scene = str(tmp_path / "s.pov")
+    assert cli.main(["check", scene]) == 3
+    err = capsys.readouterr().err
+    assert "internal error: RuntimeError: kaboom" in err
+    assert "Traceback" not in err
+    assert cli.main(["check", "--debug", scene]) == 3
+    assert "Traceback" in capsys.readouterr().err
+    assert cli.main(["--debug", "check", scene]) == 3
+    assert "Traceback" in capsys.readouterr().err
+
+
+def test_bad_ir_document_is_a_diagnostic(tmp_path, capsys):
+    doc = tmp_path / "scene.json"
+    doc.write_text('{"format": "strala-ir", "version": 999}')
+    assert cli.main(["render", str(doc), "-q"]) == 1
+    assert "IR version 999 is not supported" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------- fmt
+def test_fmt_check_and_rewrite(tmp_path):
+    scene = tmp_path / "s.pov"
+    scene.write_text("sphere {<0,0,0>,1\npigment { Red }}\n")
+    assert cli.main(["fmt", "--check", str(scene)]) == 1
+    assert cli.main(["fmt", str(scene)]) == 0
+    assert cli.main(["fmt", "--check", str(scene)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.pov"]
+
+
+def test_example_is_formatted():
+    assert cli.main(["fmt", "--check", str(EX3)]) == 0
+
+
+# ------------------------------------------------------------ check (needs lang)
+@needs_evaluator
+def test_check_does_not_import_numpy_embree_or_oiio():
+    code = (
+        f"import sys; from runtime.cli import main; rc = main(['check', {str(EX3)!r}]);"
+        "heavy = sorted(m for m in ('numpy', 'embreex', 'OpenImageIO') if m in sys.modules);"
+        "print(rc, heavy)"
+    )
+    proc = _python(code)
+    assert proc.stdout.strip().endswith("0 []"), proc.stdout + proc.stderr
+
+
+def _python(code: str):
+    import subprocess
+
+    return subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+
+
+@needs_evaluator
+def test_check_ex3_is_clean():
+    proc = run_cli("check", str(EX3))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "error" not in proc.stdout
+
+
+def _seed_listing() -> str:
+    """The seed's Ex3 listing as printed in the lecture notes (with its stray `}`)."""
+    if not SEED.exists():
+        pytest.skip("the seed document is not beside the repository")
+    lines = SEED.read_text(encoding="utf-8").splitlines()
+    start = lines.index("> cat Ex3.pov") + 1
+    end = lines.index("```", start)
+    return "\n".join(lines[start:end]) + "\n"
+
+
+@needs_evaluator
+def test_check_reports_the_seeds_stray_brace(tmp_path):
+    listing = _seed_listing()
+    assert listing.splitlines()[37] == "}"  # line 38 is the stray brace
+    pov = tmp_path / "Ex3.pov"
+    pov.write_text(listing, encoding="utf-8")
+    proc = run_cli("check", str(pov))
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert f"{pov}:38:" in proc.stdout
+    assert "hint: unmatched `}`" in proc.stdout
+    assert "Traceback" not in proc.stdout + proc.stderr
+
+
+@needs_evaluator
+def test_check_json_and_sarif(tmp_path):
+    bad = tmp_path / "bad.pov"
+    bad.write_text("sphere { <0,0,0>, 1 }\n}\n")
+    proc = run_cli("check", "--format", "json", str(bad), str(EX3))
+    assert proc.returncode == 1
+    doc = json.loads(proc.stdout)
+    assert doc["errors"] >= 1
+    first = doc["diagnostics"][0]
+    assert first["severity"] == "error" and first["span"]["line"] == 2
+    proc = run_cli("check", "--format", "sarif", str(bad))
+    sarif = json.loads(proc.stdout)
+    result = sarif["runs"][0]["results"][0]
+    assert result["level"] == "error"
+    assert result["locations"][0]["physicalLocation"]["region"]["startLine"] == 2
+
+
+@needs_evaluator
+def test_compile_writes_ir_that_loads(tmp_path):
+    from lang import ir, serialize
+
+    out = tmp_path / "ex3.json"
+    assert cli.main(["compile", str(EX3), "-o", str(out), "-q"]) == 0
+    scene = serialize.loads(out.read_text())
+    assert isinstance(scene, ir.Scene)
+    assert scene.camera.location == pytest.approx((1, 1, -7))
+    assert len(scene.objects) == 4 and len(scene.lights) == 1
+
+
+@needs_evaluator
+@needs_renderer
+def test_render_end_to_end_writes_png(tmp_path):
+    from runtime.image import read_image
+
+    out = tmp_path / "ex3.png"
+    proc = run_cli("render", str(EX3), "-W", "40", "-H", "30", "-o", str(out))
+    assert proc.returncode == 0, proc.stderr
+    img = read_image(out)
+    assert img.shape == (30, 40, 3)
+    assert img.std() > 0.05  # a picture, not a blank frame
+    assert f"wrote {out}" in proc.stderr
+
+
+@needs_evaluator
+@needs_renderer
+def test_render_povray_style_default_size_and_name(tmp_path):
+    from runtime.image import read_image
+
+    scene = tmp_path / "ex3.pov"
+    scene.write_text(EX3.read_text())
+    proc = run_cli(f"+I{scene}", "-D", "+A0.3", "-q")
+    assert proc.returncode == 0, proc.stderr
+    assert read_image(tmp_path / "ex3.png").shape == (240, 320, 3)
+    assert proc.stderr == ""  # --quiet, and no TTY: no bar, no summary
+
+
+@needs_evaluator
+@needs_renderer
+def test_render_from_compiled_ir_matches_render_from_source(tmp_path):
+    from runtime.image import read_image
+
+    ir_doc = tmp_path / "ex3.json"
+    assert cli.main(["compile", str(EX3), "-o", str(ir_doc), "-q"]) == 0
+    a, b = tmp_path / "a.png", tmp_path / "b.png"
+    assert cli.main(["render", str(EX3), "-W", "32", "-H", "24", "-o", str(a), "-q"]) == 0
+    assert cli.main(["render", str(ir_doc), "-W", "32", "-H", "24", "-o", str(b), "-q"]) == 0
+    assert (read_image(a) == read_image(b)).all()
+
+
+# ------------------------------------------------------------- progress bar
+class _Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+class _Tty(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_is_silent_without_a_terminal():
+    stream = io.StringIO()
+    bar = Progress(stream=stream)
+    bar(5, 10)
+    bar(10, 10)
+    bar.close()
+    assert stream.getvalue() == ""
+
+
+def test_progress_draws_eta_on_a_terminal_and_ends_the_line():
+    stream, clock = _Tty(), _Clock()
+    bar = Progress("rendering", stream=stream, clock=clock)
+    clock.now = 2.0
+    bar(25, 100)
+    text = stream.getvalue()
+    assert "rendering" in text and " 25%" in text
+    assert "ETA 6.0s" in text  # 2 s for a quarter: 6 s to go
+    clock.now = 8.0
+    bar(100, 100)
+    bar.close()
+    assert stream.getvalue().endswith("\n")
+    assert "100%" in stream.getvalue()
+
+
+def test_progress_redraws_are_throttled():
+    stream, clock = _Tty(), _Clock()
+    bar = Progress(stream=stream, clock=clock, interval=0.5)
+    for i in range(1, 50):
+        clock.now = i * 0.01
+        bar(i, 100)
+    assert stream.getvalue().count("\r") == 1
+
+
+def test_quiet_progress_never_writes():
+    stream = _Tty()
+    bar = Progress(stream=stream, enabled=False)
+    bar(1, 2)
+    bar.close()
+    assert stream.getvalue() == ""
+
+
+@given(
+    done=st.floats(0, 1e9, allow_nan=False),
+    total=st.floats(0, 1e9, allow_nan=False),
+    width=st.integers(1, 300),
+    now=st.floats(0, 1e6, allow_nan=False),
+)
+def test_progress_line_fits_the_terminal(done, total, width, now):
+    bar = Progress("rendering", stream=io.StringIO(), clock=lambda: 0.0)
+    bar.done, bar.total = done, total
+    assert len(bar.line(now, width)) <= width
+
+
+@pytest.mark.parametrize(
+    "seconds, text",
+    [(4.24, "4.2s"), (65, "1m05s"), (3725, "1h02m"), (float("inf"), "--")],
+)
+def test_format_seconds(seconds, text):
+    assert format_seconds(seconds) == text
