@@ -216,7 +216,11 @@ def slab_hits(o, d, lo, hi, tmin, tmax) -> np.ndarray:
     tn = np.where(np.isnan(t1), -np.inf, np.minimum(t1, t2)).max(axis=1)
     tfar = np.where(np.isnan(t2), np.inf, np.maximum(t1, t2)).min(axis=1)
     # Widen by a relative margin so a hit exactly on the box surface is never culled.
-    pad = 1e-9 * (np.abs(tn) + np.abs(tfar)) + 1e-12
+    pad = (
+        1e-9
+        * (np.abs(np.where(np.isfinite(tn), tn, 0)) + np.abs(np.where(np.isfinite(tfar), tfar, 0)))
+        + 1e-12
+    )
     return (tn - pad <= tfar + pad) & (tfar + pad >= tmin) & (tn - pad <= tmax)
 
 

@@ -79,6 +79,10 @@ class TriangleSet:
         self.tri = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
         self.vn = np.concatenate(vns) if vns else np.zeros((0, 3, 3))
         self.smooth = ~np.isnan(self.vn[:, 0, 0])
+        tri_size = [
+            np.full(len(t), self.sizes.get(i, 0.0)) for t, (i, _) in zip(tris, leaves, strict=True)
+        ]
+        self.tri_size = np.concatenate(tri_size) if tri_size else np.zeros(0)
         self.leaf_of = np.concatenate(leaf_of) if leaf_of else np.zeros(0, np.int32)
         self.local = np.concatenate(local) if local else np.zeros(0, np.int32)
         self.v0 = self.tri[:, 0]
@@ -140,28 +144,42 @@ class TriangleSet:
         scene, ids = self._scene(skip)
         if scene is None:
             return
+        rows, tri, t = self._first_hits(scene, ids, o, d, tmin, limit)
+        if len(rows):
+            self._record(hits, rows, tri, t, o[rows], d[rows])
+
+    def _first_hits(self, scene, ids, o, d, tmin, limit):
+        """Rows with a triangle hit in (tmin, limit), their triangle and float64 distance.
+
+        A refined hit can land at or before the ray's floor (the ray started on that
+        triangle, or grazes it): cast again from just past it. Three rounds settle every
+        case seen in practice."""
         rows = np.nonzero(limit > tmin)[0]
         start = self._start(o[rows], tmin[rows])
-        # A refined hit can land at or before tmin (the ray started on that triangle): cast
-        # again from just past it. Three rounds settle every case seen in practice.
+        out_rows, out_tri, out_t = [], [], []
         for _ in range(3):
             if len(rows) == 0:
-                return
+                break
             orow, drow = o[rows], d[rows]
             res = self._cast(scene, orow, drow, start, limit[rows], "INTERSECT")
             got = res["primID"] >= 0
             if not got.any():
-                return
+                break
             rows, orow, drow, start = rows[got], orow[got], drow[got], start[got]
             tri = ids[res["primID"][got]]
             t = self.refine_t(tri, orow, drow)
-            ok = np.isfinite(t) & (t > tmin[rows]) & (t < limit[rows])
-            if ok.any():
-                self._record(hits, rows[ok], tri[ok], t[ok], orow[ok], drow[ok])
-            retry = ~ok & (t <= tmin[rows])
+            floor = np.maximum(tmin[rows], tol.OBJECT_REL * self.tri_size[tri])
+            ok = np.isfinite(t) & (t > floor) & (t < limit[rows])
+            out_rows.append(rows[ok])
+            out_tri.append(tri[ok])
+            out_t.append(t[ok])
+            retry = ~ok & ~(t >= limit[rows])
             t_e = start + res["tfar"][got].astype(np.float64)
             rows = rows[retry]
             start = t_e[retry] + tol.EMBREE_REL * (np.abs(t_e[retry]) + self.extent)
+        if not out_rows:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+        return np.concatenate(out_rows), np.concatenate(out_tri), np.concatenate(out_t)
 
     def _record(self, hits, rows, tri, t, o, d) -> None:
         hits.t[rows] = t
@@ -180,13 +198,18 @@ class TriangleSet:
         hits.normal[rows] = n
 
     def occluded(self, o, d, tmin, tmax) -> np.ndarray:
-        scene, _ = self._scene("no_shadow")
+        """Embree's any-hit query, then, for the rays it reports blocked, a float64-refined
+        closest hit to reject self-hits at grazing angles (float32 cannot tell those)."""
+        scene, ids = self._scene("no_shadow")
         if scene is None or len(o) == 0:
             return np.zeros(len(o), dtype=bool)
         start = self._start(o, tmin)
         out = np.zeros(len(o), dtype=bool)
-        live = tmax > start
-        if live.any():
+        live = np.nonzero(tmax > start)[0]
+        if len(live):
             res = self._cast(scene, o[live], d[live], start[live], tmax[live], "OCCLUDED")
-            out[live] = res != -1
+            cand = live[res != -1]
+            if len(cand):
+                rows, _, _ = self._first_hits(scene, ids, o[cand], d[cand], tmin[cand], tmax[cand])
+                out[cand[rows]] = True
         return out

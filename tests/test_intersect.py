@@ -1,0 +1,332 @@
+"""Analytic ray intersection: the seed's formulas (NOTES.md §2-3), POV-Ray's shape rules,
+and the property that every hit lies on its surface, also a million units from the origin."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import ir
+from runtime import shapes
+from runtime.prepare import prepare
+
+
+def trace(objects, o, d, **kw):
+    scene = ir.Scene(camera=ir.Camera(), objects=tuple(objects))
+    prep = prepare(scene, 8, 8)
+    o = np.atleast_2d(np.asarray(o, dtype=float))
+    d = np.atleast_2d(np.asarray(d, dtype=float))
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    return prep.tracer.closest(o, d, **kw)
+
+
+def ray(o, d):
+    return np.array([o], dtype=float), np.array([d], dtype=float)
+
+
+# ------------------------------------------------------------------ seed §3: sphere
+def seed_sphere_roots(s, d, m, r):
+    """The seed's formula verbatim: A t^2 + 2B t + C = 0, t = (-B +- sqrt(B^2 - AC)) / A."""
+    s, d, m = map(np.asarray, (s, d, m))
+    a = np.sum(d * d)
+    b = np.sum((s - m) * d)
+    c = np.sum((s - m) ** 2) - r * r
+    disc = b * b - a * c
+    if disc < 0:
+        return []
+    return sorted({(-b - np.sqrt(disc)) / a, (-b + np.sqrt(disc)) / a})
+
+
+def test_sphere_two_hits_match_seed():
+    prim = shapes.SpherePrim((1, 2, 3), 2.0)
+    o, d = ray((1, 2, -5), (0, 0.1, 1))
+    t, _ = prim.crossings(o, d)
+    expect = seed_sphere_roots(o[0], d[0], (1, 2, 3), 2.0)
+    assert len(expect) == 2
+    assert np.allclose(t[0], expect, rtol=1e-14)
+
+
+def test_sphere_tangent_ray_one_hit():
+    prim = shapes.SpherePrim((0, 0, 0), 1.0)
+    o, d = ray((1, 0, -5), (0, 0, 1))  # grazes x = 1 at z = 0
+    t, _ = prim.crossings(o, d)
+    assert np.isfinite(t).all()
+    assert t[0, 0] == pytest.approx(5.0, abs=1e-12)
+    assert t[0, 0] == t[0, 1]  # the double root is one hit
+    assert len(seed_sphere_roots(o[0], d[0], (0, 0, 0), 1.0)) == 1
+
+
+def test_sphere_miss():
+    prim = shapes.SpherePrim((0, 0, 0), 1.0)
+    o, d = ray((1.0000001, 0, -5), (0, 0, 1))
+    t, _ = prim.crossings(o, d)
+    assert np.isinf(t).all()
+    assert seed_sphere_roots(o[0], d[0], (0, 0, 0), 1.0) == []
+    hits = trace([ir.Object(ir.Sphere((0, 0, 0), 1))], o, d)
+    assert hits.obj[0] == -1 and np.isinf(hits.t[0])
+
+
+def test_ray_inside_sphere_gets_far_root():
+    hits = trace([ir.Object(ir.Sphere((0, 0, 0), 2))], (0.5, 0, 0), (1, 0, 0))
+    assert hits.obj[0] == 0
+    assert hits.t[0] == pytest.approx(1.5, abs=1e-14)
+    assert np.allclose(hits.normal[0], [1, 0, 0])  # outward, not flipped toward the ray
+
+
+def test_hits_behind_the_origin_are_rejected():
+    hits = trace([ir.Object(ir.Sphere((0, 0, 10), 1))], (0, 0, 0), (0, 0, -1))
+    assert hits.obj[0] == -1
+    # ... and tmax cuts a hit off too.
+    hits = trace([ir.Object(ir.Sphere((0, 0, 10), 1))], (0, 0, 0), (0, 0, 1), tmax=8.5)
+    assert hits.obj[0] == -1
+
+
+def test_far_and_grazing_sphere_stays_exact():
+    """Hearn's recentring: a unit sphere 1e8 away, hit near its silhouette, gives the root to
+    float64 precision (the textbook B^2 - AC loses all digits here)."""
+    c = np.array([0.0, 0.0, 1e8])
+    prim = shapes.SpherePrim(c, 1.0)
+    y = 0.999999
+    o, d = ray((0, y, 0), (0, 0, 1))
+    t, _ = prim.crossings(o, d)
+    exact = 1e8 - np.sqrt(1 - y * y)
+    assert t[0, 0] == pytest.approx(exact, rel=1e-15)
+    naive = seed_sphere_roots(o[0], d[0], c, 1.0)
+    assert not naive or abs(naive[0] - exact) > 1e-6  # the naive form really is worse
+
+
+# ------------------------------------------------------------------ seed §2: polygon
+SQUARE = ((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 0))
+
+
+def seed_polygon_t(s, d, pts):
+    """t = (A S1 + B S2 + C S3 + D) / -(A D1 + B D2 + C D3) for the polygon's plane."""
+    p = np.asarray(pts, dtype=float)
+    n = np.cross(p[1] - p[0], p[2] - p[0])
+    big_d = -n @ p[0]
+    return (n @ s + big_d) / -(n @ d)
+
+
+@given(
+    x=st.floats(-0.5, 1.5),
+    y=st.floats(-0.5, 1.5),
+    sx=st.floats(-3, 3),
+    sy=st.floats(-3, 3),
+    sz=st.floats(-5, -0.5),
+)
+def test_polygon_t_matches_seed_and_inside_test(x, y, sx, sy, sz):
+    s = np.array([sx, sy, sz])
+    target = np.array([x, y, 0.0])
+    d = target - s
+    prim = shapes.PolygonPrim(SQUARE)
+    t, _ = prim.crossings(s[None], d[None])
+    inside = 0 < x < 1 and 0 < y < 1
+    if min(abs(x), abs(x - 1), abs(y), abs(y - 1)) < 1e-9:
+        return  # on an edge: either answer is fine
+    if inside:
+        assert t[0, 0] == pytest.approx(seed_polygon_t(s, d, SQUARE), rel=1e-12)
+        assert t[0, 0] == pytest.approx(1.0, rel=1e-12)
+    else:
+        assert np.isinf(t[0, 0])
+
+
+def test_polygon_hole_by_subpolygons_and_concave():
+    # POV-Ray's sub-polygon rule: an outer square and an inner one make a frame (even-odd).
+    outer = [(0, 0, 0), (4, 0, 0), (4, 4, 0), (0, 4, 0), (0, 0, 0)]
+    inner = [(1, 1, 0), (3, 1, 0), (3, 3, 0), (1, 3, 0), (1, 1, 0)]
+    prim = shapes.PolygonPrim(outer + inner)
+    o = np.array([[0.5, 0.5, -1], [2, 2, -1], [5, 5, -1]], dtype=float)
+    d = np.tile([0.0, 0.0, 1.0], (3, 1))
+    t, _ = prim.crossings(o, d)
+    assert np.isfinite(t[0, 0]) and np.isinf(t[1, 0]) and np.isinf(t[2, 0])
+    # Concave L: the notch is outside.
+    ell = [(0, 0, 0), (2, 0, 0), (2, 1, 0), (1, 1, 0), (1, 2, 0), (0, 2, 0), (0, 0, 0)]
+    prim = shapes.PolygonPrim(ell)
+    o = np.array([[1.5, 1.5, -1], [0.5, 1.5, -1]], dtype=float)
+    t, _ = prim.crossings(o, d[:2])
+    assert np.isinf(t[0, 0]) and t[1, 0] == pytest.approx(1.0)
+    # An unclosed list is closed automatically.
+    prim = shapes.PolygonPrim(SQUARE[:-1])
+    t, _ = prim.crossings(np.array([[0.5, 0.5, -1.0]]), d[:1])
+    assert t[0, 0] == pytest.approx(1.0)
+
+
+# -------------------------------------------------------------------- POV-Ray rules
+def test_plane_normal_is_normalised_with_its_distance():
+    """plane { <0,2,0>, 1 } is the plane y = 0.5 (POV-Ray normalises normal and distance)."""
+    hits = trace([ir.Object(ir.Plane((0, 2, 0), 1))], (0, 5, 0), (0, -1, 0))
+    assert hits.t[0] == pytest.approx(4.5, abs=1e-14)
+    assert np.allclose(hits.normal[0], [0, 1, 0])
+    assert hits.point[0, 1] == pytest.approx(0.5, abs=1e-14)
+
+
+def test_box_faces_and_normals():
+    box = ir.Object(ir.Box((1, 1, 1), (-1, -2, -3)))  # corners in any order
+    o = np.array([[0, 0, -10], [10, 0, 0], [0, -10, 0], [0, 0, 0]], dtype=float)
+    d = np.array([[0, 0, 1], [-1, 0, 0], [0, 1, 0], [0, 1, 0]], dtype=float)
+    hits = trace([box], o, d)
+    assert np.allclose(hits.t, [7, 9, 8, 1])
+    assert np.allclose(hits.normal, [[0, 0, -1], [1, 0, 0], [0, -1, 0], [0, 1, 0]])
+
+
+def test_transformed_sphere_is_an_ellipsoid():
+    """scale <2,1,1> then translate: t is unchanged by the transform, normals use the inverse
+    transpose."""
+    m = ((2, 0, 0, 5), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
+    obj = ir.Object(ir.Sphere((0, 0, 0), 1), transform=m)
+    hits = trace([obj], [(0, 0, 0), (5, 0.6, -3)], [(1, 0, 0), (0, 0, 1)])
+    assert hits.t[0] == pytest.approx(3.0, abs=1e-14)
+    assert np.allclose(hits.normal[0], [-1, 0, 0])
+    # On x^2/4 + y^2 + z^2 = 1 at x = 0, y = 0.6: z = -0.8, normal ~ (0, 0.6, -0.8).
+    assert hits.t[1] == pytest.approx(2.2, abs=1e-14)
+    assert np.allclose(hits.normal[1], [0, 0.6, -0.8])
+
+
+def test_inverse_flips_normals():
+    obj = ir.Object(ir.Sphere((0, 0, 0), 1), inverse=True)
+    hits = trace([obj], (0, 0, -5), (0, 0, 1))
+    assert np.allclose(hits.normal[0], [0, 0, 1])
+
+
+def test_torus_known_hits():
+    """Torus R=2, r=0.5 in the x-z plane; the x axis crosses it at +-1.5 and +-2.5."""
+    prim = shapes.TorusPrim(2.0, 0.5)
+    o, d = ray((-10, 0, 0), (1, 0, 0))
+    t, _ = prim.crossings(o, d)
+    assert np.allclose(np.sort(t[0]), [7.5, 8.5, 11.5, 12.5], atol=1e-12)
+    # Down the y axis through the hole: a miss.
+    t, _ = prim.crossings(*ray((0, 10, 0), (0, -1, 0)))
+    assert np.isinf(t).all()
+    # Down onto the tube top at x = 2: tangent-free single crossing pair at y = +-0.5.
+    t, _ = prim.crossings(*ray((2, 10, 0), (0, -1, 0)))
+    assert np.allclose(np.sort(t[0])[:2], [9.5, 10.5], atol=1e-9)
+
+
+def test_cylinder_cone_disc():
+    cyl = ir.Object(ir.Cylinder((0, 0, 0), (0, 2, 0), 0.5))
+    hits = trace([cyl], [(0, 1, -5), (0, 5, 0), (0, 1, 0)], [(0, 0, 1), (0, -1, 0), (1, 0, 0)])
+    assert np.allclose(hits.t, [4.5, 3.0, 0.5])
+    assert np.allclose(hits.normal, [[0, 0, -1], [0, 1, 0], [1, 0, 0]])
+    opened = ir.Object(ir.Cylinder((0, 0, 0), (0, 2, 0), 0.5, open=True))
+    hits = trace([opened], (0, 5, 0), (0, -1, 0))
+    assert hits.obj[0] == -1
+    cone = ir.Object(ir.Cone((0, 0, 0), 1.0, (0, 1, 0), 0.0))
+    hits = trace([cone], (-5, 0.5, 0), (1, 0, 0))  # radius 0.5 at mid-height
+    assert hits.t[0] == pytest.approx(4.5, abs=1e-12)
+    assert np.allclose(hits.normal[0], np.array([-1, 1, 0]) / np.sqrt(2))
+    disc = ir.Object(ir.Disc((0, 0, 0), (0, 0, 1), 2.0, 1.0))
+    hits = trace([disc], [(1.5, 0, -1), (0.5, 0, -1), (2.5, 0, -1)], [(0, 0, 1)] * 3)
+    assert hits.obj.tolist() == [0, -1, -1]
+
+
+# ----------------------------------------------------------------------------- CSG
+def test_csg_difference_intersection_merge():
+    big = ir.Object(ir.Sphere((0, 0, 0), 2))
+    small = ir.Object(ir.Sphere((0, 0, -2), 1))
+    diff = ir.Object(ir.CSG("difference", (big, small)))
+    hits = trace([diff], (0, 0, -10), (0, 0, 1))
+    # Enters the bite at z = -1 (small sphere's far side), normal pointing into the bite.
+    assert hits.t[0] == pytest.approx(9.0, abs=1e-12)
+    assert np.allclose(hits.normal[0], [0, 0, -1])
+    assert hits.obj[0] == 1  # the leaf that was hit: the subtracted sphere
+    inter = ir.Object(ir.CSG("intersection", (big, small)))
+    hits = trace([inter], (0, 0, -10), (0, 0, 1))
+    assert hits.t[0] == pytest.approx(8.0, abs=1e-12)  # the big sphere's surface at z=-2
+    assert hits.obj[0] == 0
+    merge = ir.Object(ir.CSG("merge", (big, small)))
+    hits = trace([merge], (0, 0, -10), (0, 0, 1))
+    assert hits.t[0] == pytest.approx(7.0, abs=1e-12)
+    # Inside the merge, the internal surfaces are gone: from the centre we exit at z=2 only.
+    hits = trace([merge], (0, 0, 0), (0, 0, -1))
+    assert hits.t[0] == pytest.approx(3.0, abs=1e-12)
+
+
+def test_union_flattens_into_leaves():
+    a = ir.Object(ir.Sphere((0, 0, 0), 1))
+    b = ir.Object(ir.Sphere((3, 0, 0), 1))
+    u = ir.Object(ir.CSG("union", (a, b)))
+    prep = prepare(ir.Scene(camera=ir.Camera(), objects=(u,)), 8, 8)
+    assert prep.objects == [a, b]
+    hits = prep.tracer.closest(np.array([[3.0, 0, -5]]), np.array([[0.0, 0, 1]]))
+    assert hits.obj[0] == 1
+
+
+# ------------------------------------------------------------- property: on surface
+def _unit(v):
+    v = np.asarray(v, dtype=float)
+    n = np.linalg.norm(v)
+    return v / n if n > 1e-6 else np.array([0.0, 0.0, 1.0])
+
+
+vec = st.tuples(*[st.floats(-1, 1)] * 3)
+far = st.sampled_from([0.0, 1e3, 1e6])
+
+
+def _surface_residual(kind, p, offset):
+    """Distance from p to the exact surface of the test shape of `kind` centred at offset."""
+    q = p - offset
+    if kind == "sphere":
+        return abs(np.linalg.norm(q, axis=1) - 1.5)
+    if kind == "plane":
+        return abs(q @ _unit((1, 2, 3)) - 0.25)
+    if kind == "box":
+        out = np.abs(q) - np.array([1.0, 0.5, 2.0])
+        return np.abs(np.max(out, axis=1))  # 0 on the surface
+    if kind in ("polygon", "triangle"):
+        return np.abs(q[:, 2])
+    if kind == "torus":
+        rho = np.hypot(q[:, 0], q[:, 2])
+        return abs(np.hypot(rho - 2.0, q[:, 1]) - 0.5)
+    if kind == "cylinder":
+        radial = abs(np.hypot(q[:, 0], q[:, 2]) - 0.7)
+        cap = np.minimum(abs(q[:, 1] + 1), abs(q[:, 1] - 1))
+        return np.minimum(radial, cap)
+    raise AssertionError(kind)
+
+
+def _shape(kind, offset):
+    c = tuple(offset)
+    t = ((1, 0, 0, c[0]), (0, 1, 0, c[1]), (0, 0, 1, c[2]), (0, 0, 0, 1))
+    if kind == "sphere":
+        return ir.Object(ir.Sphere(c, 1.5))
+    if kind == "plane":
+        n = _unit((1, 2, 3))
+        return ir.Object(ir.Plane(tuple(2 * n), 2 * (0.25 + n @ offset)))
+    if kind == "box":
+        return ir.Object(ir.Box((-1, -0.5, -2), (1, 0.5, 2)), transform=t)
+    if kind == "polygon":
+        pts = [(-1, -1, 0), (1, -1, 0), (0.3, 0.2, 0), (1, 1, 0), (-1, 1, 0), (-1, -1, 0)]
+        return ir.Object(ir.Polygon(tuple(pts)), transform=t)
+    if kind == "triangle":
+        return ir.Object(ir.Triangle((-1, -1, 0), (1, -1, 0), (0, 1.5, 0)), transform=t)
+    if kind == "torus":
+        return ir.Object(ir.Torus(2.0, 0.5), transform=t)
+    if kind == "cylinder":
+        return ir.Object(ir.Cylinder((0, -1, 0), (0, 1, 0), 0.7), transform=t)
+    raise AssertionError(kind)
+
+
+@given(
+    kind=st.sampled_from(["sphere", "plane", "box", "polygon", "triangle", "torus", "cylinder"]),
+    dist=far,
+    direction=vec,
+    src=vec,
+    aim=vec,
+)
+def test_hit_points_lie_on_the_surface(kind, dist, direction, src, aim):
+    """Rays from ~10 units away aimed near the shape; every hit point is on the surface to
+    1e-9 relative to the problem's scale (its distance from the world origin, at least 1),
+    also a million units away from the origin."""
+    offset = dist * _unit(direction)
+    o = offset + 10 * _unit(src)
+    target = offset + 1.2 * np.asarray(aim)
+    d = _unit(target - o)
+    hits = trace([_shape(kind, offset)], o[None], d[None])
+    if hits.obj[0] < 0:
+        return
+    scale = max(1.0, np.linalg.norm(offset))
+    assert _surface_residual(kind, hits.point, offset)[0] <= 1e-9 * scale
+    assert hits.t[0] > 0
+    assert abs(np.linalg.norm(hits.normal[0]) - 1) < 1e-12

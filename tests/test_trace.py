@@ -1,0 +1,194 @@
+"""The tracer: Embree triangles against analytic shapes, object flags, self-intersection
+offsets, shadow queries, and what `prepare` decides to build."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import ir
+from runtime import tolerances as tol
+from runtime.prepare import prepare
+
+
+def prep_of(*objects):
+    return prepare(ir.Scene(camera=ir.Camera(), objects=tuple(objects)), 8, 8)
+
+
+def uv_sphere(center, r, n_lat=48, n_lon=96):
+    """An inscribed lat/long triangle mesh of a sphere: (V,3) vertices, (F,3) faces."""
+    lat = np.linspace(0, np.pi, n_lat + 1)[1:-1]
+    lon = np.linspace(0, 2 * np.pi, n_lon, endpoint=False)
+    la, lo = np.meshgrid(lat, lon, indexing="ij")
+    ring = np.stack([np.sin(la) * np.cos(lo), np.cos(la), np.sin(la) * np.sin(lo)], -1)
+    verts = np.concatenate([[[0, 1, 0]], ring.reshape(-1, 3), [[0, -1, 0]]]) * r + center
+    faces = []
+    idx = lambda i, j: 1 + i * n_lon + (j % n_lon)  # noqa: E731
+    for j in range(n_lon):
+        faces.append((0, idx(0, j + 1), idx(0, j)))
+        faces.append((len(verts) - 1, idx(n_lat - 2, j), idx(n_lat - 2, j + 1)))
+        for i in range(n_lat - 2):
+            a, b, c, d = idx(i, j), idx(i, j + 1), idx(i + 1, j), idx(i + 1, j + 1)
+            faces += [(a, b, d), (a, d, c)]
+    return verts, np.array(faces, dtype=np.int32)
+
+
+def random_dirs(rng, n):
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e4])
+def test_embree_mesh_sphere_matches_analytic(offset):
+    """Radial rays at a tessellated sphere: the mesh lies inside the sphere, so the mesh hit
+    is later than the analytic one by at most r minus the smallest distance from the centre
+    to a triangle plane (the tessellation's sagitta)."""
+    c = np.array([1.0, -2.0, 3.0]) + offset
+    r = 2.0
+    verts, faces = uv_sphere(c, r)
+    mesh = ir.Object(ir.Mesh(vertices=verts, faces=faces))
+    tri = verts[faces]
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    sagitta = r - np.min(np.abs(np.einsum("ij,ij->i", tri[:, 0] - c, nrm)))
+    rng = np.random.default_rng(7)
+    dirs = random_dirs(rng, 4000)
+    o = c + 10 * dirs
+    d = -dirs
+    hm = prep_of(mesh).tracer.closest(o, d)
+    ha = prep_of(ir.Object(ir.Sphere(tuple(c), r))).tracer.closest(o, d)
+    assert (hm.obj == 0).all() and (ha.obj == 0).all()
+    diff = hm.t - ha.t
+    assert diff.min() >= -1e-9
+    assert diff.max() <= sagitta * (1 + 1e-6)
+    assert diff.max() > 0.3 * sagitta  # the bound is tight, not vacuous
+    # The refined hit lies exactly on the hit triangle's plane (float64, not Embree's float32).
+    assert hm.prim.min() >= 0
+    p = hm.point - tri[hm.prim, 0]
+    assert np.abs(np.einsum("ij,ij->i", p, nrm[hm.prim])).max() < 1e-9 * max(1.0, offset)
+    # Normals: outward geometric normals of the triangles.
+    assert (np.einsum("ij,ij->i", hm.normal, dirs) > 0.99).all()
+
+
+def test_smooth_triangle_interpolates_normals():
+    n1, n2, n3 = (0, 0, -1), (0.6, 0, -0.8), (0, 0.6, -0.8)
+    tri = ir.Object(ir.Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0), normals=(n1, n2, n3)))
+    h = prep_of(tri).tracer.closest(np.array([[0.5, 0.0, -1]]), np.array([[0.0, 0, 1]]))
+    expect = np.array([0.3, 0, -0.9])
+    assert np.allclose(h.normal[0], expect / np.linalg.norm(expect))
+    assert h.t[0] == pytest.approx(1.0, abs=1e-15)
+
+
+def test_no_embree_scene_without_triangles():
+    prep = prep_of(ir.Object(ir.Sphere((0, 0, 0), 1)), ir.Object(ir.Plane((0, 1, 0), -1)))
+    assert prep.tracer.triangles is None
+    prep = prep_of(ir.Object(ir.Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0))))
+    assert prep.tracer.triangles is not None
+
+
+def test_skip_flags_and_shadows():
+    hidden = ir.Object(ir.Sphere((0, 0, 5), 1), no_image=True, no_shadow=True)
+    mirror_shy = ir.Object(ir.Sphere((0, 0, 10), 1), no_reflection=True)
+    wall = ir.Object(ir.Triangle((-5, -5, 20), (5, -5, 20), (0, 5, 20)), no_image=True)
+    prep = prep_of(hidden, mirror_shy, wall)
+    o = np.zeros((1, 3))
+    d = np.array([[0.0, 0, 1]])
+    assert prep.tracer.closest(o, d).obj[0] == 0
+    assert prep.tracer.closest(o, d, skip="no_image").obj[0] == 1
+    assert prep.tracer.closest(o, d, skip="no_reflection").obj[0] == 0
+    # no_image hides the triangle from camera rays only.
+    far = np.array([[0.0, 0, 15]])
+    assert prep.tracer.closest(far, d, skip="no_image").obj[0] == -1
+    assert prep.tracer.closest(far, d).obj[0] == 2
+    # Shadows ignore the no_shadow sphere but see the one behind it, within tmax only.
+    assert prep.tracer.occluded(o, d, np.array([8.0])).tolist() == [False]
+    assert prep.tracer.occluded(o, d, np.array([9.5])).tolist() == [True]
+    assert prep.tracer.occluded(far, d, np.array([10.0])).tolist() == [True]  # the triangle
+    assert prep.tracer.occluded(far, d, np.array([4.0])).tolist() == [False]
+
+
+@given(scale=st.sampled_from([1e-3, 1.0, 1e3, 1e6]), seed=st.integers(0, 2**16))
+def test_secondary_rays_do_not_hit_their_own_surface(scale, seed):
+    """Rays leaving a sphere / triangle surface outward never re-hit it at t ~ 0 (the default,
+    scale-aware tmin), and rays going into a sphere reach its far side (the chord)."""
+    rng = np.random.default_rng(seed)
+    c = np.array([0.3, -0.2, 0.1]) * scale
+    r = 0.7 * scale
+    prep = prep_of(ir.Object(ir.Sphere(tuple(c), r)))
+    dirs = random_dirs(rng, 200)
+    o = c + 10 * r * dirs
+    h = prep.tracer.closest(o, -dirs)
+    assert (h.obj == 0).all()
+    out = random_dirs(rng, 200)
+    out = np.where((np.einsum("ij,ij->i", out, h.normal) < 0)[:, None], -out, out)
+    again = prep.tracer.closest(h.point, out)
+    assert (again.obj == -1).all()
+    inward = -out
+    chord = prep.tracer.closest(h.point, inward)
+    expect = -2 * r * np.einsum("ij,ij->i", inward, h.normal)
+    ok = expect > 1e-4 * r  # skip near-grazing inward rays (their chord is ~ the offset)
+    assert (chord.obj[ok] == 0).all()
+    assert np.allclose(chord.t[ok], expect[ok], rtol=1e-6, atol=1e-9 * scale)
+    # A triangle: shadow rays from points on it never see it.
+    tri = ir.Object(
+        ir.Triangle((-1, -1, 0.5), (1, -1, 0.4), (0, 1, 0.6)),
+        transform=((scale, 0, 0, 0), (0, scale, 0, 0), (0, 0, scale, 0), (0, 0, 0, 1)),
+    )
+    prep = prep_of(tri)
+    o = (
+        np.column_stack([rng.uniform(-0.2, 0.2, 50), rng.uniform(-0.2, 0.2, 50), np.full(50, -5.0)])
+        * scale
+    )
+    h = prep.tracer.closest(o, np.tile([0.0, 0, 1], (50, 1)))
+    assert (h.obj == 0).all()
+    up = random_dirs(rng, 50)
+    up = np.where((up @ h.normal[0] < 0)[:, None], -up, up)
+    assert not prep.tracer.occluded(h.point, up, np.full(50, 100 * scale)).any()
+    assert not prep.tracer.occluded(h.point, -up, np.full(50, 100 * scale)).any()
+
+
+def test_tmin_default_is_scale_aware():
+    from runtime.trace import default_tmin
+
+    t = default_tmin(np.array([[0.0, 0, 0], [1e6, 0, 0]]))
+    assert t[0] == tol.ABS_FLOOR
+    assert t[1] == pytest.approx(1e6 * tol.ORIGIN_REL, rel=1e-6)
+
+
+def test_reflection_and_refraction_flags():
+    plain = ir.Object(ir.Sphere((0, 0, 0), 1))
+    gold = ir.Object(
+        ir.Sphere((2, 0, 0), 1),
+        texture=ir.Texture(
+            finish=ir.Finish(reflection=ir.Reflection(min=(0.75,) * 3, max=(0.75,) * 3))
+        ),
+    )
+    glass = ir.Object(
+        ir.Sphere((4, 0, 0), 1),
+        texture=ir.Texture(pigment=ir.Pigment(color=(1, 1, 1, 0, 0.9))),
+    )
+    p = prep_of(plain)
+    assert not p.has_reflection and not p.has_refraction
+    p = prep_of(plain, gold)
+    assert p.has_reflection and not p.has_refraction
+    p = prep_of(glass)
+    assert p.has_refraction and not p.has_reflection
+
+
+def test_many_objects_batch():
+    """Closest hit over many objects picks the nearest for every ray (no per-ray loop)."""
+    spheres = [ir.Object(ir.Sphere((0, 0, float(z)), 0.4)) for z in range(5, 50, 2)]
+    prep = prep_of(*reversed(spheres))
+    rng = np.random.default_rng(3)
+    # Origins between the spheres (even z), off-axis by less than the radius.
+    oz = 2.0 * rng.integers(2, 24, 500)
+    o = np.column_stack([rng.uniform(-0.28, 0.28, 500), rng.uniform(-0.28, 0.28, 500), oz])
+    d = np.tile([0.0, 0, 1], (500, 1))
+    h = prep.tracer.closest(o, d)
+    zc = np.array([s.shape.center[2] for s in prep.objects])
+    expect = oz + 1  # the next sphere's centre
+    assert np.allclose(zc[h.obj], expect)
+    r2 = o[:, 0] ** 2 + o[:, 1] ** 2
+    assert np.allclose(h.t, 1 - np.sqrt(0.16 - r2), rtol=1e-12)
