@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import io
 import json
-import sys
 from pathlib import Path
 
 import pytest
-from conftest import EXAMPLES, ROOT, SEED, run_cli
+from conftest import EXAMPLES, needs_evaluator, needs_renderer, run_cli
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -17,12 +16,6 @@ from runtime import cli
 from runtime.progress import Progress, format_seconds
 
 EX3 = EXAMPLES / "ex3.scene"
-needs_evaluator = pytest.mark.skipif(
-    not (ROOT / "lang" / "evaluate.py").exists(), reason="lang.evaluate has not landed yet"
-)
-needs_renderer = pytest.mark.skipif(
-    not (ROOT / "runtime" / "render.py").exists(), reason="runtime.render has not landed yet"
-)
 
 
 # ------------------------------------------------------------ POV-Ray options
@@ -181,55 +174,6 @@ def test_example_is_formatted():
 
 
 # ------------------------------------------------------------ check (needs lang)
-@needs_evaluator
-def test_check_does_not_import_numpy_embree_or_oiio():
-    code = (
-        f"import sys; from runtime.cli import main; rc = main(['check', {str(EX3)!r}]);"
-        "heavy = sorted(m for m in ('numpy', 'embreex', 'OpenImageIO') if m in sys.modules);"
-        "print(rc, heavy)"
-    )
-    proc = _python(code)
-    assert proc.stdout.strip().endswith("0 []"), proc.stdout + proc.stderr
-
-
-def _python(code: str):
-    import subprocess
-
-    return subprocess.run(
-        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
-    )
-
-
-@needs_evaluator
-def test_check_ex3_is_clean():
-    proc = run_cli("check", str(EX3))
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "error" not in proc.stdout
-
-
-def _seed_listing() -> str:
-    """The seed's Ex3 listing as printed in the lecture notes (with its stray `}`)."""
-    if not SEED.exists():
-        pytest.skip("the seed document is not beside the repository")
-    lines = SEED.read_text(encoding="utf-8").splitlines()
-    start = lines.index("> cat Ex3.pov") + 1
-    end = lines.index("```", start)
-    return "\n".join(lines[start:end]) + "\n"
-
-
-@needs_evaluator
-def test_check_reports_the_seeds_stray_brace(tmp_path):
-    listing = _seed_listing()
-    assert listing.splitlines()[37] == "}"  # line 38 is the stray brace
-    pov = tmp_path / "Ex3.pov"
-    pov.write_text(listing, encoding="utf-8")
-    proc = run_cli("check", str(pov))
-    assert proc.returncode == 1, proc.stdout + proc.stderr
-    assert f"{pov}:38:" in proc.stdout
-    assert "hint: unmatched `}`" in proc.stdout
-    assert "Traceback" not in proc.stdout + proc.stderr
-
-
 @needs_evaluator
 def test_check_json_and_sarif(tmp_path):
     bad = tmp_path / "bad.pov"
