@@ -21,7 +21,7 @@ from typing import TextIO
 
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 
-COMMANDS = ("render", "check", "compile", "fmt")
+COMMANDS = ("render", "check", "compile", "fmt", "lsp")
 SCENE_SUFFIXES = (".scene", ".pov", ".inc", ".ini", ".json")
 POVRAY_DEFAULT_SIZE = (320, 240)  # POV-Ray's image size when +W/+H are not given
 DEFAULT_AA_THRESHOLD = 0.3  # POV-Ray's Antialias_Threshold default
@@ -214,6 +214,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
     )
     f.set_defaults(func=cmd_fmt)
+
+    s = sub.add_parser("lsp", help="run the language server on stdio (for editors)")
+    s.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    s.set_defaults(func=cmd_lsp)
     return parser
 
 
@@ -498,6 +504,13 @@ def cmd_fmt(args: argparse.Namespace) -> int:
             _write_text_atomically(path, formatted)
             print(f"reformatted {file}", file=sys.stderr)
     return status
+
+
+def cmd_lsp(args: argparse.Namespace) -> int:
+    from lang.lsp import main as serve
+
+    serve()  # returns when the editor shuts the server down
+    return 0
 
 
 def _write_text_atomically(path: Path, text: str) -> None:

@@ -169,6 +169,13 @@ def test_fmt_check_and_rewrite(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.pov"]
 
 
+def test_lsp_subcommand_starts_the_language_server():
+    args = cli.build_parser().parse_args(["lsp"])
+    assert args.func is cli.cmd_lsp
+    proc = run_cli("lsp")  # stdin is empty: the server sees end of input and stops
+    assert proc.returncode == 0, proc.stderr
+
+
 def test_example_is_formatted():
     assert cli.main(["fmt", "--check", str(EX3)]) == 0
 
