@@ -50,6 +50,7 @@ def run_cli(*args: str, cwd: Path | None = None, extra: tuple[str, ...] = ()):
         [sys.executable, *extra, "-m", "runtime.cli", *args],
         cwd=cwd or ROOT,
         env=env,
+        stdin=subprocess.DEVNULL,  # never wait on the terminal (`strala lsp` reads stdin)
         capture_output=True,
         text=True,
         timeout=600,
