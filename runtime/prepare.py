@@ -7,6 +7,7 @@ triangle geometry goes into one Embree-backed TriangleSet, built only when there
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -14,7 +15,7 @@ import numpy as np
 from lang import ir
 from runtime import shapes
 from runtime import transform as tf
-from runtime.trace import CsgNode, Leaf, Tracer
+from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
 FLAG_NAMES = ("no_image", "no_reflection", "no_shadow")
 
@@ -29,8 +30,14 @@ class Prepared:
     warnings: list[str] = field(default_factory=list)  # one line each, already printed
 
 
+# Shapes prepare turns into meshes before tracing (absent from older IR versions).
+_TESSELLATED = tuple(t for t in (getattr(ir, "Nurbs", None), getattr(ir, "Subdivision", None)) if t)
+
+
 class _Builder:
-    def __init__(self) -> None:
+    def __init__(self, camera: ir.Camera, width: int) -> None:
+        self.camera = camera
+        self.width = max(int(width), 1)
         self.objects: list[ir.Object] = []
         self.flags: dict[str, list[bool]] = {k: [] for k in FLAG_NAMES}
         self.sizes: list[float] = []
@@ -59,9 +66,15 @@ class _Builder:
             for child in shape.children:
                 self.top(child, flags)
             return
-        if obj.clipped_by:
-            self.warn_once("clipped_by is not supported yet: the clipping objects are ignored")
+        if _TESSELLATED and isinstance(shape, _TESSELLATED):
+            mesh = self.tessellate(obj)
+            if mesh is None:
+                return
+            obj = dataclasses.replace(obj, shape=mesh)
+            shape = mesh
         if isinstance(shape, ir.Mesh | ir.Triangle):
+            if obj.clipped_by:
+                self.warn_once("clipped_by on triangle geometry is not supported yet: ignored")
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
             if obj.inverse:
@@ -81,7 +94,7 @@ class _Builder:
             children = [c for c in (self.node(ch, flags) for ch in shape.children) if c]
             if not children:
                 return None
-            return CsgNode(shape.op, children, inverse=obj.inverse)
+            return self.clipped(obj, CsgNode(shape.op, children, inverse=obj.inverse))
         if isinstance(shape, ir.Mesh):
             # A mesh has no inside (no inside_vector yet): inside a CSG it acts as a plain
             # surface, traced by Embree like a union member.
@@ -96,12 +109,65 @@ class _Builder:
         index = self.add_leaf_object(obj, flags)
         leaf = Leaf(prim, tf.as_matrix(obj.transform), index, inverse=obj.inverse)
         self.sizes[index] = leaf.size
-        return leaf
+        return self.clipped(obj, leaf)
+
+    def clipped(self, obj: ir.Object, node):
+        """Wrap node in its `clipped_by` objects (which are never reported as hits)."""
+        if not obj.clipped_by:
+            return node
+        clips = [c for c in (self.clip_node(c) for c in obj.clipped_by) if c is not None]
+        return ClipNode(node, clips) if clips else node
+
+    def clip_node(self, obj: ir.Object):
+        shape = obj.shape
+        if isinstance(shape, ir.CSG):
+            kids = [c for c in (self.clip_node(ch) for ch in shape.children) if c is not None]
+            return CsgNode(shape.op, kids, inverse=obj.inverse) if kids else None
+        prim = shapes.primitive_for(shape)
+        if prim is None or isinstance(shape, ir.Triangle | ir.Polygon):
+            self.warn_once(f"clipped_by {type(shape).__name__} has no inside: ignored")
+            return None
+        return Leaf(prim, tf.as_matrix(obj.transform), -1, inverse=obj.inverse)
+
+    def tessellate(self, obj: ir.Object) -> ir.Mesh | None:
+        """NURBS and subdivision shapes become indexed triangle meshes (their own modules do
+        the work; this only picks the tolerance and reports failures as warnings)."""
+        shape = obj.shape
+        name = type(shape).__name__
+        try:
+            if name == "Nurbs":
+                from runtime.tessellate import nurbs_mesh
+
+                tolerance = shape.tolerance or self.auto_tolerance(obj)
+                verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
+            else:
+                from runtime.subdivide import subdivision_mesh
+
+                levels = shape.levels if shape.levels is not None else 3
+                verts, faces, normals = subdivision_mesh(shape, levels)
+                uvs = None
+        except Exception as exc:  # noqa: BLE001 - a broken surface must not stop the render
+            self.warn_once(f"{name.lower()} could not be tessellated ({exc}); skipped")
+            return None
+        return ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
+
+    def auto_tolerance(self, obj: ir.Object) -> float:
+        """Chord-error bound from the camera: half a pixel at the control net's nearest
+        distance from the eye (in world units)."""
+        cam = self.camera
+        pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(obj.shape.points, float))
+        dist = float(np.min(np.linalg.norm(pts - np.asarray(cam.location), axis=1)))
+        right = float(np.linalg.norm(cam.right))
+        if cam.kind == "orthographic":
+            return max(0.5 * right / self.width, 1e-9)
+        pixel = right / float(np.linalg.norm(cam.direction)) / self.width
+        extent = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+        return max(0.5 * pixel * dist, 1e-6 * max(extent, 1e-9))
 
 
 def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:
     """width/height are the image size (reserved for view-pyramid culling)."""
-    b = _Builder()
+    b = _Builder(scene.camera, width)
     no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
         b.top(obj, no_flags)
@@ -121,10 +187,16 @@ def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:
         scene=scene,
         objects=b.objects,
         tracer=tracer,
-        has_reflection=any(_reflects(o.texture) for o in b.objects),
-        has_refraction=any(_texture_transparent(o.texture) for o in b.objects),
+        has_reflection=any(_reflects(t) for o in b.objects for t in _textures(o)),
+        has_refraction=any(_texture_transparent(t) for o in b.objects for t in _textures(o)),
         warnings=b.warnings,
     )
+
+
+def _textures(obj: ir.Object) -> list[ir.Texture]:
+    """The object's texture and, for meshes, its per-face textures."""
+    extra = obj.shape.textures if isinstance(obj.shape, ir.Mesh) else ()
+    return [obj.texture, *extra]
 
 
 def _reflects(tex: ir.Texture) -> bool:

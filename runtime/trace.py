@@ -195,6 +195,37 @@ class CsgNode:
         return r ^ self.inverse
 
 
+class ClipNode:
+    """`clipped_by`: the inner node's crossings survive only inside every clipping node
+    (POV-Ray keeps the part of the object inside the clipping objects). Clipping nodes are
+    never reported as hits."""
+
+    def __init__(self, inner, clips: list):
+        self.inner = inner
+        self.clips = clips
+        self.children = [inner]
+        self.leaves = inner.leaves
+        self.lo, self.hi = inner.lo, inner.hi
+        for c in clips:
+            self.lo = np.maximum(self.lo, c.lo)
+            self.hi = np.minimum(self.hi, c.hi)
+        self.size = inner.size
+
+    def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
+        c = self.inner.crossings(o, d)
+        for k in range(c.t.shape[1]):
+            rows = np.nonzero(np.isfinite(c.t[:, k]))[0]
+            if len(rows) == 0:
+                continue
+            p = o[rows] + c.t[rows, k, None] * d[rows]
+            ok = np.logical_and.reduce([clip.inside(p) for clip in self.clips])
+            c.t[rows[~ok], k] = np.inf
+        return c
+
+    def inside(self, p: np.ndarray) -> np.ndarray:
+        return self.inner.inside(p) & np.logical_and.reduce([c.inside(p) for c in self.clips])
+
+
 # --------------------------------------------------------------------------- tracer
 
 

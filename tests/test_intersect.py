@@ -330,3 +330,18 @@ def test_hit_points_lie_on_the_surface(kind, dist, direction, src, aim):
     assert _surface_residual(kind, hits.point, offset)[0] <= 1e-9 * scale
     assert hits.t[0] > 0
     assert abs(np.linalg.norm(hits.normal[0]) - 1) < 1e-12
+
+
+def test_clipped_by_keeps_the_part_inside():
+    """sphere clipped_by a box half space: the front cap is gone, the ray sees the inside of
+    the back half (POV-Ray: clipped objects become open shells)."""
+    clip = ir.Object(ir.Plane((0, 0, 1), 0))  # keeps z < 0 ... the inside of the plane
+    obj = ir.Object(ir.Sphere((0, 0, 0), 1), clipped_by=(clip,))
+    hits = trace([obj], [(0, 0, -5), (0, 0, 5)], [(0, 0, 1), (0, 0, -1)])
+    assert hits.t[0] == pytest.approx(4.0)  # the front (z = -1) is kept
+    # From +z the kept part is first met at z = -1 (the inner side of the back half).
+    assert hits.t[1] == pytest.approx(6.0)
+    assert np.allclose(hits.normal[1], [0, 0, -1])
+    # The clipping object itself is never reported.
+    prep = prepare(ir.Scene(camera=ir.Camera(), objects=(obj,)), 8, 8)
+    assert prep.objects == [obj]

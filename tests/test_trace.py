@@ -192,3 +192,39 @@ def test_many_objects_batch():
     assert np.allclose(zc[h.obj], expect)
     r2 = o[:, 0] ** 2 + o[:, 1] ** 2
     assert np.allclose(h.t, 1 - np.sqrt(0.16 - r2), rtol=1e-12)
+
+
+def test_nurbs_and_subdivision_become_meshes(monkeypatch):
+    """prepare hands NURBS / subdivision shapes to their tessellators and traces the mesh;
+    a tessellator failure is a one-line warning, not a crash."""
+    import sys
+    import types
+
+    verts, faces = uv_sphere(np.zeros(3), 1.0, 8, 16)
+    seen = {}
+
+    def nurbs_mesh(shape, tolerance):
+        seen["tolerance"] = tolerance
+        return verts, faces, verts.copy(), np.zeros((len(verts), 2))
+
+    def subdivision_mesh(shape, levels):
+        raise ValueError("bad cage")
+
+    monkeypatch.setitem(
+        sys.modules, "runtime.tessellate", types.SimpleNamespace(nurbs_mesh=nurbs_mesh)
+    )
+    monkeypatch.setitem(
+        sys.modules, "runtime.subdivide", types.SimpleNamespace(subdivision_mesh=subdivision_mesh)
+    )
+    pts = tuple(tuple(p) for p in verts[:4])
+    nurbs = ir.Object(ir.Nurbs(1, 1, 2, 2, pts, (1.0,) * 4, (0, 0, 1, 1), (0, 0, 1, 1)))
+    sub = ir.Object(ir.Subdivision("loop", pts, ((0, 1, 2),)))
+    scene = ir.Scene(camera=ir.Camera(location=(0, 0, -5)), objects=(nurbs, sub))
+    prep = prepare(scene, 100, 100)
+    assert len(prep.objects) == 1 and isinstance(prep.objects[0].shape, ir.Mesh)
+    assert any("subdivision" in w for w in prep.warnings)
+    # Half a pixel (1.33/100 wide at unit distance) at the net's nearest distance.
+    nearest = np.linalg.norm(np.array(pts) - [0, 0, -5], axis=1).min()
+    assert seen["tolerance"] == pytest.approx(0.5 * 1.33 / 100 * nearest, rel=1e-12)
+    h = prep.tracer.closest(np.array([[0.0, 0, -5]]), np.array([[0.0, 0, 1]]))
+    assert h.obj[0] == 0 and 3.9 < h.t[0] <= 4.0
