@@ -1,0 +1,86 @@
+"""Colour spaces: POV-Ray 3.7's gamma rules, sRGB encoding, and the anti-aliasing metric.
+
+The renderer computes in the scene's *working* space (colour literals are used as written,
+exactly as POV-Ray 3.7 does). `ir.Settings` says what that space is:
+- `assumed_gamma g` given: a working value c stands for the linear value c**g;
+- no `assumed_gamma`, `#version` >= 3.7: the working space is linear (g = 1);
+- no `assumed_gamma`, no `#version` or one below 3.7: *legacy*, no gamma handling at all,
+  working values go to the file unchanged.
+Files get the sRGB encoding of the linear value (POV-Ray 3.7's default file gamma).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lang import ir
+
+# POV-Ray 3.7's default `Antialias_Gamma`: colours are compared for anti-aliasing after
+# this encoding of the linear value, so the threshold is perceptual, not linear.
+AA_GAMMA: float = 2.5
+
+
+def working_gamma(settings: ir.Settings) -> float | None:
+    """The working gamma, or None for legacy scenes (no gamma handling)."""
+    if settings.assumed_gamma is not None:
+        return float(settings.assumed_gamma)
+    if settings.version is not None and settings.version >= 3.7:
+        return 1.0
+    return None
+
+
+def _signed_pow(x: np.ndarray, p: float) -> np.ndarray:
+    # Negative working values (crand, negative light colours) keep their sign instead of
+    # turning into NaN; POV-Ray's power-law curves do the same.
+    return np.sign(x) * np.abs(x) ** p
+
+
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function (IEC 61966-2-1) on linear values (not clipped)."""
+    x = np.asarray(linear, dtype=np.float64)
+    a = np.abs(x)
+    enc = np.where(a <= 0.0031308, 12.92 * a, 1.055 * np.power(a, 1.0 / 2.4) - 0.055)
+    return np.sign(x) * enc
+
+
+def srgb_decode(encoded: np.ndarray) -> np.ndarray:
+    """Inverse of `srgb_encode`."""
+    x = np.asarray(encoded, dtype=np.float64)
+    a = np.abs(x)
+    dec = np.where(a <= 0.04045, a / 12.92, np.power((a + 0.055) / 1.055, 2.4))
+    return np.sign(x) * dec
+
+
+def to_linear(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
+    """Linear-light values for float files (EXR). Legacy scenes have no defined gamma; their
+    working values are taken as linear (what POV-Ray writes to an EXR in that case)."""
+    w = np.asarray(working, dtype=np.float64)
+    g = working_gamma(settings)
+    if g is None or g == 1.0:
+        return w.astype(np.float32)
+    return _signed_pow(w, g).astype(np.float32)
+
+
+def to_display(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
+    """[0,1] values for an 8/16-bit file, clipped (POV-Ray 3.7's gamma rules)."""
+    w = np.asarray(working, dtype=np.float64)
+    g = working_gamma(settings)
+    if g is None:
+        return np.clip(w, 0.0, 1.0).astype(np.float32)
+    linear = np.clip(w, 0.0, None) if g == 1.0 else np.clip(w, 0.0, None) ** g
+    return np.clip(srgb_encode(linear), 0.0, 1.0).astype(np.float32)
+
+
+def aa_metric_space(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
+    """Colours as POV-Ray compares them for anti-aliasing: working → linear (through the
+    working gamma, skipped for legacy scenes) → encoded with 1/AA_GAMMA."""
+    w = np.clip(np.asarray(working, dtype=np.float64), 0.0, None)
+    g = working_gamma(settings)
+    if g is not None and g != 1.0:
+        w = w**g
+    return w ** (1.0 / AA_GAMMA)
+
+
+def colour_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """POV-Ray's colour distance: the sum of absolute channel differences (last axis)."""
+    return np.abs(np.asarray(a) - np.asarray(b)).sum(axis=-1)

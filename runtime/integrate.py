@@ -1,0 +1,408 @@
+"""The wavefront Whitted integrator: rays in numpy batches, POV-Ray 3.7's rules.
+
+`trace` takes a batch of rays and returns their colours. One call handles one wave: find
+the closest hits, shade them by object (pigments, finishes, lights with shadow rays), then
+gather every reflected ray of the wave into one batch and every transmitted ray into
+another, trace those recursively (one call per wave, never per ray) and add them in.
+
+Bounds as in POV-Ray: a ray whose trace level has reached `max_trace_level` or whose weight
+(its largest possible contribution to the pixel) is below `adc_bailout` returns black.
+Camera rays skip `no_image` objects, reflected rays `no_reflection` objects, shadow rays
+`no_shadow` objects. Rays that pass straight through a transparent surface (ior 1) continue
+at the same trace level, as in POV-Ray.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from lang import ir
+from runtime import patterns, shading
+from runtime.shading import GREY, Surface
+
+# A shadow ray crosses at most this many transparent surfaces before it counts as blocked
+# (bounds the loop for pathological stacks of glass; each crossing is one batch query).
+MAX_SHADOW_CROSSINGS: int = 32
+
+_warned: set[str] = set()
+
+
+def _warn(msg: str) -> None:
+    if msg not in _warned:
+        _warned.add(msg)
+        print(f"strala: warning: {msg}")
+
+
+def texture_layers(tex: ir.Texture) -> list[ir.Texture]:
+    """Layers from the top (outermost, last written) down to the base texture."""
+    return [*reversed(tex.layers), tex]
+
+
+@dataclass
+class Context:
+    """Per-render constants shared by every tile (read-only while rendering)."""
+
+    prepared: object  # runtime.prepare.Prepared
+    settings: ir.Settings
+    layers: list[list[ir.Texture]]  # per object, top layer first
+    transmits: np.ndarray  # (n_obj,) bool: pigment may let light through
+    double_illuminate: np.ndarray  # (n_obj,) bool
+    lit: np.ndarray  # (n_obj,) bool: some layer has diffuse/specular/phong
+    ior: np.ndarray  # (n_obj,) interior ior
+    legacy_opacity: bool  # pre-3.7 transparency formula
+    background: np.ndarray  # (3,)
+    stats: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def tracer(self):
+        return self.prepared.tracer
+
+    @property
+    def scene(self) -> ir.Scene:
+        return self.prepared.scene
+
+    def count(self, key: str, n: int) -> None:
+        # Not locked: the counters are diagnostics, a lost increment between threads is fine.
+        self.stats[key] = self.stats.get(key, 0) + int(n)
+
+
+def make_context(prepared) -> Context:
+    scene: ir.Scene = prepared.scene
+    objs: list[ir.Object] = prepared.objects
+    layers = [texture_layers(o.texture) for o in objs]
+    for o in objs:
+        if any(t.normal is not None for t in texture_layers(o.texture)):
+            _warn("normal perturbation (`normal { … }`) is not rendered yet")
+            break
+    version = scene.settings.version
+    return Context(
+        prepared=prepared,
+        settings=scene.settings,
+        layers=layers,
+        transmits=np.array(
+            [any(patterns.may_transmit(t.pigment) for t in ls) for ls in layers], dtype=bool
+        ),
+        double_illuminate=np.array([o.double_illuminate for o in objs], dtype=bool),
+        lit=np.array(
+            [
+                any(
+                    t.finish.diffuse != 0
+                    or t.finish.diffuse_back != 0
+                    or t.finish.specular != 0
+                    or t.finish.phong != 0
+                    for t in ls
+                )
+                for ls in layers
+            ],
+            dtype=bool,
+        ),
+        ior=np.array([o.interior.ior for o in objs], dtype=np.float64),
+        legacy_opacity=version is not None and version < 3.7,
+        background=np.asarray(scene.background[:3], dtype=np.float64),
+    )
+
+
+# -------------------------------------------------------------------------- trace
+def trace(
+    ctx: Context,
+    origins: np.ndarray,
+    dirs: np.ndarray,
+    weight: np.ndarray,
+    level: int,
+    skip: str | None,
+    continued: bool = False,
+) -> np.ndarray:
+    """(N,3) colours of rays. `level` is the trace level of the surface that spawned them
+    (0 for camera rays); `continued` rays (straight through ior-1 surfaces) keep it."""
+    n = len(origins)
+    out = np.zeros((n, 3))
+    s = ctx.settings
+    if n == 0 or level >= s.max_trace_level:
+        return out
+    alive = np.nonzero(weight >= s.adc_bailout)[0]
+    if len(alive) == 0:
+        return out
+    o, d, w = origins[alive], dirs[alive], weight[alive]
+    ctx.count("rays", len(alive))
+    hits = ctx.tracer.closest(o, d, skip=skip)
+    hit = hits.obj >= 0
+    col = np.zeros((len(alive), 3))
+    miss = np.nonzero(~hit)[0]
+    if len(miss):
+        col[miss] = sky(ctx, d[miss])
+    rows = np.nonzero(hit)[0]
+    if len(rows):
+        here = level if continued else level + 1
+        col[rows] = shade(
+            ctx, hits.obj[rows], hits.point[rows], hits.normal[rows], d[rows], w[rows], here, skip
+        )
+    if ctx.scene.fog is not None:
+        col = apply_fog(ctx.scene.fog, hits.t, col)
+    out[alive] = col
+    return out
+
+
+def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
+    """Background colour for rays that hit nothing: sky_sphere layers over the background
+    (POV-Ray 3.7's rule: each layer filters the ones behind it)."""
+    n = len(dirs)
+    col = np.zeros((n, 3))
+    fil = np.ones((n, 3))
+    if ctx.scene.sky_sphere:
+        for pig in reversed(ctx.scene.sky_sphere):
+            c = patterns.evaluate(pig, dirs)
+            col += c[:, :3] * shading.opacity(c, False)[:, None] * fil
+            fil *= shading.rgb_transmit(c)
+    return col + ctx.background * fil
+
+
+def apply_fog(fog: ir.Fog, depth: np.ndarray, col: np.ndarray) -> np.ndarray:
+    """POV-Ray's constant fog: exp(-depth/distance) of the surface shows, the rest is fog
+    colour (its filter tints what shows, its transmit is the least that shows)."""
+    if fog.fog_type != 1:
+        _warn("only constant fog (fog_type 1) is rendered; ground fog renders as constant fog")
+    if abs(fog.distance) <= shading.EPSILON:
+        return col
+    fc = np.asarray(fog.color, dtype=np.float64)
+    with np.errstate(over="ignore"):
+        att = np.exp(-np.where(np.isfinite(depth), depth, np.inf) / fog.distance)
+    att = np.maximum(att, fc[4])
+    through = att[:, None] * ((1.0 - fc[3]) + fc[3] * fc[:3])
+    return (1.0 - att)[:, None] * fc[:3] + through * col
+
+
+# -------------------------------------------------------------------------- shade
+def shade(
+    ctx: Context,
+    obj: np.ndarray,
+    point: np.ndarray,
+    normal: np.ndarray,
+    dirs: np.ndarray,
+    weight: np.ndarray,
+    level: int,
+    skip: str | None,
+) -> np.ndarray:
+    """(N,3) colours of N hits at trace level `level`."""
+    n = len(obj)
+    # POV-Ray turns the normal toward the viewer before shading.
+    leaving = np.einsum("ij,ij->i", normal, dirs) > 0
+    raw = np.where(leaving[:, None], -normal, normal)
+    lights = light_colours(ctx, obj, point, raw)
+    result = np.zeros((n, 3))
+    fil = np.ones((n, 3))
+    reflect_req: list[tuple] = []
+    for oid in np.unique(obj):
+        rows = np.nonzero(obj == oid)[0]
+        shade_object(
+            ctx, int(oid), rows, point, raw, leaving, dirs, weight, lights, result, fil, reflect_req
+        )
+    # Transmitted light: what the layers let through, filtered by them.
+    trans = np.minimum(1.0, np.abs(fil @ GREY))
+    through = np.nonzero((trans > ctx.settings.adc_bailout) & ctx.transmits[obj])[0]
+    if len(through):
+        transmit(ctx, obj, point, raw, leaving, dirs, weight, level, skip, fil, through, result)
+    if reflect_req:
+        reflect_all(ctx, point, dirs, level, reflect_req, result)
+    return result
+
+
+@dataclass
+class LightColours:
+    direction: list[np.ndarray]  # per light (N,3)
+    colour: list[np.ndarray]  # per light (N,3), after attenuation and shadows
+
+
+def light_colours(ctx: Context, obj, point, raw) -> LightColours:
+    """Every light as seen from every hit: direction and shadowed colour (once per hit,
+    shared by all texture layers, like POV-Ray's light colour cache)."""
+    dirs_out, cols_out = [], []
+    lit = ctx.lit[obj]
+    for light in ctx.scene.lights:
+        ls = shading.sample_light(light, point)
+        col = ls.colour
+        facing = np.einsum("ij,ij->i", raw, ls.direction) >= shading.EPSILON
+        need = lit & (facing | ctx.double_illuminate[obj] | back_lit(ctx, obj))
+        need &= np.abs(col).max(axis=1) > shading.EPSILON
+        col = np.where(need[:, None], col, 0.0)
+        if not light.shadowless:
+            rows = np.nonzero(need)[0]
+            if len(rows):
+                col[rows] *= shadow(ctx, light, point[rows], ls.direction[rows], ls.distance[rows])
+        dirs_out.append(ls.direction)
+        cols_out.append(col)
+    return LightColours(dirs_out, cols_out)
+
+
+def back_lit(ctx: Context, obj: np.ndarray) -> np.ndarray:
+    flags = np.array([any(t.finish.diffuse_back != 0 for t in ls) for ls in ctx.layers], dtype=bool)
+    return flags[obj] if len(flags) else np.zeros(len(obj), dtype=bool)
+
+
+def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:
+    """(N,3) fraction of the light that reaches the points (area lights: averaged over
+    their grid of sub-lights, POV-Ray's limit of adaptive sampling)."""
+    if light.area is None or light.area.size1 * light.area.size2 <= 1:
+        return shadow_filter(ctx, points, ldir, ldist)
+    centres = shading.area_centres(light, points)  # (N,K,3)
+    n, k, _ = centres.shape
+    pts = np.repeat(points, k, axis=0)
+    to = centres.reshape(-1, 3) - pts
+    if light.kind == "parallel" or light.kind == "cylinder":
+        # Parallel and cylinder area lights keep their beam direction; only the start moves.
+        d = np.repeat(ldir, k, axis=0)
+        depth = np.einsum("ij,ij->i", to, d)
+    else:
+        depth = np.linalg.norm(to, axis=1)
+        d = to / np.where(depth > 0, depth, 1.0)[:, None]
+    f = shadow_filter(ctx, pts, d, depth)
+    return f.reshape(n, k, 3).mean(axis=1)
+
+
+def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
+    """(N,3) light let through between the points and the light: 0 behind an opaque
+    object, filter*colour + transmit through each transparent one."""
+    n = len(points)
+    tmax = ldist * (1.0 - 1e-9) - np.minimum(shading.SHADOW_TOLERANCE, 1e-6 * ldist)
+    ctx.count("shadow_rays", n)
+    if not ctx.transmits.any():
+        blocked = ctx.tracer.occluded(points, ldir, tmax)
+        return np.where(blocked[:, None], 0.0, np.ones((n, 3)))
+    mult = np.ones((n, 3))
+    active = np.arange(n)
+    o = points.copy()
+    remaining = tmax.copy()
+    for _ in range(MAX_SHADOW_CROSSINGS):
+        if len(active) == 0:
+            break
+        h = ctx.tracer.closest(o[active], ldir[active], tmax=remaining[active], skip="no_shadow")
+        hit = h.obj >= 0
+        active_hit = active[hit]
+        if len(active_hit) == 0:
+            break
+        objs = h.obj[hit]
+        pts = h.point[hit]
+        f = np.zeros((len(active_hit), 3))
+        for oid in np.unique(objs):
+            sel = np.nonzero(objs == oid)[0]
+            if not ctx.transmits[oid]:
+                continue
+            t = np.ones((len(sel), 3))
+            for layer in ctx.layers[oid]:
+                t *= shading.rgb_transmit(patterns.evaluate(layer.pigment, pts[sel]))
+            f[sel] = t
+        mult[active_hit] *= f
+        o[active_hit] = pts
+        remaining[active_hit] -= h.t[hit]
+        keep = np.abs(mult[active_hit]).max(axis=1) > shading.EPSILON
+        active = active_hit[keep]
+    else:
+        mult[active] = 0.0
+    return mult
+
+
+def shade_object(
+    ctx,
+    oid,
+    rows,
+    point,
+    raw,
+    leaving,
+    dirs,
+    weight,
+    lights: LightColours,
+    result,
+    fil,
+    reflect_req,
+) -> None:
+    """Accumulate the layers of object `oid` at `rows` into result/fil; queue reflections."""
+    s = ctx.settings
+    obj = ctx.prepared.objects[oid]
+    surf = Surface(normal=raw[rows], ray_dir=dirs[rows])
+    pts = point[rows]
+    trans = np.ones(len(rows))
+    f = np.ones((len(rows), 3))
+    for layer in ctx.layers[oid]:
+        active = trans > s.adc_bailout
+        if not active.any():
+            break
+        colour = patterns.evaluate(layer.pigment, pts)
+        pig = colour[:, :3]
+        fin = layer.finish
+        op = shading.opacity(colour, ctx.legacy_opacity)
+        acc = shading.ambient_term(fin, pig, op, s.ambient_light)
+        if fin.diffuse != 0 or fin.diffuse_back != 0 or fin.specular != 0 or fin.phong != 0:
+            for ldir, lcol in zip(lights.direction, lights.colour, strict=True):
+                acc += shading.light_terms(
+                    fin, surf, pig, op, ldir[rows], lcol[rows], obj.double_illuminate
+                )
+        result[rows] += np.where(active[:, None], acc * f, 0.0)
+        # Reflection of this layer (POV-Ray: weighted by the translucency above it).
+        r = fin.reflection
+        if max(r.max) > 0 or max(r.min) > 0:
+            cos_i = -np.einsum("ij,ij->i", dirs[rows], surf.normal)
+            ior = ctx.ior[oid]
+            # POV-Ray's relative ior for fresnel: entering ior/1, leaving 1/ior.
+            rel_ior = np.where(leaving[rows], 1.0 / ior, ior)
+            refl, wfac = shading.reflectivity(fin, cos_i, pig, rel_ior)
+            use = active & (np.abs(refl).max(axis=1) > 0)
+            if use.any():
+                exp = 1.0 / r.exponent if r.exponent != 0 else 1.0
+                reflect_req.append(
+                    (
+                        rows[use],
+                        surf.normal[use],
+                        refl[use],
+                        weight[rows][use] * trans[use] * wfac[use],
+                        exp,
+                    )
+                )
+        f = f * shading.rgb_transmit(colour)
+        if fin.conserve_energy and (max(r.max) > 0 or max(r.min) > 0):
+            f = f * np.minimum(1.0, 1.0 - refl)
+        trans = np.minimum(1.0, np.abs(f @ GREY))
+    fil[rows] = f
+
+
+def reflect_all(ctx, point, dirs, level, reqs, result) -> None:
+    """Trace every queued reflection of a wave in one batch and add it in."""
+    rows = np.concatenate([r[0] for r in reqs])
+    normals = np.concatenate([r[1] for r in reqs])
+    refl = np.concatenate([r[2] for r in reqs])
+    w = np.concatenate([r[3] for r in reqs])
+    exps = np.concatenate([np.full(len(r[0]), r[4]) for r in reqs])
+    raw_normals = normals  # no perturbed normals yet: layer normal == raw normal
+    d = shading.reflect(dirs[rows], normals, raw_normals)
+    col = trace(ctx, point[rows], d, w, level, "no_reflection")
+    ctx.count("reflection_rays", len(rows))
+    powered = exps != 1.0
+    if powered.any():
+        col[powered] = np.power(np.clip(col[powered], 0, None), exps[powered, None])
+    np.add.at(result, rows, refl * col)
+
+
+def transmit(ctx, obj, point, raw, leaving, dirs, weight, level, skip, fil, rows, result) -> None:
+    """Rays through transparent surfaces: straight on where the ior is 1 (a continued ray,
+    same trace level), refracted otherwise (total internal reflection reflects instead and
+    is not filtered)."""
+    d = dirs[rows]
+    n = raw[rows]
+    w = weight[rows] * np.abs(fil[rows]).max(axis=1)
+    ior = ctx.ior[obj[rows]]
+    straight = np.abs(ior - 1.0) < shading.EPSILON
+    mult = fil[rows].copy()
+    col = np.zeros((len(rows), 3))
+    s_idx = np.nonzero(straight)[0]
+    if len(s_idx):
+        col[s_idx] = trace(ctx, point[rows[s_idx]], d[s_idx], w[s_idx], level, skip, continued=True)
+    r_idx = np.nonzero(~straight)[0]
+    if len(r_idx):
+        # Leaving the object (ray along its outward normal): ior → air, else air → ior.
+        ratio = np.where(leaving[rows[r_idx]], ior[r_idx], 1.0 / ior[r_idx])
+        rd, tir = shading.refract(d[r_idx], n[r_idx], ratio)
+        rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], n[r_idx]), rd)
+        col[r_idx] = trace(ctx, point[rows[r_idx]], rd, w[r_idx], level, skip)
+        mult[r_idx[tir]] = 1.0
+        ctx.count("refraction_rays", len(r_idx))
+    result[rows] += mult * col
