@@ -54,6 +54,8 @@ def _ini_tokens(path: Path) -> list[str]:
         "library_path": "+L",
         "clock": "+K",
         "work_threads": "+WT",
+        "initial_frame": "+KFI",
+        "final_frame": "+KFF",
     }
     tokens: list[str] = []
     try:
@@ -84,6 +86,7 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
     """Rewrite POV-Ray style switches (`+W512 +A0.3 +Oout.png +Iscene.pov -D`) and INI
     files into strala options. Unknown `+X` switches are dropped with a warning."""
     out: list[str] = []
+    frames: dict[str, int] = {}
     after_value_option = False
     pending = list(argv)
     while pending:
@@ -126,6 +129,8 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
             if not value:
                 raise UsageError(f"{tok} needs a value")
             out += {"O": ["-o", value], "I": [value], "L": ["-L", value]}[head]
+        elif upper.startswith(("KFI", "KFF")) and body[3:].isdigit():
+            frames[upper[:3]] = int(body[3:])
         elif head == "K" and rest and rest[0] in "0123456789.-":
             out += ["--clock", rest]
         elif head == "F" and rest[:1].upper() in _FILE_TYPES:
@@ -134,6 +139,9 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
                 out += ["--bits", rest[1:]]
         else:
             warn.append(f"ignoring POV-Ray option {tok}")
+    if frames:
+        first = frames.get("KFI", 1)
+        out += ["--frames", f"{first}..{frames.get('KFF', first)}"]
     return out
 
 
@@ -189,6 +197,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
     r.add_argument("--bits", type=int, choices=(8, 16, 32), help="PNG/TIFF 8|16, EXR 16|32")
     r.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
+    r.add_argument(
+        "--frames",
+        type=parse_frames,
+        metavar="A..B",
+        help="render frames A to B, clock 0 → 1 (images SCENE01.png …)",
+    )
     r.add_argument("--output-type", choices=tuple(_FILE_TYPES.values()), help=argparse.SUPPRESS)
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     r.set_defaults(func=cmd_render)
@@ -406,6 +420,36 @@ def output_path(scene_file: str, output: str | None, suffix: str) -> Path:
     return Path(output)
 
 
+def parse_frames(text: str) -> tuple[int, int]:
+    """`A..B` (or `A-B`, `A:B`) → (A, B) with A <= B."""
+    for sep in ("..", ":", "-"):
+        first, found, last = text.partition(sep)
+        if found and first.strip().isdigit() and last.strip().isdigit():
+            a, b = int(first), int(last)
+            if a > b:
+                break
+            return a, b
+    raise argparse.ArgumentTypeError(f"expected FIRST..LAST frame numbers, got {text!r}")
+
+
+def frame_jobs(
+    out: Path, clock: float, frames: tuple[int, int] | None
+) -> list[tuple[Path, float, str]]:
+    """(output, clock, label) per frame. POV-Ray's animation rules: the clock runs from 0
+    at the first frame to 1 at the last, and the frame number, zero-padded to the width of
+    the last one, is appended to the image name."""
+    if frames is None:
+        return [(out, clock, "rendering")]
+    first, last = frames
+    digits = len(str(last))
+    jobs = []
+    for frame in range(first, last + 1):
+        t = 0.0 if last == first else (frame - first) / (last - first)
+        name = out.with_name(f"{out.stem}{frame:0{digits}d}{out.suffix}")
+        jobs.append((name, t, f"frame {frame}/{last}"))
+    return jobs
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from runtime import image  # numpy + OpenImageIO: only now
 
@@ -416,36 +460,46 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     if not out.parent.is_dir():
         raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    if args.frames is not None and args.file.lower().endswith(".json"):
+        raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
 
-    scene, diags = _load_scene(args, args.clock)
+    for target, clock, label in frame_jobs(out, args.clock, args.frames):
+        status = _render_one(args, target, clock, label)
+        if status:
+            return status
+    return 0
+
+
+def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -> int:
+    from runtime import image
+    from runtime.progress import Progress
+
+    start = time.perf_counter()
+    scene, diags = _load_scene(args, clock)
     print_diagnostics(diags, sys.stderr, summary=False)
     if scene is None or _counts(diags)[0]:
         return 1
 
-    from runtime.progress import Progress
     from runtime.render import render_scene
 
     # as POV-Ray: a side not given keeps its default, whatever the other one is
     width = args.width or POVRAY_DEFAULT_SIZE[0]
     height = args.height or POVRAY_DEFAULT_SIZE[1]
-
-    start = time.perf_counter()
-    bar = Progress("rendering", enabled=False if args.quiet else None)
-    try:
-        pixels = render_scene(
-            scene,
-            width,
-            height,
-            antialias=args.aa,
-            aa_depth=args.aa_depth,
-            threads=args.threads,
-            progress=bar,
-        )
-    except SceneError as exc:
-        bar.close()
-        print_diagnostics([exc.diagnostic], sys.stderr, summary=False)
-        return 1
-    bar.close()
+    with Progress(label, enabled=False if args.quiet else None) as bar:
+        try:
+            pixels = render_scene(
+                scene,
+                width,
+                height,
+                antialias=args.aa,
+                aa_depth=args.aa_depth,
+                threads=args.threads,
+                progress=bar,
+            )
+        except SceneError as exc:
+            bar.close()
+            print_diagnostics([exc.diagnostic], sys.stderr, summary=False)
+            return 1
     try:
         image.save_render(out, pixels, scene.settings, args.bits)
     except OSError as exc:

@@ -3,6 +3,7 @@ diagnostics instead of tracebacks, `check` staying free of numpy, and the progre
 
 from __future__ import annotations
 
+import argparse
 import io
 import json
 from pathlib import Path
@@ -76,6 +77,24 @@ def test_bare_scene_or_plus_option_means_render():
     assert not cli._looks_like_render(["--help"])
 
 
+@given(st.integers(0, 10_000), st.integers(0, 10_000), st.sampled_from(["..", ":", "-"]))
+def test_frame_ranges_parse(a, b, sep):
+    if a <= b:
+        assert cli.parse_frames(f"{a}{sep}{b}") == (a, b)
+    else:
+        with pytest.raises(argparse.ArgumentTypeError):
+            cli.parse_frames(f"{a}{sep}{b}")
+
+
+def test_animation_follows_povray_clock_and_names():
+    jobs = cli.frame_jobs(Path("out/ex3.png"), 0.0, (1, 10))
+    assert [j[0].name for j in jobs[:2]] == ["ex301.png", "ex302.png"]
+    assert jobs[-1][0] == Path("out/ex310.png")
+    assert [j[1] for j in jobs] == pytest.approx([i / 9 for i in range(10)])
+    assert cli.frame_jobs(Path("a.png"), 0.25, None) == [(Path("a.png"), 0.25, "rendering")]
+    assert _translate("+KFI2", "+KFF5")[0] == ["--frames", "2..5"]
+
+
 # ----------------------------------------------------------------- outputs
 @pytest.mark.parametrize(
     "scene, output, expected",
@@ -115,6 +134,7 @@ def test_missing_file_in_render_exits_1(tmp_path, capsys):
         ["render", "x.pov", "-W", "0"],
         ["render", "x.pov", "--aa", "lots"],
         ["render", "x.pov", "--aa-depth", "12"],
+        ["render", "x.pov", "--frames", "9..2"],
         ["frobnicate", "x"],
         [],
     ],
