@@ -1,0 +1,776 @@
+"""Subdivision surfaces: Catmull–Clark, Loop and bilinear refinement, with the features
+OpenSubdiv users rely on: boundaries (`sharp`: edges and corners, `smooth`: edges only),
+infinitely sharp and semi-sharp creases with fractional sharpness (DeRose, Kass & Truong
+1998), corner vertices, limit positions and limit normals from tangent masks.
+
+Everything is array code: a level's topology (half-edges, edges, twins, vertex rings) is
+built with numpy sorting and `unique` on integer edge keys, and every rule is a scatter
+(`bincount`) over corners or edges. No Python loop runs per vertex or per face; the only
+Python loops run per level and, when walking vertex rings, per ring position (at most the
+largest valence).
+
+Vertex numbering is stable: a refined mesh keeps the parent's vertices first (then face
+points, then edge points), so a control vertex keeps its index at every level. Limit
+evaluation uses this: a vertex's limit point and normal are the same at every level.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from itertools import chain
+
+import numpy as np
+
+from lang import ir
+
+SURFACE_SCHEMES = ("catmull_clark", "loop", "bilinear")
+CURVE_SCHEMES = ("midpoint", "chaikin", "four_point", "bezier")
+BOUNDARY_MODES = ("sharp", "smooth")
+
+# Vertex rules (OpenSubdiv's names): smooth (also darts), crease (two sharp edges),
+# corner (an explicit corner, three or more sharp edges, or an isolated vertex).
+SMOOTH, CREASE, CORNER = 0, 1, 2
+
+# Part of the free memory one level may claim before it is refused (the estimate is rough
+# and numpy needs temporaries while the next level is being built).
+MEMORY_FRACTION = 0.6
+# Rough bytes per output vertex and per face corner while a level is being built: the
+# point arrays and rule temporaries per vertex, about a dozen int64 topology arrays per
+# corner (face, next, prev, edge, twin, keys, sort order …).
+_BYTES_PER_VERTEX = 3 * 8 * 10
+_BYTES_PER_CORNER = 8 * 16
+
+
+class SubdivisionError(ValueError):
+    """A subdivision shape that cannot be built; `code` matches `validate`'s codes."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
+# ------------------------------------------------------------------ the mesh
+@dataclass
+class ControlMesh:
+    """A polygon mesh at one level. Faces are flat: `fv` holds every face's vertex indices
+    one after another, `fsize` each face's size. Creases are vertex pairs with sharpness
+    (inf: infinitely sharp); boundary edges are found from the topology, never listed."""
+
+    points: np.ndarray  # (V,3) float64
+    fv: np.ndarray  # (C,) int64
+    fsize: np.ndarray  # (F,) int64
+    crease_pairs: np.ndarray  # (K,2) int64
+    crease_sharpness: np.ndarray  # (K,) float64
+    corner: np.ndarray  # (V,) bool: explicit corner vertices
+    _topo: Topology | None = None
+
+    @property
+    def nv(self) -> int:
+        return len(self.points)
+
+    @property
+    def nf(self) -> int:
+        return len(self.fsize)
+
+    @property
+    def fstart(self) -> np.ndarray:
+        return np.concatenate(([0], np.cumsum(self.fsize)[:-1])).astype(np.int64)
+
+    def all_size(self, k: int) -> bool:
+        return bool(np.all(self.fsize == k))
+
+    @property
+    def topology(self) -> Topology:
+        if self._topo is None:
+            self._topo = build_topology(self)
+        return self._topo
+
+    @classmethod
+    def from_lists(
+        cls,
+        points,
+        faces,
+        creases=(),
+        corners=(),
+    ) -> ControlMesh:
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        fsize = np.fromiter(map(len, faces), dtype=np.int64, count=len(faces))
+        fv = np.fromiter(chain.from_iterable(faces), dtype=np.int64, count=int(fsize.sum()))
+        cr = np.asarray([c[:2] for c in creases], dtype=np.int64).reshape(-1, 2)
+        cs = np.asarray([c[2] for c in creases], dtype=np.float64).reshape(-1)
+        corner = np.zeros(len(pts), dtype=bool)
+        if len(corners):
+            corner[np.asarray(corners, dtype=np.int64)] = True
+        return cls(pts, fv, fsize, cr, cs, corner)
+
+    @classmethod
+    def from_shape(cls, shape: ir.Subdivision) -> ControlMesh:
+        return cls.from_lists(shape.points, shape.faces, shape.creases, shape.corners)
+
+    def triangles(self, corner_index: np.ndarray | None = None) -> np.ndarray:
+        """(T,3) int64: quads split along their first diagonal, n-gons fanned from their
+        first corner. `corner_index` maps each corner to an output vertex (default fv)."""
+        idx = self.fv if corner_index is None else corner_index
+        start = self.fstart
+        ntri = self.fsize - 2
+        face = np.repeat(np.arange(self.nf), ntri)
+        k = np.arange(len(face)) - np.repeat(np.cumsum(ntri) - ntri, ntri)
+        s = start[face]
+        return np.stack([idx[s], idx[s + k + 1], idx[s + k + 2]], axis=1)
+
+
+# ---------------------------------------------------------------- topology
+@dataclass
+class Topology:
+    """Half-edge tables of one level. Corner c (face `face[c]`, vertex fv[c]) is also the
+    half-edge fv[c] -> fv[nxt[c]]; `twin[c]` is the opposite half-edge or -1 on a
+    boundary. `edge[c]` numbers undirected edges; `edges[e]` = (low, high) vertex."""
+
+    face: np.ndarray
+    nxt: np.ndarray
+    prv: np.ndarray
+    edge: np.ndarray
+    edges: np.ndarray
+    edge_nf: np.ndarray
+    ekeys: np.ndarray  # sorted undirected keys low*V + high
+    twin: np.ndarray
+    dup_directed: int  # half-edges that repeat an existing direction (orientation errors)
+
+
+def build_topology(mesh: ControlMesh) -> Topology:
+    nv, fv, fsize = mesh.nv, mesh.fv, mesh.fsize
+    c = np.arange(len(fv), dtype=np.int64)
+    start = mesh.fstart
+    face = np.repeat(np.arange(mesh.nf, dtype=np.int64), fsize)
+    first = start[face]
+    last = first + fsize[face] - 1
+    nxt = np.where(c == last, first, c + 1)
+    prv = np.where(c == first, last, c - 1)
+    a, b = fv, fv[nxt]
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    ekeys, edge, edge_nf = np.unique(lo * nv + hi, return_inverse=True, return_counts=True)
+    edge = edge.reshape(-1)
+    edges = np.stack([ekeys // nv, ekeys % nv], axis=1)
+    dkey = a * nv + b
+    order = np.argsort(dkey, kind="stable")
+    sdkey = dkey[order]
+    dup = int(np.count_nonzero(sdkey[1:] == sdkey[:-1]))
+    tkey = b * nv + a
+    pos = np.minimum(np.searchsorted(sdkey, tkey), len(sdkey) - 1)
+    found = sdkey[pos] == tkey
+    twin = np.where(found, order[pos], -1)
+    return Topology(face, nxt, prv, edge, edges, edge_nf, ekeys, twin, dup)
+
+
+def _scatter(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """Sum (N,3) or (N,) values into n bins (bincount per column: faster than add.at)."""
+    if values.ndim == 1:
+        return np.bincount(index, weights=values, minlength=n)
+    out = np.empty((n, values.shape[1]))
+    for k in range(values.shape[1]):
+        out[:, k] = np.bincount(index, weights=values[:, k], minlength=n)
+    return out
+
+
+def _edge_count(edges: np.ndarray, weights: np.ndarray, n: int) -> np.ndarray:
+    """Per-vertex sum of a per-edge quantity over the vertex's incident edges."""
+    w = weights.astype(np.float64)
+    return np.bincount(edges[:, 0], w, n) + np.bincount(edges[:, 1], w, n)
+
+
+def _neighbour_sum(points: np.ndarray, edges: np.ndarray, mask, n: int) -> np.ndarray:
+    """Per vertex, the sum of the other ends of its incident edges (those in `mask`)."""
+    e = edges if mask is None else edges[mask]
+    return _scatter(e[:, 0], points[e[:, 1]], n) + _scatter(e[:, 1], points[e[:, 0]], n)
+
+
+def edge_sharpness(mesh: ControlMesh, topo: Topology | None = None) -> np.ndarray:
+    """Per-edge sharpness: crease values where given, inf on boundary edges, else 0."""
+    topo = topo or mesh.topology
+    s = np.zeros(len(topo.edges))
+    if len(mesh.crease_pairs):
+        p = mesh.crease_pairs
+        keys = np.minimum(p[:, 0], p[:, 1]) * mesh.nv + np.maximum(p[:, 0], p[:, 1])
+        pos = np.minimum(np.searchsorted(topo.ekeys, keys), len(topo.ekeys) - 1)
+        ok = topo.ekeys[pos] == keys
+        np.maximum.at(s, pos[ok], mesh.crease_sharpness[ok])
+    s[topo.edge_nf == 1] = np.inf
+    return s
+
+
+@dataclass
+class VertexRules:
+    parent: np.ndarray  # rule from edges sharp at this level (sharpness > 0)
+    child: np.ndarray  # rule from edges still sharp after this step (sharpness > 1)
+    weight: np.ndarray  # fractional weight of the parent rule where the two differ
+    crease_sum_parent: np.ndarray  # (V,3) sum of the sharp neighbours (parent)
+    crease_sum_child: np.ndarray
+
+
+def _rule(corner: np.ndarray, nsharp: np.ndarray) -> np.ndarray:
+    return np.where(corner | (nsharp > 2), CORNER, np.where(nsharp == 2, CREASE, SMOOTH))
+
+
+def vertex_rules(mesh: ControlMesh, s: np.ndarray, boundary: str) -> VertexRules:
+    topo = mesh.topology
+    V, P, edges = mesh.nv, mesh.points, topo.edges
+    nfaces = np.bincount(mesh.fv, minlength=V)
+    corner = mesh.corner | (nfaces == 0)
+    if boundary == "sharp":
+        # edge-and-corner: a boundary vertex of a single face is a corner (a quad's corner)
+        on_boundary = _edge_count(edges, topo.edge_nf == 1, V) > 0
+        corner = corner | (on_boundary & (nfaces == 1))
+    par, chi = s > 0, s > 1
+    rp = _rule(corner, _edge_count(edges, par, V))
+    rc = _rule(corner, _edge_count(edges, chi, V))
+    # OpenSubdiv's fractional weight: the mean sharpness of the edges that stop being sharp
+    trans = par & ~chi
+    tcount = _edge_count(edges, trans, V)
+    tsum = _edge_count(edges, np.where(trans, s, 0.0), V)
+    w = np.clip(tsum / np.maximum(tcount, 1), 0.0, 1.0)
+    w = np.where(tcount > 0, w, 1.0)
+    return VertexRules(
+        rp, rc, w, _neighbour_sum(P, edges, par, V), _neighbour_sum(P, edges, chi, V)
+    )
+
+
+def _apply_vertex_rules(P: np.ndarray, smooth: np.ndarray, r: VertexRules) -> np.ndarray:
+    crease_p = (r.crease_sum_parent + 6.0 * P) / 8.0
+    crease_c = (r.crease_sum_child + 6.0 * P) / 8.0
+    pos_p = np.where(
+        (r.parent == SMOOTH)[:, None], smooth, np.where((r.parent == CREASE)[:, None], crease_p, P)
+    )
+    pos_c = np.where(
+        (r.child == SMOOTH)[:, None], smooth, np.where((r.child == CREASE)[:, None], crease_c, P)
+    )
+    w = r.weight[:, None]
+    return np.where((r.parent == r.child)[:, None], pos_p, w * pos_p + (1.0 - w) * pos_c)
+
+
+def _blend_edge_points(P, edges, s, smooth) -> np.ndarray:
+    mid = 0.5 * (P[edges[:, 0]] + P[edges[:, 1]])
+    sc = np.clip(s, 0.0, 1.0)[:, None]
+    return sc * mid + (1.0 - sc) * smooth
+
+
+def _child_creases(mesh: ControlMesh, s: np.ndarray, edge_point_base: int):
+    """Each parent edge with sharpness > 1 becomes two child edges of sharpness s - 1
+    (DeRose's rule; inf stays inf). Boundary edges are found again from the topology."""
+    topo = mesh.topology
+    ids = np.nonzero((s > 1) & (topo.edge_nf == 2))[0]
+    ep = edge_point_base + ids
+    pairs = np.concatenate(
+        [np.stack([topo.edges[ids, 0], ep], 1), np.stack([topo.edges[ids, 1], ep], 1)]
+    )
+    child_s = np.concatenate([s[ids] - 1.0, s[ids] - 1.0])
+    return pairs.astype(np.int64), child_s
+
+
+def _quads_from_corners(mesh: ControlMesh, nfp: int) -> np.ndarray:
+    """Catmull–Clark / bilinear children: one quad per parent corner
+    (vertex, edge point of its out-edge, face point, edge point of its in-edge)."""
+    topo, V = mesh.topology, mesh.nv
+    eb = V + nfp
+    q = np.stack([mesh.fv, eb + topo.edge, V + topo.face, eb + topo.edge[topo.prv]], axis=1)
+    return q.reshape(-1)
+
+
+def catmull_clark_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
+    """One Catmull–Clark step on any polygons (the result is all quads)."""
+    topo, P, V, F = mesh.topology, mesh.points, mesh.nv, mesh.nf
+    E = len(topo.edges)
+    s = edge_sharpness(mesh, topo)
+    fp = _scatter(topo.face, P[mesh.fv], F) / mesh.fsize[:, None]
+    a, b = topo.edges[:, 0], topo.edges[:, 1]
+    fsum = _scatter(topo.edge, fp[topo.face], E)
+    smooth_e = (P[a] + P[b] + fsum) / (2.0 + topo.edge_nf)[:, None]
+    ep = _blend_edge_points(P, topo.edges, s, smooth_e)
+    n = np.maximum(np.bincount(mesh.fv, minlength=V), 1).astype(np.float64)[:, None]
+    fsum_v = _scatter(mesh.fv, fp[topo.face], V)
+    esum_v = _neighbour_sum(P, topo.edges, None, V)
+    smooth_v = (n - 2.0) / n * P + (esum_v + fsum_v) / (n * n)
+    vp = _apply_vertex_rules(P, smooth_v, vertex_rules(mesh, s, boundary))
+    pairs, cs = _child_creases(mesh, s, V + F)
+    return ControlMesh(
+        np.concatenate([vp, fp, ep]),
+        _quads_from_corners(mesh, F),
+        np.full(len(mesh.fv), 4, dtype=np.int64),
+        pairs,
+        cs,
+        np.concatenate([mesh.corner, np.zeros(F + E, dtype=bool)]),
+    )
+
+
+def bilinear_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
+    """One bilinear step: face centroids and edge midpoints, vertices stay."""
+    topo, P, V, F = mesh.topology, mesh.points, mesh.nv, mesh.nf
+    E = len(topo.edges)
+    fp = _scatter(topo.face, P[mesh.fv], F) / mesh.fsize[:, None]
+    ep = 0.5 * (P[topo.edges[:, 0]] + P[topo.edges[:, 1]])
+    s = edge_sharpness(mesh, topo)
+    pairs, cs = _child_creases(mesh, s, V + F)
+    return ControlMesh(
+        np.concatenate([P, fp, ep]),
+        _quads_from_corners(mesh, F),
+        np.full(len(mesh.fv), 4, dtype=np.int64),
+        pairs,
+        cs,
+        np.concatenate([mesh.corner, np.zeros(F + E, dtype=bool)]),
+    )
+
+
+def loop_beta(n: np.ndarray) -> np.ndarray:
+    """Loop's β(n) = (5/8 − (3/8 + ¼cos(2π/n))²)/n; 1/16 for the seed's valence 6."""
+    n = np.maximum(np.asarray(n, dtype=np.float64), 1.0)
+    return (0.625 - (0.375 + 0.25 * np.cos(2.0 * np.pi / n)) ** 2) / n
+
+
+def loop_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
+    """One Loop step (triangles only; `validate` rejects other faces)."""
+    topo, P, V, F = mesh.topology, mesh.points, mesh.nv, mesh.nf
+    E = len(topo.edges)
+    s = edge_sharpness(mesh, topo)
+    a, b = topo.edges[:, 0], topo.edges[:, 1]
+    # the vertex opposite half-edge c in its triangle is the corner before c
+    osum = _scatter(topo.edge, P[mesh.fv[topo.prv]], E)
+    smooth_e = 0.375 * (P[a] + P[b]) + 0.125 * osum
+    ep = _blend_edge_points(P, topo.edges, s, smooth_e)
+    n = _edge_count(topo.edges, np.ones(E), V)
+    beta = loop_beta(n)[:, None]
+    smooth_v = (1.0 - n[:, None] * beta) * P + beta * _neighbour_sum(P, topo.edges, None, V)
+    vp = _apply_vertex_rules(P, smooth_v, vertex_rules(mesh, s, boundary))
+    e_out, e_in = V + topo.edge, V + topo.edge[topo.prv]
+    corner_tris = np.stack([mesh.fv, e_out, e_in], axis=1).reshape(F, 3, 3)
+    centre = e_out.reshape(F, 3)[:, None, :]
+    faces = np.concatenate([corner_tris, centre], axis=1).reshape(-1)
+    pairs, cs = _child_creases(mesh, s, V)
+    return ControlMesh(
+        np.concatenate([vp, ep]),
+        faces,
+        np.full(4 * F, 3, dtype=np.int64),
+        pairs,
+        cs,
+        np.concatenate([mesh.corner, np.zeros(E, dtype=bool)]),
+    )
+
+
+_STEPS = {"catmull_clark": catmull_clark_once, "loop": loop_once, "bilinear": bilinear_once}
+
+
+def subdivide_once(mesh: ControlMesh, scheme: str, boundary: str = "sharp") -> ControlMesh:
+    try:
+        step = _STEPS[scheme]
+    except KeyError:
+        raise SubdivisionError("subdiv.unknown_scheme", _unknown_scheme(scheme)) from None
+    return step(mesh, boundary)
+
+
+# ------------------------------------------------------------------ memory
+def _available_memory() -> int:
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError):
+        return 8 << 30
+
+
+def next_level_size(mesh: ControlMesh, scheme: str) -> tuple[int, int, int]:
+    """(vertices, faces, corners) of the next level, without building it."""
+    C = len(mesh.fv)
+    E = len(mesh.topology.edges)
+    if scheme == "loop":
+        return mesh.nv + E, 4 * mesh.nf, 12 * mesh.nf
+    return mesh.nv + mesh.nf + E, C, 4 * C
+
+
+def check_memory(mesh: ControlMesh, scheme: str, level: int, max_bytes: int | None) -> None:
+    """Refuse a level that would not fit, before building it."""
+    v, f, c = next_level_size(mesh, scheme)
+    need = v * _BYTES_PER_VERTEX + c * _BYTES_PER_CORNER
+    budget = max_bytes if max_bytes is not None else int(MEMORY_FRACTION * _available_memory())
+    if need > budget or v >= 2**31 - 1:
+        raise SubdivisionError(
+            "subdiv.memory",
+            f"subdivision level {level} would have {f:,} faces and {v:,} vertices and need "
+            f"about {need / 2**30:.2f} GiB, more than the {budget / 2**30:.2f} GiB allowed; "
+            "use fewer levels",
+        )
+
+
+# ------------------------------------------------------------ limit surface
+def _remaining_semi_sharp(mesh: ControlMesh) -> float:
+    s = edge_sharpness(mesh)
+    finite = s[np.isfinite(s)]
+    return float(finite.max()) if finite.size else 0.0
+
+
+def limit_ready(mesh: ControlMesh, scheme: str, boundary: str, max_bytes=None) -> ControlMesh:
+    """A mesh on which the limit masks are exact: Catmull–Clark needs all quads, and no
+    semi-sharp edge may remain (their rules change with the level). Refines as needed;
+    the vertices of `mesh` keep their indices in the result."""
+    steps = math.ceil(_remaining_semi_sharp(mesh))
+    if scheme == "catmull_clark" and not mesh.all_size(4):
+        steps = max(steps, 1)
+    if scheme == "bilinear":
+        steps = 0
+    for k in range(steps):
+        check_memory(mesh, scheme, k + 1, max_bytes)
+        mesh = subdivide_once(mesh, scheme, boundary)
+    return mesh
+
+
+def limit_positions(mesh: ControlMesh, scheme: str, boundary: str = "sharp") -> np.ndarray:
+    """Limit positions of the vertices of a `limit_ready` mesh: smooth vertices by the
+    scheme's limit mask, crease vertices by the cubic B-spline's (1,4,1)/6, corners stay."""
+    P = mesh.points
+    if scheme == "bilinear":
+        return P.copy()
+    topo, V = mesh.topology, mesh.nv
+    s = edge_sharpness(mesh, topo)
+    r = vertex_rules(mesh, s, boundary)
+    esum = _neighbour_sum(P, topo.edges, None, V)
+    if scheme == "catmull_clark":
+        n = np.maximum(np.bincount(mesh.fv, minlength=V), 1).astype(np.float64)[:, None]
+        diag = mesh.fv[topo.nxt[topo.nxt]]
+        dsum = _scatter(mesh.fv, P[diag], V)
+        smooth = (n * n * P + 4.0 * esum + dsum) / (n * (n + 5.0))
+    else:
+        n = _edge_count(topo.edges, np.ones(len(topo.edges)), V)
+        beta = loop_beta(n)
+        chi = (1.0 / (3.0 / (8.0 * beta) + n))[:, None]
+        smooth = (1.0 - n[:, None] * chi) * P + chi * esum
+    crease = (r.crease_sum_parent + 4.0 * P) / 6.0
+    return np.where(
+        (r.parent == SMOOTH)[:, None], smooth, np.where((r.parent == CREASE)[:, None], crease, P)
+    )
+
+
+@dataclass
+class Rings:
+    """Corners ordered around their vertex: `j` is the ring position (counter-clockwise
+    seen from the side the winding faces), `fan` the first corner of the corner's fan
+    (a vertex has one fan unless it is non-manifold), `sector` counts the sharp edges
+    crossed since the fan's start, `size` the corners in the corner's fan."""
+
+    j: np.ndarray
+    fan: np.ndarray
+    sector: np.ndarray
+    size: np.ndarray
+    closed: np.ndarray
+
+
+def build_rings(mesh: ControlMesh, sharp: np.ndarray) -> Rings:
+    """Walk all vertex rings at once, one ring position per iteration. A boundary fan
+    starts at its corner whose out-edge is on the boundary; a closed fan starts after a
+    sharp edge when it has one (so sectors never wrap)."""
+    topo, fv = mesh.topology, mesh.fv
+    C = len(fv)
+    rot = np.where(topo.twin[topo.prv] >= 0, topo.twin[topo.prv], -1)
+    j = np.full(C, -1, dtype=np.int64)
+    fan = np.full(C, -1, dtype=np.int64)
+    sector = np.zeros(C, dtype=np.int64)
+    step_sharp = sharp[topo.edge[topo.prv]].astype(np.int64)
+
+    def walk(starts: np.ndarray) -> None:
+        cur, fid, sec, k = starts, starts, np.zeros(len(starts), dtype=np.int64), 0
+        while cur.size:
+            j[cur], fan[cur], sector[cur] = k, fid, sec
+            nx = rot[cur]
+            ok = nx >= 0
+            ok[ok] = j[nx[ok]] < 0
+            sec = sec + step_sharp[cur]
+            cur, fid, sec, k = nx[ok], fid[ok], sec[ok], k + 1
+
+    walk(np.nonzero(topo.twin < 0)[0])
+    while True:
+        rest = np.nonzero(j < 0)[0]
+        if rest.size == 0:
+            break
+        pri = np.where(sharp[topo.edge[rest]], 0, 1)
+        order = np.lexsort((rest, pri, fv[rest]))
+        srt = rest[order]
+        firsts = np.ones(len(srt), dtype=bool)
+        firsts[1:] = fv[srt[1:]] != fv[srt[:-1]]
+        walk(srt[firsts])
+    size = np.bincount(fan, minlength=C)[fan]
+    return Rings(j, fan, sector, size, topo.twin[fan] >= 0)
+
+
+def _normalize(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def smooth_limit_normals(mesh: ControlMesh, scheme: str, boundary: str = "sharp"):
+    """Limit normals of the smooth vertices of a `limit_ready` mesh from the tangent masks
+    (Halstead et al. for Catmull–Clark, cos/sin masks for Loop). Returns (normals (V,3),
+    mask (V,) of the vertices they are exact for: smooth, manifold, interior)."""
+    topo, P, V, fv = mesh.topology, mesh.points, mesh.nv, mesh.fv
+    s = edge_sharpness(mesh, topo)
+    r = vertex_rules(mesh, s, boundary)
+    rings = build_rings(mesh, s > 0)
+    fans = np.bincount(fv[rings.j == 0], minlength=V)
+    open_corners = np.bincount(fv, weights=(~rings.closed).astype(np.float64), minlength=V)
+    ok = (r.parent == SMOOTH) & (fans == 1) & (open_corners == 0)
+    if scheme == "bilinear":
+        return np.zeros((V, 3)), np.zeros(V, dtype=bool)
+    n = rings.size.astype(np.float64)
+    theta = 2.0 * np.pi * rings.j / n
+    e = P[fv[topo.nxt]]
+    if scheme == "catmull_clark":
+        step = 2.0 * np.pi / n
+        A = 1.0 + np.cos(step) + np.cos(step / 2) * np.sqrt(2.0 * (9.0 + np.cos(step)))
+        d = P[fv[topo.nxt[topo.nxt]]]
+        c1 = (A * np.cos(theta))[:, None] * e + (np.cos(theta) + np.cos(theta + step))[:, None] * d
+        c2 = (A * np.sin(theta))[:, None] * e + (np.sin(theta) + np.sin(theta + step))[:, None] * d
+    else:
+        c1 = np.cos(theta)[:, None] * e
+        c2 = np.sin(theta)[:, None] * e
+    t1, t2 = _scatter(fv, c1, V), _scatter(fv, c2, V)
+    return _normalize(np.cross(t1, t2)), ok
+
+
+def _crease_tangents(mesh: ControlMesh, inf_sharp: np.ndarray) -> np.ndarray:
+    """(V,3) limit tangent e_b − e_a along an infinitely sharp crease (zero elsewhere)."""
+    V, edges = mesh.nv, mesh.topology.edges[inf_sharp]
+    ends = np.concatenate([edges[:, 0], edges[:, 1]])
+    other = np.concatenate([edges[:, 1], edges[:, 0]])
+    order = np.argsort(ends, kind="stable")
+    ends, other = ends[order], other[order]
+    count = np.bincount(ends, minlength=V)
+    t = np.zeros((V, 3))
+    two = count[ends] == 2
+    firsts = np.ones(len(ends), dtype=bool)
+    firsts[1:] = ends[1:] != ends[:-1]
+    i = np.nonzero(two & firsts)[0]
+    t[ends[i]] = mesh.points[other[i + 1]] - mesh.points[other[i]]
+    return t
+
+
+def shade(
+    mesh: ControlMesh,
+    positions: np.ndarray,
+    smooth_normals: np.ndarray,
+    smooth_mask: np.ndarray,
+    scheme: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Output vertices, per-corner output index and normals. A vertex is split into one
+    output vertex per sector between infinitely sharp edges (a crease has two normals).
+    Smooth vertices take the tangent-mask normal; sector normals are angle-weighted face
+    normals, made perpendicular to the crease's limit tangent on crease vertices."""
+    topo, V, fv = mesh.topology, mesh.nv, mesh.fv
+    s = edge_sharpness(mesh, topo)
+    inf_sharp = np.isinf(s)
+    if scheme == "bilinear":
+        inf_sharp = np.ones_like(inf_sharp)
+    rings = build_rings(mesh, inf_sharp)
+    order = np.lexsort((rings.sector, rings.fan, fv))
+    fs, fa, se = fv[order], rings.fan[order], rings.sector[order]
+    change = np.ones(len(order), dtype=bool)
+    change[1:] = (fs[1:] != fs[:-1]) | (fa[1:] != fa[:-1]) | (se[1:] != se[:-1])
+    gid_sorted = np.cumsum(change) - 1
+    group = np.empty(len(order), dtype=np.int64)
+    group[order] = gid_sorted
+    gvert = fs[change]
+    G = len(gvert)
+    primary = np.ones(G, dtype=bool)
+    primary[1:] = gvert[1:] != gvert[:-1]
+    new_index = np.where(primary, gvert, V + np.cumsum(~primary) - 1)
+    # angle-weighted corner normals of the output positions
+    p = positions
+    u = p[fv[topo.nxt]] - p[fv]
+    w = p[fv[topo.prv]] - p[fv]
+    cn = np.cross(u, w)
+    angle = np.arctan2(np.linalg.norm(cn, axis=1), np.einsum("ij,ij->i", u, w))
+    gn = _scatter(group, _normalize(cn) * angle[:, None], G)
+    tangent = _normalize(_crease_tangents(mesh, inf_sharp))[gvert]
+    gn = gn - np.einsum("ij,ij->i", gn, tangent)[:, None] * tangent
+    use_smooth = smooth_mask[gvert]
+    gn = np.where(use_smooth[:, None], smooth_normals[gvert], gn)
+    gn = _normalize(gn)
+    verts = np.concatenate([positions, positions[gvert[~primary]]])
+    normals = np.zeros((V, 3))
+    normals[:, 2] = 1.0  # unreferenced vertices: any unit vector
+    normals[gvert[primary]] = gn[primary]
+    normals = np.concatenate([normals, gn[~primary]])
+    return verts, new_index[group], normals
+
+
+# ----------------------------------------------------------- entry points
+def refine(shape: ir.Subdivision, levels: int, max_bytes: int | None = None) -> ControlMesh:
+    """The control mesh of `shape` after `levels` steps (validated first)."""
+    errors = validate(shape)
+    if errors:
+        raise SubdivisionError(*errors[0])
+    mesh = ControlMesh.from_shape(shape)
+    for level in range(1, levels + 1):
+        check_memory(mesh, shape.scheme, level, max_bytes)
+        mesh = subdivide_once(mesh, shape.scheme, shape.boundary)
+    return mesh
+
+
+def subdivision_mesh(
+    shape: ir.Subdivision, levels: int, max_bytes: int | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tessellate a subdivision surface (or curve tube) for the tracer: (vertices (N,3)
+    float64, faces (M,3) int32, normals (N,3) float64). With `limit on` the vertices are
+    pushed to their limit positions; the normals are limit normals either way."""
+    if not shape.faces:
+        from runtime import curves
+
+        errors = validate(shape)
+        if errors:
+            raise SubdivisionError(*errors[0])
+        return curves.curve_mesh(shape, levels)
+    mesh = refine(shape, levels, max_bytes)
+    scheme, boundary = shape.scheme, shape.boundary
+    V = mesh.nv
+    ready = limit_ready(mesh, scheme, boundary, max_bytes)
+    positions = limit_positions(ready, scheme, boundary)[:V] if shape.limit else mesh.points
+    sn, smask = smooth_limit_normals(ready, scheme, boundary)
+    verts, corner_index, normals = shade(mesh, positions, sn[:V], smask[:V], scheme)
+    faces = mesh.triangles(corner_index)
+    if len(verts) >= 2**31 - 1:
+        raise SubdivisionError("subdiv.memory", "too many vertices for 32-bit indices")
+    return verts, faces.astype(np.int32), normals
+
+
+def levels_for_tolerance(shape: ir.Subdivision, tolerance: float, max_levels: int = 6) -> int:
+    """Levels so that the vertices lie within about `tolerance` of the limit surface: the
+    distance to the limit shrinks about fourfold per level for all three schemes."""
+    mesh = ControlMesh.from_shape(shape)
+    ready = limit_ready(mesh, shape.scheme, shape.boundary)
+    err = (
+        float(
+            np.max(
+                np.linalg.norm(
+                    limit_positions(ready, shape.scheme)[: mesh.nv] - mesh.points, axis=1
+                )
+            )
+        )
+        if mesh.nv
+        else 0.0
+    )
+    if err <= tolerance or tolerance <= 0:
+        return 0 if err <= tolerance else max_levels
+    return int(min(max_levels, math.ceil(math.log(err / tolerance, 4))))
+
+
+# -------------------------------------------------------------- validation
+def _unknown_scheme(scheme: str) -> str:
+    return (
+        f"unknown subdivision scheme `{scheme}`; surfaces: {', '.join(SURFACE_SCHEMES)}; "
+        f"curves: {', '.join(CURVE_SCHEMES)}"
+    )
+
+
+def _few(ids, limit: int = 5) -> str:
+    ids = [int(i) for i in ids]
+    more = f" and {len(ids) - limit} more" if len(ids) > limit else ""
+    return ", ".join(map(str, ids[:limit])) + more
+
+
+def validate(shape: ir.Subdivision) -> list[tuple[str, str]]:
+    """Every problem that stops `shape` from being built, as (code, message) pairs."""
+    out: list[tuple[str, str]] = []
+    scheme = shape.scheme
+    if scheme not in SURFACE_SCHEMES + CURVE_SCHEMES:
+        return [("subdiv.unknown_scheme", _unknown_scheme(scheme))]
+    if shape.boundary not in BOUNDARY_MODES:
+        out.append(("subdiv.boundary", f"boundary must be sharp or smooth, not `{shape.boundary}`"))
+    if shape.levels is not None and shape.levels < 0:
+        out.append(("subdiv.levels", f"levels must be 0 or more, not {shape.levels}"))
+    npts = len(shape.points)
+    if scheme in CURVE_SCHEMES:
+        if shape.faces:
+            out.append(("subdiv.curve_faces", f"`{scheme}` is a curve scheme: it takes no faces"))
+        need = 4 if scheme == "four_point" and not shape.closed else 2
+        if npts < need:
+            out.append(
+                (
+                    "subdiv.curve_points",
+                    f"a `{scheme}` curve needs at least {need} points, it has {npts}",
+                )
+            )
+        if scheme == "midpoint" and not shape.m > 0:
+            out.append(("subdiv.m", f"m must be positive, not {shape.m}"))
+        if not shape.radius > 0:
+            out.append(("subdiv.radius", "a subdivision curve needs a radius > 0 for its tube"))
+        return out
+    if not shape.faces:
+        return out + [("subdiv.no_faces", f"a `{scheme}` surface needs face_indices")]
+    mesh = ControlMesh.from_lists(shape.points, shape.faces)
+    fv, fsize = mesh.fv, mesh.fsize
+    face_of = np.repeat(np.arange(len(fsize)), fsize)
+    bad = (fv < 0) | (fv >= npts)
+    if bad.any():
+        out.append(
+            (
+                "subdiv.index_range",
+                f"face(s) {_few(np.unique(face_of[bad]))} use vertex indices outside 0..{npts - 1}",
+            )
+        )
+        return out
+    small = np.nonzero(fsize < 3)[0]
+    if small.size:
+        out.append(("subdiv.face_size", f"face(s) {_few(small)} have fewer than 3 vertices"))
+        return out
+    if scheme == "loop":
+        nontri = np.nonzero(fsize != 3)[0]
+        if nontri.size:
+            out.append(
+                (
+                    "subdiv.loop_non_triangle",
+                    f"loop subdivision takes triangles only; "
+                    f"face(s) {_few(nontri)} have {int(fsize[nontri[0]])}+ vertices",
+                )
+            )
+    key = np.sort(face_of * max(npts, 1) + fv)
+    rep = np.unique(key[1:][key[1:] == key[:-1]] // max(npts, 1))
+    if rep.size:
+        out.append(("subdiv.degenerate_face", f"face(s) {_few(rep)} repeat a vertex"))
+        return out
+    topo = mesh.topology
+    over = np.nonzero(topo.edge_nf > 2)[0]
+    if over.size:
+        pairs = ", ".join(f"<{a},{b}>" for a, b in topo.edges[over[:5]])
+        out.append(
+            ("subdiv.non_manifold", f"non-manifold edge(s) {pairs}: shared by more than two faces")
+        )
+    if topo.dup_directed:
+        out.append(
+            (
+                "subdiv.orientation",
+                f"inconsistent face orientation: {topo.dup_directed} "
+                "edge(s) run the same way in both of their faces (faces must all wind the "
+                "same way)",
+            )
+        )
+    if shape.creases:
+        cr = np.asarray([c[:2] for c in shape.creases], dtype=np.int64)
+        sh = np.asarray([c[2] for c in shape.creases], dtype=np.float64)
+        if ((cr < 0) | (cr >= npts)).any():
+            out.append(("subdiv.crease_range", "crease edge index outside the vertex list"))
+        else:
+            keys = np.minimum(cr[:, 0], cr[:, 1]) * npts + np.maximum(cr[:, 0], cr[:, 1])
+            pos = np.minimum(np.searchsorted(topo.ekeys, keys), len(topo.ekeys) - 1)
+            missing = np.nonzero(topo.ekeys[pos] != keys)[0]
+            if missing.size:
+                pairs = ", ".join(f"<{a},{b}>" for a, b in cr[missing[:5]])
+                out.append(("subdiv.crease_edge", f"crease(s) {pairs} are not edges of the mesh"))
+        if (np.isnan(sh) | (sh < 0)).any():
+            out.append(("subdiv.crease_sharpness", "crease sharpness must be 0 or more"))
+    if shape.corners:
+        c = np.asarray(shape.corners, dtype=np.int64)
+        if ((c < 0) | (c >= npts)).any():
+            out.append(("subdiv.corner_range", "corner vertex index outside the vertex list"))
+    return out
