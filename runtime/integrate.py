@@ -241,8 +241,8 @@ def back_lit(ctx: Context, obj: np.ndarray) -> np.ndarray:
 
 
 def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:
-    """(N,3) fraction of the light that reaches the points (area lights: averaged over
-    their grid of sub-lights, POV-Ray's limit of adaptive sampling)."""
+    """(N,3) fraction of the light that reaches the points (area lights: every sub-light
+    sampled and averaged with POV-Ray's weights for a fully subdivided grid)."""
     if light.area is None or light.area.size1 * light.area.size2 <= 1:
         return shadow_filter(ctx, points, ldir, ldist)
     centres = shading.area_centres(light, points)  # (N,K,3)
@@ -257,7 +257,8 @@ def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:
         depth = np.linalg.norm(to, axis=1)
         d = to / np.where(depth > 0, depth, 1.0)[:, None]
     f = shadow_filter(ctx, pts, d, depth)
-    return f.reshape(n, k, 3).mean(axis=1)
+    w = shading.area_weights(light.area.size1, light.area.size2)
+    return np.einsum("nkc,k->nc", f.reshape(n, k, 3), w)
 
 
 def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:

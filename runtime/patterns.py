@@ -114,26 +114,25 @@ def hexagon(p: np.ndarray, params: dict) -> np.ndarray:
     rx = np.where(fix_x, -ry - rz, rx)
     ry = np.where(fix_y, -rx - rz, ry)
     rz = np.where(~fix_x & ~fix_y, -rx - ry, rz)
-    return np.mod(rx - rz, 3).astype(np.int64)
+    return np.mod(2 * rx + rz, 3).astype(np.int64)
 
 
 def brick(p: np.ndarray, params: dict) -> np.ndarray:
-    """0 = mortar, 1 = brick. Bricks `brick_size` (default <8,3,4.5>), joints `mortar`
-    thick (default 0.5); every other course is shifted by half a brick in x and z."""
-    size = np.asarray(params.get("brick_size", (8.0, 3.0, 4.5)), dtype=np.float64)
-    size = np.broadcast_to(size, (3,))
+    """0 = mortar, 1 = brick, laid out as POV-Ray does: bricks `brick_size` (default
+    <8,3,4.5>) with joints `mortar` thick (default 0.5), everything shifted by mortar plus
+    Small_Tolerance so the joints do not sit on the axes; in even courses (counting in y) the
+    end joints (x) are on the grid and the face joints (z) half a brick off, in odd courses
+    the other way round."""
+    size = np.broadcast_to(np.asarray(params.get("brick_size", (8.0, 3.0, 4.5)), float), (3,))
     mortar = float(params.get("mortar", 0.5))
-    xr, yr, zr = (p[:, i] / size[i] for i in range(3))
-    course = np.floor(yr)
-    odd = np.mod(course, 2) == 1
-    xr = np.where(odd, xr + 0.5, xr)
-    zr = np.where(odd, zr + 0.5, zr)
-    in_mortar = (
-        (yr - course < mortar / size[1])
-        | (xr - np.floor(xr) < mortar / size[0])
-        | (zr - np.floor(zr) < mortar / size[2])
-    )
-    return np.where(in_mortar, 0, 1).astype(np.int64)
+    q = p + (CHECKER_OFFSET + mortar)
+    x, y, z = (q[:, i] / size[i] for i in range(3))
+    frac = lambda v: v - np.floor(v)  # noqa: E731
+    bed = frac(y) <= mortar / size[1]
+    odd = frac(0.5 * y) > 0.5
+    end_x = np.where(odd, frac(x + 0.5), frac(x)) <= mortar / size[0]
+    face_z = np.where(odd, frac(z), frac(z + 0.5)) <= mortar / size[2]
+    return np.where(bed | end_x | face_z, 0, 1).astype(np.int64)
 
 
 LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick}

@@ -155,6 +155,33 @@ def area_offsets(area: ir.AreaLight) -> np.ndarray:
     return np.stack([cu, cv], axis=1)
 
 
+def area_weights(n1: int, n2: int) -> np.ndarray:
+    """(n1*n2,) weights of an area light's sub-lights in the shadow average, flattened like
+    `area_offsets`. POV-Ray averages the four corners of the grid, subdividing each region
+    into quarters (sharing their middle row/column) while it is more than one cell wide;
+    with every region subdivided that is a fixed weighting of the grid, computed here."""
+    w = np.zeros((max(1, n1), max(1, n2)))
+
+    def split(u1: int, v1: int, u2: int, v2: int, weight: float) -> None:
+        if u2 - u1 > 1 or v2 - v1 > 1:
+            um, vm = (u1 + u2) / 2.0, (v1 + v2) / 2.0
+            lo_u, hi_u = int(math.floor(um)), int(math.ceil(um))
+            lo_v, hi_v = int(math.floor(vm)), int(math.ceil(vm))
+            for a, b, c, d in (
+                (u1, v1, lo_u, lo_v),
+                (hi_u, v1, u2, lo_v),
+                (u1, hi_v, lo_u, v2),
+                (hi_u, hi_v, u2, v2),
+            ):
+                split(a, b, c, d, weight / 4.0)
+            return
+        for u, v in ((u1, v1), (u2, v1), (u1, v2), (u2, v2)):
+            w[u, v] += weight / 4.0
+
+    split(0, 0, w.shape[0] - 1, w.shape[1] - 1, 1.0)
+    return w.ravel()
+
+
 def area_centres(light: ir.Light, points: np.ndarray) -> np.ndarray:
     """(N,K,3) sub-light positions of an area light as seen from each point."""
     area = light.area
