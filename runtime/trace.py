@@ -255,6 +255,53 @@ def slab_hits(o, d, lo, hi, tmin, tmax) -> np.ndarray:
     return (tn - pad <= tfar + pad) & (tfar + pad >= tmin) & (tn - pad <= tmax)
 
 
+class BoxTree:
+    """A bounding-volume hierarchy over the finite nodes' world boxes, traversed a whole ray
+    batch at a time: each tree node filters the rows that reach it, so a ray only meets the
+    objects whose boxes it crosses (no per-ray loop; a loop over tree nodes instead)."""
+
+    LEAF_SIZE = 4
+
+    def __init__(self, lo: np.ndarray, hi: np.ndarray):
+        self.lo: list[np.ndarray] = []
+        self.hi: list[np.ndarray] = []
+        self.kids: list[tuple[int, int] | None] = []
+        self.items: list[np.ndarray] = []
+        self._build(np.arange(len(lo)), lo, hi)
+
+    def _build(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
+        k = len(self.lo)
+        self.lo.append(lo[ids].min(axis=0))
+        self.hi.append(hi[ids].max(axis=0))
+        self.kids.append(None)
+        self.items.append(ids)
+        if len(ids) > self.LEAF_SIZE:
+            centre = (lo[ids] + hi[ids]) / 2
+            axis = int(np.argmax(np.ptp(centre, axis=0)))
+            order = ids[np.argsort(centre[:, axis], kind="stable")]
+            half = len(order) // 2
+            left = self._build(order[:half], lo, hi)
+            right = self._build(order[half:], lo, hi)
+            self.kids[k] = (left, right)
+        return k
+
+    def query(self, o, d, tmin, tmax) -> list[tuple[int, np.ndarray]]:
+        """[(item, rows)] for every leaf item whose tree leaf box the rows' segments touch."""
+        out = []
+        stack = [(0, np.arange(len(o)))]
+        while stack:
+            k, rows = stack.pop()
+            hit = slab_hits(o[rows], d[rows], self.lo[k], self.hi[k], tmin[rows], tmax[rows])
+            rows = rows[hit]
+            if len(rows) == 0:
+                continue
+            if self.kids[k] is None:
+                out.extend((int(i), rows) for i in self.items[k])
+            else:
+                stack.extend((c, rows) for c in self.kids[k])
+        return sorted(out, key=lambda item: item[0])
+
+
 class Tracer:
     """Closest-hit and any-hit queries over a prepared scene.
 
@@ -270,6 +317,36 @@ class Tracer:
         self.leaf_by_index: dict[int, Leaf] = {}
         for n in nodes:
             self._register(n)
+        finite = [
+            i
+            for i, n in enumerate(nodes)
+            if np.all(np.isfinite(n.lo)) and np.all(np.isfinite(n.hi))
+        ]
+        self.unbounded = [i for i, n in enumerate(nodes) if i not in set(finite)]
+        self.bounded = finite
+        self.tree = None
+        if len(finite) > self.TREE_THRESHOLD:
+            lo = np.array([nodes[i].lo for i in finite])
+            hi = np.array([nodes[i].hi for i in finite])
+            self.tree = BoxTree(lo, hi)
+
+    # Below this many bounded objects a plain per-object box test is cheaper than a tree.
+    TREE_THRESHOLD = 8
+
+    def _visits(self, o, d, tmin, tmax, skipped) -> list[tuple[object, np.ndarray | None]]:
+        """(node, candidate rows or None for all) pairs to intersect, nodes in scene order
+        for the unbounded ones, tree order for the rest."""
+        out: list[tuple[object, np.ndarray | None]] = []
+        for i in self.unbounded:
+            out.append((self.nodes[i], None))
+        if self.tree is None:
+            out.extend((self.nodes[i], None) for i in self.bounded)
+        else:
+            for item, rows in self.tree.query(o, d, tmin, tmax):
+                out.append((self.nodes[self.bounded[item]], rows))
+        if skipped is not None:
+            out = [(n, r) for n, r in out if not skipped[n.leaves].all()]
+        return out
 
     def _register(self, node) -> None:
         if isinstance(node, Leaf):
@@ -299,11 +376,13 @@ class Tracer:
         skipped = self.flags.get(skip) if skip else None
         face = np.zeros(n, dtype=np.int8)
         flip = np.zeros(n, dtype=bool)
-        for node in self.nodes:
-            if skipped is not None and skipped[node.leaves].all():
-                continue
+        for node, cand in self._visits(o, d, tmin_a, tmax_a, skipped):
             limit = np.minimum(hits.t, tmax_a)
-            rows = np.nonzero(slab_hits(o, d, node.lo, node.hi, tmin_a, limit))[0]
+            if cand is None:
+                rows = np.nonzero(slab_hits(o, d, node.lo, node.hi, tmin_a, limit))[0]
+            else:
+                keep = slab_hits(o[cand], d[cand], node.lo, node.hi, tmin_a[cand], limit[cand])
+                rows = cand[keep]
             if len(rows) == 0:
                 continue
             c = node.crossings(o[rows], d[rows])
@@ -353,11 +432,11 @@ class Tracer:
         tmax_a = np.broadcast_to(np.asarray(tmax, dtype=np.float64), (n,)).copy()
         blocked = np.zeros(n, dtype=bool)
         skipped = self.flags.get("no_shadow")
-        for node in self.nodes:
-            if skipped is not None and skipped[node.leaves].all():
-                continue
-            open_rows = ~blocked & slab_hits(o, d, node.lo, node.hi, tmin_a, tmax_a)
-            rows = np.nonzero(open_rows)[0]
+        for node, cand in self._visits(o, d, tmin_a, tmax_a, skipped):
+            cand = np.arange(n) if cand is None else cand
+            cand = cand[~blocked[cand]]
+            keep = slab_hits(o[cand], d[cand], node.lo, node.hi, tmin_a[cand], tmax_a[cand])
+            rows = cand[keep]
             if len(rows) == 0:
                 continue
             c = node.crossings(o[rows], d[rows])

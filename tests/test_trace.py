@@ -228,3 +228,43 @@ def test_nurbs_and_subdivision_become_meshes(monkeypatch):
     assert seen["tolerance"] == pytest.approx(0.5 * 1.33 / 100 * nearest, rel=1e-12)
     h = prep.tracer.closest(np.array([[0.0, 0, -5]]), np.array([[0.0, 0, 1]]))
     assert h.obj[0] == 0 and 3.9 < h.t[0] <= 4.0
+
+
+def test_box_tree_agrees_with_brute_force():
+    """With many objects the tracer walks a box tree; it must find exactly the hits the
+    plain per-object loop finds (closest and shadow queries)."""
+    rng = np.random.default_rng(11)
+    objs = []
+    for k in range(120):
+        c = tuple(rng.uniform(-10, 10, 3))
+        if k % 3 == 0:
+            lo = np.array(c)
+            objs.append(ir.Object(ir.Box(tuple(lo), tuple(lo + rng.uniform(0.2, 1.5, 3)))))
+        elif k % 3 == 1:
+            objs.append(ir.Object(ir.Sphere(c, float(rng.uniform(0.2, 1.0)))))
+        else:
+            objs.append(
+                ir.Object(
+                    ir.Torus(0.6, 0.2),
+                    transform=((1, 0, 0, c[0]), (0, 1, 0, c[1]), (0, 0, 1, c[2]), (0, 0, 0, 1)),
+                )
+            )
+    objs.append(ir.Object(ir.Plane((0, 1, 0), -12)))
+    prep = prep_of(*objs)
+    assert prep.tracer.tree is not None
+    o = rng.uniform(-15, 15, (3000, 3))
+    d = random_dirs(rng, 3000)
+    h = prep.tracer.closest(o, d)
+    prep.tracer.tree = None  # force the brute-force path
+    prep.tracer.bounded = [
+        i for i in range(len(prep.tracer.nodes)) if i not in prep.tracer.unbounded
+    ]
+    b = prep.tracer.closest(o, d)
+    assert (h.obj == b.obj).all()
+    assert np.array_equal(h.t, b.t)
+    assert (h.obj >= 0).mean() > 0.3
+    tmax = np.full(3000, 8.0)
+    occ_brute = prep.tracer.occluded(o, d, tmax)
+    prep2 = prep_of(*objs)
+    assert (prep2.tracer.occluded(o, d, tmax) == occ_brute).all()
+    assert occ_brute.any() and not occ_brute.all()
