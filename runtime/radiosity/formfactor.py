@@ -1,0 +1,311 @@
+"""Form factors between planar polygonal patches.
+
+F_ij = 1/A_i ∫_{A_i} F(dA → A_j) dA, with the inner factor in closed form: the
+differential-area-to-polygon form factor is Lambert's contour integral (Nusselt's analogue:
+the polygon's solid angle projected onto the receiver's tangent plane, divided by π)
+
+    F(dA → A_j) = 1/(2π) |Σ_k γ_k n · (R_k × R_{k+1}) / |R_k × R_{k+1}||,
+
+R_k the unit vectors from the point to the vertices, γ_k the angle between R_k and R_{k+1}.
+The polygon is first clipped to the receiver's hemisphere (Sutherland–Hodgman), so the
+formula holds for any placement. The outer integral is a Gauss rule over the source patch
+(collapsed Gauss–Legendre on each fan triangle, any order), so
+
+- a patch's row sum equals the quadrature of Σ_j F(dA → A_j), which is exactly 1 at every
+  point that sees a closed polyhedron: closed scenes conserve energy to rounding, whatever
+  the quadrature order;
+- reciprocity A_i F_ij = A_j F_ji holds to the outer quadrature error (exact for the inner
+  integral, O(h^{2n}) for smooth integrands; adjacent patches converge more slowly because
+  the kernel has an x·log x term at a shared edge).
+
+Patches are one-sided: a patch sends light only to the side its normal faces
+(normal = right-hand rule over its vertices) and receives only on that side.
+
+Visibility is supplied by the caller: `visible(origins, targets) -> (N,) float` in [0, 1]
+(1 where the open segment is free). `tracer_visibility` builds it from the runtime tracer
+(Embree for triangles, analytic shapes otherwise). The visible fraction between a source
+fan triangle and a target patch is estimated with `vis_samples` stratified segment pairs
+and multiplies that triangle's share of the kernel.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+Visibility = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+# Below this |R_k × R_{k+1}| an edge is degenerate (padding vertex or an edge seen end-on):
+# its contribution γ·ĉ/|c| → c itself, which is ~0; far below any real edge's sine.
+_DEGENERATE_SINE = 1e-14
+
+# Points closer than this (relative to the coordinates' size) to a target patch's plane are
+# coplanar with it: float64 plane offsets are good to ~1e-15 relative, so 1e-10 is safe.
+_COPLANAR_REL = 1e-10
+
+# Memory budget for one batch of kernel evaluations (bytes of the largest temporary).
+_CHUNK_BYTES = 64 * 2**20
+
+
+# ------------------------------------------------------------------- geometry
+
+
+def _normalize(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
+
+
+def polygon_normal_area(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals (...,3) and areas (...) of planar polygons (...,K,3) (Newell's method,
+    exact for planar polygons and robust to repeated padding vertices)."""
+    nxt = np.roll(verts, -1, axis=-2)
+    twice = np.cross(verts, nxt).sum(axis=-2)
+    area = 0.5 * np.linalg.norm(twice, axis=-1)
+    return _normalize(twice), area
+
+
+def clip_to_hemisphere(rel: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Clip polygons to the half-space above the receiver's tangent plane.
+
+    rel: (...,K,3) vertices relative to the receiving point; normal: (...,3) broadcastable.
+    Returns (...,2K,3): the clipped polygon, padded by repeating vertices (repeated vertices
+    add nothing to the contour integral); all-zero where nothing is above the plane."""
+    d = np.einsum("...kc,...c->...k", rel, normal)
+    inside = d >= 0.0
+    if inside.all():
+        return rel
+    shape = np.broadcast_shapes(rel.shape[:-2], d.shape[:-1])
+    k = rel.shape[-2]
+    rel = np.broadcast_to(rel, shape + (k, 3))
+    nxt = np.roll(rel, -1, axis=-2)
+    dn = np.roll(d, -1, axis=-1)
+    crossing = inside != np.roll(inside, -1, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(crossing, d / (d - dn), 0.0)
+    x = rel + t[..., None] * (nxt - rel)
+    out = np.empty(shape + (2 * k, 3))
+    out[..., 0::2, :] = rel
+    out[..., 1::2, :] = x
+    valid = np.empty(shape + (2 * k,), dtype=bool)
+    valid[..., 0::2] = inside
+    valid[..., 1::2] = crossing
+    # Forward-fill dropped slots with the previous kept vertex; leading slots wrap around to
+    # the last kept one (the polygon is cyclic, so this only repeats a vertex).
+    idx = np.where(valid, np.arange(2 * k), -1)
+    idx = np.maximum.accumulate(idx, axis=-1)
+    last = idx[..., -1:]
+    idx = np.where(idx < 0, last, idx)
+    none = last[..., 0] < 0
+    out = np.take_along_axis(out, np.maximum(idx, 0)[..., None], axis=-2)
+    out[none] = 0.0
+    return out
+
+
+def projected_solid_angle(rel: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Lambert's contour integral / π for polygons already above the tangent plane:
+    (...,K,3) relative vertices, (...,3) normal → (...) form factor in [0, 1]."""
+    u = _normalize(rel)
+    v = np.roll(u, -1, axis=-2)
+    c = np.cross(u, v)
+    s = np.linalg.norm(c, axis=-1)
+    cosang = np.einsum("...kc,...kc->...k", u, v)
+    gamma = np.arctan2(s, cosang)
+    # γ/sin γ is smooth (→ 1) as an edge degenerates: no 0/0 for padding vertices.
+    f = np.where(s > _DEGENERATE_SINE, gamma / np.maximum(s, _DEGENERATE_SINE), 1.0)
+    total = np.einsum("...kc,...c->...", c * f[..., None], normal)
+    return np.abs(total) / (2.0 * np.pi)
+
+
+def point_polygon(points: np.ndarray, normals: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Form factor from differential areas (points (N,3), unit normals (N,3)) to a polygon
+    ((K,3) shared, or (N,K,3) one per point). The polygon is treated as two-sided here
+    (pure geometry); `form_factors` applies the one-sided rule for patches."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    polygon = np.asarray(polygon, dtype=np.float64)
+    rel = polygon - points[:, None, :]  # (K,3) broadcasts against (N,1,3) as (N,K,3)
+    return projected_solid_angle(clip_to_hemisphere(rel, normals), normals)
+
+
+# ------------------------------------------------------------------ quadrature
+
+
+def _gauss_legendre01(n: int) -> tuple[np.ndarray, np.ndarray]:
+    x, w = np.polynomial.legendre.leggauss(n)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+def fan_triangles(verts: np.ndarray) -> np.ndarray:
+    """(N,K,3) convex polygons → (N,K-2,3,3) fan triangles (v0, v_k, v_k+1)."""
+    k = verts.shape[1]
+    a = np.repeat(verts[:, :1], k - 2, axis=1)
+    return np.stack([a, verts[:, 1 : k - 1], verts[:, 2:k]], axis=2)
+
+
+def polygon_quadrature(verts: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss points on convex polygons (N,K,3): points (N,Q,3) and weights (N,Q) summing to
+    each polygon's area. Four corners (quads, and triangles padded by a repeated vertex):
+    the bilinear map of an n×n Gauss–Legendre grid, Q = n² (a collapsed edge makes it the
+    Duffy rule on the triangle). More corners: the Duffy rule on each fan triangle,
+    Q = (K-2)·n². n = `order`; exact for polynomials of degree 2n-1 per direction."""
+    verts = np.asarray(verts, dtype=np.float64)
+    x, w = _gauss_legendre01(order)
+    if verts.shape[1] == 4:
+        s = np.repeat(x, order)  # s fastest in the second index below
+        t = np.tile(x, order)
+        ww = np.repeat(w, order) * np.tile(w, order)
+        p00, p10, p11, p01 = (verts[:, i, None, :] for i in range(4))
+        s_, t_ = s[None, :, None], t[None, :, None]
+        pts = (1 - s_) * (1 - t_) * p00 + s_ * (1 - t_) * p10 + s_ * t_ * p11 + (1 - s_) * t_ * p01
+        ds = (1 - t_) * (p10 - p00) + t_ * (p11 - p01)
+        dt = (1 - s_) * (p01 - p00) + s_ * (p11 - p10)
+        jac = np.linalg.norm(np.cross(ds, dt), axis=-1)
+        return pts, jac * ww[None, :]
+    tri = fan_triangles(verts)
+    u = x[:, None]
+    v = x[None, :]
+    wu = (w[:, None] * w[None, :] * 2.0 * u).reshape(-1)  # Jacobian of the collapse: 2·A·u
+    uu = np.broadcast_to(u, (order, order)).reshape(-1)
+    uv = (u * v).reshape(-1)
+    a, b, c = tri[:, :, 0], tri[:, :, 1], tri[:, :, 2]
+    pts = a[:, :, None] + uu[:, None] * (b - a)[:, :, None] + uv[:, None] * (c - b)[:, :, None]
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=-1)
+    weights = area[:, :, None] * wu
+    n = len(verts)
+    return pts.reshape(n, -1, 3), weights.reshape(n, -1)
+
+
+def stratified_points(verts: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
+    """(N,count,3) jittered points spread over each convex polygon by area: the polygon's
+    fan triangles are sampled in proportion to area with stratified uniforms."""
+    tri = fan_triangles(np.asarray(verts, dtype=np.float64))
+    n, t = tri.shape[:2]
+    a, b, c = tri[:, :, 0], tri[:, :, 1], tri[:, :, 2]
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=-1)
+    cdf = np.cumsum(area, axis=1)
+    cdf /= np.maximum(cdf[:, -1:], 1e-300)
+    strata = (np.arange(count) + rng.random((n, count))) / count
+    which = np.minimum((strata[:, :, None] > cdf[:, None, :]).sum(axis=2), t - 1)
+    r1 = np.sqrt(rng.random((n, count)))
+    r2 = rng.random((n, count))
+    rows = np.arange(n)[:, None]
+    pa, pb, pc = a[rows, which], b[rows, which], c[rows, which]
+    return (1 - r1)[..., None] * pa + (r1 * (1 - r2))[..., None] * pb + (r1 * r2)[..., None] * pc
+
+
+# ------------------------------------------------------------------ visibility
+
+
+def tracer_visibility(tracer, rel_gap: float = 1e-6) -> Visibility:
+    """`visible(origins, targets)` from a runtime.trace.Tracer: 1 where nothing that casts
+    shadows lies strictly between the two points. Both ends sit on surfaces, so the tested
+    segment is shortened by `rel_gap` of its length at each end (scale-free, and far larger
+    than the tracer's float64 hit error)."""
+
+    def visible(origins: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        d = targets - origins
+        dist = np.linalg.norm(d, axis=1)
+        safe = np.maximum(dist, 1e-300)
+        d = d / safe[:, None]
+        blocked = tracer.occluded(origins, d, tmax=dist * (1 - rel_gap), tmin=dist * rel_gap)
+        return (~blocked).astype(np.float64)
+
+    return visible
+
+
+# -------------------------------------------------------------- form factors
+
+
+def form_factors(
+    src: np.ndarray,
+    dst: np.ndarray | None = None,
+    *,
+    order: int = 3,
+    visible: Visibility | None = None,
+    vis_samples: int = 4,
+    seed: int = 0,
+    chunk_bytes: int = _CHUNK_BYTES,
+) -> np.ndarray:
+    """Form factors F[i, j] from convex patches `src` (Ns,K,3) to `dst` (Nd,K',3)
+    (default: src itself). Patches are one-sided (see the module docstring).
+
+    With `visible`, F[i, j] is multiplied by the fraction of `vis_samples` stratified
+    segments between the two patches that `visible` reports free (one estimate per pair,
+    shared by both directions when dst is src, so reciprocity survives); pairs that
+    exchange no light cast no rays."""
+    src = np.asarray(src, dtype=np.float64)
+    same = dst is None
+    dst = src if dst is None else np.asarray(dst, dtype=np.float64)
+    ns = len(src)
+    nd, kd = dst.shape[:2]
+    n_src, a_src = polygon_normal_area(src)
+    n_dst, _ = polygon_normal_area(dst)
+    off_dst = np.einsum("nc,nc->n", n_dst, dst[:, 0])
+    pts, w = polygon_quadrature(src, order)
+    q = pts.shape[1]
+    scale = float(np.abs(dst).max()) + float(np.abs(src).max())
+    out = np.zeros((ns, nd))
+    # Largest temporaries: a few (rows, q, nd, kd, 3) float64 arrays.
+    rows_per_chunk = max(1, int(chunk_bytes // (q * nd * kd * 3 * 8 * 4)))
+    for start in range(0, ns, rows_per_chunk):
+        sl = slice(start, min(ns, start + rows_per_chunk))
+        p = pts[sl]  # (r,q,3)
+        r = len(p)
+        # One-sided receivers/senders: the point must lie in front of the target patch, by a
+        # margin: a coplanar polygon around the point is the contour integral's degenerate
+        # limit (it returns 1, not 0), and rounding puts coplanar points on either side.
+        height = np.einsum("rqc,jc->rqj", p, n_dst) - off_dst[None, None, :]
+        front = height > _COPLANAR_REL * (np.abs(off_dst)[None, None, :] + scale)
+        # Heights of the target's vertices above the receiver's tangent plane.
+        nrm = n_src[sl]
+        vh = (
+            np.einsum("jkc,rc->rjk", dst, nrm)[:, None]
+            - np.einsum("rqc,rc->rq", p, nrm)[:, :, None, None]
+        )  # (r,q,nd,kd)
+        active = front & (vh.max(axis=3) > 0)
+        kern = np.zeros((r, q, nd))
+        ri, qi, ji = np.nonzero(active)
+        if len(ri):
+            rel = dst[ji] - p[ri, qi][:, None, :]
+            nn = nrm[ri]
+            below = (vh[ri, qi, ji] < 0).any(axis=1)
+            vals = np.empty(len(ri))
+            up = ~below
+            vals[up] = projected_solid_angle(rel[up], nn[up])
+            if below.any():
+                vals[below] = projected_solid_angle(
+                    clip_to_hemisphere(rel[below], nn[below]), nn[below]
+                )
+            kern[ri, qi, ji] = vals
+        out[sl] = np.einsum("rq,rqj->rj", w[sl], kern) / np.maximum(a_src[sl], 1e-300)[:, None]
+    if visible is not None:
+        out *= pair_visibility(src, dst, out, visible, vis_samples, seed, same)
+    return out
+
+
+def pair_visibility(src, dst, unoccluded, visible, vis_samples, seed, same) -> np.ndarray:
+    """(Ns,Nd) visible fraction for every pair with a nonzero unoccluded form factor: the
+    mean of `visible` over `vis_samples` stratified segments (origins on the source patch,
+    targets on the target patch, strata paired by a random permutation)."""
+    rng = np.random.default_rng(seed)
+    need = unoccluded > 0.0
+    if same:
+        need = need | need.T
+        need = np.triu(need, 1)  # one estimate per unordered pair, mirrored below
+    ii, jj = np.nonzero(need)
+    frac = np.ones(unoccluded.shape)
+    if len(ii) == 0:
+        return frac
+    o = stratified_points(src, vis_samples, rng)
+    t = stratified_points(dst, vis_samples, rng)
+    batch = max(1, 2**20 // vis_samples)
+    for b in range(0, len(ii), batch):
+        i, j = ii[b : b + batch], jj[b : b + batch]
+        perm = np.argsort(rng.random((len(i), vis_samples)), axis=1)
+        tg = np.take_along_axis(t[j], perm[:, :, None], axis=1)
+        v = np.asarray(visible(o[i].reshape(-1, 3), tg.reshape(-1, 3)), dtype=np.float64)
+        frac[i, j] = v.reshape(-1, vis_samples).mean(axis=1)
+    if same:
+        frac[jj, ii] = frac[ii, jj]
+    return frac
