@@ -1,0 +1,369 @@
+"""Adaptive tessellation of NURBS surfaces and curves (as tubes) into indexed triangle meshes.
+
+Surfaces: the parameter domain is cut into a tensor grid whose spacing is uniform inside each
+knot span but chosen per span: each u-span gets its own number of columns, each v-span its own
+number of rows. A single grid shared by the whole surface is watertight by construction (every
+edge between two cells has the same two vertices on both sides), and spans with high curvature
+still get more vertices than flat ones. The counts are found by measuring: every cell's
+triangles are compared with the true surface at their edge midpoints and centroids, and a span
+whose cells miss the chord-error bound is refined by sqrt(error / bound) (chord error falls as
+the square of the step), until every measured point is within `tolerance`.
+
+Closed surfaces are welded: a seam whose two boundary columns (or rows) coincide shares one
+column of vertices, and a boundary that collapses to a point (the pole of a sphere) becomes one
+vertex; triangles that collapse with it are dropped. So a sphere or a torus comes out as a
+closed 2-manifold: every edge is shared by exactly two triangles.
+
+Normals and uvs come from the exact surface (`Surface.normals_from_derivatives`), never from
+the triangles. Curves become tubes: rings around the curve on a rotation-minimising frame
+(double reflection, Wang et al. 2008), closed curves closed up with the frame's twist
+distributed along the length, open ends capped flat.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from lang import ir
+from runtime.nurbs import Curve, KnotVector, Surface
+
+# Refinement aims below the bound so that one more pass is rarely needed.
+TARGET = 0.7
+# At most this many refinement passes; each one re-measures the whole grid.
+MAX_PASSES = 12
+# A span never grows by more than this factor in one pass (the h^2 model is asymptotic).
+MAX_GROWTH = 32.0
+# Default ceiling on the triangle count of one surface: beyond it the tolerance is given up
+# (with a warning) rather than the memory of the machine.
+MAX_TRIANGLES = 4_000_000
+# Coincidence test for seams and poles, relative to the net's size plus its distance from the
+# origin: evaluations of identical control rows agree to a few ulps, distinct ones differ by
+# far more than this.
+WELD_REL = 1e-10
+
+
+@dataclass(frozen=True)
+class TriMesh:
+    vertices: np.ndarray  # (N, 3) float64
+    faces: np.ndarray  # (M, 3) int32
+    normals: np.ndarray  # (N, 3) float64, unit
+    uvs: np.ndarray  # (N, 2) float64 in [0, 1]
+    max_error: float  # largest measured chord error (world units, object space)
+    capped: bool = False  # True when MAX_TRIANGLES stopped refinement early
+
+
+def nurbs_mesh(shape: ir.Nurbs, tolerance: float, max_triangles: int = MAX_TRIANGLES):
+    """(vertices (N,3) f64, faces (M,3) i32, normals (N,3) f64, uvs (N,2) f64) of a NURBS
+    surface, or of the tube around a NURBS curve (`shape.nv == 0`), to chord error
+    `tolerance` (object-space units). The shape must pass `nurbs.validate`."""
+    m = tessellate(shape, tolerance, max_triangles)
+    return m.vertices, m.faces, m.normals, m.uvs
+
+
+def tessellate(shape: ir.Nurbs, tolerance: float, max_triangles: int = MAX_TRIANGLES) -> TriMesh:
+    if not tolerance > 0:
+        raise ValueError(f"tolerance must be positive, got {tolerance}")
+    if shape.nv == 0:
+        return tube_mesh(Curve.from_ir(shape), shape.radius, tolerance, max_triangles)
+    return surface_mesh(Surface.from_ir(shape), tolerance, max_triangles)
+
+
+# ---------------------------------------------------------------------------- grids
+def _params(kv: KnotVector, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Grid parameters for per-span segment counts, and each cell's span number. Span
+    boundaries are the knots themselves, so creases at repeated knots are kept exactly."""
+    parts = []
+    for s, c in zip(kv.spans, counts, strict=True):
+        a, b = kv.knots[s], kv.knots[s + 1]
+        parts.append(a + (b - a) * (np.arange(c) / c))
+    parts.append(np.array([kv.hi]))
+    cell_span = np.repeat(np.arange(len(counts)), counts)
+    return np.concatenate(parts), cell_span
+
+
+def _err(exact: np.ndarray, approx: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(exact - approx, axis=-1)
+
+
+def _measure(surf: Surface, us: np.ndarray, vs: np.ndarray, P: np.ndarray):
+    """Chord errors of the grid's triangles, per cell: (e_u, e_v, e_mixed), each (nv-1, nu-1).
+
+    Each cell (u_i..u_i+1, v_j..v_j+1) is cut along its (u_i, v_j)-(u_i+1, v_j+1) diagonal.
+    The surface is compared with the triangles at edge midpoints (u edges, v edges, the
+    diagonal) and at both triangle centroids, each a tensor grid of its own."""
+    hu = np.diff(us)
+    hv = np.diff(vs)
+    uh, vh = us[:-1] + 0.5 * hu, vs[:-1] + 0.5 * hv
+
+    def grid(a, b):
+        return surf.grid_derivatives(a, b, 0)[0, 0]
+
+    # Midpoints of u-edges (rows j, cells i) and v-edges; each cell takes its two edges.
+    eu_edges = _err(grid(uh, vs), 0.5 * (P[:, :-1] + P[:, 1:]))  # (nv, nu-1)
+    ev_edges = _err(grid(us, vh), 0.5 * (P[:-1] + P[1:]))  # (nv-1, nu)
+    e_u = np.maximum(eu_edges[:-1], eu_edges[1:])
+    e_v = np.maximum(ev_edges[:, :-1], ev_edges[:, 1:])
+    p00, p10, p01, p11 = P[:-1, :-1], P[:-1, 1:], P[1:, :-1], P[1:, 1:]
+    e_d = _err(grid(uh, vh), 0.5 * (p00 + p11))
+    ca = grid(us[:-1] + hu * (2 / 3), vs[:-1] + hv * (1 / 3))
+    cb = grid(us[:-1] + hu * (1 / 3), vs[:-1] + hv * (2 / 3))
+    e_a = _err(ca, (p00 + p10 + p11) / 3)
+    e_b = _err(cb, (p00 + p11 + p01) / 3)
+    e_m = np.maximum(e_d, np.maximum(e_a, e_b))
+    return e_u, e_v, e_m
+
+
+def _span_max(values: np.ndarray, cell_span: np.ndarray, nspans: int) -> np.ndarray:
+    out = np.zeros(nspans)
+    np.maximum.at(out, cell_span, values)
+    return out
+
+
+def _grow(counts: np.ndarray, err: np.ndarray, tol: float) -> np.ndarray:
+    factor = np.sqrt(np.maximum(err, 0.0) / (TARGET * tol))
+    factor = np.clip(factor, 1.0, MAX_GROWTH)
+    new = np.ceil(counts * factor).astype(np.int64)
+    # A span over the bound grows by at least one segment even if the model says less.
+    return np.where(err > tol, np.maximum(new, counts + 1), counts)
+
+
+def surface_mesh(surf: Surface, tol: float, max_triangles: int = MAX_TRIANGLES) -> TriMesh:
+    ukv, vkv = surf.ukv, surf.vkv
+    cu = np.full(len(ukv.spans), max(1, surf.u_degree), dtype=np.int64)
+    cv = np.full(len(vkv.spans), max(1, surf.v_degree), dtype=np.int64)
+    capped = False
+    for _ in range(MAX_PASSES):
+        us, ucell = _params(ukv, cu)
+        vs, vcell = _params(vkv, cv)
+        P = surf.grid_derivatives(us, vs, 0)[0, 0]
+        e_u, e_v, e_m = _measure(surf, us, vs, P)
+        worst = float(max(e_u.max(), e_v.max(), e_m.max()))
+        if worst <= tol:
+            break
+        # Mixed (diagonal, centroid) error is charged in full to the direction(s) whose own
+        # edge error is at least a third of the total; a pure twist (both edge errors ~0) to
+        # both.
+        share_u = np.where(e_u + e_v > 0, e_u / np.maximum(e_u + e_v, 1e-300), 0.5)
+        need_u = np.maximum(e_u, np.where(share_u >= 1 / 3, e_m, 0.0))
+        need_v = np.maximum(e_v, np.where(share_u <= 2 / 3, e_m, 0.0))
+        nu_cu = _grow(cu, _span_max(need_u.max(axis=0), ucell, len(cu)), tol)
+        nv_cv = _grow(cv, _span_max(need_v.max(axis=1), vcell, len(cv)), tol)
+        if 2 * int(nu_cu.sum()) * int(nv_cv.sum()) > max_triangles:
+            capped = True
+            break
+        if np.array_equal(nu_cu, cu) and np.array_equal(nv_cv, cv):
+            break
+        cu, cv = nu_cu, nv_cv
+    if capped or worst > tol:
+        warnings.warn(
+            f"nurbs tessellation reached {worst:.3g} instead of the tolerance {tol:.3g}"
+            + (f" (capped at {max_triangles} triangles)" if capped else ""),
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return _assemble(surf, us, vs, worst, capped)
+
+
+def _assemble(surf: Surface, us, vs, worst: float, capped: bool) -> TriMesh:
+    D = surf.grid_derivatives(us, vs, 1)
+    nv, nu = len(vs), len(us)
+    P = D[0, 0].reshape(-1, 3)
+    uu = np.broadcast_to(us[None, :], (nv, nu)).reshape(-1)
+    vv = np.broadcast_to(vs[:, None], (nv, nu)).reshape(-1)
+    N = surf.normals_from_derivatives(D.reshape(2, 2, -1, 3), uu, vv)
+    (u0, u1), (v0, v1) = surf.domain
+    uv = np.stack([(uu - u0) / (u1 - u0), (vv - v0) / (v1 - v0)], axis=1)
+
+    idx = np.arange(nv * nu).reshape(nv, nu)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+    rep = np.arange(nv * nu)
+    G = P.reshape(nv, nu, 3)
+    eps = WELD_REL * (surf.scale + float(np.abs(G).max()))
+
+    def close(x, y):
+        return bool(np.all(np.linalg.norm(x - y, axis=-1) <= eps))
+
+    # Seams first (the last column/row becomes the first), then poles (a boundary collapsed
+    # to a point becomes its first vertex); composing the maps keeps shared corners shared.
+    if close(G[:, 0], G[:, -1]):
+        rep[idx[:, -1]] = rep[idx[:, 0]]
+    if close(G[0], G[-1]):
+        rep[idx[-1]] = rep[idx[0]]
+    for line in (idx[0], idx[-1], idx[:, 0], idx[:, -1]):
+        pts = P[line]
+        if close(pts, pts[:1]):
+            rep[line] = rep[line[0]]
+    rep = rep[rep]  # a seam vertex that sits on a pole follows the pole
+    faces = rep[faces]
+    keep = (
+        (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
+    )
+    faces = faces[keep]
+    used, inv = np.unique(faces, return_inverse=True)
+    faces = inv.reshape(-1, 3).astype(np.int32)
+    return TriMesh(P[used], faces, N[used], uv[used], worst, capped)
+
+
+# ---------------------------------------------------------------------------- tubes
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def _tangents(curve: Curve, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points and unit tangents; where C' vanishes (coincident control points) the tangent is
+    the direction of C'' (the limit of C'/|C'|), then the chord to the next sample."""
+    D = curve.derivatives(ts, 2)
+    C, t1, t2 = D[0], D[1], D[2]
+    scale = float(np.linalg.norm(np.ptp(C, axis=0))) + 1e-300
+    lo, hi = curve.domain
+    l1 = np.linalg.norm(t1, axis=-1)
+    T = t1.copy()
+    weak = l1 <= 1e-9 * scale / (hi - lo)
+    if weak.any():
+        # Moving into the domain, C' ~ e C'': point the tangent along +C'' at the start side.
+        sgn = np.where(ts >= 0.5 * (lo + hi), -1.0, 1.0)[:, None]
+        T[weak] = (sgn * t2)[weak]
+    still = np.linalg.norm(T, axis=-1) <= 1e-300
+    if still.any():
+        chord = np.diff(C, axis=0, append=C[-1:] + (C[-1:] - C[-2:-1]))
+        T[still] = chord[still]
+    T = _unit(T)
+    T[np.linalg.norm(T, axis=-1) == 0] = (0.0, 0.0, 1.0)
+    return C, T
+
+
+def _curve_samples(curve: Curve, radius: float, tol: float, max_rings: int):
+    kv = curve.kv
+    counts = np.full(len(kv.spans), max(1, curve.degree), dtype=np.int64)
+    budget = 0.5 * tol  # half for the centreline and the bending of the rings
+    worst = math.inf
+    for _ in range(MAX_PASSES):
+        ts, cell = _params(kv, counts)
+        C, T = _tangents(curve, ts)
+        mid = curve.points(ts[:-1] + 0.5 * np.diff(ts))
+        e_c = _err(mid, 0.5 * (C[:-1] + C[1:]))
+        cosang = np.clip(np.sum(T[:-1] * T[1:], axis=-1), -1.0, 1.0)
+        half = 0.5 * np.arccos(cosang)
+        # The outside of a bend of the tube is a circle of radius (rho + r): its sagitta is the
+        # centreline's plus r(1 - cos(half the turn)).
+        e = e_c + radius * (1.0 - np.cos(half))
+        worst = float(e.max())
+        if worst <= budget:
+            break
+        new = _grow(counts, _span_max(e, cell, len(counts)), budget)
+        if int(new.sum()) > max_rings or np.array_equal(new, counts):
+            break
+        counts = new
+    return ts, C, T, worst
+
+
+def _rmf(C: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Rotation-minimising reference vectors along the samples by double reflection. It is
+    inherently sequential (each frame follows the previous), one step per ring."""
+    t0 = T[0]
+    axis = np.eye(3)[int(np.argmin(np.abs(t0)))]
+    r = np.cross(t0, axis)
+    r /= np.linalg.norm(r)
+    R = np.empty_like(C)
+    R[0] = r
+    for i in range(len(C) - 1):
+        v1 = C[i + 1] - C[i]
+        c1 = float(v1 @ v1)
+        if c1 > 0:
+            rl = r - (2.0 / c1) * float(v1 @ r) * v1
+            tl = T[i] - (2.0 / c1) * float(v1 @ T[i]) * v1
+        else:
+            rl, tl = r, T[i]
+        v2 = T[i + 1] - tl
+        c2 = float(v2 @ v2)
+        r = rl - (2.0 / c2) * float(v2 @ rl) * v2 if c2 > 0 else rl
+        # Keep r exactly perpendicular to the tangent and unit (drift over many steps).
+        r = r - float(r @ T[i + 1]) * T[i + 1]
+        nr = np.linalg.norm(r)
+        if nr < 1e-12:
+            axis = np.eye(3)[int(np.argmin(np.abs(T[i + 1])))]
+            r = np.cross(T[i + 1], axis)
+            nr = np.linalg.norm(r)
+        r = r / nr
+        R[i + 1] = r
+    return R
+
+
+def tube_mesh(
+    curve: Curve, radius: float, tol: float, max_triangles: int = MAX_TRIANGLES
+) -> TriMesh:
+    if not radius > 0:
+        raise ValueError(f"a tube needs a positive radius, got {radius}")
+    # Ring: a regular polygon's chord error r(1 - cos(pi/k)) within half the tolerance.
+    x = min(1.0, 0.5 * tol / radius)
+    k = max(3, math.ceil(math.pi / math.acos(1.0 - x))) if x < 1.0 else 3
+    max_rings = max(2, max_triangles // (2 * k))
+    ts, C, T, worst = _curve_samples(curve, radius, tol, max_rings)
+    R = _rmf(C, T)
+    lo, hi = curve.domain
+    scale = float(np.linalg.norm(np.ptp(C, axis=0)))
+    eps = WELD_REL * (scale + float(np.abs(C).max()))
+    closed = bool(np.linalg.norm(C[-1] - C[0]) <= eps and T[0] @ T[-1] > 1 - 1e-9)
+    n = len(ts)
+    if closed:
+        # The frame comes back turned by the curve's total torsion: spread the correction
+        # along the arc length so the last ring meets the first.
+        rN = R[-1]
+        phi = math.atan2(float(np.cross(rN, R[0]) @ T[0]), float(rN @ R[0]))
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))])
+        ang = phi * s / max(s[-1], 1e-300)
+        B = np.cross(T, R)
+        R = np.cos(ang)[:, None] * R + np.sin(ang)[:, None] * B
+    B = np.cross(T, R)
+    theta = 2.0 * np.pi * np.arange(k) / k
+    dirs = (
+        np.cos(theta)[None, :, None] * R[:, None, :] + np.sin(theta)[None, :, None] * B[:, None, :]
+    )
+    rings = n - 1 if closed else n
+    V = (C[:rings, None, :] + radius * dirs[:rings]).reshape(-1, 3)
+    Nn = dirs[:rings].reshape(-1, 3)
+    tn = (ts[:rings] - lo) / (hi - lo)
+    UV = np.stack([np.repeat(tn, k), np.tile(np.arange(k) / k, rings)], axis=1)
+    i = np.arange(n - 1)[:, None]
+    j = np.arange(k)[None, :]
+    a = i * k + j
+    b = i * k + (j + 1) % k
+    nxt = (i + 1) % rings if closed else i + 1
+    c = nxt * k + (j + 1) % k
+    d = nxt * k + j
+    faces = [
+        np.stack([a.ravel(), b.ravel(), c.ravel()], 1),
+        np.stack([a.ravel(), c.ravel(), d.ravel()], 1),
+    ]
+    verts, norms, uvs = [V], [Nn], [UV]
+    if not closed:
+        base = len(V)
+        for end, sign in ((0, -1.0), (n - 1, 1.0)):
+            ring = V[end * k : (end + 1) * k]
+            centre = base
+            verts += [C[end][None], ring]
+            norms += [np.repeat((sign * T[end])[None], k + 1, axis=0)]
+            uvs += [np.array([[tn[end], 0.5]]), UV[end * k : (end + 1) * k]]
+            jj = np.arange(k)
+            r0 = base + 1 + jj
+            r1 = base + 1 + (jj + 1) % k
+            cc = np.full(k, centre)
+            faces.append(np.stack([cc, r1, r0] if sign < 0 else [cc, r0, r1], 1))
+            base += k + 1
+    faces = np.concatenate(faces).astype(np.int32)
+    return TriMesh(
+        np.concatenate(verts),
+        faces,
+        np.concatenate(norms),
+        np.concatenate(uvs),
+        worst + radius * (1.0 - math.cos(math.pi / k)),
+        False,
+    )
