@@ -1,0 +1,570 @@
+"""The bundled include files (stdlib/*.inc): they parse and evaluate cleanly, and they give
+every name POV-Ray 3.7's own include files give, with the same values.
+
+Two oracles, both skipped where POV-Ray is not installed:
+- POV-Ray's include files, evaluated *by strala*: every colour, finish, texture, number …
+  they declare must exist in strala's file of the same name with an equal value (1e-9).
+  This checks the data without depending on strala's evaluator being right about POV-Ray.
+- POV-Ray itself (`povray`), for the macros: colour-space conversions, vector maths and
+  transform builders are evaluated by POV-Ray (with its own includes) and by strala (with
+  the stdlib) on the same inputs, and the results must agree.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import random
+import re
+import shutil
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import pytest
+from conftest import ROOT, needs_evaluator
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import ir, values
+from lang.diagnostics import Severity
+from lang.parser import parse
+
+STDLIB = ROOT / "stdlib"
+POV_INCLUDE = Path("/usr/share/povray-3.7/include")
+STDLIB_FILES = sorted(p.name for p in STDLIB.glob("*.inc"))
+TOL = 1e-9
+
+needs_pov_includes = pytest.mark.skipif(
+    not (POV_INCLUDE / "colors.inc").exists(), reason="POV-Ray's include files are not installed"
+)
+
+
+# ----------------------------------------------------------------------------- helpers
+def compile_file(path: Path, library_paths: tuple[str, ...] = ()):
+    from lang.evaluate import compile_file as _compile
+
+    return _compile(str(path), library_paths=library_paths)
+
+
+def errors(result) -> list:
+    return [d for d in result.diagnostics if d.severity is Severity.ERROR]
+
+
+def compile_text(tmp_path: Path, text: str, name: str = "probe.pov"):
+    """Evaluate a scene written to tmp_path (so `#include` finds the bundled stdlib)."""
+    path = tmp_path / name
+    path.write_text(text)
+    return compile_file(path)
+
+
+def is_code(value: Any) -> bool:
+    """Macros and functions are code, not data: the oracle compares data only."""
+    return isinstance(value, values.MacroValue | values.FunctionValue)
+
+
+def differences(a: Any, b: Any, where: str = "") -> list[str]:
+    """Where two evaluated values differ (floats to TOL; spans and file names ignored)."""
+    if isinstance(a, bool | int | float) and isinstance(b, bool | int | float):
+        return [] if abs(float(a) - float(b)) <= TOL else [f"{where}: {a!r} != {b!r}"]
+    if isinstance(a, values.ColorValue) and isinstance(b, values.ColorValue):
+        return differences(a.rgbft, b.rgbft, where + ".rgbft")
+    if type(a) is not type(b):
+        return [f"{where}: {type(a).__name__} != {type(b).__name__} ({a!r} vs {b!r})"]
+    if dataclasses.is_dataclass(a):
+        out: list[str] = []
+        for f in dataclasses.fields(a):
+            if f.name in ("span", "file", "keyword_span"):
+                continue
+            out += differences(getattr(a, f.name), getattr(b, f.name), f"{where}.{f.name}")
+        return out
+    if isinstance(a, dict):
+        if set(a) != set(b):
+            return [f"{where}: keys {sorted(a)} != {sorted(b)}"]
+        return [d for k in a for d in differences(a[k], b[k], f"{where}[{k!r}]")]
+    if isinstance(a, tuple | list):
+        if len(a) != len(b):
+            return [f"{where}: length {len(a)} != {len(b)} ({a!r} vs {b!r})"]
+        return [
+            d
+            for i, (x, y) in enumerate(zip(a, b, strict=True))
+            for d in differences(x, y, f"{where}[{i}]")
+        ]
+    return [] if a == b else [f"{where}: {a!r} != {b!r}"]
+
+
+# ------------------------------------------------------------------ parse and evaluate
+def test_stdlib_has_the_promised_files():
+    for name in (
+        "colors.inc",
+        "finish.inc",
+        "metals.inc",
+        "golds.inc",
+        "textures.inc",
+        "math.inc",
+        "transforms.inc",
+        "consts.inc",
+        "glass.inc",
+    ):
+        assert (STDLIB / name).is_file(), name
+    assert (STDLIB / "README.md").is_file()
+
+
+@pytest.mark.parametrize("name", STDLIB_FILES)
+def test_stdlib_file_parses_without_diagnostics(name):
+    tree, diagnostics = parse((STDLIB / name).read_text(), name)
+    assert diagnostics == []
+    assert tree.body, "an include file with nothing in it"
+
+
+@pytest.mark.parametrize("name", STDLIB_FILES)
+def test_stdlib_file_has_its_own_include_guard(name):
+    # Guards keep a second #include from resetting names the scene has changed since.
+    text = (STDLIB / name).read_text()
+    guard = re.search(r"#ifndef\s*\(\s*(Strala_\w+_Inc)\s*\)\s*#declare\s+\1\s*=", text)
+    assert guard, f"{name} has no Strala_*_Inc guard at its top"
+    assert text.rstrip().endswith(f"#end // {guard.group(1)}")
+
+
+@needs_evaluator
+@pytest.mark.parametrize("name", STDLIB_FILES)
+def test_stdlib_file_evaluates_without_errors(name):
+    result = compile_file(STDLIB / name)
+    assert errors(result) == []
+    assert len(result.symbols) > 1
+
+
+@needs_evaluator
+def test_scene_including_everything_evaluates(tmp_path):
+    includes = "".join(f'#include "{n}"\n' for n in STDLIB_FILES)
+    result = compile_text(tmp_path, includes + "sphere { 0, 1 texture { T_Gold_1A } }\n")
+    assert errors(result) == []
+    for name in (
+        "Red",
+        "BrightGold",
+        "Shiny",
+        "T_Chrome_4D",
+        "Jade",
+        "Col_Glass_Ruby",
+        "Diamond_Ior",
+        "sind",
+        "Reorient_Trans",
+    ):
+        assert name in result.symbols, name
+
+
+@needs_evaluator
+def test_include_guard_keeps_later_changes(tmp_path):
+    result = compile_text(
+        tmp_path,
+        '#include "colors.inc"\n#declare Red = rgb <0.5, 0, 0>;\n#include "colors.inc"\n',
+    )
+    assert errors(result) == []
+    assert result.symbols["Red"].rgbft == (0.5, 0.0, 0.0, 0.0, 0.0)
+
+
+@needs_evaluator
+def test_metals_leave_their_own_finishes_over_the_gold_ones(tmp_path):
+    # metals.inc includes golds.inc and then redefines F_MetalA..E; T_Gold_* keep gold.
+    result = compile_text(tmp_path, '#include "metals.inc"\n')
+    assert errors(result) == []
+    sym = result.symbols
+    assert sym["F_MetalA"].diffuse == pytest.approx(0.3)
+    assert sym["T_Gold_1A"].finish.specular == pytest.approx(0.2)
+    assert sym["T_Gold_1A"].finish.diffuse != pytest.approx(0.3)
+
+
+# ------------------------------------------------ oracle 1: POV-Ray's include files as data
+# Names POV-Ray's files declare that strala's deliberately do not: their include-guard
+# values (they hold `version`).
+def _guard_name(name: str) -> bool:
+    return name.lower().endswith("_inc_temp")
+
+
+def _oracle_pairs():
+    # (strala file, POV-Ray file, what must be carried over)
+    return [
+        ("colors.inc", "colors.inc", "colours"),
+        ("finish.inc", "finish.inc", "all"),
+        ("golds.inc", "golds.inc", "all"),
+        ("metals.inc", "metals.inc", "all"),
+        ("textures.inc", "textures.inc", "all"),
+        ("glass.inc", "glass.inc", "all"),
+        ("consts.inc", "consts.inc", "all"),
+    ]
+
+
+@pytest.fixture(scope="module")
+def evaluated():
+    """Each file of the oracle pairs evaluated once, strala's and POV-Ray's."""
+    cache: dict[Path, Any] = {}
+
+    def get(path: Path):
+        if path not in cache:
+            cache[path] = compile_file(path)
+        return cache[path]
+
+    return get
+
+
+@needs_evaluator
+@needs_pov_includes
+@pytest.mark.parametrize(("ours", "theirs", "scope"), _oracle_pairs())
+def test_stdlib_matches_povray_include(evaluated, ours, theirs, scope):
+    pov = evaluated(POV_INCLUDE / theirs).symbols
+    mine = evaluated(STDLIB / ours).symbols
+    names = [
+        n
+        for n, v in pov.items()
+        if not _guard_name(n)
+        and not is_code(v)
+        and (scope == "all" or isinstance(v, values.ColorValue))
+    ]
+    # Every file in the list declares dozens of values: a short list means strala failed
+    # to evaluate POV-Ray's file, and the comparison would prove nothing.
+    assert len(names) >= 9, f"only {len(names)} values from POV-Ray's {theirs}"
+    missing = [n for n in names if n not in mine]
+    assert missing == [], f"{ours} lacks {missing}"
+    wrong = [d for n in names for d in differences(pov[n], mine[n], n)]
+    assert wrong == []
+
+
+@needs_evaluator
+@needs_pov_includes
+def test_every_povray_colour_is_in_colors_inc(evaluated):
+    pov = evaluated(POV_INCLUDE / "colors.inc").symbols
+    mine = evaluated(STDLIB / "colors.inc").symbols
+    colours = {n for n, v in pov.items() if isinstance(v, values.ColorValue)}
+    assert len(colours) >= 130  # POV-Ray 3.7's colors.inc declares 130 colours
+    for name in (
+        "Red",
+        "White",
+        "BrightGold",
+        "Scarlet",
+        "MediumSpringGreen",
+        "Gray05",
+        "Gray95",
+        "Clear",
+        "Mica",
+    ):
+        assert name in colours
+    assert sorted(colours - set(mine)) == []
+    assert mine["Clear"].rgbft == (1.0, 1.0, 1.0, 1.0, 0.0)
+    assert mine["MediumSlateBlue"].rgbft == pytest.approx((0.498039, 0.0, 1.0, 0.0, 0.0))
+
+
+@needs_evaluator
+@needs_pov_includes
+@pytest.mark.parametrize("name", ["finish.inc", "metals.inc"])
+def test_every_povray_finish_is_equal(evaluated, name):
+    pov = evaluated(POV_INCLUDE / name).symbols
+    mine = evaluated(STDLIB / name).symbols
+    finishes = [n for n, v in pov.items() if isinstance(v, ir.Finish)]
+    assert len(finishes) >= 5
+    for n in finishes:
+        assert isinstance(mine.get(n), ir.Finish), n
+        assert differences(pov[n], mine[n], n) == []
+
+
+# ------------------------------------------------------ oracle 2: POV-Ray runs the macros
+# A probe is (kind, expression); the same text is evaluated by POV-Ray with its includes and
+# by strala with the stdlib. Kinds: "f" float, "v" 3-vector, "c" 5-vector (colour-like),
+# "t" a transform (compared by where it sends the origin and the three unit points).
+_rng = random.Random(20261122)
+
+
+def _r(lo: float = -3.0, hi: float = 3.0) -> float:
+    return round(_rng.uniform(lo, hi), 4)
+
+
+def _vec() -> str:
+    return f"<{_r()}, {_r()}, {_r()}>"
+
+
+def _colour() -> str:
+    return f"rgbft <{_r(0, 1)}, {_r(0, 1)}, {_r(0, 1)}, {_r(0, 1)}, {_r(0, 1)}>"
+
+
+def _probes() -> list[tuple[str, str]]:
+    p: list[tuple[str, str]] = []
+    # colors.inc: hues round the wheel (and beyond it), and colours with ties and greys
+    for h in (-400, -30, 0, 45, 60, 119.5, 120, 200, 240, 300, 359.9, 360, 725):
+        p.append(("v", f"CH2RGB({h})"))
+    colours = [
+        "rgbft <1, 0, 0, 0, 0>",
+        "rgbft <0.2, 0.2, 0.2, 0.1, 0.3>",
+        "rgbft <1, 1, 0, 0, 0>",
+        "rgbft <0.3, 0.6, 0.6, 0, 0>",
+        "rgbft <0.9, 0.1, 0.5, 0, 0>",
+        "rgbft <0, 0, 0, 0, 0>",
+        "rgbft <1, 1, 1, 0, 0>",
+        *(_colour() for _ in range(6)),
+    ]
+    for c in colours:
+        p += [("c", f"CRGB2HSV({c})"), ("c", f"CRGB2HSL({c})")]
+    for _ in range(6):
+        hsx = f"<{_r(-90, 450)}, {_r(0, 1)}, {_r(0, 1)}, {_r(0, 1)}, {_r(0, 1)}>"
+        p += [("c", f"CHSV2RGB({hsx})"), ("c", f"CHSL2RGB({hsx})")]
+    # math.inc
+    p += [
+        ("f", "sind(30)"),
+        ("f", "cosd(-45)"),
+        ("f", "tand(10)"),
+        ("f", "asind(0.5)"),
+        ("f", "acosd(-0.2)"),
+        ("f", "atand(3)"),
+        ("f", "atan2d(1, -2)"),
+        ("f", "max3(1, 7, 3)"),
+        ("f", "min3(4, -2, 9)"),
+        ("f", "f_sqr(-3)"),
+        ("f", "sgn(-0.1)"),
+        ("f", "sgn(0)"),
+        ("f", "even(4)"),
+        ("f", "even(3)"),
+        ("f", "odd(5)"),
+        ("f", "odd(-2)"),
+        ("f", "clip(7, 0, 5)"),
+        ("f", "clip(-7, 0, 5)"),
+        ("f", "clamp(7.5, 2, 5)"),
+        ("f", "clamp(-1, 0, 3)"),
+        ("f", "adj_range(0.25, 2, 6)"),
+        ("f", "adj_range2(3, 2, 6, 10, 20)"),
+    ]
+    for method in (0, 1, 2.5):
+        p.append(("f", f"Interpolate(0.3, 0, 2, 10, 20, {method})"))
+    p += [("v", "Interpolate(0.5, 0, 1, <0, 0, 0>, <2, 4, 6>, 0)")]
+    vecs = [
+        "<1, 1, 1>",
+        "<0, 0, 1>",
+        "<2, 0, 0>",
+        "<0, -3, 0>",
+        "<1, 2, 2>",
+        "<0, 0, 0>",
+        *(_vec() for _ in range(5)),
+    ]
+    for v in vecs:
+        p += [
+            ("v", f"VPerp_To_Vector({v})"),
+            ("v", f"VSqr({v})"),
+            ("f", f"VMin({v})"),
+            ("f", f"VMax({v})"),
+            ("f", f"VZero({v})"),
+        ]
+    for _ in range(6):
+        a, b, ax = _vec(), _vec(), _vec()
+        p += [
+            ("f", f"VAngle({a}, {b})"),
+            ("f", f"VAngleD({a}, {b})"),
+            ("f", f"VCos_Angle({a}, {b})"),
+            ("f", f"VRotation({a}, {b}, {ax})"),
+            ("f", f"VRotationD({a}, {b}, vcross({a}, {b}))"),
+            ("f", f"VDist({a}, {b})"),
+            ("v", f"VWith_Len({a}, 2.5)"),
+            ("v", f"VPerp_To_Plane({a}, {b})"),
+            ("v", f"VPerp_Adjust({a}, {b})"),
+            ("v", f"VProject_Plane({a}, {b})"),
+            ("v", f"VProject_Axis({a}, {b})"),
+            ("f", f"VEq({a}, {a})"),
+            ("f", f"VEq({a}, {b})"),
+            ("v", f"VPow(<1.5, 2, 0.5>, {_r(0, 3)})"),
+        ]
+    c1, c2 = _colour(), _colour()
+    p += [
+        ("f", f"VDot5D({c1}, {c2})"),
+        ("f", f"VLength5D({c1})"),
+        ("f", f"VEq5D({c1}, {c1})"),
+        ("f", f"VZero5D({c1})"),
+        ("c", f"VNormalize5D({c1})"),
+        ("c", f"VPow5D({c1}, 2)"),
+    ]
+    p += [
+        ("f", "Mean(Probe_Array)"),
+        ("f", "Std_Dev(Probe_Array, 2.5)"),
+        ("v", "vGradient(Probe_Fn, <1, 2, 3>)"),
+        ("f", "Gradient_Length(Probe_Fn, <1, -1, 2>)"),
+        ("f", "Gradient_Directional(Probe_Fn, <1, 2, 3>, <1, 1, 0>)"),
+        ("f", "Divergence(Probe_Fn, Probe_Fn, Probe_Fn, <0.5, 1, 2>)"),
+        ("v", "vCurl(Probe_Fn, Probe_Fn2, Probe_Fn, <0.5, 1, 2>)"),
+    ]
+    # transforms.inc
+    pairs = [
+        ("x", "y"),
+        ("<1, 2, 3>", "<1, 2, 3>"),
+        ("<1, 2, 3>", "<-2, -4, -6>"),
+        ("z", "-z"),
+        *((_vec(), _vec()) for _ in range(5)),
+    ]
+    for a, b in pairs:
+        p.append(("t", f"Reorient_Trans({a}, {b})"))
+    for _ in range(4):
+        p += [
+            ("t", f"Axis_Rotate_Trans({_vec()}, {_r(-360, 360)})"),
+            ("t", f"Rotate_Around_Trans({_vec()}, {_vec()})"),
+            ("t", f"Point_At_Trans({_vec()})"),
+            ("t", f"Axial_Scale_Trans({_vec()}, {_r(0.2, 4)})"),
+            ("t", f"Shear_Trans({_vec()}, {_vec()}, {_vec()})"),
+            ("t", f"Matrix_Trans({_vec()}, {_vec()}, {_vec()}, {_vec()})"),
+        ]
+    p += [
+        ("t", "Point_At_Trans(y)"),
+        ("t", "Point_At_Trans(<0, 0, 2>)"),
+        ("t", "Center_Trans(Probe_Box, x + z)"),
+        ("t", "Center_Trans(Probe_Box, <1, 1, 1>)"),
+        ("t", "Align_Trans(Probe_Box, -y, <1, 2, 3>)"),
+        ("t", "Align_Trans(Probe_Box, <1, 0, -1>, 4)"),
+        ("t", "Align_Trans(Probe_Box, x + y + z, <-1, -2, -3>)"),
+    ]
+    return p
+
+
+PROBES = _probes()
+_PRELUDE = """\
+#include "colors.inc"
+#include "math.inc"
+#include "transforms.inc"
+#declare Probe_Array = array[5] {1, 2, 3.5, 10, -4}
+#declare Probe_Fn = function (x, y, z) { x*x + y*z - 3*z }
+#declare Probe_Fn2 = function (x, y, z) { sin(x)*y + z*z }
+#declare Probe_Box = box { <-1, 0, 2>, <3, 4, 5> scale <2, 0.5, 1> translate <0.25, -1, 3> }
+"""
+_UNIT_POINTS = ("<0, 0, 0>", "x", "y", "z")
+
+
+def _probe_declarations() -> str:
+    lines = [_PRELUDE]
+    for i, (kind, expr) in enumerate(PROBES):
+        if kind == "t":
+            lines.append(f"#declare Probe_{i} = transform {{ {expr} }}")
+        else:
+            lines.append(f"#declare Probe_{i} = {expr};")
+    return "\n".join(lines) + "\n"
+
+
+def _pov_scene() -> str:
+    # Results go to a file: POV-Ray's debug stream wraps and shortens long lines.
+    out = ["#version 3.7;", _probe_declarations(), '#fopen Probe_Out "probes.txt" write']
+    for i, (kind, _expr) in enumerate(PROBES):
+        if kind == "f":
+            parts = [f"str(Probe_{i}, 0, 17)"]
+        elif kind in ("v", "c"):
+            n = 3 if kind == "v" else 5
+            parts = [f'vstr({n}, Probe_{i}, ",", 0, 17)']
+        else:
+            parts = [f'vstr(3, vtransform({p}, Probe_{i}), ",", 0, 17)' for p in _UNIT_POINTS]
+        out.append(f'#write (Probe_Out, "@@{i}=", ' + ', ";", '.join(parts) + ', "\\n")')
+    out.append("#fclose Probe_Out")
+    return "\n".join(out) + "\n"
+
+
+@pytest.fixture(scope="module")
+def povray_results(tmp_path_factory) -> dict[int, list[float]]:
+    if not shutil.which("povray") or not POV_INCLUDE.exists():
+        pytest.skip("POV-Ray is not installed")
+    folder = tmp_path_factory.mktemp("pov_probes")
+    (folder / "probes.pov").write_text(_pov_scene())
+    run = subprocess.run(
+        ["povray", "+Iprobes.pov", "-D", "-V", "+W8", "+H8", "-F", "+L" + str(POV_INCLUDE)],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    written = folder / "probes.txt"
+    found = {}
+    for m in re.finditer(r"@@(\d+)=([^\n]*)", written.read_text() if written.exists() else ""):
+        found[int(m.group(1))] = [float(v) for v in re.split(r"[,;]", m.group(2))]
+    assert len(found) == len(PROBES), (run.stderr[-3000:], len(found))
+    return found
+
+
+@pytest.fixture(scope="module")
+def strala_results(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("strala_probes")
+    return compile_text(folder, _probe_declarations(), "probes.scene")
+
+
+def _as_numbers(kind: str, value: Any) -> list[float]:
+    if kind == "t":
+        m = value.matrix
+        out: list[float] = []
+        for p in ((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)):
+            out += [sum(m[r][c] * p[c] for c in range(3)) + m[r][3] for r in range(3)]
+        return out
+    if isinstance(value, values.ColorValue):
+        return list(value.rgbft)
+    if isinstance(value, tuple):
+        return [float(v) for v in value]
+    return [float(value)]
+
+
+@needs_evaluator
+@pytest.mark.povray
+@pytest.mark.parametrize("index", range(len(PROBES)), ids=[e for _, e in PROBES])
+def test_macro_agrees_with_povray(index, povray_results, strala_results):
+    kind, expr = PROBES[index]
+    name = f"Probe_{index}"
+    assert name in strala_results.symbols, [str(d) for d in errors(strala_results)][:5]
+    got = _as_numbers(kind, strala_results.symbols[name])
+    want = povray_results[index]
+    assert len(got) == len(want)
+    # POV-Ray prints 17 decimals: compare relative to the size of the numbers involved.
+    for g, w in zip(got, want, strict=True):
+        assert g == pytest.approx(w, rel=1e-9, abs=1e-9), (expr, got, want)
+
+
+# ------------------------------------------------------- properties of the stdlib macros
+@needs_evaluator
+@given(st.tuples(*[st.floats(0, 1, allow_nan=False)] * 5))
+def test_hsv_and_hsl_round_trip(tmp_path_factory, rgbft):
+    colour = "rgbft <" + ", ".join(repr(v) for v in rgbft) + ">"
+    result = compile_text(
+        tmp_path_factory.mktemp("hsv"),
+        '#include "colors.inc"\n'
+        f"#declare A = CHSV2RGB(CRGB2HSV({colour}));\n"
+        f"#declare B = CHSL2RGB(CRGB2HSL({colour}));\n",
+    )
+    assert errors(result) == []
+    for name in ("A", "B"):
+        got = _as_numbers("c", result.symbols[name])
+        assert got == pytest.approx(list(rgbft), abs=1e-9), name
+
+
+_axis = st.tuples(*[st.floats(-5, 5, allow_nan=False)] * 3).filter(lambda v: math.hypot(*v) > 1e-3)
+
+
+@needs_evaluator
+@given(_axis, _axis)
+def test_reorient_trans_turns_one_direction_into_the_other(tmp_path_factory, a, b):
+    va, vb = (f"<{v[0]!r}, {v[1]!r}, {v[2]!r}>" for v in (a, b))
+    result = compile_text(
+        tmp_path_factory.mktemp("reorient"),
+        f'#include "transforms.inc"\n#declare T = transform {{ Reorient_Trans({va}, {vb}) }}\n',
+    )
+    assert errors(result) == []
+    m = result.symbols["T"].matrix
+    na, nb = math.hypot(*a), math.hypot(*b)
+    image = [sum(m[r][c] * a[c] for c in range(3)) / na for r in range(3)]
+    assert image == pytest.approx([v / nb for v in b], abs=1e-7)
+    # A rotation: orthonormal columns, no translation.
+    cols = [[m[r][c] for r in range(3)] for c in range(3)]
+    for i in range(3):
+        for j in range(3):
+            dot = sum(cols[i][k] * cols[j][k] for k in range(3))
+            assert dot == pytest.approx(1.0 if i == j else 0.0, abs=1e-9)
+    assert [m[r][3] for r in range(3)] == pytest.approx([0, 0, 0], abs=1e-12)
+
+
+@needs_evaluator
+@given(_axis, st.floats(-720, 720, allow_nan=False), _axis)
+def test_axis_rotate_trans_agrees_with_vaxis_rotate(tmp_path_factory, axis, angle, point):
+    va, vp = (f"<{v[0]!r}, {v[1]!r}, {v[2]!r}>" for v in (axis, point))
+    result = compile_text(
+        tmp_path_factory.mktemp("axisrot"),
+        '#include "transforms.inc"\n'
+        f"#declare T = transform {{ Axis_Rotate_Trans({va}, {angle!r}) }}\n"
+        f"#declare P = vaxis_rotate({vp}, {va}, {angle!r});\n",
+    )
+    assert errors(result) == []
+    m = result.symbols["T"].matrix
+    image = [sum(m[r][c] * point[c] for c in range(3)) + m[r][3] for r in range(3)]
+    assert image == pytest.approx(list(result.symbols["P"]), abs=1e-9)
