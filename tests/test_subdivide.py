@@ -1,0 +1,415 @@
+"""Subdivision surfaces: Loop against trimesh, Catmull–Clark against textbook values, limit
+positions and normals, creases (infinitely sharp and semi-sharp), corners, boundaries,
+validation and the memory check."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import ir
+from runtime import curves
+from runtime import subdivide as sd
+
+trimesh = pytest.importorskip("trimesh")
+
+CUBE_POINTS = tuple((x, y, z) for z in (-1.0, 1.0) for y in (-1.0, 1.0) for x in (-1.0, 1.0))
+# outward winding (right-hand rule)
+CUBE_FACES = ((0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5))
+TOP = (4, 5, 7, 6)  # the z = +1 face
+TOP_LOOP = ((4, 5), (5, 7), (7, 6), (6, 4))
+
+
+def cube(**kw) -> ir.Subdivision:
+    return ir.Subdivision("catmull_clark", CUBE_POINTS, CUBE_FACES, **kw)
+
+
+def mesh_of(shape: ir.Subdivision) -> sd.ControlMesh:
+    return sd.ControlMesh.from_shape(shape)
+
+
+def refine(mesh: sd.ControlMesh, scheme: str, levels: int, boundary="sharp") -> sd.ControlMesh:
+    for _ in range(levels):
+        mesh = sd.subdivide_once(mesh, scheme, boundary)
+    return mesh
+
+
+def nearest(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each row of a, the index of and distance to the nearest row of b."""
+    d = np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2)
+    i = d.argmin(axis=1)
+    return i, d[np.arange(len(a)), i]
+
+
+def grid(nx: int, ny: int, heights: np.ndarray | None = None):
+    """A (nx+1)×(ny+1) vertex grid of quads in the xy plane, z from heights."""
+    ys, xs = np.mgrid[0 : ny + 1, 0 : nx + 1]
+    z = np.zeros(xs.shape) if heights is None else heights
+    pts = np.stack([xs, ys, z], axis=-1).reshape(-1, 3).astype(float)
+    idx = np.arange((nx + 1) * (ny + 1)).reshape(ny + 1, nx + 1)
+    faces = np.stack([idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]], axis=-1).reshape(
+        -1, 4
+    )
+    return pts, [tuple(f) for f in faces], idx
+
+
+# ------------------------------------------------------------------- Loop
+def _icosphere(subdivisions: int, noise: float, seed: int):
+    m = trimesh.creation.icosphere(subdivisions=subdivisions)
+    rng = np.random.default_rng(seed)
+    v = m.vertices * (1.0 + noise * rng.uniform(-1, 1, size=(len(m.vertices), 1)))
+    return v, np.asarray(m.faces)
+
+
+def _compare_with_trimesh(v, f, levels: int) -> None:
+    mesh = refine(sd.ControlMesh.from_lists(v, [tuple(x) for x in f]), "loop", levels)
+    tv, tf = trimesh.remesh.subdivide_loop(v, f, iterations=levels)
+    assert mesh.points.shape == tv.shape
+    match, dist = nearest(mesh.points, tv)
+    assert dist.max() < 1e-9
+    assert len(np.unique(match)) == len(tv)  # a one-to-one matching
+    # the same triangles once the vertices are matched
+    ours = np.sort(match[mesh.fv.reshape(-1, 3)], axis=1)
+    theirs = np.sort(tf, axis=1)
+    assert {tuple(r) for r in ours} == {tuple(r) for r in theirs}
+
+
+@pytest.mark.parametrize("levels", [1, 2, 3])
+def test_loop_matches_trimesh_icosahedron(levels):
+    m = trimesh.creation.icosahedron()
+    _compare_with_trimesh(np.asarray(m.vertices), np.asarray(m.faces), levels)
+
+
+def test_loop_matches_trimesh_torus():
+    m = trimesh.creation.torus(
+        major_radius=1.0, minor_radius=0.4, major_sections=12, minor_sections=8
+    )
+    _compare_with_trimesh(np.asarray(m.vertices), np.asarray(m.faces), 2)
+
+
+@given(st.integers(0, 2**31), st.floats(0.0, 0.3), st.integers(1, 2))
+def test_loop_matches_trimesh_on_perturbed_spheres(seed, noise, levels):
+    v, f = _icosphere(1, noise, seed)
+    _compare_with_trimesh(v, f, levels)
+
+
+def test_loop_beta_is_the_seeds_one_sixteenth_for_valence_six():
+    assert sd.loop_beta(6) == pytest.approx(1.0 / 16.0, abs=1e-15)
+    assert sd.loop_beta(3) == pytest.approx(3.0 / 16.0, abs=1e-15)
+
+
+def test_loop_seed_rules_on_a_regular_vertex():
+    """The seed's rules: edge point (3P + 3Pi + Pi−1 + Pi+1)/8, vertex (10P + ΣPi)/16."""
+    rng = np.random.default_rng(3)
+    ring = np.array([[np.cos(a), np.sin(a), 0.0] for a in np.arange(6) * np.pi / 3])
+    ring += 0.1 * rng.normal(size=ring.shape)
+    pts = np.vstack([[0.0, 0.0, 0.2], ring])
+    faces = [(0, 1 + i, 1 + (i + 1) % 6) for i in range(6)]
+    # closed off underneath by an apex below the ring, so the centre is interior
+    m = sd.ControlMesh.from_lists(
+        np.vstack([pts, [[0, 0, -1.0]]]),
+        faces + [(7, 1 + (i + 1) % 6, 1 + i) for i in range(6)],
+    )
+    child = sd.loop_once(m)
+    P = m.points
+    assert np.allclose(child.points[0], (10 * P[0] + P[1:7].sum(0)) / 16, atol=1e-14)
+    # the edge point on edge (0, 1): neighbours across it are 2 and 6
+    e = np.searchsorted(m.topology.ekeys, 0 * m.nv + 1)
+    expect = (3 * P[0] + 3 * P[1] + P[2] + P[6]) / 8
+    assert np.allclose(child.points[m.nv + e], expect, atol=1e-14)
+
+
+# ----------------------------------------------------------- Catmull–Clark
+def test_cube_level_one_textbook_values():
+    m = mesh_of(cube())
+    c = sd.catmull_clark_once(m)
+    # vertex points: (Q + 2R + (n−3)S)/n with n = 3 → 5/9 of the half-size
+    assert np.allclose(np.abs(c.points[:8]), 5.0 / 9.0, atol=1e-15)
+    assert np.allclose(np.sign(c.points[:8]), np.sign(m.points))
+    # face points: the face centres
+    assert np.allclose(
+        c.points[8:14],
+        [[0, 0, -1], [0, 0, 1], [0, -1, 0], [0, 1, 0], [-1, 0, 0], [1, 0, 0]],
+        atol=1e-15,
+    )
+    # edge points: (a + b + f0 + f1)/4, e.g. edge (0,1) → (0, −3/4, −3/4)
+    e = np.searchsorted(m.topology.ekeys, 0 * 8 + 1)
+    assert np.allclose(c.points[14 + e], [0, -0.75, -0.75], atol=1e-15)
+    assert c.all_size(4) and c.nf == 24
+
+
+def test_ngons_become_quads_and_stay_closed():
+    # a pentagonal prism: two pentagons and five quads
+    ang = 2 * np.pi * np.arange(5) / 5
+    ring = np.stack([np.cos(ang), np.sin(ang), np.zeros(5)], 1)
+    pts = np.vstack([ring, ring + [0, 0, 1]])
+    faces = [(4, 3, 2, 1, 0), (5, 6, 7, 8, 9)] + [
+        (i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i) for i in range(5)
+    ]
+    shape = ir.Subdivision("catmull_clark", tuple(map(tuple, pts)), tuple(faces))
+    assert sd.validate(shape) == []
+    c = sd.catmull_clark_once(mesh_of(shape))
+    assert c.all_size(4) and c.nf == 30
+    assert np.all(c.topology.edge_nf == 2)
+    assert c.topology.dup_directed == 0
+
+
+def test_regular_grid_limit_is_the_bicubic_b_spline():
+    rng = np.random.default_rng(7)
+    h = rng.normal(size=(6, 6))
+    pts, faces, idx = grid(5, 5, h)
+    m = sd.ControlMesh.from_lists(pts, faces)
+    lim = sd.limit_positions(m, "catmull_clark")
+    w = np.array([1.0, 4.0, 1.0]) / 6.0
+    for r, c in [(2, 2), (2, 3), (3, 1)]:
+        patch = pts[idx[r - 1 : r + 2, c - 1 : c + 2]]
+        expect = np.einsum("i,j,ijk->k", w, w, patch)
+        assert np.allclose(lim[idx[r, c]], expect, atol=1e-14)
+        # limit normal: the B-spline's ∂u × ∂v there
+        d = np.array([-0.5, 0.0, 0.5])
+        du = np.einsum("i,j,ijk->k", w, d, patch)
+        dv = np.einsum("i,j,ijk->k", d, w, patch)
+        n, ok = sd.smooth_limit_normals(m, "catmull_clark")
+        assert ok[idx[r, c]]
+        expect_n = np.cross(du, dv) / np.linalg.norm(np.cross(du, dv))
+        assert np.allclose(n[idx[r, c]], expect_n, atol=1e-12)
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+def test_limit_positions_and_normals_do_not_depend_on_the_level(scheme):
+    if scheme == "loop":
+        v, f = _icosphere(0, 0.2, 5)
+        m0 = sd.ControlMesh.from_lists(v, [tuple(x) for x in f])
+    else:
+        rng = np.random.default_rng(2)
+        m0 = sd.ControlMesh.from_lists(
+            np.asarray(CUBE_POINTS) + 0.2 * rng.normal(size=(8, 3)), CUBE_FACES
+        )
+    m1 = refine(m0, scheme, 1)
+    m3 = refine(m1, scheme, 2)
+    V = m1.nv
+    assert np.allclose(
+        sd.limit_positions(m1, scheme), sd.limit_positions(m3, scheme)[:V], atol=1e-12
+    )
+    n1, ok1 = sd.smooth_limit_normals(m1, scheme)
+    n3, ok3 = sd.smooth_limit_normals(m3, scheme)
+    assert ok1.all() and ok3[:V].all()
+    assert np.allclose(n1, n3[:V], atol=1e-10)
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+def test_vertices_converge_to_their_limit_positions(scheme):
+    if scheme == "loop":
+        v, f = _icosphere(0, 0.3, 9)
+        m = sd.ControlMesh.from_lists(v, [tuple(x) for x in f])
+    else:
+        m = sd.catmull_clark_once(mesh_of(cube()))
+    V = m.nv
+    target = sd.limit_positions(m, scheme)
+    errors = []
+    for _ in range(6):
+        errors.append(np.linalg.norm(m.points[:V] - target, axis=1).max())
+        m = sd.subdivide_once(m, scheme)
+    errors.append(np.linalg.norm(m.points[:V] - target, axis=1).max())
+    assert all(b < 0.75 * a for a, b in zip(errors, errors[1:], strict=False))
+    assert errors[-1] < 2e-3 * errors[0]
+
+
+# ---------------------------------------------------------------- creases
+def _crease_vertices(mesh: sd.ControlMesh) -> np.ndarray:
+    inf = np.isinf(mesh.crease_sharpness)
+    return np.unique(mesh.crease_pairs[inf])
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+def test_sharp_crease_is_the_b_spline_of_its_vertices(scheme):
+    if scheme == "loop":
+        faces = [t for q in CUBE_FACES for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
+        shape = ir.Subdivision(
+            "loop", CUBE_POINTS, tuple(faces), creases=tuple((a, b, np.inf) for a, b in TOP_LOOP)
+        )
+    else:
+        shape = cube(creases=tuple((a, b, np.inf) for a, b in TOP_LOOP))
+    m = mesh_of(shape)
+    ring = m.points[[4, 5, 7, 6]]
+    for level in range(1, 4):
+        m = sd.subdivide_once(m, scheme)
+        curve = ring
+        for _ in range(level):
+            curve = curves.midpoint_once(curve, 8.0, closed=True)
+        ours = m.points[_crease_vertices(m)]
+        assert len(ours) == len(curve)
+        _, dist = nearest(ours, curve)
+        assert dist.max() < 1e-12
+
+
+@given(
+    st.lists(st.floats(-0.3, 0.3), min_size=24, max_size=24),
+    st.sampled_from([1.0, 2.0, 3.0]),
+)
+def test_integer_sharpness_is_that_many_sharp_steps_then_smooth(noise, s):
+    pts = np.asarray(CUBE_POINTS) + np.asarray(noise).reshape(8, 3)
+    creased = sd.ControlMesh.from_lists(pts, CUBE_FACES, [(a, b, s) for a, b in TOP_LOOP])
+    sharp = sd.ControlMesh.from_lists(pts, CUBE_FACES, [(a, b, np.inf) for a, b in TOP_LOOP])
+    for _ in range(int(s)):
+        creased = sd.catmull_clark_once(creased)
+        sharp = sd.catmull_clark_once(sharp)
+    assert np.allclose(creased.points, sharp.points, atol=1e-12)
+    smooth = dataclasses.replace(
+        sharp, crease_pairs=np.zeros((0, 2), np.int64), crease_sharpness=np.zeros(0), _topo=None
+    )
+    assert np.allclose(
+        sd.catmull_clark_once(creased).points, sd.catmull_clark_once(smooth).points, atol=1e-12
+    )
+
+
+@given(st.floats(0.0, 1.0))
+def test_fractional_sharpness_blends_the_edge_rule(s):
+    m0 = sd.ControlMesh.from_lists(CUBE_POINTS, CUBE_FACES)
+    m1 = sd.ControlMesh.from_lists(CUBE_POINTS, CUBE_FACES, [(4, 5, 1.0)])
+    ms = sd.ControlMesh.from_lists(CUBE_POINTS, CUBE_FACES, [(4, 5, s)])
+    e = 14 + np.searchsorted(m0.topology.ekeys, 4 * 8 + 5)
+    a, b, c = (sd.catmull_clark_once(m).points[e] for m in (m0, m1, ms))
+    assert np.allclose(c, (1 - s) * a + s * b, atol=1e-14)
+    assert np.allclose(b, 0.5 * (m0.points[4] + m0.points[5]), atol=1e-15)
+
+
+def test_semi_sharp_crease_lies_between_smooth_and_sharp():
+    heights = []
+    for s in (0.0, 0.5, 1.5, 3.0, np.inf):
+        shape = cube(creases=tuple((a, b, s) for a, b in TOP_LOOP), limit=True)
+        v, _, _ = sd.subdivision_mesh(shape, 3)
+        heights.append(v[4, 2])  # a corner of the creased loop, at its limit
+    assert all(b > a for a, b in zip(heights, heights[1:], strict=False))
+    assert heights[0] == pytest.approx(0.5) and heights[-1] == pytest.approx(1.0)
+
+
+def test_corner_vertices_stay_put():
+    shape = cube(corners=(0, 7), limit=True)
+    v, _, _ = sd.subdivision_mesh(shape, 3)
+    assert np.allclose(v[0], CUBE_POINTS[0]) and np.allclose(v[7], CUBE_POINTS[7])
+    assert np.linalg.norm(v[1]) < 0.9  # a smooth corner of the cube moves inwards
+
+
+# -------------------------------------------------------------- boundaries
+def test_sharp_boundary_is_the_b_spline_of_the_boundary_with_fixed_corners():
+    rng = np.random.default_rng(11)
+    pts, faces, idx = grid(3, 2, rng.normal(size=(3, 4)))
+    m = sd.ControlMesh.from_lists(pts, faces)
+    row = pts[idx[0]]
+    for _ in range(3):
+        m = sd.catmull_clark_once(m)
+        row = curves.midpoint_once(row, 8.0)
+    boundary_pts = m.points[np.abs(m.points[:, 1]) < 1e-12]
+    assert len(boundary_pts) == len(row)
+    _, dist = nearest(row, boundary_pts)
+    assert dist.max() < 1e-12
+    assert np.allclose(m.points[idx[0, 0]], pts[idx[0, 0]])  # the corner stays
+
+
+def test_smooth_boundary_moves_the_corners():
+    pts, faces, idx = grid(2, 2)
+    sharp = sd.catmull_clark_once(sd.ControlMesh.from_lists(pts, faces), "sharp")
+    smooth = sd.catmull_clark_once(sd.ControlMesh.from_lists(pts, faces), "smooth")
+    c = idx[0, 0]
+    assert np.allclose(sharp.points[c], pts[c])
+    # edge-only: the corner follows the crease rule (e_a + 6S + e_b)/8
+    assert np.allclose(smooth.points[c], (pts[idx[0, 1]] + 6 * pts[c] + pts[idx[1, 0]]) / 8)
+
+
+def test_bilinear_keeps_the_cube():
+    v, f, n = sd.subdivision_mesh(ir.Subdivision("bilinear", CUBE_POINTS, CUBE_FACES), 2)
+    assert np.allclose(np.abs(v).max(axis=1), 1.0)
+    # flat faces: each triangle's vertex normals equal its face normal
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+    assert np.allclose(n[f].mean(axis=1), fn, atol=1e-12)
+
+
+# ------------------------------------------------------- the mesh output
+@pytest.mark.parametrize("limit", [False, True])
+def test_subdivision_mesh_output(limit):
+    v, f, n = sd.subdivision_mesh(cube(limit=limit), 3)
+    assert v.dtype == np.float64 and f.dtype == np.int32 and n.dtype == np.float64
+    assert f.shape == (6 * 4**3 * 2, 3) and f.min() >= 0 and f.max() < len(v)
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0)
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    assert np.all(np.einsum("ij,ij->i", fn, n[f[:, 0]]) > 0)
+    assert np.all(np.einsum("ij,ij->i", v, n) > 0)  # outward on a convex shape
+
+
+def test_sharp_cube_keeps_its_faces_flat_with_split_normals():
+    shape = cube(
+        creases=tuple(
+            (a, b, np.inf) for q in CUBE_FACES for a, b in zip(q, q[1:] + q[:1], strict=True)
+        ),
+        limit=True,
+    )
+    v, f, n = sd.subdivision_mesh(shape, 2)
+    assert np.allclose(np.abs(v).max(axis=1), 1.0)
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+    for k in range(3):
+        assert np.allclose(n[f[:, k]], fn, atol=1e-12)
+    assert len(v) > 6 * 4**2 + 2  # the cube's edge and corner vertices were split
+
+
+def test_crease_normals_are_perpendicular_to_the_crease():
+    shape = cube(creases=tuple((a, b, np.inf) for a, b in TOP_LOOP), limit=True)
+    v, f, n = sd.subdivision_mesh(shape, 3)
+    m = sd.refine(shape, 3)
+    crease = _crease_vertices(m)
+    ends = np.isinf(m.crease_sharpness)
+    pairs = m.crease_pairs[ends]
+    tangent_ok = 0
+    for a, b in pairs[:20]:  # the chord between neighbours along the crease
+        t = v[b] - v[a]
+        for idx in (a, b):
+            assert abs(np.dot(n[idx], t)) / np.linalg.norm(t) < 0.2
+        tangent_ok += 1
+    assert tangent_ok and len(crease) > 0
+
+
+# -------------------------------------------------------------- validation
+def _codes(shape) -> list[str]:
+    return [c for c, _ in sd.validate(shape)]
+
+
+def test_validate_reports_each_error():
+    assert _codes(cube()) == []
+    assert "subdiv.unknown_scheme" in _codes(dataclasses.replace(cube(), scheme="doo_sabin"))
+    bad = ((0, 2, 3, 9),) + CUBE_FACES[1:]
+    assert "subdiv.index_range" in _codes(dataclasses.replace(cube(), faces=bad))
+    flipped = (CUBE_FACES[0][::-1],) + CUBE_FACES[1:]
+    assert "subdiv.orientation" in _codes(dataclasses.replace(cube(), faces=flipped))
+    fin = ((0, 1, 5, 4),) * 2 + ((4, 5, 1, 0),)
+    assert "subdiv.non_manifold" in _codes(ir.Subdivision("catmull_clark", CUBE_POINTS, fin))
+    assert "subdiv.loop_non_triangle" in _codes(dataclasses.replace(cube(), scheme="loop"))
+    assert "subdiv.degenerate_face" in _codes(
+        dataclasses.replace(cube(), faces=((0, 2, 0, 1),) + CUBE_FACES[1:])
+    )
+    assert "subdiv.crease_edge" in _codes(cube(creases=((0, 7, 1.0),)))
+
+
+def test_subdivision_mesh_raises_the_first_error():
+    with pytest.raises(sd.SubdivisionError) as err:
+        sd.subdivision_mesh(dataclasses.replace(cube(), scheme="loop"), 1)
+    assert err.value.code == "subdiv.loop_non_triangle"
+
+
+def test_a_level_that_does_not_fit_is_refused_before_it_is_built():
+    with pytest.raises(sd.SubdivisionError) as err:
+        sd.subdivision_mesh(cube(), 6, max_bytes=10_000_000)
+    assert err.value.code == "subdiv.memory"
+    assert "level" in err.value.message and "faces" in err.value.message
+    sd.subdivision_mesh(cube(), 2, max_bytes=10_000_000)  # a small level still fits
+
+
+def test_levels_for_tolerance_grows_as_the_tolerance_shrinks():
+    coarse = sd.levels_for_tolerance(cube(), 0.1)
+    fine = sd.levels_for_tolerance(cube(), 0.001)
+    assert 0 < coarse < fine <= 6
