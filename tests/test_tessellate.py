@@ -1,0 +1,310 @@
+"""Tessellation (runtime/tessellate.py, runtime/bezier.py): measured chord error against the
+true surface, triangle counts against tolerance, watertightness, exact normals, tubes and
+POV-Ray's bicubic_patch."""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import ir
+from runtime import bezier as bz
+from runtime import nurbs as nb
+from runtime import tessellate as ts
+
+
+# ------------------------------------------------------------------ helpers
+def sample_points(V, F):
+    """Triangle centroids and edge midpoints: where a flat triangle is farthest from a
+    smooth surface through its corners."""
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    return np.concatenate([(a + b + c) / 3, (a + b) / 2, (b + c) / 2, (c + a) / 2])
+
+
+def sphere_dist(p, centre=(0, 0, 0), r=1.0):
+    return np.abs(np.linalg.norm(p - np.asarray(centre), axis=1) - r)
+
+
+def torus_dist(p, R, r):
+    return np.abs(np.hypot(np.hypot(p[:, 0], p[:, 2]) - R, p[:, 1]) - r)
+
+
+def edge_counts(F):
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    return np.unique(e, axis=0, return_counts=True)[1]
+
+
+def weld_by_position(V, F):
+    _, inv = np.unique(np.round(V, 12), axis=0, return_inverse=True)
+    return inv.reshape(-1)[F]
+
+
+def closed_manifold(F):
+    """Every edge in exactly two triangles, and oriented consistently (each directed edge
+    once)."""
+    if not np.all(edge_counts(F) == 2):
+        return False
+    directed = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    return len(np.unique(directed, axis=0)) == len(directed)
+
+
+# ------------------------------------------------------------------ accuracy
+@pytest.mark.parametrize("tol", [1e-1, 1e-2, 1e-3])
+def test_sphere_chord_error_within_tolerance(tol):
+    c = (0.5, -1.0, 2.0)
+    V, F, N, UV = ts.nurbs_mesh(nb.nurbs_sphere(c, 2.0), tol)
+    assert sphere_dist(sample_points(V, F), c, 2.0).max() <= tol
+    assert sphere_dist(V, c, 2.0).max() < 1e-12  # vertices on the exact surface
+    assert F.dtype == np.int32 and V.dtype == np.float64 and UV.shape == (len(V), 2)
+
+
+@pytest.mark.parametrize("tol", [1e-1, 1e-2, 1e-3])
+def test_torus_chord_error_within_tolerance(tol):
+    V, F, N, UV = ts.nurbs_mesh(nb.nurbs_torus(1.0, 0.3), tol)
+    assert torus_dist(sample_points(V, F), 1.0, 0.3).max() <= tol
+    assert torus_dist(V, 1.0, 0.3).max() < 1e-12
+
+
+@st.composite
+def random_surfaces(draw):
+    p = draw(st.integers(1, 4))
+    q = draw(st.integers(1, 4))
+    nu = draw(st.integers(p + 1, p + 4))
+    nv = draw(st.integers(q + 1, q + 4))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    net = np.zeros((nv, nu, 3))
+    net[..., 0] = np.arange(nu)[None, :]
+    net[..., 1] = np.arange(nv)[:, None]
+    net += rng.uniform(-0.8, 0.8, net.shape)
+    w = rng.uniform(0.3, 3.0, (nv, nu))
+    return ir.Nurbs(
+        u_degree=p,
+        v_degree=q,
+        nu=nu,
+        nv=nv,
+        points=tuple(map(tuple, net.reshape(-1, 3))),
+        weights=tuple(w.ravel()),
+        u_knots=nb.clamped_uniform_knots(nu, p),
+        v_knots=nb.clamped_uniform_knots(nv, q),
+    )
+
+
+@given(random_surfaces(), st.sampled_from([0.05, 0.01, 0.003]))
+def test_random_surfaces_chord_error(shape, tol):
+    """For an open surface the uvs are the parameters, so each sample point's partner on the
+    surface is S(interpolated uv); its distance bounds the distance to the surface."""
+    assert nb.validate(shape) == []
+    surf = nb.Surface.from_ir(shape)
+    V, F, N, UV = ts.nurbs_mesh(shape, tol)
+    (u0, u1), (v0, v1) = surf.domain
+    uv = sample_points(UV, F)
+    exact = surf.points(u0 + uv[:, 0] * (u1 - u0), v0 + uv[:, 1] * (v1 - v0))
+    assert np.linalg.norm(sample_points(V, F) - exact, axis=1).max() <= tol
+    assert np.all(np.isfinite(N)) and np.allclose(np.linalg.norm(N, axis=1), 1.0)
+    # Normals are the exact ones at the vertices' parameters.
+    ref = surf.normals(u0 + UV[:, 0] * (u1 - u0), v0 + UV[:, 1] * (v1 - v0))
+    assert np.abs(np.sum(N * ref, axis=1)).min() > 1 - 1e-12
+
+
+def test_counts_against_tolerance_table():
+    """Triangle counts grow like 1/tolerance (chord error ~ h^2, triangles ~ 1/h^2); the table
+    is printed for the report (pytest -s)."""
+    rows = []
+    for name, shape in (
+        ("sphere r=1", nb.nurbs_sphere()),
+        ("torus 1,0.25", nb.nurbs_torus(1, 0.25)),
+    ):
+        prev = None
+        for tol in (1e-1, 1e-2, 1e-3, 1e-4):
+            t0 = time.perf_counter()
+            V, F, _, _ = ts.nurbs_mesh(shape, tol)
+            dt = time.perf_counter() - t0
+            rows.append((name, tol, len(F), len(V), dt, len(F) / dt))
+            if prev is not None:
+                assert 3 < len(F) / prev < 30  # ~10x per decade
+            prev = len(F)
+    print("\nshape          tolerance  triangles  vertices   seconds   triangles/s")
+    for name, tol, nf, nvx, dt, rate in rows:
+        print(f"{name:14s} {tol:9.0e} {nf:10d} {nvx:9d} {dt:9.3f} {rate:13.0f}")
+
+
+# ------------------------------------------------------------------ topology
+@pytest.mark.parametrize("tol", [1e-1, 1e-3])
+def test_sphere_and_torus_are_watertight(tol):
+    for shape, euler in ((nb.nurbs_sphere(), 2), (nb.nurbs_torus(1.0, 0.25), 0)):
+        V, F, _, _ = ts.nurbs_mesh(shape, tol)
+        assert closed_manifold(F)
+        ne = len(edge_counts(F))
+        assert len(V) - ne + len(F) == euler
+        assert len(np.unique(F)) == len(V)  # no unused vertices
+
+
+def test_open_surface_boundary_edges_once_interior_twice():
+    shape = nb.nurbs_sphere()
+    # Cut the sphere open: keep only the lower half (v in [0, 1]) as its own NURBS.
+    half = ir.Nurbs(
+        u_degree=2,
+        v_degree=2,
+        nu=9,
+        nv=3,
+        points=shape.points[:27],
+        weights=shape.weights[:27],
+        u_knots=shape.u_knots,
+        v_knots=(0, 0, 0, 1, 1, 1),
+    )
+    V, F, _, _ = ts.nurbs_mesh(half, 1e-2)
+    counts = edge_counts(F)
+    assert set(np.unique(counts)) == {1, 2}
+    # The only boundary is the equator.
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    u, c = np.unique(e, axis=0, return_counts=True)
+    assert np.abs(V[u[c == 1]].reshape(-1, 3)[:, 1]).max() < 1e-12
+
+
+def test_normals_exact_at_vertices_including_poles():
+    V, F, N, _ = ts.nurbs_mesh(nb.nurbs_sphere(), 1e-3)
+    assert np.all(np.isfinite(N))
+    radial = np.sum(N * V, axis=1)
+    assert np.abs(np.abs(radial) - 1).max() < 1e-9
+    assert np.all(np.sign(radial) == np.sign(radial[0]))
+    poles = np.abs(np.abs(V[:, 1]) - 1) < 1e-12
+    assert poles.sum() == 2  # each pole welded to one vertex
+    # Triangles wind so their geometric normal agrees with the exact one.
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    assert np.all(np.sum(fn * N[F].mean(axis=1), axis=1) > 0)
+
+
+def test_far_from_origin_and_extreme_weights_tessellate():
+    V, F, N, _ = ts.nurbs_mesh(nb.nurbs_sphere((1e6, 1e6, -1e6), 1.0), 1e-3)
+    assert closed_manifold(F)
+    assert sphere_dist(sample_points(V, F), (1e6, 1e6, -1e6)).max() <= 1e-3
+    s = nb.nurbs_sphere()
+    w = list(s.weights)
+    w[22] = 1e6
+    w[13] = 1e-6
+    heavy = ir.Nurbs(**{**s.__dict__, "weights": tuple(w)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        V, F, N, UV = ts.nurbs_mesh(heavy, 1e-2)
+    assert all(np.all(np.isfinite(a)) for a in (V, N, UV)) and len(F) > 0
+
+
+def test_triangle_cap_warns_instead_of_exhausting_memory():
+    with pytest.warns(RuntimeWarning, match="capped"):
+        V, F, _, _ = ts.nurbs_mesh(nb.nurbs_torus(), 1e-7, max_triangles=20_000)
+    assert len(F) <= 20_000
+
+
+# ------------------------------------------------------------------ tubes
+@pytest.mark.parametrize("tol", [1e-2, 1e-3, 1e-4])
+def test_circle_tube_error_and_closure(tol):
+    V, F, N, UV = ts.nurbs_mesh(nb.exact_circle(tube=0.1), tol)
+    d = np.hypot(np.hypot(V[:, 0], V[:, 1]) - 1.0, V[:, 2])
+    assert np.abs(d - 0.1).max() < 1e-12
+    p = sample_points(V, F)
+    dp = np.hypot(np.hypot(p[:, 0], p[:, 1]) - 1.0, p[:, 2])
+    assert np.abs(dp - 0.1).max() <= tol
+    assert closed_manifold(F)  # a closed curve gives a closed torus-like tube
+    assert len(V) - len(edge_counts(F)) + len(F) == 0
+    # Normals: from the centreline outward.
+    c = np.concatenate([V[:, :2] / np.hypot(V[:, 0], V[:, 1])[:, None], 0 * V[:, :1]], axis=1)
+    assert np.abs(np.linalg.norm(V - c, axis=1) - 0.1).max() < 1e-12
+    assert np.allclose(N, (V - c) / 0.1, atol=1e-9)
+
+
+def test_open_tube_is_capped_and_watertight_by_position():
+    pts = ((0, 0, 0), (1, 2, 0), (2, -1, 1), (3, 0, 2), (4, 1, 0))
+    curve = ir.Nurbs(
+        u_degree=3,
+        v_degree=0,
+        nu=5,
+        nv=0,
+        points=pts,
+        weights=(1.0, 2.0, 0.5, 1.0, 1.0),
+        u_knots=nb.clamped_uniform_knots(5, 3),
+        radius=0.05,
+    )
+    tol = 1e-3
+    V, F, N, UV = ts.nurbs_mesh(curve, tol)
+    assert closed_manifold(weld_by_position(V, F))
+    assert np.all(np.isfinite(N)) and np.allclose(np.linalg.norm(N, axis=1), 1.0)
+    # Side vertices sit at the radius from the curve: check against dense curve samples.
+    c = nb.Curve.from_ir(curve)
+    dense = c.points(np.linspace(0, 2, 200_001))
+    side = sample_points(V, F)[:: max(1, len(F) // 500)]
+    d = np.min(np.linalg.norm(side[:, None, :] - dense[None, ::20, :], axis=2), axis=1)
+    # Cap triangles are flat discs (distance <= radius); side triangles hug the tube.
+    assert np.all(d <= 0.05 + tol + 1e-3)
+
+
+def test_tube_with_stalled_tangent_has_finite_frames():
+    # Coincident control points make C'(t) vanish at the start.
+    curve = ir.Nurbs(
+        u_degree=2,
+        v_degree=0,
+        nu=5,
+        nv=0,
+        points=((0, 0, 0), (0, 0, 0), (1, 1, 0), (2, 0, 1), (3, 0, 0)),
+        weights=(1.0,) * 5,
+        u_knots=nb.clamped_uniform_knots(5, 2),
+        radius=0.1,
+    )
+    V, F, N, _ = ts.nurbs_mesh(curve, 1e-3)
+    assert np.all(np.isfinite(V)) and np.all(np.isfinite(N))
+    assert closed_manifold(weld_by_position(V, F))
+
+
+# ------------------------------------------------------------------ bicubic_patch
+PATCH = [
+    (0, 0, 2), (1, 0, 0), (2, 0, 0), (3, 0, -2),
+    (0, 1, 0), (1, 1, 0), (2, 1, 0), (3, 1, 0),
+    (0, 2, 0), (1, 2, 0), (2, 2, 0), (3, 2, 0),
+    (0, 3, 2), (1, 3, 0), (2, 3, 0), (3, 3, -2),
+]  # fmt: skip
+
+
+def _bernstein(t):
+    t = np.asarray(t)[..., None]
+    return np.concatenate([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t * t * (1 - t), t**3], -1)
+
+
+@given(st.floats(0, 1), st.floats(0, 1))
+def test_patch_is_the_bernstein_surface_in_pov_order(u, v):
+    """POV-Ray's bezier_value: P(u, v) = sum B_i(u) B_j(v) Control_Points[i][j], with point k
+    at [k // 4][k % 4]."""
+    cp = np.array(PATCH, float).reshape(4, 4, 3)
+    ref = np.einsum("i,j,ijc->c", _bernstein(u), _bernstein(v), cp)
+    got = bz.patch_surface(PATCH).points(u, v)[0]
+    assert np.abs(got - ref).max() < 1e-12
+    shape = bz.patch_to_nurbs(PATCH)
+    assert nb.validate(shape) == []
+    assert np.abs(nb.Surface.from_ir(shape).points(u, v)[0] - ref).max() < 1e-12
+
+
+@pytest.mark.parametrize("us, vs", [(0, 0), (3, 3), (2, 4)])
+def test_patch_steps_set_the_grid(us, vs):
+    V, F, N, UV = bz.bicubic_patch_mesh(PATCH, us, vs, 0.0)
+    assert len(F) == 2 * (1 << us) * (1 << vs)
+    assert len(V) == ((1 << us) + 1) * ((1 << vs) + 1)
+    cp = np.array(PATCH, float).reshape(4, 4, 3)
+    # uvs are POV-Ray's (v, u); the vertices are the surface at those parameters.
+    ref = np.einsum("ki,kj,ijc->kc", _bernstein(UV[:, 1]), _bernstein(UV[:, 0]), cp)
+    assert np.abs(V - ref).max() < 1e-12
+    assert np.all(np.isfinite(N))
+
+
+def test_patch_flatness_stops_early():
+    flat = [(i % 4, i // 4, 0.0) for i in range(16)]
+    V, F, _, _ = bz.bicubic_patch_mesh(flat, 4, 4, 0.01)
+    assert len(F) == 2  # flat at depth 0
+    assert bz.patch_levels(PATCH, 5, 5, 0.0) == (5, 5)
+    lu, lv = bz.patch_levels(PATCH, 5, 5, 0.05)
+    assert 0 < lu < 5 and lu == lv
+    # Flatter tolerance, deeper.
+    assert bz.patch_levels(PATCH, 6, 6, 0.005)[0] > lu
