@@ -177,21 +177,60 @@ def polygon_quadrature(verts: np.ndarray, order: int) -> tuple[np.ndarray, np.nd
 
 
 def stratified_points(verts: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
-    """(N,count,3) jittered points spread over each convex polygon by area: the polygon's
-    fan triangles are sampled in proportion to area with stratified uniforms."""
-    tri = fan_triangles(np.asarray(verts, dtype=np.float64))
-    n, t = tri.shape[:2]
-    a, b, c = tri[:, :, 0], tri[:, :, 1], tri[:, :, 2]
-    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=-1)
-    cdf = np.cumsum(area, axis=1)
-    cdf /= np.maximum(cdf[:, -1:], 1e-300)
-    strata = (np.arange(count) + rng.random((n, count))) / count
-    which = np.minimum((strata[:, :, None] > cdf[:, None, :]).sum(axis=2), t - 1)
-    r1 = np.sqrt(rng.random((n, count)))
-    r2 = rng.random((n, count))
-    rows = np.arange(n)[:, None]
-    pa, pb, pc = a[rows, which], b[rows, which], c[rows, which]
-    return (1 - r1)[..., None] * pa + (r1 * (1 - r2))[..., None] * pb + (r1 * r2)[..., None] * pc
+    """(N,count,3) Latin-hypercube points on each convex polygon: both parameters are
+    stratified into `count` strata (any count, each marginal evenly covered). Four corners:
+    the bilinear map (uniform by area on parallelograms); a repeated corner (a padded
+    triangle) or three corners: the area-preserving square-root map of the triangle; more
+    corners: fan triangles chosen by area with the first parameter."""
+    verts = np.asarray(verts, dtype=np.float64)
+    n, k = verts.shape[:2]
+    s = (np.argsort(rng.random((n, count)), axis=1) + rng.random((n, count))) / count
+    t = (np.argsort(rng.random((n, count)), axis=1) + rng.random((n, count))) / count
+    tri_like = np.zeros(n, dtype=bool)
+    if k == 4:
+        same = np.all(np.isclose(verts, np.roll(verts, -1, axis=1), rtol=0, atol=0), axis=2)
+        tri_like = same.any(axis=1)
+    out = np.empty((n, count, 3))
+    if k == 4 and (~tri_like).any():
+        v = verts[~tri_like]
+        ss, tt = s[~tri_like, :, None], t[~tri_like, :, None]
+        out[~tri_like] = (
+            (1 - ss) * (1 - tt) * v[:, None, 0]
+            + ss * (1 - tt) * v[:, None, 1]
+            + ss * tt * v[:, None, 2]
+            + (1 - ss) * tt * v[:, None, 3]
+        )
+    if k == 3 or tri_like.any():
+        rows = np.nonzero(tri_like)[0] if k == 4 else np.arange(n)
+        v = verts[rows]
+        if k == 4:
+            # Drop the repeated corner: keep the three distinct ones in winding order.
+            dup = np.argmax(same[rows], axis=1)
+            keep = (dup[:, None] + np.array([1, 2, 3])) % 4
+            v = np.take_along_axis(v, keep[:, :, None], axis=1)
+        out[rows] = _sqrt_map(v[:, 0], v[:, 1], v[:, 2], s[rows], t[rows])
+    if k > 4:
+        tri = fan_triangles(verts)
+        a, b, c = tri[:, :, 0], tri[:, :, 1], tri[:, :, 2]
+        area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=-1)
+        cdf = np.cumsum(area, axis=1)
+        cdf /= np.maximum(cdf[:, -1:], 1e-300)
+        which = np.minimum((s[:, :, None] > cdf[:, None, :]).sum(axis=2), k - 3)
+        lo = np.where(which > 0, np.take_along_axis(cdf, np.maximum(which - 1, 0), axis=1), 0.0)
+        hi = np.take_along_axis(cdf, which, axis=1)
+        su = (s - lo) / np.maximum(hi - lo, 1e-300)  # re-use the stratum inside the triangle
+        r = np.arange(n)[:, None]
+        out = _sqrt_map(a[r, which], b[r, which], c[r, which], su, t)
+    return out
+
+
+def _sqrt_map(a, b, c, s, t) -> np.ndarray:
+    """Area-preserving map of the unit square onto triangles (a, b, c): (…,count,3)."""
+    r = np.sqrt(s)[..., None]
+    tt = t[..., None]
+    if a.ndim == s.ndim:  # per-point corners already
+        return (1 - r) * a + r * (1 - tt) * b + r * tt * c
+    return (1 - r) * a[:, None] + r * (1 - tt) * b[:, None] + r * tt * c[:, None]
 
 
 # ------------------------------------------------------------------ visibility
