@@ -14,6 +14,7 @@ import numpy as np
 
 from lang import ir
 from runtime import shapes
+from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
@@ -159,10 +160,10 @@ class _Builder:
         dist = float(np.min(np.linalg.norm(pts - np.asarray(cam.location), axis=1)))
         right = float(np.linalg.norm(cam.right))
         if cam.kind == "orthographic":
-            return max(0.5 * right / self.width, 1e-9)
+            return max(0.5 * right / self.width, tol.ABS_FLOOR)
         pixel = right / float(np.linalg.norm(cam.direction)) / self.width
         extent = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-        return max(0.5 * pixel * dist, 1e-6 * max(extent, 1e-9))
+        return max(0.5 * pixel * dist, tol.TESSELLATION_REL * max(extent, tol.ABS_FLOOR))
 
 
 def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:

@@ -494,7 +494,7 @@ class TorusPrim:
         c0 = I * I - 4 * R2 * J0
         # Only rays passing within the bounding sphere can hit; skip the eigen solve for
         # the others (it is the expensive part).
-        near = _dot(oc, oc) <= (abs(self.R) + abs(self.r)) ** 2 * (1 + 1e-9)
+        near = _dot(oc, oc) <= ((abs(self.R) + abs(self.r)) * (1 + tol.BOX_PAD_REL)) ** 2
         roots = np.full((n, 4), INF)
         rows = np.nonzero(near)[0]
         if len(rows):
@@ -534,6 +534,22 @@ class TorusPrim:
     def inside(self, p):
         s = np.sum(p * p, axis=1) + self.R**2 - self.r**2
         return s * s - 4 * self.R**2 * (p[:, 0] ** 2 + p[:, 2] ** 2) < 0
+
+
+def gather(prims: list, which: np.ndarray):
+    """One primitive of the same kind whose parameters are per-ray arrays: prims[which[i]]'s
+    parameters on row i (their formulas broadcast, so crossings work unchanged)."""
+    first = prims[0]
+    out = object.__new__(type(first))
+    if isinstance(first, SpherePrim):
+        out.c = np.array([p.c for p in prims])[which]
+        out.r = np.array([p.r for p in prims])[which]
+    elif isinstance(first, BoxPrim):
+        out.lo = np.array([p.lo for p in prims])[which]
+        out.hi = np.array([p.hi for p in prims])[which]
+    else:
+        raise TypeError(f"{type(first).__name__} cannot be gathered")
+    return out
 
 
 # ------------------------------------------------------------------------- dispatch

@@ -37,3 +37,13 @@ QUARTIC_IMAG_REL: float = 1e-6
 # A direction component below this is treated as parallel to an axis / a plane (avoids
 # inf*0 = nan in slab tests and plane intersections); far below any real direction component.
 PARALLEL_EPS: float = 1e-300
+
+# Bounding boxes are widened by this much (relative to the entry/exit distances, plus an
+# absolute floor) so a ray that touches an object exactly on its box is never culled; a
+# looser box only costs an extra exact intersection.
+BOX_PAD_REL: float = 1e-9
+BOX_PAD_ABS: float = 1e-12
+
+# Automatic tessellation tolerance never goes below this fraction of the surface's extent
+# (a camera placed on the surface would otherwise ask for infinitely many triangles).
+TESSELLATION_REL: float = 1e-6

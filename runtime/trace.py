@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from runtime import shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
 
@@ -234,25 +235,26 @@ def default_tmin(origins: np.ndarray) -> np.ndarray:
     return tol.ORIGIN_REL * np.linalg.norm(origins, axis=1) + tol.ABS_FLOOR
 
 
-def slab_hits(o, d, lo, hi, tmin, tmax) -> np.ndarray:
-    """(N,) bool: does the ray segment (tmin, tmax) touch the box [lo, hi]?"""
+def slab_hits(o, d, lo, hi, tmin, tmax, inv=None) -> np.ndarray:
+    """(N,) bool: does the ray segment (tmin, tmax) touch the box [lo, hi]? `inv` = 1/d may
+    be passed when the caller tests the same rays against many boxes."""
     if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)):
         # A half-infinite box still culls on its finite sides; keep it simple: no culling.
         return np.ones(len(o), dtype=bool)
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / d
+        if inv is None:
+            inv = 1.0 / d
         t1 = (lo - o) * inv
         t2 = (hi - o) * inv
-    # 0 * inf = nan for rays parallel to a slab and starting on its plane: count as inside.
-    tn = np.where(np.isnan(t1), -np.inf, np.minimum(t1, t2)).max(axis=1)
-    tfar = np.where(np.isnan(t2), np.inf, np.maximum(t1, t2)).min(axis=1)
-    # Widen by a relative margin so a hit exactly on the box surface is never culled.
-    pad = (
-        1e-9
-        * (np.abs(np.where(np.isfinite(tn), tn, 0)) + np.abs(np.where(np.isfinite(tfar), tfar, 0)))
-        + 1e-12
-    )
-    return (tn - pad <= tfar + pad) & (tfar + pad >= tmin) & (tn - pad <= tmax)
+        # fmin/fmax skip the nan of 0 * inf (a ray parallel to a slab, starting on its
+        # plane): that axis then does not constrain, which is right.
+        near = np.fmin(t1, t2)
+        far = np.fmax(t1, t2)
+        tn = np.fmax(np.fmax(near[:, 0], near[:, 1]), near[:, 2])
+        tf = np.fmin(np.fmin(far[:, 0], far[:, 1]), far[:, 2])
+        # Widen so that a hit exactly on the box surface is never culled.
+        pad = tol.BOX_PAD_REL * (np.abs(tn) + np.abs(tf)) + tol.BOX_PAD_ABS
+        return (tn - pad <= tf + pad) & (tf + pad >= tmin) & (tn - pad <= tmax)
 
 
 class BoxTree:
@@ -285,13 +287,15 @@ class BoxTree:
             self.kids[k] = (left, right)
         return k
 
-    def query(self, o, d, tmin, tmax) -> list[tuple[int, np.ndarray]]:
+    def query(self, o, d, tmin, tmax, inv) -> list[tuple[int, np.ndarray]]:
         """[(item, rows)] for every leaf item whose tree leaf box the rows' segments touch."""
         out = []
         stack = [(0, np.arange(len(o)))]
         while stack:
             k, rows = stack.pop()
-            hit = slab_hits(o[rows], d[rows], self.lo[k], self.hi[k], tmin[rows], tmax[rows])
+            hit = slab_hits(
+                o[rows], None, self.lo[k], self.hi[k], tmin[rows], tmax[rows], inv[rows]
+            )
             rows = rows[hit]
             if len(rows) == 0:
                 continue
@@ -333,7 +337,7 @@ class Tracer:
     # Below this many bounded objects a plain per-object box test is cheaper than a tree.
     TREE_THRESHOLD = 8
 
-    def _visits(self, o, d, tmin, tmax, skipped) -> list[tuple[object, np.ndarray | None]]:
+    def _visits(self, o, d, tmin, tmax, skipped, inv) -> list[tuple[object, np.ndarray | None]]:
         """(node, candidate rows or None for all) pairs to intersect, nodes in scene order
         for the unbounded ones, tree order for the rest."""
         out: list[tuple[object, np.ndarray | None]] = []
@@ -342,7 +346,7 @@ class Tracer:
         if self.tree is None:
             out.extend((self.nodes[i], None) for i in self.bounded)
         else:
-            for item, rows in self.tree.query(o, d, tmin, tmax):
+            for item, rows in self.tree.query(o, d, tmin, tmax, inv):
                 out.append((self.nodes[self.bounded[item]], rows))
         if skipped is not None:
             out = [(n, r) for n, r in out if not skipped[n.leaves].all()]
@@ -356,7 +360,7 @@ class Tracer:
                 self._register(c)
 
     # ------------------------------------------------------------------ queries
-    def closest(self, origins, directions, tmin=None, tmax=None, skip: str | None = None) -> Hits:
+    def _arrays(self, origins, directions, tmin, tmax):
         o = np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 3)
         d = np.ascontiguousarray(directions, dtype=np.float64).reshape(-1, 3)
         n = len(o)
@@ -370,39 +374,73 @@ class Tracer:
             if tmax is None
             else np.broadcast_to(np.asarray(tmax, dtype=np.float64), (n,)).copy()
         )
+        return o, d, tmin_a, tmax_a
+
+    def _candidates(self, o, d, tmin_a, limit_of, skipped):
+        """Yield (rows, Cands) per intersected node, or per batch of simple leaves.
+
+        `limit_of(rows)` gives the current far limit of those rows (it shrinks as hits are
+        found, which lets later box tests cull more). Spheres and boxes are gathered into
+        one vectorised call per kind (many small objects would otherwise cost a Python
+        call each)."""
+        pending: dict[type, list[tuple[Leaf, np.ndarray]]] = {}
+        with np.errstate(divide="ignore"):
+            inv = 1.0 / d
+        for node, cand in self._visits(o, d, tmin_a, limit_of(None), skipped, inv):
+            if cand is None:
+                keep = slab_hits(o, None, node.lo, node.hi, tmin_a, limit_of(None), inv)
+                rows = np.nonzero(keep)[0]
+            else:
+                lim = limit_of(cand)
+                keep = slab_hits(o[cand], None, node.lo, node.hi, tmin_a[cand], lim, inv[cand])
+                rows = cand[keep]
+            if len(rows) == 0:
+                continue
+            if isinstance(node, Leaf) and isinstance(node.prim, BATCHED):
+                pending.setdefault(type(node.prim), []).append((node, rows))
+                continue
+            yield rows, node.crossings(o[rows], d[rows])
+        for group in pending.values():
+            yield batch_crossings(group, o, d)
+
+    def closest(self, origins, directions, tmin=None, tmax=None, skip: str | None = None) -> Hits:
+        o, d, tmin_a, tmax_a = self._arrays(origins, directions, tmin, tmax)
+        n = len(o)
         hits = empty_hits(n)
         if n == 0:
             return hits
         skipped = self.flags.get(skip) if skip else None
         face = np.zeros(n, dtype=np.int8)
         flip = np.zeros(n, dtype=bool)
-        for node, cand in self._visits(o, d, tmin_a, tmax_a, skipped):
-            limit = np.minimum(hits.t, tmax_a)
-            if cand is None:
-                rows = np.nonzero(slab_hits(o, d, node.lo, node.hi, tmin_a, limit))[0]
-            else:
-                keep = slab_hits(o[cand], d[cand], node.lo, node.hi, tmin_a[cand], limit[cand])
-                rows = cand[keep]
-            if len(rows) == 0:
-                continue
-            c = node.crossings(o[rows], d[rows])
+
+        def limit_of(rows):
+            lim = np.minimum(hits.t, tmax_a)
+            return lim if rows is None else lim[rows]
+
+        for rows, c in self._candidates(o, d, tmin_a, limit_of, skipped):
             floor = np.maximum(tmin_a[rows, None], tol.OBJECT_REL * self.sizes[c.leaf])
-            valid = (c.t > floor) & (c.t < limit[rows, None])
+            valid = (c.t > floor) & (c.t < limit_of(rows)[:, None])
             if skipped is not None:
                 valid &= ~skipped[c.leaf]
             tt = np.where(valid, c.t, np.inf)
             k = np.argmin(tt, axis=1)
             r = np.arange(len(rows))
             best = tt[r, k]
-            better = best < hits.t[rows]
-            if not better.any():
+            # A batch may hold the same ray several times: keep its nearest entry only.
+            order = np.lexsort((best, rows))
+            rs = rows[order]
+            first = np.ones(len(rs), dtype=bool)
+            first[1:] = rs[1:] != rs[:-1]
+            sel = order[first]
+            sel = sel[best[sel] < hits.t[rows[sel]]]
+            if len(sel) == 0:
                 continue
-            rb = rows[better]
-            kb = k[better]
-            hits.t[rb] = best[better]
-            hits.obj[rb] = c.leaf[better, kb]
-            face[rb] = c.face[better, kb]
-            flip[rb] = c.flip[better, kb]
+            rb = rows[sel]
+            kb = k[sel]
+            hits.t[rb] = best[sel]
+            hits.obj[rb] = c.leaf[sel, kb]
+            face[rb] = c.face[sel, kb]
+            flip[rb] = c.flip[sel, kb]
         analytic = hits.obj >= 0
         if self.triangles is not None:
             self.triangles.closest(o, d, tmin_a, np.minimum(hits.t, tmax_a), skip, hits)
@@ -421,31 +459,55 @@ class Tracer:
 
     def occluded(self, origins, directions, tmax, tmin=None) -> np.ndarray:
         """(N,) bool: is anything (not `no_shadow`) in (tmin, tmax) along the ray?"""
-        o = np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 3)
-        d = np.ascontiguousarray(directions, dtype=np.float64).reshape(-1, 3)
+        o, d, tmin_a, tmax_a = self._arrays(origins, directions, tmin, tmax)
         n = len(o)
-        tmin_a = (
-            default_tmin(o)
-            if tmin is None
-            else np.broadcast_to(np.asarray(tmin, dtype=np.float64), (n,)).copy()
-        )
-        tmax_a = np.broadcast_to(np.asarray(tmax, dtype=np.float64), (n,)).copy()
         blocked = np.zeros(n, dtype=bool)
         skipped = self.flags.get("no_shadow")
-        for node, cand in self._visits(o, d, tmin_a, tmax_a, skipped):
-            cand = np.arange(n) if cand is None else cand
-            cand = cand[~blocked[cand]]
-            keep = slab_hits(o[cand], d[cand], node.lo, node.hi, tmin_a[cand], tmax_a[cand])
-            rows = cand[keep]
-            if len(rows) == 0:
-                continue
-            c = node.crossings(o[rows], d[rows])
+
+        def limit_of(rows):
+            # A blocked ray needs no more tests: give it an empty segment.
+            lim = np.where(blocked, -np.inf, tmax_a)
+            return lim if rows is None else lim[rows]
+
+        for rows, c in self._candidates(o, d, tmin_a, limit_of, skipped):
             floor = np.maximum(tmin_a[rows, None], tol.OBJECT_REL * self.sizes[c.leaf])
             valid = (c.t > floor) & (c.t < tmax_a[rows, None])
             if skipped is not None:
                 valid &= ~skipped[c.leaf]
-            blocked[rows] = valid.any(axis=1)
+            blocked[rows[valid.any(axis=1)]] = True
         if self.triangles is not None and not blocked.all():
             rows = np.nonzero(~blocked)[0]
             blocked[rows] = self.triangles.occluded(o[rows], d[rows], tmin_a[rows], tmax_a[rows])
         return blocked
+
+
+# Primitives whose parameters broadcast over rays, so many of them go through one call.
+BATCHED = (shapes.SpherePrim, shapes.BoxPrim)
+
+
+def batch_crossings(group: list[tuple[Leaf, np.ndarray]], o, d) -> tuple[np.ndarray, Cands]:
+    """Crossings of many sphere (or box) leaves in one vectorised call: each (leaf, rows)
+    pair contributes its rows; parameters and inverse transforms are gathered per row."""
+    leaves = [leaf for leaf, _ in group]
+    rows = np.concatenate([r for _, r in group])
+    which = np.repeat(np.arange(len(group)), [len(r) for _, r in group])
+    prim = shapes.gather([leaf.prim for leaf in leaves], which)
+    oo, dd = o[rows], d[rows]
+    ident = np.array([leaf.identity for leaf in leaves])
+    if not ident.all():
+        moved = ~ident[which]
+        minv = np.stack([leaf.m_inv for leaf in leaves])[which[moved]]
+        oo = oo.copy()
+        dd = dd.copy()
+        oo[moved] = np.einsum("pij,pj->pi", minv[:, :3, :3], oo[moved]) + minv[:, :3, 3]
+        dd[moved] = np.einsum("pij,pj->pi", minv[:, :3, :3], dd[moved])
+    t, face = prim.crossings(oo, dd)
+    k = t.shape[1]
+    leaf_id = np.array([leaf.index for leaf in leaves], dtype=np.int32)[which]
+    inv = np.array([leaf.inverse for leaf in leaves], dtype=bool)[which]
+    return rows, Cands(
+        t,
+        np.repeat(leaf_id[:, None], k, axis=1),
+        face.astype(np.int8, copy=False),
+        np.repeat(inv[:, None], k, axis=1),
+    )
