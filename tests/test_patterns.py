@@ -1,0 +1,195 @@
+"""Pigment patterns as POV-Ray 3.7 lays them out (checked against POV-Ray renders):
+checker parity with its small offset, hexagon colouring, brick joints, colour maps and the
+frequency/phase wrap, pattern transforms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import ir
+from runtime import patterns
+
+RED = (1.0, 0.0, 0.0, 0.0, 0.0)
+GREEN = (0.0, 1.0, 0.0, 0.0, 0.0)
+BLUE = (0.0, 0.0, 1.0, 0.0, 0.0)
+
+
+def solid(c) -> ir.Pigment:
+    return ir.Pigment(color=c)
+
+
+def scale(s: float) -> ir.Matrix:
+    return ((s, 0, 0, 0), (0, s, 0, 0), (0, 0, s, 0), (0, 0, 0, 1))
+
+
+coord = st.floats(-50, 50, allow_nan=False)
+
+
+# ---------------------------------------------------------------------------- checker
+def test_checker_picks_by_floor_parity():
+    pig = ir.Pigment(pattern="checker", list=(solid(RED), solid(GREEN)))
+    pts = np.array([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [1.5, 1.5, 0.5], [-0.5, 0.5, 0.5]])
+    out = patterns.evaluate(pig, pts)
+    np.testing.assert_allclose(out[:, :3], [RED[:3], GREEN[:3], RED[:3], GREEN[:3]])
+
+
+def test_checker_offset_keeps_an_integer_plane_in_one_cell():
+    # y = -1 exactly and y = -1 - 1e-12 (a hit point's rounding) land in the same cell
+    # because POV-Ray adds 0.001 before flooring.
+    v = patterns.checker(np.array([[0.2, -1.0, 0.2], [0.2, -1.0 - 1e-12, 0.2]]), {})
+    assert v[0] == v[1]
+
+
+@given(coord, coord, coord, st.integers(0, 2))
+def test_checker_flips_across_a_unit_step(x, y, z, axis):
+    p = np.array([[x, y, z]])
+    q = p.copy()
+    q[0, axis] += 1.0
+    assert patterns.checker(p, {})[0] != patterns.checker(q, {})[0]
+
+
+def test_checker_defaults_to_blue_and_green():
+    out = patterns.evaluate(ir.Pigment(pattern="checker"), np.array([[0.5, 0.5, 0.5]]))
+    np.testing.assert_allclose(out[0], BLUE)
+
+
+def test_pattern_transform_scales_the_cells():
+    pig = ir.Pigment(pattern="checker", list=(solid(RED), solid(GREEN)), transform=scale(2.0))
+    out = patterns.evaluate(pig, np.array([[1.5, 0.5, 0.5], [2.5, 0.5, 0.5]]))
+    np.testing.assert_allclose(out[:, :3], [RED[:3], GREEN[:3]])
+
+
+# ---------------------------------------------------------------------------- hexagon
+def hex_centre(q: int, r: int) -> np.ndarray:
+    return np.array([1.5 * q, 0.0, math.sqrt(3.0) * (r + q / 2.0)])
+
+
+def test_hexagon_colours_match_povray():
+    # Sampled from POV-Ray 3.7's render of `hexagon rgb x, rgb y, rgb z` seen from above.
+    expected = {
+        (0, 0): 0,
+        (1, 0): 2,
+        (2, 0): 1,
+        (-1, 0): 1,
+        (0, 1): 1,
+        (0, 2): 2,
+        (0, -1): 2,
+        (1, 1): 0,
+        (-1, 1): 2,
+        (2, -1): 0,
+        (0, -2): 1,
+        (2, -2): 2,
+    }
+    pts = np.array([hex_centre(q, r) for q, r in expected])
+    assert list(patterns.hexagon(pts, {})) == list(expected.values())
+
+
+def test_hexagon_has_side_one_with_a_corner_on_x():
+    inside = patterns.hexagon(np.array([[0.99, 0, 0], [0, 0, 0.86]]), {})
+    outside = patterns.hexagon(np.array([[1.01, 0, 0], [0, 0, 0.87]]), {})
+    assert list(inside) == [0, 0]
+    assert 0 not in list(outside)
+
+
+@given(st.integers(-20, 20), st.integers(-20, 20), st.integers(0, 5))
+def test_hexagon_neighbours_never_share_a_colour(q, r, k):
+    dq, dr = [(1, 0), (0, 1), (-1, 1), (-1, 0), (0, -1), (1, -1)][k]
+    a = patterns.hexagon(hex_centre(q, r)[None], {})[0]
+    b = patterns.hexagon(hex_centre(q + dq, r + dr)[None], {})[0]
+    assert a != b
+
+
+# ------------------------------------------------------------------------------ brick
+def test_brick_joints_where_povray_puts_them():
+    # Default bricks <8,3,4.5>, mortar 0.5, everything shifted by mortar + 0.001.
+    b = patterns.brick(
+        np.array(
+            [
+                [4.0, 1.5, 1.0],  # middle of a brick face, even course
+                [4.0, -0.3, 1.0],  # bed joint: y + 0.501 in [0, 0.5]
+                [-0.3, 1.5, 1.0],  # end joint of an even course (x on the grid)
+                [3.7, 4.5, 1.0],  # odd course: end joints shifted half a brick
+                [-0.3, 4.5, 1.0],  # …so the even-course joint position is brick there
+            ]
+        ),
+        {},
+    )
+    assert list(b) == [1, 0, 0, 0, 1]
+
+
+def test_brick_respects_size_and_mortar_params():
+    params = {"brick_size": (1.0, 1.0, 1.0), "mortar": 0.1}
+    b = patterns.brick(np.array([[0.5, 0.5, 0.0], [0.5, 0.95, 0.5]]), params)
+    assert list(b) == [1, 0]
+
+
+# --------------------------------------------------------------- maps and wave shaping
+def test_colour_map_interpolates_and_clamps():
+    pig = ir.Pigment(
+        pattern="gradient",
+        params={"orientation": (1.0, 0.0, 0.0)},
+        color_map=((0.25, RED), (0.75, BLUE)),
+    )
+    out = patterns.evaluate(pig, np.array([[0.1, 0, 0], [0.5, 0, 0], [0.9, 0, 0]]))
+    np.testing.assert_allclose(out[:, :3], [[1, 0, 0], [0.5, 0, 0.5], [0, 0, 1]])
+
+
+def test_gradient_repeats_every_unit():
+    pig = ir.Pigment(
+        pattern="gradient",
+        params={"orientation": (0.0, 1.0, 0.0)},
+        color_map=((0.0, RED), (1.0, BLUE)),
+    )
+    a = patterns.evaluate(pig, np.array([[0, 0.3, 0], [0, 2.3, 0], [0, -0.7, 0]]))
+    np.testing.assert_allclose(a[1], a[0], atol=1e-4)
+    np.testing.assert_allclose(a[2], a[0], atol=1e-4)
+
+
+@given(st.lists(st.floats(0, 1), min_size=1, max_size=6, unique=True), st.floats(-0.5, 1.5))
+def test_blend_indices_pick_neighbours(keys, v):
+    k = np.array(sorted(keys))
+    lo, hi, frac = patterns.blend_indices(k, np.array([v]))
+    assert 0 <= lo[0] <= hi[0] < len(k)
+    assert 0.0 <= frac[0] <= 1.0
+    if v <= k[0]:
+        assert hi[0] == 0 and frac[0] == 0.0
+    elif v >= k[-1]:
+        assert lo[0] == hi[0] == len(k) - 1
+    else:
+        assert k[lo[0]] <= v <= k[hi[0]]
+        assert k[lo[0]] + frac[0] * (k[hi[0]] - k[lo[0]]) == pytest.approx(v)
+
+
+def test_frequency_and_phase_wrap_like_povray():
+    v = patterns.apply_wave(np.array([0.3, 0.3]), {"frequency": 2.0, "phase": 0.1})
+    np.testing.assert_allclose(v, [0.7, 0.7])
+    neg = patterns.apply_wave(np.array([-0.25]), {})
+    np.testing.assert_allclose(neg, [0.75])
+
+
+def test_pigment_map_blends_sub_pigments():
+    pig = ir.Pigment(
+        pattern="gradient",
+        params={"orientation": (1.0, 0.0, 0.0)},
+        pigment_map=((0.0, solid(RED)), (1.0, solid(GREEN))),
+    )
+    out = patterns.evaluate(pig, np.array([[0.25, 0, 0]]))
+    np.testing.assert_allclose(out[0, :3], [0.75, 0.25, 0])
+
+
+def test_unknown_pattern_falls_back_to_its_first_colour(capsys):
+    pig = ir.Pigment(pattern="granite_unknown", color_map=((0.0, GREEN), (1.0, RED)))
+    out = patterns.evaluate(pig, np.zeros((2, 3)))
+    np.testing.assert_allclose(out[:, :3], [GREEN[:3]] * 2)
+    assert "granite_unknown" in capsys.readouterr().out
+
+
+def test_may_transmit_sees_nested_pigments():
+    clear = ir.Pigment(color=(1, 1, 1, 0, 0.5))
+    assert patterns.may_transmit(ir.Pigment(pattern="checker", list=(solid(RED), clear)))
+    assert not patterns.may_transmit(ir.Pigment(pattern="checker", list=(solid(RED),)))

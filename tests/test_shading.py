@@ -1,0 +1,277 @@
+"""POV-Ray 3.7's finish model: each term against hand-computed values, then whole hits
+through the integrator (a lit sphere pixel, a shadowed point, reflection, transparency)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import ir
+from runtime import integrate, shading
+from runtime.prepare import prepare
+from runtime.shading import Surface
+
+HEAD_ON = Surface(normal=np.array([[0.0, 0.0, -1.0]]), ray_dir=np.array([[0.0, 0.0, 1.0]]))
+WHITE = np.ones((1, 3))
+
+
+def unit(v) -> np.ndarray:
+    v = np.asarray(v, dtype=np.float64)
+    return v / np.linalg.norm(v)
+
+
+# ------------------------------------------------------------------ diffuse, brilliance
+def test_diffuse_is_cosine_times_diffuse_times_pigment():
+    light = unit([0.0, 1.0, -1.0])[None]  # 45 degrees off the normal
+    pig = np.array([[1.0, 0.5, 0.25]])
+    out = shading.light_terms(ir.Finish(diffuse=0.6), HEAD_ON, pig, np.ones(1), light, WHITE)
+    np.testing.assert_allclose(out, 0.6 * math.cos(math.radians(45)) * pig)
+
+
+def test_brilliance_raises_the_cosine_to_its_power():
+    light = unit([0.0, 1.0, -1.0])[None]
+    fin = ir.Finish(diffuse=1.0, brilliance=3.0)
+    out = shading.light_terms(fin, HEAD_ON, WHITE, np.ones(1), light, WHITE)
+    np.testing.assert_allclose(out[0, 0], math.cos(math.radians(45)) ** 3)
+
+
+def test_light_behind_the_surface_gives_nothing_unless_double_illuminated():
+    behind = np.array([[0.0, 0.0, 1.0]])
+    fin = ir.Finish(diffuse=1.0, specular=1.0)
+    assert not shading.light_terms(fin, HEAD_ON, WHITE, np.ones(1), behind, WHITE).any()
+    lit = shading.light_terms(fin, HEAD_ON, WHITE, np.ones(1), behind, WHITE, True)
+    np.testing.assert_allclose(lit[0], [1.0, 1.0, 1.0])  # |cos| = 1, no highlight behind
+
+
+def test_opacity_scales_diffuse_but_not_highlights():
+    fin = ir.Finish(diffuse=1.0, phong=1.0, phong_size=1.0)
+    light = np.array([[0.0, 0.0, -1.0]])
+    half = shading.light_terms(fin, HEAD_ON, WHITE, np.full(1, 0.5), light, WHITE)
+    np.testing.assert_allclose(half[0], [1.5, 1.5, 1.5])  # 0.5 diffuse + full phong
+
+
+# --------------------------------------------------------------------- highlights
+def test_specular_uses_the_halfway_vector_and_inverse_roughness():
+    light = unit([0.0, math.sin(math.radians(60)), -math.cos(math.radians(60))])[None]
+    fin = ir.Finish(diffuse=0.0, specular=0.8, roughness=0.05)
+    out = shading.light_terms(fin, HEAD_ON, WHITE, np.ones(1), light, WHITE)
+    # H is halfway between the viewer (-z) and the light: 30 degrees off the normal.
+    np.testing.assert_allclose(out[0, 0], 0.8 * math.cos(math.radians(30)) ** 20)
+
+
+def test_phong_uses_the_mirrored_view_ray():
+    light = unit([0.0, math.sin(math.radians(20)), -math.cos(math.radians(20))])[None]
+    fin = ir.Finish(diffuse=0.0, phong=0.7, phong_size=40)
+    out = shading.light_terms(fin, HEAD_ON, WHITE, np.ones(1), light, WHITE)
+    # The view ray mirrored about the normal is -z: 20 degrees from the light.
+    np.testing.assert_allclose(out[0, 0], 0.7 * math.cos(math.radians(20)) ** 40)
+
+
+def test_metallic_tints_a_head_on_highlight_with_the_pigment():
+    light = np.array([[0.0, 0.0, -1.0]])
+    pig = np.array([[0.85, 0.85, 0.1]])
+    fin = ir.Finish(diffuse=0.0, specular=1.0, metallic=1.0)
+    out = shading.light_terms(fin, HEAD_ON, pig, np.ones(1), light, WHITE)
+    # POV-Ray's empirical Fresnel curve is ~0 head on, so the highlight takes the pigment.
+    np.testing.assert_allclose(out[0], pig[0], atol=1e-6)
+    plain = shading.light_terms(
+        ir.Finish(diffuse=0.0, specular=1.0), HEAD_ON, pig, np.ones(1), light, WHITE
+    )
+    np.testing.assert_allclose(plain[0], [1.0, 1.0, 1.0])
+
+
+@given(st.floats(0.0, 1.0))
+def test_fresnel_metallic_curve_stays_in_unit_interval(c):
+    f = shading.fresnel_metallic(np.array([c]))
+    assert 0.0 <= f[0] <= 1.0
+
+
+# ------------------------------------------------------------------------- lights
+def test_fade_is_one_at_the_fade_distance_and_falls_with_its_power():
+    light = ir.Light(position=(0, 0, 0), fade_distance=2.0, fade_power=2.0)
+    pts = np.array([[2.0, 0, 0], [4.0, 0, 0]])
+    ls = shading.sample_light(light, pts)
+    np.testing.assert_allclose(ls.colour[:, 0], [1.0, 2.0 / (1.0 + 4.0)])
+    np.testing.assert_allclose(ls.distance, [2.0, 4.0])
+
+
+def test_spotlight_is_full_inside_radius_dark_beyond_falloff_smooth_between():
+    light = ir.Light(
+        position=(0, 10, 0), kind="spotlight", point_at=(0, 0, 0), radius=10, falloff=20
+    )
+
+    def at(deg: float) -> float:
+        p = np.array([[10.0 * math.tan(math.radians(deg)), 0.0, 0.0]])
+        return float(shading.sample_light(light, p).colour[0, 0])
+
+    assert at(5) == pytest.approx(1.0)
+    assert at(25) == 0.0
+    mid = at(15)
+    cr, cf, ct = (math.cos(math.radians(a)) for a in (10, 20, 15))
+    t = (ct - cf) / (cr - cf)
+    assert mid == pytest.approx((3 - 2 * t) * t * t)
+
+
+def test_parallel_light_has_one_direction_everywhere():
+    light = ir.Light(position=(0, 10, -10), kind="parallel", point_at=(0, 0, 0))
+    pts = np.array([[0.0, 0, 0], [50.0, -3, 7]])
+    ls = shading.sample_light(light, pts)
+    np.testing.assert_allclose(ls.direction, [unit([0, 1, -1])] * 2)
+
+
+@given(st.integers(1, 9), st.integers(1, 9))
+def test_area_light_weights_sum_to_one(n1, n2):
+    w = shading.area_weights(n1, n2)
+    assert w.shape == (n1 * n2,)
+    assert (w >= 0).all()
+    assert w.sum() == pytest.approx(1.0)
+
+
+def test_area_light_weights_of_a_3x3_grid():
+    # Corners once, edge middles twice, centre four times (each quarter shares them).
+    w = shading.area_weights(3, 3).reshape(3, 3) * 16
+    np.testing.assert_allclose(w, [[1, 2, 1], [2, 4, 2], [1, 2, 1]])
+
+
+# --------------------------------------------------------------------- reflection
+def test_reflection_falloff_interpolates_min_to_max_toward_grazing():
+    fin = ir.Finish(reflection=ir.Reflection(min=(0.1,) * 3, max=(0.9,) * 3, falloff=2.0))
+    cos = np.array([1.0, 0.5, 0.0])
+    refl, weight = shading.reflectivity(fin, cos, np.ones((3, 3)))
+    frac = (1.0 - cos) ** 2
+    np.testing.assert_allclose(refl[:, 0], 0.1 + 0.8 * frac)
+    np.testing.assert_allclose(weight, 0.9)
+
+
+def test_fresnel_reflection_at_normal_incidence_is_the_textbook_value():
+    fin = ir.Finish(reflection=ir.Reflection(min=(0,) * 3, max=(1,) * 3, fresnel=True))
+    refl, _ = shading.reflectivity(fin, np.array([1.0]), np.ones((1, 3)), 1.5)
+    assert refl[0, 0] == pytest.approx(((1.5 - 1) / (1.5 + 1)) ** 2)
+
+
+def test_reflect_mirrors_about_the_normal():
+    d = shading.reflect(unit([1, -1, 0])[None], np.array([[0.0, 1, 0]]), np.array([[0.0, 1, 0]]))
+    np.testing.assert_allclose(d[0], unit([1, 1, 0]))
+
+
+def test_refraction_bends_toward_the_normal_and_reflects_totally_past_critical():
+    n = np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    d = np.array([unit([1, -1, 0]), unit([1, -0.1, 0])])
+    rd, tir = shading.refract(d, n, np.array([1 / 1.5, 1.5]))
+    sin_out = abs(rd[0, 0])
+    assert sin_out == pytest.approx(math.sin(math.radians(45)) / 1.5)
+    assert list(tir) == [False, True]
+
+
+# ------------------------------------------------------ whole hits through the integrator
+def sphere_scene(**kw) -> ir.Scene:
+    tex = kw.pop(
+        "texture",
+        ir.Texture(
+            pigment=ir.Pigment(color=(1.0, 0.5, 0.2, 0, 0)),
+            finish=ir.Finish(phong=0.5, phong_size=10),
+        ),
+    )
+    objs = [ir.Object(ir.Sphere((0, 0, 0), 1.0), texture=tex), *kw.pop("extra", [])]
+    return ir.Scene(
+        camera=ir.Camera(location=(0, 0, -5)),
+        lights=kw.pop("lights", (ir.Light(position=(0, 0, -10)),)),
+        objects=tuple(objs),
+        settings=ir.Settings(assumed_gamma=1.0, version=3.7),
+        **kw,
+    )
+
+
+def shoot(scene: ir.Scene, origins, dirs) -> np.ndarray:
+    ctx = integrate.make_context(prepare(scene, 8, 8))
+    o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+    d = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+    return integrate.trace(ctx, o, d, np.ones(len(o)), 0, "no_image")
+
+
+def test_a_lit_sphere_pixel_is_ambient_plus_diffuse_plus_phong():
+    col = shoot(sphere_scene(), [0, 0, -5], [0, 0, 1])
+    pig = np.array([1.0, 0.5, 0.2])
+    # Head on: N.L = 1, R.L = 1: 0.1 ambient + 0.6 diffuse of the pigment, + 0.5 white phong.
+    np.testing.assert_allclose(col[0], 0.7 * pig + 0.5)
+
+
+def test_a_point_in_shadow_gets_only_ambient():
+    blocker = ir.Object(ir.Sphere((0, 0, -3), 0.5))
+    scene = sphere_scene(extra=[blocker], lights=(ir.Light(position=(0, 0, -10)),))
+    # Aim at the big sphere just beside the small one's silhouette as seen from the camera.
+    col = shoot(scene, [0, 0.6, -5], [0, 0, 1])
+    hit_y = 0.6
+    n = np.array([0.0, hit_y, -math.sqrt(1 - hit_y**2)])
+    light = unit(np.array([0, 0, -10]) - n)
+    lit = shoot(sphere_scene(), [0, 0.6, -5], [0, 0, 1])
+    assert lit[0, 0] > col[0, 0]
+    assert light[2] < 0  # the light is in front: the only reason for darkness is the blocker
+    np.testing.assert_allclose(col[0], 0.1 * np.array([1.0, 0.5, 0.2]), atol=1e-9)
+
+
+def test_shadowless_lights_ignore_blockers():
+    blocker = ir.Object(ir.Sphere((0, 0, -3), 0.5))
+    light = ir.Light(position=(0, 0, -10), shadowless=True)
+    scene = sphere_scene(extra=[blocker], lights=(light,))
+    free = sphere_scene(lights=(light,))
+    np.testing.assert_allclose(
+        shoot(scene, [0, 0.6, -5], [0, 0, 1]), shoot(free, [0, 0.6, -5], [0, 0, 1])
+    )
+
+
+def test_reflection_adds_the_reflected_colour_times_reflectivity():
+    mirror = ir.Texture(
+        pigment=ir.Pigment(color=(0, 0, 0, 0, 0)),
+        finish=ir.Finish(
+            ambient=(0, 0, 0), diffuse=0.0, reflection=ir.Reflection(min=(0.5,) * 3, max=(0.5,) * 3)
+        ),
+    )
+    scene = sphere_scene(texture=mirror, background=(0.2, 0.4, 0.6, 0, 0), lights=())
+    col = shoot(scene, [0, 0, -5], [0, 0, 1])  # reflects straight back into the sky
+    np.testing.assert_allclose(col[0], 0.5 * np.array([0.2, 0.4, 0.6]))
+
+
+def test_max_trace_level_stops_reflections():
+    mirror = ir.Texture(
+        finish=ir.Finish(
+            ambient=(0, 0, 0), diffuse=0.0, reflection=ir.Reflection(min=(1,) * 3, max=(1,) * 3)
+        )
+    )
+    scene = sphere_scene(texture=mirror, background=(1, 1, 1, 0, 0), lights=())
+    one = ir.Scene(
+        camera=scene.camera,
+        objects=scene.objects,
+        background=scene.background,
+        settings=ir.Settings(assumed_gamma=1.0, max_trace_level=1),
+    )
+    assert shoot(scene, [0, 0, -5], [0, 0, 1])[0, 0] == pytest.approx(1.0)
+    assert shoot(one, [0, 0, -5], [0, 0, 1])[0, 0] == 0.0
+
+
+def test_transmit_lets_the_background_through():
+    glassy = ir.Texture(
+        pigment=ir.Pigment(color=(1, 0, 0, 0, 0.75)),
+        finish=ir.Finish(ambient=(0, 0, 0), diffuse=0.0),
+    )
+    scene = sphere_scene(texture=glassy, background=(0, 0, 1, 0, 0), lights=())
+    col = shoot(scene, [0, 0, -5], [0, 0, 1])
+    # Through two surfaces, each passing 0.75 of what is behind it.
+    np.testing.assert_allclose(col[0], [0, 0, 0.75**2])
+
+
+def test_filter_tints_light_and_shadow():
+    red_glass = ir.Object(
+        ir.Sphere((0, 0, -3), 0.5), texture=ir.Texture(pigment=ir.Pigment(color=(1, 0, 0, 1, 0)))
+    )
+    white = ir.Texture(
+        pigment=ir.Pigment(color=(1, 1, 1, 0, 0)), finish=ir.Finish(ambient=(0, 0, 0), diffuse=1.0)
+    )
+    scene = sphere_scene(texture=white, extra=[red_glass])
+    # Behind the filtering sphere (seen past it), the big sphere is lit red only.
+    col = shoot(scene, [0, 0.6, -5], [0, 0, 1])
+    assert col[0, 0] > 0.5 and col[0, 1] == pytest.approx(0.0) and col[0, 2] == pytest.approx(0.0)
