@@ -1,0 +1,151 @@
+"""POV-Ray 3.7's camera rules: block items → the final ir.Camera vectors.
+
+POV-Ray (3.5+ syntax) reads every item of the block first and then, in this order: sets the
+direction's length from `angle` (|direction| = |right| / 2 / tan(angle/2)), re-aims the camera
+for `look_at` (direction toward the point with its length kept, right = sky × direction with
+its length and handedness kept, up = direction × right with its length kept), and finally
+applies the block's transformations to every vector. `camera { Declared … }` starts from a
+declared camera's final state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+from lang import transforms
+from lang.ir import IDENTITY, Camera, Matrix, Vec3
+
+# POV-Ray's EPSILON for a degenerate look_at (location == look_at, or sky ∥ direction).
+CAMERA_EPSILON = 1e-10
+
+
+class CameraError(Exception):
+    pass
+
+
+def _sub(a: Vec3, b: Vec3) -> Vec3:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _dot(a: Vec3, b: Vec3) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: Vec3, b: Vec3) -> Vec3:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _len(a: Vec3) -> float:
+    return math.sqrt(_dot(a, a))
+
+
+def _scaled(a: Vec3, s: float) -> Vec3:
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+def _unit(a: Vec3) -> Vec3:
+    n = _len(a)
+    return _scaled(a, 1.0 / n) if n > 0 else a
+
+
+@dataclass
+class CameraBuilder:
+    """Collects a camera block's items; `build` applies POV-Ray's rules."""
+
+    camera: Camera = field(default_factory=Camera)
+    look_at_point: Vec3 = (0.0, 0.0, 1.0)
+    had_look_at: bool = False
+    had_angle: bool = False
+    transform: Matrix = IDENTITY
+    warnings: list[str] = field(default_factory=list)
+
+    def set(self, name: str, value: object) -> None:
+        c = self.camera
+        if name in ("location", "direction", "right", "up", "sky", "focal_point"):
+            self.camera = replace(c, **{name: value})
+        elif name == "look_at":
+            self.look_at_point = value  # type: ignore[assignment]
+            self.had_look_at = True
+        elif name == "angle":
+            a = float(value)  # type: ignore[arg-type]
+            if a < 0:
+                raise CameraError("negative viewing angle")
+            if c.kind == "perspective" and a >= 180.0:
+                raise CameraError("a perspective camera's angle must be below 180 degrees")
+            self.camera = replace(c, angle=a)
+            self.had_angle = True
+        elif name in (
+            "perspective",
+            "orthographic",
+            "fisheye",
+            "ultra_wide_angle",
+            "omnimax",
+            "panoramic",
+            "spherical",
+            "cylinder",
+            "mesh_camera",
+        ):
+            self.camera = replace(c, kind=name)
+        elif name == "aperture":
+            self.camera = replace(c, aperture=float(value))  # type: ignore[arg-type]
+        elif name == "blur_samples":
+            self.camera = replace(c, blur_samples=int(value))  # type: ignore[call-overload]
+        else:
+            raise CameraError(f"unknown camera item `{name}`")
+
+    def add_transform(self, m: Matrix) -> None:
+        self.transform = transforms.then(self.transform, m)
+
+    def build(self) -> Camera:
+        c = self.camera
+        direction, right, up = c.direction, c.right, c.up
+        if self.had_angle and c.angle is not None:
+            if c.kind == "perspective":
+                length = 0.5 * _len(right) / math.tan(math.radians(c.angle) / 2.0)
+                direction = _scaled(_unit(direction), length)
+            elif c.kind == "orthographic":
+                # POV-Ray: the view width follows from the angle at |direction|.
+                width = 2.0 * _len(direction) * math.tan(math.radians(c.angle) / 2.0)
+                ratio = _len(up) / _len(right) if _len(right) > 0 else 1.0
+                right = _scaled(_unit(right), width)
+                up = _scaled(_unit(up), width * ratio)
+        if self.had_look_at:
+            d_len, u_len, r_len = _len(direction), _len(up), _len(right)
+            handedness = _dot(_cross(up, direction), right)
+            new_dir = _sub(self.look_at_point, c.location)
+            if _dot(new_dir, new_dir) < CAMERA_EPSILON:
+                raise CameraError("camera location and look_at point must be different")
+            new_dir = _unit(new_dir)
+            new_right = _cross(c.sky, new_dir)
+            if all(abs(v) < CAMERA_EPSILON for v in new_right):
+                self.warnings.append(
+                    "the camera looks along its sky vector; keeping the given right vector"
+                )
+                new_right = right
+            new_right = _unit(new_right)
+            up = _scaled(_cross(new_dir, new_right), u_len)
+            direction = _scaled(new_dir, d_len)
+            right = _scaled(new_right, r_len if handedness > 0.0 else -r_len)
+        c = replace(c, direction=direction, right=right, up=up)
+        if not transforms.is_identity(self.transform):
+            c = transform_camera(c, self.transform)
+        return c
+
+
+def transform_camera(c: Camera, m: Matrix) -> Camera:
+    fp = c.focal_point
+    return replace(
+        c,
+        location=transforms.apply_point(m, c.location),
+        direction=transforms.apply_direction(m, c.direction),
+        right=transforms.apply_direction(m, c.right),
+        up=transforms.apply_direction(m, c.up),
+        sky=transforms.apply_direction(m, c.sky),
+        focal_point=transforms.apply_point(m, fp) if fp is not None else None,
+    )
+
+
+def vec3(v: Sequence[float]) -> Vec3:
+    return (float(v[0]), float(v[1]), float(v[2]))

@@ -1,0 +1,2415 @@
+"""The interpreter: syntax tree → IR.
+
+Two phases per block body. *Expand* walks the elements, runs directives in place (`#if`
+picks a branch, `#while`/`#for` loop, `#declare` binds, `#include` splices a file, a macro
+call splices what its body yields) and evaluates expressions and nested blocks to values.
+*Group* then reads the expanded stream with the block's schema (lang/schema.py): positional
+values first, then each keyword with its arguments, and values such as a `pigment {…}` as
+items. A builder per block turns the groups into a value (IR dataclasses where the IR has
+one). Errors become Diagnostics at the element's span and evaluation goes on.
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+import re
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import lang
+from lang import builtins, ir, schema, syntax, transforms
+from lang.builtins import EvalError, as_color, as_float, as_vec
+from lang.camera import CameraBuilder, CameraError
+from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
+from lang.keywords import ALL_WORDS
+from lang.values import (
+    ArrayValue,
+    CameraValue,
+    ColorValue,
+    FileHandle,
+    FunctionValue,
+    ListValue,
+    MacroValue,
+    MapValue,
+    MaterialValue,
+    ObjectValue,
+    ReflectionValue,
+    TransformValue,
+    UnsupportedValue,
+    Vec,
+    describe,
+    kind_of,
+)
+
+STDLIB = Path(lang.__file__).resolve().parent.parent / "stdlib"
+
+# Bounds that turn runaway scenes into diagnostics instead of hangs.
+MAX_LOOP_ITERATIONS = 1_000_000
+MAX_MACRO_DEPTH = 200
+MAX_INCLUDE_DEPTH = 64
+
+
+@dataclass
+class Result:
+    scene: ir.Scene | None  # None only when errors made a scene impossible
+    diagnostics: list[Diagnostic]
+    symbols: dict[str, object]  # global identifiers at the end (#declare'd values)
+    files: list[str]  # every file read
+
+
+def compile_file(
+    path: str,
+    library_paths: Sequence[str] = (),
+    *,
+    clock: float = 0.0,
+    allow_file_io: bool = True,
+    image_width: int = 0,
+    image_height: int = 0,
+    debug_to_stderr: bool = False,
+) -> Result:
+    interp = Interpreter(
+        library_paths,
+        clock=clock,
+        allow_file_io=allow_file_io,
+        image_width=image_width,
+        image_height=image_height,
+        debug_to_stderr=debug_to_stderr,
+    )
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError as e:
+        span = Span(path, 1, 1, 1, 1)
+        diag = Diagnostic(Severity.ERROR, "E0220", f"cannot read {path}: {e.strerror}", span)
+        return Result(None, [diag], {}, [])
+    return interp.run(text, str(Path(path)))
+
+
+def compile_source(
+    text: str,
+    filename: str = "<string>",
+    library_paths: Sequence[str] = (),
+    *,
+    clock: float = 0.0,
+    allow_file_io: bool = True,
+    image_width: int = 0,
+    image_height: int = 0,
+    debug_to_stderr: bool = False,
+) -> Result:
+    interp = Interpreter(
+        library_paths,
+        clock=clock,
+        allow_file_io=allow_file_io,
+        image_width=image_width,
+        image_height=image_height,
+        debug_to_stderr=debug_to_stderr,
+    )
+    return interp.run(text, filename)
+
+
+# ------------------------------------------------------------------ elements
+@dataclass(slots=True)
+class El:
+    """One expanded element: kind is "kw" (a keyword name), "val" (a value), "comma",
+    or "entry" (a map entry: its expanded elements)."""
+
+    kind: str
+    value: Any
+    span: Span
+
+
+@dataclass(frozen=True)
+class _Clip:
+    kind: str  # clipped_by | bounded_by
+    objects: tuple[ObjectValue, ...]
+    use_other: bool = False
+
+
+@dataclass(frozen=True)
+class _LooksLike:
+    obj: ObjectValue
+    kind: str = "looks_like"
+
+
+@dataclass(frozen=True)
+class _Irid:
+    amount: float
+    thickness: float
+    turbulence: float
+    kind: str = "irid"
+
+
+@dataclass(frozen=True)
+class _Statement:
+    """A top-level block that is not a value: background, sky_sphere, fog, global_settings."""
+
+    kind: str
+    value: Any
+
+
+class _Break(Exception):
+    pass
+
+
+class _Halt(Exception):
+    """`#error`: POV-Ray stops parsing."""
+
+
+class _Scope(dict):
+    """One symbol table; `kind` is global, include, macro or function."""
+
+    def __init__(self, kind: str):
+        super().__init__()
+        self.kind = kind
+
+
+@dataclass
+class Grouped:
+    positional: dict[str, Any]
+    items: list[tuple[str, list[Any], Span]]
+    span: Span
+
+
+_FIT: dict[str, Callable[[Any], bool]] = {
+    "float": lambda v: kind_of(v) == "float",
+    "int": lambda v: kind_of(v) == "float",
+    "vector": lambda v: kind_of(v) in ("float", "vector"),
+    "vector2": lambda v: kind_of(v) in ("float", "vector"),
+    "color": lambda v: kind_of(v) in ("float", "vector", "color"),
+    "rgb": lambda v: kind_of(v) in ("float", "vector", "color"),
+    "string": lambda v: isinstance(v, str),
+    "matrix": lambda v: isinstance(v, Vec) and len(v) == 12,
+    "transform": lambda v: isinstance(v, TransformValue),
+    "object": lambda v: isinstance(v, ObjectValue),
+    "camera": lambda v: isinstance(v, CameraValue),
+    "bool": lambda v: kind_of(v) == "float",
+}
+_KIND_WORDS = {
+    "float": "a float",
+    "int": "an integer",
+    "vector": "a vector",
+    "vector2": "a 2-vector",
+    "color": "a colour",
+    "rgb": "a float or a colour",
+    "string": "a string",
+    "matrix": "a 12-component matrix vector",
+    "transform": "a transform",
+    "object": "an object",
+    "camera": "a camera",
+    "bool": "on/off",
+    "word": "a keyword",
+}
+_LIST_KINDS = frozenset({"color", "vector", "float", "pigment", "normal", "texture"})
+
+
+def _convert(kind: str, v: Any) -> Any:
+    if kind == "float":
+        return as_float(v)
+    if kind == "int":
+        return int(as_float(v))
+    if kind == "bool":
+        return as_float(v) != 0.0
+    if kind == "vector":
+        return as_vec(v, 3).xyz
+    if kind == "vector2":
+        p = as_vec(v, 2)
+        return (p[0], p[1])
+    if kind == "color":
+        return as_color(v)
+    if kind == "rgb":
+        return as_color(v).rgb if not isinstance(v, float | int) else (float(v),) * 3
+    if kind == "transform":
+        return v.matrix
+    return v
+
+
+def transform_pigment(p: ir.Pigment, m: ir.Matrix) -> ir.Pigment:
+    """Move a pigment and (fully composed, like CSG children) its sub-pigments."""
+    return replace(
+        p,
+        transform=transforms.compose(m, p.transform),
+        list=tuple(transform_pigment(q, m) for q in p.list),
+        pigment_map=tuple((v, transform_pigment(q, m)) for v, q in p.pigment_map),
+    )
+
+
+def transform_normal(n: ir.Normal | None, m: ir.Matrix) -> ir.Normal | None:
+    if n is None:
+        return None
+    return replace(n, transform=transforms.compose(m, n.transform))
+
+
+def transform_texture(t: ir.Texture, m: ir.Matrix) -> ir.Texture:
+    return replace(
+        t,
+        pigment=transform_pigment(t.pigment, m),
+        normal=transform_normal(t.normal, m),
+        layers=tuple(transform_texture(layer, m) for layer in t.layers),
+    )
+
+
+def transform_light(light: ir.Light, m: ir.Matrix) -> ir.Light:
+    area = light.area
+    if area is not None:
+        area = replace(
+            area,
+            axis1=transforms.apply_direction(m, area.axis1),
+            axis2=transforms.apply_direction(m, area.axis2),
+        )
+    looks = light.looks_like
+    if looks is not None:
+        looks = _transform_ir_object(looks, m)
+    return replace(
+        light,
+        position=transforms.apply_point(m, light.position),
+        point_at=transforms.apply_point(m, light.point_at),
+        area=area,
+        looks_like=looks,
+    )
+
+
+def _transform_ir_object(o: ir.Object, m: ir.Matrix) -> ir.Object:
+    shape = o.shape
+    if isinstance(shape, ir.CSG):
+        shape = replace(shape, children=tuple(_transform_ir_object(c, m) for c in shape.children))
+        tr = o.transform
+    else:
+        tr = transforms.compose(m, o.transform)
+    return replace(
+        o,
+        shape=shape,
+        transform=tr,
+        texture=transform_texture(o.texture, m),
+        clipped_by=tuple(_transform_ir_object(c, m) for c in o.clipped_by),
+    )
+
+
+def transform_object(obj: ObjectValue, m: ir.Matrix) -> ObjectValue:
+    shape = obj.shape
+    if isinstance(shape, ir.Mesh) and shape.textures:
+        shape = replace(shape, textures=tuple(transform_texture(t, m) for t in shape.textures))
+    return replace(
+        obj,
+        shape=shape,
+        transform=obj.transform if obj.children else transforms.compose(m, obj.transform),
+        texture=transform_texture(obj.texture, m) if obj.texture is not None else None,
+        children=[transform_object(c, m) for c in obj.children],
+        lights=[transform_light(light, m) for light in obj.lights],
+        clipped_by=[transform_object(c, m) for c in obj.clipped_by],
+        bounded_by=[transform_object(c, m) for c in obj.bounded_by],
+        flags=dict(obj.flags),
+    )
+
+
+def _sorted_entries(entries: list[tuple[float, Any]]) -> tuple[tuple[float, Any], ...]:
+    return tuple(sorted(entries, key=lambda e: e[0]))
+
+
+# Pattern default colours when a list pattern is given fewer than it takes (POV-Ray's).
+_LIST_DEFAULTS = {
+    "checker": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0)],
+    "hexagon": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)],
+    "brick": [(1.0, 1.0, 1.0), (1.0, 0.0, 0.0)],
+}
+_WAVES = frozenset("ramp_wave sine_wave triangle_wave scallop_wave cubic_wave poly_wave".split())
+_TRANSFORM_WORDS = frozenset(("translate", "rotate", "scale", "matrix", "transform"))
+_CAMERA_KINDS = frozenset(
+    "perspective orthographic fisheye ultra_wide_angle omnimax panoramic spherical "
+    "cylinder mesh_camera".split()
+)
+_OBJECT_FLAGS = frozenset(
+    "no_shadow no_reflection no_image no_radiosity hollow double_illuminate".split()
+)
+_IGNORED_OBJECT_ITEMS = frozenset(
+    "sturm uv_mapping split_union cutaway_textures open inside_vector hierarchy".split()
+)
+
+
+def _item_matrix(name: str, args: list[Any]) -> ir.Matrix:
+    v = args[0]
+    if name == "translate":
+        return transforms.translate(v)
+    if name == "rotate":
+        return transforms.rotate(v)
+    if name == "scale":
+        if any(c == 0.0 for c in v):
+            raise EvalError(
+                "scale by zero", "a zero scale component makes the object vanish; use a tiny value"
+            )
+        return transforms.scale(v)
+    if name == "matrix":
+        return transforms.from_pov_matrix(v)
+    return v  # transform: already a matrix
+
+
+_READ_TOKEN = re.compile(
+    r'\s*(?:"((?:[^"\\]|\\.)*)"|<([^>]*)>|([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?))\s*,?'
+)
+
+
+class Interpreter:
+    def __init__(
+        self,
+        library_paths: Sequence[str] = (),
+        *,
+        clock: float = 0.0,
+        allow_file_io: bool = True,
+        image_width: int = 0,
+        image_height: int = 0,
+        debug_to_stderr: bool = False,
+    ):
+        self.sink = DiagnosticSink()
+        self.library_paths = [str(p) for p in library_paths]
+        self.clock = clock
+        self.allow_file_io = allow_file_io
+        self.image_width = image_width
+        self.image_height = image_height
+        self.debug_to_stderr = debug_to_stderr
+        self.scopes: list[_Scope] = [_Scope("global")]
+        self.file_stack: list[str] = []
+        self.files: list[str] = []
+        self.parse_cache: dict[str, syntax.SourceFile] = {}
+        self.macro_depth = 0
+        self.state = builtins.BuiltinState()
+        self.fn_bindings: list[dict[str, float]] = []
+        self.version = 3.7
+        self.version_set = False
+        self.main_file = ""
+        self.warned: set[str] = set()
+        # scene state
+        self.camera: ir.Camera | None = None
+        self.lights: list[ir.Light] = []
+        self.objects: list[ir.Object] = []
+        self.settings: dict[str, Any] = {}
+        self.background: ir.Color = ir.BLACK
+        self.sky_sphere: tuple[ir.Pigment, ...] | None = None
+        self.fog: ir.Fog | None = None
+        self.default_texture = ir.Texture()
+        self.handles: dict[str, FileHandle] = {}
+
+    # ------------------------------------------------------------ running
+    def run(self, text: str, filename: str) -> Result:
+        self.main_file = filename
+        self.state.folder = str(Path(filename).resolve().parent)
+        self.files.append(filename)
+        tree, diags = self._parse(text, filename)
+        self.sink.items.extend(diags)
+        self.file_stack.append(filename)
+        try:
+            for node in tree.body:
+                for el in self.expand([node], None):
+                    self._top_level(el)
+        except _Halt:
+            pass
+        finally:
+            self.file_stack.pop()
+        for h in list(self.handles.values()):
+            self._flush(h)
+        scene = self._scene()
+        symbols = {k: v for k, v in self.scopes[0].items()}
+        return Result(scene, self.sink.items, symbols, list(self.files))
+
+    def _parse(self, text: str, filename: str) -> tuple[syntax.SourceFile, list[Diagnostic]]:
+        from lang.parser import parse  # lark is loaded on first use, not at import
+
+        return parse(text, filename)
+
+    def _scene(self) -> ir.Scene:
+        s = self.settings
+        settings = ir.Settings(
+            assumed_gamma=s.get("assumed_gamma"),
+            version=self.version if self.version_set else None,
+            max_trace_level=s.get("max_trace_level", 5),
+            adc_bailout=s.get("adc_bailout", 1.0 / 255.0),
+            ambient_light=s.get("ambient_light", (1.0, 1.0, 1.0)),
+            radiosity=s.get("radiosity"),
+            charset=s.get("charset", "ascii"),
+        )
+        return ir.Scene(
+            camera=self.camera if self.camera is not None else ir.Camera(),
+            lights=tuple(self.lights),
+            objects=tuple(self.objects),
+            settings=settings,
+            background=self.background,
+            sky_sphere=self.sky_sphere,
+            fog=self.fog,
+            files=tuple(self.files),
+        )
+
+    # ------------------------------------------------------------ diagnostics
+    def error(self, code: str, message: str, span: Span, hint: str | None = None) -> SceneError:
+        return SceneError(Diagnostic(Severity.ERROR, code, message, span, hint))
+
+    def warn_once(self, key: str, message: str, span: Span, hint: str | None = None) -> None:
+        if key in self.warned:
+            return
+        self.warned.add(key)
+        self.sink.warning("W0300", message, span, hint)
+
+    def unsupported(self, feature: str, span: Span, what: str = "") -> None:
+        self.warn_once(
+            f"unsupported:{feature}",
+            f"`{feature}` is not supported yet{what}",
+            span,
+            "strala parses it and renders the rest of the scene",
+        )
+
+    # ------------------------------------------------------------ scopes
+    def lookup(self, name: str) -> tuple[bool, Any]:
+        for scope in reversed(self.scopes):
+            if name in scope:
+                return True, scope[name]
+        return False, None
+
+    def _scope_of(self, name: str) -> _Scope | None:
+        for scope in reversed(self.scopes):
+            if name in scope:
+                return scope
+        return None
+
+    def declare(self, name: str, value: Any, local: bool) -> None:
+        """POV-Ray: #local binds in the innermost table; #declare updates the most local
+        visible binding (so a macro can assign its by-reference parameters), else global."""
+        if local:
+            self.scopes[-1][name] = value
+            return
+        scope = self._scope_of(name)
+        (scope if scope is not None else self.scopes[0])[name] = value
+
+    def _unknown_ident(self, name: str, span: Span) -> SceneError:
+        visible: set[str] = set()
+        for scope in self.scopes:
+            visible |= set(scope)
+        close = difflib.get_close_matches(name, sorted(visible), n=1, cutoff=0.75)
+        hint = f"did you mean `{close[0]}`?" if close else None
+        if hint is None:
+            found = self._find_declaring_include(name)
+            if found:
+                hint = f'`{name}` is declared in {found}: add `#include "{found}"`'
+        if hint is None:
+            kw = difflib.get_close_matches(name, sorted(ALL_WORDS), n=1, cutoff=0.8)
+            if kw:
+                hint = f"did you mean the keyword `{kw[0]}`?"
+        return self.error("E0201", f"unknown identifier `{name}`", span, hint)
+
+    def _find_declaring_include(self, name: str) -> str | None:
+        pat = re.compile(rf"#\s*declare\s+{re.escape(name)}\s*=")
+        for folder in [*self.library_paths, str(STDLIB)]:
+            try:
+                entries = sorted(os.listdir(folder))
+            except OSError:
+                continue
+            for f in entries:
+                if not f.endswith(".inc"):
+                    continue
+                try:
+                    if pat.search(Path(folder, f).read_text(errors="replace")):
+                        return f
+                except OSError:
+                    continue
+        return None
+
+    # ------------------------------------------------------------ top level
+    def _top_level(self, el: El) -> None:
+        if el.kind == "comma":
+            return
+        if el.kind == "kw":
+            self.sink.error(
+                "E0210",
+                f"`{el.value}` cannot stand at the top level",
+                el.span,
+                self._where_keyword(el.value),
+            )
+            return
+        if el.kind == "entry":
+            self.sink.error("E0212", "a `[ … ]` map entry outside a map", el.span)
+            return
+        v = el.value
+        if v is None:
+            return
+        if isinstance(v, ObjectValue):
+            self.objects.append(self.to_ir(v))
+            self.lights.extend(v.lights)
+        elif isinstance(v, ir.Light):
+            self.lights.append(v)
+        elif isinstance(v, CameraValue):
+            self.camera = v.camera
+        elif isinstance(v, _Statement):
+            if v.kind == "background":
+                self.background = v.value
+            elif v.kind == "sky_sphere":
+                self.sky_sphere = v.value
+            elif v.kind == "fog":
+                self.fog = v.value
+        elif isinstance(v, UnsupportedValue):
+            self.unsupported(v.keyword, el.span)
+        else:
+            self.sink.error(
+                "E0212",
+                f"{describe(v)} cannot stand alone at the top level",
+                el.span,
+                "only objects, lights, camera and settings make a scene; "
+                "use #declare to name a value",
+            )
+
+    def _where_keyword(self, name: str) -> str | None:
+        homes = [b.name for b in schema.BLOCKS.values() if name in b.items]
+        if homes:
+            return f"`{name}` belongs inside " + ", ".join(f"`{h}`" for h in homes[:4])
+        return None
+
+    # ------------------------------------------------------------ expansion
+    def expand(self, body: Sequence[syntax.Node], spec: schema.BlockSpec | None) -> list[El]:
+        out: list[El] = []
+        for node in body:
+            try:
+                self._expand_node(node, out, spec)
+            except SceneError as e:
+                self.sink.items.append(e.diagnostic)
+            except EvalError as e:
+                self.sink.error("E0203", e.message, node.span, e.hint)
+            except RecursionError:
+                self.sink.error("E0231", "recursion too deep", node.span)
+        return out
+
+    def _expand_node(self, node: syntax.Node, out: list[El], spec: schema.BlockSpec | None) -> None:
+        t = type(node)
+        if t is syntax.Keyword:
+            out.append(El("kw", node.name, node.span))
+        elif t is syntax.Comma:
+            out.append(El("comma", None, node.span))
+        elif t is syntax.MapEntry:
+            out.append(El("entry", self.expand(node.body, None), node.span))
+        elif t is syntax.Call and not node.builtin and self._is_macro(node.name):
+            out.extend(self._call_macro(node))
+        elif (
+            t is syntax.Ident
+            and spec is not None
+            and node.name in spec.soft
+            and not self.lookup(node.name)[0]
+        ):
+            out.append(El("kw", node.name, node.span))
+        elif t in _DIRECTIVES:
+            _DIRECTIVES[t](self, node, out, spec)
+        else:
+            out.append(El("val", self.eval(node), node.span))
+
+    def _is_macro(self, name: str) -> bool:
+        found, v = self.lookup(name)
+        return found and isinstance(v, MacroValue)
+
+    # ------------------------------------------------------------ directives
+    def _d_include(self, node: syntax.Include, out: list[El], spec) -> None:
+        name = self.eval(node.path)
+        if not isinstance(name, str):
+            raise self.error("E0202", "#include needs a file name string", node.span)
+        path = self._resolve(name)
+        if path is None:
+            raise self.error(
+                "E0220",
+                f"include file `{name}` not found",
+                node.span,
+                "searched the scene's folder, the -L library paths and strala's stdlib",
+            )
+        if path in self.file_stack:
+            raise self.error(
+                "E0221",
+                f"include cycle: `{name}` is already being included",
+                node.span,
+                " → ".join(Path(f).name for f in [*self.file_stack, path]),
+            )
+        if len(self.file_stack) > MAX_INCLUDE_DEPTH:
+            raise self.error("E0221", "includes nested too deeply", node.span)
+        tree = self.parse_cache.get(path)
+        if tree is None:
+            try:
+                text = Path(path).read_text(encoding="utf-8", errors="replace")
+            except OSError as e:
+                raise self.error(
+                    "E0220", f"cannot read `{name}`: {e.strerror}", node.span
+                ) from None
+            tree, diags = self._parse(text, path)
+            self.sink.items.extend(diags)
+            self.parse_cache[path] = tree
+        if path not in self.files:
+            self.files.append(path)
+        self.file_stack.append(path)
+        self.scopes.append(_Scope("include"))
+        try:
+            out.extend(self.expand(tree.body, spec))
+        finally:
+            self.scopes.pop()
+            self.file_stack.pop()
+
+    def _resolve(self, name: str) -> str | None:
+        here = Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()
+        candidates = [here, *map(Path, self.library_paths), STDLIB]
+        if os.path.isabs(name):
+            candidates = [Path("/")]
+        for folder in candidates:
+            p = folder / name
+            if p.is_file():
+                return str(p.resolve())
+        return None
+
+    def _d_declare(self, node: syntax.Declare, out: list[El], spec) -> None:
+        value = self._eval_value(node.value)
+        if node.indices:
+            found, arr = self.lookup(node.name)
+            if not found or not isinstance(arr, ArrayValue):
+                raise self.error(
+                    "E0250", f"`{node.name}` is not an array", node.name_span or node.span
+                )
+            idx = tuple(self._index(arr, [self.eval(i) for i in node.indices], node.span))
+            arr.data[arr.flat_index(idx)] = value
+            return
+        if isinstance(value, ArrayValue) and isinstance(node.value, syntax.Ident):
+            value = ArrayValue(value.dims, list(value.data))  # POV-Ray copies arrays
+        self.declare(node.name, value, node.local)
+
+    def _eval_value(self, node: syntax.Node) -> Any:
+        """A declared value: an expression, or a directive that yields one value."""
+        if type(node) in _DIRECTIVES or (
+            isinstance(node, syntax.Call) and not node.builtin and self._is_macro(node.name)
+        ):
+            els = self.expand([node], None)
+            return self._single(els, node.span, "this declaration")
+        return self.eval(node)
+
+    def _single(self, els: list[El], span: Span, what: str) -> Any:
+        vals = [e for e in els if e.kind != "comma"]
+        if len(vals) == 1 and vals[0].kind == "val":
+            return vals[0].value
+        if not vals:
+            raise self.error("E0202", f"{what} yields no value", span)
+        raise self.error(
+            "E0202",
+            f"{what} yields {len(vals)} elements where one value is needed",
+            span,
+            "macros are functions: an expression takes exactly one value from them",
+        )
+
+    def _d_undef(self, node: syntax.Undef, out, spec) -> None:
+        scope = self._scope_of(node.name)
+        if scope is not None:
+            del scope[node.name]
+
+    def _d_if(self, node: syntax.If, out, spec) -> None:
+        for cond, body in node.branches:
+            if cond is None or builtins.truth(self.eval(cond)):
+                out.extend(self.expand(body, spec))
+                return
+
+    def _d_ifdef(self, node: syntax.IfDef, out, spec) -> None:
+        found, v = self.lookup(node.name)
+        if found and node.indices and isinstance(v, ArrayValue):
+            try:
+                idx = tuple(self._index(v, [self.eval(i) for i in node.indices], node.span))
+                found = v.data[v.flat_index(idx)] is not None
+            except SceneError:
+                found = False
+        if found != node.negate:
+            out.extend(self.expand(node.then, spec))
+        elif node.other is not None:
+            out.extend(self.expand(node.other, spec))
+
+    def _d_switch(self, node: syntax.Switch, out, spec) -> None:
+        value = as_float(self.eval(node.value), "#switch value")
+        running = False
+        try:
+            for case in node.cases:
+                if not running:
+                    if case.values is None:
+                        running = True
+                    elif case.is_range:
+                        lo, hi = (as_float(self.eval(v), "#range bound") for v in case.values)
+                        running = lo <= value <= hi
+                    else:
+                        c = as_float(self.eval(case.values[0]), "#case value")
+                        running = abs(c - value) < builtins.EQUALITY_EPSILON
+                if running:
+                    out.extend(self.expand(case.body, spec))
+                    if case.breaks:
+                        return
+        except _Break:
+            return
+
+    def _d_while(self, node: syntax.While, out, spec) -> None:
+        n = 0
+        try:
+            while builtins.truth(self.eval(node.cond)):
+                n += 1
+                if n > MAX_LOOP_ITERATIONS:
+                    raise self.error(
+                        "E0230",
+                        f"#while ran past {MAX_LOOP_ITERATIONS} iterations",
+                        node.span,
+                        "check that the loop's condition eventually becomes false",
+                    )
+                out.extend(self.expand(node.body, spec))
+        except _Break:
+            pass
+
+    def _d_for(self, node: syntax.For, out, spec) -> None:
+        start = as_float(self.eval(node.start), "#for start")
+        end = as_float(self.eval(node.end), "#for end")
+        step = as_float(self.eval(node.step), "#for step") if node.step is not None else 1.0
+        if step == 0.0:
+            raise self.error("E0230", "#for step is zero", node.span)
+        i, n = start, 0
+        try:
+            while (i <= end + 1e-10) if step > 0 else (i >= end - 1e-10):
+                n += 1
+                if n > MAX_LOOP_ITERATIONS:
+                    raise self.error(
+                        "E0230", f"#for ran past {MAX_LOOP_ITERATIONS} iterations", node.span
+                    )
+                (self._scope_of(node.var) or self.scopes[-1])[node.var] = i
+                out.extend(self.expand(node.body, spec))
+                found, cur = self.lookup(node.var)
+                i = (as_float(cur) if found else i) + step
+        except _Break:
+            pass
+
+    def _d_macro(self, node: syntax.MacroDef, out, spec) -> None:
+        self.scopes[0][node.name] = MacroValue(
+            node.name, tuple(node.params), tuple(node.body), self.file_stack[-1], node.span
+        )
+
+    def _d_version(self, node: syntax.Version, out, spec) -> None:
+        self.version = as_float(self.eval(node.value), "#version")
+        if self.file_stack and self.file_stack[-1] == self.main_file:
+            self.version_set = True
+
+    def _d_message(self, node: syntax.Message, out, spec) -> None:
+        v = self.eval(node.value)
+        text = v if isinstance(v, str) else str(v)
+        if node.kind == "debug":
+            if self.debug_to_stderr:
+                sys.stderr.write(text)
+            self.sink.note("N0100", text.rstrip("\n"), node.span)
+        elif node.kind == "warning":
+            self.sink.warning("W0301", text.rstrip("\n"), node.span)
+        elif node.kind == "error":
+            self.sink.error("E0240", text.rstrip("\n"), node.span, "raised by #error")
+            raise _Halt()
+
+    def _d_default(self, node: syntax.Default, out, spec) -> None:
+        for el in self.expand(node.body, None):
+            v = el.value
+            t = self.default_texture
+            if isinstance(v, ir.Texture):
+                self.default_texture = v
+            elif isinstance(v, ir.Pigment):
+                self.default_texture = replace(t, pigment=v)
+            elif isinstance(v, ir.Finish):
+                self.default_texture = replace(t, finish=v)
+            elif isinstance(v, ir.Normal):
+                self.default_texture = replace(t, normal=v)
+            elif el.kind != "comma":
+                self.sink.error(
+                    "E0212",
+                    "#default takes texture, pigment, finish or normal blocks",
+                    el.span,
+                )
+
+    def _d_break(self, node: syntax.Break, out, spec) -> None:
+        raise _Break()
+
+    # ---- file I/O (inside the scene's folder only, and never while checking)
+    def _d_fileop(self, node: syntax.FileOp, out, spec) -> None:
+        if node.op == "fopen":
+            name = self.eval(node.args[0])
+            if not isinstance(name, str):
+                raise self.error("E0260", "#fopen needs a file name string", node.span)
+            if not self.allow_file_io:
+                self.warn_once(
+                    "fileio", "file I/O is off while checking; #fopen ignored", node.span
+                )
+                if node.mode == "read":
+                    return  # the handle stays undefined, as at the end of a file
+                self.handles[node.handle] = FileHandle("", "discard")
+                self.declare(node.handle, self.handles[node.handle], False)
+                return
+            folder = Path(self.state.folder)
+            path = (folder / name).resolve()
+            if not path.is_relative_to(folder):
+                raise self.error(
+                    "E0260",
+                    f"`{name}` is outside the scene's folder",
+                    node.span,
+                    "scenes may only read and write files beside them",
+                )
+            h = FileHandle(str(path), node.mode or "read")
+            if h.mode == "read":
+                try:
+                    text = path.read_text(errors="replace")
+                except OSError as e:
+                    raise self.error(
+                        "E0260", f"cannot open `{name}`: {e.strerror}", node.span
+                    ) from None
+                h.lines = [m.group(0) for m in _READ_TOKEN.finditer(text)]
+            elif h.mode == "append" and path.exists():
+                h.lines = [path.read_text(errors="replace")]
+            self.handles[node.handle] = h
+            self.declare(node.handle, h, False)
+            return
+        h = self.handles.get(node.handle)
+        if h is None:
+            if node.op == "read":
+                return
+            raise self.error("E0260", f"`{node.handle}` is not an open file", node.span)
+        if node.op == "fclose":
+            self._flush(h)
+            self.handles.pop(node.handle, None)
+            scope = self._scope_of(node.handle)
+            if scope is not None:
+                del scope[node.handle]
+        elif node.op == "write":
+            for a in node.args:
+                h.lines.append(self._format_write(self.eval(a)))
+        elif node.op == "read":
+            for a in node.args:
+                if not isinstance(a, syntax.Ident):
+                    raise self.error("E0260", "#read stores into names", a.span)
+                if h.pos >= len(h.lines):
+                    scope = self._scope_of(node.handle)
+                    if scope is not None:
+                        del scope[node.handle]
+                    self.handles.pop(node.handle, None)
+                    return
+                m = _READ_TOKEN.match(h.lines[h.pos])
+                h.pos += 1
+                if m.group(1) is not None:
+                    value: Any = m.group(1)
+                elif m.group(2) is not None:
+                    value = Vec(float(c) for c in m.group(2).split(","))
+                else:
+                    value = float(m.group(3))
+                self.declare(a.name, value, False)
+            if h.pos >= len(h.lines):
+                scope = self._scope_of(node.handle)
+                if scope is not None:
+                    del scope[node.handle]
+                self.handles.pop(node.handle, None)
+
+    def _format_write(self, v: Any) -> str:
+        if isinstance(v, str):
+            return v
+        if isinstance(v, float):
+            return f"{v:g}"
+        if isinstance(v, Vec):
+            return "<" + ",".join(f"{c:g}" for c in v) + ">"
+        if isinstance(v, ColorValue):
+            return "<" + ",".join(f"{c:g}" for c in v.rgbft) + ">"
+        raise EvalError(f"#write cannot write {describe(v)}")
+
+    def _flush(self, h: FileHandle) -> None:
+        if h.mode in ("write", "append") and h.path:
+            Path(h.path).write_text("".join(h.lines))
+            h.mode = "closed"
+
+    # ------------------------------------------------------------ macros
+    def _call_macro(self, node: syntax.Call) -> list[El]:
+        _, macro = self.lookup(node.name)
+        if len(node.args) > len(macro.params):
+            raise self.error(
+                "E0232",
+                f"macro `{macro.name}` takes {len(macro.params)} argument(s), got {len(node.args)}",
+                node.span,
+                f"#macro {macro.name}({', '.join(macro.params)})",
+            )
+        if self.macro_depth >= MAX_MACRO_DEPTH:
+            raise self.error("E0231", f"macro `{macro.name}` recursed too deeply", node.span)
+        args = [self._eval_value(a) for a in node.args]
+        scope = _Scope("macro")
+        refs: dict[str, tuple[_Scope, str, Any]] = {}
+        for name, node_arg, value in zip(macro.params, node.args, args, strict=False):
+            scope[name] = value
+            if isinstance(node_arg, syntax.Ident):
+                owner = self._scope_of(node_arg.name)
+                if owner is not None:
+                    refs[name] = (owner, node_arg.name, value)
+        self.scopes.append(scope)
+        self.file_stack.append(macro.file)
+        self.macro_depth += 1
+        try:
+            els = self.expand(macro.body, None)
+        finally:
+            self.macro_depth -= 1
+            self.file_stack.pop()
+            self.scopes.pop()
+        # By-reference parameters: an assignment to a parameter reaches the caller's name.
+        for name, (owner, target, old) in refs.items():
+            if name in scope and scope[name] is not old:
+                owner[target] = scope[name]
+        return els
+
+    def _call_function(self, fn: FunctionValue, args: list[Any], span: Span) -> float:
+        if len(args) != len(fn.params):
+            raise self.error(
+                "E0232", f"this function takes {len(fn.params)} argument(s), got {len(args)}", span
+            )
+        exprs = [n for n in fn.body if not isinstance(n, syntax.Comma)]
+        if len(exprs) != 1 or isinstance(exprs[0], syntax.Keyword | syntax.Block):
+            self.unsupported("function { pattern }", span, " (pattern functions)")
+            return 0.0
+        bindings = {
+            p: as_float(a, "function argument") for p, a in zip(fn.params, args, strict=True)
+        }
+        self.fn_bindings.append(bindings)
+        self.scopes.append(_Scope("function"))
+        self.scopes[-1].update(bindings)
+        try:
+            return as_float(self.eval(exprs[0]), "a function's value")
+        finally:
+            self.scopes.pop()
+            self.fn_bindings.pop()
+
+    # ------------------------------------------------------------ expressions
+    def eval(self, node: syntax.Node) -> Any:
+        try:
+            return _EXPR[type(node)](self, node)
+        except KeyError:
+            if type(node) in _DIRECTIVES:
+                return self._eval_value(node)
+            raise self.error("E0202", "this is not a value", node.span) from None
+        except EvalError as e:
+            raise self.error("E0203", e.message, node.span, e.hint) from None
+
+    def _e_number(self, node: syntax.Number) -> float:
+        return node.value
+
+    def _e_string(self, node: syntax.String) -> str:
+        return node.value
+
+    def _e_ident(self, node: syntax.Ident) -> Any:
+        found, v = self.lookup(node.name)
+        if not found:
+            raise self._unknown_ident(node.name, node.span)
+        if isinstance(v, MacroValue):
+            if not v.params:
+                return self._single(
+                    self._call_macro(syntax.Call(node.span, node.name, [], False)),
+                    node.span,
+                    f"macro `{node.name}`",
+                )
+            raise self.error(
+                "E0232",
+                f"macro `{node.name}` needs arguments",
+                node.span,
+                f"{node.name}({', '.join(v.params)})",
+            )
+        return v
+
+    def _e_const(self, node: syntax.Const) -> Any:
+        for b in reversed(self.fn_bindings):
+            if node.name in b:
+                return b[node.name]
+        return builtins.constant(
+            node.name,
+            clock=self.clock,
+            version=self.version,
+            image_width=self.image_width,
+            image_height=self.image_height,
+            input_file=Path(self.main_file).name,
+        )
+
+    def _e_vector(self, node: syntax.Vector) -> Vec:
+        comps = []
+        for item in node.items:
+            v = self.eval(item)
+            if not isinstance(v, float | int):
+                raise self.error(
+                    "E0202", f"a vector component must be a float, not {describe(v)}", item.span
+                )
+            comps.append(v)
+        if len(comps) < 2:
+            raise self.error("E0202", "a vector needs 2 to 5 components", node.span)
+        return Vec(comps)
+
+    def _e_unary(self, node: syntax.Unary) -> Any:
+        return builtins.unary(node.op, self.eval(node.operand))
+
+    def _e_binary(self, node: syntax.Binary) -> Any:
+        a = self.eval(node.left)
+        if node.op == "&" and not builtins.truth(a):
+            return 0.0
+        if node.op == "|" and builtins.truth(a):
+            return 1.0
+        b = self.eval(node.right)
+        try:
+            return builtins.binary(node.op, a, b)
+        except EvalError as e:
+            raise self.error("E0203", e.message, node.span, e.hint) from None
+
+    def _e_ternary(self, node: syntax.Ternary) -> Any:
+        return self.eval(node.then if builtins.truth(self.eval(node.cond)) else node.other)
+
+    def _e_member(self, node: syntax.Member) -> Any:
+        return builtins.member(self.eval(node.target), node.name)
+
+    def _e_index(self, node: syntax.Index) -> Any:
+        chain: list[syntax.Node] = []
+        base: syntax.Node = node
+        while isinstance(base, syntax.Index):
+            chain.append(base.index)
+            base = base.target
+        chain.reverse()
+        arr = self.eval(base)
+        if not isinstance(arr, ArrayValue):
+            raise self.error("E0250", f"{describe(arr)} cannot be indexed", node.span)
+        idx = self._index(arr, [self.eval(i) for i in chain], node.span)
+        v = arr.data[arr.flat_index(tuple(idx))]
+        if v is None:
+            raise self.error(
+                "E0250",
+                "array element " + "".join(f"[{i}]" for i in idx) + " is not initialised",
+                node.span,
+            )
+        return v
+
+    def _index(self, arr: ArrayValue, raw: list[Any], span: Span) -> list[int]:
+        if len(raw) != len(arr.dims):
+            raise self.error(
+                "E0250",
+                f"the array has {len(arr.dims)} dimension(s); {len(raw)} index(es) given",
+                span,
+            )
+        idx = []
+        for r, d in zip(raw, arr.dims, strict=True):
+            i = int(as_float(r, "an array index"))
+            if not 0 <= i < d:
+                raise self.error("E0250", f"array index {i} is out of range 0..{d - 1}", span)
+            idx.append(i)
+        return idx
+
+    def _e_call(self, node: syntax.Call) -> Any:
+        if node.builtin:
+            if node.name == "defined":
+                if len(node.args) == 1 and isinstance(node.args[0], syntax.Ident):
+                    return 1.0 if self.lookup(node.args[0].name)[0] else 0.0
+                return 1.0
+            if node.name in ("inside", "trace", "min_extent", "max_extent", "prod", "sum"):
+                self.unsupported(f"{node.name}()", node.span)
+                return 0.0 if node.name in ("inside", "prod", "sum") else Vec((0.0, 0.0, 0.0))
+            args = [self.eval(a) for a in node.args]
+            try:
+                return builtins.call(node.name, args, self.state)
+            except EvalError as e:
+                raise self.error("E0203", e.message, node.span, e.hint) from None
+        found, v = self.lookup(node.name)
+        if not found:
+            raise self._unknown_ident(node.name, node.span)
+        if isinstance(v, MacroValue):
+            return self._single(self._call_macro(node), node.span, f"macro `{node.name}`")
+        if isinstance(v, FunctionValue):
+            return self._call_function(v, [self.eval(a) for a in node.args], node.span)
+        if isinstance(v, UnsupportedValue):
+            self.unsupported(v.keyword, node.span)
+            return 0.0
+        raise self.error(
+            "E0202", f"`{node.name}` is {describe(v)}, not a macro or function", node.span
+        )
+
+    def _e_color(self, node: syntax.ColorCtor) -> ColorValue:
+        if node.value is None:
+            c = [0.0] * 5
+        else:
+            v = self.eval(node.value)
+            kind = node.kind or ""
+            base = kind.removeprefix("s")
+            if kind == "":
+                c = list(as_color(v, "a colour").rgbft)
+            else:
+                if isinstance(v, ColorValue):
+                    v = Vec(v.rgbft)
+                n = {"rgb": 3, "rgbf": 4, "rgbt": 4, "rgbft": 5}[base]
+                if isinstance(v, float | int):
+                    p = [float(v)] * n
+                elif isinstance(v, Vec):
+                    if len(v) < n and len(v) != 3:
+                        raise self.error(
+                            "E0202", f"`{kind}` needs a {n}-component vector", node.span
+                        )
+                    p = list(v.padded(n))
+                else:
+                    raise self.error(
+                        "E0202", f"`{kind}` needs a vector, not {describe(v)}", node.span
+                    )
+                c = p[:3] + [0.0, 0.0]
+                if base == "rgbf":
+                    c[3] = p[3]
+                elif base == "rgbt":
+                    c[4] = p[3]
+                elif base == "rgbft":
+                    c[3], c[4] = p[3], p[4]
+                if kind.startswith("s"):
+                    c[:3] = [self._from_srgb(x) for x in c[:3]]
+        idx = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}
+        for comp, expr in node.parts:
+            val = as_float(self.eval(expr), f"`{comp}`")
+            if comp in ("gray", "grey"):
+                c[0] = c[1] = c[2] = val
+            else:
+                c[idx[comp]] = val
+        return ColorValue(tuple(c))  # type: ignore[arg-type]
+
+    def _from_srgb(self, v: float) -> float:
+        """sRGB-encoded → linear → the working gamma (assumed_gamma, 1.0 if unset)."""
+        lin = v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
+        g = self.settings.get("assumed_gamma") or 1.0
+        return lin ** (1.0 / g) if lin > 0 else lin
+
+    def _e_array(self, node: syntax.ArrayLit) -> ArrayValue:
+        items = node.items
+        dims = [int(as_float(self.eval(d), "an array size")) for d in node.dims]
+        if not dims:
+            # `array { … }`: the size comes from the initialiser (POV-Ray 3.8 style)
+            dims = [len(items or [])]
+        if any(d <= 0 for d in dims):
+            raise self.error("E0250", "array sizes must be positive", node.span)
+        total = 1
+        for d in dims:
+            total *= d
+        arr = ArrayValue(tuple(dims), [None] * total)
+        if items is not None:
+            flat: list[Any] = []
+
+            def walk(level: list, depth: int) -> None:
+                want = dims[depth] if depth < len(dims) else 0
+                if len(level) != want:
+                    raise self.error(
+                        "E0250",
+                        f"the array initialiser has {len(level)} item(s) at depth {depth + 1}, "
+                        f"the array declares {want}",
+                        node.span,
+                    )
+                for it in level:
+                    if isinstance(it, list):
+                        walk(it, depth + 1)
+                    else:
+                        if depth != len(dims) - 1:
+                            raise self.error(
+                                "E0250", "the array initialiser is too shallow", node.span
+                            )
+                        flat.append(self._eval_value(it))
+
+            walk(list(items), 0)
+            arr.data = flat
+        return arr
+
+    def _e_block(self, node: syntax.Block) -> Any:
+        return self.eval_block(node)
+
+    # ------------------------------------------------------------ blocks
+    def eval_block(self, node: syntax.Block, loose: bool = False) -> Any:
+        kw = node.keyword
+        span = node.keyword_span or node.span
+        if kw == "function":
+            params = tuple(node.params) if node.params is not None else ("x", "y", "z")
+            return FunctionValue(params, tuple(node.body), node.span)
+        if kw in schema.LIST_BLOCKS:
+            els = [e for e in self.expand(node.body, None) if e.kind != "comma"]
+            items = [e.value for e in els]
+            count = None
+            if items and kw not in ("texture_list",) and isinstance(items[0], float):
+                count = int(items[0])
+                items = items[1:]
+            elif kw == "texture_list" and items and isinstance(items[0], float):
+                count = int(items[0])
+                items = items[1:]
+            if count is not None and count != len(items) and kw != "face_indices":
+                self.sink.warning(
+                    "W0302",
+                    f"`{kw}` declares {count} item(s) but lists {len(items)}",
+                    span,
+                )
+            return ListValue(kw, tuple(items), count, node.span)
+        if kw in schema.UNSUPPORTED_SHAPES:
+            self.unsupported(kw, span)
+            return self._unsupported_object(node)
+        spec = schema.BLOCKS.get(kw)
+        if spec is None:
+            self.expand(node.body, None) if not loose else None
+            return UnsupportedValue(kw, span)
+        els = self.expand(node.body, spec)
+        g = self.group(spec, els, node)
+        builder = _BUILDERS[kw]
+        try:
+            return builder(self, g, node)
+        except EvalError as e:
+            raise self.error("E0203", e.message, span, e.hint) from None
+        except CameraError as e:
+            raise self.error("E0270", str(e), span) from None
+
+    def _unsupported_object(self, node: syntax.Block) -> ObjectValue:
+        spec = schema.BlockSpec(
+            node.keyword,
+            "object",
+            "",
+            (),
+            schema._items(schema.OBJECT_ITEMS),
+            schema.OBJECT_ACCEPTS,
+        )
+        els = self.expand(node.body, spec)
+        # Keep only the modifiers: everything before the first object item is shape data.
+        start = next(
+            (
+                i
+                for i, e in enumerate(els)
+                if (e.kind == "kw" and e.value in spec.items)
+                or (e.kind == "val" and kind_of(e.value) in spec.accepts)
+            ),
+            len(els),
+        )
+        g = self.group(spec, els[start:], node, loose=True)
+        obj = ObjectValue(ir.Unsupported(node.keyword), node.keyword, span=node.span)
+        return self._apply_object_items(obj, g)
+
+    def group(
+        self, spec: schema.BlockSpec, els: list[El], node: syntax.Block, loose: bool = False
+    ) -> Grouped:
+        span = node.keyword_span or node.span
+        pos: dict[str, Any] = {}
+        i, n = 0, len(els)
+        for p in spec.positional:
+            while i < n and els[i].kind == "comma":
+                i += 1
+            if p.kind.startswith("*"):
+                vals = []
+                while i < n and (
+                    els[i].kind == "comma"
+                    or (els[i].kind == "val" and kind_of(els[i].value) in ("vector", "float"))
+                ):
+                    if els[i].kind == "val":
+                        vals.append(els[i].value)
+                    i += 1
+                pos[p.name] = vals
+                continue
+            if i < n and els[i].kind == "val" and _FIT[p.kind](els[i].value):
+                try:
+                    pos[p.name] = _convert(p.kind, els[i].value)
+                except EvalError as e:
+                    raise self.error("E0202", e.message, els[i].span) from None
+                i += 1
+            elif not p.optional:
+                got = (
+                    f", got {describe(els[i].value)}"
+                    if i < n and els[i].kind == "val"
+                    else (f", got `{els[i].value}`" if i < n and els[i].kind == "kw" else "")
+                )
+                raise self.error(
+                    "E0211",
+                    f"`{spec.name}` needs its {p.name.replace('_', ' ')} "
+                    f"({_KIND_WORDS.get(p.kind, p.kind)}){got}",
+                    els[i].span if i < n else span,
+                    self._positional_hint(spec),
+                )
+        items: list[tuple[str, list[Any], Span]] = []
+        while i < n:
+            e = els[i]
+            if e.kind == "comma":
+                i += 1
+                continue
+            if e.kind == "kw":
+                item = spec.items.get(e.value)
+                if item is None:
+                    if not loose:
+                        self.sink.items.append(self._not_valid(e.value, spec, e.span))
+                    i += 1
+                    while (
+                        i < n
+                        and els[i].kind in ("val", "comma")
+                        and (
+                            els[i].kind == "comma"
+                            or kind_of(els[i].value) in ("float", "vector", "color", "string")
+                        )
+                    ):
+                        i += 1
+                    continue
+                try:
+                    args, i = self._parse_args(item, els, i + 1, e.span, spec)
+                except SceneError as err:
+                    self.sink.items.append(err.diagnostic)
+                    i += 1
+                    while i < n and els[i].kind != "kw":
+                        i += 1
+                    continue
+                items.append((e.value, args, e.span))
+                continue
+            if e.kind == "entry":
+                if spec.produces == "map":
+                    items.append(("entry", e.value, e.span))
+                elif not loose:
+                    self.sink.error(
+                        "E0212",
+                        f"a `[ … ]` map entry inside `{spec.name}`",
+                        e.span,
+                        "map entries belong in color_map, pigment_map …",
+                    )
+                i += 1
+                continue
+            k = kind_of(e.value)
+            if e.value is None:
+                pass
+            elif k in spec.accepts:
+                items.append((k, [e.value], e.span))
+            elif k == "unsupported":
+                self.unsupported(e.value.keyword, e.span)
+            elif not loose:
+                self.sink.error(
+                    "E0212",
+                    f"unexpected {describe(e.value)} inside `{spec.name}`",
+                    e.span,
+                    self._positional_hint(spec) if k in ("float", "vector", "color") else None,
+                )
+            i += 1
+        return Grouped(pos, items, span)
+
+    def _positional_hint(self, spec: schema.BlockSpec) -> str | None:
+        if not spec.positional:
+            return None
+        parts = ", ".join((f"[{p.name}]" if p.optional else p.name) for p in spec.positional)
+        return f"`{spec.name} {{ {parts} … }}`"
+
+    def _not_valid(self, word: str, spec: schema.BlockSpec, span: Span) -> Diagnostic:
+        close = difflib.get_close_matches(word, sorted(spec.items), n=1, cutoff=0.75)
+        hint = f"did you mean `{close[0]}`?" if close else self._where_keyword(word)
+        return Diagnostic(
+            Severity.ERROR, "E0210", f"`{word}` is not valid inside `{spec.name}`", span, hint
+        )
+
+    def _parse_args(
+        self, item: schema.Item, els: list[El], i: int, span: Span, spec: schema.BlockSpec
+    ) -> tuple[list[Any], int]:
+        n = len(els)
+        args: list[Any] = []
+        for raw in item.args:
+            opt = raw.endswith("?")
+            k = raw.rstrip("?")
+            j = i
+            while j < n and els[j].kind == "comma":
+                j += 1
+            if j < n and els[j].kind == "kw" and els[j].value == "albedo":
+                j += 1
+            if k.startswith("list"):
+                limit = int(k[4:])
+                vals: list[Any] = []
+                while len(vals) < limit:
+                    jj = j
+                    while jj < n and els[jj].kind == "comma":
+                        jj += 1
+                    if jj < n and els[jj].kind == "val" and kind_of(els[jj].value) in _LIST_KINDS:
+                        vals.append(els[jj].value)
+                        j = jj + 1
+                    else:
+                        break
+                args.append(vals)
+                i = j
+                continue
+            if k == "word":
+                if j < n and els[j].kind == "kw":
+                    args.append(els[j].value)
+                    i = j + 1
+                    continue
+                raise self.error(
+                    "E0211", f"`{item.name}` needs a keyword", span, f"`{item.signature}`"
+                )
+            if j < n and els[j].kind == "val" and _FIT[k](els[j].value):
+                try:
+                    args.append(_convert(k, els[j].value))
+                except EvalError as e:
+                    raise self.error("E0202", e.message, els[j].span) from None
+                i = j + 1
+            elif opt:
+                args.append(None)
+            else:
+                got = ""
+                if j < n and els[j].kind == "val":
+                    got = f", not {describe(els[j].value)}"
+                raise self.error(
+                    "E0211",
+                    f"`{item.name}` needs {_KIND_WORDS.get(k, k)}{got}",
+                    els[j].span if j < n and els[j].kind == "val" else span,
+                    f"`{item.signature}`",
+                )
+        return args, i
+
+    # ------------------------------------------------------------ objects
+    def to_ir(
+        self,
+        obj: ObjectValue,
+        inherited: ir.Texture | None = None,
+        interior: ir.Interior | None = None,
+    ) -> ir.Object:
+        tex = obj.texture or inherited or self.default_texture
+        inter = obj.interior or interior or ir.Interior()
+        shape = obj.shape
+        if obj.children:
+            kids = tuple(
+                self.to_ir(c, obj.texture or inherited, obj.interior or interior)
+                for c in obj.children
+            )
+            shape = ir.CSG(obj.keyword, kids)
+        elif isinstance(shape, ir.Mesh) and shape.face_textures is not None:
+            textures = list(shape.textures)
+            faces = list(shape.face_textures)
+            if any(f < 0 for f in faces):
+                textures.append(tex)
+                own = len(textures) - 1
+                faces = [own if f < 0 else f for f in faces]
+            shape = replace(shape, textures=tuple(textures), face_textures=tuple(faces))
+        f = obj.flags
+        return ir.Object(
+            shape=shape,
+            transform=obj.transform,
+            texture=tex,
+            interior=inter,
+            no_shadow=f.get("no_shadow", False),
+            no_reflection=f.get("no_reflection", False),
+            no_image=f.get("no_image", False),
+            hollow=f.get("hollow", False),
+            inverse=f.get("inverse", False),
+            double_illuminate=f.get("double_illuminate", False),
+            clipped_by=tuple(self.to_ir(c, tex) for c in obj.clipped_by),
+            span=obj.span,
+        )
+
+    def _obj_texture(self, obj: ObjectValue) -> ir.Texture:
+        return obj.texture if obj.texture is not None else self.default_texture
+
+    def _apply_object_items(self, obj: ObjectValue, g: Grouped) -> ObjectValue:
+        for name, args, span in g.items:
+            try:
+                obj = self._apply_object_item(obj, name, args, span)
+            except EvalError as e:
+                self.sink.error("E0203", e.message, span, e.hint)
+        return obj
+
+    def _apply_object_item(
+        self, obj: ObjectValue, name: str, args: list[Any], span: Span
+    ) -> ObjectValue:
+        if name in _TRANSFORM_WORDS:
+            return transform_object(obj, _item_matrix(name, args))
+        if name == "pigment":
+            t = self._obj_texture(obj)
+            obj.texture = replace(t, pigment=args[0])
+        elif name == "finish":
+            obj.texture = replace(self._obj_texture(obj), finish=args[0])
+        elif name == "normal":
+            obj.texture = replace(self._obj_texture(obj), normal=args[0])
+        elif name == "texture":
+            if obj.flags.get("_explicit_texture") and obj.texture is not None:
+                obj.texture = replace(obj.texture, layers=obj.texture.layers + (args[0],))
+            else:
+                obj.texture = args[0]
+                obj.flags["_explicit_texture"] = True
+        elif name == "interior":
+            obj.interior = args[0]
+        elif name == "material":
+            m: MaterialValue = args[0]
+            if m.texture is not None:
+                obj.texture = m.texture
+                obj.flags["_explicit_texture"] = True
+            if m.interior is not None:
+                obj.interior = m.interior
+        elif name in _OBJECT_FLAGS:
+            obj.flags[name] = bool(args[0]) if args and args[0] is not None else True
+        elif name == "inverse":
+            obj.flags["inverse"] = not obj.flags.get("inverse", False)
+        elif name == "clipped_by":
+            clip: _Clip = args[0]
+            obj.clipped_by.extend(obj.bounded_by if clip.use_other else clip.objects)
+        elif name == "bounded_by":
+            clip = args[0]
+            obj.bounded_by.extend(obj.clipped_by if clip.use_other else clip.objects)
+        elif name == "interior_texture":
+            self.unsupported("interior_texture", span)
+        elif name == "unsupported":
+            self.unsupported(args[0].keyword, span)
+        elif name in _IGNORED_OBJECT_ITEMS:
+            pass
+        return obj
+
+    # ------------------------------------------------------------ pigments
+    def as_pigment(self, v: Any) -> ir.Pigment:
+        if isinstance(v, ir.Pigment):
+            return v
+        return ir.Pigment(color=as_color(v, "a pigment").rgbft)
+
+    def _pattern_state(self) -> dict[str, Any]:
+        return {"pattern": None, "params": {}, "transform": ir.IDENTITY}
+
+    def _apply_pattern_item(
+        self, st: dict[str, Any], name: str, args: list[Any], span: Span
+    ) -> bool:
+        """Pattern keywords and their modifiers, shared by pigment, normal and texture."""
+        params = st["params"]
+        if name in schema.LIST_PATTERNS:
+            st["pattern"] = name
+            st["list"] = args[0]
+        elif name in _WAVES:
+            params["wave"] = name
+            if args and args[0] is not None:
+                params["wave_exponent"] = args[0]
+        elif name in (
+            "turbulence",
+            "octaves",
+            "omega",
+            "lambda",
+            "frequency",
+            "phase",
+            "mortar",
+            "brick_size",
+            "noise_generator",
+            "agate_turb",
+            "form",
+            "metric",
+            "offset",
+            "control0",
+            "control1",
+            "coords",
+            "max_iteration",
+            "exterior",
+            "interior",
+            "exponent",
+            "accuracy",
+            "orientation",
+            "dist_exp",
+            "arc_angle",
+            "number_of_waves",
+            "solid",
+            "pass_through",
+            "use_alpha",
+        ):
+            params[name] = (args[0] if len(args) == 1 else tuple(args)) if args else True
+        elif name in ("quick_color", "quick_colour"):
+            pass
+        elif name in _TRANSFORM_WORDS:
+            st["transform"] = transforms.compose(_item_matrix(name, args), st["transform"])
+            st.setdefault("moves", []).append(_item_matrix(name, args))
+        elif name == "map":
+            st["map"] = args[0]
+        elif name == "function":
+            st["pattern"] = "function"
+            self.unsupported("function pattern", span)
+        elif name in _PATTERN_KEYWORDS:
+            st["pattern"] = name
+            if name == "gradient":
+                params["orientation"] = args[0]
+            elif name in ("spiral1", "spiral2"):
+                params["arms"] = args[0]
+            elif name in ("mandel", "magnet", "tiling"):
+                params["value"] = args[0]
+            elif name == "julia":
+                params["complex"], params["iterations"] = args[0], args[1]
+            elif name == "slope":
+                params["direction"] = args[0]
+            if name in (
+                "object",
+                "density_file",
+                "image_pattern",
+                "pigment_pattern",
+                "aoi",
+                "slope",
+                "facets",
+                "average",
+                "pavement",
+                "tiling",
+                "magnet",
+                "julia",
+                "mandel",
+                "cubic",
+                "triangular",
+                "square",
+            ):
+                self.unsupported(f"{name} pattern", span)
+            st["depth_arg"] = args[-1] if args and name not in ("gradient",) else None
+            if name == "gradient" and len(args) > 1:
+                st["depth_arg"] = args[1]
+        else:
+            return False
+        return True
+
+
+# Pattern keywords (the modifiers such as turbulence are handled before these).
+_PATTERN_KEYWORDS = frozenset(
+    line.split()[0]
+    for line in schema.PATTERN_ITEMS[
+        : schema.PATTERN_ITEMS.index(
+            "turbulence vector | Turbulence amount (a float for all axes)."
+        )
+    ]
+) - frozenset(schema.LIST_PATTERNS)
+
+
+# ------------------------------------------------------------------ builders
+def _b_shape(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
+    kw = node.keyword
+    p = g.positional
+    flags = {name for name, _, _ in g.items}
+    shape: Any
+    if kw == "sphere":
+        if p["radius"] <= 0:
+            it.sink.warning("W0303", "a sphere with a radius of zero or less", g.span)
+        shape = ir.Sphere(p["center"], p["radius"])
+    elif kw == "plane":
+        if all(c == 0.0 for c in p["normal"]):
+            raise it.error("E0202", "a plane's normal has zero length", g.span)
+        shape = ir.Plane(p["normal"], p["distance"])
+    elif kw == "box":
+        shape = ir.Box(p["corner1"], p["corner2"])
+    elif kw == "cylinder":
+        shape = ir.Cylinder(p["base"], p["cap"], p["radius"], open="open" in flags)
+    elif kw == "cone":
+        shape = ir.Cone(
+            p["base"], p["base_radius"], p["cap"], p["cap_radius"], open="open" in flags
+        )
+    elif kw == "torus":
+        shape = ir.Torus(p["major"], p["minor"])
+    elif kw == "disc":
+        shape = ir.Disc(p["center"], p["normal"], p["radius"], p.get("hole_radius") or 0.0)
+    elif kw == "polygon":
+        pts = [as_vec(v, 3).xyz for v in p["points"]]
+        if len(pts) != p["count"]:
+            it.sink.warning(
+                "W0302", f"`polygon` declares {p['count']} points but lists {len(pts)}", g.span
+            )
+        if len(pts) < 3:
+            raise it.error("E0202", "a polygon needs at least 3 points", g.span)
+        shape = ir.Polygon(tuple(pts))
+    elif kw == "triangle":
+        shape = ir.Triangle(p["p1"], p["p2"], p["p3"])
+    elif kw == "smooth_triangle":
+        shape = ir.Triangle(p["p1"], p["p2"], p["p3"], normals=(p["n1"], p["n2"], p["n3"]))
+    else:
+        raise it.error("E0200", f"no builder for `{kw}`", g.span)
+    obj = ObjectValue(shape, kw, span=node.span)
+    return it._apply_object_items(obj, g)
+
+
+def _b_csg(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
+    obj = ObjectValue(None, node.keyword, span=node.span)
+    mods = []
+    for name, args, span in g.items:
+        if name == "object":
+            obj.children.append(args[0])
+        elif name == "light":
+            obj.lights.append(args[0])
+        else:
+            mods.append((name, args, span))
+    if not obj.children:
+        it.sink.warning("W0304", f"`{node.keyword}` has no objects", g.span)
+        obj.shape = ir.Unsupported(node.keyword)
+    elif node.keyword == "difference" and len(obj.children) == 1:
+        pass
+    return it._apply_object_items(obj, Grouped(g.positional, mods, g.span))
+
+
+def _b_object(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
+    base: ObjectValue = g.positional["object"]
+    obj = transform_object(base, ir.IDENTITY)  # a deep copy
+    obj.span = node.span
+    return it._apply_object_items(obj, g)
+
+
+def _b_mesh(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
+    verts: list[ir.Vec3] = []
+    normals: list[ir.Vec3] = []
+    faces: list[tuple[int, int, int]] = []
+    face_tex: list[int] = []
+    textures: list[ir.Texture] = []
+    smooth = False
+    mods = []
+    for name, args, span in g.items:
+        if name != "object":
+            mods.append((name, args, span))
+            continue
+        tri = args[0]
+        if not isinstance(tri.shape, ir.Triangle):
+            it.sink.error("E0212", f"a mesh holds triangles, not `{tri.keyword}`", span)
+            continue
+        s = tri.shape
+        pts = [transforms.apply_point(tri.transform, q) for q in (s.p1, s.p2, s.p3)]
+        base = len(verts)
+        verts.extend(pts)
+        if s.normals is not None:
+            smooth = True
+            normals.extend(transforms.apply_normal(tri.transform, nn) for nn in s.normals)
+        else:
+            a, b, c = pts
+            e1 = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
+            e2 = (c[0] - a[0], c[1] - a[1], c[2] - a[2])
+            fn = (
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            )
+            normals.extend([fn, fn, fn])
+        faces.append((base, base + 1, base + 2))
+        if tri.texture is not None:
+            textures.append(tri.texture)
+            face_tex.append(len(textures) - 1)
+        else:
+            face_tex.append(-1)
+    shape = ir.Mesh(
+        vertices=tuple(verts),
+        faces=tuple(faces),
+        normals=tuple(normals) if smooth else None,
+        textures=tuple(textures),
+        face_textures=tuple(face_tex) if textures else None,
+        smooth=smooth,
+    )
+    if not faces:
+        it.sink.warning("W0304", "`mesh` has no triangles", g.span)
+    obj = ObjectValue(shape, "mesh", span=node.span)
+    return it._apply_object_items(obj, Grouped({}, mods, g.span))
+
+
+def _b_mesh2(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
+    lists: dict[str, ListValue] = {}
+    mods = []
+    for name, args, span in g.items:
+        if name == "list":
+            lists[args[0].keyword] = args[0]
+        else:
+            mods.append((name, args, span))
+    if "vertex_vectors" not in lists or "face_indices" not in lists:
+        raise it.error("E0211", "`mesh2` needs vertex_vectors and face_indices", g.span)
+    verts = [as_vec(v, 3).xyz for v in lists["vertex_vectors"].items]
+    nv = len(verts)
+    raw_faces = lists["face_indices"].items
+    faces: list[tuple[int, int, int]] = []
+    face_tex: list[int] = []
+    i = 0
+    while i < len(raw_faces):
+        f = raw_faces[i]
+        if not isinstance(f, Vec):
+            raise it.error("E0202", "face_indices holds <a, b, c> index vectors", g.span)
+        tri = tuple(int(c) for c in f.padded(3))
+        i += 1
+        texs = []
+        while i < len(raw_faces) and isinstance(raw_faces[i], float):
+            texs.append(int(raw_faces[i]))
+            i += 1
+        if any(not 0 <= c < nv for c in tri):
+            raise it.error("E0202", f"face {tri} indexes a vertex outside 0..{nv - 1}", g.span)
+        faces.append(tri)  # type: ignore[arg-type]
+        face_tex.append(texs[0] if texs else -1)
+    declared = lists["face_indices"].count
+    if declared is not None and declared != len(faces):
+        it.sink.warning(
+            "W0302", f"`face_indices` declares {declared} faces but lists {len(faces)}", g.span
+        )
+    textures = tuple(t for t in lists["texture_list"].items) if "texture_list" in lists else ()
+    normals = None
+    if "normal_vectors" in lists:
+        nvecs = [as_vec(v, 3).xyz for v in lists["normal_vectors"].items]
+        if "normal_indices" in lists:
+            # Different indexing for normals: unshare the vertices face by face.
+            nidx = [tuple(int(c) for c in v.padded(3)) for v in lists["normal_indices"].items]
+            if len(nidx) != len(faces):
+                raise it.error("E0202", "normal_indices needs one entry per face", g.span)
+            new_v, new_n, new_f = [], [], []
+            for f, nf in zip(faces, nidx, strict=True):
+                base = len(new_v)
+                new_v.extend(verts[c] for c in f)
+                new_n.extend(nvecs[c] for c in nf)
+                new_f.append((base, base + 1, base + 2))
+            verts, normals, faces = new_v, new_n, new_f
+        elif len(nvecs) == len(verts):
+            normals = nvecs
+    uvs = None
+    if "uv_vectors" in lists and "uv_indices" not in lists:
+        uvs = tuple((float(v[0]), float(v[1])) for v in lists["uv_vectors"].items)
+        if len(uvs) != len(verts):
+            uvs = None
+    if any(t >= len(textures) for t in face_tex):
+        raise it.error("E0202", "a face's texture index is outside texture_list", g.span)
+    shape = ir.Mesh(
+        vertices=tuple(verts),
+        faces=tuple(faces),
+        normals=tuple(normals) if normals is not None else None,
+        uvs=uvs,
+        textures=textures,
+        face_textures=tuple(face_tex) if textures else None,
+        smooth=normals is not None,
+    )
+    obj = ObjectValue(shape, "mesh2", span=node.span)
+    return it._apply_object_items(obj, Grouped({}, mods, g.span))
+
+
+def _b_light(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Light:
+    p = g.positional
+    color: ColorValue = p["color"]
+    light = ir.Light(position=p["position"], color=color.rgb, span=node.span)
+    area: dict[str, Any] = {}
+    moves: list[ir.Matrix] = []
+    looks: ObjectValue | None = None
+    kind = "point"
+    fields: dict[str, Any] = {}
+    for name, args, span in g.items:
+        if name in ("spotlight", "parallel", "cylinder"):
+            kind = name
+            if name == "cylinder":
+                fields.setdefault("radius", 0.75)
+                fields.setdefault("falloff", 1.0)
+        elif name in ("point_at", "radius", "falloff", "tightness", "fade_distance", "fade_power"):
+            fields[name] = args[0]
+        elif name == "shadowless":
+            fields["shadowless"] = True
+        elif name == "area_light":
+            area.update(axis1=args[0], axis2=args[1], size1=args[2], size2=args[3])
+        elif name == "adaptive":
+            area["adaptive"] = int(args[0])
+        elif name == "jitter":
+            area["jitter"] = bool(args[0]) if args[0] is not None else True
+        elif name in ("circular", "orient"):
+            area[name] = True
+        elif name in _TRANSFORM_WORDS:
+            moves.append(_item_matrix(name, args))
+        elif name == "looks_like":
+            looks = args[0].obj
+        elif name == "projected_through":
+            it.unsupported("projected_through", span)
+        elif name in ("transform",):
+            moves.append(args[0])
+    if kind == "parallel" and "point_at" not in fields:
+        fields["point_at"] = (0.0, 0.0, 0.0)
+    light = replace(light, kind=kind, **fields)
+    if area:
+        if "axis1" not in area:
+            it.sink.warning("W0305", "area-light modifiers without `area_light`", g.span)
+        else:
+            light = replace(light, area=ir.AreaLight(**area))
+    if looks is not None:
+        looks = transform_object(looks, transforms.translate(light.position))
+        light = replace(light, looks_like=it.to_ir(looks))
+    for m in moves:
+        light = transform_light(light, m)
+    return light
+
+
+def _b_looks_like(it: Interpreter, g: Grouped, node: syntax.Block) -> _LooksLike:
+    objs = [args[0] for name, args, _ in g.items if name == "object"]
+    if len(objs) != 1:
+        raise it.error("E0211", "`looks_like` takes one object", g.span)
+    return _LooksLike(objs[0])
+
+
+def _b_camera(it: Interpreter, g: Grouped, node: syntax.Block) -> CameraValue:
+    b = CameraBuilder()
+    base: CameraValue | None = g.positional.get("base")
+    if base is not None:
+        b.camera = base.camera
+        b.look_at_point = base.look_at
+    b.camera = replace(b.camera, span=node.span)
+    for name, args, span in g.items:
+        if name in _TRANSFORM_WORDS:
+            b.add_transform(_item_matrix(name, args))
+        elif name in _CAMERA_KINDS:
+            b.set(name, None)
+            if name not in ("perspective", "orthographic"):
+                it.unsupported(f"{name} camera", span)
+        elif name in (
+            "location",
+            "look_at",
+            "direction",
+            "right",
+            "up",
+            "sky",
+            "focal_point",
+            "aperture",
+            "blur_samples",
+        ):
+            b.set(name, args[0])
+        elif name == "angle":
+            b.set("angle", args[0])
+        elif name in ("normal", "unsupported"):
+            it.unsupported("camera normal" if name == "normal" else args[0].keyword, span)
+    cam = b.build()
+    for w in b.warnings:
+        it.sink.warning("W0306", w, g.span)
+    look = b.look_at_point
+    if not transforms.is_identity(b.transform):
+        look = transforms.apply_point(b.transform, look)
+    return CameraValue(cam, look)
+
+
+def _b_global_settings(it: Interpreter, g: Grouped, node: syntax.Block) -> None:
+    s = it.settings
+    for name, args, span in g.items:
+        if name == "assumed_gamma":
+            if args[0] <= 0:
+                raise it.error("E0202", "assumed_gamma must be positive", span)
+            s["assumed_gamma"] = args[0]
+        elif name == "max_trace_level":
+            s["max_trace_level"] = max(1, args[0])
+        elif name == "adc_bailout":
+            s["adc_bailout"] = args[0]
+        elif name == "ambient_light":
+            s["ambient_light"] = args[0]
+        elif name == "charset":
+            s["charset"] = args[0]
+        elif name == "radiosity":
+            s["radiosity"] = args[0]
+        elif name == "unsupported":
+            it.unsupported(args[0].keyword, span, " in global_settings")
+    return None
+
+
+def _b_radiosity(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Radiosity:
+    fields: dict[str, Any] = {"span": node.span}
+    for name, args, span in g.items:
+        if name in ("count", "recursion_limit", "max_patches"):
+            fields[name] = int(args[0])
+        elif name in ("error_bound", "brightness", "gray_threshold", "patch_size", "tolerance"):
+            fields[name] = args[0]
+        elif name == "method":
+            if args[0] not in ("gauss_seidel", "progressive", "direct"):
+                it.sink.error(
+                    "E0202",
+                    f"unknown radiosity method `{args[0]}`",
+                    span,
+                    "gauss_seidel, progressive or direct",
+                )
+            else:
+                fields["method"] = args[0]
+        elif name in (
+            "pretrace_start",
+            "pretrace_end",
+            "nearest_count",
+            "low_error_factor",
+            "minimum_reuse",
+            "maximum_reuse",
+            "adc_bailout",
+            "always_sample",
+            "save_file",
+            "load_file",
+            "max_sample",
+        ):
+            it.warn_once(
+                f"radiosity:{name}",
+                f"radiosity `{name}` has no meaning for strala's radiosity solver; ignored",
+                span,
+            )
+    return ir.Radiosity(**fields)
+
+
+def _b_background(it: Interpreter, g: Grouped, node: syntax.Block) -> _Statement:
+    return _Statement("background", g.positional["color"].rgbft)
+
+
+def _b_sky_sphere(it: Interpreter, g: Grouped, node: syntax.Block) -> _Statement:
+    pigments: list[ir.Pigment] = []
+    for name, args, span in g.items:
+        if name == "pigment":
+            pigments.append(args[0])
+        elif name in _TRANSFORM_WORDS:
+            m = _item_matrix(name, args)
+            pigments = [transform_pigment(p, m) for p in pigments]
+        elif name == "emission":
+            it.unsupported("sky_sphere emission", span)
+    return _Statement("sky_sphere", tuple(pigments))
+
+
+def _b_fog(it: Interpreter, g: Grouped, node: syntax.Block) -> _Statement:
+    color = g.positional.get("color")
+    distance, fog_type = 0.0, 1
+    for name, args, span in g.items:
+        if name == "color":
+            color = args[0]
+        elif name == "distance":
+            distance = args[0]
+        elif name == "fog_type":
+            fog_type = int(args[0])
+        elif name in ("fog_offset", "fog_alt", "turbulence", "turb_depth", "up"):
+            if fog_type == 2 or name in ("turbulence", "turb_depth"):
+                it.unsupported(f"fog {name}", span)
+    if distance <= 0:
+        it.sink.warning("W0303", "fog needs a positive `distance`", g.span)
+    c = color.rgbft if isinstance(color, ColorValue) else ir.BLACK
+    return _Statement("fog", ir.Fog(c, distance, fog_type))
+
+
+def _b_transform(it: Interpreter, g: Grouped, node: syntax.Block) -> TransformValue:
+    m: ir.Matrix = g.positional["base"] if g.positional.get("base") is not None else ir.IDENTITY
+    for name, args, span in g.items:
+        if name in _TRANSFORM_WORDS:
+            m = transforms.then(m, _item_matrix(name, args))
+        elif name == "inverse":
+            try:
+                m = transforms.inverse(m)
+            except ZeroDivisionError:
+                raise it.error("E0203", "this transform cannot be inverted", span) from None
+    return TransformValue(m)
+
+
+def _b_pigment(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Pigment:
+    pig = ir.Pigment(span=node.span)
+    params: dict[str, Any] = {}
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "pigment":
+            pig = replace(v, span=node.span)
+            params = dict(v.params)
+        elif name == "color":
+            pig = replace(pig, pattern="solid", color=as_color(v).rgbft)
+        elif name in _TRANSFORM_WORDS:
+            pig = transform_pigment(pig, _item_matrix(name, args))
+        elif name == "map":
+            pig = _with_map(it, pig, v, span)
+        elif name in schema.LIST_PATTERNS:
+            defaults = _LIST_DEFAULTS.get(name, [])
+            given = [it.as_pigment(x) for x in v]
+            while len(given) < len(defaults):
+                given.append(ir.Pigment(color=(*defaults[len(given)], 0.0, 0.0)))
+            pig = replace(pig, pattern=name, list=tuple(given))
+            if name not in ("checker", "hexagon", "brick"):
+                it.unsupported(f"{name} pattern", span)
+        else:
+            st = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            if name == "unsupported":
+                it.unsupported(v.keyword, span)
+            elif it._apply_pattern_item(st, name, args, span) and st["pattern"]:
+                pig = replace(pig, pattern=st["pattern"])
+    if params:
+        pig = replace(pig, params=params)
+    return pig
+
+
+def _with_map(it: Interpreter, pig: ir.Pigment, m: MapValue, span: Span) -> ir.Pigment:
+    if m.map_kind in ("color_map", "colour_map"):
+        return replace(pig, color_map=tuple((k, c.rgbft) for k, c in m.entries))
+    if m.map_kind == "pigment_map":
+        return replace(pig, pigment_map=tuple((k, it.as_pigment(p)) for k, p in m.entries))
+    it.sink.error("E0212", f"a {m.map_kind} in a pigment", span, "use color_map or pigment_map")
+    return pig
+
+
+def _b_normal(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Normal:
+    nrm = ir.Normal("none", span=node.span)
+    params: dict[str, Any] = {}
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "normal":
+            nrm = replace(v, span=node.span)
+            params = dict(v.params)
+        elif name in _TRANSFORM_WORDS:
+            nrm = replace(
+                nrm, transform=transforms.compose(_item_matrix(name, args), nrm.transform)
+            )
+        elif name == "bump_size":
+            nrm = replace(nrm, depth=v)
+        elif name == "map":
+            params[v.map_kind] = v.entries
+            it.unsupported(v.map_kind, span)
+        elif name in ("bump_map", "no_bump_scale"):
+            if name == "bump_map":
+                it.unsupported("bump_map", span)
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span)
+        elif name in schema.LIST_PATTERNS:
+            nrm = replace(nrm, pattern=name)
+            params["list"] = tuple(v)
+        else:
+            st = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            if it._apply_pattern_item(st, name, args, span) and st["pattern"]:
+                nrm = replace(nrm, pattern=st["pattern"])
+                depth = st.get("depth_arg")
+                if isinstance(depth, float):
+                    nrm = replace(nrm, depth=depth)
+    return replace(nrm, params=params)
+
+
+def _b_finish(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Finish:
+    f = ir.Finish()
+    refl: dict[str, Any] = {}
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "finish":
+            f = v
+        elif name in ("ambient", "emission"):
+            f = replace(f, **{name: v})
+        elif name == "diffuse":
+            f = replace(f, diffuse=v)
+            if args[1] is not None:
+                f = replace(f, diffuse_back=args[1])
+        elif name in ("brilliance", "specular", "roughness", "phong", "phong_size", "crand"):
+            if name == "roughness" and v <= 0:
+                raise it.error("E0202", "roughness must be positive", span)
+            f = replace(f, **{name: v})
+        elif name == "metallic":
+            f = replace(f, metallic=1.0 if v is None else v)
+        elif name == "reflection":
+            if isinstance(v, ReflectionValue):
+                f = replace(f, reflection=v.reflection)
+            else:
+                f = replace(f, reflection=replace(f.reflection, min=v, max=v))
+        elif name == "reflection_exponent":
+            refl["exponent"] = v
+        elif name == "fresnel":
+            refl["fresnel"] = True if v is None else bool(v)
+        elif name == "conserve_energy":
+            f = replace(f, conserve_energy=True if v is None else bool(v))
+        elif name == "irid":
+            f = replace(f, irid=(v.amount, v.thickness, v.turbulence))
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span, " in finish")
+        elif name == "albedo":
+            pass
+    if refl:
+        f = replace(f, reflection=replace(f.reflection, **refl))
+    return f
+
+
+def _b_reflection_block(it: Interpreter, g: Grouped, node: syntax.Block) -> ReflectionValue:
+    lo: ColorValue = g.positional["min"]
+    hi: ColorValue | None = g.positional.get("max")
+    r = ir.Reflection(min=lo.rgb, max=(hi or lo).rgb)
+    for name, args, _span in g.items:
+        v = args[0] if args else None
+        if name == "fresnel":
+            r = replace(r, fresnel=True if v is None else bool(v))
+        elif name in ("falloff", "exponent"):
+            r = replace(r, **{name: v})
+        elif name == "metallic":
+            r = replace(r, metallic=1.0 if v is None else v)
+    return ReflectionValue(r)
+
+
+def _b_irid(it: Interpreter, g: Grouped, node: syntax.Block) -> _Irid:
+    thickness = turbulence = 0.0
+    for name, args, _ in g.items:
+        if name == "thickness":
+            thickness = args[0]
+        elif name == "turbulence":
+            turbulence = args[0]
+    return _Irid(g.positional["amount"], thickness, turbulence)
+
+
+def _b_interior(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Interior:
+    i = ir.Interior()
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "interior":
+            i = v
+        elif name in ("ior", "caustics", "dispersion", "fade_distance", "fade_power"):
+            i = replace(i, **{name: v})
+        elif name in ("fade_color", "fade_colour"):
+            i = replace(i, fade_color=v)
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span, " in interior")
+    return i
+
+
+def _b_texture(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Texture:
+    t = ir.Texture(span=node.span)
+    pattern = None
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "texture":
+            t = replace(v, span=node.span)
+        elif name == "pigment":
+            t = replace(t, pigment=v)
+        elif name == "finish":
+            t = replace(t, finish=v)
+        elif name == "normal":
+            t = replace(t, normal=v)
+        elif name in _TRANSFORM_WORDS:
+            t = transform_texture(t, _item_matrix(name, args))
+        elif name == "map":
+            if v.map_kind == "texture_map" and v.entries:
+                it.unsupported("texture_map", span, "; the first entry is used")
+                t = replace(v.entries[0][1], span=node.span)
+            else:
+                it.sink.error("E0212", f"a {v.map_kind} in a texture", span)
+        elif name in schema.LIST_PATTERNS:
+            it.unsupported(f"{name} texture pattern", span, "; the first texture is used")
+            if v and isinstance(v[0], ir.Texture):
+                t = replace(v[0], span=node.span)
+        elif name == "uv_mapping":
+            pass
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span, " in texture")
+        else:
+            pattern = name
+    del pattern
+    return t
+
+
+def _b_material(it: Interpreter, g: Grouped, node: syntax.Block) -> MaterialValue:
+    m = MaterialValue()
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "material":
+            m = v
+        elif name == "texture":
+            if m.texture is None:
+                m = replace(m, texture=v)
+            else:
+                m = replace(m, texture=replace(m.texture, layers=m.texture.layers + (v,)))
+        elif name == "interior":
+            m = replace(m, interior=v)
+        elif name in _TRANSFORM_WORDS and m.texture is not None:
+            m = replace(m, texture=transform_texture(m.texture, _item_matrix(name, args)))
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span, " in material")
+    return m
+
+
+def _b_map(it: Interpreter, g: Grouped, node: syntax.Block) -> MapValue:
+    kind = node.keyword
+    entries: list[tuple[float, Any]] = []
+    for name, args, span in g.items:
+        if name == "map":
+            entries.extend(args[0].entries)
+            continue
+        vals = [e.value for e in args if e.kind == "val"]
+        if any(e.kind == "kw" for e in args):
+            it.sink.error("E0212", "a keyword inside a map entry", span)
+            continue
+        try:
+            if kind in ("color_map", "colour_map"):
+                if len(vals) == 2:
+                    entries.append((as_float(vals[0], "a map value"), as_color(vals[1])))
+                elif len(vals) == 4:  # old form: [lo hi color A color B]
+                    entries.append((as_float(vals[0]), as_color(vals[2])))
+                    entries.append((as_float(vals[1]), as_color(vals[3])))
+                else:
+                    raise EvalError("a color_map entry is `[value colour]`")
+            elif kind == "slope_map":
+                entries.append((as_float(vals[0]), as_vec(vals[1], 2)))
+            else:
+                if len(vals) != 2:
+                    raise EvalError(f"a {kind} entry is `[value {kind.split('_')[0]}]`")
+                entries.append((as_float(vals[0], "a map value"), vals[1]))
+        except (EvalError, IndexError) as e:
+            msg = e.message if isinstance(e, EvalError) else "incomplete map entry"
+            it.sink.error("E0202", msg, span)
+    return MapValue(kind if kind != "colour_map" else "color_map", _sorted_entries(entries))
+
+
+def _b_image_map(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Pigment:
+    params: dict[str, Any] = {"map_type": 0, "interpolate": 0, "once": False}
+    fmt = None
+    for name, args, _span in g.items:
+        v = args[0] if args else None
+        if name == "string":
+            params["file"] = v
+        elif name in (
+            "png",
+            "jpeg",
+            "tiff",
+            "exr",
+            "hdr",
+            "gif",
+            "tga",
+            "iff",
+            "ppm",
+            "pgm",
+            "sys",
+        ):
+            fmt = name
+            if v is not None:
+                params["file"] = v
+        elif name == "once":
+            params["once"] = True
+        elif name in ("map_type", "interpolate"):
+            params[name] = int(v)
+        elif name in ("filter", "transmit"):
+            params[name] = v if args[1] is None else (v, args[1])
+        elif name in ("use_alpha", "premultiplied"):
+            params[name] = True
+        elif name == "gamma":
+            params["gamma"] = v
+    if "file" not in params:
+        raise it.error(
+            "E0211", "`image_map` needs a file name", g.span, 'image_map { png "file.png" }'
+        )
+    params["format"] = fmt or Path(params["file"]).suffix.lstrip(".").lower()
+    path = it._resolve(params["file"])
+    if path is None:
+        it.sink.warning("W0307", f"image `{params['file']}` not found", g.span)
+    else:
+        params["path"] = path
+    return ir.Pigment(pattern="image_map", params=params, span=node.span)
+
+
+def _b_clip(it: Interpreter, g: Grouped, node: syntax.Block) -> _Clip:
+    objs = tuple(args[0] for name, args, _ in g.items if name == "object")
+    other = any(name in ("bounded_by", "clipped_by") for name, _, _ in g.items)
+    return _Clip(node.keyword, objs, other)
+
+
+_BUILDERS: dict[str, Callable[[Interpreter, Grouped, syntax.Block], Any]] = {
+    **{
+        k: _b_shape
+        for k in (
+            "sphere plane box cylinder cone torus disc polygon triangle smooth_triangle"
+        ).split()
+    },
+    **{k: _b_csg for k in ("union", "merge", "intersection", "difference")},
+    "object": _b_object,
+    "mesh": _b_mesh,
+    "mesh2": _b_mesh2,
+    "light_source": _b_light,
+    "looks_like": _b_looks_like,
+    "camera": _b_camera,
+    "global_settings": _b_global_settings,
+    "radiosity": _b_radiosity,
+    "background": _b_background,
+    "sky_sphere": _b_sky_sphere,
+    "fog": _b_fog,
+    "transform": _b_transform,
+    "pigment": _b_pigment,
+    "normal": _b_normal,
+    "finish": _b_finish,
+    "reflection": _b_reflection_block,
+    "irid": _b_irid,
+    "interior": _b_interior,
+    "texture": _b_texture,
+    "material": _b_material,
+    "image_map": _b_image_map,
+    "clipped_by": _b_clip,
+    "bounded_by": _b_clip,
+    **{k: _b_map for k in schema.MAP_WORDS},
+}
+
+_EXPR: dict[type, Callable[[Interpreter, Any], Any]] = {
+    syntax.Number: Interpreter._e_number,
+    syntax.String: Interpreter._e_string,
+    syntax.Ident: Interpreter._e_ident,
+    syntax.Const: Interpreter._e_const,
+    syntax.Vector: Interpreter._e_vector,
+    syntax.Unary: Interpreter._e_unary,
+    syntax.Binary: Interpreter._e_binary,
+    syntax.Ternary: Interpreter._e_ternary,
+    syntax.Member: Interpreter._e_member,
+    syntax.Index: Interpreter._e_index,
+    syntax.Call: Interpreter._e_call,
+    syntax.ColorCtor: Interpreter._e_color,
+    syntax.ArrayLit: Interpreter._e_array,
+    syntax.Block: Interpreter._e_block,
+}
+
+_DIRECTIVES: dict[type, Callable[..., None]] = {
+    syntax.Include: Interpreter._d_include,
+    syntax.Declare: Interpreter._d_declare,
+    syntax.Undef: Interpreter._d_undef,
+    syntax.If: Interpreter._d_if,
+    syntax.IfDef: Interpreter._d_ifdef,
+    syntax.Switch: Interpreter._d_switch,
+    syntax.While: Interpreter._d_while,
+    syntax.For: Interpreter._d_for,
+    syntax.MacroDef: Interpreter._d_macro,
+    syntax.Version: Interpreter._d_version,
+    syntax.Message: Interpreter._d_message,
+    syntax.Default: Interpreter._d_default,
+    syntax.FileOp: Interpreter._d_fileop,
+    syntax.Break: Interpreter._d_break,
+}

@@ -1,0 +1,711 @@
+"""The one table that drives the language: for every block, the items it takes.
+
+For each block: the positional values that open it (`sphere { <c>, r …}`), the keywords it
+takes with their argument kinds, the value kinds it accepts as items (a `pigment {…}` inside
+a `sphere`), and a one-line doc for each. The evaluator groups a block's elements with it,
+`check` reports against it and the language server completes and hovers from it. A keyword
+is added here, in one place.
+
+Argument kinds: float int vector vector2 color string matrix transform rgb (a colour or a
+float taken as an RGB triple); a trailing `?` makes one optional; `listN` takes up to N
+colours/pigments/normals/textures (`checker Red, White`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Item:
+    name: str
+    args: tuple[str, ...] = ()
+    doc: str = ""
+
+    @property
+    def signature(self) -> str:
+        return " ".join([self.name, *(f"<{a}>" for a in self.args)])
+
+
+@dataclass(frozen=True)
+class Positional:
+    kind: str  # float | int | vector | color | *vector (the rest: a list)
+    name: str
+    optional: bool = False
+
+
+@dataclass(frozen=True)
+class BlockSpec:
+    name: str
+    produces: str  # the value kind the block evaluates to
+    doc: str
+    positional: tuple[Positional, ...] = ()
+    items: Mapping[str, Item] = field(default_factory=dict)
+    accepts: frozenset[str] = frozenset()  # value kinds taken as items
+    soft: frozenset[str] = frozenset()  # strala's soft words read as keywords here
+    supported: bool = True  # False: parsed and warned about, not rendered
+
+
+def _items(*groups: Iterable[str]) -> dict[str, Item]:
+    """Parse `"name kind kind | doc"` lines."""
+    out: dict[str, Item] = {}
+    for group in groups:
+        for line in group:
+            head, _, doc = line.partition("|")
+            words = head.split()
+            out[words[0]] = Item(words[0], tuple(words[1:]), doc.strip())
+    return out
+
+
+def _pos(*specs: str) -> tuple[Positional, ...]:
+    out = []
+    for s in specs:
+        kind, name = s.split(":")
+        out.append(Positional(kind.rstrip("?"), name, kind.endswith("?")))
+    return tuple(out)
+
+
+# ------------------------------------------------------------------ shared groups
+TRANSFORM_ITEMS = [
+    "translate vector | Move by a vector.",
+    "rotate vector | Rotate about x, then y, then z (degrees, left-handed).",
+    "scale vector | Scale by a vector (a float scales uniformly).",
+    "matrix matrix | A 4x3 matrix `<m00, m01, m02, … m32>` (POV-Ray's row form).",
+    "transform transform | Apply a declared transform (`transform T` or `transform { … }`).",
+]
+
+OBJECT_ITEMS = TRANSFORM_ITEMS + [
+    "no_shadow | The object casts no shadow.",
+    "no_reflection | The object is invisible in reflections.",
+    "no_image | The object is invisible to camera rays.",
+    "no_radiosity | The object is invisible to radiosity rays.",
+    "hollow bool? | The object's inside may hold media.",
+    "inverse | Swap inside and outside (for CSG).",
+    "double_illuminate | Light both sides of the surface.",
+    "sturm bool? | Use the slower, more accurate root solver.",
+    "interior_texture | A texture for the inside surface (not rendered yet).",
+    "uv_mapping | Map textures by the surface's uv coordinates.",
+    "split_union bool? | (CSG) split unions for bounding.",
+    "cutaway_textures | (CSG) keep children's textures on cut faces.",
+]
+OBJECT_ACCEPTS = frozenset(
+    "pigment finish normal texture interior material clipped_by bounded_by transform "
+    "unsupported".split()
+)
+
+PATTERN_ITEMS = [
+    "checker list2 | Checkerboard of two colours/pigments.",
+    "hexagon list3 | Hexagonal tiling of three colours/pigments.",
+    "brick list2 | Bricks: the mortar colour, then the brick colour.",
+    "square list4 | Four-colour square tiling.",
+    "triangular list6 | Six-colour triangular tiling.",
+    "cubic list6 | Six-colour cube-face pattern.",
+    "gradient vector | Ramp along a direction.",
+    "radial | Angle around the y axis.",
+    "onion | Concentric spheres.",
+    "leopard | Regular spots.",
+    "marble | Marble bands (with turbulence).",
+    "wood | Concentric cylinders about z.",
+    "agate | Agate pattern.",
+    "granite | Granite pattern.",
+    "bozo | Smooth random noise.",
+    "spotted | Smooth random noise (as bozo).",
+    "wrinkles | Wrinkled noise.",
+    "ripples | Concentric ripples.",
+    "waves | Concentric waves.",
+    "bumps | Bumpy noise.",
+    "dents | Dented noise.",
+    "crackle | Voronoi cells.",
+    "cells | Random-valued unit cells.",
+    "boxed | Box-shaped gradient.",
+    "spherical | Spherical gradient.",
+    "cylindrical | Cylindrical gradient.",
+    "planar | Planar gradient.",
+    "quilted | Quilted pattern.",
+    "facets | Faceted normal.",
+    "spiral1 float | One-armed spiral with N arms.",
+    "spiral2 float | Two-armed spiral with N arms.",
+    "mandel float | Mandelbrot set, with N iterations.",
+    "julia vector2 float | Julia set for a complex constant, with N iterations.",
+    "magnet float | Magnet fractal of type 1 or 2.",
+    "pavement | Pavement tiling.",
+    "tiling float | One of POV-Ray's tilings.",
+    "average | Average of the map's entries.",
+    "slope vector | Slope relative to a direction.",
+    "aoi | Angle of incidence.",
+    "density_file | A density file pattern.",
+    "image_pattern | An image as a pattern.",
+    "pigment_pattern | A pigment's grey value as a pattern.",
+    "object | An object's inside/outside as a pattern.",
+    "turbulence vector | Turbulence amount (a float for all axes).",
+    "octaves float | Turbulence octaves (default 6).",
+    "omega float | Turbulence amplitude factor per octave (default 0.5).",
+    "lambda float | Turbulence frequency factor per octave (default 2).",
+    "frequency float | Map repetitions.",
+    "phase float | Map phase shift.",
+    "mortar float | Brick mortar width.",
+    "brick_size vector | Brick size.",
+    "ramp_wave | Ramp wave form (default).",
+    "sine_wave | Sine wave form.",
+    "triangle_wave | Triangle wave form.",
+    "scallop_wave | Scallop wave form.",
+    "cubic_wave | Cubic wave form.",
+    "poly_wave float? | Polynomial wave form.",
+    "noise_generator int | Noise generator 1, 2 or 3.",
+    "agate_turb float | Agate's turbulence.",
+    "form vector | Crackle form.",
+    "metric float | Crackle metric.",
+    "offset float | Crackle offset.",
+    "solid | Crackle: solid cells.",
+    "control0 float | Quilted control 0.",
+    "control1 float | Quilted control 1.",
+    "coords float | Tiling coordinates.",
+    "max_iteration int | Fractal iterations.",
+    "exterior float float | Fractal exterior colouring.",
+    "interior float float | Fractal interior colouring.",
+    "exponent float | Fractal exponent.",
+    "accuracy float | Slope accuracy.",
+    "orientation vector | Orientation for some patterns.",
+    "dist_exp float | Distance exponent.",
+    "arc_angle float | Tiling arc angle.",
+    "number_of_waves float | Waves count.",
+    "pass_through | Image pattern pass-through.",
+    "use_alpha | Use the image's alpha.",
+    "quick_color color | Preview colour (ignored).",
+    "quick_colour color | Preview colour (ignored).",
+]
+MAP_WORDS = ("color_map", "colour_map", "pigment_map", "normal_map", "texture_map", "slope_map")
+PATTERN_ACCEPTS = frozenset("map transform unsupported function".split())
+
+# Patterns that take their colours as `listN` arguments.
+LIST_PATTERNS = {"checker": 2, "hexagon": 3, "brick": 2, "square": 4, "triangular": 6, "cubic": 6}
+
+
+# ------------------------------------------------------------------ the blocks
+def _shape(name: str, doc: str, *positional: str, extra: Iterable[str] = ()) -> BlockSpec:
+    return BlockSpec(
+        name,
+        "object",
+        doc,
+        _pos(*positional),
+        _items(OBJECT_ITEMS, extra),
+        OBJECT_ACCEPTS,
+    )
+
+
+SHAPES: dict[str, BlockSpec] = {
+    s.name: s
+    for s in [
+        _shape("sphere", "A sphere: centre and radius.", "vector:center", "float:radius"),
+        _shape(
+            "plane",
+            "An infinite plane: normal and distance from the origin along it.",
+            "vector:normal",
+            "float:distance",
+        ),
+        _shape(
+            "box", "An axis-aligned box between two corners.", "vector:corner1", "vector:corner2"
+        ),
+        _shape(
+            "cylinder",
+            "A capped cylinder: base point, cap point, radius.",
+            "vector:base",
+            "vector:cap",
+            "float:radius",
+            extra=["open | Leave the end caps off."],
+        ),
+        _shape(
+            "cone",
+            "A cone: base point and radius, cap point and radius.",
+            "vector:base",
+            "float:base_radius",
+            "vector:cap",
+            "float:cap_radius",
+            extra=["open | Leave the end caps off."],
+        ),
+        _shape(
+            "torus",
+            "A torus about the y axis: major and minor radius.",
+            "float:major",
+            "float:minor",
+        ),
+        _shape(
+            "disc",
+            "A flat disc: centre, normal, radius and optional hole radius.",
+            "vector:center",
+            "vector:normal",
+            "float:radius",
+            "float?:hole_radius",
+        ),
+        _shape(
+            "polygon",
+            "A planar polygon: the number of points, then the points.",
+            "int:count",
+            "*vector:points",
+        ),
+        _shape("triangle", "A triangle by its corners.", "vector:p1", "vector:p2", "vector:p3"),
+        _shape(
+            "smooth_triangle",
+            "A triangle with a normal at each corner.",
+            "vector:p1",
+            "vector:n1",
+            "vector:p2",
+            "vector:n2",
+            "vector:p3",
+            "vector:n3",
+        ),
+        BlockSpec(
+            "mesh",
+            "object",
+            "Triangles (`triangle`, `smooth_triangle`) with optional textures each.",
+            (),
+            _items(
+                OBJECT_ITEMS,
+                [
+                    "inside_vector vector | A direction for inside tests.",
+                    "hierarchy bool? | Build a bounding hierarchy.",
+                ],
+            ),
+            OBJECT_ACCEPTS | {"object"},
+        ),
+        BlockSpec(
+            "mesh2",
+            "object",
+            "An indexed triangle mesh: vertex_vectors, face_indices and friends.",
+            (),
+            _items(
+                OBJECT_ITEMS,
+                [
+                    "inside_vector vector | A direction for inside tests.",
+                    "hierarchy bool? | Build a bounding hierarchy.",
+                ],
+            ),
+            OBJECT_ACCEPTS | {"list"},
+        ),
+        *(
+            BlockSpec(
+                op,
+                "object",
+                doc,
+                (),
+                _items(OBJECT_ITEMS),
+                OBJECT_ACCEPTS | {"object", "light"},
+            )
+            for op, doc in [
+                ("union", "Several objects as one."),
+                ("merge", "A union without the inner surfaces."),
+                ("intersection", "The volume inside every child."),
+                ("difference", "The first child minus the others."),
+            ]
+        ),
+        BlockSpec(
+            "object",
+            "object",
+            "A declared object with more modifiers: `object { Name modifiers }`.",
+            _pos("object:object"),
+            _items(OBJECT_ITEMS),
+            OBJECT_ACCEPTS,
+        ),
+    ]
+}
+
+# POV-Ray shapes strala parses but does not render yet (an ir.Unsupported object + a warning).
+UNSUPPORTED_SHAPES = frozenset(
+    """blob lathe sor prism superellipsoid sphere_sweep height_field text bicubic_patch
+    isosurface parametric julia_fractal quadric poly polynomial cubic quartic ovus lemon
+    light_group""".split()
+)
+
+LIGHT_ITEMS = TRANSFORM_ITEMS + [
+    "spotlight | A spotlight (with point_at, radius, falloff, tightness).",
+    "parallel | Parallel light rays (with point_at).",
+    "cylinder | A cylindrical spotlight.",
+    "point_at vector | Where a spotlight points.",
+    "radius float | Spotlight hotspot angle (degrees).",
+    "falloff float | Spotlight falloff angle (degrees).",
+    "tightness float | Spotlight tightness.",
+    "shadowless | The light casts no shadows.",
+    "fade_distance float | Distance of full intensity.",
+    "fade_power float | Attenuation exponent.",
+    "area_light vector vector int int | An area light: two axes and a grid size.",
+    "adaptive float | Adaptive area-light sampling depth.",
+    "jitter bool? | Jitter area-light samples.",
+    "circular | A circular area light.",
+    "orient | Orient the area light toward the surface.",
+    "area_illumination bool? | Full area-light illumination.",
+    "media_interaction bool? | Interaction with media.",
+    "media_attenuation bool? | Attenuation by media.",
+    "projected_through | Project through an object (not rendered yet).",
+]
+
+FINISH_ITEMS = [
+    "ambient rgb | Light the surface gives off under ambient light (float or colour).",
+    "emission rgb | Light the surface emits (float or colour).",
+    "diffuse float float? | Diffuse reflection (and optional back-side amount).",
+    "brilliance float | Diffuse falloff exponent.",
+    "specular float | Specular highlight amount.",
+    "roughness float | Specular highlight size (smaller is sharper).",
+    "phong float | Phong highlight amount.",
+    "phong_size float | Phong highlight size (larger is sharper).",
+    "metallic float? | Tint highlights by the surface colour (amount, default 1).",
+    "reflection rgb | Mirror reflection (float, colour, or a `reflection { }` block).",
+    "reflection_exponent float | Reflection exponent (old syntax).",
+    "conserve_energy bool? | Scale diffuse by what is not reflected.",
+    "crand float | Random graininess.",
+    "fresnel bool? | Fresnel reflection (old syntax).",
+    "albedo | Read the following diffuse/specular as albedo.",
+]
+
+NORMAL_PATTERN_ITEMS = [
+    f"{line.split('|')[0].rstrip()} float? | {line.split('|')[1].strip()} (optional depth)"
+    if line.split()[0]
+    in {
+        "bumps",
+        "dents",
+        "ripples",
+        "waves",
+        "wrinkles",
+        "agate",
+        "granite",
+        "marble",
+        "wood",
+        "bozo",
+        "spotted",
+        "leopard",
+        "onion",
+        "radial",
+        "crackle",
+        "cells",
+        "boxed",
+        "spherical",
+        "cylindrical",
+        "planar",
+        "quilted",
+        "facets",
+        "gradient",
+        "spiral1",
+        "spiral2",
+        "average",
+        "pavement",
+        "tiling",
+    }
+    else line
+    for line in PATTERN_ITEMS
+]
+
+BLOCKS: dict[str, BlockSpec] = {
+    **SHAPES,
+    "light_source": BlockSpec(
+        "light_source",
+        "light",
+        "A light: position and colour, then modifiers.",
+        _pos("vector:position", "color:color"),
+        _items(LIGHT_ITEMS),
+        frozenset({"transform", "unsupported", "looks_like"}),
+    ),
+    "looks_like": BlockSpec(
+        "looks_like",
+        "looks_like",
+        "An object drawn at a light's position.",
+        (),
+        {},
+        frozenset({"object"}),
+    ),
+    "camera": BlockSpec(
+        "camera",
+        "camera",
+        "The camera: where it is, where it looks, its field of view.",
+        _pos("camera?:base"),
+        _items(
+            TRANSFORM_ITEMS,
+            [
+                "perspective | A pinhole camera (default).",
+                "orthographic | Parallel rays; the view size is right × up.",
+                "fisheye | Fisheye projection (not rendered yet).",
+                "ultra_wide_angle | Ultra-wide-angle projection (not rendered yet).",
+                "omnimax | Omnimax projection (not rendered yet).",
+                "panoramic | Panoramic projection (not rendered yet).",
+                "spherical | Spherical projection (not rendered yet).",
+                "cylinder float | Cylindrical projection (not rendered yet).",
+                "mesh_camera | Mesh camera (not rendered yet).",
+                "location vector | Where the camera is (default <0,0,0>).",
+                "look_at vector | The point the camera looks at.",
+                "direction vector | The viewing direction (default <0,0,1>).",
+                "right vector | Horizontal extent of the view (default <1.33,0,0>).",
+                "up vector | Vertical extent of the view (default <0,1,0>).",
+                "sky vector | The up direction for look_at (default <0,1,0>).",
+                "angle float float? | Horizontal field of view in degrees.",
+                "aperture float | Depth-of-field aperture.",
+                "focal_point vector | Depth-of-field focus point.",
+                "blur_samples int int? | Depth-of-field samples.",
+                "confidence float | Depth-of-field confidence.",
+                "variance float | Depth-of-field variance.",
+                "bokeh | Bokeh shape (ignored).",
+            ],
+        ),
+        frozenset({"transform", "unsupported", "normal"}),
+    ),
+    "global_settings": BlockSpec(
+        "global_settings",
+        "global_settings",
+        "Scene-wide settings.",
+        (),
+        _items(
+            [
+                "assumed_gamma float | The working gamma (1.0 for linear light).",
+                "max_trace_level int | Maximum reflection/refraction depth (default 5).",
+                "adc_bailout float | Stop tracing rays weaker than this.",
+                "ambient_light rgb | Global ambient light colour.",
+                "charset string | Character set: ascii, utf8, sys.",
+                "max_intersections int | (Old) intersection stack size; ignored.",
+                "number_of_waves float | Waves count for waves/ripples.",
+                "noise_generator int | Default noise generator.",
+                "hf_gray_16 bool? | 16-bit grey height fields.",
+                "irid_wavelength rgb | Iridescence wavelengths.",
+                "mm_per_unit float | Subsurface scale.",
+            ]
+        ),
+        frozenset({"radiosity", "unsupported"}),
+    ),
+    "radiosity": BlockSpec(
+        "radiosity",
+        "radiosity",
+        "Diffuse interreflection by the radiosity method.",
+        (),
+        _items(
+            [
+                "count int int? | Rays per patch (POV-Ray: samples per point).",
+                "error_bound float | Patch subdivision threshold.",
+                "recursion_limit int | Number of diffuse bounces.",
+                "brightness float | Scale of the indirect light.",
+                "gray_threshold float | Desaturate indirect light.",
+                "pretrace_start float | Accepted for POV-Ray; no meaning for the solver.",
+                "pretrace_end float | Accepted for POV-Ray; no meaning for the solver.",
+                "nearest_count int int? | Accepted for POV-Ray; no meaning for the solver.",
+                "low_error_factor float | Accepted for POV-Ray; no meaning for the solver.",
+                "minimum_reuse float | Accepted for POV-Ray; no meaning for the solver.",
+                "maximum_reuse float | Accepted for POV-Ray; no meaning for the solver.",
+                "adc_bailout float | Accepted for POV-Ray; no meaning for the solver.",
+                "always_sample bool? | Accepted for POV-Ray; no meaning for the solver.",
+                "normal bool? | Use normal perturbation for radiosity.",
+                "media bool? | Radiosity through media.",
+                "max_sample float | Clamp bright samples.",
+                "save_file string | Accepted for POV-Ray; no meaning for the solver.",
+                "load_file string | Accepted for POV-Ray; no meaning for the solver.",
+                "patch_size float | strala: target patch size (world units).",
+                "max_patches int | strala: upper bound on the number of patches.",
+                "tolerance float | strala: solver convergence tolerance.",
+                "method word | strala: gauss_seidel, progressive or direct.",
+            ]
+        ),
+        frozenset(),
+        soft=frozenset({"gauss_seidel", "progressive", "direct"}),
+    ),
+    "background": BlockSpec(
+        "background",
+        "background",
+        "The colour of rays that hit nothing.",
+        _pos("color:color"),
+        {},
+        frozenset(),
+    ),
+    "sky_sphere": BlockSpec(
+        "sky_sphere",
+        "sky_sphere",
+        "Pigments painted on an infinitely large sphere.",
+        (),
+        _items(TRANSFORM_ITEMS, ["emission rgb | Sky brightness."]),
+        frozenset({"pigment", "transform"}),
+    ),
+    "fog": BlockSpec(
+        "fog",
+        "fog",
+        "Constant or ground fog.",
+        _pos("color?:color"),
+        _items(
+            TRANSFORM_ITEMS,
+            [
+                "distance float | Distance at which 63% of the light is fogged.",
+                "fog_type int | 1: constant, 2: ground fog.",
+                "fog_offset float | Ground fog height.",
+                "fog_alt float | Ground fog falloff.",
+                "turbulence vector | Fog turbulence.",
+                "turb_depth float | Fog turbulence depth.",
+                "up vector | Ground fog up direction.",
+                "octaves float | Turbulence octaves.",
+                "omega float | Turbulence omega.",
+                "lambda float | Turbulence lambda.",
+            ],
+        ),
+        frozenset({"color", "transform"}),
+    ),
+    "transform": BlockSpec(
+        "transform",
+        "transform",
+        "A reusable transformation.",
+        _pos("transform?:base"),
+        _items(TRANSFORM_ITEMS, ["inverse | The inverse of the transformation so far."]),
+        frozenset({"transform"}),
+    ),
+    "pigment": BlockSpec(
+        "pigment",
+        "pigment",
+        "A colour or colour pattern.",
+        (),
+        _items(TRANSFORM_ITEMS, PATTERN_ITEMS, ["color color | A solid colour."]),
+        PATTERN_ACCEPTS | {"pigment", "color"},
+    ),
+    "normal": BlockSpec(
+        "normal",
+        "normal",
+        "A perturbation of the surface normal.",
+        (),
+        _items(
+            TRANSFORM_ITEMS,
+            NORMAL_PATTERN_ITEMS,
+            [
+                "bump_size float | The depth of the perturbation.",
+                "no_bump_scale | Do not scale bumps with the object.",
+                "bump_map | An image as bumps (not rendered yet).",
+            ],
+        ),
+        PATTERN_ACCEPTS | {"normal"},
+    ),
+    "finish": BlockSpec(
+        "finish",
+        "finish",
+        "How the surface reacts to light.",
+        (),
+        _items(FINISH_ITEMS),
+        frozenset({"finish", "reflection", "irid", "unsupported"}),
+    ),
+    "reflection": BlockSpec(
+        "reflection",
+        "reflection",
+        "Mirror reflection: `reflection { [min,] max [fresnel] [falloff f] … }`.",
+        _pos("color:min", "color?:max"),
+        _items(
+            [
+                "fresnel bool? | Reflection by the Fresnel equations (uses the interior's ior).",
+                "falloff float | Falloff exponent between min and max.",
+                "exponent float | Reflection exponent.",
+                "metallic float? | Tint the reflection by the surface colour.",
+            ]
+        ),
+        frozenset(),
+    ),
+    "irid": BlockSpec(
+        "irid",
+        "irid",
+        "Iridescence: amount, film thickness and turbulence.",
+        _pos("float:amount"),
+        _items(["thickness float | Film thickness.", "turbulence float | Thickness turbulence."]),
+        frozenset(),
+    ),
+    "interior": BlockSpec(
+        "interior",
+        "interior",
+        "What is inside an object: index of refraction, fading, caustics.",
+        (),
+        _items(
+            [
+                "ior float | Index of refraction.",
+                "caustics float | Fake caustics.",
+                "dispersion float | Dispersion (ior ratio between violet and red).",
+                "dispersion_samples int | Dispersion samples.",
+                "fade_distance float | Distance for fading.",
+                "fade_power float | Exponent of fading.",
+                "fade_color rgb | Colour of fading.",
+                "fade_colour rgb | Colour of fading.",
+            ]
+        ),
+        frozenset({"interior", "unsupported"}),
+    ),
+    "texture": BlockSpec(
+        "texture",
+        "texture",
+        "A texture: pigment, normal and finish.",
+        (),
+        _items(TRANSFORM_ITEMS, PATTERN_ITEMS, ["uv_mapping | Map by uv coordinates."]),
+        frozenset({"texture", "pigment", "finish", "normal", "transform", "map", "unsupported"}),
+    ),
+    "material": BlockSpec(
+        "material",
+        "material",
+        "A texture with an interior.",
+        (),
+        _items(TRANSFORM_ITEMS),
+        frozenset({"material", "texture", "interior", "transform", "unsupported"}),
+    ),
+    "image_map": BlockSpec(
+        "image_map",
+        "pigment",
+        'An image as a pigment: `image_map { png "file" map_type 0 interpolate 2 once }`.',
+        (),
+        _items(
+            [
+                f"{t} string? | Image format {t}."
+                for t in "png jpeg tiff exr hdr gif tga iff ppm pgm sys".split()
+            ],
+            [
+                "map_type int | 0 planar, 1 spherical, 2 cylindrical, 5 torus.",
+                "interpolate int | 2 bilinear, 4 normalised distance.",
+                "once | Do not repeat the image.",
+                "filter float float? | Filter for all (or one palette index).",
+                "transmit float float? | Transmit for all (or one palette index).",
+                "use_alpha | Use the image's alpha channel.",
+                "gamma float | The image's gamma.",
+                "premultiplied bool? | The image's alpha is premultiplied.",
+            ],
+        ),
+        frozenset({"string"}),
+    ),
+    "clipped_by": BlockSpec(
+        "clipped_by",
+        "clipped_by",
+        "Objects that clip this one.",
+        (),
+        _items(["bounded_by | Clip by the bounding objects."]),
+        frozenset({"object"}),
+    ),
+    "bounded_by": BlockSpec(
+        "bounded_by",
+        "bounded_by",
+        "A bounding shape (a speed hint).",
+        (),
+        _items(["clipped_by | Bound by the clipping objects."]),
+        frozenset({"object"}),
+    ),
+}
+for _m in MAP_WORDS:
+    BLOCKS[_m] = BlockSpec(_m, "map", f"`{_m} {{ [value entry] … }}`.", (), {}, frozenset({"map"}))
+
+# List blocks: a count, then items (the evaluator reads them straight).
+LIST_BLOCKS = {
+    "vertex_vectors": "Mesh vertices: count, then <x,y,z> each.",
+    "normal_vectors": "Mesh vertex normals: count, then vectors.",
+    "uv_vectors": "Mesh uv coordinates: count, then <u,v> each.",
+    "texture_list": "Mesh textures: count, then textures.",
+    "face_indices": "Triangles: count, then <a,b,c> [, texture index(es)] each.",
+    "normal_indices": "Normal index triples, one per face.",
+    "uv_indices": "uv index triples, one per face.",
+}
+
+# Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
+UNSUPPORTED_BLOCKS = frozenset(
+    """media photons warp density subsurface spline bump_map material_map interior_texture
+    density_map pigment_pattern image_pattern function_image projected_through""".split()
+)
+
+
+def spec(name: str) -> BlockSpec | None:
+    return BLOCKS.get(name)
+
+
+def all_item_names() -> frozenset[str]:
+    """Every keyword the schema knows (for did-you-mean hints)."""
+    names: set[str] = set(BLOCKS) | set(LIST_BLOCKS) | UNSUPPORTED_SHAPES | UNSUPPORTED_BLOCKS
+    for b in BLOCKS.values():
+        names |= set(b.items)
+    return frozenset(names)

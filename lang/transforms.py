@@ -1,0 +1,155 @@
+"""Pure-Python 4x4 matrices in POV-Ray's conventions (no numpy: `lang` must start fast).
+
+Matrices follow ir.Matrix: row-major, acting on column vectors (p' = M @ (p, 1)). POV-Ray's
+own source uses row vectors, so its `matrix <…12 values…>` is the transpose of ours.
+Rotations are POV-Ray's: degrees, about x, then y, then z, in a left-handed world (which
+with column vectors is the usual right-hand-rule matrix: rotate <0,90,0> takes x to -z).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from lang.ir import IDENTITY, Matrix
+
+# Below this a matrix counts as singular (POV-Ray warns about a zero scale component and
+# substitutes a tiny value; we report it instead of dividing by zero).
+SINGULAR_EPSILON = 1e-12
+
+
+def _m(rows: Sequence[Sequence[float]]) -> Matrix:
+    return tuple(tuple(float(v) for v in r) for r in rows)  # type: ignore[return-value]
+
+
+def compose(a: Matrix, b: Matrix) -> Matrix:
+    """a @ b: apply b first, then a."""
+    return _m([[sum(a[i][k] * b[k][j] for k in range(4)) for j in range(4)] for i in range(4)])
+
+
+def then(first: Matrix, second: Matrix) -> Matrix:
+    """The matrix that applies `first`, then `second` (POV-Ray's order of modifiers)."""
+    return compose(second, first)
+
+
+def translate(v: Sequence[float]) -> Matrix:
+    return _m([[1, 0, 0, v[0]], [0, 1, 0, v[1]], [0, 0, 1, v[2]], [0, 0, 0, 1]])
+
+
+def scale(v: Sequence[float]) -> Matrix:
+    return _m([[v[0], 0, 0, 0], [0, v[1], 0, 0], [0, 0, v[2], 0], [0, 0, 0, 1]])
+
+
+def _rot_x(deg: float) -> Matrix:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return _m([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]])
+
+
+def _rot_y(deg: float) -> Matrix:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return _m([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1]])
+
+
+def _rot_z(deg: float) -> Matrix:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return _m([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+
+
+def rotate(v: Sequence[float]) -> Matrix:
+    """POV-Ray's `rotate <a, b, c>`: about x by a, then y by b, then z by c (degrees)."""
+    m = IDENTITY
+    if v[0]:
+        m = then(m, _rot_x(v[0]))
+    if v[1]:
+        m = then(m, _rot_y(v[1]))
+    if v[2]:
+        m = then(m, _rot_z(v[2]))
+    return m
+
+
+def axis_rotate(axis: Sequence[float], deg: float) -> Matrix:
+    """Rotation about an axis through the origin, as POV-Ray's `vaxis_rotate` (and
+    transforms.inc's Axis_Rotate_Trans): positive angles turn like `rotate` about x/y/z."""
+    length = math.sqrt(sum(a * a for a in axis[:3]))
+    if length == 0.0:
+        raise ZeroDivisionError("rotation axis of zero length")
+    x, y, z = (a / length for a in axis[:3])
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    t = 1.0 - c
+    return _m(
+        [
+            [t * x * x + c, t * x * y - s * z, t * x * z + s * y, 0],
+            [t * x * y + s * z, t * y * y + c, t * y * z - s * x, 0],
+            [t * x * z - s * y, t * y * z + s * x, t * z * z + c, 0],
+            [0, 0, 0, 1],
+        ]
+    )
+
+
+def from_pov_matrix(values: Sequence[float]) -> Matrix:
+    """POV-Ray's `matrix <m00, m01, m02, m10, … m32>` (row-vector form, last row = translation)."""
+    if len(values) != 12:
+        raise ValueError(f"`matrix` needs 12 values, got {len(values)}")
+    r = [values[0:3], values[3:6], values[6:9], values[9:12]]
+    return _m(
+        [
+            [r[0][0], r[1][0], r[2][0], r[3][0]],
+            [r[0][1], r[1][1], r[2][1], r[3][1]],
+            [r[0][2], r[1][2], r[2][2], r[3][2]],
+            [0, 0, 0, 1],
+        ]
+    )
+
+
+def determinant3(m: Matrix) -> float:
+    return (
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    )
+
+
+def inverse(m: Matrix) -> Matrix:
+    """Inverse of an affine matrix (last row 0 0 0 1), by the 3x3 adjugate."""
+    det = determinant3(m)
+    if abs(det) < SINGULAR_EPSILON:
+        raise ZeroDivisionError("singular transformation matrix")
+    a = m
+    inv3 = [
+        [
+            (a[1][1] * a[2][2] - a[1][2] * a[2][1]) / det,
+            (a[0][2] * a[2][1] - a[0][1] * a[2][2]) / det,
+            (a[0][1] * a[1][2] - a[0][2] * a[1][1]) / det,
+        ],
+        [
+            (a[1][2] * a[2][0] - a[1][0] * a[2][2]) / det,
+            (a[0][0] * a[2][2] - a[0][2] * a[2][0]) / det,
+            (a[0][2] * a[1][0] - a[0][0] * a[1][2]) / det,
+        ],
+        [
+            (a[1][0] * a[2][1] - a[1][1] * a[2][0]) / det,
+            (a[0][1] * a[2][0] - a[0][0] * a[2][1]) / det,
+            (a[0][0] * a[1][1] - a[0][1] * a[1][0]) / det,
+        ],
+    ]
+    t = [a[0][3], a[1][3], a[2][3]]
+    rows = [inv3[i] + [-sum(inv3[i][k] * t[k] for k in range(3))] for i in range(3)]
+    return _m(rows + [[0, 0, 0, 1]])
+
+
+def apply_point(m: Matrix, p: Sequence[float]) -> tuple[float, float, float]:
+    return tuple(m[i][0] * p[0] + m[i][1] * p[1] + m[i][2] * p[2] + m[i][3] for i in range(3))  # type: ignore[return-value]
+
+
+def apply_direction(m: Matrix, d: Sequence[float]) -> tuple[float, float, float]:
+    return tuple(m[i][0] * d[0] + m[i][1] * d[1] + m[i][2] * d[2] for i in range(3))  # type: ignore[return-value]
+
+
+def apply_normal(m: Matrix, n: Sequence[float]) -> tuple[float, float, float]:
+    """Normals transform by the inverse transpose."""
+    inv = inverse(m)
+    return tuple(inv[0][i] * n[0] + inv[1][i] * n[1] + inv[2][i] * n[2] for i in range(3))  # type: ignore[return-value]
+
+
+def is_identity(m: Matrix, tol: float = 0.0) -> bool:
+    return all(abs(m[i][j] - IDENTITY[i][j]) <= tol for i in range(4) for j in range(4))
