@@ -167,11 +167,22 @@ class _Builder:
 
 
 def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:
-    """width/height are the image size (reserved for view-pyramid culling)."""
+    """width/height are the image size (they set the automatic tessellation tolerance).
+
+    A light's `looks_like` object is taken as modelled around the origin (as written in
+    POV-Ray) and is moved to the light's position here, with `no_shadow`."""
     b = _Builder(scene.camera, width)
     no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
         b.top(obj, no_flags)
+    for light in scene.lights:
+        if light.looks_like is not None:
+            # POV-Ray moves a looks_like object (modelled around the origin) to the light and
+            # lets the light shine through it: it casts no shadows.
+            shape_obj = light.looks_like
+            moved = tf.translation(light.position) @ tf.as_matrix(shape_obj.transform)
+            matrix = tuple(tuple(float(x) for x in row) for row in moved)
+            b.top(dataclasses.replace(shape_obj, transform=matrix, no_shadow=True), no_flags)
     triangles = None
     if b.triangle_leaves:
         # Imported lazily so scenes without triangles never load Embree.

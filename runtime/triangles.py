@@ -103,10 +103,11 @@ class TriangleSet:
         """The Embree scene without the triangles whose object carries `skip` (built once)."""
         with self._lock:
             if skip not in self._scenes:
-                keep = np.ones(len(self.tri), dtype=bool)
+                # Degenerate (zero-area) triangles can never be hit: leave them out.
+                keep = np.linalg.norm(np.cross(self.e1, self.e2), axis=1) > 0
                 flag = self.flags.get(skip) if skip else None
                 if flag is not None and len(flag):
-                    keep = ~flag[self.leaf_of]
+                    keep &= ~flag[self.leaf_of]
                 ids = np.nonzero(keep)[0].astype(np.int64)
                 scene = None
                 if len(ids):

@@ -302,3 +302,23 @@ def test_batched_leaves_match_one_by_one():
     assert np.allclose(h.t[fin], best[fin], rtol=1e-12, atol=0)
     assert np.array_equal(h.obj, who)
     assert (h.obj == 7).any()  # the inverse box (everything outside it) is seen
+
+
+def test_looks_like_object_moves_to_the_light_and_casts_no_shadow():
+    bulb = ir.Object(ir.Sphere((0, 0, 0), 0.5))
+    light = ir.Light(position=(0, 10, 0), looks_like=bulb)
+    scene = ir.Scene(camera=ir.Camera(), lights=(light,), objects=())
+    prep = prepare(scene, 8, 8)
+    assert len(prep.objects) == 1 and prep.objects[0].no_shadow
+    h = prep.tracer.closest(np.array([[0.0, 0, 0]]), np.array([[0.0, 1, 0]]))
+    assert h.t[0] == pytest.approx(9.5)
+    assert not prep.tracer.occluded(np.zeros((1, 3)), np.array([[0.0, 1, 0]]), 20.0)[0]
+
+
+def test_degenerate_triangles_are_ignored():
+    verts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]], dtype=float)
+    faces = np.array([[0, 1, 3], [0, 1, 2]], dtype=np.int32)  # the first has zero area
+    prep = prep_of(ir.Object(ir.Mesh(vertices=verts, faces=faces)))
+    h = prep.tracer.closest(np.array([[0.2, 0.2, -1], [0.5, 0, -1]]), np.array([[0.0, 0, 1]] * 2))
+    assert h.prim[0] == 1 and h.t[0] == pytest.approx(1.0)
+    assert np.all(np.isfinite(h.normal[h.obj >= 0]))
