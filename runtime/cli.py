@@ -39,6 +39,7 @@ _VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height"}
 # Display, verbosity, pause and statistics switches change nothing in a file render.
 _IGNORED = ("D", "V", "P", "X", "GA", "GD", "GF", "GR", "GS", "GW", "GI", "GP", "UA", "UD")
 _FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
+_REGION = {"SC": "--start-col", "EC": "--end-col", "SR": "--start-row", "ER": "--end-row"}
 _OWN_SHORT = {"-o", "-W", "-H", "-L", "-q", "-h"}
 
 
@@ -56,6 +57,10 @@ def _ini_tokens(path: Path) -> list[str]:
         "work_threads": "+WT",
         "initial_frame": "+KFI",
         "final_frame": "+KFF",
+        "start_column": "+SC",
+        "end_column": "+EC",
+        "start_row": "+SR",
+        "end_row": "+ER",
     }
     tokens: list[str] = []
     try:
@@ -129,6 +134,8 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
             if not value:
                 raise UsageError(f"{tok} needs a value")
             out += {"O": ["-o", value], "I": [value], "L": ["-L", value]}[head]
+        elif upper[:2] in _REGION and _is_number(body[2:]):
+            out += [_REGION[upper[:2]], body[2:]]
         elif upper.startswith(("KFI", "KFF")) and body[3:].isdigit():
             frames[upper[:3]] = int(body[3:])
         elif head == "K" and rest and rest[0] in "0123456789.-":
@@ -143,6 +150,42 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
         first = frames.get("KFI", 1)
         out += ["--frames", f"{first}..{frames.get('KFF', first)}"]
     return out
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def resolve_region(
+    width: int, height: int, start_col, end_col, start_row, end_row
+) -> tuple[int, int, int, int] | None:
+    """POV-Ray's partial render (+SC +EC +SR +ER) → (left, top, right, bottom) pixels,
+    right/bottom exclusive. A value in [0, 1] is a fraction of the size, above 1 a 1-based
+    pixel number (both ends inclusive, as POV-Ray counts)."""
+    if all(v is None for v in (start_col, end_col, start_row, end_row)):
+        return None
+
+    def start(v, size):
+        if v is None:
+            return 0
+        return int(v * size) if v <= 1.0 else int(v) - 1
+
+    def end(v, size):
+        if v is None:
+            return size
+        return int(v * size) if v <= 1.0 else int(v)
+
+    left, right = start(start_col, width), end(end_col, width)
+    top, bottom = start(start_row, height), end(end_row, height)
+    left, top = max(left, 0), max(top, 0)
+    right, bottom = min(right, width), min(bottom, height)
+    if left >= right or top >= bottom:
+        raise UsageError(f"the region {left},{top} – {right},{bottom} holds no pixels")
+    return left, top, right, bottom
 
 
 def _looks_like_render(argv: Sequence[str]) -> bool:
@@ -203,6 +246,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="A..B",
         help="render frames A to B, clock 0 → 1 (images SCENE01.png …)",
     )
+    for flag in _REGION.values():  # partial render, POV-Ray's +SC +EC +SR +ER
+        r.add_argument(flag, type=float, help=argparse.SUPPRESS)
     r.add_argument("--output-type", choices=tuple(_FILE_TYPES.values()), help=argparse.SUPPRESS)
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     r.set_defaults(func=cmd_render)
@@ -485,6 +530,9 @@ def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -
     # as POV-Ray: a side not given keeps its default, whatever the other one is
     width = args.width or POVRAY_DEFAULT_SIZE[0]
     height = args.height or POVRAY_DEFAULT_SIZE[1]
+    region = resolve_region(
+        width, height, args.start_col, args.end_col, args.start_row, args.end_row
+    )
     with Progress(label, enabled=False if args.quiet else None) as bar:
         try:
             pixels = render_scene(
@@ -495,6 +543,7 @@ def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -
                 aa_depth=args.aa_depth,
                 threads=args.threads,
                 progress=bar,
+                region=region,
             )
         except SceneError as exc:
             bar.close()

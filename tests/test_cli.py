@@ -95,6 +95,39 @@ def test_animation_follows_povray_clock_and_names():
     assert _translate("+KFI2", "+KFF5")[0] == ["--frames", "2..5"]
 
 
+def test_partial_render_region_counts_like_povray():
+    # POV-Ray 3.7, +W100 +H80 +SC0.25 +EC0.75 +SR10 +ER40: columns 25..74, rows 9..39 drawn
+    out, _ = _translate("+SC0.25", "+EC0.75", "+SR10", "+ER40")
+    assert out == [
+        "--start-col",
+        "0.25",
+        "--end-col",
+        "0.75",
+        "--start-row",
+        "10",
+        "--end-row",
+        "40",
+    ]
+    assert cli.resolve_region(100, 80, 0.25, 0.75, 10, 40) == (25, 9, 75, 40)
+    assert cli.resolve_region(100, 80, None, None, None, None) is None
+    assert cli.resolve_region(100, 80, None, None, 0.5, None) == (0, 40, 100, 80)
+    with pytest.raises(cli.UsageError, match="no pixels"):
+        cli.resolve_region(100, 80, 0.8, 0.2, None, None)
+
+
+@given(
+    st.integers(1, 400),
+    st.integers(1, 400),
+    st.tuples(*[st.none() | st.floats(0, 1) | st.integers(2, 500).map(float)] * 4),
+)
+def test_region_is_inside_the_image_or_refused(width, height, ends):
+    try:
+        left, top, right, bottom = cli.resolve_region(width, height, *ends) or (0, 0, width, height)
+    except cli.UsageError:
+        return
+    assert 0 <= left < right <= width and 0 <= top < bottom <= height
+
+
 # ----------------------------------------------------------------- outputs
 @pytest.mark.parametrize(
     "scene, output, expected",
@@ -255,6 +288,20 @@ def test_render_povray_style_default_size_and_name(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert read_image(tmp_path / "ex3.png").shape == (240, 320, 3)
     assert proc.stderr == ""  # --quiet, and no TTY: no bar, no summary
+
+
+@needs_evaluator
+@needs_renderer
+def test_partial_render_leaves_the_rest_black(tmp_path):
+    from runtime.image import read_image
+
+    out = tmp_path / "part.png"
+    argv = ["render", str(EX3), "+W40", "+H30", "+SC0.5", "+SR11", f"+O{out}", "-q"]
+    assert cli.main(argv) == 0
+    img = read_image(out)
+    assert img.shape == (30, 40, 3)
+    assert img[:10].max() == 0 and img[:, :20].max() == 0
+    assert img[10:, 20:].max() > 0
 
 
 @needs_evaluator
