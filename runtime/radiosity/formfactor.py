@@ -228,7 +228,7 @@ def _sqrt_map(a, b, c, s, t) -> np.ndarray:
     """Area-preserving map of the unit square onto triangles (a, b, c): (…,count,3)."""
     r = np.sqrt(s)[..., None]
     tt = t[..., None]
-    if a.ndim == s.ndim:  # per-point corners already
+    if a.ndim == s.ndim + 1:  # per-point corners already
         return (1 - r) * a + r * (1 - tt) * b + r * tt * c
     return (1 - r) * a[:, None] + r * (1 - tt) * b[:, None] + r * tt * c[:, None]
 
