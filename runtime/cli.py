@@ -203,7 +203,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Compile and render POV-Ray 3.7 scenes (and strala's .scene extensions).",
         epilog="POV-Ray style options work too: strala +Iscene.pov +W512 +H512 +A0.3 +Oout.png",
     )
-    parser.add_argument("--version", action="version", version=f"strala {_version()}")
+    parser.add_argument("--version", action=_VersionAction, nargs=0, help="show the version")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
@@ -280,6 +280,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.set_defaults(func=cmd_lsp)
     return parser
+
+
+class _VersionAction(argparse.Action):
+    """--version, looked up only when asked (importlib.metadata costs 15 ms at start-up)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"strala {_version()}")
+        parser.exit()
 
 
 def _version() -> str:

@@ -189,6 +189,13 @@ def test_unwritable_output_is_a_usage_error_before_rendering(tmp_path, capsys):
     assert cli.main(["render", str(scene), "-o", str(tmp_path / "x.jpg"), "--bits", "16"]) == 2
 
 
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.startswith("strala ")
+
+
 def test_internal_errors_are_one_line_unless_debug(monkeypatch, capsys, tmp_path):
     def boom(args):
         raise RuntimeError("kaboom")
