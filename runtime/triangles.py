@@ -95,19 +95,24 @@ class TriangleSet:
         self.offset = (lo + hi) / 2
         self.extent = float(np.linalg.norm(hi - lo))
         self.flags: dict[str, np.ndarray] = {}
-        self._scenes: dict[str | None, tuple] = {}
+        self._scenes: dict[tuple[int, ...], tuple] = {}
         self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ embree
     def _scene(self, skip: str | None):
-        """The Embree scene without the triangles whose object carries `skip` (built once)."""
+        """The Embree scene without the triangles whose object carries `skip`. Scenes are
+        cached by the set of objects they leave out, so flags no triangle object carries
+        share one scene (a big mesh is built once, not once per query kind)."""
+        flag = self.flags.get(skip) if skip else None
+        left_out: tuple[int, ...] = ()
+        if flag is not None and len(flag):
+            left_out = tuple(int(i) for i in np.unique(self.leaf_of[flag[self.leaf_of]]))
         with self._lock:
-            if skip not in self._scenes:
+            if left_out not in self._scenes:
                 # Degenerate (zero-area) triangles can never be hit: leave them out.
                 keep = np.linalg.norm(np.cross(self.e1, self.e2), axis=1) > 0
-                flag = self.flags.get(skip) if skip else None
-                if flag is not None and len(flag):
-                    keep &= ~flag[self.leaf_of]
+                if left_out:
+                    keep &= ~np.isin(self.leaf_of, left_out)
                 ids = np.nonzero(keep)[0].astype(np.int64)
                 scene = None
                 if len(ids):
@@ -117,8 +122,8 @@ class TriangleSet:
                     scene = rtcore_scene.EmbreeScene()
                     verts = np.ascontiguousarray((self.tri[ids] - self.offset).astype(np.float32))
                     TriangleMesh(scene, verts)
-                self._scenes[skip] = (scene, ids)
-            return self._scenes[skip]
+                self._scenes[left_out] = (scene, ids)
+            return self._scenes[left_out]
 
     def _start(self, o: np.ndarray, tmin: np.ndarray) -> np.ndarray:
         """Float32-safe start distance for rays from o (see tolerances.EMBREE_REL)."""

@@ -86,6 +86,13 @@ def test_no_embree_scene_without_triangles():
     assert prep.tracer.triangles is None
     prep = prep_of(ir.Object(ir.Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0))))
     assert prep.tracer.triangles is not None
+    # Camera, reflection and shadow queries share one Embree scene when no triangle object
+    # carries the flag that would tell them apart.
+    o, d = np.array([[0.2, 0.2, -1]]), np.array([[0.0, 0, 1]])
+    for skip in (None, "no_image", "no_reflection"):
+        assert prep.tracer.closest(o, d, skip=skip).obj[0] == 0
+    assert prep.tracer.occluded(o, d, np.array([5.0]))[0]
+    assert len(prep.tracer.triangles._scenes) == 1
 
 
 def test_skip_flags_and_shadows():
