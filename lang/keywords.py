@@ -105,8 +105,3 @@ ITEM_WORDS = ITEM_WORDS - CONSTANTS - FUNCTIONS - COLOR_TYPES - COLOR_WORDS - CO
 
 ALL_WORDS = CONSTANTS | FUNCTIONS | COLOR_TYPES | COLOR_WORDS | COMPONENTS | ITEM_WORDS
 
-
-def word_regex(words: frozenset[str]) -> str:
-    """A word-bounded alternation; longest first so no word hides a longer one."""
-    body = "|".join(sorted(words, key=lambda w: (-len(w), w)))
-    return rf"(?:{body})(?![A-Za-z0-9_])"

@@ -377,13 +377,6 @@ class _Builder(Transformer):
         head, name = children[0], children[1]
         subs = [c.node for c in children[2:-1] if isinstance(c, _Sub)]
         span = self._span(meta, children)
-        if str(name) in keywords.ALL_WORDS:
-            self.sink.error(
-                "E0102",
-                f"`{name}` is a reserved word and cannot be declared",
-                _tok_span(self.file, name),
-                "choose another name; POV-Ray's convention is a capital first letter",
-            )
         return syntax.Declare(
             span,
             local="local" in str(head),
@@ -511,29 +504,42 @@ class _Builder(Transformer):
 _parser: Lark | None = None
 
 
-def _grammar_text() -> str:
-    text = GRAMMAR_PATH.read_text()
-    for name, words in {
-        "COLOR_TYPES": keywords.COLOR_TYPES,
-        "COLOR_WORDS": keywords.COLOR_WORDS,
-        "COMPONENTS": keywords.COMPONENTS,
-        "CONSTANTS": keywords.CONSTANTS,
-        "FUNCTIONS": keywords.FUNCTIONS,
-        "ITEM_WORDS": keywords.ITEM_WORDS - {"array", "function"},
-    }.items():
-        text = text.replace(f"@{name}@", keywords.word_regex(words))
-    return text
+def _word_types() -> dict[str, str]:
+    table = {w: "KEYWORD" for w in keywords.ITEM_WORDS}
+    for words, kind in (
+        (keywords.COLOR_TYPES, "COLOR_TYPE"),
+        (keywords.COLOR_WORDS, "COLOR_WORD"),
+        (keywords.COMPONENTS, "COMPONENT"),
+        (keywords.CONSTANTS, "CONST"),
+        (keywords.FUNCTIONS, "FUNC"),
+    ):
+        table.update(dict.fromkeys(words, kind))
+    table["array"] = "ARRAY"
+    table["function"] = "FUNCTION"
+    return table
+
+
+_WORD_TYPES = _word_types()
+_RESERVED_TYPES = frozenset(_WORD_TYPES.values())
+
+
+def _classify(tok: Token) -> Token:
+    kind = _WORD_TYPES.get(tok)
+    if kind is not None:
+        tok.type = kind
+    return tok
 
 
 def _get_parser() -> Lark:
     global _parser
     if _parser is None:
         _parser = Lark(
-            _grammar_text(),
+            GRAMMAR_PATH.read_text(),
             parser="lalr",
-            lexer="contextual",
+            lexer="basic",
             propagate_positions=True,
             maybe_placeholders=False,
+            lexer_callbacks={"IDENT": _classify},
             cache=True,
         )
     return _parser
@@ -650,6 +656,16 @@ def parse(text: str, file: str = "<string>") -> tuple[syntax.SourceFile, list[Di
                 )
             return False
         pos = tok.start_pos
+        if "IDENT" in e.expected and tok.type in _RESERVED_TYPES:
+            # A reserved word where a name belongs: say so, then read it as the name.
+            report(
+                "E0102",
+                f"`{tok}` is a reserved word and cannot be used as a name",
+                _tok_span(file, tok),
+                "choose another name; POV-Ray's convention is a capital first letter",
+            )
+            e.interactive_parser.feed_token(Token.new_borrow_pos("IDENT", str(tok), tok))
+            return True
         if not quiet_since_last(pos):
             if tok.type == "RBRACE" and pos in braces.unmatched_close:
                 last = braces.unmatched_close[pos]

@@ -311,3 +311,10 @@ def test_povray_corpus_parses():
     print(f"corpus: {len(files)} files, {len(files) - len(failed)} parse ({share:.1%})")
     assert len(files) > 400
     assert share >= 0.98, failed
+
+
+def test_reserved_word_as_name_recovers_and_keeps_parsing():
+    tree, diags = parse("#declare sphere = 1;\nbox { 0, 1 }\n", "t.pov")
+    errs = [d for d in diags if d.severity is Severity.ERROR]
+    assert len(errs) == 1 and errs[0].code == "E0102" and errs[0].span.col == 10
+    assert [type(n).__name__ for n in tree.body] == ["Declare", "Block"]
