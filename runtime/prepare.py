@@ -63,7 +63,11 @@ class _Builder:
         """A top-level object or a child of a flattened union."""
         shape = obj.shape
         flags = {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
-        if isinstance(shape, ir.CSG) and (shape.op == "union" and not obj.inverse):
+        if (
+            isinstance(shape, ir.CSG)
+            and shape.op == "union"
+            and not (obj.inverse or obj.clipped_by)
+        ):
             for child in shape.children:
                 self.top(child, flags)
             return
@@ -96,6 +100,12 @@ class _Builder:
             if not children:
                 return None
             return self.clipped(obj, CsgNode(shape.op, children, inverse=obj.inverse))
+        if _TESSELLATED and isinstance(shape, _TESSELLATED):
+            mesh = self.tessellate(obj)
+            if mesh is None:
+                return None
+            obj = dataclasses.replace(obj, shape=mesh)
+            shape = mesh
         if isinstance(shape, ir.Mesh):
             # A mesh has no inside (no inside_vector yet): inside a CSG it acts as a plain
             # surface, traced by Embree like a union member.

@@ -345,3 +345,15 @@ def test_clipped_by_keeps_the_part_inside():
     # The clipping object itself is never reported.
     prep = prepare(ir.Scene(camera=ir.Camera(), objects=(obj,)), 8, 8)
     assert prep.objects == [obj]
+
+
+def test_clipped_union_and_inverse_union_stay_whole():
+    a = ir.Object(ir.Sphere((0, 0, 0), 1))
+    b = ir.Object(ir.Sphere((3, 0, 0), 1))
+    clip = ir.Object(ir.Box((-5, -5, -5), (5, 0, 5)))  # keep y < 0
+    u = ir.Object(ir.CSG("union", (a, b)), clipped_by=(clip,))
+    hits = trace([u], [(0, 5, 0), (3, -5, 0)], [(0, -1, 0), (0, 1, 0)])
+    # From above, the upper half is clipped away: the ray meets the lower half's inner side.
+    assert hits.t[0] == pytest.approx(6.0)
+    assert hits.obj[0] == 0
+    assert hits.t[1] == pytest.approx(4.0) and hits.obj[1] == 1
