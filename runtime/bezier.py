@@ -125,3 +125,14 @@ def bicubic_patch_mesh(points16, u_steps: int = 0, v_steps: int = 0, flatness: f
     vs = np.linspace(0.0, 1.0, (1 << lv) + 1)
     m = _assemble(surf, us, vs, float("nan"), False)
     return m.vertices, m.faces, m.normals, np.ascontiguousarray(m.uvs[:, ::-1])
+
+
+def bicubic_mesh(shape):
+    """`bicubic_patch_mesh` for an IR-like object with `points` (16, POV-Ray order),
+    `u_steps`, `v_steps` and `flatness` attributes (the proposed `ir.BicubicPatch`)."""
+    return bicubic_patch_mesh(
+        shape.points,
+        getattr(shape, "u_steps", 0),
+        getattr(shape, "v_steps", 0),
+        getattr(shape, "flatness", 0.0),
+    )

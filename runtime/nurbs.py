@@ -55,22 +55,26 @@ def clamped_uniform_knots(n: int, degree: int) -> tuple[float, ...]:
 
 def validate(shape: ir.Nurbs) -> list[str]:
     """Messages (empty when the shape is sound) for every count, knot and weight problem the
-    evaluator and the runtime would trip over. Worded for the scene author."""
+    evaluator and the runtime would trip over, worded for the scene author.
+
+    Pure Python on purpose (no numpy): the language side may call it, or move it, without
+    breaking the rule that `lang` never imports numpy."""
     msgs: list[str] = []
     curve = shape.nv == 0
+    what = "curve" if curve else "surface"
     dirs = [("u", shape.u_degree, shape.nu, shape.u_knots)]
     if not curve:
         dirs.append(("v", shape.v_degree, shape.nv, shape.v_knots))
     for name, p, n, knots in dirs:
         label = "degree" if curve else f"{name}_degree"
-        kname = "knots" if curve else f"{name}_knots"
+        kname = f"{name}_knots"
         if p < 1:
             msgs.append(f"{label} must be at least 1, got {p}")
             continue
         if n < p + 1:
             msgs.append(
-                f"a degree-{p} {'curve' if curve else 'surface'} needs at least {p + 1} control"
-                f" points in {name}, got {n}"
+                f"a degree-{p} {what} needs at least {p + 1} control points"
+                f"{'' if curve else ' in ' + name}, got {n}"
             )
             continue
         if len(knots) != n + p + 1:
@@ -78,44 +82,41 @@ def validate(shape: ir.Nurbs) -> list[str]:
                 f"{kname} has {len(knots)} values; {n} points of degree {p} need {n + p + 1}"
             )
             continue
-        k = np.asarray(knots, dtype=np.float64)
-        if not np.all(np.isfinite(k)):
+        k = [float(x) for x in knots]
+        if not all(math.isfinite(x) for x in k):
             msgs.append(f"{kname} contains a non-finite value")
             continue
-        if np.any(np.diff(k) < 0):
-            i = int(np.argmax(np.diff(k) < 0))
-            msgs.append(f"{kname} must not decrease: {k[i]:g} is followed by {k[i + 1]:g}")
+        drop = next((i for i in range(len(k) - 1) if k[i + 1] < k[i]), None)
+        if drop is not None:
+            msgs.append(f"{kname} must not decrease: {k[drop]:g} is followed by {k[drop + 1]:g}")
             continue
-        if not k[p] < k[n]:
-            msgs.append(f"{kname} leave an empty domain [{k[p]:g}, {k[n]:g}]")
+        lo, hi = k[p], k[n]
+        if not lo < hi:
+            msgs.append(f"{kname} leave an empty domain [{lo:g}, {hi:g}]")
             continue
-        for val in np.unique(k[p : n + 1]):
-            inner = k[p] < val < k[n]
-            mult = int(np.count_nonzero(k == val))
-            if inner and mult > p:
+        for val in sorted(set(k[p : n + 1])):
+            mult = k.count(val)
+            if lo < val < hi and mult > p:
                 msgs.append(
-                    f"interior knot {val:g} is repeated {mult} times; at most {p} (the degree)"
-                    " keep the surface in one piece"
+                    f"interior knot {val:g} is repeated {mult} times; more than the degree"
+                    f" ({p}) breaks the {what} apart"
                 )
-            elif not inner and mult > p + 1:
+            elif val in (lo, hi) and mult > p + 1:
                 msgs.append(f"end knot {val:g} is repeated {mult} times; at most {p + 1}")
-    count = shape.nu * (shape.nv if not curve else 1)
+    count = shape.nu * (1 if curve else shape.nv)
     if len(shape.points) != count:
         msgs.append(f"expected {count} control points, got {len(shape.points)}")
     if len(shape.weights) != len(shape.points):
         msgs.append(f"expected {len(shape.points)} weights, got {len(shape.weights)}")
-    if shape.weights:
-        w = np.asarray(shape.weights, dtype=np.float64)
-        bad = np.flatnonzero(~(np.isfinite(w) & (w > 0)))
-        if bad.size:
-            msgs.append(
-                f"weights must be positive and finite: weight {int(bad[0])} is {w[bad[0]]:g}"
-            )
-    if shape.points:
-        pts = np.asarray(shape.points, dtype=np.float64).reshape(-1, 3)
-        if not np.all(np.isfinite(pts)):
+    for i, w in enumerate(shape.weights):
+        if not (math.isfinite(w) and w > 0):
+            msgs.append(f"weights must be positive and finite: weight {i} is {w:g}")
+            break
+    pts = [tuple(float(c) for c in q) for q in shape.points]
+    if pts:
+        if not all(math.isfinite(c) for q in pts for c in q):
             msgs.append("a control point has a non-finite coordinate")
-        elif len(pts) > 1 and float(np.ptp(pts, axis=0).max()) == 0.0:
+        elif len(pts) > 1 and all(q == pts[0] for q in pts):
             msgs.append("all control points coincide: the net is degenerate")
     if curve and not shape.radius > 0:
         msgs.append(f"a nurbs curve needs a positive tube radius, got {shape.radius:g}")

@@ -32,7 +32,7 @@ from lang import ir
 from runtime.nurbs import Curve, KnotVector, Surface
 
 # Refinement aims below the bound so that one more pass is rarely needed.
-TARGET = 0.7
+TARGET = 0.85
 # At most this many refinement passes; each one re-measures the whole grid.
 MAX_PASSES = 12
 # A span never grows by more than this factor in one pass (the h^2 model is asymptotic).
@@ -62,6 +62,16 @@ def nurbs_mesh(shape: ir.Nurbs, tolerance: float, max_triangles: int = MAX_TRIAN
     `tolerance` (object-space units). The shape must pass `nurbs.validate`."""
     m = tessellate(shape, tolerance, max_triangles)
     return m.vertices, m.faces, m.normals, m.uvs
+
+
+def object_tolerance(tolerance: float, transform) -> float:
+    """A world-space chord-error bound in the shape's own units. The net is tessellated before
+    the object's transform is applied, and a transform can stretch an error by at most its
+    largest singular value, so the bound is divided by that (a `scale 10` needs ten times
+    finer triangles in object space)."""
+    m = np.asarray(transform, dtype=np.float64)[:3, :3]
+    stretch = float(np.linalg.svd(m, compute_uv=False)[0])
+    return tolerance / stretch if stretch > 0 else tolerance
 
 
 def tessellate(shape: ir.Nurbs, tolerance: float, max_triangles: int = MAX_TRIANGLES) -> TriMesh:

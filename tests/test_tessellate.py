@@ -308,3 +308,28 @@ def test_patch_flatness_stops_early():
     assert 0 < lu < 5 and lu == lv
     # Flatter tolerance, deeper.
     assert bz.patch_levels(PATCH, 6, 6, 0.005)[0] > lu
+
+
+def test_object_tolerance_follows_the_largest_stretch():
+    m = np.diag([10.0, 2.0, 0.5, 1.0])
+    assert ts.object_tolerance(1e-3, m) == pytest.approx(1e-4)
+    rot = np.array([[0, -1, 0, 5], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)
+    assert ts.object_tolerance(1e-3, rot) == pytest.approx(1e-3)
+    # The world-space error of a scaled sphere stays within the world tolerance.
+    tol = 1e-3
+    V, F, _, _ = ts.nurbs_mesh(nb.nurbs_sphere(), ts.object_tolerance(tol, m))
+    W = V @ np.diag([10.0, 2.0, 0.5])
+    p = sample_points(W, F) / np.array([10.0, 2.0, 0.5])
+    # Distance to the ellipsoid, bounded via the radial gap scaled by the largest axis.
+    assert (np.abs(np.linalg.norm(p, axis=1) - 1) * 10.0).max() <= tol * 1.0 + 1e-12
+
+
+def test_bicubic_mesh_reads_ir_like_objects():
+    class Patch:
+        points = PATCH
+        u_steps = 2
+        v_steps = 3
+        flatness = 0.0
+
+    V, F, N, UV = bz.bicubic_mesh(Patch())
+    assert len(F) == 2 * 4 * 8
