@@ -255,12 +255,16 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", parents=[common], help="report every diagnostic, render nothing")
     c.add_argument("files", nargs="+", metavar="FILE")
     c.add_argument("--format", choices=("text", "json", "sarif"), default="text")
+    c.add_argument("-W", "--width", type=_positive_int, metavar="W", help="image_width seen")
+    c.add_argument("-H", "--height", type=_positive_int, metavar="H", help="image_height seen")
     c.set_defaults(func=cmd_check)
 
     k = sub.add_parser("compile", parents=[common], help="write the evaluated scene (IR) as JSON")
     k.add_argument("file")
     k.add_argument("-o", "--output", metavar="OUT", help="JSON file, `-` for stdout")
     k.add_argument("--clock", type=float, default=0.0)
+    k.add_argument("-W", "--width", type=_positive_int, metavar="W", help="image_width seen")
+    k.add_argument("-H", "--height", type=_positive_int, metavar="H", help="image_height seen")
     k.add_argument("--indent", type=int, default=None, help="pretty-print with this indent")
     k.add_argument("-q", "--quiet", action="store_true")
     k.set_defaults(func=cmd_compile)
@@ -380,14 +384,40 @@ def _missing(path: str) -> Diagnostic | None:
     )
 
 
-def _compile(path: str, libraries: Sequence[str], *, clock: float = 0.0, file_io: bool = True):
-    """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic."""
+def image_size(args: argparse.Namespace) -> tuple[int, int]:
+    """As POV-Ray: a side not given keeps its default (320×240), whatever the other one is."""
+    width = getattr(args, "width", None) or POVRAY_DEFAULT_SIZE[0]
+    height = getattr(args, "height", None) or POVRAY_DEFAULT_SIZE[1]
+    return width, height
+
+
+def _compile(
+    path: str,
+    libraries: Sequence[str],
+    size: tuple[int, int],
+    *,
+    clock: float = 0.0,
+    file_io: bool = True,
+    debug_output: bool = False,
+):
+    """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
+
+    `size` is the image size the scene sees as image_width/image_height (scenes commonly
+    write `right x*image_width/image_height`); debug_output shows `#debug` text on stderr."""
     missing = _missing(path)
     if missing is not None:
         return None, [missing]
     from lang.evaluate import compile_file
 
-    result = compile_file(path, tuple(libraries), clock=clock, allow_file_io=file_io)
+    result = compile_file(
+        path,
+        tuple(libraries),
+        clock=clock,
+        allow_file_io=file_io,
+        image_width=size[0],
+        image_height=size[1],
+        debug_to_stderr=debug_output,
+    )
     return result.scene, list(result.diagnostics)
 
 
@@ -395,7 +425,7 @@ def _compile(path: str, libraries: Sequence[str], *, clock: float = 0.0, file_io
 def cmd_check(args: argparse.Namespace) -> int:
     diags: list[Diagnostic] = []
     for file in args.files:
-        diags += _compile(file, args.library, file_io=False)[1]
+        diags += _compile(file, args.library, image_size(args), file_io=False)[1]
     errors, warnings = _counts(diags)
     if args.format == "json":
         doc = {
@@ -457,7 +487,9 @@ def _load_scene(args: argparse.Namespace, clock: float):
         except serialize.IRFormatError as exc:
             span = Span(args.file, 1, 1, 1, 1)
             return None, [Diagnostic(Severity.ERROR, "E0901", f"bad IR document: {exc}", span)]
-    return _compile(args.file, args.library, clock=clock)
+    return _compile(
+        args.file, args.library, image_size(args), clock=clock, debug_output=not args.quiet
+    )
 
 
 def output_path(scene_file: str, output: str | None, suffix: str) -> Path:
@@ -535,9 +567,7 @@ def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -
 
     from runtime.render import render_scene
 
-    # as POV-Ray: a side not given keeps its default, whatever the other one is
-    width = args.width or POVRAY_DEFAULT_SIZE[0]
-    height = args.height or POVRAY_DEFAULT_SIZE[1]
+    width, height = image_size(args)
     region = resolve_region(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
@@ -571,7 +601,9 @@ def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -
 def cmd_compile(args: argparse.Namespace) -> int:
     from lang import serialize
 
-    scene, diags = _compile(args.file, args.library, clock=args.clock)
+    scene, diags = _compile(
+        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet
+    )
     print_diagnostics(diags, sys.stderr, summary=False)
     if scene is None or _counts(diags)[0]:
         return 1

@@ -298,6 +298,23 @@ def test_render_povray_style_default_size_and_name(tmp_path):
 
 
 @needs_evaluator
+def test_scenes_see_the_image_size(tmp_path):
+    scene = tmp_path / "size.pov"
+    scene.write_text(
+        "camera { right x*image_width/image_height }\n"
+        '#if (image_width != 40 | image_height != 30) #error "size not passed" #end\n'
+    )
+    assert cli.main(["check", str(scene), "-W", "40", "-H", "30"]) == 0
+    assert cli.main(["check", str(scene)]) == 1  # 320x240, POV-Ray's default, is not 40x30
+    out = tmp_path / "size.json"
+    assert cli.main(["compile", str(scene), "-W", "40", "-H", "30", "-o", str(out), "-q"]) == 0
+    from lang import serialize
+
+    right = serialize.loads(out.read_text()).camera.right
+    assert right[0] == pytest.approx(40 / 30)
+
+
+@needs_evaluator
 @needs_renderer
 def test_partial_render_leaves_the_rest_black(tmp_path):
     from runtime.image import read_image
