@@ -49,3 +49,29 @@ def _warn_kind(kind: str) -> None:
     if kind not in _warned:
         _warned.add(kind)
         print(f"strala: camera type {kind!r} not supported, rendering as perspective")
+
+
+def view_planes(camera: ir.Camera) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Half-spaces (n, p0) with n . (x - p0) <= 0 holding every point the camera can see:
+    the four sides of the view pyramid (or box, orthographic) and the plane through the
+    eye facing forward. Used to skip work for what lies outside (see prepare)."""
+    loc = np.asarray(camera.location, dtype=np.float64)
+    fwd = np.asarray(camera.direction, dtype=np.float64)
+    right = np.asarray(camera.right, dtype=np.float64)
+    up = np.asarray(camera.up, dtype=np.float64)
+    planes = [(-fwd / np.linalg.norm(fwd), loc)]
+    for side, across in ((right, up), (-right, up), (up, right), (-up, right)):
+        if camera.kind == "orthographic":
+            n = side - (side @ _unit(fwd)) * _unit(fwd)
+            planes.append((_unit(n), loc + side / 2))
+        else:
+            # The side face holds the eye and the two frame corners fwd + side/2 +- across/2.
+            n = np.cross(fwd + side / 2 - across / 2, fwd + side / 2 + across / 2)
+            if n @ fwd > 0:
+                n = -n
+            planes.append((_unit(n), loc))
+    return planes
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)

@@ -16,6 +16,7 @@ from lang import ir
 from runtime import shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
+from runtime.camera import view_planes
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
 FLAG_NAMES = ("no_image", "no_reflection", "no_shadow")
@@ -29,6 +30,7 @@ class Prepared:
     has_reflection: bool  # any finish with reflection max > 0
     has_refraction: bool  # any filter/transmit > 0 in a pigment colour
     warnings: list[str] = field(default_factory=list)  # one line each, already printed
+    culled: list[str] = field(default_factory=list)  # shapes not tessellated: never seen
 
 
 # Shapes prepare turns into meshes before tracing (absent from older IR versions).
@@ -45,6 +47,8 @@ class _Builder:
         self.nodes: list = []
         self.triangle_leaves: list[tuple[int, ir.Object]] = []
         self.warnings: list[str] = []
+        self.culled: list[str] = []
+        self.cull: _Culler | None = None
 
     def warn_once(self, msg: str) -> None:
         if msg not in self.warnings:
@@ -72,6 +76,9 @@ class _Builder:
                 self.top(child, flags)
             return
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
+            if self.cull is not None and self.cull.invisible(obj, flags["no_shadow"]):
+                self.culled.append(type(shape).__name__.lower())
+                return
             mesh = self.tessellate(obj)
             if mesh is None:
                 return
@@ -182,6 +189,7 @@ def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:
     A light's `looks_like` object is taken as modelled around the origin (as written in
     POV-Ray) and is moved to the light's position here, with `no_shadow`."""
     b = _Builder(scene.camera, width)
+    b.cull = _Culler(scene)
     no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
         b.top(obj, no_flags)
@@ -212,7 +220,85 @@ def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:
         has_reflection=any(_reflects(t) for o in b.objects for t in _textures(o)),
         has_refraction=any(_texture_transparent(t) for o in b.objects for t in _textures(o)),
         warnings=b.warnings,
+        culled=b.culled,
     )
+
+
+class _Culler:
+    """Decides that a surface needs no tessellation because it cannot show in the image.
+
+    Only where that is provable: nothing in the scene reflects or refracts, there is no
+    radiosity, the surface's control points (which bound it: NURBS with positive weights,
+    approximating subdivision) lie wholly outside one face of the view pyramid, and, unless
+    the surface casts no shadows, every shadow-casting light lies inside that face: then
+    every segment from a visible point to a light stays inside too, so the surface can
+    neither be seen nor shadow anything seen."""
+
+    def __init__(self, scene: ir.Scene):
+        self.enabled = (
+            scene.camera.kind in ("perspective", "orthographic")
+            and scene.settings.radiosity is None
+            and not any(
+                _reflects(t) or _texture_transparent(t)
+                for o in _walk(scene.objects + tuple(lt.looks_like for lt in scene.lights))
+                for t in _textures(o)
+            )
+        )
+        self.planes = view_planes(scene.camera) if self.enabled else []
+        self.lights = [lt for lt in scene.lights if not lt.shadowless]
+
+    def invisible(self, obj: ir.Object, no_shadow: bool) -> bool:
+        if not self.enabled:
+            return False
+        pts = self._hull(obj)
+        if pts is None:
+            return False
+        for n, p0 in self.planes:
+            if np.min((pts - p0) @ n) <= 0:
+                continue  # part of the surface is inside this face
+            if no_shadow or all(self._inside(lt, n, p0) for lt in self.lights):
+                return True
+        return False
+
+    @staticmethod
+    def _hull(obj: ir.Object) -> np.ndarray | None:
+        """World points whose convex hull holds the surface, or None when there are none."""
+        shape = obj.shape
+        if type(shape).__name__ == "Nurbs":
+            if min(shape.weights, default=1.0) <= 0:
+                return None
+        elif shape.scheme == "four_point" or (shape.scheme == "midpoint" and shape.m < 2):
+            return None  # interpolating / negative-weight rules may leave the hull
+        pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(shape.points, float))
+        r = float(getattr(shape, "radius", 0.0) or 0.0)
+        if r > 0:
+            # A tube of radius r around a curve: pad the hull by r along every axis.
+            pts = np.concatenate([pts + dv for dv in r * np.vstack([np.eye(3), -np.eye(3)])])
+        return pts
+
+    @staticmethod
+    def _inside(light: ir.Light, n: np.ndarray, p0: np.ndarray) -> bool:
+        if light.kind in ("parallel", "cylinder"):
+            # Light from infinitely far along (position - point_at).
+            w = np.asarray(light.position, float) - np.asarray(light.point_at, float)
+            return bool(n @ w <= 0)
+        pos = np.asarray(light.position, float)
+        corners = [pos]
+        if light.area is not None:
+            a1 = np.asarray(light.area.axis1, float) / 2
+            a2 = np.asarray(light.area.axis2, float) / 2
+            corners = [pos + s1 * a1 + s2 * a2 for s1 in (-1, 1) for s2 in (-1, 1)]
+        return all(n @ (c - p0) <= 0 for c in corners)
+
+
+def _walk(objects):
+    """Every object, CSG children and looks_like objects included."""
+    for o in objects:
+        if o is None:
+            continue
+        yield o
+        if isinstance(o.shape, ir.CSG):
+            yield from _walk(o.shape.children)
 
 
 def _textures(obj: ir.Object) -> list[ir.Texture]:

@@ -89,3 +89,33 @@ def test_orthographic_rays_are_parallel():
     o, d = primary_rays(cam, 4, 4, np.array([0.0, 4.0]), np.array([0.0, 4.0]))
     assert np.allclose(d, [[0, 0, 1], [0, 0, 1]])
     assert np.allclose(o, [[-1, 4, 3], [3, 0, 3]])
+
+
+@settings(max_examples=40, deadline=None)
+@given(a=angles, b=angles, c=angles, ortho=st.booleans(), seed=st.integers(0, 1000))
+def test_view_planes_hold_exactly_what_the_camera_sees(a, b, c, ortho, seed):
+    from runtime.camera import view_planes
+
+    rot = _rotation(a, b, c)
+    cam = ir.Camera(
+        kind="orthographic" if ortho else "perspective",
+        location=(3.0, -2.0, 1.0),
+        direction=tuple(1.5 * rot[:, 2]),
+        right=tuple(1.33 * rot[:, 0]),
+        up=tuple(rot[:, 1]),
+    )
+    rng = np.random.default_rng(seed)
+    xs = rng.uniform(0.01, 0.99, 200) * 64
+    ys = rng.uniform(0.01, 0.99, 200) * 48
+    o, d = primary_rays(cam, 64, 48, xs, ys)
+    inside = o + rng.uniform(0.01, 100, (200, 1)) * d
+    # Just outside the frame: screen x beyond 0.5 by 2%.
+    o2, d2 = primary_rays(cam, 64, 48, np.full(200, 64 * 1.02), ys)
+    outside = o2 + rng.uniform(0.01, 100, (200, 1)) * d2
+    behind = o - rng.uniform(0.01, 100, (200, 1)) * d
+    planes = view_planes(cam)
+    worst_in = max(float(((inside - p0) @ n).max()) for n, p0 in planes)
+    assert worst_in <= 1e-9
+    worst_out = np.max([(outside - p0) @ n for n, p0 in planes], axis=0)
+    assert (worst_out > 0).all()
+    assert (np.max([(behind - p0) @ n for n, p0 in planes], axis=0) > 0).all()

@@ -3,6 +3,8 @@ offsets, shadow queries, and what `prepare` decides to build."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -329,3 +331,58 @@ def test_degenerate_triangles_are_ignored():
     h = prep.tracer.closest(np.array([[0.2, 0.2, -1], [0.5, 0, -1]]), np.array([[0.0, 0, 1]] * 2))
     assert h.prim[0] == 1 and h.t[0] == pytest.approx(1.0)
     assert np.all(np.isfinite(h.normal[h.obj >= 0]))
+
+
+def test_surfaces_outside_the_view_are_not_tessellated(monkeypatch):
+    """A NURBS patch behind the camera is skipped, unless it could shadow what is seen or
+    something in the scene reflects."""
+    import sys
+    import types
+
+    calls = []
+
+    def nurbs_mesh(shape, tolerance):
+        calls.append(shape)
+        v = np.asarray(shape.points, dtype=float)
+        return v, np.array([[0, 1, 2]], np.int32), None, None
+
+    monkeypatch.setitem(
+        sys.modules, "runtime.tessellate", types.SimpleNamespace(nurbs_mesh=nurbs_mesh)
+    )
+
+    def patch(y):
+        pts = ((-1, y, -10), (1, y, -10), (-1, y, -12), (1, y, -12))
+        return ir.Object(ir.Nurbs(1, 1, 2, 2, pts, (1.0,) * 4, (0, 0, 1, 1), (0, 0, 1, 1)))
+
+    cam = ir.Camera(location=(0, 0, 0), direction=(0, 0, 1))
+    front = ir.Light(position=(0, 5, 10))  # in front of the camera: inside the near face
+    behind = ir.Light(position=(0, 5, -30))  # behind: the patch may shadow the view
+    scene = ir.Scene(camera=cam, lights=(front,), objects=(patch(0.0),))
+    prep = prepare(scene, 64, 64)
+    assert prep.culled == ["nurbs"] and not calls and prep.objects == []
+    prep = prepare(dataclasses.replace(scene, lights=(front, behind)), 64, 64)
+    assert prep.culled == [] and len(calls) == 1
+    shadowless = dataclasses.replace(patch(0.0), no_shadow=True)
+    prep = prepare(dataclasses.replace(scene, lights=(behind,), objects=(shadowless,)), 64, 64)
+    assert prep.culled == ["nurbs"]
+    mirror = ir.Object(
+        ir.Sphere((0, 0, 5), 1),
+        texture=ir.Texture(finish=ir.Finish(reflection=ir.Reflection(max=(0.5,) * 3))),
+    )
+    prep = prepare(dataclasses.replace(scene, objects=(patch(0.0), mirror)), 64, 64)
+    assert prep.culled == [] and len(calls) == 2
+    # In view: always tessellated.
+    visible = ir.Object(
+        ir.Nurbs(
+            1,
+            1,
+            2,
+            2,
+            ((-1, 0, 10), (1, 0, 10), (-1, 1, 10), (1, 1, 10)),
+            (1.0,) * 4,
+            (0, 0, 1, 1),
+            (0, 0, 1, 1),
+        )
+    )
+    prep = prepare(dataclasses.replace(scene, objects=(visible,)), 64, 64)
+    assert prep.culled == [] and len(calls) == 3
