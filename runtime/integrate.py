@@ -42,14 +42,21 @@ def texture_layers(tex: ir.Texture) -> list[ir.Texture]:
 
 @dataclass
 class Context:
-    """Per-render constants shared by every tile (read-only while rendering)."""
+    """Per-render constants shared by every tile (read-only while rendering).
+
+    Shading works per *texture* (a layer stack), not per object: objects that share a
+    declared texture are shaded in one group, and a mesh with per-face textures splits into
+    one group per texture."""
 
     prepared: object  # runtime.prepare.Prepared
     settings: ir.Settings
-    layers: list[list[ir.Texture]]  # per object, top layer first
-    transmits: np.ndarray  # (n_obj,) bool: pigment may let light through
+    textures: list[list[ir.Texture]]  # unique layer stacks, top layer first
+    obj_tex: np.ndarray  # (n_obj,) index into textures of each object's texture
+    face_tex: dict[int, np.ndarray]  # object -> (n_faces,) texture index (textured meshes)
+    transmits: np.ndarray  # (n_tex,) bool: pigment may let light through
+    lit: np.ndarray  # (n_tex,) bool: some layer has diffuse/specular/phong
+    back_lit: np.ndarray  # (n_tex,) bool: some layer has diffuse_back
     double_illuminate: np.ndarray  # (n_obj,) bool
-    lit: np.ndarray  # (n_obj,) bool: some layer has diffuse/specular/phong
     ior: np.ndarray  # (n_obj,) interior ior
     legacy_opacity: bool  # pre-3.7 transparency formula
     background: np.ndarray  # (3,)
@@ -67,37 +74,68 @@ class Context:
         # Not locked: the counters are diagnostics, a lost increment between threads is fine.
         self.stats[key] = self.stats.get(key, 0) + int(n)
 
+    def texture_of(self, obj: np.ndarray, prim: np.ndarray | None) -> np.ndarray:
+        """(N,) texture index of each hit (per-face textures of meshes resolved)."""
+        tex = self.obj_tex[obj]
+        if self.face_tex and prim is not None:
+            for oid, table in self.face_tex.items():
+                rows = np.nonzero((obj == oid) & (prim >= 0))[0]
+                if len(rows):
+                    tex[rows] = table[np.clip(prim[rows], 0, len(table) - 1)]
+        return tex
+
 
 def make_context(prepared) -> Context:
     scene: ir.Scene = prepared.scene
     objs: list[ir.Object] = prepared.objects
-    layers = [texture_layers(o.texture) for o in objs]
-    for o in objs:
-        if any(t.normal is not None for t in texture_layers(o.texture)):
-            _warn("normal perturbation (`normal { … }`) is not rendered yet")
-            break
+    textures: list[list[ir.Texture]] = []
+    index: dict[int, int] = {}
+
+    def intern(tex: ir.Texture) -> int:
+        # Identity, not equality: textures hold dicts (unhashable) and a declared texture
+        # reused by many objects is one Python object.
+        key = id(tex)
+        if key not in index:
+            index[key] = len(textures)
+            textures.append(texture_layers(tex))
+        return index[key]
+
+    obj_tex = np.array([intern(o.texture) for o in objs], dtype=np.int64)
+    face_tex: dict[int, np.ndarray] = {}
+    for i, o in enumerate(objs):
+        shape = o.shape
+        if isinstance(shape, ir.Mesh) and shape.textures and shape.face_textures is not None:
+            ids = np.array([intern(t) for t in shape.textures], dtype=np.int64)
+            ft = np.asarray(shape.face_textures, dtype=np.int64)
+            face_tex[i] = (
+                np.where((ft >= 0) & (ft < len(ids)), ids[np.clip(ft, 0, None)], obj_tex[i])
+                if len(ids)
+                else np.full(len(ft), obj_tex[i])
+            )
+    if any(t.normal is not None for ls in textures for t in ls):
+        _warn("normal perturbation (`normal { … }`) is not rendered yet")
+
+    def any_layer(pred) -> np.ndarray:
+        return np.array([any(pred(t) for t in ls) for ls in textures], dtype=bool)
+
     version = scene.settings.version
     return Context(
         prepared=prepared,
         settings=scene.settings,
-        layers=layers,
-        transmits=np.array(
-            [any(patterns.may_transmit(t.pigment) for t in ls) for ls in layers], dtype=bool
+        textures=textures,
+        obj_tex=obj_tex,
+        face_tex=face_tex,
+        transmits=any_layer(lambda t: patterns.may_transmit(t.pigment)),
+        lit=any_layer(
+            lambda t: (
+                t.finish.diffuse != 0
+                or t.finish.diffuse_back != 0
+                or t.finish.specular != 0
+                or t.finish.phong != 0
+            )
         ),
+        back_lit=any_layer(lambda t: t.finish.diffuse_back != 0),
         double_illuminate=np.array([o.double_illuminate for o in objs], dtype=bool),
-        lit=np.array(
-            [
-                any(
-                    t.finish.diffuse != 0
-                    or t.finish.diffuse_back != 0
-                    or t.finish.specular != 0
-                    or t.finish.phong != 0
-                    for t in ls
-                )
-                for ls in layers
-            ],
-            dtype=bool,
-        ),
         ior=np.array([o.interior.ior for o in objs], dtype=np.float64),
         legacy_opacity=version is not None and version < 3.7,
         background=np.asarray(scene.background[:3], dtype=np.float64),
@@ -135,8 +173,18 @@ def trace(
     rows = np.nonzero(hit)[0]
     if len(rows):
         here = level if continued else level + 1
+        prim = hits.prim[rows] if hits.prim is not None else None
+        tex = ctx.texture_of(hits.obj[rows], prim)
         col[rows] = shade(
-            ctx, hits.obj[rows], hits.point[rows], hits.normal[rows], d[rows], w[rows], here, skip
+            ctx,
+            hits.obj[rows],
+            tex,
+            hits.point[rows],
+            hits.normal[rows],
+            d[rows],
+            w[rows],
+            here,
+            skip,
         )
     if ctx.scene.fog is not None:
         col = apply_fog(ctx.scene.fog, hits.t, col)
@@ -177,6 +225,7 @@ def apply_fog(fog: ir.Fog, depth: np.ndarray, col: np.ndarray) -> np.ndarray:
 def shade(
     ctx: Context,
     obj: np.ndarray,
+    tex: np.ndarray,
     point: np.ndarray,
     normal: np.ndarray,
     dirs: np.ndarray,
@@ -184,28 +233,40 @@ def shade(
     level: int,
     skip: str | None,
 ) -> np.ndarray:
-    """(N,3) colours of N hits at trace level `level`."""
+    """(N,3) colours of N hits at trace level `level` (tex: texture index of each hit)."""
     n = len(obj)
     # POV-Ray turns the normal toward the viewer before shading.
     leaving = np.einsum("ij,ij->i", normal, dirs) > 0
     raw = np.where(leaving[:, None], -normal, normal)
-    lights = light_colours(ctx, obj, point, raw)
+    hit = Hit(obj, tex, point, raw, leaving, dirs, weight)
+    lights = light_colours(ctx, hit)
     result = np.zeros((n, 3))
     fil = np.ones((n, 3))
     reflect_req: list[tuple] = []
-    for oid in np.unique(obj):
-        rows = np.nonzero(obj == oid)[0]
-        shade_object(
-            ctx, int(oid), rows, point, raw, leaving, dirs, weight, lights, result, fil, reflect_req
-        )
+    for tid in np.unique(tex):
+        rows = np.nonzero(tex == tid)[0]
+        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, reflect_req)
     # Transmitted light: what the layers let through, filtered by them.
     trans = np.minimum(1.0, np.abs(fil @ GREY))
-    through = np.nonzero((trans > ctx.settings.adc_bailout) & ctx.transmits[obj])[0]
+    through = np.nonzero((trans > ctx.settings.adc_bailout) & ctx.transmits[tex])[0]
     if len(through):
-        transmit(ctx, obj, point, raw, leaving, dirs, weight, level, skip, fil, through, result)
+        transmit(ctx, hit, level, skip, fil, through, result)
     if reflect_req:
-        reflect_all(ctx, point, dirs, level, reflect_req, result)
+        reflect_all(ctx, point, level, reflect_req, result)
     return result
+
+
+@dataclass
+class Hit:
+    """The hits of one wave being shaded (structure of arrays)."""
+
+    obj: np.ndarray  # (N,) object index
+    tex: np.ndarray  # (N,) texture index
+    point: np.ndarray  # (N,3)
+    normal: np.ndarray  # (N,3) turned toward the incoming ray
+    leaving: np.ndarray  # (N,) the ray leaves the object here (outward normal along it)
+    dirs: np.ndarray  # (N,3) incoming ray directions
+    weight: np.ndarray  # (N,) largest possible contribution to the pixel
 
 
 @dataclass
@@ -214,30 +275,28 @@ class LightColours:
     colour: list[np.ndarray]  # per light (N,3), after attenuation and shadows
 
 
-def light_colours(ctx: Context, obj, point, raw) -> LightColours:
+def light_colours(ctx: Context, hit: Hit) -> LightColours:
     """Every light as seen from every hit: direction and shadowed colour (once per hit,
     shared by all texture layers, like POV-Ray's light colour cache)."""
     dirs_out, cols_out = [], []
-    lit = ctx.lit[obj]
+    lit = ctx.lit[hit.tex]
+    any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex]
     for light in ctx.scene.lights:
-        ls = shading.sample_light(light, point)
+        ls = shading.sample_light(light, hit.point)
         col = ls.colour
-        facing = np.einsum("ij,ij->i", raw, ls.direction) >= shading.EPSILON
-        need = lit & (facing | ctx.double_illuminate[obj] | back_lit(ctx, obj))
+        facing = np.einsum("ij,ij->i", hit.normal, ls.direction) >= shading.EPSILON
+        need = lit & (facing | any_side)
         need &= np.abs(col).max(axis=1) > shading.EPSILON
         col = np.where(need[:, None], col, 0.0)
         if not light.shadowless:
             rows = np.nonzero(need)[0]
             if len(rows):
-                col[rows] *= shadow(ctx, light, point[rows], ls.direction[rows], ls.distance[rows])
+                col[rows] *= shadow(
+                    ctx, light, hit.point[rows], ls.direction[rows], ls.distance[rows]
+                )
         dirs_out.append(ls.direction)
         cols_out.append(col)
     return LightColours(dirs_out, cols_out)
-
-
-def back_lit(ctx: Context, obj: np.ndarray) -> np.ndarray:
-    flags = np.array([any(t.finish.diffuse_back != 0 for t in ls) for ls in ctx.layers], dtype=bool)
-    return flags[obj] if len(flags) else np.zeros(len(obj), dtype=bool)
 
 
 def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:
@@ -282,15 +341,15 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
         active_hit = active[hit]
         if len(active_hit) == 0:
             break
-        objs = h.obj[hit]
         pts = h.point[hit]
+        tex = ctx.texture_of(h.obj[hit], h.prim[hit] if h.prim is not None else None)
         f = np.zeros((len(active_hit), 3))
-        for oid in np.unique(objs):
-            sel = np.nonzero(objs == oid)[0]
-            if not ctx.transmits[oid]:
-                continue
+        for tid in np.unique(tex):
+            if not ctx.transmits[tid]:
+                continue  # opaque: the light is blocked
+            sel = np.nonzero(tex == tid)[0]
             t = np.ones((len(sel), 3))
-            for layer in ctx.layers[oid]:
+            for layer in ctx.textures[tid]:
                 t *= shading.rgb_transmit(patterns.evaluate(layer.pigment, pts[sel]))
             f[sel] = t
         mult[active_hit] *= f
@@ -303,28 +362,15 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
     return mult
 
 
-def shade_object(
-    ctx,
-    oid,
-    rows,
-    point,
-    raw,
-    leaving,
-    dirs,
-    weight,
-    lights: LightColours,
-    result,
-    fil,
-    reflect_req,
-) -> None:
-    """Accumulate the layers of object `oid` at `rows` into result/fil; queue reflections."""
+def shade_texture(ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, reflect_req):
+    """Accumulate the layers of texture `tid` at `rows` into result/fil; queue reflections."""
     s = ctx.settings
-    obj = ctx.prepared.objects[oid]
-    surf = Surface(normal=raw[rows], ray_dir=dirs[rows])
-    pts = point[rows]
+    surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows])
+    pts = hit.point[rows]
+    double = ctx.double_illuminate[hit.obj[rows]]
     trans = np.ones(len(rows))
     f = np.ones((len(rows), 3))
-    for layer in ctx.layers[oid]:
+    for layer in ctx.textures[tid]:
         active = trans > s.adc_bailout
         if not active.any():
             break
@@ -335,46 +381,50 @@ def shade_object(
         acc = shading.ambient_term(fin, pig, op, s.ambient_light)
         if fin.diffuse != 0 or fin.diffuse_back != 0 or fin.specular != 0 or fin.phong != 0:
             for ldir, lcol in zip(lights.direction, lights.colour, strict=True):
-                acc += shading.light_terms(
-                    fin, surf, pig, op, ldir[rows], lcol[rows], obj.double_illuminate
-                )
+                acc += shading.light_terms(fin, surf, pig, op, ldir[rows], lcol[rows], double)
         result[rows] += np.where(active[:, None], acc * f, 0.0)
         # Reflection of this layer (POV-Ray: weighted by the translucency above it).
         r = fin.reflection
-        if max(r.max) > 0 or max(r.min) > 0:
-            cos_i = -np.einsum("ij,ij->i", dirs[rows], surf.normal)
-            ior = ctx.ior[oid]
+        reflects = max(r.max) > 0 or max(r.min) > 0
+        if reflects:
+            cos_i = -np.einsum("ij,ij->i", surf.ray_dir, surf.normal)
+            ior = ctx.ior[hit.obj[rows]]
             # POV-Ray's relative ior for fresnel: entering ior/1, leaving 1/ior.
-            rel_ior = np.where(leaving[rows], 1.0 / ior, ior)
+            rel_ior = np.where(hit.leaving[rows], 1.0 / ior, ior)
             refl, wfac = shading.reflectivity(fin, cos_i, pig, rel_ior)
             use = active & (np.abs(refl).max(axis=1) > 0)
             if use.any():
                 exp = 1.0 / r.exponent if r.exponent != 0 else 1.0
+                # No perturbed normals yet: the layer normal is the raw normal.
+                d = shading.reflect(surf.ray_dir[use], surf.normal[use], surf.normal[use])
+                mult = refl[use]
+                if fin.irid is not None and fin.irid[0] > 0:
+                    sub = Surface(normal=surf.normal[use], ray_dir=surf.ray_dir[use])
+                    mult = mult * shading.iridescence(fin, sub, d)
                 reflect_req.append(
                     (
                         rows[use],
-                        surf.normal[use],
-                        refl[use],
-                        weight[rows][use] * trans[use] * wfac[use],
+                        d,
+                        mult,
+                        hit.weight[rows][use] * trans[use] * wfac[use],
                         exp,
                     )
                 )
         f = f * shading.rgb_transmit(colour)
-        if fin.conserve_energy and (max(r.max) > 0 or max(r.min) > 0):
+        if fin.conserve_energy and reflects:
             f = f * np.minimum(1.0, 1.0 - refl)
         trans = np.minimum(1.0, np.abs(f @ GREY))
     fil[rows] = f
 
 
-def reflect_all(ctx, point, dirs, level, reqs, result) -> None:
-    """Trace every queued reflection of a wave in one batch and add it in."""
+def reflect_all(ctx, point, level, reqs, result) -> None:
+    """Trace every queued reflection of a wave in one batch and add it in. A request is
+    (rows, mirrored directions, reflection colour, ray weight, 1/exponent)."""
     rows = np.concatenate([r[0] for r in reqs])
-    normals = np.concatenate([r[1] for r in reqs])
+    d = np.concatenate([r[1] for r in reqs])
     refl = np.concatenate([r[2] for r in reqs])
     w = np.concatenate([r[3] for r in reqs])
     exps = np.concatenate([np.full(len(r[0]), r[4]) for r in reqs])
-    raw_normals = normals  # no perturbed normals yet: layer normal == raw normal
-    d = shading.reflect(dirs[rows], normals, raw_normals)
     col = trace(ctx, point[rows], d, w, level, "no_reflection")
     ctx.count("reflection_rays", len(rows))
     powered = exps != 1.0
@@ -383,27 +433,29 @@ def reflect_all(ctx, point, dirs, level, reqs, result) -> None:
     np.add.at(result, rows, refl * col)
 
 
-def transmit(ctx, obj, point, raw, leaving, dirs, weight, level, skip, fil, rows, result) -> None:
+def transmit(ctx, hit: Hit, level, skip, fil, rows, result) -> None:
     """Rays through transparent surfaces: straight on where the ior is 1 (a continued ray,
     same trace level), refracted otherwise (total internal reflection reflects instead and
     is not filtered)."""
-    d = dirs[rows]
-    n = raw[rows]
-    w = weight[rows] * np.abs(fil[rows]).max(axis=1)
-    ior = ctx.ior[obj[rows]]
+    d = hit.dirs[rows]
+    n = hit.normal[rows]
+    w = hit.weight[rows] * np.abs(fil[rows]).max(axis=1)
+    ior = ctx.ior[hit.obj[rows]]
     straight = np.abs(ior - 1.0) < shading.EPSILON
     mult = fil[rows].copy()
     col = np.zeros((len(rows), 3))
     s_idx = np.nonzero(straight)[0]
     if len(s_idx):
-        col[s_idx] = trace(ctx, point[rows[s_idx]], d[s_idx], w[s_idx], level, skip, continued=True)
+        col[s_idx] = trace(
+            ctx, hit.point[rows[s_idx]], d[s_idx], w[s_idx], level, skip, continued=True
+        )
     r_idx = np.nonzero(~straight)[0]
     if len(r_idx):
         # Leaving the object (ray along its outward normal): ior → air, else air → ior.
-        ratio = np.where(leaving[rows[r_idx]], ior[r_idx], 1.0 / ior[r_idx])
+        ratio = np.where(hit.leaving[rows[r_idx]], ior[r_idx], 1.0 / ior[r_idx])
         rd, tir = shading.refract(d[r_idx], n[r_idx], ratio)
         rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], n[r_idx]), rd)
-        col[r_idx] = trace(ctx, point[rows[r_idx]], rd, w[r_idx], level, skip)
+        col[r_idx] = trace(ctx, hit.point[rows[r_idx]], rd, w[r_idx], level, skip)
         mult[r_idx[tir]] = 1.0
         ctx.count("refraction_rays", len(r_idx))
     result[rows] += mult * col

@@ -235,32 +235,49 @@ def light_terms(
     opacity: np.ndarray,
     light_dir: np.ndarray,
     light_col: np.ndarray,
-    double_illuminate: bool = False,
+    double_illuminate: bool | np.ndarray = False,
 ) -> np.ndarray:
-    """(N,3) diffuse + specular + phong from one light (light_col already shadowed)."""
+    """(N,3) diffuse + specular + phong (+ iridescence) from one light (light_col already
+    shadowed). double_illuminate (per row or for all) lights both sides alike."""
     n = surf.normal
     cos_l = np.einsum("ij,ij->i", n, light_dir)
     front = cos_l >= EPSILON
+    double = np.broadcast_to(np.asarray(double_illuminate, dtype=bool), front.shape)
+    # POV-Ray skips the facing test for double_illuminate; otherwise the far side only gets
+    # diffuse_back, and no highlights.
+    back = ~front & ~double & (finish.diffuse_back != 0.0)
+    lit = front | double
     out = np.zeros_like(pigment)
-    if double_illuminate:
-        lit = np.ones(len(n), dtype=bool)
-        back = np.zeros(len(n), dtype=bool)
-    else:
-        lit = front
-        back = ~front if finish.diffuse_back != 0.0 else np.zeros(len(n), dtype=bool)
-    diffuse = np.where(back, finish.diffuse_back, finish.diffuse)
     if finish.diffuse > 0 or finish.diffuse_back > 0:
+        diffuse = np.where(back, finish.diffuse_back, finish.diffuse)
         a = np.abs(cos_l)
         intensity = a if finish.brilliance == 1.0 else np.power(a, finish.brilliance)
         intensity = intensity * np.maximum(diffuse, 0.0) * opacity
         intensity = np.where(lit | back, intensity, 0.0)
         out += intensity[:, None] * pigment * light_col
-    hl = lit & ~back
     if finish.phong > 0:
-        out += highlight_phong(finish, surf, light_dir, light_col, pigment, cos_l, hl)
+        out += highlight_phong(finish, surf, light_dir, light_col, pigment, cos_l, lit)
     if finish.specular > 0:
-        out += highlight_specular(finish, surf, light_dir, light_col, pigment, cos_l, hl)
+        out += highlight_specular(finish, surf, light_dir, light_col, pigment, cos_l, lit)
+    if finish.irid is not None and finish.irid[0] > 0:
+        out = out * iridescence(finish, surf, light_dir)
     return out
+
+
+# POV-Ray 3.7's default `irid_wavelength`: 700, 520 and 480 nm divided by 1000 (checked
+# against POV-Ray renders of an iridescent sphere).
+IRID_WAVELENGTHS = np.array([0.70, 0.52, 0.48])
+
+
+def iridescence(finish: ir.Finish, surf: Surface, light_dir: np.ndarray) -> np.ndarray:
+    """(N,3) thin-film factor 1 + irid * cos(2 pi thickness (|N.L| + |N.V|) / wavelength)
+    (turbulence of the film thickness is not applied)."""
+    assert finish.irid is not None
+    amount, thickness = finish.irid[0], finish.irid[1]
+    cos_l = np.abs(np.einsum("ij,ij->i", surf.normal, light_dir))
+    cos_e = np.abs(np.einsum("ij,ij->i", surf.normal, surf.ray_dir))
+    phase = 2.0 * math.pi * thickness * (cos_l + cos_e)
+    return 1.0 + amount * np.cos(phase[:, None] / IRID_WAVELENGTHS)
 
 
 def _tinted(finish: ir.Finish, intensity, light_col, pigment, cos_l) -> np.ndarray:

@@ -275,3 +275,59 @@ def test_filter_tints_light_and_shadow():
     # Behind the filtering sphere (seen past it), the big sphere is lit red only.
     col = shoot(scene, [0, 0.6, -5], [0, 0, 1])
     assert col[0, 0] > 0.5 and col[0, 1] == pytest.approx(0.0) and col[0, 2] == pytest.approx(0.0)
+
+
+def test_diffuse_back_lights_the_far_side_without_highlights():
+    behind = np.array([[0.0, 0.0, 1.0]])
+    fin = ir.Finish(diffuse=0.6, diffuse_back=0.4, phong=1.0)
+    out = shading.light_terms(fin, HEAD_ON, WHITE, np.ones(1), behind, WHITE)
+    np.testing.assert_allclose(out[0], [0.4, 0.4, 0.4])
+
+
+def test_iridescence_uses_povray_default_wavelengths():
+    light = np.array([[0.0, 0.0, -1.0]])
+    fin = ir.Finish(diffuse=1.0, irid=(0.3, 0.5, 0.0))
+    out = shading.light_terms(fin, HEAD_ON, WHITE, np.ones(1), light, WHITE)
+    phase = 2 * math.pi * 0.5 * 2.0  # |N.L| + |N.V| = 2 head on
+    expected = [1 + 0.3 * math.cos(phase / wl) for wl in (0.70, 0.52, 0.48)]
+    np.testing.assert_allclose(out[0], expected)
+
+
+def test_cylinder_light_is_a_beam_of_its_radius():
+    light = ir.Light(
+        position=(0, 10, 0),
+        kind="cylinder",
+        point_at=(0, 0, 0),
+        radius=1.0,
+        falloff=2.0,
+        tightness=0.0,
+    )
+    pts = np.array([[0.5, 0.0, 0.0], [3.0, 0.0, 0.0], [0.0, 20.0, 0.0]])
+    ls = shading.sample_light(light, pts)
+    np.testing.assert_allclose(ls.colour[:, 0], [1.0, 0.0, 0.0])  # inside, outside, behind
+    np.testing.assert_allclose(ls.direction[0], [0, 1, 0])
+    assert ls.distance[0] == pytest.approx(10.0)
+
+
+def test_sky_sphere_layers_filter_the_background():
+    sky = (ir.Pigment(color=(1.0, 0.0, 0.0, 0.0, 0.5)),)
+    scene = sphere_scene(sky_sphere=sky, background=(0, 0, 1, 0, 0), lights=())
+    col = shoot(scene, [0, 0, -5], [0, 1, 0])
+    np.testing.assert_allclose(col[0], [0.5, 0.0, 0.5])  # half red, half the blue behind
+
+
+def test_constant_fog_blends_toward_its_colour_with_distance():
+    fog = ir.Fog(color=(1.0, 1.0, 1.0, 0.0, 0.0), distance=2.0)
+    black = ir.Texture(pigment=ir.Pigment(color=(0, 0, 0, 0, 0)))
+    scene = sphere_scene(texture=black, fog=fog, lights=())
+    col = shoot(scene, [[0, 0, -5], [0, 5, -5]], [[0, 0, 1], [0, 0, 1]])
+    np.testing.assert_allclose(col[0], [1 - math.exp(-4.0 / 2.0)] * 3)  # 4 units to the hit
+    np.testing.assert_allclose(col[1], [1.0, 1.0, 1.0])  # a miss is all fog
+
+
+def test_objects_sharing_a_texture_are_shaded_as_one_group():
+    tex = ir.Texture(pigment=ir.Pigment(color=(0.2, 0.4, 0.6, 0, 0)))
+    objs = tuple(ir.Object(ir.Sphere((3.0 * i, 0, 0), 1.0), texture=tex) for i in range(5))
+    scene = ir.Scene(camera=ir.Camera(location=(0, 0, -5)), objects=objs)
+    ctx = integrate.make_context(prepare(scene, 8, 8))
+    assert len(ctx.textures) == 1 and list(ctx.obj_tex) == [0] * 5
