@@ -418,6 +418,13 @@ class Surface:
         d = self.derivatives(u, v, 1)
         return self.normals_from_derivatives(d, u, v)
 
+    def normals_at_uv(self, uv) -> np.ndarray:
+        """Exact normals at normalised parameters (uv in [0, 1]^2, as the tessellation's uvs),
+        e.g. at a ray hit's barycentric mix of its triangle's `corner_uvs`."""
+        uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+        (u0, u1), (v0, v1) = self.domain
+        return self.normals(u0 + uv[:, 0] * (u1 - u0), v0 + uv[:, 1] * (v1 - v0))
+
     def normals_from_derivatives(self, d: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Normals from derivatives d (>= (2, 2, K, 3)) at parameters u, v (K,).
 

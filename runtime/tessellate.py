@@ -54,6 +54,10 @@ class TriMesh:
     uvs: np.ndarray  # (N, 2) float64 in [0, 1]
     max_error: float  # largest measured chord error (world units, object space)
     capped: bool = False  # True when MAX_TRIANGLES stopped refinement early
+    # (M, 3, 2) each triangle corner's own uv. Welded seam and pole vertices keep one uv in
+    # `uvs`, but a triangle on the seam needs u = 1, not 0, to interpolate its parameters: use
+    # these to map a hit's barycentric coordinates back to (u, v) (e.g. for exact normals).
+    corner_uvs: np.ndarray | None = None
 
 
 def nurbs_mesh(shape: ir.Nurbs, tolerance: float, max_triangles: int = MAX_TRIANGLES):
@@ -210,7 +214,9 @@ def _assemble(surf: Surface, us, vs, worst: float, capped: bool) -> TriMesh:
         pts = P[line]
         if close(pts, pts[:1]):
             rep[line] = rep[line[0]]
-    rep = rep[rep]  # a seam vertex that sits on a pole follows the pole
+    while not np.array_equal(rep[rep], rep):  # chains: a seam vertex on a pole, a corner
+        rep = rep[rep]
+    grid_faces = faces
     faces = rep[faces]
     keep = (
         (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
@@ -218,7 +224,8 @@ def _assemble(surf: Surface, us, vs, worst: float, capped: bool) -> TriMesh:
     faces = faces[keep]
     used, inv = np.unique(faces, return_inverse=True)
     faces = inv.reshape(-1, 3).astype(np.int32)
-    return TriMesh(P[used], faces, N[used], uv[used], worst, capped)
+    corner_uvs = uv[grid_faces[keep]]
+    return TriMesh(P[used], faces, N[used], uv[used], worst, capped, corner_uvs)
 
 
 # ---------------------------------------------------------------------------- tubes

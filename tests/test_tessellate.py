@@ -333,3 +333,25 @@ def test_bicubic_mesh_reads_ir_like_objects():
 
     V, F, N, UV = bz.bicubic_mesh(Patch())
     assert len(F) == 2 * 4 * 8
+
+
+def test_corner_uvs_give_exact_normals_inside_triangles():
+    """A hit's barycentric mix of its triangle's corner uvs, fed to the exact evaluator,
+    gives the true normal there, seam and pole triangles included (the welded per-vertex
+    uvs cannot: a seam vertex has u = 0 for the triangles at u = 1)."""
+    shape = nb.nurbs_sphere()
+    m = ts.tessellate(shape, 1e-2)
+    surf = nb.Surface.from_ir(shape)
+    rng = np.random.default_rng(2)
+    bary = rng.dirichlet((1, 1, 1), len(m.faces))
+    uv = np.einsum("mk,mkc->mc", bary, m.corner_uvs)
+    n = surf.normals_at_uv(uv)
+    hit = np.einsum("mk,mkc->mc", bary, m.vertices[m.faces])
+    cos = np.abs(np.sum(n * hit / np.linalg.norm(hit, axis=1)[:, None], axis=1))
+    assert cos.min() > 1 - 1e-3  # hit and S(uv) differ by the chord error only
+    seam = (m.corner_uvs[:, :, 0].max(axis=1) == 1.0) & (m.corner_uvs[:, :, 0].min(axis=1) < 1)
+    assert seam.any()
+    # With the welded per-vertex uvs the seam triangles would be far off.
+    wrong = surf.normals_at_uv(np.einsum("mk,mkc->mc", bary, m.uvs[m.faces]))
+    bad = np.abs(np.sum(wrong * hit / np.linalg.norm(hit, axis=1)[:, None], axis=1))
+    assert bad[seam].min() < 0.9
