@@ -15,7 +15,8 @@ import json
 import os
 import sys
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO
 
@@ -555,6 +556,37 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+@contextmanager
+def _quick_interrupt() -> Iterator[None]:
+    """^C during a render stops the process at once.
+
+    A KeyboardInterrupt would have to unwind through the render's thread pool, which
+    finishes every queued tile before it lets go; nothing is on disk yet while pixels are
+    being computed, so leaving immediately loses nothing. Outside this block (writing the
+    image) ^C is an ordinary KeyboardInterrupt, so the temporary file is cleaned up."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.default_int_handler:  # ignored, or someone else's: leave it
+        yield
+        return
+
+    def stop(signum, frame):
+        sys.stderr.write("\nstrala: interrupted\n")
+        sys.stderr.flush()
+        os._exit(130)
+
+    signal.signal(signal.SIGINT, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -> int:
     from runtime import image
     from runtime.progress import Progress
@@ -571,7 +603,7 @@ def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -
     region = resolve_region(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
-    with Progress(label, enabled=False if args.quiet else None) as bar:
+    with Progress(label, enabled=False if args.quiet else None) as bar, _quick_interrupt():
         try:
             pixels = render_scene(
                 scene,

@@ -6,10 +6,11 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import sys
 from pathlib import Path
 
 import pytest
-from conftest import EXAMPLES, needs_evaluator, needs_renderer, run_cli
+from conftest import EXAMPLES, ROOT, needs_evaluator, needs_renderer, run_cli
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -326,6 +327,35 @@ def test_partial_render_leaves_the_rest_black(tmp_path):
     assert img.shape == (30, 40, 3)
     assert img[:10].max() == 0 and img[:, :20].max() == 0
     assert img[10:, 20:].max() > 0
+
+
+@needs_evaluator
+@needs_renderer
+def test_interrupted_render_stops_at_once_and_leaves_no_file(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import time
+
+    out = tmp_path / "big.png"
+    cmd = [sys.executable, "-m", "runtime.cli", "render", str(EX3), "-W", "3000", "-H", "3000"]
+    proc = subprocess.Popen(
+        [*cmd, "--aa", "-o", str(out)],
+        cwd=ROOT,
+        stdin=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        # a child of a non-interactive shell may inherit SIGINT ignored: restore ^C
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    time.sleep(3.0)  # past start-up, into the render
+    sent = time.monotonic()
+    os.kill(proc.pid, signal.SIGINT)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 130, err
+    assert time.monotonic() - sent < 3.0  # not after the queued tiles have all been traced
+    assert "interrupted" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
 
 
 @needs_evaluator
