@@ -87,16 +87,61 @@ def tessellate(shape: ir.Nurbs, tolerance: float, max_triangles: int = MAX_TRIAN
 
 
 # ---------------------------------------------------------------------------- grids
-def _params(kv: KnotVector, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Grid parameters for per-span segment counts, and each cell's span number. Span
-    boundaries are the knots themselves, so creases at repeated knots are kept exactly."""
-    parts = []
-    for s, c in zip(kv.spans, counts, strict=True):
-        a, b = kv.knots[s], kv.knots[s + 1]
-        parts.append(a + (b - a) * (np.arange(c) / c))
-    parts.append(np.array([kv.hi]))
-    cell_span = np.repeat(np.arange(len(counts)), counts)
-    return np.concatenate(parts), cell_span
+class Axis:
+    """The grid's parameters along one direction, kept per knot span so that span boundaries
+    are the knots themselves (creases at repeated knots stay exact) and each span can be
+    refined on its own."""
+
+    def __init__(self, kv: KnotVector, count: int):
+        self.kv = kv
+        self.parts = []
+        for s in kv.spans:
+            a, b = kv.knots[s], kv.knots[s + 1]
+            self.parts.append(a + (b - a) * (np.arange(count) / count))
+
+    @property
+    def params(self) -> np.ndarray:
+        return np.concatenate(self.parts + [np.array([self.kv.hi])])
+
+    @property
+    def cell_span(self) -> np.ndarray:
+        return np.repeat(np.arange(len(self.parts)), [len(p) for p in self.parts])
+
+    @property
+    def cells(self) -> int:
+        return sum(len(p) for p in self.parts)
+
+    def refine(self, need: np.ndarray, tol: float) -> bool:
+        """Re-place the points of every span whose cells miss the bound (`need`: the error of
+        each cell). Chord error grows like h^2 g with a local density g, so cells are
+        equidistributed in the integral of sqrt(g / (TARGET tol)), which also gives their
+        number (de Boor's equidistribution); a failing span gains at least one cell so the
+        passes cannot cycle. Returns whether anything changed."""
+        t = self.params
+        h = np.diff(t)
+        cs = self.cell_span
+        changed = False
+        for s, part in enumerate(self.parts):
+            sel = cs == s
+            e = need[sel]
+            if e.max() <= tol:
+                continue
+            hs = h[sel]
+            g = e / hs**2
+            # A cell measured exact (a straight stretch) still gets a little density, so no
+            # new cell grows more than ~1000x at once on an error model made for small cells.
+            g = np.maximum(g, g.max() * 1e-6)
+            mass = np.sqrt(g / (TARGET * tol)) * hs
+            n_old = len(part)
+            n = int(np.ceil(mass.sum()))
+            n = min(max(n, n_old + 1), int(n_old * MAX_GROWTH) + 1)
+            edges = np.concatenate([part, [t[np.flatnonzero(sel)[-1] + 1]]])
+            cum = np.concatenate([[0.0], np.cumsum(mass)])
+            new = np.interp(cum[-1] * np.arange(n) / n, cum, edges)
+            new[0] = part[0]
+            self.parts[s] = new
+            changed = True
+        return changed
 
 
 def _err(exact: np.ndarray, approx: np.ndarray) -> np.ndarray:
@@ -131,28 +176,12 @@ def _measure(surf: Surface, us: np.ndarray, vs: np.ndarray, P: np.ndarray):
     return e_u, e_v, e_m
 
 
-def _span_max(values: np.ndarray, cell_span: np.ndarray, nspans: int) -> np.ndarray:
-    out = np.zeros(nspans)
-    np.maximum.at(out, cell_span, values)
-    return out
-
-
-def _grow(counts: np.ndarray, err: np.ndarray, tol: float) -> np.ndarray:
-    factor = np.sqrt(np.maximum(err, 0.0) / (TARGET * tol))
-    factor = np.clip(factor, 1.0, MAX_GROWTH)
-    new = np.ceil(counts * factor).astype(np.int64)
-    # A span over the bound grows by at least one segment even if the model says less.
-    return np.where(err > tol, np.maximum(new, counts + 1), counts)
-
-
 def surface_mesh(surf: Surface, tol: float, max_triangles: int = MAX_TRIANGLES) -> TriMesh:
-    ukv, vkv = surf.ukv, surf.vkv
-    cu = np.full(len(ukv.spans), max(1, surf.u_degree), dtype=np.int64)
-    cv = np.full(len(vkv.spans), max(1, surf.v_degree), dtype=np.int64)
+    U = Axis(surf.ukv, max(1, surf.u_degree))
+    V = Axis(surf.vkv, max(1, surf.v_degree))
     capped = False
     for _ in range(MAX_PASSES):
-        us, ucell = _params(ukv, cu)
-        vs, vcell = _params(vkv, cv)
+        us, vs = U.params, V.params
         P = surf.grid_derivatives(us, vs, 0)[0, 0]
         e_u, e_v, e_m = _measure(surf, us, vs, P)
         worst = float(max(e_u.max(), e_v.max(), e_m.max()))
@@ -164,14 +193,15 @@ def surface_mesh(surf: Surface, tol: float, max_triangles: int = MAX_TRIANGLES) 
         share_u = np.where(e_u + e_v > 0, e_u / np.maximum(e_u + e_v, 1e-300), 0.5)
         need_u = np.maximum(e_u, np.where(share_u >= 1 / 3, e_m, 0.0))
         need_v = np.maximum(e_v, np.where(share_u <= 2 / 3, e_m, 0.0))
-        nu_cu = _grow(cu, _span_max(need_u.max(axis=0), ucell, len(cu)), tol)
-        nv_cv = _grow(cv, _span_max(need_v.max(axis=1), vcell, len(cv)), tol)
-        if 2 * int(nu_cu.sum()) * int(nv_cv.sum()) > max_triangles:
+        old = (list(U.parts), list(V.parts))
+        changed = U.refine(need_u.max(axis=0), tol)
+        changed = V.refine(need_v.max(axis=1), tol) or changed
+        if 2 * U.cells * V.cells > max_triangles:
+            U.parts, V.parts = old
             capped = True
             break
-        if np.array_equal(nu_cu, cu) and np.array_equal(nv_cv, cv):
+        if not changed:
             break
-        cu, cv = nu_cu, nv_cv
     if capped or worst > tol:
         warnings.warn(
             f"nurbs tessellation reached {worst:.3g} instead of the tolerance {tol:.3g}"
@@ -258,12 +288,11 @@ def _tangents(curve: Curve, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _curve_samples(curve: Curve, radius: float, tol: float, max_rings: int):
-    kv = curve.kv
-    counts = np.full(len(kv.spans), max(1, curve.degree), dtype=np.int64)
+    axis = Axis(curve.kv, max(1, curve.degree))
     budget = 0.5 * tol  # half for the centreline and the bending of the rings
     worst = math.inf
     for _ in range(MAX_PASSES):
-        ts, cell = _params(kv, counts)
+        ts = axis.params
         C, T = _tangents(curve, ts)
         mid = curve.points(ts[:-1] + 0.5 * np.diff(ts))
         e_c = _err(mid, 0.5 * (C[:-1] + C[1:]))
@@ -275,10 +304,14 @@ def _curve_samples(curve: Curve, radius: float, tol: float, max_rings: int):
         worst = float(e.max())
         if worst <= budget:
             break
-        new = _grow(counts, _span_max(e, cell, len(counts)), budget)
-        if int(new.sum()) > max_rings or np.array_equal(new, counts):
+        old = list(axis.parts)
+        if not axis.refine(e, budget):
             break
-        counts = new
+        if axis.cells + 1 > max_rings:
+            axis.parts = old
+            break
+    ts = axis.params
+    C, T = _tangents(curve, ts)
     return ts, C, T, worst
 
 
