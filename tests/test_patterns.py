@@ -193,3 +193,38 @@ def test_may_transmit_sees_nested_pigments():
     clear = ir.Pigment(color=(1, 1, 1, 0, 0.5))
     assert patterns.may_transmit(ir.Pigment(pattern="checker", list=(solid(RED), clear)))
     assert not patterns.may_transmit(ir.Pigment(pattern="checker", list=(solid(RED),)))
+
+
+# ------------------------------------------------------------------------------ noise
+def test_noise_has_povray_like_range_mean_and_spread():
+    p = np.random.default_rng(0).uniform(-40, 40, (50000, 3))
+    n = patterns.noise(p)
+    assert n.min() >= 0.0 and n.max() <= 1.0
+    assert abs(n.mean() - 0.5) < 0.01
+    assert 0.12 < n.std() < 0.15  # POV-Ray's bozo, measured on its renders
+
+
+def test_noise_is_deterministic_continuous_and_varies():
+    p = np.array([[0.3, 1.7, -2.2], [10.1, 0.0, 5.5]])
+    np.testing.assert_array_equal(patterns.noise(p), patterns.noise(p.copy()))
+    near = patterns.noise(p + 1e-7)
+    np.testing.assert_allclose(near, patterns.noise(p), atol=1e-5)
+    assert patterns.noise(p)[0] != patterns.noise(p)[1]
+
+
+def test_turbulence_warp_moves_points_by_about_its_amount():
+    p = np.random.default_rng(1).uniform(-5, 5, (2000, 3))
+    moved = patterns.turbulence_warp(p, {"turbulence": (0.5, 0.0, 0.0)})
+    delta = moved - p
+    assert not delta[:, 1:].any()
+    assert 0.01 < np.abs(delta[:, 0]).mean() < 0.5
+    assert patterns.turbulence_warp(p, {}) is p
+
+
+@pytest.mark.parametrize("name", ["bozo", "spotted", "granite", "marble", "wood", "wrinkles"])
+def test_noise_patterns_stay_in_range(name):
+    pig = ir.Pigment(pattern=name, params={"turbulence": 0.3}, color_map=((0.0, RED), (1.0, BLUE)))
+    out = patterns.evaluate(pig, np.random.default_rng(2).uniform(-3, 3, (500, 3)))
+    assert np.isfinite(out).all()
+    assert (out[:, 0] >= -1e-12).all() and (out[:, 0] <= 1 + 1e-12).all()
+    assert out[:, 0].std() > 0.01  # a pattern, not a flat colour
