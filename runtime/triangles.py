@@ -122,6 +122,10 @@ class TriangleSet:
                     scene = rtcore_scene.EmbreeScene()
                     verts = np.ascontiguousarray((self.tri[ids] - self.offset).astype(np.float32))
                     TriangleMesh(scene, verts)
+                    # embreex commits the scene on its first query; do that here, under the
+                    # lock, so render threads never commit the same scene concurrently.
+                    one = np.zeros((1, 3), np.float32)
+                    scene.run(one, one + np.float32(1), dists=np.zeros(1, np.float32))
                 self._scenes[left_out] = (scene, ids)
             return self._scenes[left_out]
 

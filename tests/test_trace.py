@@ -386,3 +386,26 @@ def test_surfaces_outside_the_view_are_not_tessellated(monkeypatch):
     )
     prep = prepare(dataclasses.replace(scene, objects=(visible,)), 64, 64)
     assert prep.culled == [] and len(calls) == 3
+
+
+def test_tracer_is_safe_to_share_between_threads():
+    """Render tiles run on a thread pool over one Tracer (the Embree scene is built lazily
+    by whichever thread asks first): concurrent results equal sequential ones."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    verts, faces = uv_sphere(np.zeros(3), 1.0, 24, 48)
+    objs = (ir.Object(ir.Mesh(vertices=verts, faces=faces)), ir.Object(ir.Sphere((3, 0, 0), 1)))
+    rng = np.random.default_rng(2)
+    batches = []
+    for _ in range(8):
+        o = np.tile([1.5, 0.0, -6.0], (500, 1))
+        d = rng.normal(size=(500, 3)) * [0.3, 0.3, 0.0] + [0, 0, 1]
+        batches.append((o, d / np.linalg.norm(d, axis=1, keepdims=True)))
+    shared = prep_of(*objs).tracer
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(lambda b: shared.closest(*b), batches))
+    fresh = prep_of(*objs).tracer
+    for (o, d), h in zip(batches, got, strict=True):
+        ref = fresh.closest(o, d)
+        assert np.array_equal(h.obj, ref.obj) and np.array_equal(h.t, ref.t)
+    assert any((h.obj == 0).any() for h in got) and any((h.obj == 1).any() for h in got)
