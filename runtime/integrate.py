@@ -56,6 +56,7 @@ class Context:
     transmits: np.ndarray  # (n_tex,) bool: pigment may let light through
     lit: np.ndarray  # (n_tex,) bool: some layer has diffuse/specular/phong
     back_lit: np.ndarray  # (n_tex,) bool: some layer has diffuse_back
+    bumpy: np.ndarray  # (n_tex,) bool: some layer perturbs the normal
     double_illuminate: np.ndarray  # (n_obj,) bool
     ior: np.ndarray  # (n_obj,) interior ior
     legacy_opacity: bool  # pre-3.7 transparency formula
@@ -112,8 +113,6 @@ def make_context(prepared) -> Context:
                 if len(ids)
                 else np.full(len(ft), obj_tex[i])
             )
-    if any(t.normal is not None for ls in textures for t in ls):
-        _warn("normal perturbation (`normal { … }`) is not rendered yet")
 
     def any_layer(pred) -> np.ndarray:
         return np.array([any(pred(t) for t in ls) for ls in textures], dtype=bool)
@@ -135,6 +134,7 @@ def make_context(prepared) -> Context:
             )
         ),
         back_lit=any_layer(lambda t: t.finish.diffuse_back != 0),
+        bumpy=any_layer(lambda t: t.normal is not None),
         double_illuminate=np.array([o.double_illuminate for o in objs], dtype=bool),
         ior=np.array([o.interior.ior for o in objs], dtype=np.float64),
         legacy_opacity=version is not None and version < 3.7,
@@ -280,7 +280,8 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
     shared by all texture layers, like POV-Ray's light colour cache)."""
     dirs_out, cols_out = [], []
     lit = ctx.lit[hit.tex]
-    any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex]
+    # A bumpy normal may face a light the smooth one does not: test those hits too.
+    any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex] | ctx.bumpy[hit.tex]
     for light in ctx.scene.lights:
         ls = shading.sample_light(light, hit.point)
         col = ls.colour
@@ -365,7 +366,7 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
 def shade_texture(ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, reflect_req):
     """Accumulate the layers of texture `tid` at `rows` into result/fil; queue reflections."""
     s = ctx.settings
-    surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows])
+    base_surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows])
     pts = hit.point[rows]
     double = ctx.double_illuminate[hit.obj[rows]]
     trans = np.ones(len(rows))
@@ -377,6 +378,13 @@ def shade_texture(ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, r
         colour = patterns.evaluate(layer.pigment, pts)
         pig = colour[:, :3]
         fin = layer.finish
+        if layer.normal is not None:
+            surf = Surface(
+                normal=patterns.perturb_normal(layer.normal, pts, hit.normal[rows]),
+                ray_dir=hit.dirs[rows],
+            )
+        else:
+            surf = base_surf
         op = shading.opacity(colour, ctx.legacy_opacity)
         acc = shading.ambient_term(fin, pig, op, s.ambient_light)
         if fin.diffuse != 0 or fin.diffuse_back != 0 or fin.specular != 0 or fin.phong != 0:
@@ -395,8 +403,9 @@ def shade_texture(ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, r
             use = active & (np.abs(refl).max(axis=1) > 0)
             if use.any():
                 exp = 1.0 / r.exponent if r.exponent != 0 else 1.0
-                # No perturbed normals yet: the layer normal is the raw normal.
-                d = shading.reflect(surf.ray_dir[use], surf.normal[use], surf.normal[use])
+                # Mirror about the layer's (perhaps bumpy) normal, kept out of the surface
+                # by the raw normal.
+                d = shading.reflect(surf.ray_dir[use], surf.normal[use], base_surf.normal[use])
                 mult = refl[use]
                 if fin.irid is not None and fin.irid[0] > 0:
                     sub = Surface(normal=surf.normal[use], ray_dir=surf.ray_dir[use])

@@ -454,3 +454,93 @@ def may_transmit(pigment: ir.Pigment) -> bool:
     return any(may_transmit(q) for q in pigment.list) or any(
         may_transmit(q) for _, q in pigment.pigment_map
     )
+
+
+# --------------------------------------------------------------- normal patterns
+# POV-Ray's sampling distance for the slope of a pattern used as a normal.
+NORMAL_DELTA: float = 0.02
+
+# Fixed ripple/wave sources (POV-Ray draws its ten from its noise tables; these are drawn
+# once from strala's own generator, so ripples have POV-Ray's look, not its exact layout).
+_WAVE_SOURCES = np.random.default_rng(1992).normal(size=(10, 3))
+_WAVE_SOURCES /= np.linalg.norm(_WAVE_SOURCES, axis=1, keepdims=True)
+_WAVE_FREQS = np.random.default_rng(1993).uniform(0.01, 1.01, 10)
+
+
+def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -> np.ndarray:
+    """(N,3) unit normals after a `normal { … }` pattern at world points. The perturbation
+    happens in pattern space (so scaling a bump pattern scales its bumps), then the normal
+    goes back to world space."""
+    inv = _inverse(normal.transform)
+    p = pattern_points(normal, points)
+    lin = None if inv is None else np.asarray(normal.transform, dtype=np.float64)[:3, :3]
+    # Normals map with the inverse transpose: world -> pattern space is M^T n, normalised
+    # there as POV-Ray does, so the bump strength does not depend on the pattern's scale.
+    n = n_world if lin is None else n_world @ lin
+    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    amount = float(normal.depth)
+    kind = normal.pattern
+    if kind not in BUILT_IN_TURBULENCE:
+        p = turbulence_warp(p, normal.params)
+    if kind == "bumps":
+        n = n + amount * dnoise(p)
+    elif kind == "dents":
+        k = noise(p) ** 3 * amount
+        n = n + k[:, None] * dnoise(p)
+    elif kind == "wrinkles":
+        total = np.zeros_like(p)
+        scale = 1.0
+        for _ in range(10):
+            total += np.abs(dnoise(p * scale)) / scale
+            scale *= 2.0
+        n = n + amount * total
+    elif kind in ("ripples", "waves"):
+        freq = float(normal.params.get("frequency", 1.0))
+        phase = float(normal.params.get("phase", 0.0))
+        for src, f in zip(_WAVE_SOURCES, _WAVE_FREQS, strict=True):
+            d = p - src
+            length = np.linalg.norm(d, axis=1)
+            length = np.where(length > 0, length, 1.0)
+            if kind == "ripples":
+                s = np.sin(2.0 * math.pi * (length * freq + phase)) * amount / 10.0
+            else:
+                s = np.cos(2.0 * math.pi * (length * freq * f + phase)) * amount / (10.0 * f)
+            n = n + (d / length[:, None]) * s[:, None]
+    else:
+        fn = CONTINUOUS_PATTERNS.get(kind)
+        if fn is None and kind not in LIST_PATTERNS:
+            _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
+            return n_world
+        n = n + (SLOPE_GAIN * amount) * _slope(kind, p, normal.params)
+    if lin is not None:
+        n = n @ np.linalg.inv(lin)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.where(length > 0, n / np.where(length > 0, length, 1.0), n_world)
+
+
+def _pattern_value(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
+    if kind in LIST_PATTERNS:
+        return LIST_PATTERNS[kind](p, params).astype(np.float64)
+    return apply_wave(CONTINUOUS_PATTERNS[kind](p, params), params)
+
+
+# A regular tetrahedron of unit vectors: POV-Ray samples a pattern used as a normal at
+# these four offsets (NORMAL_DELTA away) and adds value * direction to the normal.
+_PYRAMID = np.array(
+    [
+        [2.0 * math.sqrt(2.0) / 3.0, -1.0 / 3.0, 0.0],
+        [-math.sqrt(2.0) / 3.0, -1.0 / 3.0, math.sqrt(6.0) / 3.0],
+        [-math.sqrt(2.0) / 3.0, -1.0 / 3.0, -math.sqrt(6.0) / 3.0],
+        [0.0, 1.0, 0.0],
+    ]
+)
+# POV-Ray's fudge factor for pattern slopes (the depth is multiplied by -5).
+SLOPE_GAIN: float = -5.0
+
+
+def _slope(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
+    """(N,3) sum of value(p + delta u_i) u_i over the tetrahedron (≈ 4/3 delta grad)."""
+    g = np.zeros_like(p)
+    for u in _PYRAMID:
+        g += _pattern_value(kind, p + NORMAL_DELTA * u, params)[:, None] * u
+    return g

@@ -228,3 +228,36 @@ def test_noise_patterns_stay_in_range(name):
     assert np.isfinite(out).all()
     assert (out[:, 0] >= -1e-12).all() and (out[:, 0] <= 1 + 1e-12).all()
     assert out[:, 0].std() > 0.01  # a pattern, not a flat colour
+
+
+# ---------------------------------------------------------------------- normals
+UP = np.array([[0.0, 1.0, 0.0]] * 200)
+PTS = np.random.default_rng(3).uniform(-3, 3, (200, 3))
+
+
+@pytest.mark.parametrize("kind", ["bumps", "dents", "wrinkles", "ripples", "waves", "granite"])
+def test_perturbed_normals_are_unit_and_actually_perturbed(kind):
+    out = patterns.perturb_normal(ir.Normal(kind, 0.5), PTS, UP)
+    np.testing.assert_allclose(np.linalg.norm(out, axis=1), 1.0)
+    assert np.abs(out - UP).max() > 1e-3
+
+
+def test_zero_depth_leaves_the_normal_alone():
+    out = patterns.perturb_normal(ir.Normal("bumps", 0.0), PTS, UP)
+    np.testing.assert_allclose(out, UP)
+
+
+def test_pattern_slope_tilts_the_normal_against_the_gradient():
+    # POV-Ray: normal += -5 * depth * sum(value(p + d u) u) ≈ -(20/3) d depth grad.
+    n = ir.Normal("gradient", 0.5, params={"orientation": (1.0, 0.0, 0.0)})
+    p = np.array([[0.3, 0.0, 0.0]])
+    out = patterns.perturb_normal(n, p, UP[:1])
+    expected = np.array([-5.0 * 0.5 * (4.0 / 3.0) * patterns.NORMAL_DELTA, 1.0, 0.0])
+    np.testing.assert_allclose(out[0], expected / np.linalg.norm(expected), atol=1e-9)
+
+
+def test_uniformly_scaled_bumps_keep_their_strength():
+    small = ir.Normal("bumps", 0.5, transform=scale(0.25))
+    out = patterns.perturb_normal(small, PTS, UP)
+    ref = patterns.perturb_normal(ir.Normal("bumps", 0.5), PTS / 0.25, UP)
+    np.testing.assert_allclose(out, ref, atol=1e-9)
