@@ -66,6 +66,9 @@ class ControlMesh:
     crease_sharpness: np.ndarray  # (K,) float64
     corner: np.ndarray  # (V,) bool: explicit corner vertices
     _topo: Topology | None = None
+    # per-edge sharpness aligned with `_topo.edges`, set by refinement (which knows each
+    # child edge's parent); without it the crease pairs are looked up by edge key
+    _edge_sharp: np.ndarray | None = None
 
     @property
     def nv(self) -> int:
@@ -86,6 +89,7 @@ class ControlMesh:
     def topology(self) -> Topology:
         if self._topo is None:
             self._topo = build_topology(self)
+            self._edge_sharp = None  # aligned with a refined topology only
         return self._topo
 
     @classmethod
@@ -135,7 +139,7 @@ class Topology:
     edge: np.ndarray
     edges: np.ndarray
     edge_nf: np.ndarray
-    ekeys: np.ndarray  # sorted undirected keys low*V + high
+    ekeys: np.ndarray | None  # sorted keys low*V + high (None: built by refinement)
     twin: np.ndarray
     dup_directed: int  # half-edges that repeat an existing direction (orientation errors)
 
@@ -151,17 +155,24 @@ def build_topology(mesh: ControlMesh) -> Topology:
     prv = np.where(c == first, last, c - 1)
     a, b = fv, fv[nxt]
     lo, hi = np.minimum(a, b), np.maximum(a, b)
-    ekeys, edge, edge_nf = np.unique(lo * nv + hi, return_inverse=True, return_counts=True)
-    edge = edge.reshape(-1)
+    # one sort of the undirected edge keys gives edge ids, face counts and twins: the two
+    # half-edges of a manifold edge sit next to each other in the sorted order
+    ukey = lo * nv + hi
+    order = np.argsort(ukey)
+    sk = ukey[order]
+    run_start = np.ones(len(sk), dtype=bool)
+    run_start[1:] = sk[1:] != sk[:-1]
+    starts = np.nonzero(run_start)[0]
+    edge = np.empty(len(sk), dtype=np.int64)
+    edge[order] = np.cumsum(run_start) - 1
+    ekeys = sk[starts]
+    edge_nf = np.diff(np.append(starts, len(sk)))
     edges = np.stack([ekeys // nv, ekeys % nv], axis=1)
-    dkey = a * nv + b
-    order = np.argsort(dkey, kind="stable")
-    sdkey = dkey[order]
-    dup = int(np.count_nonzero(sdkey[1:] == sdkey[:-1]))
-    tkey = b * nv + a
-    pos = np.minimum(np.searchsorted(sdkey, tkey), len(sdkey) - 1)
-    found = sdkey[pos] == tkey
-    twin = np.where(found, order[pos], -1)
+    pair = starts[edge_nf == 2]
+    c0, c1 = order[pair], order[pair + 1]
+    twin = np.full(len(sk), -1, dtype=np.int64)
+    twin[c0], twin[c1] = c1, c0
+    dup = int(np.count_nonzero(fv[c0] == fv[c1]))  # both run the same way
     return Topology(face, nxt, prv, edge, edges, edge_nf, ekeys, twin, dup)
 
 
@@ -190,12 +201,22 @@ def _neighbour_sum(points: np.ndarray, edges: np.ndarray, mask, n: int) -> np.nd
 def edge_sharpness(mesh: ControlMesh, topo: Topology | None = None) -> np.ndarray:
     """Per-edge sharpness: crease values where given, inf on boundary edges, else 0."""
     topo = topo or mesh.topology
+    if mesh._edge_sharp is not None:
+        s = mesh._edge_sharp.copy()
+        s[topo.edge_nf == 1] = np.inf
+        return s
     s = np.zeros(len(topo.edges))
     if len(mesh.crease_pairs):
+        ekeys, order = topo.ekeys, None
+        if ekeys is None:  # a refined topology's edges are not in key order
+            all_keys = topo.edges[:, 0] * mesh.nv + topo.edges[:, 1]
+            order = np.argsort(all_keys)
+            ekeys = all_keys[order]
         p = mesh.crease_pairs
         keys = np.minimum(p[:, 0], p[:, 1]) * mesh.nv + np.maximum(p[:, 0], p[:, 1])
-        pos = np.minimum(np.searchsorted(topo.ekeys, keys), len(topo.ekeys) - 1)
-        ok = topo.ekeys[pos] == keys
+        pos = np.minimum(np.searchsorted(ekeys, keys), len(ekeys) - 1)
+        ok = ekeys[pos] == keys
+        pos = pos if order is None else order[pos]
         np.maximum.at(s, pos[ok], mesh.crease_sharpness[ok])
     s[topo.edge_nf == 1] = np.inf
     return s
@@ -269,6 +290,121 @@ def _child_creases(mesh: ControlMesh, s: np.ndarray, edge_point_base: int):
     return pairs.astype(np.int64), child_s
 
 
+def _half_edge_side(topo: Topology, e: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Child edge id of the half of parent edge e that touches vertex v."""
+    return 2 * e + (v != topo.edges[e, 0])
+
+
+def _child_edges(topo: Topology, edge_point: np.ndarray, inner: np.ndarray):
+    """Child edge table: parent edge e → 2e (low end, EP) and 2e+1 (high end, EP), then
+    the inner edges given as (K,2) vertex pairs; face counts follow the parent's."""
+    halves = np.stack(
+        [np.stack([topo.edges[:, 0], edge_point], 1), np.stack([topo.edges[:, 1], edge_point], 1)],
+        axis=1,
+    ).reshape(-1, 2)
+    edges = np.concatenate([halves, np.sort(inner, axis=1)])
+    nf = np.concatenate([np.repeat(topo.edge_nf, 2), np.full(len(inner), 2)])
+    return edges, nf
+
+
+def _child_sharpness(s: np.ndarray, inner: int) -> np.ndarray:
+    """DeRose's rule: both halves of an edge of sharpness s get s − 1 (inf stays inf)."""
+    return np.concatenate([np.repeat(np.where(s > 1, s - 1.0, 0.0), 2), np.zeros(inner)])
+
+
+def _quad_child_topology(mesh: ControlMesh, nfp: int) -> Topology:
+    """Topology of the quads made by `_quads_from_corners`, derived from the parent's
+    without any sorting. Child corner 4c+k of parent corner c: k=0 the old vertex, 1 the
+    out-edge's point, 2 the face point, 3 the in-edge's point. The first half of parent
+    half-edge h is child half-edge 4h, its second half 4·nxt(h)+3."""
+    topo, V, fv = mesh.topology, mesh.nv, mesh.fv
+    C, E = len(fv), len(topo.edges)
+    c = np.arange(C, dtype=np.int64)
+    tw, nx, pv = topo.twin, topo.nxt, topo.prv
+    twp = tw[pv]
+    twin = np.stack(
+        [
+            np.where(tw >= 0, 4 * nx[np.maximum(tw, 0)] + 3, -1),
+            4 * nx + 2,
+            4 * pv + 1,
+            np.where(twp >= 0, 4 * np.maximum(twp, 0), -1),
+        ],
+        axis=1,
+    ).reshape(-1)
+    edge = np.stack(
+        [
+            _half_edge_side(topo, topo.edge, fv),
+            2 * E + c,
+            2 * E + pv,
+            _half_edge_side(topo, topo.edge[pv], fv),
+        ],
+        axis=1,
+    ).reshape(-1)
+    inner = np.stack([V + topo.face, V + nfp + topo.edge], axis=1)
+    edges, edge_nf = _child_edges(topo, V + nfp + np.arange(E), inner)
+    k = np.tile(np.arange(4), C)
+    base = np.arange(4 * C) - k
+    return Topology(
+        np.repeat(c, 4),
+        base + (k + 1) % 4,
+        base + (k + 3) % 4,
+        edge,
+        edges,
+        edge_nf,
+        None,
+        twin,
+        0,
+    )
+
+
+def _loop_child_topology(mesh: ControlMesh) -> Topology:
+    """Topology of Loop's children, derived from the parent's without sorting. Parent
+    corner c = 3f+k gives the corner triangle 4f+k with child corners 12f+3k+(0,1,2)
+    (old vertex, out-edge point, in-edge point); the centre triangle 4f+3 has corners
+    12f+9+i on the edge points of corners 3f+i."""
+    topo, V, fv = mesh.topology, mesh.nv, mesh.fv
+    C, E = len(fv), len(topo.edges)
+    c = np.arange(C, dtype=np.int64)
+    f, k = c // 3, c % 3
+    tw, nx, pv = topo.twin, topo.nxt, topo.prv
+    twp = tw[pv]
+
+    def tri(corner):  # first child corner of the corner triangle of a parent corner
+        return 12 * (corner // 3) + 3 * (corner % 3)
+
+    t0 = np.where(tw >= 0, tri(nx[np.maximum(tw, 0)]) + 2, -1)
+    t1 = 12 * f + 9 + (k + 2) % 3
+    t2 = np.where(twp >= 0, tri(np.maximum(twp, 0)), -1)
+    twin = np.empty(12 * (C // 3), dtype=np.int64)
+    e0 = _half_edge_side(topo, topo.edge, fv)
+    e2 = _half_edge_side(topo, topo.edge[pv], fv)
+    edge = np.empty_like(twin)
+    tc = tri(c)
+    twin[tc], twin[tc + 1], twin[tc + 2] = t0, t1, t2
+    edge[tc], edge[tc + 1], edge[tc + 2] = e0, 2 * E + c, e2
+    # centre corner 12f+9+i runs from the point of edge 3f+i to that of 3f+i+1
+    cn = 3 * f + (k + 1) % 3
+    centre = 12 * f + 9 + k
+    twin[centre] = tri(cn) + 1
+    edge[centre] = 2 * E + cn
+    inner = np.stack([V + topo.edge, V + topo.edge[pv]], axis=1)
+    edges, edge_nf = _child_edges(topo, V + np.arange(E), inner)
+    n = 12 * (C // 3)
+    i = np.arange(n)
+    base = i - i % 3
+    return Topology(
+        i // 3,
+        base + (i % 3 + 1) % 3,
+        base + (i % 3 + 2) % 3,
+        edge,
+        edges,
+        edge_nf,
+        None,
+        twin,
+        0,
+    )
+
+
 def _quads_from_corners(mesh: ControlMesh, nfp: int) -> np.ndarray:
     """Catmull–Clark / bilinear children: one quad per parent corner
     (vertex, edge point of its out-edge, face point, edge point of its in-edge)."""
@@ -301,6 +437,8 @@ def catmull_clark_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMes
         pairs,
         cs,
         np.concatenate([mesh.corner, np.zeros(F + E, dtype=bool)]),
+        _quad_child_topology(mesh, F),
+        _child_sharpness(s, len(mesh.fv)),
     )
 
 
@@ -319,6 +457,8 @@ def bilinear_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
         pairs,
         cs,
         np.concatenate([mesh.corner, np.zeros(F + E, dtype=bool)]),
+        _quad_child_topology(mesh, F),
+        _child_sharpness(s, len(mesh.fv)),
     )
 
 
@@ -354,6 +494,8 @@ def loop_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
         pairs,
         cs,
         np.concatenate([mesh.corner, np.zeros(E, dtype=bool)]),
+        _loop_child_topology(mesh),
+        _child_sharpness(s, len(mesh.fv)),
     )
 
 
@@ -459,13 +601,15 @@ class Rings:
     """Corners ordered around their vertex: `j` is the ring position (counter-clockwise
     seen from the side the winding faces), `fan` the first corner of the corner's fan
     (a vertex has one fan unless it is non-manifold), `sector` counts the sharp edges
-    crossed since the fan's start, `size` the corners in the corner's fan."""
+    crossed since the fan's start, `size` the corners in the corner's fan, `closed` whether
+    the fan goes all the way round."""
 
     j: np.ndarray
     fan: np.ndarray
     sector: np.ndarray
     size: np.ndarray
     closed: np.ndarray
+    rep: np.ndarray  # the first corner of the corner's sector: one per output vertex
 
 
 def build_rings(mesh: ControlMesh, sharp: np.ndarray) -> Rings:
@@ -478,31 +622,34 @@ def build_rings(mesh: ControlMesh, sharp: np.ndarray) -> Rings:
     j = np.full(C, -1, dtype=np.int64)
     fan = np.full(C, -1, dtype=np.int64)
     sector = np.zeros(C, dtype=np.int64)
-    step_sharp = sharp[topo.edge[topo.prv]].astype(np.int64)
+    rep = np.full(C, -1, dtype=np.int64)
+    step_sharp = sharp[topo.edge[topo.prv]]
 
     def walk(starts: np.ndarray) -> None:
-        cur, fid, sec, k = starts, starts, np.zeros(len(starts), dtype=np.int64), 0
+        cur, fid, sec, first, k = starts, starts, np.zeros(len(starts), np.int64), starts, 0
         while cur.size:
-            j[cur], fan[cur], sector[cur] = k, fid, sec
+            j[cur], fan[cur], sector[cur], rep[cur] = k, fid, sec, first
             nx = rot[cur]
             ok = nx >= 0
             ok[ok] = j[nx[ok]] < 0
-            sec = sec + step_sharp[cur]
-            cur, fid, sec, k = nx[ok], fid[ok], sec[ok], k + 1
+            crossed = step_sharp[cur]
+            sec = sec + crossed
+            first = np.where(crossed, nx, first)
+            cur, fid, sec, first, k = nx[ok], fid[ok], sec[ok], first[ok], k + 1
 
     walk(np.nonzero(topo.twin < 0)[0])
     while True:
         rest = np.nonzero(j < 0)[0]
         if rest.size == 0:
             break
-        pri = np.where(sharp[topo.edge[rest]], 0, 1)
-        order = np.lexsort((rest, pri, fv[rest]))
-        srt = rest[order]
-        firsts = np.ones(len(srt), dtype=bool)
-        firsts[1:] = fv[srt[1:]] != fv[srt[:-1]]
-        walk(srt[firsts])
+        # one start per vertex (any corner will do; a corner after a sharp edge wins)
+        pick = np.full(mesh.nv, -1, dtype=np.int64)
+        pick[fv[rest]] = rest
+        after_sharp = rest[sharp[topo.edge[rest]]]
+        pick[fv[after_sharp]] = after_sharp
+        walk(pick[pick >= 0])
     size = np.bincount(fan, minlength=C)[fan]
-    return Rings(j, fan, sector, size, topo.twin[fan] >= 0)
+    return Rings(j, fan, sector, size, topo.twin[fan] >= 0, rep)
 
 
 def _normalize(v: np.ndarray) -> np.ndarray:
@@ -523,20 +670,36 @@ def smooth_limit_normals(mesh: ControlMesh, scheme: str, boundary: str = "sharp"
     ok = (r.parent == SMOOTH) & (fans == 1) & (open_corners == 0)
     if scheme == "bilinear":
         return np.zeros((V, 3)), np.zeros(V, dtype=bool)
-    n = rings.size.astype(np.float64)
-    theta = 2.0 * np.pi * rings.j / n
+    cos_j, sin_j, cos_j1, sin_j1, A = _ring_trig(rings.j, rings.size)
     e = P[fv[topo.nxt]]
     if scheme == "catmull_clark":
-        step = 2.0 * np.pi / n
-        A = 1.0 + np.cos(step) + np.cos(step / 2) * np.sqrt(2.0 * (9.0 + np.cos(step)))
         d = P[fv[topo.nxt[topo.nxt]]]
-        c1 = (A * np.cos(theta))[:, None] * e + (np.cos(theta) + np.cos(theta + step))[:, None] * d
-        c2 = (A * np.sin(theta))[:, None] * e + (np.sin(theta) + np.sin(theta + step))[:, None] * d
+        w1e, w1d = A * cos_j, cos_j + cos_j1
+        w2e, w2d = A * sin_j, sin_j + sin_j1
+        t1 = _scatter(fv, w1e[:, None] * e + w1d[:, None] * d, V)
+        t2 = _scatter(fv, w2e[:, None] * e + w2d[:, None] * d, V)
     else:
-        c1 = np.cos(theta)[:, None] * e
-        c2 = np.sin(theta)[:, None] * e
-    t1, t2 = _scatter(fv, c1, V), _scatter(fv, c2, V)
+        t1, t2 = _scatter(fv, cos_j[:, None] * e, V), _scatter(fv, sin_j[:, None] * e, V)
     return _normalize(np.cross(t1, t2)), ok
+
+
+def _ring_trig(j: np.ndarray, n: np.ndarray):
+    """cos/sin of 2πj/n and 2π(j+1)/n, and Catmull–Clark's tangent weight
+    A(n) = 1 + cos(2π/n) + cos(π/n)·sqrt(2(9 + cos(2π/n))), per corner. Valences are
+    small integers, so the values come from a (valence × position) table."""
+    top = int(n.max()) if n.size else 1
+    if top > 512:  # a very high valence: compute directly
+        th, step = 2 * np.pi * j / n, 2 * np.pi / n
+        A = 1 + np.cos(step) + np.cos(step / 2) * np.sqrt(2 * (9 + np.cos(step)))
+        return np.cos(th), np.sin(th), np.cos(th + step), np.sin(th + step), A
+    nn = np.arange(1, top + 1, dtype=np.float64)[:, None]
+    jj = np.arange(top + 1, dtype=np.float64)[None, :]
+    th = 2 * np.pi * jj / nn
+    step = 2 * np.pi / nn[:, 0]
+    A = 1 + np.cos(step) + np.cos(step / 2) * np.sqrt(2 * (9 + np.cos(step)))
+    row, col = n - 1, j
+    cos_t, sin_t = np.cos(th), np.sin(th)
+    return (cos_t[row, col], sin_t[row, col], cos_t[row, col + 1], sin_t[row, col + 1], A[row])
 
 
 def _crease_tangents(mesh: ControlMesh, inf_sharp: np.ndarray) -> np.ndarray:
@@ -573,29 +736,33 @@ def shade(
     if scheme == "bilinear":
         inf_sharp = np.ones_like(inf_sharp)
     rings = build_rings(mesh, inf_sharp)
-    order = np.lexsort((rings.sector, rings.fan, fv))
-    fs, fa, se = fv[order], rings.fan[order], rings.sector[order]
-    change = np.ones(len(order), dtype=bool)
-    change[1:] = (fs[1:] != fs[:-1]) | (fa[1:] != fa[:-1]) | (se[1:] != se[:-1])
-    gid_sorted = np.cumsum(change) - 1
-    group = np.empty(len(order), dtype=np.int64)
-    group[order] = gid_sorted
-    gvert = fs[change]
-    G = len(gvert)
-    primary = np.ones(G, dtype=bool)
-    primary[1:] = gvert[1:] != gvert[:-1]
+    # one output vertex per sector, numbered without sorting: sectors are identified by
+    # their first corner; a vertex's first sector (lowest corner) keeps its index
+    C = len(fv)
+    is_rep = rings.rep == np.arange(C)
+    reps = np.nonzero(is_rep)[0]
+    group = (np.cumsum(is_rep) - 1)[rings.rep]
+    gvert = fv[reps]
+    G = len(reps)
+    lowest = np.full(V, C, dtype=np.int64)
+    np.minimum.at(lowest, gvert, reps)
+    primary = lowest[gvert] == reps
     new_index = np.where(primary, gvert, V + np.cumsum(~primary) - 1)
-    # angle-weighted corner normals of the output positions
-    p = positions
-    u = p[fv[topo.nxt]] - p[fv]
-    w = p[fv[topo.prv]] - p[fv]
-    cn = np.cross(u, w)
-    angle = np.arctan2(np.linalg.norm(cn, axis=1), np.einsum("ij,ij->i", u, w))
-    gn = _scatter(group, _normalize(cn) * angle[:, None], G)
-    tangent = _normalize(_crease_tangents(mesh, inf_sharp))[gvert]
-    gn = gn - np.einsum("ij,ij->i", gn, tangent)[:, None] * tangent
     use_smooth = smooth_mask[gvert]
-    gn = np.where(use_smooth[:, None], smooth_normals[gvert], gn)
+    gn = np.zeros((G, 3))
+    gn[use_smooth] = smooth_normals[gvert[use_smooth]]
+    # the other sectors: angle-weighted corner normals of the output positions
+    need = np.nonzero(~smooth_mask[fv])[0]
+    if need.size:
+        p, cv = positions, fv[need]
+        u = p[fv[topo.nxt[need]]] - p[cv]
+        w = p[fv[topo.prv[need]]] - p[cv]
+        cn = np.cross(u, w)
+        angle = np.arctan2(np.linalg.norm(cn, axis=1), np.einsum("ij,ij->i", u, w))
+        sector_n = _scatter(group[need], _normalize(cn) * angle[:, None], G)
+        tangent = _normalize(_crease_tangents(mesh, inf_sharp))[gvert]
+        sector_n -= np.einsum("ij,ij->i", sector_n, tangent)[:, None] * tangent
+        gn[~use_smooth] = sector_n[~use_smooth]
     gn = _normalize(gn)
     verts = np.concatenate([positions, positions[gvert[~primary]]])
     normals = np.zeros((V, 3))
