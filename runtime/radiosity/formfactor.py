@@ -261,13 +261,25 @@ def form_factors(
     dst: np.ndarray | None = None,
     *,
     order: int = 3,
+    far_order: int | None = None,
+    far_ratio: float = 3.0,
     visible: Visibility | None = None,
     vis_samples: int = 4,
     seed: int = 0,
     chunk_bytes: int = _CHUNK_BYTES,
+    vis_points: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Form factors F[i, j] from convex patches `src` (Ns,K,3) to `dst` (Nd,K',3)
     (default: src itself). Patches are one-sided (see the module docstring).
+
+    `far_order` (default: `order`) is used for pairs whose centroids are more than
+    `far_ratio` times the sum of their radii apart, where the inner factor varies slowly
+    over the source (error O((size/distance)^2·far_order)). Mixing orders costs the exact
+    row sums, which then hold to the far-field quadrature error.
+
+    `vis_points` = (on src (Ns,S,3), on dst (Nd,S,3)) replaces the stratified segment ends:
+    curved surfaces must give points on the true surface, since a point on an inscribed
+    facet lies inside the object and every ray from it would be blocked by the object.
 
     With `visible`, F[i, j] is multiplied by the fraction of `vis_samples` stratified
     segments between the two patches that `visible` reports free (one estimate per pair,
@@ -280,50 +292,109 @@ def form_factors(
     nd, kd = dst.shape[:2]
     n_src, a_src = polygon_normal_area(src)
     n_dst, _ = polygon_normal_area(dst)
-    off_dst = np.einsum("nc,nc->n", n_dst, dst[:, 0])
-    pts, w = polygon_quadrature(src, order)
-    q = pts.shape[1]
-    scale = float(np.abs(dst).max()) + float(np.abs(src).max())
+    geo = _Targets(dst, n_dst, float(np.abs(dst).max()) + float(np.abs(src).max()))
+    rules = [polygon_quadrature(src, order)]
+    if far_order is not None and far_order != order:
+        rules.append(polygon_quadrature(src, far_order))
+        c_src, r_src = src.mean(axis=1), _radius(src)
+        c_dst, r_dst = dst.mean(axis=1), _radius(dst)
+    q = rules[0][0].shape[1]
     out = np.zeros((ns, nd))
-    # Largest temporaries: a few (rows, q, nd, kd, 3) float64 arrays.
-    rows_per_chunk = max(1, int(chunk_bytes // (q * nd * kd * 3 * 8 * 4)))
+    # Largest temporaries: a few (pairs·q, kd) float64 arrays.
+    rows_per_chunk = max(1, int(chunk_bytes // (q * nd * kd * 8 * 12)))
     for start in range(0, ns, rows_per_chunk):
         sl = slice(start, min(ns, start + rows_per_chunk))
-        p = pts[sl]  # (r,q,3)
-        r = len(p)
-        # One-sided receivers/senders: the point must lie in front of the target patch, by a
-        # margin: a coplanar polygon around the point is the contour integral's degenerate
-        # limit (it returns 1, not 0), and rounding puts coplanar points on either side.
-        height = np.einsum("rqc,jc->rqj", p, n_dst) - off_dst[None, None, :]
-        front = height > _COPLANAR_REL * (np.abs(off_dst)[None, None, :] + scale)
-        # Heights of the target's vertices above the receiver's tangent plane.
-        nrm = n_src[sl]
-        vh = (
-            np.einsum("jkc,rc->rjk", dst, nrm)[:, None]
-            - np.einsum("rqc,rc->rq", p, nrm)[:, :, None, None]
-        )  # (r,q,nd,kd)
-        active = front & (vh.max(axis=3) > 0)
-        kern = np.zeros((r, q, nd))
-        ri, qi, ji = np.nonzero(active)
-        if len(ri):
-            rel = dst[ji] - p[ri, qi][:, None, :]
-            nn = nrm[ri]
-            below = (vh[ri, qi, ji] < 0).any(axis=1)
-            vals = np.empty(len(ri))
-            up = ~below
-            vals[up] = projected_solid_angle(rel[up], nn[up])
-            if below.any():
-                vals[below] = projected_solid_angle(
-                    clip_to_hemisphere(rel[below], nn[below]), nn[below]
-                )
-            kern[ri, qi, ji] = vals
-        out[sl] = np.einsum("rq,rqj->rj", w[sl], kern) / np.maximum(a_src[sl], 1e-300)[:, None]
+        if len(rules) == 1:
+            masks = [None]
+        else:
+            d = np.linalg.norm(c_src[sl, None] - c_dst[None], axis=2)
+            far = d > far_ratio * (r_src[sl, None] + r_dst[None])
+            masks = [~far, far]
+        acc = np.zeros((sl.stop - sl.start, nd))
+        for (pts, w), mask in zip(rules, masks, strict=True):
+            acc += _kernel_rows(pts[sl], w[sl], n_src[sl], geo, mask)
+        out[sl] = acc / np.maximum(a_src[sl], 1e-300)[:, None]
     if visible is not None:
-        out *= pair_visibility(src, dst, out, visible, vis_samples, seed, same)
+        out *= pair_visibility(src, dst, out, visible, vis_samples, seed, same, vis_points)
     return out
 
 
-def pair_visibility(src, dst, unoccluded, visible, vis_samples, seed, same) -> np.ndarray:
+def _radius(verts: np.ndarray) -> np.ndarray:
+    c = verts.mean(axis=1, keepdims=True)
+    return np.linalg.norm(verts - c, axis=2).max(axis=1)
+
+
+class _Targets:
+    """Target polygons as structure of arrays (fast elementwise kernels)."""
+
+    def __init__(self, dst: np.ndarray, normal: np.ndarray, scale: float):
+        self.v = dst
+        self.x, self.y, self.z = (np.ascontiguousarray(dst[..., c]) for c in range(3))
+        self.normal = normal
+        self.off = np.einsum("nc,nc->n", normal, dst[:, 0])
+        # Coplanarity margin (see _COPLANAR_REL) in this scene's coordinates.
+        self.margin = _COPLANAR_REL * (np.abs(self.off) + scale)
+
+
+def _kernel_rows(p, w, nrm, geo: _Targets, pair_mask) -> np.ndarray:
+    """Σ_q w_q F(dA_q → A_j) for source rows (r,q,3) against every target: (r, nd)."""
+    r, q = p.shape[:2]
+    nd = len(geo.v)
+    # One-sided receivers/senders: the point must lie in front of the target patch, by a
+    # margin: a coplanar polygon around the point is the contour integral's degenerate
+    # limit (it returns 1, not 0), and rounding puts coplanar points on either side.
+    height = np.einsum("rqc,jc->rqj", p, geo.normal) - geo.off[None, None, :]
+    active = height > geo.margin[None, None, :]
+    if pair_mask is not None:
+        active &= pair_mask[:, None, :]
+    # Heights of the target's vertices above the receiver's tangent plane.
+    vn = np.einsum("jkc,rc->rjk", geo.v, nrm)  # (r,nd,kd)
+    pn = np.einsum("rqc,rc->rq", p, nrm)  # (r,q)
+    active &= vn.max(axis=2)[:, None, :] > pn[:, :, None]
+    ri, qi, ji = np.nonzero(active)
+    kern = np.zeros((r, q, nd))
+    if len(ri) == 0:
+        return np.zeros((r, nd))
+    below = (vn[ri, ji] < pn[ri, qi][:, None]).any(axis=1)
+    vals = np.empty(len(ri))
+    up = np.nonzero(~below)[0]
+    if len(up):
+        a, b, j = ri[up], qi[up], ji[up]
+        vals[up] = _contour_soa(
+            geo.x[j] - p[a, b, 0:1],
+            geo.y[j] - p[a, b, 1:2],
+            geo.z[j] - p[a, b, 2:3],
+            nrm[a],
+        )
+    dn = np.nonzero(below)[0]
+    if len(dn):
+        a, b, j = ri[dn], qi[dn], ji[dn]
+        rel = geo.v[j] - p[a, b][:, None, :]
+        vals[dn] = projected_solid_angle(clip_to_hemisphere(rel, nrm[a]), nrm[a])
+    kern[ri, qi, ji] = vals
+    return np.einsum("rq,rqj->rj", w, kern)
+
+
+def _contour_soa(rx, ry, rz, n) -> np.ndarray:
+    """`projected_solid_angle` on component arrays (M,K): the same formula with fewer
+    temporaries (this is the hot loop of the form-factor matrix)."""
+    inv = 1.0 / np.sqrt(rx * rx + ry * ry + rz * rz)
+    ux, uy, uz = rx * inv, ry * inv, rz * inv
+    vx, vy, vz = (np.roll(a, -1, axis=1) for a in (ux, uy, uz))
+    cx = uy * vz - uz * vy
+    cy = uz * vx - ux * vz
+    cz = ux * vy - uy * vx
+    s = np.sqrt(cx * cx + cy * cy + cz * cz)
+    c = ux * vx + uy * vy + uz * vz
+    g = np.arctan2(s, c)
+    f = np.where(s > _DEGENERATE_SINE, g / np.maximum(s, _DEGENERATE_SINE), 1.0)
+    dot = cx * n[:, :1] + cy * n[:, 1:2] + cz * n[:, 2:3]
+    return np.abs((f * dot).sum(axis=1)) / (2.0 * np.pi)
+
+
+def pair_visibility(
+    src, dst, unoccluded, visible, vis_samples, seed, same, points=None
+) -> np.ndarray:
     """(Ns,Nd) visible fraction for every pair with a nonzero unoccluded form factor: the
     mean of `visible` over `vis_samples` stratified segments (origins on the source patch,
     targets on the target patch, strata paired by a random permutation)."""
@@ -336,8 +407,12 @@ def pair_visibility(src, dst, unoccluded, visible, vis_samples, seed, same) -> n
     frac = np.ones(unoccluded.shape)
     if len(ii) == 0:
         return frac
-    o = stratified_points(src, vis_samples, rng)
-    t = stratified_points(dst, vis_samples, rng)
+    if points is None:
+        o = stratified_points(src, vis_samples, rng)
+        t = o if same else stratified_points(dst, vis_samples, rng)
+    else:
+        o, t = points
+        vis_samples = o.shape[1]
     batch = max(1, 2**20 // vis_samples)
     for b in range(0, len(ii), batch):
         i, j = ii[b : b + batch], jj[b : b + batch]

@@ -104,8 +104,11 @@ class Mesher:
         return self.groups - 1
 
     # ---------------------------------------------------------------- surfaces
-    def parallelogram(self, p0, eu, ev, *, rho, emission=0.0, surface=-1, sides=(False,)):
-        """The parallelogram p0 + u·eu + v·ev, cut into a grid of cells ≤ the patch size.
+    def parallelogram(
+        self, p0, eu, ev, *, rho, emission=0.0, surface=-1, sides=(False,)
+    ) -> tuple[int, int]:
+        """The parallelogram p0 + u·eu + v·ev, cut into a grid of nu×nv cells ≤ the patch
+        size (returned; element j·nu + i of each side, sides in the order given).
         sides: for each side to mesh, whether it is the flipped one (normal −eu×ev)."""
         p0, eu, ev = (np.asarray(a, dtype=np.float64) for a in (p0, eu, ev))
         nu = max(1, int(np.ceil(np.linalg.norm(eu) / self.size - 1e-9)))
@@ -128,6 +131,7 @@ class Mesher:
                         rho,
                         emission,
                     )
+        return nu, nv
 
     def triangle(self, a, b, c, *, rho, emission=0.0, surface=-1, sides=(False,), group=None):
         """One triangle (normal (b−a)×(c−a)); refined to the patch size by the quadtree."""
@@ -176,7 +180,7 @@ class Mesher:
 
     def sphere(
         self, matrix, *, rho, emission=0.0, surface=-1, outside=True, inside=False, theta=(0, 1)
-    ):
+    ) -> tuple[int, int]:
         """The unit sphere mapped by `matrix` (4×4, object → world): a (φ, θ) grid of cells
         with edges about the patch size (pole cells are triangles). `theta` limits the polar
         range (fractions of π from the +y pole: (0, 0.5) is the upper hemisphere)."""
@@ -199,6 +203,7 @@ class Mesher:
                     self.el._add(
                         SPHERE, 0, 0, 0, box, mid, flip ^ mirrored, g, surface, rho, emission
                     )
+        return n_phi, n_theta
 
     def mesh(self, vertices, faces, *, rho, emission=0.0, surface=-1, sides=(False,)):
         v = np.asarray(vertices, dtype=np.float64)
@@ -384,6 +389,27 @@ class Patches:
         )
         self._leaves(np.concatenate([self.node[~sel], new.reshape(-1)]))
         return k
+
+    def sample_points(self, count: int, rng: np.random.Generator) -> np.ndarray:
+        """(N,count,3) Latin-hypercube points on the *true* surface of each patch (on a
+        sphere: on the sphere, not on the inscribed facet), for shadow and visibility rays."""
+        n = len(self)
+        s = (np.argsort(rng.random((n, count)), axis=1) + rng.random((n, count))) / count
+        t = (np.argsort(rng.random((n, count)), axis=1) + rng.random((n, count))) / count
+        c = self.uv[:, None]  # (N,1,4,2)
+        tri = self.is_tri[:, None, None]
+        r = np.sqrt(s)[..., None]
+        tt = t[..., None]
+        ss = s[..., None]
+        on_tri = (1 - r) * c[:, :, 0] + r * (1 - tt) * c[:, :, 1] + r * tt * c[:, :, 2]
+        on_quad = (
+            (1 - ss) * (1 - tt) * c[:, :, 0]
+            + ss * (1 - tt) * c[:, :, 1]
+            + ss * tt * c[:, :, 2]
+            + (1 - ss) * tt * c[:, :, 3]
+        )
+        uv = np.where(tri, on_tri, on_quad)
+        return self.surface_points(self.element[:, None], uv)
 
     def edge_length(self) -> np.ndarray:
         """Longest edge of each leaf patch."""

@@ -1,0 +1,655 @@
+"""Radiosity for a prepared scene: mesh → light → form factors → solve → refine → cache.
+
+What the renderer gets (`RadiosityResult.gathered`): the indirect diffuse light G arriving
+at a surface point, Gouraud-interpolated from the patches. The renderer multiplies it by
+the point's own diffuse reflectance (pigment × diffuse), so textures keep their detail:
+
+    colour = emission + ρ_pixel · (D_raytraced + brightness · G) + specular, reflection …
+
+No light is counted twice: the patches' system is B = E + ρ ⊙ (D + F B), with D the direct
+light of the scene's light_sources at the patches; G = F B is everything else — light
+from emissive surfaces (`finish { emission }`) and every interreflection, including the
+first bounce of the light sources — while D itself stays the renderer's ray-traced term.
+
+Units are POV-Ray's: a light of colour c gives c·cos θ (no 1/r² unless it fades), an
+emitter shows pigment × emission, and B is what the camera sees on a diffuse patch.
+
+Meshed: sphere, box, polygon, triangle, mesh, plane (clipped to the scene's bounds), disc
+(as a polygon). Other shapes and CSG still block light (visibility uses the tracer) but
+get no patches; their `gathered` value is the area-weighted mean G (an ambient estimate).
+The solution depends only on geometry, materials and lights, so it is cached by a content
+hash (no camera in the key) and any viewpoint reuses it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import os
+import pickle
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from lang import ir
+from runtime import transform as tf
+from runtime.radiosity import solve as solver
+from runtime.radiosity.formfactor import form_factors
+from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
+from runtime.radiosity.patches import Mesher, Patches, box_faces
+from runtime.radiosity.visibility import PatchVisibility
+
+CACHE_VERSION = 1
+
+# A scene is "not closed" when more than this fraction of the light leaving its surfaces
+# (area-weighted, unoccluded row sums) escapes to infinity.
+OPEN_FRACTION = 0.05
+
+# Sides of a planar surface exchange light only if some other geometry or a light lies in
+# front of them by more than this fraction of the scene's extent.
+_SIDE_REL = 1e-6
+
+
+@dataclass(frozen=True)
+class Options:
+    patch_size: float | None = None  # None: the scene's extent / 8
+    max_patches: int = 3000
+    error_bound: float = 1.8  # refine where corners differ by error_bound·2% of mean B
+    tolerance: float = 1e-4
+    method: str = "gauss_seidel"
+    brightness: float = 1.0
+    order: int = 3  # Gauss points per direction on each source patch (near pairs)
+    far_order: int = 1  # … for pairs more than far_ratio × their radii apart
+    far_ratio: float = 4.0
+    vis_samples: int = 4  # segments per patch pair
+    light_samples: int = 4  # shadow rays per patch and light
+    max_rounds: int = 3  # adaptive refinement rounds after the first solve
+    flat: bool = False  # flat instead of Gouraud display
+    seed: int = 0
+
+    @staticmethod
+    def from_ir(r: ir.Radiosity, **extra) -> Options:
+        return Options(
+            patch_size=r.patch_size,
+            max_patches=min(r.max_patches, extra.pop("max_patches", 3000)),
+            error_bound=r.error_bound,
+            tolerance=r.tolerance,
+            method=r.method,
+            brightness=r.brightness,
+            **extra,
+        )
+
+
+@dataclass
+class _Record:
+    """How to find an object's element from a hit point."""
+
+    kind: str  # grid | tris | sphere
+    first: int
+    per_side: int
+    sides: tuple[bool, ...]
+    p0: np.ndarray | None = None  # grid: the whole face
+    eu: np.ndarray | None = None
+    ev: np.ndarray | None = None
+    nu: int = 1
+    nv: int = 1
+    matrix: np.ndarray | None = None  # sphere: unit sphere → world
+    n_phi: int = 1
+    n_theta: int = 1
+
+
+@dataclass
+class RadiosityResult:
+    patches: Patches
+    B: np.ndarray  # (N,3) radiosity of every patch
+    G: np.ndarray  # (N,3) gathered indirect light F B
+    solution: solver.Solution
+    options: Options
+    records: dict[int, list[_Record]]
+    ambient: np.ndarray  # (3,) area-weighted mean G (for unmeshed objects)
+    stats: dict[str, float] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    _field: VertexField | None = None
+
+    @property
+    def field(self) -> VertexField:
+        if self._field is None:
+            self._field = VertexField(self.patches, self.G, flat=self.options.flat)
+        return self._field
+
+    def gathered(
+        self, obj: int, points: np.ndarray, ray_dir: np.ndarray, prim: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(M,3) indirect light arriving at hit points of object `obj` (index into
+        Prepared.objects), seen along `ray_dir`; brightness applied. Multiply by the
+        surface's pigment × diffuse."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        ray_dir = np.asarray(ray_dir, dtype=np.float64).reshape(-1, 3)
+        recs = self.records.get(int(obj))
+        out = np.broadcast_to(self.ambient, (len(points), 3)).copy()
+        if not recs or len(points) == 0:
+            return out * self.options.brightness
+        element, ok = _find_elements(recs, points, ray_dir, prim)
+        if ok.any():
+            out[ok] = self.field.lookup(element[ok], points[ok])
+        # The side facing the viewer was not meshed: nothing can light it.
+        out[~ok] = 0.0
+        return out * self.options.brightness
+
+
+# ------------------------------------------------------------------ building
+
+
+def scene_bounds(objects: list[ir.Object], extra: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+    """World bounding box of the finite objects and the extra points (lights)."""
+    from runtime import shapes  # lazily: only radiosity scenes need it here
+
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for obj in objects:
+        prim = shapes.primitive_for(obj.shape) if not isinstance(obj.shape, ir.Mesh) else None
+        if isinstance(obj.shape, ir.Mesh):
+            v = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(obj.shape.vertices))
+            a, b = v.min(axis=0), v.max(axis=0)
+        elif prim is not None:
+            a, b = prim.bounds()
+            a, b = tf.aabb_transform(
+                tf.as_matrix(obj.transform), np.asarray(a, float), np.asarray(b, float)
+            )
+        else:
+            continue
+        if np.all(np.isfinite(a)) and np.all(np.isfinite(b)):
+            lo, hi = np.minimum(lo, a), np.maximum(hi, b)
+    for p in extra:
+        lo, hi = np.minimum(lo, p), np.maximum(hi, p)
+    if not np.all(np.isfinite(lo)):
+        lo, hi = -np.ones(3), np.ones(3)
+    return lo, hi
+
+
+class _SceneMesher:
+    def __init__(self, prepared, opts: Options):
+        self.prepared = prepared
+        self.opts = opts
+        self.records: dict[int, list[_Record]] = {}
+        self.warnings: list[str] = []
+        scene: ir.Scene = prepared.scene
+        self.lights = [np.asarray(light.position, dtype=np.float64) for light in scene.lights]
+        self.indices = _meshable(prepared)
+        objs = [prepared.objects[i] for i in self.indices]
+        self.lo, self.hi = scene_bounds(objs, [] if objs else self.lights)
+        self.extent = float(np.linalg.norm(self.hi - self.lo)) or 1.0
+        size = opts.patch_size or self.extent / 8
+        self.mesher = Mesher(size)
+        # Witness points: where light can come from or go to (other objects, lights).
+        self.witness: dict[int, np.ndarray] = {}
+        boxes = []
+        for i in self.indices:
+            lo, hi = scene_bounds([prepared.objects[i]], [])
+            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                                for z in (lo[2], hi[2])])  # fmt: skip
+            boxes.append((i, np.vstack([corners, (lo + hi) / 2])))
+        for i, _ in boxes:
+            pts = [c for j, c in boxes if j != i] + [np.array(self.lights).reshape(-1, 3)]
+            self.witness[i] = np.vstack(pts) if pts else np.zeros((0, 3))
+
+    def warn(self, msg: str) -> None:
+        if msg not in self.warnings:
+            self.warnings.append(msg)
+
+    def material(self, obj: ir.Object, where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(ρ, emission) RGB of an object's texture averaged over sample points."""
+        from runtime import patterns
+
+        tex = obj.texture
+        rgb = patterns.evaluate(tex.pigment, where)[:, :3].mean(axis=0)
+        if tex.layers:
+            self.warn("layered textures: radiosity uses the base layer's colour")
+        fin = tex.finish
+        rho = np.clip(rgb * fin.diffuse, 0.0, 0.999)
+        emis = rgb * np.asarray(fin.emission, dtype=np.float64)
+        return rho, emis
+
+    def sides_of_plane(self, i: int, point: np.ndarray, normal: np.ndarray) -> tuple[bool, ...]:
+        h = (self.witness[i] - point) @ normal
+        eps = _SIDE_REL * self.extent
+        sides = tuple(
+            flip for flip, ok in ((False, (h > eps).any()), (True, (h < -eps).any())) if ok
+        )
+        return sides
+
+    def run(self) -> None:
+        for i in self.indices:
+            obj = self.prepared.objects[i]
+            self.object(i, obj)
+
+    def object(self, i: int, obj: ir.Object) -> None:
+        shape = obj.shape
+        m = tf.as_matrix(obj.transform)
+        el = self.mesher.el
+        recs: list[_Record] = []
+        if isinstance(shape, ir.Sphere):
+            s = tf.compose(m, tf.translation(shape.center), np.diag([shape.radius] * 3 + [1.0]))
+            centre = s[:3, 3]
+            local = (self.witness[i] - centre) @ np.linalg.inv(s[:3, :3]).T
+            r2 = np.einsum("nc,nc->n", local, local)
+            outside, inside = bool((r2 > 1).any()), bool((r2 < 1).any())
+            rho, emis = self.material(obj, centre[None])
+            first = len(el)
+            n_phi, n_theta = self.mesher.sphere(
+                s, rho=rho, emission=emis, surface=i, outside=outside, inside=inside
+            )
+            sides = tuple(f for f, ok in ((False, outside), (True, inside)) if ok)
+            recs.append(_Record("sphere", first, n_phi * n_theta, sides, matrix=s,
+                                n_phi=n_phi, n_theta=n_theta))  # fmt: skip
+        elif isinstance(shape, ir.Box):
+            lo = np.minimum(shape.corner1, shape.corner2)
+            hi = np.maximum(shape.corner1, shape.corner2)
+            rho, emis = self.material(obj, tf.apply_points(m, ((lo + hi) / 2)[None]))
+            for p0, eu, ev in box_faces(lo, hi):
+                self._grid(i, recs, tf.apply_points(m, p0[None])[0], tf.apply_dirs(m, eu[None])[0],
+                           tf.apply_dirs(m, ev[None])[0], rho, emis, solid=True)  # fmt: skip
+        elif isinstance(shape, ir.Plane):
+            self._plane(i, recs, shape, m, obj)
+        elif isinstance(shape, ir.Polygon | ir.Disc):
+            pts = _polygon_points(shape)
+            pts = tf.apply_points(m, pts)
+            rho, emis = self.material(obj, pts)
+            if len(pts) == 4 and np.allclose(pts[0] + pts[2], pts[1] + pts[3], atol=1e-12):
+                self._grid(i, recs, pts[0], pts[1] - pts[0], pts[3] - pts[0], rho, emis)
+            else:
+                from runtime.radiosity.formfactor import polygon_normal_area
+
+                n, _ = polygon_normal_area(pts[None])
+                sides = self.sides_of_plane(i, pts[0], n[0])
+                first = len(el)
+                self.mesher.polygon(pts, rho=rho, emission=emis, surface=i, sides=sides)
+                recs.append(_Record("tris", first, (len(el) - first) // max(1, len(sides)), sides))
+        elif isinstance(shape, ir.Triangle | ir.Mesh):
+            if isinstance(shape, ir.Triangle):
+                v = np.array([shape.p1, shape.p2, shape.p3], dtype=np.float64)
+                f = np.array([[0, 1, 2]])
+            else:
+                v = np.asarray(shape.vertices, dtype=np.float64).reshape(-1, 3)
+                f = np.asarray(shape.faces, dtype=np.int64).reshape(-1, 3)
+            v = tf.apply_points(m, v)
+            rho, emis = self.material(obj, v)
+            first = len(el)
+            # Triangle geometry has no inside: the winding's side only (documented limit).
+            self.mesher.mesh(v, f, rho=rho, emission=emis, surface=i, sides=(False,))
+            recs.append(_Record("tris", first, len(f), (False,)))
+        else:
+            self.warn(f"{type(shape).__name__} gets no radiosity patches (ambient estimate)")
+        if recs:
+            self.records[i] = recs
+
+    def _grid(self, i, recs, p0, eu, ev, rho, emis, solid=False) -> None:
+        n = np.cross(eu, ev)
+        n = n / np.linalg.norm(n)
+        if solid:
+            # A solid's face: the outer side, plus the inner one if something is inside.
+            sides = (False,) + ((True,) if self._inside_solid(i) else ())
+        else:
+            sides = self.sides_of_plane(i, p0, n)
+        if not sides:
+            return
+        first = len(self.mesher.el)
+        nu, nv = self.mesher.parallelogram(
+            p0, eu, ev, rho=rho, emission=emis, surface=i, sides=sides
+        )
+        recs.append(_Record("grid", first, nu * nv, sides, p0=p0, eu=eu, ev=ev, nu=nu, nv=nv))
+
+    def _inside_solid(self, i: int) -> bool:
+        obj = self.prepared.objects[i]
+        m_inv = tf.inverse(tf.as_matrix(obj.transform))
+        local = tf.apply_points(m_inv, self.witness[i])
+        s = obj.shape
+        lo, hi = np.minimum(s.corner1, s.corner2), np.maximum(s.corner1, s.corner2)
+        return bool(np.all((local > lo) & (local < hi), axis=1).any())
+
+    def _plane(self, i, recs, shape: ir.Plane, m, obj) -> None:
+        n_obj = np.asarray(shape.normal, dtype=np.float64)
+        p_obj = n_obj * shape.distance / float(n_obj @ n_obj)
+        p = tf.apply_points(m, p_obj[None])[0]
+        n = tf.apply_normals(tf.inverse(m), n_obj[None])[0]
+        # Clip the infinite plane to the scene's bounds (plus 10%): a parallelogram that
+        # covers the projection of the bounding box.
+        pad = 0.1 * (self.hi - self.lo) + 1e-9 * self.extent
+        lo, hi = self.lo - pad, self.hi + pad
+        a = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
+        a /= np.linalg.norm(a)
+        b = np.cross(n, a)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])  # fmt: skip
+        ca, cb = (corners - p) @ a, (corners - p) @ b
+        p0 = p + ca.min() * a + cb.min() * b
+        eu, ev = (ca.max() - ca.min()) * a, (cb.max() - cb.min()) * b
+        if np.cross(eu, ev) @ n < 0:
+            eu, ev = ev, eu
+        rho, emis = self.material(obj, (p0 + 0.5 * (eu + ev))[None])
+        self._grid(i, recs, p0, eu, ev, rho, emis)
+        self.warn("infinite planes are clipped to the scene's bounds for radiosity")
+
+
+def _polygon_points(shape) -> np.ndarray:
+    if isinstance(shape, ir.Disc):
+        c = np.asarray(shape.center, dtype=np.float64)
+        n = np.asarray(shape.normal, dtype=np.float64)
+        n = n / np.linalg.norm(n)
+        a = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
+        a /= np.linalg.norm(a)
+        b = np.cross(n, a)
+        k = 48
+        t = 2 * np.pi * np.arange(k) / k
+        return c + shape.radius * (np.cos(t)[:, None] * a + np.sin(t)[:, None] * b)
+    pts = [np.asarray(p, dtype=np.float64) for p in shape.points]
+    # First sub-polygon only (it closes where a point repeats the first one).
+    for k in range(1, len(pts)):
+        if np.array_equal(pts[k], pts[0]):
+            return np.array(pts[:k])
+    return np.array(pts)
+
+
+def _meshable(prepared) -> list[int]:
+    """Indices of top-level objects (not CSG parts, not clipped): analytic leaves that are
+    tracer nodes themselves, and triangle leaves."""
+    from runtime.trace import Leaf
+
+    out = [n.index for n in prepared.tracer.nodes if isinstance(n, Leaf) and n.index >= 0]
+    tri = prepared.tracer.triangles
+    if tri is not None and len(getattr(tri, "leaf_of", ())):
+        out += [int(i) for i in np.unique(tri.leaf_of)]
+    return sorted(set(out))
+
+
+def _unmeshed_tracer(prepared, meshed: set[int]):
+    """A tracer over the objects that got no patches (they still block light), or None."""
+    from runtime.trace import Leaf, Tracer
+
+    nodes = [n for n in prepared.tracer.nodes if not (isinstance(n, Leaf) and n.index in meshed)]
+    if not nodes:
+        return None
+    return Tracer(nodes, None, {}, prepared.tracer.sizes)
+
+
+def _find_elements(recs, points, ray_dir, prim):
+    """Element of each point among an object's records, and whether one was found."""
+    m = len(points)
+    best = np.full(m, np.inf)
+    element = np.zeros(m, dtype=np.int64)
+    ok = np.zeros(m, dtype=bool)
+    for rec in recs:
+        if rec.kind == "grid":
+            n = np.cross(rec.eu, rec.ev)
+            n /= np.linalg.norm(n)
+            dist = np.abs((points - rec.p0) @ n)
+            g = np.array([[rec.eu @ rec.eu, rec.eu @ rec.ev], [rec.eu @ rec.ev, rec.ev @ rec.ev]])
+            d = points - rec.p0
+            uv = np.linalg.solve(g, np.stack([d @ rec.eu, d @ rec.ev]))
+            i = np.clip((uv[0] * rec.nu).astype(np.int64), 0, rec.nu - 1)
+            j = np.clip((uv[1] * rec.nv).astype(np.int64), 0, rec.nv - 1)
+            cell = j * rec.nu + i
+            facing_front = ray_dir @ n < 0
+        elif rec.kind == "sphere":
+            inv = np.linalg.inv(rec.matrix)
+            local = points @ inv[:3, :3].T + inv[:3, 3]
+            r = np.linalg.norm(local, axis=1)
+            dist = np.abs(r - 1.0) * np.linalg.svd(rec.matrix[:3, :3], compute_uv=False).max()
+            local = local / np.maximum(r, 1e-300)[:, None]
+            theta = np.arccos(np.clip(local[:, 1], -1, 1)) / np.pi
+            phi = (np.arctan2(local[:, 2], local[:, 0]) / (2 * np.pi)) % 1.0
+            i = np.minimum((phi * rec.n_phi).astype(np.int64), rec.n_phi - 1)
+            j = np.minimum((theta * rec.n_theta).astype(np.int64), rec.n_theta - 1)
+            cell = j * rec.n_phi + i
+            # Outward normal in world space: inverse-transpose of the local position.
+            nw = local @ inv[:3, :3]
+            facing_front = np.einsum("nc,nc->n", ray_dir, nw) < 0
+        else:  # tris
+            cell, dist, facing_front = _tri_lookup(rec, points, ray_dir, prim)
+        for k, flip in enumerate(rec.sides):
+            want = facing_front != flip
+            take = want & (dist < best)
+            element[take] = rec.first + k * rec.per_side + cell[take]
+            best[take] = dist[take]
+            ok[take] = True
+    return element, ok
+
+
+def _tri_lookup(rec, points, ray_dir, prim):
+    """Triangle records: the face from `prim` (meshes: one element per face), else the
+    record's triangle nearest to each point (polygons: a handful of triangles)."""
+    p0, e1, e2 = rec.p0, rec.eu, rec.ev  # per-triangle arrays (_attach_triangle_geometry)
+    n = np.cross(e1, e2)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    if prim is not None and rec.per_side == len(p0) and len(p0) > 1 and (prim >= 0).all():
+        cell = np.clip(np.asarray(prim, dtype=np.int64), 0, len(p0) - 1)
+    else:
+        # Barycentric coordinates against every triangle (polygons have few).
+        d = points[:, None, :] - p0[None]
+        g11 = np.einsum("tc,tc->t", e1, e1)
+        g22 = np.einsum("tc,tc->t", e2, e2)
+        g12 = np.einsum("tc,tc->t", e1, e2)
+        b1 = np.einsum("mtc,tc->mt", d, e1)
+        b2 = np.einsum("mtc,tc->mt", d, e2)
+        det = g11 * g22 - g12 * g12
+        u = (g22 * b1 - g12 * b2) / det
+        v = (g11 * b2 - g12 * b1) / det
+        outside = np.maximum.reduce([-u, -v, u + v - 1, np.zeros_like(u)])
+        plane = np.abs(np.einsum("mtc,tc->mt", d, n))
+        cell = np.argmin(outside * 1e6 + plane, axis=1)
+    dist = np.abs(np.einsum("mc,mc->m", points - p0[cell], n[cell]))
+    facing_front = np.einsum("mc,mc->m", ray_dir, n[cell]) < 0
+    return cell, dist, facing_front
+
+
+# ------------------------------------------------------------------ lighting
+
+
+def direct_light(prepared, patches: Patches, samples: int, rng) -> np.ndarray:
+    """(N,3) light-source light arriving at each patch (POV units: colour·cos θ, shadowed),
+    averaged over `samples` points on the patch's true surface."""
+    from runtime import shading
+
+    n = len(patches)
+    out = np.zeros((n, 3))
+    lights = prepared.scene.lights
+    if not lights or n == 0:
+        return out
+    pts = patches.sample_points(samples, rng).reshape(-1, 3)
+    nrm = np.repeat(patches.normal, samples, axis=0)
+    for light in lights:
+        ls = shading.sample_light(light, pts)
+        cos = np.einsum("nc,nc->n", nrm, ls.direction)
+        lit = (cos > 0) & (ls.colour.max(axis=1) > 0)
+        if not light.shadowless and lit.any():
+            rows = np.nonzero(lit)[0]
+            depth = np.where(np.isfinite(ls.distance[rows]), ls.distance[rows], 1e30)
+            blocked = prepared.tracer.occluded(
+                pts[rows], ls.direction[rows], tmax=depth * (1 - 1e-9), tmin=1e-6 * (
+                    1 + np.linalg.norm(pts[rows], axis=1))
+            )  # fmt: skip
+            lit[rows[blocked]] = False
+        contrib = np.where(lit[:, None], np.maximum(cos, 0)[:, None] * ls.colour, 0.0)
+        out += contrib.reshape(n, samples, 3).mean(axis=1)
+    return out
+
+
+# ------------------------------------------------------------------ pipeline
+
+
+def content_key(scene: ir.Scene, opts: Options) -> str:
+    """A hash of everything the solution depends on: objects, lights, radiosity options.
+    Not the camera (viewer independence), not source positions (spans)."""
+    h = hashlib.sha256()
+    h.update(f"strala-radiosity-{CACHE_VERSION}".encode())
+    _hash_value(h, (scene.objects, scene.lights, opts))
+    return h.hexdigest()
+
+
+def _hash_value(h, v) -> None:
+    if dataclasses.is_dataclass(v) and not isinstance(v, type):
+        h.update(type(v).__name__.encode())
+        for f in dataclasses.fields(v):
+            if f.name == "span":
+                continue
+            h.update(f.name.encode())
+            _hash_value(h, getattr(v, f.name))
+    elif isinstance(v, np.ndarray):
+        h.update(str(v.dtype).encode() + str(v.shape).encode())
+        h.update(np.ascontiguousarray(v).tobytes())
+    elif isinstance(v, tuple | list):
+        h.update(b"(")
+        for x in v:
+            _hash_value(h, x)
+        h.update(b")")
+    elif isinstance(v, dict):
+        for k in sorted(v, key=str):
+            h.update(str(k).encode())
+            _hash_value(h, v[k])
+    elif isinstance(v, float):
+        h.update(float(v).hex().encode())
+    else:
+        h.update(repr(v).encode())
+
+
+def default_cache_dir() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "strala" / "radiosity"
+
+
+def compute(
+    prepared, opts: Options | None = None, *, cache_dir: Path | None = None, log=None
+) -> RadiosityResult:
+    """The radiosity solution of a prepared scene (cached when `cache_dir` is given)."""
+    scene: ir.Scene = prepared.scene
+    if opts is None:
+        r = scene.settings.radiosity or ir.Radiosity()
+        opts = Options.from_ir(r)
+    key = content_key(scene, opts)
+    path = None
+    if cache_dir is not None:
+        path = Path(cache_dir) / f"{key}.pkl"
+        if path.exists():
+            try:
+                with path.open("rb") as f:
+                    res = pickle.load(f)
+                res.stats["cache_hit"] = 1.0
+                return res
+            except (OSError, pickle.UnpicklingError, EOFError, AttributeError):
+                pass  # a stale or broken cache file: recompute and overwrite it
+    res = _compute(prepared, opts, log)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp")
+        with tmp.open("wb") as f:
+            pickle.dump(dataclasses.replace(res, _field=None), f)
+        tmp.replace(path)
+    return res
+
+
+def _compute(prepared, opts: Options, log) -> RadiosityResult:
+    t_start = time.perf_counter()
+    say = log or (lambda msg: None)
+    sm = _SceneMesher(prepared, opts)
+    sm.run()
+    stats: dict[str, float] = {}
+    if len(sm.mesher.el) == 0:
+        return _empty_result(sm, opts)
+    patches = sm.mesher.patches()
+    patches.refine_to(sm.mesher.size, opts.max_patches)
+    _attach_triangle_geometry(sm)
+    extra = _unmeshed_tracer(prepared, set(sm.records))
+    rng = np.random.default_rng(opts.seed)
+    min_size = sm.mesher.size / 16
+    threshold_rel = 0.02 * opts.error_bound
+    sol = None
+    ff_s = solve_s = 0.0
+    for round_ in range(opts.max_rounds + 1):
+        t0 = time.perf_counter()
+        n = len(patches)
+        pts = patches.sample_points(opts.vis_samples, rng)
+        vis = PatchVisibility(patches.verts, extra)
+        if solver.fits_dense(n):
+            F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
+                             far_ratio=opts.far_ratio, visible=vis,
+                             vis_samples=opts.vis_samples, seed=opts.seed + round_,
+                             vis_points=(pts, pts))  # fmt: skip
+            rows = None
+        else:  # memory-bounded: rows on demand for progressive refinement
+            F = None
+
+            def rows(idx, pts=pts, vis=vis):
+                return form_factors(patches.verts[idx], patches.verts, order=opts.order,
+                                    far_order=opts.far_order, far_ratio=opts.far_ratio,
+                                    visible=vis, vis_points=(pts[idx], pts))  # fmt: skip
+
+        ff_s += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        D = direct_light(prepared, patches, opts.light_samples, rng)
+        E = patches.emission + patches.reflectance * D
+        sol = solver.solve(F, patches.reflectance, E, patches.area, method=opts.method,
+                           tol=opts.tolerance, rows=rows)  # fmt: skip
+        solve_s += time.perf_counter() - t0
+        say(f"radiosity round {round_}: {n} patches, {sol.method} {sol.iterations} iterations, "
+            f"residual {sol.residual:.2e}")  # fmt: skip
+        if round_ == opts.max_rounds:
+            break
+        field = VertexField(patches, sol.B)
+        mean = float((luminance(sol.B) * patches.area).sum() / patches.area.sum())
+        mask = refine_mask(field, threshold_rel * max(mean, 1e-12), min_size)
+        k = int(mask.sum())
+        if k == 0 or n + 3 * k > opts.max_patches:
+            break
+        patches.subdivide(mask)
+    assert sol is not None
+    B = sol.B
+    if F is not None:
+        G = F @ B
+        # Light that leaves a patch and hits nothing escapes. Patches that see nothing at
+        # all (buried under a box) are not openings, so only patches that see something
+        # count.
+        sums = F.sum(axis=1)
+        seen = sums > 0.05
+        a = patches.area[seen]
+        open_fraction = float(1.0 - (a * sums[seen]).sum() / a.sum()) if seen.any() else 1.0
+    else:
+        G = (B - patches.emission) / np.maximum(patches.reflectance, 1e-12) - D
+        open_fraction = 0.0
+    G = np.maximum(G, 0.0)
+    if open_fraction > OPEN_FRACTION:
+        sm.warn(
+            f"the scene is not closed: {100 * open_fraction:.0f}% of the light leaving its "
+            "surfaces escapes (the radiosity method assumes a closed scene)"
+        )
+    ambient = (G * patches.area[:, None]).sum(axis=0) / patches.area.sum()
+    stats.update(
+        patches=float(len(patches)),
+        form_factor_seconds=ff_s,
+        solve_seconds=solve_s,
+        seconds=time.perf_counter() - t_start,
+        open_fraction=open_fraction,
+        iterations=float(sol.iterations),
+        residual=sol.residual,
+    )
+    return RadiosityResult(patches, B, G, sol, opts, sm.records, ambient, stats, sm.warnings)
+
+
+def _empty_result(sm, opts) -> RadiosityResult:
+    m = Mesher(1.0)
+    m.parallelogram([0, 0, 0], [1, 0, 0], [0, 1, 0], rho=0.0)
+    p = m.patches()
+    z = np.zeros((1, 3))
+    sol = solver.Solution(z, "none", 0, 0.0, True, 0.0)
+    sm.warn("radiosity: no surface could be meshed")
+    return RadiosityResult(p, z, z, sol, opts, {}, np.zeros(3), {}, sm.warnings)
+
+
+def _attach_triangle_geometry(sm: _SceneMesher) -> None:
+    """Triangle records keep per-triangle (p0, e1, e2) arrays for hit lookup."""
+    a = sm.mesher.el.arrays()
+    for recs in sm.records.values():
+        for rec in recs:
+            if rec.kind == "tris":
+                sl = slice(rec.first, rec.first + rec.per_side)
+                rec.p0, rec.eu, rec.ev = a["p0"][sl], a["eu"][sl], a["ev"][sl]
