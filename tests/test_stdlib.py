@@ -1,13 +1,17 @@
 """The bundled include files (stdlib/*.inc): they parse and evaluate cleanly, and they give
 every name POV-Ray 3.7's own include files give, with the same values.
 
-Two oracles, both skipped where POV-Ray is not installed:
+Oracles (each skipped where POV-Ray or its include files are not installed):
 - POV-Ray's include files, evaluated *by strala*: every colour, finish, texture, number …
   they declare must exist in strala's file of the same name with an equal value (1e-9).
-  This checks the data without depending on strala's evaluator being right about POV-Ray.
-- POV-Ray itself (`povray`), for the macros: colour-space conversions, vector maths and
-  transform builders are evaluated by POV-Ray (with its own includes) and by strala (with
-  the stdlib) on the same inputs, and the results must agree.
+  Both sides go through the same evaluator, so this checks the stdlib's data even where
+  the evaluator itself might be wrong about POV-Ray.
+- POV-Ray itself (`povray`) running strala's files in place of its own: the macros give
+  the same numbers, and a gallery of every finish, texture, pigment, material and interior
+  renders to the very same pixels. These hold independently of strala's evaluator.
+- POV-Ray against strala, for the macros: colour-space conversions, vector maths and
+  transform builders evaluated by POV-Ray (with its own includes) and by strala (with the
+  stdlib) on the same inputs must agree.
 """
 
 from __future__ import annotations
