@@ -1,0 +1,131 @@
+"""The radiosity pipeline on small IR scenes: energy, no double counting, warnings, cache."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lang import ir
+from runtime.prepare import prepare
+from runtime.radiosity import system
+
+
+def _tex(rgb=(1.0, 1.0, 1.0), diffuse=0.5, emission=0.0) -> ir.Texture:
+    return ir.Texture(
+        pigment=ir.Pigment(color=(*rgb, 0.0, 0.0)),
+        finish=ir.Finish(ambient=(0.0, 0.0, 0.0), diffuse=diffuse, emission=(emission,) * 3),
+    )
+
+
+def _scene(objects, lights=(), camera=None) -> ir.Scene:
+    return ir.Scene(camera=camera or ir.Camera(location=(0.5, 0.5, 0.5)), objects=objects,
+                    lights=tuple(lights))  # fmt: skip
+
+
+def _solve(scene, **kw):
+    opts = system.Options(**{"patch_size": 0.5, "max_rounds": 0, **kw})
+    return system.compute(prepare(scene, 8, 8), opts)
+
+
+def test_closed_room_is_a_white_furnace():
+    """Inside a box whose walls all emit E = 0.05 with ρ = 0.5, every inner wall shows
+    B = E/(1−ρ) = 0.1 and gathers G = B (the room is closed: every row sums to 1 up to the
+    far-field quadrature). A dark light inside only tells the mesher the inside matters."""
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex(emission=0.05))
+    dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
+    r = _solve(_scene((room,), [dark]))
+    inside = np.einsum("nc,nc->n", r.patches.normal, 1.0 - r.patches.centroid) > 0
+    assert inside.sum() == len(r.patches) // 2
+    assert np.allclose(r.B[inside], 0.1, rtol=0.01)
+    assert np.allclose(r.G[inside], 0.1, rtol=0.01)
+    assert not any("not closed" in w for w in r.warnings)
+    # Lookup at hit points, seen from inside: the gathered light of the wall.
+    pts = np.array([[0.3, 0.0, 1.1], [1.7, 2.0, 0.4], [0.0, 1.2, 1.9]])
+    view = np.array([[0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+    assert np.allclose(r.gathered(0, pts, view), 0.1, rtol=0.01)
+
+
+def test_light_sources_are_not_counted_twice():
+    """A lone floor under a point light: the light's direct term is the renderer's, so the
+    floor gathers nothing; B = ρ·D with D = cos θ (POV units, no falloff). Adding a wall
+    gives the floor indirect light G = F B from the wall only."""
+    floor = ir.Object(ir.Polygon(((0, 0, 0), (0, 0, 2), (2, 0, 2), (2, 0, 0))), texture=_tex())
+    light = ir.Light((1.0, 100.0, 1.0))
+    r = _solve(_scene((floor,), [light]))
+    assert np.allclose(r.G, 0.0)
+    assert np.allclose(r.B, 0.5, rtol=1e-3)  # cos θ ≈ 1 under a far light, ρ = 0.5
+    wall = ir.Object(ir.Polygon(((0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0))), texture=_tex())
+    r2 = _solve(_scene((floor, wall), [ir.Light((1.0, 1.0, 100.0))]))
+    on_floor = r2.patches.surface == 0
+    assert np.all(r2.G[on_floor] > 0)
+    # The floor sees only the wall: its gathered light is at most the wall's brightest B.
+    assert r2.G[on_floor].max() <= r2.B[~on_floor].max()
+    assert any("not closed" in w for w in r2.warnings)
+
+
+def test_emitter_lights_a_box_and_shadows_are_traced():
+    """An emissive ceiling over a floor with a blocker between: the floor under the blocker
+    gathers less than the floor in the open."""
+    ceiling = ir.Object(ir.Polygon(((0, 2, 0), (2, 2, 0), (2, 2, 2), (0, 2, 2))),
+                        texture=_tex(diffuse=0.0, emission=1.0))  # fmt: skip
+    floor = ir.Object(ir.Polygon(((0, 0, 0), (0, 0, 2), (2, 0, 2), (2, 0, 0))), texture=_tex())
+    blocker = ir.Object(ir.Box((0.0, 0.9, 0.0), (1.0, 1.0, 2.0)), texture=_tex())
+    r = _solve(_scene((ceiling, floor, blocker)), patch_size=0.25)
+    g = r.gathered(1, np.array([[0.5, 0.0, 1.0], [1.6, 0.0, 1.0]]), np.array([[0, -1.0, 0]] * 2))
+    assert g[0, 0] < 0.5 * g[1, 0]
+
+
+def test_sphere_hits_find_their_patch():
+    room = ir.Object(ir.Box((-3, -3, -3), (3, 3, 3)), texture=_tex(emission=0.05))
+    ball = ir.Object(ir.Sphere((0.0, 0.0, 0.0), 1.0), texture=_tex((1.0, 0.2, 0.2)))
+    r = _solve(_scene((room, ball)))
+    on_ball = r.patches.surface == 1
+    assert on_ball.any()
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(50, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    g = r.gathered(1, d, -d)  # seen from outside, looking at the centre
+    lo, hi = r.G[on_ball].min(axis=0), r.G[on_ball].max(axis=0)
+    assert np.all(g >= lo - 1e-9) and np.all(g <= hi + 1e-9)
+    flat = system.RadiosityResult(**{**r.__dict__, "options": system.Options(flat=True),
+                                     "_field": None})  # fmt: skip
+    gf = flat.gathered(1, d, -d)
+    assert np.all(gf >= lo - 1e-12) and np.all(gf <= hi + 1e-12)
+
+
+def test_cache_is_viewer_independent(tmp_path):
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex(emission=0.05))
+    dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
+    opts = system.Options(patch_size=1.0, max_rounds=0)
+    a = _scene((room,), [dark], camera=ir.Camera(location=(1, 1, 1)))
+    b = _scene((room,), [dark], camera=ir.Camera(location=(0.5, 1.5, 0.2), angle=30.0))
+    assert system.content_key(a, opts) == system.content_key(b, opts)
+    first = system.compute(prepare(a, 8, 8), opts, cache_dir=tmp_path)
+    again = system.compute(prepare(b, 8, 8), opts, cache_dir=tmp_path)
+    assert "cache_hit" not in first.stats and again.stats.get("cache_hit") == 1.0
+    assert np.array_equal(first.B, again.B)
+    red = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex((1.0, 0, 0), emission=0.05))
+    assert system.content_key(_scene((red,), [dark]), opts) != system.content_key(a, opts)
+    assert system.content_key(a, system.Options(patch_size=0.5)) != system.content_key(a, opts)
+
+
+def test_plane_is_clipped_to_the_scene():
+    ground = ir.Object(ir.Plane((0.0, 1.0, 0.0), -1.0), texture=_tex())
+    ball = ir.Object(ir.Sphere((0.0, 0.0, 0.0), 1.0), texture=_tex())
+    r = _solve(_scene((ground, ball), [ir.Light((0.0, 10.0, 0.0))]), patch_size=1.0)
+    on_plane = r.patches.surface == 0
+    c = r.patches.centroid[on_plane]
+    assert np.allclose(c[:, 1], -1.0)
+    assert np.abs(c[:, [0, 2]]).max() < 3.0  # bounds of the sphere, plus 10 %, not infinity
+    assert np.allclose(r.patches.normal[on_plane], [0, 1, 0])  # only the side that sees
+    assert any("clipped" in w for w in r.warnings)
+
+
+@pytest.mark.parametrize("method", ["gauss_seidel", "progressive", "direct"])
+def test_every_method_gives_the_same_room(method):
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex(emission=0.05))
+    dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
+    r = _solve(_scene((room,), [dark]), method=method, tolerance=1e-6)
+    inside = np.einsum("nc,nc->n", r.patches.normal, 1.0 - r.patches.centroid) > 0
+    assert r.solution.method == method
+    assert np.allclose(r.B[inside], 0.1, rtol=0.01)
