@@ -7,7 +7,7 @@ import types
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
@@ -52,14 +52,14 @@ def test_jpeg_is_close(tmp_path):
 
 
 @given(hnp.arrays(np.float32, (3, 4, 3), elements=st.floats(-2, 3, width=32)))
+@example(np.full((3, 4, 3), 0.3, dtype=np.float32))  # 0.3 * 255 is a float32 tie
 def test_8bit_quantisation_rounds_and_clips(tmp_path_factory, pixels):
     path = tmp_path_factory.mktemp("q") / "q.png"
     image.write_pixels(path, pixels, 8)
-    stored = np.rint(image.read_image(path) * 255).astype(int)
-    expected = np.rint(np.clip(pixels.astype(np.float64), 0, 1) * 255).astype(int)
-    # float32 → 8 bits: ties may round either way, nothing else may differ
-    assert np.max(np.abs(stored - expected)) <= 1
-    assert np.mean(stored == expected) > 0.9
+    stored = np.rint(image.read_image(path).astype(np.float64) * 255)
+    exact = np.clip(pixels.astype(np.float64), 0, 1) * 255
+    # rounded to the nearest level (a float32 tie such as 0.3*255 may go either way)
+    assert np.max(np.abs(stored - exact)) <= 0.5 + 1e-4
 
 
 @pytest.mark.parametrize(
