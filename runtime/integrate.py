@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lang import ir
-from runtime import patterns, shading
+from runtime import color, patterns, shading
 from runtime.shading import GREY, Surface
 
 # A shadow ray crosses at most this many transparent surfaces before it counts as blocked
@@ -60,6 +60,7 @@ class Context:
     double_illuminate: np.ndarray  # (n_obj,) bool
     ior: np.ndarray  # (n_obj,) interior ior
     legacy_opacity: bool  # pre-3.7 transparency formula
+    gamma: float | None  # working gamma (None: legacy), for image files
     background: np.ndarray  # (3,)
     stats: dict[str, int] = field(default_factory=dict)
 
@@ -138,6 +139,7 @@ def make_context(prepared) -> Context:
         double_illuminate=np.array([o.double_illuminate for o in objs], dtype=bool),
         ior=np.array([o.interior.ior for o in objs], dtype=np.float64),
         legacy_opacity=version is not None and version < 3.7,
+        gamma=color.working_gamma(scene.settings),
         background=np.asarray(scene.background[:3], dtype=np.float64),
     )
 
@@ -200,7 +202,7 @@ def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
     fil = np.ones((n, 3))
     if ctx.scene.sky_sphere:
         for pig in reversed(ctx.scene.sky_sphere):
-            c = patterns.evaluate(pig, dirs)
+            c = patterns.evaluate(pig, dirs, ctx.gamma)
             col += c[:, :3] * shading.opacity(c, False)[:, None] * fil
             fil *= shading.rgb_transmit(c)
     return col + ctx.background * fil
@@ -351,7 +353,7 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
             sel = np.nonzero(tex == tid)[0]
             t = np.ones((len(sel), 3))
             for layer in ctx.textures[tid]:
-                t *= shading.rgb_transmit(patterns.evaluate(layer.pigment, pts[sel]))
+                t *= shading.rgb_transmit(patterns.evaluate(layer.pigment, pts[sel], ctx.gamma))
             f[sel] = t
         mult[active_hit] *= f
         o[active_hit] = pts
@@ -375,7 +377,7 @@ def shade_texture(ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, r
         active = trans > s.adc_bailout
         if not active.any():
             break
-        colour = patterns.evaluate(layer.pigment, pts)
+        colour = patterns.evaluate(layer.pigment, pts, ctx.gamma)
         pig = colour[:, :3]
         fin = layer.finish
         if layer.normal is not None:

@@ -12,7 +12,7 @@ Unknown patterns render as the pattern's first colour with one warning each.
 
 `Pigment.params` keys read here: "orientation" (gradient vector), "brick_size", "mortar",
 "frequency", "phase", "wave" ("ramp_wave", "sine_wave", "triangle_wave", "scallop_wave",
-"cubic_wave", "poly_wave"), "exponent" (poly_wave), and the classic turbulence warp
+"cubic_wave", "poly_wave"), "wave_exponent" (poly_wave), and the classic turbulence warp
 "turbulence" (vector or float), "octaves" (6), "omega" (0.5), "lambda" (2.0).
 
 Noise: POV-Ray's noise tables are not reproduced; strala uses Perlin's improved gradient
@@ -77,8 +77,10 @@ def pattern_points(pigment: ir.Pigment | ir.Normal, points: np.ndarray) -> np.nd
     return points @ inv[:3, :3].T + inv[:3, 3]
 
 
-def evaluate(pigment: ir.Pigment, points: np.ndarray) -> np.ndarray:
-    """(N,5) float64 RGBFT colours of `pigment` at world points (N,3)."""
+def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0) -> np.ndarray:
+    """(N,5) float64 RGBFT colours of `pigment` at world points (N,3). `gamma` is the scene's
+    working gamma (None: legacy, no gamma handling), used to bring image files into the
+    working colour space."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = len(points)
     kind = pigment.pattern
@@ -89,13 +91,15 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray) -> np.ndarray:
         p = turbulence_warp(p, pigment.params)
     if kind in LIST_PATTERNS:
         index = LIST_PATTERNS[kind](p, pigment.params)
-        return _select(pigment, kind, index, points)
+        return _select(pigment, kind, index, points, gamma)
+    if kind == "image_map":
+        return image_map(pigment.params, p, gamma)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
-        return _fallback(pigment, points)
+        return _fallback(pigment, points, gamma)
     value = apply_wave(fn(p, pigment.params), pigment.params)
-    return _map(pigment, value, points)
+    return _map(pigment, value, points, gamma)
 
 
 # --------------------------------------------------------------- list patterns
@@ -149,14 +153,16 @@ def brick(p: np.ndarray, params: dict) -> np.ndarray:
 LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick}
 
 
-def _select(pigment: ir.Pigment, kind: str, index: np.ndarray, points: np.ndarray) -> np.ndarray:
+def _select(
+    pigment: ir.Pigment, kind: str, index: np.ndarray, points: np.ndarray, gamma: float | None
+) -> np.ndarray:
     entries: tuple = pigment.list or tuple(ir.Pigment(color=c) for c in DEFAULT_LISTS[kind])
     out = np.zeros((len(points), 5))
     index = np.minimum(index, len(entries) - 1)
     for i, sub in enumerate(entries):
         rows = np.nonzero(index == i)[0]
         if len(rows):
-            out[rows] = evaluate(sub, points[rows])
+            out[rows] = evaluate(sub, points[rows], gamma)
     return out
 
 
@@ -188,6 +194,119 @@ def boxed(p: np.ndarray, params: dict) -> np.ndarray:
 
 def leopard(p: np.ndarray, params: dict) -> np.ndarray:
     return (np.sin(p).sum(axis=1) / 3.0) ** 2
+
+
+# -------------------------------------------------------------------- image maps
+@lru_cache(maxsize=64)
+def _load_image(path: str, file_gamma: float | None, gamma: float | None) -> np.ndarray:
+    """(H, W, 4) RGBA float64 of an image file in the working colour space. Integer files
+    are sRGB unless `gamma` is given in the image_map; float files (EXR, HDR) are linear.
+    Legacy scenes (no working gamma) use the file's values unchanged, as POV-Ray does."""
+    import OpenImageIO as oiio  # runtime may use it; imported only by scenes with images
+
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise OSError(oiio.geterror() or f"cannot read {path}")
+    try:
+        spec = inp.spec()
+        pixels = np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float64)
+        is_float = spec.format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
+    finally:
+        inp.close()
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    ch = pixels.shape[2]
+    rgb = np.repeat(pixels[:, :, :1], 3, axis=2) if ch < 3 else pixels[:, :, :3]
+    alpha = pixels[:, :, 3] if ch >= 4 else (pixels[:, :, 1] if ch == 2 else None)
+    if gamma is not None:
+        if is_float:
+            linear = rgb
+        elif file_gamma is not None:
+            linear = np.clip(rgb, 0, None) ** file_gamma
+        else:
+            from runtime.color import srgb_decode
+
+            linear = srgb_decode(rgb)
+        rgb = np.clip(linear, 0, None) ** (1.0 / gamma) if gamma != 1.0 else linear
+    a = np.ones(rgb.shape[:2]) if alpha is None else alpha
+    return np.concatenate([rgb, a[:, :, None]], axis=2)
+
+
+def image_uv(p: np.ndarray, map_type: int) -> tuple[np.ndarray, np.ndarray]:
+    """Image coordinates (u, v) of pattern-space points: planar (0) maps the x-y unit square,
+    spherical (1) longitude/latitude around the y axis, cylindrical (2) the angle around y
+    and the height y."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    if map_type in (1, 2):
+        # The angle around y from +x toward +z, as a fraction of a turn (POV-Ray's theta).
+        u = np.mod(np.arctan2(z, x) / (2.0 * math.pi), 1.0)
+        if map_type == 2:
+            return u, y
+        r = np.linalg.norm(p, axis=1)
+        safe = np.where(r > 0, r, 1.0)
+        v = np.arcsin(np.clip(y / safe, -1.0, 1.0)) / math.pi + 0.5
+        return u, v
+    if map_type not in (0, 1, 2):
+        _warn(f"image_map map_type {map_type} is not supported yet: using planar mapping")
+    return x, y
+
+
+def image_map(params: dict, p: np.ndarray, gamma: float | None) -> np.ndarray:
+    """(N,5) colours of an `image_map` pigment at pattern-space points."""
+    n = len(p)
+    path = params.get("path")
+    if not path:
+        _warn(f"image `{params.get('file')}` was not found: rendering it black")
+        return np.zeros((n, 5))
+    file_gamma = params.get("gamma")
+    try:
+        img = _load_image(str(path), None if file_gamma is None else float(file_gamma), gamma)
+    except OSError as e:
+        _warn(f"image `{path}` could not be read ({e}): rendering it black")
+        return np.zeros((n, 5))
+    h, w = img.shape[:2]
+    u, v = image_uv(p, int(params.get("map_type", 0)))
+    inside = (u >= 0) & (u < 1) & (v >= 0) & (v < 1)
+    u = u - np.floor(u)
+    v = v - np.floor(v)
+    # Image row 0 is the top (v = 1).
+    fx = u * w
+    fy = (1.0 - v) * h
+    if int(params.get("interpolate", 0)) in (2, 4):
+        x0f = np.floor(fx - 0.5)
+        y0f = np.floor(fy - 0.5)
+        tx = (fx - 0.5) - x0f
+        ty = (fy - 0.5) - y0f
+        x0 = x0f.astype(np.int64) % w
+        y0 = y0f.astype(np.int64) % h
+        x1 = (x0 + 1) % w
+        y1 = (y0 + 1) % h
+        rgba = (
+            img[y0, x0] * ((1 - tx) * (1 - ty))[:, None]
+            + img[y0, x1] * (tx * (1 - ty))[:, None]
+            + img[y1, x0] * ((1 - tx) * ty)[:, None]
+            + img[y1, x1] * (tx * ty)[:, None]
+        )
+    else:
+        xi = np.clip(fx.astype(np.int64), 0, w - 1)
+        yi = np.clip(fy.astype(np.int64), 0, h - 1)
+        rgba = img[yi, xi]
+    out = np.zeros((n, 5))
+    out[:, :3] = rgba[:, :3]
+    for key, col in (("filter", 3), ("transmit", 4)):
+        val = params.get(key)
+        if val is None:
+            continue
+        if isinstance(val, tuple):  # (palette index, amount): no palettes here
+            _warn(f"image_map `{key}` for one palette entry is not supported: applied to all")
+            val = val[-1]
+        out[:, col] = float(val)
+    if params.get("use_alpha"):
+        out[:, 4] = np.maximum(out[:, 4], 1.0 - rgba[:, 3])
+    if params.get("once"):
+        # Outside the single copy the pigment is clear (POV-Ray: no colour found).
+        out[~inside] = (0.0, 0.0, 0.0, 0.0, 1.0)
+    return out
 
 
 # ------------------------------------------------------------------------ noise
@@ -386,11 +505,13 @@ def apply_wave(value: np.ndarray, params: dict) -> np.ndarray:
     elif wave == "cubic_wave":
         value = value * value * (3.0 - 2.0 * value)
     elif wave == "poly_wave":
-        value = np.power(value, float(params.get("exponent", 1.0)))
+        value = np.power(value, float(params.get("wave_exponent", params.get("exponent", 1.0))))
     return value
 
 
-def _map(pigment: ir.Pigment, value: np.ndarray, points: np.ndarray) -> np.ndarray:
+def _map(
+    pigment: ir.Pigment, value: np.ndarray, points: np.ndarray, gamma: float | None
+) -> np.ndarray:
     if pigment.pigment_map:
         keys = np.array([k for k, _ in pigment.pigment_map], dtype=np.float64)
         lo, hi, frac = blend_indices(keys, value)
@@ -401,7 +522,7 @@ def _map(pigment: ir.Pigment, value: np.ndarray, points: np.ndarray) -> np.ndarr
             rows = np.nonzero(use_lo | use_hi)[0]
             if not len(rows):
                 continue
-            col = evaluate(sub, points[rows])
+            col = evaluate(sub, points[rows], gamma)
             w = np.where(use_lo[rows], 1.0 - frac[rows], 0.0) + np.where(
                 use_hi[rows], frac[rows], 0.0
             )
@@ -432,13 +553,13 @@ def blend_indices(keys: np.ndarray, value: np.ndarray):
     return lo, hi, frac
 
 
-def _fallback(pigment: ir.Pigment, points: np.ndarray) -> np.ndarray:
+def _fallback(pigment: ir.Pigment, points: np.ndarray, gamma: float | None) -> np.ndarray:
     if pigment.list:
-        return evaluate(pigment.list[0], points)
+        return evaluate(pigment.list[0], points, gamma)
     if pigment.color_map:
         c = pigment.color_map[0][1]
     elif pigment.pigment_map:
-        return evaluate(pigment.pigment_map[0][1], points)
+        return evaluate(pigment.pigment_map[0][1], points, gamma)
     else:
         c = pigment.color
     return np.broadcast_to(np.asarray(c, dtype=np.float64), (len(points), 5)).copy()
@@ -447,6 +568,11 @@ def _fallback(pigment: ir.Pigment, points: np.ndarray) -> np.ndarray:
 # --------------------------------------------------------------- properties
 def may_transmit(pigment: ir.Pigment) -> bool:
     """Can any point of this pigment let light through (filter or transmit > 0)?"""
+    if pigment.pattern == "image_map":
+        prm = pigment.params
+        return bool(
+            prm.get("once") or prm.get("use_alpha") or prm.get("filter") or prm.get("transmit")
+        )
     if pigment.pattern == "solid":
         return pigment.color[3] > 0 or pigment.color[4] > 0
     if any(c[3] > 0 or c[4] > 0 for _, c in pigment.color_map):
@@ -480,6 +606,8 @@ def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     amount = float(normal.depth)
     kind = normal.pattern
+    if kind == "none" or amount == 0.0:
+        return n_world
     if kind not in BUILT_IN_TURBULENCE:
         p = turbulence_warp(p, normal.params)
     if kind == "bumps":

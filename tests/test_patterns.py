@@ -12,7 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from lang import ir
-from runtime import patterns
+from runtime import color, patterns
 
 RED = (1.0, 0.0, 0.0, 0.0, 0.0)
 GREEN = (0.0, 1.0, 0.0, 0.0, 0.0)
@@ -261,3 +261,59 @@ def test_uniformly_scaled_bumps_keep_their_strength():
     out = patterns.perturb_normal(small, PTS, UP)
     ref = patterns.perturb_normal(ir.Normal("bumps", 0.5), PTS / 0.25, UP)
     np.testing.assert_allclose(out, ref, atol=1e-9)
+
+
+# -------------------------------------------------------------------- image maps
+@pytest.fixture
+def tiny_png(tmp_path):
+    import OpenImageIO as oiio
+
+    img = np.zeros((2, 4, 3), np.uint8)
+    img[0] = [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]]  # top row
+    img[1] = [[0, 0, 0], [128, 128, 128], [255, 255, 0], [0, 255, 255]]
+    path = tmp_path / "tiny.png"
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(4, 2, 3, oiio.UINT8))
+    out.write_image(img)
+    out.close()
+    return str(path)
+
+
+def image_pigment(path, **params) -> ir.Pigment:
+    return ir.Pigment(pattern="image_map", params={"path": path, "file": path, **params})
+
+
+def test_planar_image_map_covers_the_unit_square_top_row_up(tiny_png):
+    pts = np.array([[0.1, 0.9, 0], [0.4, 0.9, 0], [0.1, 0.1, 0], [1.1, 0.9, 0]])
+    out = patterns.evaluate(image_pigment(tiny_png), pts, gamma=None)
+    np.testing.assert_allclose(out[:, :3], [[1, 0, 0], [0, 1, 0], [0, 0, 0], [1, 0, 0]])
+
+
+def test_image_map_once_is_clear_outside(tiny_png):
+    out = patterns.evaluate(image_pigment(tiny_png, once=True), np.array([[1.5, 0.5, 0]]))
+    np.testing.assert_allclose(out[0], [0, 0, 0, 0, 1])
+    assert patterns.may_transmit(image_pigment(tiny_png, once=True))
+    assert not patterns.may_transmit(image_pigment(tiny_png))
+
+
+def test_image_map_files_are_srgb_brought_into_the_working_space(tiny_png):
+    grey = np.array([[0.3, 0.1, 0.0]])  # the 128 grey pixel
+    legacy = patterns.evaluate(image_pigment(tiny_png), grey, gamma=None)[0, 0]
+    linear = patterns.evaluate(image_pigment(tiny_png), grey, gamma=1.0)[0, 0]
+    g22 = patterns.evaluate(image_pigment(tiny_png), grey, gamma=2.2)[0, 0]
+    assert legacy == pytest.approx(128 / 255)
+    assert linear == pytest.approx(float(color.srgb_decode(np.array([128 / 255]))[0]))
+    assert g22 == pytest.approx(linear ** (1 / 2.2))
+
+
+def test_spherical_map_angle_starts_at_plus_x_toward_plus_z():
+    u, v = patterns.image_uv(np.array([[1.0, 0, 0], [0, 0, 1.0], [0, 0, -1.0], [0, 1.0, 0]]), 1)
+    np.testing.assert_allclose(u[:3], [0.0, 0.25, 0.75])
+    np.testing.assert_allclose(v, [0.5, 0.5, 0.5, 1.0])
+
+
+def test_missing_image_renders_black_with_a_warning(capsys):
+    pig = ir.Pigment(pattern="image_map", params={"file": "nowhere.png"})
+    out = patterns.evaluate(pig, np.zeros((3, 3)))
+    assert not out.any()
+    assert "nowhere.png" in capsys.readouterr().out
