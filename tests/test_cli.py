@@ -317,6 +317,24 @@ def test_scenes_see_the_image_size(tmp_path):
 
 @needs_evaluator
 @needs_renderer
+def test_formats_agree_png_is_srgb_of_exr_and_16_bit_refines_8(tmp_path):
+    import numpy as np
+
+    from runtime.color import srgb_encode
+    from runtime.image import read_image
+
+    images = {}
+    for name, extra in (("a.png", []), ("a.exr", []), ("b.png", ["--bits", "16"])):
+        argv = ["render", str(EX3), "-W", "48", "-H", "36", "-o", str(tmp_path / name), "-q"]
+        assert cli.main(argv + extra) == 0
+        images[name] = read_image(tmp_path / name).astype(np.float64)
+    encoded = np.clip(srgb_encode(images["a.exr"]), 0, 1)
+    assert np.abs(encoded - images["a.png"]).max() <= 0.5 / 255 + 1e-3
+    assert np.abs(images["b.png"] - images["a.png"]).max() <= 0.5 / 255 + 1e-4
+
+
+@needs_evaluator
+@needs_renderer
 def test_partial_render_leaves_the_rest_black(tmp_path):
     from runtime.image import read_image
 
