@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs_evaluator
 from hypothesis import given
 from hypothesis import strategies as st
 
 from lang import ir, serialize
 from lang.diagnostics import Span
+
+ROOT = Path(__file__).resolve().parent.parent
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
 num = st.floats(allow_nan=False, width=64)  # ±inf is legal in the IR (JSON "Infinity")
@@ -195,11 +199,45 @@ def test_non_ir_values_are_refused():
 def test_serialize_module_does_not_import_numpy():
     import subprocess
     import sys
-    from pathlib import Path
 
-    root = Path(__file__).resolve().parent.parent
+    root = ROOT
     code = "import sys, lang.serialize; print('numpy' in sys.modules)"
     out = subprocess.run(
         [sys.executable, "-c", code], cwd=root, capture_output=True, text=True, check=True
     )
     assert out.stdout.strip() == "False"
+
+
+RICH_SCENE = """
+#version 3.7;
+#include "colors.inc"
+camera { orthographic location <0, 3, -10> look_at 0 right x*4/3 }
+light_source { <10, 20, -10> White area_light <2,0,0>, <0,0,2>, 3, 3 adaptive 1 jitter }
+light_source { <0, 9, 0> Gray50 spotlight point_at 0 radius 10 falloff 20 }
+background { SkyBlue }
+#for (I, 0, 2)
+  sphere { <I, 2, 0>, 0.5 pigment { gradient x color_map { [0 Red] [1 Blue] } } }
+#end
+box { -1, 1 rotate y*30 pigment { brick scale 0.2 } }
+difference { sphere { 0, 1 } cylinder { -2*x, 2*x, 0.5 } translate 3*z pigment { Orange } }
+mesh { triangle { 0, x, y } smooth_triangle { 0, y, x, z, y, x } pigment { White } }
+plane { y, -1 pigment { checker Black, White } finish { reflection { 0.1, 0.5 fresnel } } }
+sphere { 0, 0.5 pigment { rgbf <1,1,1,0.9> } interior { ior 1.5 } }
+"""
+
+
+@needs_evaluator
+@pytest.mark.parametrize("source", ["ex3", "rich"])
+def test_evaluated_scenes_round_trip(source):
+    from lang.evaluate import compile_file, compile_source
+
+    if source == "ex3":
+        result = compile_file(
+            str(ROOT / "examples" / "ex3.scene"), image_width=320, image_height=240
+        )
+    else:
+        result = compile_source(RICH_SCENE, "rich.pov")
+    assert result.scene is not None, [d.format() for d in result.diagnostics]
+    text = serialize.dumps(result.scene)
+    assert serialize.loads(text) == result.scene
+    assert serialize.dumps(serialize.loads(text)) == text  # and the text is stable
