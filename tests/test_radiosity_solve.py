@@ -139,6 +139,18 @@ def test_row_provider_matches_dense():
     assert max(calls) <= max(1, 50 // 32)  # never more than one batch of rows at a time
 
 
+def test_row_cache_bounds_memory_and_saves_work():
+    F, rho, E, area = _random_system(64, 4)
+    for room in (16, 48, 64):
+        cache = S.RowCache(lambda idx: F[idx], 64, budget=room * 64 * 8)
+        sol = S.progressive(None, rho, E, area, rows=cache, tol=1e-9, batch=1)
+        assert np.allclose(sol.B, S.direct(F, rho, E, tol=1e-12).B, rtol=1e-7)
+        assert len(cache.rows) <= room
+        assert cache.computed <= sol.shots
+    assert cache.computed <= 64  # everything fits: each row computed once
+    assert np.array_equal(cache(np.array([3, 5, 3])), F[[3, 5, 3]])
+
+
 def test_dispatch_and_dense_budget():
     F, rho, E, area = _random_system(10, 5)
     for method in ("gauss_seidel", "progressive", "direct"):

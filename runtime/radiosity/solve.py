@@ -22,6 +22,7 @@ Three methods, each stopping when the residual ‖E + ρFB − B‖∞ is at mos
 from __future__ import annotations
 
 import time
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -204,6 +205,33 @@ def solve(
     if method == "progressive":
         return progressive(F, rho, E, area, tol=tol, ambient=ambient)
     return gauss_seidel(F, rho, E, tol=tol)
+
+
+class RowCache:
+    """A row provider that keeps the most recently used rows within a memory budget:
+    progressive refinement shoots the brightest patches again and again, so their rows
+    are computed once while memory stays bounded (rows × N × 8 bytes ≤ budget)."""
+
+    def __init__(self, provider: RowProvider, n: int, budget: int = DENSE_BYTES // 2):
+        self.provider = provider
+        self.max_rows = max(1, budget // (8 * max(n, 1)))
+        self.rows: OrderedDict[int, np.ndarray] = OrderedDict()
+        self.computed = 0
+
+    def __call__(self, idx: np.ndarray) -> np.ndarray:
+        idx = [int(i) for i in np.asarray(idx).reshape(-1)]
+        missing = [i for i in dict.fromkeys(idx) if i not in self.rows]
+        if missing:
+            fresh = self.provider(np.asarray(missing, dtype=np.int64))
+            self.computed += len(missing)
+            for i, row in zip(missing, fresh, strict=True):
+                self.rows[i] = row
+        for i in idx:
+            self.rows.move_to_end(i)
+        out = np.stack([self.rows[i] for i in idx]) if idx else np.zeros((0, 0))
+        while len(self.rows) > self.max_rows:
+            self.rows.popitem(last=False)
+        return out
 
 
 def fits_dense(n: int, budget: int = DENSE_BYTES) -> bool:

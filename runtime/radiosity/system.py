@@ -579,10 +579,12 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         else:  # memory-bounded: rows on demand for progressive refinement
             F = None
 
-            def rows(idx, pts=pts, vis=vis):
+            def provider(idx, pts=pts, vis=vis):
                 return form_factors(patches.verts[idx], patches.verts, order=opts.order,
                                     far_order=opts.far_order, far_ratio=opts.far_ratio,
                                     visible=vis, vis_points=(pts[idx], pts))  # fmt: skip
+
+            rows = solver.RowCache(provider, n)
 
         ff_s += time.perf_counter() - t0
         t0 = time.perf_counter()
