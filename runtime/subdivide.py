@@ -583,7 +583,8 @@ def limit_positions(mesh: ControlMesh, scheme: str, boundary: str = "sharp") -> 
     if scheme == "catmull_clark":
         n = np.maximum(np.bincount(mesh.fv, minlength=V), 1).astype(np.float64)[:, None]
         diag = mesh.fv[topo.nxt[topo.nxt]]
-        dsum = _scatter(mesh.fv, P[diag], V)
+        Pt = np.ascontiguousarray(P.T)
+        dsum = np.stack([np.bincount(mesh.fv, Pt[k][diag], V) for k in range(3)], axis=1)
         smooth = (n * n * P + 4.0 * esum + dsum) / (n * (n + 5.0))
     else:
         n = _edge_count(topo.edges, np.ones(len(topo.edges)), V)
@@ -670,36 +671,50 @@ def smooth_limit_normals(mesh: ControlMesh, scheme: str, boundary: str = "sharp"
     ok = (r.parent == SMOOTH) & (fans == 1) & (open_corners == 0)
     if scheme == "bilinear":
         return np.zeros((V, 3)), np.zeros(V, dtype=bool)
-    cos_j, sin_j, cos_j1, sin_j1, A = _ring_trig(rings.j, rings.size)
-    e = P[fv[topo.nxt]]
+    en = fv[topo.nxt]  # the edge neighbour e_j of each corner
+    Pt = np.ascontiguousarray(P.T)  # gathers per coordinate keep the temporaries 1-D
+    t1, t2 = np.empty((V, 3)), np.empty((V, 3))
     if scheme == "catmull_clark":
-        d = P[fv[topo.nxt[topo.nxt]]]
-        w1e, w1d = A * cos_j, cos_j + cos_j1
-        w2e, w2d = A * sin_j, sin_j + sin_j1
-        t1 = _scatter(fv, w1e[:, None] * e + w1d[:, None] * d, V)
-        t2 = _scatter(fv, w2e[:, None] * e + w2d[:, None] * d, V)
+        dn = fv[topo.nxt[topo.nxt]]  # the face-diagonal neighbour f_j
+        w1e, w1d, w2e, w2d = _tangent_weights(rings.j, rings.size)
+        for k in range(3):
+            ek, dk = Pt[k][en], Pt[k][dn]
+            t1[:, k] = np.bincount(fv, w1e * ek + w1d * dk, V)
+            t2[:, k] = np.bincount(fv, w2e * ek + w2d * dk, V)
     else:
-        t1, t2 = _scatter(fv, cos_j[:, None] * e, V), _scatter(fv, sin_j[:, None] * e, V)
+        th = 2.0 * np.pi * rings.j / rings.size
+        c, sn = np.cos(th), np.sin(th)
+        for k in range(3):
+            ek = Pt[k][en]
+            t1[:, k] = np.bincount(fv, c * ek, V)
+            t2[:, k] = np.bincount(fv, sn * ek, V)
     return _normalize(np.cross(t1, t2)), ok
 
 
-def _ring_trig(j: np.ndarray, n: np.ndarray):
-    """cos/sin of 2πj/n and 2π(j+1)/n, and Catmull–Clark's tangent weight
-    A(n) = 1 + cos(2π/n) + cos(π/n)·sqrt(2(9 + cos(2π/n))), per corner. Valences are
-    small integers, so the values come from a (valence × position) table."""
+def _cc_tangent_table(n: np.ndarray, j: np.ndarray):
+    """Catmull–Clark's tangent masks (Halstead et al.): edge neighbour e_j weighs
+    A·cos(θj), face neighbour f_j weighs cos(θj) + cos(θj+1) (and sin for the second
+    tangent), θj = 2πj/n, A(n) = 1 + cos(2π/n) + cos(π/n)·sqrt(2(9 + cos(2π/n)))."""
+    step = 2.0 * np.pi / n
+    A = 1.0 + np.cos(step) + np.cos(step / 2) * np.sqrt(2.0 * (9.0 + np.cos(step)))
+    th = j * step
+    return (
+        A * np.cos(th),
+        np.cos(th) + np.cos(th + step),
+        A * np.sin(th),
+        np.sin(th) + np.sin(th + step),
+    )
+
+
+def _tangent_weights(j: np.ndarray, n: np.ndarray):
+    """Per-corner tangent weights; valences are small integers, so they come from a
+    (valence × ring position) table unless some valence is huge."""
     top = int(n.max()) if n.size else 1
-    if top > 512:  # a very high valence: compute directly
-        th, step = 2 * np.pi * j / n, 2 * np.pi / n
-        A = 1 + np.cos(step) + np.cos(step / 2) * np.sqrt(2 * (9 + np.cos(step)))
-        return np.cos(th), np.sin(th), np.cos(th + step), np.sin(th + step), A
-    nn = np.arange(1, top + 1, dtype=np.float64)[:, None]
-    jj = np.arange(top + 1, dtype=np.float64)[None, :]
-    th = 2 * np.pi * jj / nn
-    step = 2 * np.pi / nn[:, 0]
-    A = 1 + np.cos(step) + np.cos(step / 2) * np.sqrt(2 * (9 + np.cos(step)))
-    row, col = n - 1, j
-    cos_t, sin_t = np.cos(th), np.sin(th)
-    return (cos_t[row, col], sin_t[row, col], cos_t[row, col + 1], sin_t[row, col + 1], A[row])
+    if top > 512:
+        return _cc_tangent_table(n.astype(np.float64), j.astype(np.float64))
+    nn, jj = np.meshgrid(np.arange(1, top + 1.0), np.arange(top + 1.0), indexing="ij")
+    flat = (n - 1) * (top + 1) + j
+    return tuple(np.take(t.ravel(), flat) for t in _cc_tangent_table(nn, jj))
 
 
 def _crease_tangents(mesh: ControlMesh, inf_sharp: np.ndarray) -> np.ndarray:

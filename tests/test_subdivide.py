@@ -452,3 +452,18 @@ def test_refined_topology_equals_the_sorted_one(scheme, s, open_mesh):
     for _ in range(2):
         mesh = sd.subdivide_once(mesh, scheme)
         _same_topology(mesh)
+
+
+def test_level_zero_with_limit_on_ngons_uses_the_limit_of_the_control_points():
+    ang = 2 * np.pi * np.arange(5) / 5
+    ring = np.stack([np.cos(ang), np.sin(ang), np.zeros(5)], 1)
+    pts = tuple(map(tuple, np.vstack([ring, ring + [0, 0, 1]])))
+    faces = ((4, 3, 2, 1, 0), (5, 6, 7, 8, 9)) + tuple(
+        (i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i) for i in range(5)
+    )
+    shape = ir.Subdivision("catmull_clark", pts, faces, limit=True)
+    v0, f0, n0 = sd.subdivision_mesh(shape, 0)
+    v2, _, n2 = sd.subdivision_mesh(shape, 2)
+    assert len(f0) == 2 * 3 + 5 * 2  # pentagons fanned, quads split
+    assert np.allclose(v0[:10], v2[:10], atol=1e-12)
+    assert np.allclose(n0[:10], n2[:10], atol=1e-10)
