@@ -467,3 +467,13 @@ def test_level_zero_with_limit_on_ngons_uses_the_limit_of_the_control_points():
     assert len(f0) == 2 * 3 + 5 * 2  # pentagons fanned, quads split
     assert np.allclose(v0[:10], v2[:10], atol=1e-12)
     assert np.allclose(n0[:10], n2[:10], atol=1e-10)
+
+
+def test_tessellate_takes_levels_or_a_tolerance():
+    v3, f3, _ = sd.tessellate(cube(levels=3))
+    assert len(f3) == 6 * 4**3 * 2
+    coarse = sd.tessellate(cube(levels=None, tolerance=0.1))[1]
+    fine = sd.tessellate(cube(levels=None, tolerance=0.002))[1]
+    assert len(coarse) < len(fine)
+    curve = ir.Subdivision("chaikin", ((0, 0, 0), (1, 1, 0), (2, 0, 0)), levels=None, radius=0.1)
+    assert sd.levels_for_tolerance(curve, 1e-3) > sd.levels_for_tolerance(curve, 1e-1)
