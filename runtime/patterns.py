@@ -465,8 +465,136 @@ def wrinkles(p: np.ndarray, params: dict) -> np.ndarray:
     return np.clip(total, 0.0, 1.0)
 
 
+def radial(p: np.ndarray, params: dict) -> np.ndarray:
+    """The angle around the y axis as a fraction of a turn (0.25 where x = z = 0)."""
+    x, z = p[:, 0], p[:, 2]
+    on_axis = (np.abs(x) < 0.001) & (np.abs(z) < 0.001)
+    return np.where(on_axis, 0.25, 0.25 + (np.arctan2(x, z) + math.pi) / (2.0 * math.pi))
+
+
+def _spiral(p: np.ndarray, params: dict, sign: float) -> np.ndarray:
+    """Spirals around the z axis with `arms` arms (spiral1: +, spiral2: -), as a triangle
+    wave; turbulence is part of the pattern."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    arms = float(params.get("arms", 1.0))
+    rad = np.hypot(x, y)
+    safe = np.where(rad > 0, rad, 1.0)
+    s = np.arcsin(np.clip(y / safe, -1.0, 1.0))
+    phi = np.where(rad == 0, 0.0, np.where(x < 0, 1.5 * math.pi - s, 0.5 * math.pi + s))
+    value = z + rad + sign * arms * phi / (2.0 * math.pi) + _builtin_turb(p, params, 0)
+    return _triangle(value)
+
+
+def spiral1(p: np.ndarray, params: dict) -> np.ndarray:
+    return _spiral(p, params, 1.0)
+
+
+def spiral2(p: np.ndarray, params: dict) -> np.ndarray:
+    return _spiral(p, params, -1.0)
+
+
+def ripples(p: np.ndarray, params: dict) -> np.ndarray:
+    """Concentric sine waves from ten fixed sources, averaged to [0, 1]."""
+    total = np.zeros(len(p))
+    for src in _WAVE_SOURCES:
+        length = np.linalg.norm(p - src, axis=1)
+        total += np.sin(2.0 * math.pi * length)
+    return 0.5 + total / (2.0 * len(_WAVE_SOURCES))
+
+
+def waves(p: np.ndarray, params: dict) -> np.ndarray:
+    """Cosine waves of varied frequencies from ten fixed sources, averaged to [0, 1]."""
+    total = np.zeros(len(p))
+    for src, f in zip(_WAVE_SOURCES, _WAVE_FREQS, strict=True):
+        length = np.linalg.norm(p - src, axis=1)
+        total += np.cos(2.0 * math.pi * length * f) / f
+    return 0.5 + total / (2.0 * float((1.0 / _WAVE_FREQS).sum()))
+
+
+def dents(p: np.ndarray, params: dict) -> np.ndarray:
+    return noise(p) ** 3
+
+
+def agate(p: np.ndarray, params: dict) -> np.ndarray:
+    """Turbulent bands along z: 0.5 (1 + sin(2 pi (z + agate_turb * turbulence)))^0.77."""
+    turb = float(params.get("agate_turb", 1.0))
+    octaves = int(params.get("octaves", 6))
+    omega = float(params.get("omega", 0.5))
+    lam = float(params.get("lambda", 2.0))
+    value = 0.5 * (
+        np.cos(2.0 * math.pi * (p[:, 2] + turb * turbulence(p, octaves, omega, lam))) + 1
+    )
+    return np.clip(np.abs(value) ** 0.77, 0.0, 1.0)
+
+
+def _cell_hash(c: np.ndarray, salt: int) -> np.ndarray:
+    """(N,) deterministic pseudo-random numbers in [0, 1) for integer cells (N,3)."""
+    h = (c[:, 0] * 73856093) ^ (c[:, 1] * 19349663) ^ (c[:, 2] * 83492791) ^ (salt * 2654435761)
+    h = (h ^ (h >> 13)) * 1274126177
+    h = h ^ (h >> 16)
+    return (h & 0xFFFFFF).astype(np.float64) / float(1 << 24)
+
+
+def cells(p: np.ndarray, params: dict) -> np.ndarray:
+    """One random value per unit cube."""
+    return _cell_hash(np.floor(p + CHECKER_OFFSET).astype(np.int64), 0)
+
+
+def crackle(p: np.ndarray, params: dict) -> np.ndarray:
+    """Voronoi cells around one random point per unit cube: `form` weights the distances to
+    the nearest, second and third points (default <-1, 1, 0>: the cracks are 0)."""
+    form = np.broadcast_to(np.asarray(params.get("form", (-1.0, 1.0, 0.0)), float), (3,))
+    metric = float(params.get("metric", 2.0))
+    base = np.floor(p).astype(np.int64)
+    best = np.full((len(p), 3), np.inf)
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            for dz in (-1, 0, 1):
+                c = base + np.array([dx, dy, dz])
+                pt = c + np.stack([_cell_hash(c, k) for k in (1, 2, 3)], axis=1)
+                d = np.abs(pt - p)
+                dist = (d**metric).sum(axis=1) ** (1.0 / metric)
+                # Insert into the running three smallest distances.
+                b0, b1, b2 = best[:, 0], best[:, 1], best[:, 2]
+                n0 = np.minimum(b0, dist)
+                r0 = np.maximum(b0, dist)
+                n1 = np.minimum(b1, r0)
+                r1 = np.maximum(b1, r0)
+                n2 = np.minimum(b2, r1)
+                best = np.stack([n0, n1, n2], axis=1)
+    return np.clip(best @ form, 0.0, 1.0)
+
+
+def _fractal_value(params: dict, c: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Escape-time iteration z -> z² + c: exterior points give iterations / max_iteration,
+    interior points 1 (POV-Ray's default exterior and interior colouring)."""
+    max_iter = int(params.get("max_iteration", params.get("iterations", 30)))
+    n = len(c)
+    count = np.full(n, max_iter, dtype=np.int64)
+    alive = np.ones(n, dtype=bool)
+    for i in range(max_iter):
+        z = np.where(alive, z * z + c, z)
+        escaped = alive & (np.abs(z) > 2.0)
+        count[escaped] = i + 1
+        alive &= ~escaped
+        if not alive.any():
+            break
+    return np.where(alive, 1.0, count / max_iter)
+
+
+def mandel(p: np.ndarray, params: dict) -> np.ndarray:
+    c = p[:, 0] + 1j * p[:, 1]
+    return _fractal_value(params, c, np.zeros(len(p), dtype=complex))
+
+
+def julia(p: np.ndarray, params: dict) -> np.ndarray:
+    k = params.get("complex", (0.353, 0.288))
+    c = np.full(len(p), complex(float(k[0]), float(k[1])))
+    return _fractal_value(params, c, p[:, 0] + 1j * p[:, 1])
+
+
 # Patterns whose turbulence is part of the pattern, not a warp of the point.
-BUILT_IN_TURBULENCE = {"marble", "wood"}
+BUILT_IN_TURBULENCE = {"marble", "wood", "spiral1", "spiral2", "agate"}
 
 
 CONTINUOUS_PATTERNS = {
@@ -484,6 +612,17 @@ CONTINUOUS_PATTERNS = {
     "marble": marble,
     "wood": wood,
     "wrinkles": wrinkles,
+    "radial": radial,
+    "spiral1": spiral1,
+    "spiral2": spiral2,
+    "ripples": ripples,
+    "waves": waves,
+    "dents": dents,
+    "agate": agate,
+    "cells": cells,
+    "crackle": crackle,
+    "mandel": mandel,
+    "julia": julia,
 }
 
 
