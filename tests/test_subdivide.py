@@ -477,3 +477,15 @@ def test_tessellate_takes_levels_or_a_tolerance():
     assert len(coarse) < len(fine)
     curve = ir.Subdivision("chaikin", ((0, 0, 0), (1, 1, 0), (2, 0, 0)), levels=None, radius=0.1)
     assert sd.levels_for_tolerance(curve, 1e-3) > sd.levels_for_tolerance(curve, 1e-1)
+
+
+@given(st.floats(0.01, 0.99))
+def test_fractional_vertex_blends_crease_and_smooth_rules(s):
+    """A vertex whose crease edges all stop being sharp after this step moves by the mean
+    of their sharpness between the crease rule and the smooth rule (DeRose et al.)."""
+    P = np.asarray(CUBE_POINTS)
+    creased = sd.ControlMesh.from_lists(CUBE_POINTS, CUBE_FACES, [(a, b, s) for a, b in TOP_LOOP])
+    smooth = sd.catmull_clark_once(sd.ControlMesh.from_lists(CUBE_POINTS, CUBE_FACES)).points[4]
+    crease = (P[5] + 6 * P[4] + P[6]) / 8
+    got = sd.catmull_clark_once(creased).points[4]
+    assert np.allclose(got, s * crease + (1 - s) * smooth, atol=1e-14)
