@@ -129,3 +129,21 @@ def test_every_method_gives_the_same_room(method):
     inside = np.einsum("nc,nc->n", r.patches.normal, 1.0 - r.patches.centroid) > 0
     assert r.solution.method == method
     assert np.allclose(r.B[inside], 0.1, rtol=0.01)
+
+
+def test_closed_mesh_faces_out_whatever_its_winding():
+    """POV-Ray meshes have no reliable winding: a closed tetrahedron wound inward still
+    gets outward patches (from its signed volume), and is lit by the room around it."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float) + 0.5
+    outward = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.int32)
+    room = ir.Object(ir.Box((-2, -2, -2), (4, 4, 4)), texture=_tex(emission=0.05))
+    for faces in (outward, outward[:, ::-1]):
+        tet = ir.Object(ir.Mesh(v, faces), texture=_tex())
+        r = _solve(_scene((room, tet)))
+        on = r.patches.surface == 1
+        centre = v.mean(axis=0)
+        assert on.any()
+        assert np.all(
+            np.einsum("nc,nc->n", r.patches.normal[on], r.patches.centroid[on] - centre) > 0
+        )
+        assert np.all(r.G[on] > 0.05)

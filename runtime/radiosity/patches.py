@@ -221,9 +221,9 @@ class Mesher:
                     group=g,
                 )
 
-    def patches(self) -> Patches:
+    def patches(self, max_patches: int | None = None) -> Patches:
         p = Patches(self.el)
-        p.refine_to(self.size)
+        p.refine_to(self.size, max_patches)
         return p
 
 

@@ -219,6 +219,26 @@ class _SceneMesher:
         )
         return sides
 
+    def mesh_sides(self, i: int, v: np.ndarray, f: np.ndarray) -> tuple[bool, ...]:
+        """Which sides of triangle geometry exchange light. POV-Ray meshes have no reliable
+        winding: a closed mesh (every edge shared by two faces) gets its outer side, found
+        from the sign of its volume, plus the inner one if a witness is inside its box;
+        an open mesh or a lone triangle gets the sides that something lies in front of."""
+        edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+        _, counts = np.unique(edges, axis=0, return_counts=True)
+        if len(f) >= 4 and np.all(counts == 2):
+            a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+            volume = np.einsum("nc,nc->n", a, np.cross(b, c)).sum() / 6.0
+            outer = bool(volume < 0)  # negative volume: the winding faces inward
+            lo, hi = v.min(axis=0), v.max(axis=0)
+            w = self.witness[i]
+            inside = bool(np.all((w > lo) & (w < hi), axis=1).any())
+            return (outer,) + ((not outer,) if inside else ())
+        n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(axis=0)
+        if np.linalg.norm(n) == 0:
+            return (False, True)
+        return self.sides_of_plane(i, v.mean(axis=0), n / np.linalg.norm(n)) or (False,)
+
     def run(self) -> None:
         for i in self.indices:
             obj = self.prepared.objects[i]
@@ -276,9 +296,9 @@ class _SceneMesher:
             v = tf.apply_points(m, v)
             rho, emis = self.material(obj, v)
             first = len(el)
-            # Triangle geometry has no inside: the winding's side only (documented limit).
-            self.mesher.mesh(v, f, rho=rho, emission=emis, surface=i, sides=(False,))
-            recs.append(_Record("tris", first, len(f), (False,)))
+            sides = self.mesh_sides(i, v, f)
+            self.mesher.mesh(v, f, rho=rho, emission=emis, surface=i, sides=sides)
+            recs.append(_Record("tris", first, len(f), sides))
         else:
             self.warn(f"{type(shape).__name__} gets no radiosity patches (ambient estimate)")
         if recs:
@@ -556,8 +576,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     stats: dict[str, float] = {}
     if len(sm.mesher.el) == 0:
         return _empty_result(sm, opts)
-    patches = sm.mesher.patches()
-    patches.refine_to(sm.mesher.size, opts.max_patches)
+    patches = sm.mesher.patches(opts.max_patches)
     _attach_triangle_geometry(sm)
     extra = _unmeshed_tracer(prepared, set(sm.records))
     rng = np.random.default_rng(opts.seed)
