@@ -190,6 +190,26 @@ def test_unwritable_output_is_a_usage_error_before_rendering(tmp_path, capsys):
     assert cli.main(["render", str(scene), "-o", str(tmp_path / "x.jpg"), "--bits", "16"]) == 2
 
 
+_FUZZ_WORDS = [
+    "render", "check", "compile", "fmt", "-o", "-W", "-H", "--aa", "--no-aa", "--aa-depth",
+    "-L", "--threads", "--bits", "--clock", "--frames", "--format", "json", "sarif", "-q",
+    "+W", "+H64", "+A", "+A0.2", "-A", "+R2", "+O", "+Oo.png", "+I", "+L", "+WT2", "+FN16",
+    "+KFI1", "+KFF3", "+SC0.5", "+ER2", "-D", "+Q9", "--", "-", "0", "-1", "1..2", "x.bmpx",
+    "missing.pov", "missing.json", "missing.ini", "16", "8", "0.5", "nan",
+]  # fmt: skip
+
+
+@given(st.lists(st.sampled_from(_FUZZ_WORDS), max_size=8))
+def test_no_command_line_gives_a_traceback(words):
+    # every input file named here is missing, so nothing renders: the outcome is a usage
+    # error (2), a diagnostic (1) or success (0), and never an exception
+    try:
+        code = cli.main(words)
+    except SystemExit as exc:
+        code = exc.code
+    assert code in (0, 1, 2)
+
+
 def test_version(capsys):
     with pytest.raises(SystemExit) as exc:
         cli.main(["--version"])
