@@ -189,7 +189,7 @@ class _SceneMesher:
             lo, hi = scene_bounds([prepared.objects[i]], [])
             corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                                 for z in (lo[2], hi[2])])  # fmt: skip
-            boxes.append((i, np.vstack([corners, (lo + hi) / 2])))
+            boxes.append((i, corners))
         for i, _ in boxes:
             pts = [c for j, c in boxes if j != i] + [np.array(self.lights).reshape(-1, 3)]
             self.witness[i] = np.vstack(pts) if pts else np.zeros((0, 3))
