@@ -99,7 +99,9 @@ class SpherePrim:
 
 # ---------------------------------------------------------------------------- plane
 class PlanePrim:
-    """n . p = D with n normalised and D scaled with it (POV-Ray's rule)."""
+    """n . p = D with n normalised and D kept: the plane lies at distance D along the unit
+    normal. That is what POV-Ray 3.7 renders (checked against `povray`: plane { <0,2,0>, 1 }
+    is the plane y = 1, not y = 0.5)."""
 
     K = 1
 
@@ -107,7 +109,7 @@ class PlanePrim:
         n = np.asarray(normal, dtype=np.float64)
         length = float(np.linalg.norm(n))
         self.n = n / length
-        self.dist = float(distance) / length
+        self.dist = float(distance)
         self.size = max(abs(self.dist), 1.0)
 
     def bounds(self):

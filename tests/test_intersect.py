@@ -154,12 +154,46 @@ def test_polygon_hole_by_subpolygons_and_concave():
 
 
 # -------------------------------------------------------------------- POV-Ray rules
-def test_plane_normal_is_normalised_with_its_distance():
-    """plane { <0,2,0>, 1 } is the plane y = 0.5 (POV-Ray normalises normal and distance)."""
+def test_plane_distance_is_along_the_unit_normal():
+    """plane { <0,2,0>, 1 } is the plane y = 1: POV-Ray 3.7 normalises the normal but keeps
+    the distance (see test_plane_convention_matches_povray for the oracle's word)."""
     hits = trace([ir.Object(ir.Plane((0, 2, 0), 1))], (0, 5, 0), (0, -1, 0))
-    assert hits.t[0] == pytest.approx(4.5, abs=1e-14)
+    assert hits.t[0] == pytest.approx(4.0, abs=1e-14)
     assert np.allclose(hits.normal[0], [0, 1, 0])
-    assert hits.point[0, 1] == pytest.approx(0.5, abs=1e-14)
+    assert hits.point[0, 1] == pytest.approx(1.0, abs=1e-14)
+    # Inside is the side the normal points away from.
+    assert shapes.PlanePrim((0, 2, 0), 1).inside(np.array([[0, 0.9, 0], [0, 1.1, 0]])).tolist() == [
+        True,
+        False,
+    ]
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("eye_y, plane_above", [(0.99, True), (1.01, False), (0.51, True)])
+def test_plane_convention_matches_povray(tmp_path, eye_y, plane_above):
+    """Ask POV-Ray where plane { <0,2,0>, 1 } is: a camera looking level from height eye_y
+    sees the plane in the top half of the image exactly when the plane is above it."""
+    import subprocess
+
+    from runtime import image
+
+    pov = tmp_path / "plane.pov"
+    pov.write_text(
+        f"camera {{ location <0, {eye_y}, 0> look_at <0, {eye_y}, 1> }}\n"
+        "background { rgb <0, 0, 1> }\n"
+        "plane { <0, 2, 0>, 1 pigment { rgb <1, 0, 0> } finish { ambient 1 diffuse 0 } }\n"
+    )
+    out = tmp_path / "plane.png"
+    subprocess.run(
+        ["povray", f"+I{pov}", f"+O{out}", "+W16", "+H16", "-D", "-V", "-GA"],
+        check=True,
+        capture_output=True,
+    )
+    px = image.read_image(out)
+    top_is_plane = px[0, 8, 0] > 0.5
+    assert top_is_plane == plane_above
+    hits = trace([ir.Object(ir.Plane((0, 2, 0), 1))], (0, eye_y, 0), (0, 0.1, 1))
+    assert (hits.obj[0] == 0) == plane_above
 
 
 def test_box_faces_and_normals():
@@ -293,7 +327,7 @@ def _shape(kind, offset):
         return ir.Object(ir.Sphere(c, 1.5))
     if kind == "plane":
         n = _unit((1, 2, 3))
-        return ir.Object(ir.Plane(tuple(2 * n), 2 * (0.25 + n @ offset)))
+        return ir.Object(ir.Plane(tuple(2 * n), 0.25 + n @ offset))
     if kind == "box":
         return ir.Object(ir.Box((-1, -0.5, -2), (1, 0.5, 2)), transform=t)
     if kind == "polygon":
