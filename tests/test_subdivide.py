@@ -489,3 +489,13 @@ def test_fractional_vertex_blends_crease_and_smooth_rules(s):
     crease = (P[5] + 6 * P[4] + P[6]) / 8
     got = sd.catmull_clark_once(creased).points[4]
     assert np.allclose(got, s * crease + (1 - s) * smooth, atol=1e-14)
+
+
+def test_crease_limit_is_on_the_crease_b_spline_at_every_level():
+    shape = cube(creases=tuple((a, b, np.inf) for a, b in TOP_LOOP))
+    m0 = mesh_of(shape)
+    m3 = refine(m0, "catmull_clark", 3)
+    lim0 = sd.limit_positions(m0, "catmull_clark")
+    assert np.allclose(lim0, sd.limit_positions(m3, "catmull_clark")[:8], atol=1e-12)
+    P = m0.points
+    assert np.allclose(lim0[4], (P[5] + 4 * P[4] + P[6]) / 6)  # crease neighbours of 4
