@@ -303,11 +303,73 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
 
 
 def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:
-    """(N,3) fraction of the light that reaches the points (area lights: every sub-light
-    sampled and averaged with POV-Ray's weights for a fully subdivided grid)."""
-    if light.area is None or light.area.size1 * light.area.size2 <= 1:
+    """(N,3) fraction of the light that reaches the points. Area lights follow POV-Ray's
+    adaptive sampling, vectorised over (point, grid region) pairs: sample a region's four
+    corner sub-lights; split it into quarters (sharing their middle row/column) while its
+    level is below `adaptive` or its corners differ by more than 0.1; a region that is not
+    split contributes the mean of its corners. Each round of splitting is one batch of
+    shadow rays, and no sub-light is traced twice for the same point."""
+    area = light.area
+    if area is None or area.size1 * area.size2 <= 1:
         return shadow_filter(ctx, points, ldir, ldist)
-    centres = shading.area_centres(light, points)  # (N,K,3)
+    n1, n2 = max(1, area.size1), max(1, area.size2)
+    n = len(points)
+    centres = shading.area_centres(light, points).reshape(n, n1, n2, 3)
+    cache = np.full((n, n1, n2, 3), np.nan)
+    out = np.zeros((n, 3))
+    pt = np.arange(n)
+    u1 = np.zeros(n, dtype=np.int64)
+    v1 = np.zeros(n, dtype=np.int64)
+    u2 = np.full(n, n1 - 1, dtype=np.int64)
+    v2 = np.full(n, n2 - 1, dtype=np.int64)
+    level = np.zeros(n, dtype=np.int64)
+    weight = np.ones(n)
+    while len(pt):
+        corners = ((u1, v1), (u2, v1), (u1, v2), (u2, v2))
+        cp = np.concatenate([pt] * 4)
+        cu = np.concatenate([c[0] for c in corners])
+        cv = np.concatenate([c[1] for c in corners])
+        key = np.unique((cp * n1 + cu) * n2 + cv)
+        kp, rest = np.divmod(key, n1 * n2)
+        ku, kv = np.divmod(rest, n2)
+        todo = np.isnan(cache[kp, ku, kv, 0])
+        kp, ku, kv = kp[todo], ku[todo], kv[todo]
+        if len(kp):
+            f = _sub_light_filter(ctx, light, points[kp], ldir[kp], centres[kp, ku, kv][:, None])
+            cache[kp, ku, kv] = f[:, 0]
+        s = [cache[pt, u, v] for u, v in corners]
+        divisible = (u2 - u1 > 1) | (v2 - v1 > 1)
+        differ = level < area.adaptive
+        for a, b in ((0, 1), (1, 3), (3, 2), (2, 0)):
+            differ = differ | (np.abs(s[a] - s[b]).sum(axis=1) > 0.1)
+        split = divisible & differ
+        leaf = ~split
+        np.add.at(out, pt[leaf], (weight[leaf] / 4.0)[:, None] * (s[0] + s[1] + s[2] + s[3])[leaf])
+        if not split.any():
+            break
+        pt, u1, v1, u2, v2 = pt[split], u1[split], v1[split], u2[split], v2[split]
+        level, weight = level[split] + 1, weight[split] / 4.0
+        mu, mv = (u1 + u2) / 2.0, (v1 + v2) / 2.0
+        lo_u, hi_u = np.floor(mu).astype(np.int64), np.ceil(mu).astype(np.int64)
+        lo_v, hi_v = np.floor(mv).astype(np.int64), np.ceil(mv).astype(np.int64)
+        quads = (
+            (u1, v1, lo_u, lo_v),
+            (hi_u, v1, u2, lo_v),
+            (u1, hi_v, lo_u, v2),
+            (hi_u, hi_v, u2, v2),
+        )
+        u1 = np.concatenate([q[0] for q in quads])
+        v1 = np.concatenate([q[1] for q in quads])
+        u2 = np.concatenate([q[2] for q in quads])
+        v2 = np.concatenate([q[3] for q in quads])
+        pt = np.concatenate([pt] * 4)
+        level = np.concatenate([level] * 4)
+        weight = np.concatenate([weight] * 4)
+    return out
+
+
+def _sub_light_filter(ctx: Context, light: ir.Light, points, ldir, centres) -> np.ndarray:
+    """(N,K,3) shadow filter toward K sub-light positions (N,K,3) per point, one batch."""
     n, k, _ = centres.shape
     pts = np.repeat(points, k, axis=0)
     to = centres.reshape(-1, 3) - pts
@@ -318,9 +380,7 @@ def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:
     else:
         depth = np.linalg.norm(to, axis=1)
         d = to / np.where(depth > 0, depth, 1.0)[:, None]
-    f = shadow_filter(ctx, pts, d, depth)
-    w = shading.area_weights(light.area.size1, light.area.size2)
-    return np.einsum("nkc,k->nc", f.reshape(n, k, 3), w)
+    return shadow_filter(ctx, pts, d, depth).reshape(n, k, 3)
 
 
 def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:

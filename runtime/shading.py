@@ -182,6 +182,23 @@ def area_weights(n1: int, n2: int) -> np.ndarray:
     return w.ravel()
 
 
+def area_coarse_indices(n: int, levels: int) -> np.ndarray:
+    """Grid indices (along one axis of n sub-lights) that POV-Ray samples when it splits
+    the grid `levels` times from its two ends: 0 levels are the corners only."""
+    picked = {0, n - 1}
+    spans = [(0, n - 1)]
+    for _ in range(max(0, levels)):
+        nxt = []
+        for a, b in spans:
+            if b - a > 1:
+                m = (a + b) / 2.0
+                lo, hi = int(math.floor(m)), int(math.ceil(m))
+                picked.update((lo, hi))
+                nxt += [(a, lo), (hi, b)]
+        spans = nxt
+    return np.array(sorted(picked), dtype=np.int64)
+
+
 def area_centres(light: ir.Light, points: np.ndarray) -> np.ndarray:
     """(N,K,3) sub-light positions of an area light as seen from each point."""
     area = light.area

@@ -331,3 +331,27 @@ def test_objects_sharing_a_texture_are_shaded_as_one_group():
     scene = ir.Scene(camera=ir.Camera(location=(0, 0, -5)), objects=objs)
     ctx = integrate.make_context(prepare(scene, 8, 8))
     assert len(ctx.textures) == 1 and list(ctx.obj_tex) == [0] * 5
+
+
+def test_area_light_penumbra_is_between_lit_and_shadowed():
+    # A blocker between points and a 5x5 area light: the shadow's edge sees part of it. Sampled along a line across the penumbra, the light fraction rises
+    # from 0 to 1 through intermediate values.
+    area = ir.AreaLight((4.0, 0, 0), (0, 4.0, 0), 5, 5, adaptive=1)
+    light = ir.Light(position=(0, 0, -10), area=area)
+    blocker = ir.Object(ir.Sphere((0, 0, -3), 1.0))
+    scene = ir.Scene(camera=ir.Camera(), lights=(light,), objects=(blocker,))
+    ctx = integrate.make_context(prepare(scene, 8, 8))
+    ys = np.linspace(0.0, 3.0, 40)
+    pts = np.stack([np.zeros_like(ys), ys, np.full_like(ys, -1.0)], axis=1)
+    ls = shading.sample_light(light, pts)
+    frac = integrate.shadow(ctx, light, pts, ls.direction, ls.distance)[:, 0]
+    assert frac[0] == pytest.approx(0.0)
+    assert frac[-1] == pytest.approx(1.0)
+    assert ((frac > 0.05) & (frac < 0.95)).sum() >= 3
+    assert (np.diff(frac) > -0.15).all()  # no wild jumps back into shadow
+
+
+def test_area_light_coarse_indices_follow_povray_splits():
+    assert list(shading.area_coarse_indices(5, 0)) == [0, 4]
+    assert list(shading.area_coarse_indices(5, 1)) == [0, 2, 4]
+    assert list(shading.area_coarse_indices(17, 2)) == [0, 4, 8, 12, 16]
