@@ -3,11 +3,20 @@ OpenSubdiv users rely on: boundaries (`sharp`: edges and corners, `smooth`: edge
 infinitely sharp and semi-sharp creases with fractional sharpness (DeRose, Kass & Truong
 1998), corner vertices, limit positions and limit normals from tangent masks.
 
-Everything is array code: a level's topology (half-edges, edges, twins, vertex rings) is
-built with numpy sorting and `unique` on integer edge keys, and every rule is a scatter
-(`bincount`) over corners or edges. No Python loop runs per vertex or per face; the only
-Python loops run per level and, when walking vertex rings, per ring position (at most the
+Everything is array code. The control mesh's topology (half-edges, edges, twins) comes
+from one numpy sort of integer edge keys; each refined level derives its tables from its
+parent's by index arithmetic, without sorting. Every rule is a scatter (`bincount`) over
+corners or edges. No Python loop runs per vertex or per face; the only Python loops run
+per level, per coordinate, and, when walking vertex rings, per ring position (at most the
 largest valence).
+
+Creases follow DeRose, Kass & Truong's uniform rule (OpenSubdiv's default, not its
+Chaikin variant): both halves of an edge of sharpness s get s − 1, an edge with
+0 < s < 1 blends the smooth and sharp edge rules, and a vertex whose rule changes during
+a step blends the two rules by the mean sharpness of the edges that stop being sharp.
+Normals: smooth vertices take the exact limit normal from the tangent masks; a vertex on
+infinitely sharp edges is split into one output vertex per sector between them, with the
+sector's angle-weighted face normal, made perpendicular to the crease's limit tangent.
 
 Vertex numbering is stable: a refined mesh keeps the parent's vertices first (then face
 points, then edge points), so a control vertex keeps its index at every level. Limit
