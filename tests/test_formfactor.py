@@ -20,6 +20,7 @@ from runtime.prepare import prepare
 from runtime.radiosity.formfactor import (
     clip_to_hemisphere,
     form_factors,
+    point_form_factors,
     point_polygon,
     polygon_normal_area,
     polygon_quadrature,
@@ -277,3 +278,20 @@ def test_clip_keeps_unclipped_polygons_and_empties_hidden_ones():
     assert projected_solid_angle(out, n)[0] == pytest.approx(
         projected_solid_angle(rel[:1], n[:1])[0]
     )
+
+
+def test_point_form_factors_match_the_kernel_and_visibility():
+    square = BOTTOM - [0.5, 0.5, -1.0]
+    faces_down = square[::-1]  # one-sided: must face the point below it
+    k = point_form_factors([[0, 0, 0]], [[0, 0, 1]], faces_down[None])
+    assert k[0, 0] == pytest.approx(AXIS_POINT, abs=1e-6)
+    assert point_form_factors([[0, 0, 0]], [[0, 0, 1]], square[None])[0, 0] == 0.0
+    targets = np.full((1, 4, 3), [0.0, 0.0, 1.0])
+
+    def none_visible(o, t):
+        return np.zeros(len(o))
+
+    hidden = point_form_factors(
+        [[0, 0, 0]], [[0, 0, 1]], faces_down[None], visible=none_visible, targets=targets
+    )
+    assert hidden[0, 0] == 0.0

@@ -30,7 +30,9 @@ and multiplies that triangle's share of the kernel.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -45,7 +47,7 @@ _DEGENERATE_SINE = 1e-14
 _COPLANAR_REL = 1e-10
 
 # Memory budget for one batch of kernel evaluations (bytes of the largest temporary).
-_CHUNK_BYTES = 64 * 2**20
+_CHUNK_BYTES = 32 * 2**20
 
 
 # ------------------------------------------------------------------- geometry
@@ -268,6 +270,7 @@ def form_factors(
     seed: int = 0,
     chunk_bytes: int = _CHUNK_BYTES,
     vis_points: tuple[np.ndarray, np.ndarray] | None = None,
+    workers: int | None = None,
 ) -> np.ndarray:
     """Form factors F[i, j] from convex patches `src` (Ns,K,3) to `dst` (Nd,K',3)
     (default: src itself). Patches are one-sided (see the module docstring).
@@ -284,7 +287,10 @@ def form_factors(
     With `visible`, F[i, j] is multiplied by the fraction of `vis_samples` stratified
     segments between the two patches that `visible` reports free (one estimate per pair,
     shared by both directions when dst is src, so reciprocity survives); pairs that
-    exchange no light cast no rays."""
+    exchange no light cast no rays.
+
+    Row chunks run on `workers` threads (default: one per core); numpy releases the GIL
+    in the large elementwise kernels, so the kernel scales with cores."""
     src = np.asarray(src, dtype=np.float64)
     same = dst is None
     dst = src if dst is None else np.asarray(dst, dtype=np.float64)
@@ -302,7 +308,8 @@ def form_factors(
     out = np.zeros((ns, nd))
     # Largest temporaries: a few (pairs·q, kd) float64 arrays.
     rows_per_chunk = max(1, int(chunk_bytes // (q * nd * kd * 8 * 12)))
-    for start in range(0, ns, rows_per_chunk):
+
+    def chunk(start: int) -> None:
         sl = slice(start, min(ns, start + rows_per_chunk))
         if len(rules) == 1:
             masks = [None]
@@ -314,9 +321,24 @@ def form_factors(
         for (pts, w), mask in zip(rules, masks, strict=True):
             acc += _kernel_rows(pts[sl], w[sl], n_src[sl], geo, mask)
         out[sl] = acc / np.maximum(a_src[sl], 1e-300)[:, None]
+
+    _run_chunks(chunk, range(0, ns, rows_per_chunk), workers)
     if visible is not None:
         out *= pair_visibility(src, dst, out, visible, vis_samples, seed, same, vis_points)
     return out
+
+
+def _run_chunks(fn, starts, workers: int | None) -> None:
+    """Call fn(start) for every chunk, on a thread pool when there is more than one."""
+    starts = list(starts)
+    workers = min(len(starts), workers or os.cpu_count() or 1)
+    if workers <= 1:
+        for s in starts:
+            fn(s)
+        return
+    with ThreadPoolExecutor(workers) as pool:
+        for f in [pool.submit(fn, s) for s in starts]:
+            f.result()  # re-raise a worker's exception here
 
 
 def _radius(verts: np.ndarray) -> np.ndarray:
@@ -390,6 +412,43 @@ def _contour_soa(rx, ry, rz, n) -> np.ndarray:
     f = np.where(s > _DEGENERATE_SINE, g / np.maximum(s, _DEGENERATE_SINE), 1.0)
     dot = cx * n[:, :1] + cy * n[:, 1:2] + cz * n[:, 2:3]
     return np.abs((f * dot).sum(axis=1)) / (2.0 * np.pi)
+
+
+def point_form_factors(
+    points: np.ndarray,
+    normals: np.ndarray,
+    dst: np.ndarray,
+    *,
+    visible: Visibility | None = None,
+    targets: np.ndarray | None = None,
+    chunk_bytes: int = _CHUNK_BYTES,
+) -> np.ndarray:
+    """(P, Nd) form factors from differential areas (points, unit normals) to one-sided
+    patches: the exact kernel, times the fraction of segments from the point to
+    `targets` (Nd,S,3) on each patch that `visible` reports free. Used to gather the light
+    arriving at mesh vertices for display."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    dst = np.asarray(dst, dtype=np.float64)
+    nd, kd = dst.shape[:2]
+    n_dst, _ = polygon_normal_area(dst)
+    geo = _Targets(dst, n_dst, float(np.abs(dst).max()) + float(np.abs(points).max()))
+    out = np.zeros((len(points), nd))
+    per = max(1, int(chunk_bytes // (nd * kd * 8 * 12)))
+    for s in range(0, len(points), per):
+        sl = slice(s, min(len(points), s + per))
+        p = points[sl, None, :]
+        out[sl] = _kernel_rows(p, np.ones((len(p), 1)), normals[sl], geo, None)
+    if visible is not None and targets is not None:
+        ii, jj = np.nonzero(out > 0)
+        k = targets.shape[1]
+        batch = max(1, 2**20 // k)
+        for b in range(0, len(ii), batch):
+            i, j = ii[b : b + batch], jj[b : b + batch]
+            o = np.repeat(points[i], k, axis=0)
+            v = np.asarray(visible(o, targets[j].reshape(-1, 3)), dtype=np.float64)
+            out[i, j] *= v.reshape(-1, k).mean(axis=1)
+    return out
 
 
 def pair_visibility(

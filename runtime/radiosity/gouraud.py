@@ -24,6 +24,11 @@ from runtime.radiosity.patches import Patches
 _WELD_REL = 1e-9
 
 
+# How far a gathering point moves from a vertex toward its patches' centre: enough to leave
+# a shared corner (and the polygons meeting there), small against the patch.
+_NUDGE = 1e-3
+
+
 def luminance(rgb: np.ndarray) -> np.ndarray:
     return rgb @ np.array([0.2126, 0.7152, 0.0722])
 
@@ -31,7 +36,14 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
 class VertexField:
     """Interpolated patch values (N,3) over a Patches mesh."""
 
-    def __init__(self, patches: Patches, values: np.ndarray, *, flat: bool = False):
+    def __init__(
+        self,
+        patches: Patches,
+        values: np.ndarray,
+        *,
+        flat: bool = False,
+        vertex_values: np.ndarray | None = None,
+    ):
         self.patches = patches
         self.values = np.asarray(values, dtype=np.float64).reshape(len(patches), 3)
         self.flat = flat
@@ -53,7 +65,31 @@ class VertexField:
         )
         np.add.at(wsum, self.vertex.reshape(-1), weight.reshape(-1))
         self.vertex_values = acc / np.maximum(wsum, 1e-300)[:, None]
+        if vertex_values is not None:
+            # Values computed at the vertices themselves (gathered), replacing the averages.
+            self.vertex_values = np.asarray(vertex_values, dtype=np.float64).reshape(nv, 3)
         self.corner_values = self.vertex_values[self.vertex]  # (N,4,3)
+        # Where each vertex is, which way it faces (area-weighted patch normals), and a
+        # point nudged into its patches (for gathering: a point exactly on a corner shared
+        # with a neighbouring surface would sit on that surface's polygon).
+        pos = np.zeros((nv, 3))
+        pos[self.vertex.reshape(-1)] = corners.reshape(-1, 3)
+        nrm = np.zeros((nv, 3))
+        cen = np.zeros((nv, 3))
+        np.add.at(
+            nrm,
+            self.vertex.reshape(-1),
+            (weight[..., None] * patches.normal[:, None]).reshape(-1, 3),
+        )
+        np.add.at(
+            cen,
+            self.vertex.reshape(-1),
+            (weight[..., None] * patches.centroid[:, None]).reshape(-1, 3),
+        )
+        self.vertex_pos = pos
+        self.vertex_normal = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        cen /= np.maximum(wsum, 1e-300)[:, None]
+        self.vertex_inner = pos + _NUDGE * (cen - pos)
 
     def at(self, patch: np.ndarray, local: np.ndarray) -> np.ndarray:
         """Values at patch-local (u, v) of the given leaf patches: (M,3)."""

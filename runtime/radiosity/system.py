@@ -36,7 +36,7 @@ import numpy as np
 from lang import ir
 from runtime import transform as tf
 from runtime.radiosity import solve as solver
-from runtime.radiosity.formfactor import form_factors
+from runtime.radiosity.formfactor import form_factors, point_form_factors
 from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
 from runtime.radiosity.patches import Mesher, Patches, box_faces
 from runtime.radiosity.visibility import PatchVisibility
@@ -67,6 +67,7 @@ class Options:
     light_samples: int = 4  # shadow rays per patch and light
     max_rounds: int = 3  # adaptive refinement rounds after the first solve
     flat: bool = False  # flat instead of Gouraud display
+    vertex_gather: bool = False  # Gouraud from light gathered at the vertices (else averages)
     seed: int = 0
 
     @staticmethod
@@ -111,12 +112,15 @@ class RadiosityResult:
     ambient: np.ndarray  # (3,) area-weighted mean G (for unmeshed objects)
     stats: dict[str, float] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    G_vertex: np.ndarray | None = None  # (V,3) gathered at the Gouraud vertices
     _field: VertexField | None = None
 
     @property
     def field(self) -> VertexField:
         if self._field is None:
-            self._field = VertexField(self.patches, self.G, flat=self.options.flat)
+            self._field = VertexField(
+                self.patches, self.G, flat=self.options.flat, vertex_values=self.G_vertex
+            )
         return self._field
 
     def gathered(
@@ -638,6 +642,17 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         G = (B - patches.emission) / np.maximum(patches.reflectance, 1e-12) - D
         open_fraction = 0.0
     G = np.maximum(G, 0.0)
+    G_vertex = None
+    if opts.vertex_gather and F is not None:
+        # Gouraud's vertices get the light that actually arrives there (exact kernel to
+        # every patch, with visibility) instead of an average of the patches around them,
+        # which flattens corners and smears shadow edges.
+        t0 = time.perf_counter()
+        avg = VertexField(patches, G)
+        K = point_form_factors(avg.vertex_inner, avg.vertex_normal, patches.verts,
+                               visible=vis, targets=pts)  # fmt: skip
+        G_vertex = np.maximum(K @ B, 0.0)
+        stats["vertex_gather_seconds"] = time.perf_counter() - t0
     if open_fraction > OPEN_FRACTION:
         sm.warn(
             f"the scene is not closed: {100 * open_fraction:.0f}% of the light leaving its "
@@ -653,7 +668,9 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         iterations=float(sol.iterations),
         residual=sol.residual,
     )
-    return RadiosityResult(patches, B, G, sol, opts, sm.records, ambient, stats, sm.warnings)
+    return RadiosityResult(
+        patches, B, G, sol, opts, sm.records, ambient, stats, sm.warnings, G_vertex
+    )
 
 
 def _empty_result(sm, opts) -> RadiosityResult:
