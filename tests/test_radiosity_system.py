@@ -147,3 +147,13 @@ def test_closed_mesh_faces_out_whatever_its_winding():
             np.einsum("nc,nc->n", r.patches.normal[on], r.patches.centroid[on] - centre) > 0
         )
         assert np.all(r.G[on] > 0.05)
+
+
+def test_vertex_gathering_keeps_the_furnace():
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex(emission=0.05))
+    dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
+    r = _solve(_scene((room,), [dark]), vertex_gather=True)
+    assert r.G_vertex is not None
+    pts = np.array([[0.3, 0.0, 1.1], [1.7, 2.0, 0.4], [0.0, 1.2, 1.9]])
+    view = np.array([[0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+    assert np.allclose(r.gathered(0, pts, view), 0.1, rtol=0.02)
