@@ -472,6 +472,17 @@ def _gallery():
         shape, text = it[0], it[1]
         m = it[2] if len(it) > 2 else ir.IDENTITY
         out.append(([ir.Object(shape, transform=m)], text))
+    # A mesh (Embree) under a transform.
+    mv = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0.3], [0, 1, 0], [0.5, 0.5, -0.6]])
+    mf = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]], dtype=np.int32)
+    mm = _rot(-30, 25, 10, (3.6, 2.6, -1.5))
+    tris = " ".join("triangle { " + ", ".join(_vec(mv[i]) for i in f) + " }" for f in mf)
+    out.append(
+        (
+            [ir.Object(ir.Mesh(vertices=mv.astype(float), faces=mf), transform=mm)],
+            "mesh { " + tris + " %s " + _pov_matrix(mm) + " }",
+        )
+    )
     # CSG: each child its own colour, so the hit leaf is visible in the image.
     a = ir.Object(ir.Sphere((-1.2, 4.2, 2.5), 0.9))
     b = ir.Object(ir.Box((-1.2, 4.2, 1.5), (-0.2, 5.2, 2.5)))
@@ -511,7 +522,8 @@ def _gallery():
 
 
 @pytest.mark.povray
-def test_silhouettes_match_povray(tmp_path):
+@pytest.mark.parametrize("kind", ["perspective", "orthographic"])
+def test_silhouettes_match_povray(tmp_path, kind):
     """Every shape, transform and CSG rule against POV-Ray: each leaf gets a unique flat
     colour, POV-Ray renders the scene, and the object hit by our camera ray at every pixel
     centre must be the one whose colour POV-Ray wrote there."""
@@ -520,11 +532,13 @@ def test_silhouettes_match_povray(tmp_path):
     from runtime import image
     from runtime.camera import primary_rays
 
+    size = 1.0 if kind == "perspective" else 10.0  # the orthographic frame is the view
     cam = ir.Camera(
+        kind=kind,
         location=(0.3, 3.0, -9.0),
         direction=(0.0, -0.25, 1.2),
-        right=(1.3333333333333333, 0.0, 0.0),
-        up=(0.0, 0.9701425001453319, 0.24253562503633297),
+        right=(1.3333333333333333 * size, 0.0, 0.0),
+        up=(0.0, 0.9701425001453319 * size, 0.24253562503633297 * size),
     )
     objects, lines, colours = [], [], []
     rng = np.random.default_rng(1)
@@ -541,7 +555,7 @@ def test_silhouettes_match_povray(tmp_path):
     pov = tmp_path / "gallery.pov"
     pov.write_text(
         "#version 3.7;\nglobal_settings { assumed_gamma 1.0 }\n"
-        f"camera {{ location {_vec(cam.location)} direction {_vec(cam.direction)}"
+        f"camera {{ {kind} location {_vec(cam.location)} direction {_vec(cam.direction)}"
         f" right {_vec(cam.right)} up {_vec(cam.up)} }}\n"
         "background { rgb 0 }\n" + "\n".join(lines) + "\n"
     )
