@@ -177,10 +177,13 @@ class _Builder:
         dist = float(np.min(np.linalg.norm(pts - np.asarray(cam.location), axis=1)))
         right = float(np.linalg.norm(cam.right))
         if cam.kind == "orthographic":
-            return max(0.5 * right / self.width, tol.ABS_FLOOR)
+            return max(tol.AUTO_TESSELLATION_PIXELS * right / self.width, tol.ABS_FLOOR)
         pixel = right / float(np.linalg.norm(cam.direction)) / self.width
         extent = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-        return max(0.5 * pixel * dist, tol.TESSELLATION_REL * max(extent, tol.ABS_FLOOR))
+        return max(
+            tol.AUTO_TESSELLATION_PIXELS * pixel * dist,
+            tol.TESSELLATION_REL * max(extent, tol.ABS_FLOOR),
+        )
 
 
 def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:

@@ -521,7 +521,7 @@ class TorusPrim:
                 with np.errstate(divide="ignore", invalid="ignore"):
                     step = np.where(fp != 0, f / fp, 0.0)
                 # Newton near a double root can jump; only accept small corrections.
-                u = np.where(np.abs(step) < 0.1 * scale, u - step, u)
+                u = np.where(np.abs(step) < tol.NEWTON_MAX_STEP_REL * scale, u - step, u)
             u = np.sort(np.where(np.isnan(u), INF, u), axis=1)
             roots[rows] = u / dl[rows, None] + t0[rows, None]
         return roots, np.zeros((n, 4), dtype=np.int8)

@@ -47,3 +47,17 @@ BOX_PAD_ABS: float = 1e-12
 # Automatic tessellation tolerance never goes below this fraction of the surface's extent
 # (a camera placed on the surface would otherwise ask for infinitely many triangles).
 TESSELLATION_REL: float = 1e-6
+
+# Newton polishing of quartic (torus) roots only accepts corrections below this fraction of
+# the shape's size: near a double root the derivative vanishes and a full step could jump to
+# the wrong root; the eigenvalue guess is already that close.
+NEWTON_MAX_STEP_REL: float = 0.1
+
+# Casts per ray when a float64-refined Embree hit falls at or before the ray start (a
+# self-hit at a grazing angle): one retry from just past it is enough in practice, a third
+# round is a margin.
+EMBREE_ROUNDS: int = 3
+
+# Automatic chord-error bound for NURBS / subdivision tessellation: this many pixels at the
+# surface's nearest distance from the eye (half a pixel: facets stay below visibility).
+AUTO_TESSELLATION_PIXELS: float = 0.5

@@ -162,12 +162,11 @@ class TriangleSet:
         """Rows with a triangle hit in (tmin, limit), their triangle and float64 distance.
 
         A refined hit can land at or before the ray's floor (the ray started on that
-        triangle, or grazes it): cast again from just past it. Three rounds settle every
-        case seen in practice."""
+        triangle, or grazes it): cast again from just past it (tolerances.EMBREE_ROUNDS)."""
         rows = np.nonzero(limit > tmin)[0]
         start = self._start(o[rows], tmin[rows])
         out_rows, out_tri, out_t = [], [], []
-        for _ in range(3):
+        for _ in range(tol.EMBREE_ROUNDS):
             if len(rows) == 0:
                 break
             orow, drow = o[rows], d[rows]

@@ -575,3 +575,29 @@ def test_silhouettes_match_povray(tmp_path, kind):
     assert set(np.unique(pov_obj)) == set(range(-1, len(colours)))  # every leaf shows
     mismatch = np.count_nonzero(ours != pov_obj)
     assert mismatch <= 2, f"{mismatch} of {w * h} pixels disagree with POV-Ray"
+
+
+@pytest.mark.parametrize(
+    "y, z, expect",
+    [
+        (0.5, 0.0, [8, 8, 12, 12]),  # tangent to the top of the tube: double roots
+        (0.5 * (1 - 1e-8), 0.0, "pairs"),  # a hair below: close pairs, not lost
+        (0.5 * (1 + 1e-9), 0.0, []),  # a hair above: miss
+        (0.0, 1.5, [8, 10, 10, 12]),  # tangent to the inner equator
+        (0.0, 2.5 - 1e-7, "outer"),  # grazing the outer equator
+    ],
+)
+def test_torus_tangent_rays(y, z, expect):
+    """Near-tangent rays test QUARTIC_IMAG_REL (real double roots come out of the eigen
+    solver as conjugate pairs of size ~sqrt(eps)) and the Newton polish."""
+    prim = shapes.TorusPrim(2.0, 0.5)
+    t, _ = prim.crossings(np.array([[-10.0, y, z]]), np.array([[1.0, 0.0, 0.0]]))
+    got = np.sort(t[0][np.isfinite(t[0])])
+    if expect == "pairs":
+        half = np.sqrt(0.25 - y * y)  # x = +-2 +- sqrt(r^2 - y^2)
+        assert np.allclose(got, [8 - half, 8 + half, 12 - half, 12 + half], rtol=0, atol=1e-9)
+    elif expect == "outer":
+        half = np.sqrt(6.25 - z * z)
+        assert np.allclose(got, [10 - half, 10 + half], rtol=0, atol=1e-9)
+    else:
+        assert np.allclose(got, expect, rtol=0, atol=1e-6)
