@@ -157,3 +157,20 @@ def test_vertex_gathering_keeps_the_furnace():
     pts = np.array([[0.3, 0.0, 1.1], [1.7, 2.0, 0.4], [0.0, 1.2, 1.9]])
     view = np.array([[0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
     assert np.allclose(r.gathered(0, pts, view), 0.1, rtol=0.02)
+
+
+def test_patterned_pigments_give_each_patch_its_own_reflectance():
+    """A checker floor (unit squares, black and white) meshed in 1×1 patches aligned with
+    the checks: every patch is one colour, so ρ is 0 or 0.5 patch by patch, not one mean."""
+    black = ir.Pigment(color=(0.0, 0.0, 0.0, 0.0, 0.0))
+    white = ir.Pigment(color=(1.0, 1.0, 1.0, 0.0, 0.0))
+    tex = ir.Texture(
+        pigment=ir.Pigment(pattern="checker", list=(black, white)),
+        finish=ir.Finish(ambient=(0.0, 0.0, 0.0), diffuse=0.5),
+    )
+    floor = ir.Object(ir.Polygon(((0, 0, 0), (0, 0, 4), (4, 0, 4), (4, 0, 0))), texture=tex)
+    r = _solve(_scene((floor,), [ir.Light((2.0, 50.0, 2.0))]), patch_size=1.0)
+    rho = np.round(r.patches.reflectance[:, 0], 6)
+    assert set(rho.tolist()) == {0.0, 0.5}
+    assert (rho == 0.5).sum() == 8
+    assert np.allclose(r.B[rho == 0.0], 0.0) and np.all(r.B[rho == 0.5] > 0.4)

@@ -387,6 +387,28 @@ def _meshable(prepared) -> list[int]:
     return sorted(set(out))
 
 
+def _patterned_materials(prepared, patches: Patches, rng, samples: int = 8) -> None:
+    """Patches of objects with a patterned pigment (checker …) get their own ρ and
+    emission: the pigment averaged over `samples` points of each patch (a solid pigment
+    is already exact per element)."""
+    from runtime import patterns
+
+    for obj_index in np.unique(patches.surface):
+        obj = prepared.objects[int(obj_index)]
+        pig = obj.texture.pigment
+        if pig.pattern == "solid":
+            continue
+        rows = np.nonzero(patches.surface == obj_index)[0]
+        sub = patches.sample_points(samples, rng)[rows] if len(rows) else None
+        if sub is None:
+            continue
+        rgb = patterns.evaluate(pig, sub.reshape(-1, 3))[:, :3].reshape(len(rows), samples, 3)
+        rgb = rgb.mean(axis=1)
+        fin = obj.texture.finish
+        patches.reflectance[rows] = np.clip(rgb * fin.diffuse, 0.0, 0.999)
+        patches.emission[rows] = rgb * np.asarray(fin.emission, dtype=np.float64)
+
+
 def _unmeshed_tracer(prepared, meshed: set[int]):
     """A tracer over the objects that got no patches (they still block light), or None."""
     from runtime.trace import Leaf, Tracer
@@ -611,6 +633,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
 
         ff_s += time.perf_counter() - t0
         t0 = time.perf_counter()
+        _patterned_materials(prepared, patches, rng)
         D = direct_light(prepared, patches, opts.light_samples, rng)
         E = patches.emission + patches.reflectance * D
         sol = solver.solve(F, patches.reflectance, E, patches.area, method=opts.method,
