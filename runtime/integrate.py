@@ -26,6 +26,10 @@ from runtime.shading import GREY, Surface
 # (bounds the loop for pathological stacks of glass; each crossing is one batch query).
 MAX_SHADOW_CROSSINGS: int = 32
 
+# POV-Ray's faked caustics brighten light through a transparent surface by
+# 1 + |N.L|^(45 caustics): near head-on light is focused, oblique light is not.
+CAUSTICS_SCALE: float = 45.0
+
 _warned: set[str] = set()
 
 
@@ -59,6 +63,7 @@ class Context:
     bumpy: np.ndarray  # (n_tex,) bool: some layer perturbs the normal
     double_illuminate: np.ndarray  # (n_obj,) bool
     ior: np.ndarray  # (n_obj,) interior ior
+    interiors: list[ir.Interior]  # (n_obj,) interior of each object
     legacy_opacity: bool  # pre-3.7 transparency formula
     gamma: float | None  # working gamma (None: legacy), for image files
     background: np.ndarray  # (3,)
@@ -138,6 +143,7 @@ def make_context(prepared) -> Context:
         bumpy=any_layer(lambda t: t.normal is not None),
         double_illuminate=np.array([o.double_illuminate for o in objs], dtype=bool),
         ior=np.array([o.interior.ior for o in objs], dtype=np.float64),
+        interiors=[o.interior for o in objs],
         legacy_opacity=version is not None and version < 3.7,
         gamma=color.working_gamma(scene.settings),
         background=np.asarray(scene.background[:3], dtype=np.float64),
@@ -187,6 +193,7 @@ def trace(
             w[rows],
             here,
             skip,
+            hits.t[rows],
         )
     if ctx.scene.fog is not None:
         col = apply_fog(ctx.scene.fog, hits.t, col)
@@ -234,13 +241,15 @@ def shade(
     weight: np.ndarray,
     level: int,
     skip: str | None,
+    depth: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(N,3) colours of N hits at trace level `level` (tex: texture index of each hit)."""
+    """(N,3) colours of N hits at trace level `level` (tex: texture index of each hit;
+    depth: how far each ray travelled to its hit, for interior fading)."""
     n = len(obj)
     # POV-Ray turns the normal toward the viewer before shading.
     leaving = np.einsum("ij,ij->i", normal, dirs) > 0
     raw = np.where(leaving[:, None], -normal, normal)
-    hit = Hit(obj, tex, point, raw, leaving, dirs, weight)
+    hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth)
     lights = light_colours(ctx, hit)
     result = np.zeros((n, 3))
     fil = np.ones((n, 3))
@@ -269,6 +278,7 @@ class Hit:
     leaving: np.ndarray  # (N,) the ray leaves the object here (outward normal along it)
     dirs: np.ndarray  # (N,3) incoming ray directions
     weight: np.ndarray  # (N,) largest possible contribution to the pixel
+    depth: np.ndarray | None = None  # (N,) distance from the ray's origin to the hit
 
 
 @dataclass
@@ -405,16 +415,35 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
         if len(active_hit) == 0:
             break
         pts = h.point[hit]
-        tex = ctx.texture_of(h.obj[hit], h.prim[hit] if h.prim is not None else None)
+        objs = h.obj[hit]
+        rd = ldir[active_hit]
+        tex = ctx.texture_of(objs, h.prim[hit] if h.prim is not None else None)
         f = np.zeros((len(active_hit), 3))
         for tid in np.unique(tex):
             if not ctx.transmits[tid]:
                 continue  # opaque: the light is blocked
             sel = np.nonzero(tex == tid)[0]
             t = np.ones((len(sel), 3))
+            caustics = np.array([ctx.interiors[int(o)].caustics for o in objs[sel]])
+            # The surface normal turned against the shadow ray, for faked caustics.
+            nrm = h.normal[hit][sel]
+            nrm = np.where((np.einsum("ij,ij->i", nrm, rd[sel]) > 0)[:, None], -nrm, nrm)
             for layer in ctx.textures[tid]:
                 t *= shading.rgb_transmit(patterns.evaluate(layer.pigment, pts[sel], ctx.gamma))
+                if (caustics != 0).any():
+                    ln = nrm
+                    if layer.normal is not None:
+                        ln = patterns.perturb_normal(layer.normal, pts[sel], nrm)
+                    cdot = np.abs(np.einsum("ij,ij->i", ln, rd[sel]))
+                    # POV-Ray stores `caustics c` as the exponent 45 c.
+                    k = np.where(
+                        caustics != 0, 1.0 + np.power(cdot, CAUSTICS_SCALE * caustics), 1.0
+                    )
+                    t *= k[:, None]
             f[sel] = t
+        # Light that crossed an object's inside fades with the distance it travelled there.
+        leaving = np.einsum("ij,ij->i", h.normal[hit], rd) > 0
+        f *= interior_fade(ctx, objs, h.t[hit], leaving)
         mult[active_hit] *= f
         o[active_hit] = pts
         remaining[active_hit] -= h.t[hit]
@@ -529,4 +558,26 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, result) -> None:
         col[r_idx] = trace(ctx, hit.point[rows[r_idx]], rd, w[r_idx], level, skip)
         mult[r_idx[tir]] = 1.0
         ctx.count("refraction_rays", len(r_idx))
+    if hit.depth is not None:
+        mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], hit.leaving[rows])
     result[rows] += mult * col
+
+
+def interior_fade(ctx: Context, obj: np.ndarray, depth: np.ndarray, inside: np.ndarray):
+    """(N,3) POV-Ray's interior attenuation of light that travelled `depth` inside the
+    object (only where `inside`): fade_colour + (1 - fade_colour) / (1 + (d/fade_distance)
+    ^ fade_power), or exp(-(1 - fade_colour) d / fade_distance) for fade_power >= 1000."""
+    out = np.ones((len(obj), 3))
+    for oid in np.unique(obj[inside]):
+        it = ctx.interiors[int(oid)]
+        if it.fade_power <= 0 or abs(it.fade_distance) <= shading.EPSILON:
+            continue
+        rows = np.nonzero(inside & (obj == oid))[0]
+        fc = np.asarray(it.fade_color, dtype=np.float64)
+        d = depth[rows] / it.fade_distance
+        if it.fade_power >= 1000:
+            out[rows] = np.exp(-(1.0 - fc) * d[:, None])
+        else:
+            att = 1.0 + np.power(np.abs(d), it.fade_power)
+            out[rows] = fc + (1.0 - fc) / att[:, None]
+    return out

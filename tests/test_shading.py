@@ -334,8 +334,8 @@ def test_objects_sharing_a_texture_are_shaded_as_one_group():
 
 
 def test_area_light_penumbra_is_between_lit_and_shadowed():
-    # A blocker between points and a 5x5 area light: the shadow's edge sees part of it. Sampled along a line across the penumbra, the light fraction rises
-    # from 0 to 1 through intermediate values.
+    # A blocker between points and a 5x5 area light: the shadow's edge sees part of it.
+    # Along a line across the penumbra the light fraction rises from 0 to 1 smoothly.
     area = ir.AreaLight((4.0, 0, 0), (0, 4.0, 0), 5, 5, adaptive=1)
     light = ir.Light(position=(0, 0, -10), area=area)
     blocker = ir.Object(ir.Sphere((0, 0, -3), 1.0))
@@ -355,3 +355,45 @@ def test_area_light_coarse_indices_follow_povray_splits():
     assert list(shading.area_coarse_indices(5, 0)) == [0, 4]
     assert list(shading.area_coarse_indices(5, 1)) == [0, 2, 4]
     assert list(shading.area_coarse_indices(17, 2)) == [0, 4, 8, 12, 16]
+
+
+def test_interior_fade_dims_light_that_crossed_the_inside():
+    # A clear sphere with fade_distance 1, fade_power 2: a ray through its middle travels
+    # 2 units inside, so the background behind it is dimmed to 1 / (1 + 2²).
+    clear = ir.Texture(
+        pigment=ir.Pigment(color=(1, 1, 1, 0, 1.0)),
+        finish=ir.Finish(ambient=(0, 0, 0), diffuse=0.0),
+    )
+    sphere = ir.Object(
+        ir.Sphere((0, 0, 0), 1.0),
+        texture=clear,
+        interior=ir.Interior(fade_distance=1.0, fade_power=2.0),
+    )
+    scene = ir.Scene(
+        camera=ir.Camera(location=(0, 0, -5)),
+        objects=(sphere,),
+        background=(1, 1, 1, 0, 0),
+        settings=ir.Settings(assumed_gamma=1.0),
+    )
+    col = shoot(scene, [0, 0, -5], [0, 0, 1])
+    np.testing.assert_allclose(col[0], [1 / 5] * 3)
+
+
+def test_faked_caustics_focus_head_on_light():
+    # A clear slab (filter 1, white) between a point and a light straight above: with
+    # caustics the head-on light is doubled (1 + |N.L|^45c), without it passes unchanged.
+    def through(caustics):
+        slab = ir.Object(
+            ir.Plane((0, 1, 0), 5.0),
+            texture=ir.Texture(pigment=ir.Pigment(color=(1, 1, 1, 1, 0))),
+            interior=ir.Interior(caustics=caustics),
+        )
+        scene = ir.Scene(
+            camera=ir.Camera(), lights=(ir.Light(position=(0, 20, 0)),), objects=(slab,)
+        )
+        ctx = integrate.make_context(prepare(scene, 8, 8))
+        p = np.array([[0.0, 0.0, 0.0]])
+        return integrate.shadow_filter(ctx, p, np.array([[0.0, 1.0, 0.0]]), np.array([20.0]))
+
+    np.testing.assert_allclose(through(0.0)[0], [1, 1, 1])
+    np.testing.assert_allclose(through(1.0)[0], [2, 2, 2])
