@@ -28,6 +28,7 @@ def _leaf_triangles(obj: ir.Object):
     m = tf.as_matrix(obj.transform)
     m_inv = tf.inverse(m)
     shape = obj.shape
+    move = not tf.is_identity(m)
     if isinstance(shape, ir.Triangle):
         v = np.array([shape.p1, shape.p2, shape.p3], dtype=np.float64)
         tri = tf.apply_points(m, v)[None]
@@ -35,7 +36,9 @@ def _leaf_triangles(obj: ir.Object):
             return tri, None
         vn = tf.apply_normals(m_inv, np.asarray(shape.normals, dtype=np.float64))
         return tri, vn[None]
-    verts = tf.apply_points(m, np.asarray(shape.vertices, dtype=np.float64).reshape(-1, 3))
+    verts = np.asarray(shape.vertices, dtype=np.float64).reshape(-1, 3)
+    if move:
+        verts = tf.apply_points(m, verts)
     faces = np.asarray(shape.faces, dtype=np.int64).reshape(-1, 3)
     tri = verts[faces]
     normals = shape.normals
@@ -44,7 +47,7 @@ def _leaf_triangles(obj: ir.Object):
         vn = normals[faces]
     elif normals is not None:
         n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-        vn = tf.apply_normals(m_inv, n)[faces]
+        vn = (tf.apply_normals(m_inv, n) if move else tf.normalize(n))[faces]
     else:
         vn = None
     return tri, vn

@@ -409,3 +409,13 @@ def test_tracer_is_safe_to_share_between_threads():
         ref = fresh.closest(o, d)
         assert np.array_equal(h.obj, ref.obj) and np.array_equal(h.t, ref.t)
     assert any((h.obj == 0).any() for h in got) and any((h.obj == 1).any() for h in got)
+
+
+def test_far_plane_keeps_close_hits():
+    """A plane a million units from the origin still reports a hit 0.01 in front of a ray:
+    only the ray-origin offset (1e-9 * 1e6 = 1e-3 here) applies, not a floor growing with
+    the plane's distance from the origin (1e-7 * 1e6 = 0.1 would swallow this hit)."""
+    prep = prep_of(ir.Object(ir.Plane((0, 1, 0), 1e6)))
+    h = prep.tracer.closest(np.array([[5.0, 1e6 - 1e-2, 7.0]]), np.array([[0.0, 1, 0]]))
+    assert h.obj[0] == 0
+    assert h.t[0] == pytest.approx(1e-2, rel=1e-6)
