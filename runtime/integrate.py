@@ -151,28 +151,54 @@ def make_context(prepared) -> Context:
 
 
 # -------------------------------------------------------------------------- trace
+# Which objects a ray skips, as small codes so one wave can mix ray kinds.
+SKIPS: tuple[str | None, ...] = (None, "no_image", "no_reflection")
+SKIP_NONE, SKIP_NO_IMAGE, SKIP_NO_REFLECTION = 0, 1, 2
+
+
 def trace(
     ctx: Context,
     origins: np.ndarray,
     dirs: np.ndarray,
     weight: np.ndarray,
-    level: int,
-    skip: str | None,
-    continued: bool = False,
+    level: int | np.ndarray,
+    skip: str | None | np.ndarray,
+    continued: bool | np.ndarray = False,
 ) -> np.ndarray:
-    """(N,3) colours of rays. `level` is the trace level of the surface that spawned them
-    (0 for camera rays); `continued` rays (straight through ior-1 surfaces) keep it."""
+    """(N,3) colours of rays.
+
+    level: the trace level of the surface that spawned each ray (0 for camera rays);
+    `continued` rays (straight through ior-1 surfaces) stay at that level, the others are
+    one deeper. skip: a flag name for all rays or (N,) codes into SKIPS. All three may be
+    per ray, so a wave's reflected and transmitted rays travel together: one call per
+    wave, never one per kind of ray (which would double the calls at every level)."""
     n = len(origins)
     out = np.zeros((n, 3))
-    s = ctx.settings
-    if n == 0 or level >= s.max_trace_level:
+    if n == 0:
         return out
-    alive = np.nonzero(weight >= s.adc_bailout)[0]
+    s = ctx.settings
+    level = np.broadcast_to(np.asarray(level, dtype=np.int64), (n,))
+    continued = np.broadcast_to(np.asarray(continued, dtype=bool), (n,))
+    if isinstance(skip, np.ndarray):
+        codes = np.broadcast_to(skip.astype(np.int8), (n,))
+    else:
+        codes = np.full(n, SKIPS.index(skip), dtype=np.int8)
+    alive = np.nonzero((level < s.max_trace_level) & (weight >= s.adc_bailout))[0]
     if len(alive) == 0:
         return out
     o, d, w = origins[alive], dirs[alive], weight[alive]
+    codes = codes[alive]
     ctx.count("rays", len(alive))
-    hits = ctx.tracer.closest(o, d, skip=skip)
+    hits = None
+    for code in np.unique(codes):
+        sel = np.nonzero(codes == code)[0]
+        h = ctx.tracer.closest(o[sel], d[sel], skip=SKIPS[int(code)])
+        if hits is None and len(sel) == len(alive):
+            hits = h
+            break
+        if hits is None:
+            hits = _empty_like(h, len(alive))
+        _scatter_hits(hits, sel, h)
     hit = hits.obj >= 0
     col = np.zeros((len(alive), 3))
     miss = np.nonzero(~hit)[0]
@@ -180,7 +206,7 @@ def trace(
         col[miss] = sky(ctx, d[miss])
     rows = np.nonzero(hit)[0]
     if len(rows):
-        here = level if continued else level + 1
+        here = level[alive][rows] + np.where(continued[alive][rows], 0, 1)
         prim = hits.prim[rows] if hits.prim is not None else None
         tex = ctx.texture_of(hits.obj[rows], prim)
         col[rows] = shade(
@@ -192,13 +218,31 @@ def trace(
             d[rows],
             w[rows],
             here,
-            skip,
+            codes[rows],
             hits.t[rows],
         )
     if ctx.scene.fog is not None:
         col = apply_fog(ctx.scene.fog, hits.t, col)
     out[alive] = col
     return out
+
+
+def _empty_like(h, n: int):
+    from runtime.trace import empty_hits
+
+    e = empty_hits(n)
+    if h.prim is None:
+        e.prim = None
+    return e
+
+
+def _scatter_hits(dst, rows: np.ndarray, src) -> None:
+    dst.t[rows] = src.t
+    dst.obj[rows] = src.obj
+    dst.point[rows] = src.point
+    dst.normal[rows] = src.normal
+    if dst.prim is not None and src.prim is not None:
+        dst.prim[rows] = src.prim
 
 
 def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
@@ -239,12 +283,14 @@ def shade(
     normal: np.ndarray,
     dirs: np.ndarray,
     weight: np.ndarray,
-    level: int,
-    skip: str | None,
+    level: np.ndarray,
+    skip: np.ndarray,
     depth: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(N,3) colours of N hits at trace level `level` (tex: texture index of each hit;
-    depth: how far each ray travelled to its hit, for interior fading)."""
+    """(N,3) colours of N hits (tex: texture index of each hit; level: each hit's trace
+    level; skip: each incoming ray's skip code; depth: how far each ray travelled to its
+    hit, for interior fading). Reflected and transmitted rays are gathered and traced
+    together in one batch."""
     n = len(obj)
     # POV-Ray turns the normal toward the viewer before shading.
     leaving = np.einsum("ij,ij->i", normal, dirs) > 0
@@ -253,18 +299,55 @@ def shade(
     lights = light_colours(ctx, hit)
     result = np.zeros((n, 3))
     fil = np.ones((n, 3))
-    reflect_req: list[tuple] = []
+    secondary = Secondary()
     for tid in np.unique(tex):
         rows = np.nonzero(tex == tid)[0]
-        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, reflect_req)
+        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, secondary, level)
     # Transmitted light: what the layers let through, filtered by them.
     trans = np.minimum(1.0, np.abs(fil @ GREY))
     through = np.nonzero((trans > ctx.settings.adc_bailout) & ctx.transmits[tex])[0]
     if len(through):
-        transmit(ctx, hit, level, skip, fil, through, result)
-    if reflect_req:
-        reflect_all(ctx, point, level, reflect_req, result)
+        transmit(ctx, hit, level, skip, fil, through, secondary)
+    secondary.trace_into(ctx, point, result)
     return result
+
+
+@dataclass
+class Secondary:
+    """The reflected and transmitted rays a wave spawns, traced together in one batch.
+    Each request: rows of the wave, directions, colour multipliers, weights, trace levels,
+    continued flags, skip codes and the power (1/exponent) applied to what comes back."""
+
+    parts: list[tuple] = field(default_factory=list)
+
+    def add(self, rows, dirs, mult, weight, level, continued, skip, power=1.0) -> None:
+        k = len(rows)
+        if k == 0:
+            return
+        self.parts.append(
+            (
+                rows,
+                dirs,
+                mult,
+                weight,
+                np.broadcast_to(level, (k,)),
+                np.broadcast_to(continued, (k,)),
+                np.broadcast_to(skip, (k,)),
+                np.broadcast_to(power, (k,)),
+            )
+        )
+
+    def trace_into(self, ctx: Context, point: np.ndarray, result: np.ndarray) -> None:
+        if not self.parts:
+            return
+        rows, dirs, mult, w, lv, cont, skip, power = (
+            np.concatenate([p[i] for p in self.parts]) for i in range(8)
+        )
+        col = trace(ctx, point[rows], dirs, w, lv, skip.astype(np.int8), cont)
+        bent = power != 1.0
+        if bent.any():
+            col[bent] = np.power(np.clip(col[bent], 0, None), power[bent, None])
+        np.add.at(result, rows, mult * col)
 
 
 @dataclass
@@ -454,7 +537,9 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
     return mult
 
 
-def shade_texture(ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, reflect_req):
+def shade_texture(
+    ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, secondary: Secondary, level
+):
     """Accumulate the layers of texture `tid` at `rows` into result/fil; queue reflections."""
     s = ctx.settings
     base_surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows])
@@ -501,14 +586,15 @@ def shade_texture(ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, r
                 if fin.irid is not None and fin.irid[0] > 0:
                     sub = Surface(normal=surf.normal[use], ray_dir=surf.ray_dir[use])
                     mult = mult * shading.iridescence(fin, sub, d)
-                reflect_req.append(
-                    (
-                        rows[use],
-                        d,
-                        mult,
-                        hit.weight[rows][use] * trans[use] * wfac[use],
-                        exp,
-                    )
+                secondary.add(
+                    rows[use],
+                    d,
+                    mult,
+                    hit.weight[rows][use] * trans[use] * wfac[use],
+                    level[rows][use],
+                    False,
+                    SKIP_NO_REFLECTION,
+                    exp,
                 )
         f = f * shading.rgb_transmit(colour)
         if fin.conserve_energy and reflects:
@@ -517,50 +603,29 @@ def shade_texture(ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, r
     fil[rows] = f
 
 
-def reflect_all(ctx, point, level, reqs, result) -> None:
-    """Trace every queued reflection of a wave in one batch and add it in. A request is
-    (rows, mirrored directions, reflection colour, ray weight, 1/exponent)."""
-    rows = np.concatenate([r[0] for r in reqs])
-    d = np.concatenate([r[1] for r in reqs])
-    refl = np.concatenate([r[2] for r in reqs])
-    w = np.concatenate([r[3] for r in reqs])
-    exps = np.concatenate([np.full(len(r[0]), r[4]) for r in reqs])
-    col = trace(ctx, point[rows], d, w, level, "no_reflection")
-    ctx.count("reflection_rays", len(rows))
-    powered = exps != 1.0
-    if powered.any():
-        col[powered] = np.power(np.clip(col[powered], 0, None), exps[powered, None])
-    np.add.at(result, rows, refl * col)
-
-
-def transmit(ctx, hit: Hit, level, skip, fil, rows, result) -> None:
-    """Rays through transparent surfaces: straight on where the ior is 1 (a continued ray,
-    same trace level), refracted otherwise (total internal reflection reflects instead and
-    is not filtered)."""
+def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary) -> None:
+    """Queue rays through transparent surfaces: straight on where the ior is 1 (a continued
+    ray, same trace level), refracted otherwise (total internal reflection reflects instead
+    and is not filtered). Light that crossed the object's inside fades with the distance."""
     d = hit.dirs[rows]
     n = hit.normal[rows]
     w = hit.weight[rows] * np.abs(fil[rows]).max(axis=1)
     ior = ctx.ior[hit.obj[rows]]
     straight = np.abs(ior - 1.0) < shading.EPSILON
     mult = fil[rows].copy()
-    col = np.zeros((len(rows), 3))
-    s_idx = np.nonzero(straight)[0]
-    if len(s_idx):
-        col[s_idx] = trace(
-            ctx, hit.point[rows[s_idx]], d[s_idx], w[s_idx], level, skip, continued=True
-        )
+    out_dir = d.copy()
     r_idx = np.nonzero(~straight)[0]
     if len(r_idx):
         # Leaving the object (ray along its outward normal): ior → air, else air → ior.
         ratio = np.where(hit.leaving[rows[r_idx]], ior[r_idx], 1.0 / ior[r_idx])
         rd, tir = shading.refract(d[r_idx], n[r_idx], ratio)
         rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], n[r_idx]), rd)
-        col[r_idx] = trace(ctx, hit.point[rows[r_idx]], rd, w[r_idx], level, skip)
+        out_dir[r_idx] = rd
         mult[r_idx[tir]] = 1.0
         ctx.count("refraction_rays", len(r_idx))
     if hit.depth is not None:
         mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], hit.leaving[rows])
-    result[rows] += mult * col
+    secondary.add(rows, out_dir, mult, w, level[rows], straight, skip[rows])
 
 
 def interior_fade(ctx: Context, obj: np.ndarray, depth: np.ndarray, inside: np.ndarray):

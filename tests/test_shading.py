@@ -397,3 +397,39 @@ def test_faked_caustics_focus_head_on_light():
 
     np.testing.assert_allclose(through(0.0)[0], [1, 1, 1])
     np.testing.assert_allclose(through(1.0)[0], [2, 2, 2])
+
+
+def test_each_wave_traces_its_secondary_rays_in_one_batch(monkeypatch):
+    # A glass sphere that both reflects and refracts, deep trace level: the number of
+    # trace() calls must grow with the depth, not double at every level.
+    glass = ir.Texture(
+        pigment=ir.Pigment(color=(1, 1, 1, 0.9, 0)),
+        finish=ir.Finish(reflection=ir.Reflection(min=(0.3,) * 3, max=(0.3,) * 3)),
+    )
+    sphere = ir.Object(ir.Sphere((0, 0, 0), 1.0), texture=glass, interior=ir.Interior(ior=1.5))
+    scene = ir.Scene(
+        camera=ir.Camera(location=(0, 0, -5)),
+        objects=(sphere,),
+        background=(1, 1, 1, 0, 0),
+        settings=ir.Settings(assumed_gamma=1.0, max_trace_level=12, adc_bailout=0.0),
+    )
+    calls = []
+    real = integrate.trace
+
+    def counting(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(integrate, "trace", counting)
+    ys = np.linspace(-0.9, 0.9, 7)
+    o = np.stack([np.zeros(7), ys, np.full(7, -5.0)], axis=1)
+    col = counting(
+        integrate.make_context(prepare(scene, 8, 8)),
+        o,
+        np.tile([0.0, 0.0, 1.0], (7, 1)),
+        np.ones(7),
+        0,
+        "no_image",
+    )
+    assert np.isfinite(col).all()
+    assert len(calls) <= 13  # one per level (and the camera wave)
