@@ -419,3 +419,21 @@ def test_far_plane_keeps_close_hits():
     h = prep.tracer.closest(np.array([[5.0, 1e6 - 1e-2, 7.0]]), np.array([[0.0, 1, 0]]))
     assert h.obj[0] == 0
     assert h.t[0] == pytest.approx(1e-2, rel=1e-6)
+
+
+def test_empty_batches_and_empty_scenes():
+    z = np.zeros((0, 3))
+    prep = prep_of(
+        ir.Object(ir.Sphere((0, 0, 0), 1)),
+        ir.Object(ir.Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0))),
+        ir.Object(ir.Unsupported("blob")),
+        ir.Object(ir.CSG("intersection", (ir.Object(ir.Unsupported("lathe")),))),
+    )
+    assert len(prep.objects) == 2  # the unsupported shapes were skipped
+    h = prep.tracer.closest(z, z)
+    assert h.t.shape == (0,) and h.normal.shape == (0, 3)
+    assert prep.tracer.occluded(z, z, np.zeros(0)).shape == (0,)
+    empty = prep_of()
+    h = empty.tracer.closest(np.zeros((3, 3)), np.tile([0.0, 0, 1], (3, 1)))
+    assert (h.obj == -1).all() and np.isinf(h.t).all()
+    assert not empty.tracer.occluded(np.zeros((3, 3)), np.tile([0.0, 0, 1], (3, 1)), 5.0).any()
