@@ -85,6 +85,9 @@ class _Builder:
             obj = dataclasses.replace(obj, shape=mesh)
             shape = mesh
         if isinstance(shape, ir.Mesh | ir.Triangle):
+            if _singular(obj):
+                self.warn_once(f"a {type(shape).__name__.lower()} is skipped: {_singular(obj)}")
+                return
             if obj.clipped_by:
                 self.warn_once("clipped_by on triangle geometry is not supported yet: ignored")
             index = self.add_leaf_object(obj, flags)
@@ -120,6 +123,10 @@ class _Builder:
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
             return None
+        why = shapes.degenerate(shape) or _singular(obj)
+        if why:
+            self.warn_once(f"a degenerate {type(shape).__name__.lower()} is skipped: {why}")
+            return None
         prim = shapes.primitive_for(shape)
         if prim is None:
             self.warn_once(f"shape {type(shape).__name__} is not supported by the tracer")
@@ -141,7 +148,7 @@ class _Builder:
         if isinstance(shape, ir.CSG):
             kids = [c for c in (self.clip_node(ch) for ch in shape.children) if c is not None]
             return CsgNode(shape.op, kids, inverse=obj.inverse) if kids else None
-        prim = shapes.primitive_for(shape)
+        prim = None if shapes.degenerate(shape) or _singular(obj) else shapes.primitive_for(shape)
         if prim is None or isinstance(shape, ir.Triangle | ir.Polygon):
             self.warn_once(f"clipped_by {type(shape).__name__} has no inside: ignored")
             return None
@@ -292,6 +299,14 @@ class _Culler:
             a2 = np.asarray(light.area.axis2, float) / 2
             corners = [pos + s1 * a1 + s2 * a2 for s1 in (-1, 1) for s2 in (-1, 1)]
         return all(n @ (c - p0) <= 0 for c in corners)
+
+
+def _singular(obj: ir.Object) -> str | None:
+    """A transform that flattens the object (scale 0) cannot be inverted: say so."""
+    m = tf.as_matrix(obj.transform)
+    if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) == 0:
+        return "its transform is singular (a zero scale?)"
+    return None
 
 
 def _walk(objects):

@@ -557,6 +557,21 @@ def gather(prims: list, which: np.ndarray):
 
 
 # ------------------------------------------------------------------------- dispatch
+def degenerate(shape) -> str | None:
+    """Why an IR shape cannot be intersected (zero axis, zero normal …), or None."""
+
+    def zero(v) -> bool:
+        return not np.linalg.norm(np.asarray(v, dtype=np.float64)) > 0
+
+    if isinstance(shape, ir.Plane | ir.Disc) and zero(shape.normal):
+        return "its normal is the zero vector"
+    if isinstance(shape, ir.Cylinder | ir.Cone) and zero(np.subtract(shape.cap, shape.base)):
+        return "its base and cap points coincide"
+    if isinstance(shape, ir.Sphere) and shape.radius == 0:
+        return "its radius is 0"
+    return None
+
+
 def primitive_for(shape):
     """The analytic primitive for an IR shape, or None (meshes go to Embree, CSG to nodes)."""
     if isinstance(shape, ir.Sphere):

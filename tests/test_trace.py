@@ -437,3 +437,18 @@ def test_empty_batches_and_empty_scenes():
     h = empty.tracer.closest(np.zeros((3, 3)), np.tile([0.0, 0, 1], (3, 1)))
     assert (h.obj == -1).all() and np.isinf(h.t).all()
     assert not empty.tracer.occluded(np.zeros((3, 3)), np.tile([0.0, 0, 1], (3, 1)), 5.0).any()
+
+
+def test_degenerate_shapes_warn_instead_of_crashing():
+    flat = ((1, 0, 0, 0), (0, 0, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))  # scale y 0
+    prep = prep_of(
+        ir.Object(ir.Cylinder((0, 0, 0), (0, 0, 0), 1)),
+        ir.Object(ir.Plane((0, 0, 0), 1)),
+        ir.Object(ir.Sphere((0, 0, 0), 1), transform=flat),
+        ir.Object(ir.Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0)), transform=flat),
+        ir.Object(ir.Sphere((0, 0, 5), 1)),
+    )
+    assert len(prep.objects) == 1
+    assert len(prep.warnings) == 4
+    h = prep.tracer.closest(np.zeros((1, 3)), np.array([[0.0, 0, 1]]))
+    assert h.obj[0] == 0 and h.t[0] == pytest.approx(4.0)
