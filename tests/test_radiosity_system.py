@@ -174,3 +174,18 @@ def test_patterned_pigments_give_each_patch_its_own_reflectance():
     assert set(rho.tolist()) == {0.0, 0.5}
     assert (rho == 0.5).sum() == 8
     assert np.allclose(r.B[rho == 0.0], 0.0) and np.all(r.B[rho == 0.5] > 0.4)
+
+
+def test_patch_half_under_a_box_is_lit_by_its_open_half():
+    """A floor patch half covered by a box standing on it exchanges light through its open
+    half only (β ≈ 0.5): its direct light is that of its open part, close to its fully open
+    neighbour's, not half of it."""
+    floor = ir.Object(ir.Polygon(((0, 0, 0), (0, 0, 2), (4, 0, 2), (4, 0, 0))), texture=_tex())
+    block = ir.Object(ir.Box((0.0, 0.0, 0.0), (1.0, 0.5, 2.0)), texture=_tex())
+    r = _solve(_scene((floor, block), [ir.Light((3.0, 100.0, 1.0))]), patch_size=2.0)
+    on_floor = np.nonzero(r.patches.surface == 0)[0]
+    assert len(on_floor) == 2  # two 2×2 patches: x ∈ [0,2] (half under the box), [2,4]
+    half, open_ = sorted(on_floor, key=lambda i: r.patches.centroid[i, 0])
+    # B = ρ·D + ρ·G: D is the same (≈ 1) on both open parts; G differs a little (the box).
+    assert r.B[half, 0] == pytest.approx(r.B[open_, 0], rel=0.1)
+    assert r.B[half, 0] > 0.45

@@ -64,7 +64,6 @@ class Options:
     far_order: int = 1  # … for pairs more than far_ratio × their radii apart
     far_ratio: float = 4.0
     vis_samples: int = 4  # segments per patch pair
-    light_samples: int = 4  # shadow rays per patch and light
     max_rounds: int = 3  # adaptive refinement rounds after the first solve
     flat: bool = False  # flat instead of Gouraud display
     vertex_gather: bool = False  # Gouraud from light gathered at the vertices (else averages)
@@ -387,6 +386,37 @@ def _meshable(prepared) -> list[int]:
     return sorted(set(out))
 
 
+def _open_points(prepared, patches: Patches, count: int, rng, extent: float):
+    """(N,count,3) sample points on each patch that lie outside every other solid, and the
+    buried fraction β (N,) of each patch (from 8·count candidates). A fully buried patch
+    keeps buried points (its β = 1 removes it from the exchange anyway)."""
+    cand_n = 8 * count
+    cand = patches.sample_points(cand_n, rng)  # (N,C,3)
+    n = len(patches)
+    flat = cand.reshape(-1, 3)
+    # Nudge off the surface along the normal: solids touching the patch (a box standing on
+    # the floor) exclude their boundary, so a point exactly on it would count as open.
+    probe = flat + np.repeat(patches.normal, cand_n, axis=0) * (1e-7 * extent)
+    owner = np.repeat(patches.surface, cand_n)
+    buried = np.zeros(len(flat), dtype=bool)
+    for node in prepared.tracer.nodes:
+        inside = node.inside(probe)
+        if inside.any():
+            mine = np.isin(owner, node.leaves)
+            buried |= inside & ~mine
+    buried = buried.reshape(n, cand_n)
+    beta = buried.mean(axis=1)
+    # Open candidates first (stable), then take the first `count` of each row.
+    order = np.argsort(buried, axis=1, kind="stable")
+    picked = np.take_along_axis(cand, order[:, :count, None], axis=1)
+    # Rows with fewer open candidates than `count`: cycle through the open ones.
+    n_open = (~buried).sum(axis=1)
+    short = (n_open > 0) & (n_open < count)
+    for i in np.nonzero(short)[0]:
+        picked[i] = cand[i, order[i, np.arange(count) % n_open[i]]]
+    return picked, beta
+
+
 def _patterned_materials(prepared, patches: Patches, rng, samples: int = 8) -> None:
     """Patches of objects with a patterned pigment (checker …) get their own ρ and
     emission: the pigment averaged over `samples` points of each patch (a solid pigment
@@ -492,9 +522,12 @@ def _tri_lookup(rec, points, ray_dir, prim):
 # ------------------------------------------------------------------ lighting
 
 
-def direct_light(prepared, patches: Patches, samples: int, rng) -> np.ndarray:
+def direct_light(
+    prepared, patches: Patches, samples: int, rng, points: np.ndarray | None = None
+) -> np.ndarray:
     """(N,3) light-source light arriving at each patch (POV units: colour·cos θ, shadowed),
-    averaged over `samples` points on the patch's true surface."""
+    averaged over `samples` points on the patch's true surface (or the given (N,S,3)
+    `points`, e.g. only its open part)."""
     from runtime import shading
 
     n = len(patches)
@@ -502,7 +535,9 @@ def direct_light(prepared, patches: Patches, samples: int, rng) -> np.ndarray:
     lights = prepared.scene.lights
     if not lights or n == 0:
         return out
-    pts = patches.sample_points(samples, rng).reshape(-1, 3)
+    if points is not None:
+        samples = points.shape[1]
+    pts = (patches.sample_points(samples, rng) if points is None else points).reshape(-1, 3)
     nrm = np.repeat(patches.normal, samples, axis=0)
     for light in lights:
         ls = shading.sample_light(light, pts)
@@ -613,30 +648,37 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     for round_ in range(opts.max_rounds + 1):
         t0 = time.perf_counter()
         n = len(patches)
-        pts = patches.sample_points(opts.vis_samples, rng)
+        pts, beta = _open_points(prepared, patches, opts.vis_samples, rng, sm.extent)
         vis = PatchVisibility(patches.verts, extra)
         if solver.fits_dense(n):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
                              far_ratio=opts.far_ratio, visible=vis,
                              vis_samples=opts.vis_samples, seed=opts.seed + round_,
                              vis_points=(pts, pts))  # fmt: skip
+            # A patch partly buried in a solid (floor under a box) exchanges light through
+            # its open part only: its visibility came from open points, and it is hit in
+            # proportion to its open area (reciprocity with the effective area A(1-β)).
+            F *= (1.0 - beta)[None, :]
             rows = None
         else:  # memory-bounded: rows on demand for progressive refinement
             F = None
 
-            def provider(idx, pts=pts, vis=vis):
-                return form_factors(patches.verts[idx], patches.verts, order=opts.order,
-                                    far_order=opts.far_order, far_ratio=opts.far_ratio,
-                                    visible=vis, vis_points=(pts[idx], pts))  # fmt: skip
+            def provider(idx, pts=pts, vis=vis, beta=beta):
+                f = form_factors(patches.verts[idx], patches.verts, order=opts.order,
+                                 far_order=opts.far_order, far_ratio=opts.far_ratio,
+                                 visible=vis, vis_points=(pts[idx], pts))  # fmt: skip
+                return f * (1.0 - beta)[None, :]
 
             rows = solver.RowCache(provider, n)
 
         ff_s += time.perf_counter() - t0
         t0 = time.perf_counter()
         _patterned_materials(prepared, patches, rng)
-        D = direct_light(prepared, patches, opts.light_samples, rng)
+        # Shadow rays from the same open points (vis_samples per patch and light).
+        D = direct_light(prepared, patches, opts.vis_samples, rng, points=pts)
         E = patches.emission + patches.reflectance * D
-        sol = solver.solve(F, patches.reflectance, E, patches.area, method=opts.method,
+        area = patches.area * np.maximum(1.0 - beta, 1e-6)
+        sol = solver.solve(F, patches.reflectance, E, area, method=opts.method,
                            tol=opts.tolerance, rows=rows)  # fmt: skip
         solve_s += time.perf_counter() - t0
         say(f"radiosity round {round_}: {n} patches, {sol.method} {sol.iterations} iterations, "
