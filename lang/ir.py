@@ -383,9 +383,15 @@ class Radiosity:
 
 @dataclass(frozen=True)
 class Fog:
+    """fog_type 1: constant fog; 2: ground fog, densest below `offset` along `up` and
+    thinning above it over `alt` (POV-Ray's fog_offset, fog_alt, up)."""
+
     color: Color
     distance: float
     fog_type: int = 1
+    offset: float = 0.0
+    alt: float = 1.0
+    up: Vec3 = (0.0, 1.0, 0.0)
 
 
 @dataclass(frozen=True)

@@ -222,7 +222,7 @@ def trace(
             hits.t[rows],
         )
     if ctx.scene.fog is not None:
-        col = apply_fog(ctx.scene.fog, hits.t, col)
+        col = apply_fog(ctx.scene.fog, hits.t, col, o, d)
     out[alive] = col
     return out
 
@@ -259,19 +259,54 @@ def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
     return col + ctx.background * fil
 
 
-def apply_fog(fog: ir.Fog, depth: np.ndarray, col: np.ndarray) -> np.ndarray:
-    """POV-Ray's constant fog: exp(-depth/distance) of the surface shows, the rest is fog
-    colour (its filter tints what shows, its transmit is the least that shows)."""
-    if fog.fog_type != 1:
-        _warn("only constant fog (fog_type 1) is rendered; ground fog renders as constant fog")
+def apply_fog(
+    fog: ir.Fog, depth: np.ndarray, col: np.ndarray, origins=None, dirs=None
+) -> np.ndarray:
+    """POV-Ray's fog: exp(-depth * density / distance) of the surface shows, the rest is
+    fog colour (its filter tints what shows, its transmit is the least that shows).
+    Constant fog has density 1; ground fog integrates POV-Ray's density profile
+    (1 below `offset`, 1/(1 + h²) above it, h in units of `alt` along `up`)."""
     if abs(fog.distance) <= shading.EPSILON:
         return col
     fc = np.asarray(fog.color, dtype=np.float64)
+    width = np.where(np.isfinite(depth), depth, MAX_FOG_DISTANCE)
+    density = 1.0
+    if fog.fog_type == 2 and origins is not None and dirs is not None and fog.alt != 0:
+        up = np.asarray(fog.up, dtype=np.float64)
+        up = up / np.linalg.norm(up)
+        y1 = origins @ up
+        y2 = (origins + dirs * width[:, None]) @ up
+        a = (y1 - fog.offset) / fog.alt
+        b = (y2 - fog.offset) / fog.alt
+        density = ground_fog_density(a, b)
+    elif fog.fog_type not in (1, 2):
+        _warn(f"fog_type {fog.fog_type} is not supported: rendered as constant fog")
     with np.errstate(over="ignore"):
-        att = np.exp(-np.where(np.isfinite(depth), depth, np.inf) / fog.distance)
+        att = np.exp(-width * density / fog.distance)
     att = np.maximum(att, fc[4])
     through = att[:, None] * ((1.0 - fc[3]) + fc[3] * fc[:3])
     return (1.0 - att)[:, None] * fc[:3] + through * col
+
+
+# Rays that hit nothing cross this much fog (POV-Ray's MAX_DISTANCE).
+MAX_FOG_DISTANCE: float = 1.0e7
+
+
+def ground_fog_density(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Mean ground-fog density between heights a and b (in units of fog_alt above
+    fog_offset): 1 where below 0, 1/(1 + h²) above, whose integral is atan(h)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        both_below = (a <= 0) & (b <= 0)
+        a_below = (a <= 0) & (b > 0)
+        b_below = (a > 0) & (b <= 0)
+        delta = a - b
+        d_a = np.where(a_below, (np.arctan(b) - a) / np.where(b - a != 0, b - a, 1), 0.0)
+        d_b = np.where(b_below, (np.arctan(a) - b) / np.where(a - b != 0, a - b, 1), 0.0)
+        close = np.abs(delta) <= shading.EPSILON
+        d_up = np.where(
+            close, 1.0 / (a * a + 1.0), (np.arctan(a) - np.arctan(b)) / np.where(close, 1, delta)
+        )
+    return np.where(both_below, 1.0, np.where(a_below, d_a, np.where(b_below, d_b, d_up)))
 
 
 # -------------------------------------------------------------------------- shade

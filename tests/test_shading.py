@@ -433,3 +433,26 @@ def test_each_wave_traces_its_secondary_rays_in_one_batch(monkeypatch):
     )
     assert np.isfinite(col).all()
     assert len(calls) <= 13  # one per level (and the camera wave)
+
+
+def test_ground_fog_is_full_below_its_offset_and_thins_above():
+    below = integrate.ground_fog_density(np.array([-2.0]), np.array([-1.0]))
+    above = integrate.ground_fog_density(np.array([0.0]), np.array([1.0]))
+    assert below[0] == 1.0
+    assert above[0] == pytest.approx(math.atan(1.0))  # mean of 1/(1+h²) over [0, 1]
+    high = integrate.ground_fog_density(np.array([10.0]), np.array([11.0]))
+    assert high[0] < 0.01
+
+
+def test_ground_fog_hides_the_floor_more_than_the_sky():
+    fog = ir.Fog(color=(1, 1, 1, 0, 0), distance=2.0, fog_type=2, offset=0.0, alt=0.5)
+    black = ir.Texture(
+        pigment=ir.Pigment(color=(0, 0, 0, 0, 0)), finish=ir.Finish(ambient=(0, 0, 0), diffuse=0.0)
+    )
+    floor = ir.Object(ir.Plane((0, 1, 0), -1.0), texture=black)
+    scene = ir.Scene(
+        camera=ir.Camera(), objects=(floor,), fog=fog, settings=ir.Settings(assumed_gamma=1.0)
+    )
+    low = shoot(scene, [0, 0, -5], unit([0, -0.2, 1]))[0, 0]
+    sky = shoot(scene, [0, 0, -5], unit([0, 1, 0.2]))[0, 0]
+    assert low > 0.9 and sky < low
