@@ -254,6 +254,10 @@ def vertex_rules(mesh: ControlMesh, s: np.ndarray, boundary: str) -> VertexRules
         on_boundary = _edge_count(edges, topo.edge_nf == 1, V) > 0
         corner = corner | (on_boundary & (nfaces == 1))
     par, chi = s > 0, s > 1
+    if not par.any() and not corner.any():  # the common smooth closed mesh
+        smooth = np.full(V, SMOOTH)
+        zero = np.zeros((V, 3))
+        return VertexRules(smooth, smooth, np.ones(V), zero, zero)
     rp = _rule(corner, _edge_count(edges, par, V))
     rc = _rule(corner, _edge_count(edges, chi, V))
     # OpenSubdiv's fractional weight: the mean sharpness of the edges that stop being sharp
@@ -268,6 +272,8 @@ def vertex_rules(mesh: ControlMesh, s: np.ndarray, boundary: str) -> VertexRules
 
 
 def _apply_vertex_rules(P: np.ndarray, smooth: np.ndarray, r: VertexRules) -> np.ndarray:
+    if not r.parent.any() and not r.child.any():  # SMOOTH == 0 everywhere
+        return smooth
     crease_p = (r.crease_sum_parent + 6.0 * P) / 8.0
     crease_c = (r.crease_sum_child + 6.0 * P) / 8.0
     pos_p = np.where(
