@@ -43,7 +43,10 @@ class VertexField:
         *,
         flat: bool = False,
         vertex_values: np.ndarray | None = None,
+        weights: np.ndarray | None = None,
     ):
+        """`weights` (N,) replace the patch areas in the vertex averages (the system passes
+        the open area, so a patch mostly buried under a box hardly counts)."""
         self.patches = patches
         self.values = np.asarray(values, dtype=np.float64).reshape(len(patches), 3)
         self.flat = flat
@@ -55,7 +58,8 @@ class VertexField:
         _, vid = np.unique(keys.reshape(-1, 4), axis=0, return_inverse=True)
         self.vertex = vid.reshape(n, 4)  # (N,4) vertex ids of the uv corners
         # Triangles repeat their last corner: count it once.
-        weight = np.repeat(patches.area[:, None], 4, axis=1)
+        w = patches.area if weights is None else np.asarray(weights, dtype=np.float64)
+        weight = np.repeat(w[:, None], 4, axis=1)
         weight[patches.is_tri, 3] = 0.0
         nv = int(vid.max()) + 1 if n else 0
         acc = np.zeros((nv, 3))

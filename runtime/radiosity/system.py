@@ -112,13 +112,18 @@ class RadiosityResult:
     stats: dict[str, float] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     G_vertex: np.ndarray | None = None  # (V,3) gathered at the Gouraud vertices
+    open_area: np.ndarray | None = None  # (N,) patch area outside other solids
     _field: VertexField | None = None
 
     @property
     def field(self) -> VertexField:
         if self._field is None:
             self._field = VertexField(
-                self.patches, self.G, flat=self.options.flat, vertex_values=self.G_vertex
+                self.patches,
+                self.G,
+                flat=self.options.flat,
+                vertex_values=self.G_vertex,
+                weights=self.open_area,
             )
         return self._field
 
@@ -713,7 +718,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         # every patch, with visibility) instead of an average of the patches around them,
         # which flattens corners and smears shadow edges.
         t0 = time.perf_counter()
-        avg = VertexField(patches, G)
+        avg = VertexField(patches, G, weights=area)
         K = point_form_factors(avg.vertex_inner, avg.vertex_normal, patches.verts,
                                visible=vis, targets=pts)  # fmt: skip
         G_vertex = np.maximum(K @ B, 0.0)
@@ -723,7 +728,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
             f"the scene is not closed: {100 * open_fraction:.0f}% of the light leaving its "
             "surfaces escapes (the radiosity method assumes a closed scene)"
         )
-    ambient = (G * patches.area[:, None]).sum(axis=0) / patches.area.sum()
+    ambient = (G * area[:, None]).sum(axis=0) / area.sum()
     stats.update(
         patches=float(len(patches)),
         form_factor_seconds=ff_s,
@@ -734,7 +739,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         residual=sol.residual,
     )
     return RadiosityResult(
-        patches, B, G, sol, opts, sm.records, ambient, stats, sm.warnings, G_vertex
+        patches, B, G, sol, opts, sm.records, ambient, stats, sm.warnings, G_vertex, area
     )
 
 
