@@ -183,10 +183,17 @@ _FIT: dict[str, Callable[[Any], bool]] = {
     "string": lambda v: isinstance(v, str),
     "matrix": lambda v: isinstance(v, Vec) and len(v) == 12,
     "transform": lambda v: isinstance(v, TransformValue),
-    "object": lambda v: isinstance(v, ObjectValue),
+    "object": lambda v: isinstance(v, ObjectValue | ir.Light),
     "camera": lambda v: isinstance(v, CameraValue),
     "bool": lambda v: kind_of(v) == "float",
 }
+
+
+def _fits(kind: str, v: Any) -> bool:
+    f = _FIT.get(kind)
+    return f(v) if f is not None else kind_of(v) == kind
+
+
 _KIND_WORDS = {
     "float": "a float",
     "int": "an integer",
@@ -288,20 +295,31 @@ def _transform_ir_object(o: ir.Object, m: ir.Matrix) -> ir.Object:
 
 
 def transform_object(obj: ObjectValue, m: ir.Matrix) -> ObjectValue:
+    """Apply a transform after everything so far. CSG children and lights stay in the CSG's
+    own space (composed once, in `to_ir`), so a transform costs O(1) however big the tree."""
     shape = obj.shape
     if isinstance(shape, ir.Mesh) and shape.textures:
         shape = replace(shape, textures=tuple(transform_texture(t, m) for t in shape.textures))
     return replace(
         obj,
         shape=shape,
-        transform=obj.transform if obj.children else transforms.compose(m, obj.transform),
+        transform=transforms.compose(m, obj.transform),
         texture=transform_texture(obj.texture, m) if obj.texture is not None else None,
-        children=[transform_object(c, m) for c in obj.children],
-        lights=[transform_light(light, m) for light in obj.lights],
+        children=list(obj.children),
+        lights=list(obj.lights),
         clipped_by=[transform_object(c, m) for c in obj.clipped_by],
         bounded_by=[transform_object(c, m) for c in obj.bounded_by],
         flags=dict(obj.flags),
     )
+
+
+def collect_lights(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> list[ir.Light]:
+    """Lights inside CSG (POV-Ray moves them with the CSG), in world space."""
+    full = transforms.compose(parent, obj.transform)
+    out = [transform_light(light, full) for light in obj.lights]
+    for c in obj.children:
+        out.extend(collect_lights(c, full))
+    return out
 
 
 def _sorted_entries(entries: list[tuple[float, Any]]) -> tuple[tuple[float, Any], ...]:
@@ -314,6 +332,13 @@ _LIST_DEFAULTS = {
     "hexagon": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)],
     "brick": [(1.0, 1.0, 1.0), (1.0, 0.0, 0.0)],
 }
+_COMPONENT_INDEX = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}
+
+
+def _component_slots(name: str) -> range | list[int]:
+    return range(3) if name in ("gray", "grey") else [_COMPONENT_INDEX[name]]
+
+
 _WAVES = frozenset("ramp_wave sine_wave triangle_wave scallop_wave cubic_wave poly_wave".split())
 _TRANSFORM_WORDS = frozenset(("translate", "rotate", "scale", "matrix", "transform"))
 _CAMERA_KINDS = frozenset(
@@ -330,6 +355,8 @@ _IGNORED_OBJECT_ITEMS = frozenset(
 
 def _item_matrix(name: str, args: list[Any]) -> ir.Matrix:
     v = args[0]
+    if isinstance(v, TransformValue):
+        return v.matrix
     if name == "translate":
         return transforms.translate(v)
     if name == "rotate":
@@ -373,6 +400,7 @@ class Interpreter:
         self.files: list[str] = []
         self.parse_cache: dict[str, syntax.SourceFile] = {}
         self.macro_depth = 0
+        self.loose_depth = 0
         self.state = builtins.BuiltinState()
         self.fn_bindings: list[dict[str, float]] = []
         self.version = 3.7
@@ -399,11 +427,8 @@ class Interpreter:
         self.sink.items.extend(diags)
         self.file_stack.append(filename)
         try:
-            for node in tree.body:
-                for el in self.expand([node], None):
-                    self._top_level(el)
-        except _Halt:
-            pass
+            for el in self.expand(tree.body, None, top=True):
+                self._top_level(el)
         finally:
             self.file_stack.pop()
         for h in list(self.handles.values()):
@@ -532,7 +557,7 @@ class Interpreter:
             return
         if isinstance(v, ObjectValue):
             self.objects.append(self.to_ir(v))
-            self.lights.extend(v.lights)
+            self.lights.extend(collect_lights(v))
         elif isinstance(v, ir.Light):
             self.lights.append(v)
         elif isinstance(v, CameraValue):
@@ -562,10 +587,35 @@ class Interpreter:
         return None
 
     # ------------------------------------------------------------ expansion
-    def expand(self, body: Sequence[syntax.Node], spec: schema.BlockSpec | None) -> list[El]:
+    def expand(
+        self, body: Sequence[syntax.Node], spec: schema.BlockSpec | None, top: bool = False
+    ) -> list[El]:
+        """Run directives, evaluate values; `top` keeps what came before an #error."""
         out: list[El] = []
-        for node in body:
+        i, n = 0, len(body)
+        while i < n:
+            node = body[i]
+            i += 1
             try:
+                if (
+                    isinstance(node, syntax.Declare)
+                    and isinstance(node.value, syntax.Block)
+                    and node.value.keyword == "texture"
+                    and not node.indices
+                ):
+                    # `#declare T = texture {…} texture {…}`: POV-Ray's layered texture.
+                    layers = []
+                    while (
+                        i < n and isinstance(body[i], syntax.Block) and body[i].keyword == "texture"
+                    ):
+                        layers.append(body[i])
+                        i += 1
+                    if layers:
+                        base = self.eval(node.value)
+                        extra = tuple(self.eval(b) for b in layers)
+                        base = replace(base, layers=base.layers + extra)
+                        self.declare(node.name, base, node.local)
+                        continue
                 self._expand_node(node, out, spec)
             except SceneError as e:
                 self.sink.items.append(e.diagnostic)
@@ -573,6 +623,19 @@ class Interpreter:
                 self.sink.error("E0203", e.message, node.span, e.hint)
             except RecursionError:
                 self.sink.error("E0231", "recursion too deep", node.span)
+            except _Halt:
+                if top:
+                    return out
+                raise
+            except _Break:
+                raise
+            except Exception as e:  # a bug in strala: still a diagnostic, never a traceback
+                self.sink.error(
+                    "E0200",
+                    f"internal error while evaluating this: {type(e).__name__}: {e}",
+                    node.span,
+                    "please report this as a strala bug",
+                )
         return out
 
     def _expand_node(self, node: syntax.Node, out: list[El], spec: schema.BlockSpec | None) -> None:
@@ -1206,7 +1269,7 @@ class Interpreter:
         return self.eval_block(node)
 
     # ------------------------------------------------------------ blocks
-    def eval_block(self, node: syntax.Block, loose: bool = False) -> Any:
+    def eval_block(self, node: syntax.Block) -> Any:
         kw = node.keyword
         span = node.keyword_span or node.span
         if kw == "function":
@@ -1234,7 +1297,11 @@ class Interpreter:
             return self._unsupported_object(node)
         spec = schema.BLOCKS.get(kw)
         if spec is None:
-            self.expand(node.body, None) if not loose else None
+            self.loose_depth += 1
+            try:
+                self.expand(node.body, None)
+            finally:
+                self.loose_depth -= 1
             return UnsupportedValue(kw, span)
         els = self.expand(node.body, spec)
         g = self.group(spec, els, node)
@@ -1255,7 +1322,11 @@ class Interpreter:
             schema._items(schema.OBJECT_ITEMS),
             schema.OBJECT_ACCEPTS,
         )
-        els = self.expand(node.body, spec)
+        self.loose_depth += 1  # blob components take a strength, text a font …: no errors
+        try:
+            els = self.expand(node.body, spec)
+        finally:
+            self.loose_depth -= 1
         # Keep only the modifiers: everything before the first object item is shape data.
         start = next(
             (
@@ -1267,12 +1338,15 @@ class Interpreter:
             len(els),
         )
         g = self.group(spec, els[start:], node, loose=True)
-        obj = ObjectValue(ir.Unsupported(node.keyword), node.keyword, span=node.span)
+        obj = ObjectValue(
+            ir.Unsupported(node.keyword), node.keyword, span=node.span, default=self.default_texture
+        )
         return self._apply_object_items(obj, g)
 
     def group(
         self, spec: schema.BlockSpec, els: list[El], node: syntax.Block, loose: bool = False
     ) -> Grouped:
+        loose = loose or self.loose_depth > 0
         span = node.keyword_span or node.span
         pos: dict[str, Any] = {}
         i, n = 0, len(els)
@@ -1290,7 +1364,7 @@ class Interpreter:
                     i += 1
                 pos[p.name] = vals
                 continue
-            if i < n and els[i].kind == "val" and _FIT[p.kind](els[i].value):
+            if i < n and els[i].kind == "val" and _fits(p.kind, els[i].value):
                 try:
                     pos[p.name] = _convert(p.kind, els[i].value)
                 except EvalError as e:
@@ -1411,6 +1485,23 @@ class Interpreter:
                 args.append(vals)
                 i = j
                 continue
+            if (
+                k in ("color", "rgb")
+                and j < n
+                and els[j].kind == "kw"
+                and els[j].value in schema.COMPONENT_WORDS
+            ):
+                # the old `red 1 green .5` colour form without `color`
+                c = [0.0] * 5
+                while j + 1 < n and els[j].kind == "kw" and els[j].value in schema.COMPONENT_WORDS:
+                    val = as_float(els[j + 1].value) if els[j + 1].kind == "val" else 0.0
+                    for idx in _component_slots(els[j].value):
+                        c[idx] = val
+                    j += 2
+                col = ColorValue(tuple(c))  # type: ignore[arg-type]
+                args.append(col if k == "color" else col.rgb)
+                i = j
+                continue
             if k == "word":
                 if j < n and els[j].kind == "kw":
                     args.append(els[j].value)
@@ -1419,7 +1510,7 @@ class Interpreter:
                 raise self.error(
                     "E0211", f"`{item.name}` needs a keyword", span, f"`{item.signature}`"
                 )
-            if j < n and els[j].kind == "val" and _FIT[k](els[j].value):
+            if j < n and els[j].kind == "val" and _fits(k, els[j].value):
                 try:
                     args.append(_convert(k, els[j].value))
                 except EvalError as e:
@@ -1443,30 +1534,44 @@ class Interpreter:
     def to_ir(
         self,
         obj: ObjectValue,
+        parent: ir.Matrix = ir.IDENTITY,
         inherited: ir.Texture | None = None,
         interior: ir.Interior | None = None,
     ) -> ir.Object:
-        tex = obj.texture or inherited or self.default_texture
+        """Resolve an object: `parent` is the enclosing CSGs' transform (children store theirs
+        relative to it); `inherited` is the nearest CSG texture, already in world space."""
+        has_parent = not transforms.is_identity(parent)
+        own = obj.texture
+        if own is not None and has_parent:
+            own = transform_texture(own, parent)
+        tex = own or inherited or obj.default or self.default_texture
         inter = obj.interior or interior or ir.Interior()
+        full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
         shape = obj.shape
         if obj.children:
             kids = tuple(
-                self.to_ir(c, obj.texture or inherited, obj.interior or interior)
+                self.to_ir(c, full, own or inherited, obj.interior or interior)
                 for c in obj.children
             )
             shape = ir.CSG(obj.keyword, kids)
-        elif isinstance(shape, ir.Mesh) and shape.face_textures is not None:
-            textures = list(shape.textures)
-            faces = list(shape.face_textures)
-            if any(f < 0 for f in faces):
-                textures.append(tex)
-                own = len(textures) - 1
-                faces = [own if f < 0 else f for f in faces]
-            shape = replace(shape, textures=tuple(textures), face_textures=tuple(faces))
+            full = ir.IDENTITY  # the children carry the whole transform
+        elif isinstance(shape, ir.Mesh):
+            if has_parent and shape.textures:
+                shape = replace(
+                    shape, textures=tuple(transform_texture(t, parent) for t in shape.textures)
+                )
+            if shape.face_textures is not None:
+                textures = list(shape.textures)
+                faces = list(shape.face_textures)
+                if any(f < 0 for f in faces):
+                    textures.append(tex)
+                    mine = len(textures) - 1
+                    faces = [mine if f < 0 else f for f in faces]
+                shape = replace(shape, textures=tuple(textures), face_textures=tuple(faces))
         f = obj.flags
         return ir.Object(
             shape=shape,
-            transform=obj.transform,
+            transform=full,
             texture=tex,
             interior=inter,
             no_shadow=f.get("no_shadow", False),
@@ -1475,7 +1580,7 @@ class Interpreter:
             hollow=f.get("hollow", False),
             inverse=f.get("inverse", False),
             double_illuminate=f.get("double_illuminate", False),
-            clipped_by=tuple(self.to_ir(c, tex) for c in obj.clipped_by),
+            clipped_by=tuple(self.to_ir(c, parent, tex) for c in obj.clipped_by),
             span=obj.span,
         )
 
@@ -1688,12 +1793,12 @@ def _b_shape(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
         shape = ir.Triangle(p["p1"], p["p2"], p["p3"], normals=(p["n1"], p["n2"], p["n3"]))
     else:
         raise it.error("E0200", f"no builder for `{kw}`", g.span)
-    obj = ObjectValue(shape, kw, span=node.span)
+    obj = ObjectValue(shape, kw, span=node.span, default=it.default_texture)
     return it._apply_object_items(obj, g)
 
 
 def _b_csg(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
-    obj = ObjectValue(None, node.keyword, span=node.span)
+    obj = ObjectValue(None, node.keyword, span=node.span, default=it.default_texture)
     mods = []
     for name, args, span in g.items:
         if name == "object":
@@ -1710,8 +1815,15 @@ def _b_csg(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
     return it._apply_object_items(obj, Grouped(g.positional, mods, g.span))
 
 
-def _b_object(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
-    base: ObjectValue = g.positional["object"]
+def _b_object(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue | ir.Light:
+    base = g.positional["object"]
+    if isinstance(base, ir.Light):  # `object { Lamp translate … }`
+        for name, args, span in g.items:
+            if name in _TRANSFORM_WORDS:
+                base = transform_light(base, _item_matrix(name, args))
+            else:
+                it.sink.error("E0210", f"`{name}` does not apply to a light", span)
+        return base
     obj = transform_object(base, ir.IDENTITY)  # a deep copy
     obj.span = node.span
     return it._apply_object_items(obj, g)
@@ -1730,6 +1842,24 @@ def _b_mesh(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
             mods.append((name, args, span))
             continue
         tri = args[0]
+        if isinstance(tri.shape, ir.Mesh) and not tri.children:  # `mesh { Declared_Mesh }`
+            base = len(verts)
+            verts.extend(transforms.apply_point(tri.transform, q) for q in tri.shape.vertices)
+            src_n = tri.shape.normals
+            if src_n is not None:
+                smooth = True
+                normals.extend(transforms.apply_normal(tri.transform, q) for q in src_n)
+            else:
+                normals.extend((0.0, 0.0, 0.0) for _ in tri.shape.vertices)
+            for k, f in enumerate(tri.shape.faces):
+                faces.append((base + f[0], base + f[1], base + f[2]))
+                ft = tri.shape.face_textures
+                if ft is not None and ft[k] >= 0:
+                    textures.append(tri.shape.textures[ft[k]])
+                    face_tex.append(len(textures) - 1)
+                else:
+                    face_tex.append(-1)
+            continue
         if not isinstance(tri.shape, ir.Triangle):
             it.sink.error("E0212", f"a mesh holds triangles, not `{tri.keyword}`", span)
             continue
@@ -1766,7 +1896,7 @@ def _b_mesh(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
     )
     if not faces:
         it.sink.warning("W0304", "`mesh` has no triangles", g.span)
-    obj = ObjectValue(shape, "mesh", span=node.span)
+    obj = ObjectValue(shape, "mesh", span=node.span, default=it.default_texture)
     return it._apply_object_items(obj, Grouped({}, mods, g.span))
 
 
@@ -1839,19 +1969,33 @@ def _b_mesh2(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
         face_textures=tuple(face_tex) if textures else None,
         smooth=normals is not None,
     )
-    obj = ObjectValue(shape, "mesh2", span=node.span)
+    obj = ObjectValue(shape, "mesh2", span=node.span, default=it.default_texture)
     return it._apply_object_items(obj, Grouped({}, mods, g.span))
 
 
 def _b_light(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Light:
     p = g.positional
-    color: ColorValue = p["color"]
-    light = ir.Light(position=p["position"], color=color.rgb, span=node.span)
+    base: ir.Light | None = p.get("base")
+    fields: dict[str, Any] = {}
     area: dict[str, Any] = {}
+    kind = "point"
+    if base is not None:  # `light_source { Declared … }`
+        light = base
+        kind = base.kind
+        if base.area is not None:
+            area = {k: getattr(base.area, k) for k in base.area.__dataclass_fields__}
+    else:
+        if "position" not in p or "color" not in p:
+            missing = "position" if "position" not in p else "colour"
+            raise it.error(
+                "E0211",
+                f"`light_source` needs its {missing}",
+                g.span,
+                "`light_source { <x, y, z>, color … }`",
+            )
+        light = ir.Light(position=p["position"], color=p["color"].rgb, span=node.span)
     moves: list[ir.Matrix] = []
     looks: ObjectValue | None = None
-    kind = "point"
-    fields: dict[str, Any] = {}
     for name, args, span in g.items:
         if name in ("spotlight", "parallel", "cylinder"):
             kind = name
@@ -2005,7 +2149,8 @@ def _b_background(it: Interpreter, g: Grouped, node: syntax.Block) -> _Statement
 
 
 def _b_sky_sphere(it: Interpreter, g: Grouped, node: syntax.Block) -> _Statement:
-    pigments: list[ir.Pigment] = []
+    base = g.positional.get("base")
+    pigments: list[ir.Pigment] = list(base.value) if base is not None else []
     for name, args, span in g.items:
         if name == "pigment":
             pigments.append(args[0])
@@ -2059,6 +2204,11 @@ def _b_pigment(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Pigment:
             params = dict(v.params)
         elif name == "color":
             pig = replace(pig, pattern="solid", color=as_color(v).rgbft)
+        elif name in schema.COMPONENT_WORDS:
+            c = list(pig.color)
+            for k in range(3) if name in ("gray", "grey") else [_COMPONENT_INDEX[name]]:
+                c[k] = v
+            pig = replace(pig, pattern="solid", color=tuple(c))
         elif name in _TRANSFORM_WORDS:
             pig = transform_pigment(pig, _item_matrix(name, args))
         elif name == "map":
@@ -2103,7 +2253,7 @@ def _b_normal(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Normal:
             nrm = replace(
                 nrm, transform=transforms.compose(_item_matrix(name, args), nrm.transform)
             )
-        elif name == "bump_size":
+        elif name in ("bump_size", "float"):
             nrm = replace(nrm, depth=v)
         elif name == "map":
             params[v.map_kind] = v.entries
@@ -2262,6 +2412,9 @@ def _b_material(it: Interpreter, g: Grouped, node: syntax.Block) -> MaterialValu
     return m
 
 
+_MAP_ELEMENT = {"pigment_map": "pigment", "normal_map": "normal", "texture_map": "texture"}
+
+
 def _b_map(it: Interpreter, g: Grouped, node: syntax.Block) -> MapValue:
     kind = node.keyword
     entries: list[tuple[float, Any]] = []
@@ -2270,10 +2423,20 @@ def _b_map(it: Interpreter, g: Grouped, node: syntax.Block) -> MapValue:
             entries.extend(args[0].entries)
             continue
         vals = [e.value for e in args if e.kind == "val"]
-        if any(e.kind == "kw" for e in args):
-            it.sink.error("E0212", "a keyword inside a map entry", span)
-            continue
+        element = _MAP_ELEMENT.get(kind)
         try:
+            if element is not None and (len(vals) != 2 or any(e.kind == "kw" for e in args)):
+                # `[0.5 bozo color_map {…}]`: the entry's rest is the body of a pigment/…
+                rest = [e for e in args if e.kind != "comma"]
+                if not rest or rest[0].kind != "val":
+                    raise EvalError(f"a {kind} entry starts with its value")
+                fake = syntax.Block(span, element, [], keyword_span=span)
+                body = it.group(schema.BLOCKS[element], rest[1:], fake)
+                value = _BUILDERS[element](it, body, fake)
+                entries.append((as_float(rest[0].value, "a map value"), value))
+                continue
+            if any(e.kind == "kw" for e in args):
+                raise EvalError("a keyword inside a color_map entry", "`[value colour]`")
             if kind in ("color_map", "colour_map"):
                 if len(vals) == 2:
                     entries.append((as_float(vals[0], "a map value"), as_color(vals[1])))

@@ -178,8 +178,13 @@ PATTERN_ITEMS = [
 MAP_WORDS = ("color_map", "colour_map", "pigment_map", "normal_map", "texture_map", "slope_map")
 PATTERN_ACCEPTS = frozenset("map transform unsupported function".split())
 
+COMPONENT_WORDS = ("red", "green", "blue", "filter", "transmit", "gray", "grey")
+
 # Patterns that take their colours as `listN` arguments.
 LIST_PATTERNS = {"checker": 2, "hexagon": 3, "brick": 2, "square": 4, "triangular": 6, "cubic": 6}
+
+
+UV_ITEM = "uv_vectors vector2 vector2 vector2 | uv coordinates of the corners (in a mesh)."
 
 
 # ------------------------------------------------------------------ the blocks
@@ -244,7 +249,14 @@ SHAPES: dict[str, BlockSpec] = {
             "int:count",
             "*vector:points",
         ),
-        _shape("triangle", "A triangle by its corners.", "vector:p1", "vector:p2", "vector:p3"),
+        _shape(
+            "triangle",
+            "A triangle by its corners.",
+            "vector:p1",
+            "vector:p2",
+            "vector:p3",
+            extra=[UV_ITEM],
+        ),
         _shape(
             "smooth_triangle",
             "A triangle with a normal at each corner.",
@@ -254,6 +266,7 @@ SHAPES: dict[str, BlockSpec] = {
             "vector:n2",
             "vector:p3",
             "vector:n3",
+            extra=[UV_ITEM],
         ),
         BlockSpec(
             "mesh",
@@ -400,7 +413,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "light_source",
         "light",
         "A light: position and colour, then modifiers.",
-        _pos("vector:position", "color:color"),
+        _pos("light?:base", "vector?:position", "color?:color"),
         _items(LIGHT_ITEMS),
         frozenset({"transform", "unsupported", "looks_like"}),
     ),
@@ -514,7 +527,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "sky_sphere",
         "sky_sphere",
         "Pigments painted on an infinitely large sphere.",
-        (),
+        _pos("sky_sphere?:base"),
         _items(TRANSFORM_ITEMS, ["emission rgb | Sky brightness."]),
         frozenset({"pigment", "transform"}),
     ),
@@ -553,7 +566,12 @@ BLOCKS: dict[str, BlockSpec] = {
         "pigment",
         "A colour or colour pattern.",
         (),
-        _items(TRANSFORM_ITEMS, PATTERN_ITEMS, ["color color | A solid colour."]),
+        _items(
+            TRANSFORM_ITEMS,
+            PATTERN_ITEMS,
+            ["color color | A solid colour."],
+            [f"{c} float | Set the colour's {c} component (old syntax)." for c in COMPONENT_WORDS],
+        ),
         PATTERN_ACCEPTS | {"pigment", "color"},
     ),
     "normal": BlockSpec(
@@ -570,7 +588,7 @@ BLOCKS: dict[str, BlockSpec] = {
                 "bump_map | An image as bumps (not rendered yet).",
             ],
         ),
-        PATTERN_ACCEPTS | {"normal"},
+        PATTERN_ACCEPTS | {"normal", "float"},
     ),
     "finish": BlockSpec(
         "finish",

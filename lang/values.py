@@ -128,6 +128,7 @@ class ObjectValue:
     bounded_by: list[ObjectValue] = field(default_factory=list)
     flags: dict[str, bool] = field(default_factory=dict)
     span: Span | None = None
+    default: ir.Texture | None = None  # the #default texture when the object was made
     kind: str = "object"
 
 
@@ -208,6 +209,8 @@ def kind_of(value: Any) -> str:
         return "interior"
     if isinstance(value, ir.Light):
         return "light"
+    if isinstance(value, ir.Radiosity):
+        return "radiosity"
     k = getattr(value, "kind", None)
     if isinstance(k, str):
         return k
