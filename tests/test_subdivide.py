@@ -153,6 +153,22 @@ def test_loop_matches_trimesh_on_perturbed_spheres(seed, noise, levels):
     _compare_with_trimesh(v, f, levels)
 
 
+@needs_trimesh
+@pytest.mark.parametrize("hole", [[0], [0, 1, 2, 3, 4]])
+@pytest.mark.parametrize("levels", [1, 2])
+def test_loop_boundaries_match_trimesh(hole, levels):
+    """trimesh's boundary rules are the edge-only ones (`boundary smooth`): midpoints on
+    boundary edges, (e_a + 6P + e_b)/8 on boundary vertices. (Holes that pinch a vertex
+    or join two boundary vertices by an inner edge trip trimesh's shortcuts, not ours.)"""
+    v, f = _icosphere(1, 0.1, 3)
+    f = np.delete(f, hole, axis=0)
+    mesh = refine(sd.ControlMesh.from_lists(v, [tuple(x) for x in f]), "loop", levels, "smooth")
+    tv, _ = trimesh.remesh.subdivide_loop(v, f, iterations=levels)
+    assert mesh.points.shape == tv.shape
+    _, dist = nearest(mesh.points, tv)
+    assert dist.max() < 1e-9
+
+
 def test_loop_beta_is_the_seeds_one_sixteenth_for_valence_six():
     assert sd.loop_beta(6) == pytest.approx(1.0 / 16.0, abs=1e-15)
     assert sd.loop_beta(3) == pytest.approx(3.0 / 16.0, abs=1e-15)
