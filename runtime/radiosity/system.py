@@ -44,7 +44,7 @@ from runtime.radiosity.visibility import PatchVisibility
 CACHE_VERSION = 1
 
 # A scene is "not closed" when more than this fraction of the light leaving its surfaces
-# (area-weighted, unoccluded row sums) escapes to infinity.
+# (area-weighted row sums of F, visibility included) escapes to infinity.
 OPEN_FRACTION = 0.05
 
 # Sides of a planar surface exchange light only if some other geometry or a light lies in
