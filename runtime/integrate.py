@@ -67,6 +67,7 @@ class Context:
     legacy_opacity: bool  # pre-3.7 transparency formula
     gamma: float | None  # working gamma (None: legacy), for image files
     background: np.ndarray  # (3,)
+    radiosity: object | None = None  # runtime.radiosity.system.RadiosityResult
     stats: dict[str, int] = field(default_factory=dict)
 
     @property
@@ -220,6 +221,7 @@ def trace(
             here,
             codes[rows],
             hits.t[rows],
+            prim,
         )
     if ctx.scene.fog is not None:
         col = apply_fog(ctx.scene.fog, hits.t, col, o, d)
@@ -321,6 +323,7 @@ def shade(
     level: np.ndarray,
     skip: np.ndarray,
     depth: np.ndarray | None = None,
+    prim: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,3) colours of N hits (tex: texture index of each hit; level: each hit's trace
     level; skip: each incoming ray's skip code; depth: how far each ray travelled to its
@@ -330,7 +333,7 @@ def shade(
     # POV-Ray turns the normal toward the viewer before shading.
     leaving = np.einsum("ij,ij->i", normal, dirs) > 0
     raw = np.where(leaving[:, None], -normal, normal)
-    hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth)
+    hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim)
     lights = light_colours(ctx, hit)
     result = np.zeros((n, 3))
     fil = np.ones((n, 3))
@@ -397,6 +400,7 @@ class Hit:
     dirs: np.ndarray  # (N,3) incoming ray directions
     weight: np.ndarray  # (N,) largest possible contribution to the pixel
     depth: np.ndarray | None = None  # (N,) distance from the ray's origin to the hit
+    prim: np.ndarray | None = None  # (N,) mesh face of each hit (-1: not a mesh)
 
 
 @dataclass
@@ -597,7 +601,10 @@ def shade_texture(
         else:
             surf = base_surf
         op = shading.opacity(colour, ctx.legacy_opacity)
-        acc = shading.ambient_term(fin, pig, op, s.ambient_light)
+        if ctx.radiosity is None:
+            acc = shading.ambient_term(fin, pig, op, s.ambient_light)
+        else:
+            acc = radiosity_term(ctx, hit, rows, fin, pig, op)
         if fin.diffuse != 0 or fin.diffuse_back != 0 or fin.specular != 0 or fin.phong != 0:
             for ldir, lcol in zip(lights.direction, lights.colour, strict=True):
                 acc += shading.light_terms(fin, surf, pig, op, ldir[rows], lcol[rows], double)
@@ -680,4 +687,22 @@ def interior_fade(ctx: Context, obj: np.ndarray, depth: np.ndarray, inside: np.n
         else:
             att = 1.0 + np.power(np.abs(d), it.fade_power)
             out[rows] = fc + (1.0 - fc) / att[:, None]
+    return out
+
+
+def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.ndarray:
+    """With radiosity, POV-Ray 3.7 replaces the ambient term by the gathered indirect light
+    times the surface's diffuse reflectance (`ambient` still counts in pre-3.7 scenes):
+    pigment * (diffuse * G + emission) * opacity."""
+    g = np.zeros((len(rows), 3))
+    objs = hit.obj[rows]
+    for oid in np.unique(objs):
+        sel = np.nonzero(objs == oid)[0]
+        prim = hit.prim[rows][sel] if hit.prim is not None else None
+        g[sel] = ctx.radiosity.gathered(int(oid), hit.point[rows][sel], hit.dirs[rows][sel], prim)
+    emis = np.asarray(fin.emission, dtype=np.float64)
+    out = pig * (fin.diffuse * g + emis) * op[:, None]
+    if ctx.legacy_opacity:
+        amb = np.asarray(fin.ambient, dtype=np.float64)
+        out += pig * amb * np.asarray(ctx.settings.ambient_light, dtype=np.float64) * op[:, None]
     return out

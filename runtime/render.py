@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor, as_completed
+from pathlib import Path
 
 import numpy as np
 
@@ -33,6 +34,8 @@ def render_scene(
     progress: Callable[[int, int], None] | None = None,
     region: tuple[int, int, int, int] | None = None,
     stats: dict[str, int] | None = None,
+    radiosity=None,
+    radiosity_cache: str | os.PathLike | None = None,
 ) -> np.ndarray:
     """Render `scene` at width×height; returns (H, W, 3) float32 working-space colours.
 
@@ -40,11 +43,21 @@ def render_scene(
     region: (left, top, right, bottom) pixel bounds, right/bottom exclusive, to render only
     part of the image (the rest stays black). progress(done, total) is called with pixel
     counts after each tile, from the calling thread. stats, when given, receives counters
-    (rays, shadow_rays, reflection_rays, supersampled pixels …)."""
+    (rays, shadow_rays, supersampled pixels …).
+    radiosity: a precomputed `RadiosityResult` to use; otherwise a scene with
+    `global_settings { radiosity {} }` is solved here first (cached in the folder
+    `radiosity_cache` when given)."""
     from runtime.prepare import prepare
 
     prepared = prepare(scene, width, height)
     ctx = integrate.make_context(prepared)
+    if radiosity is None and scene.settings.radiosity is not None:
+        # Imported only here: scenes without radiosity never load the solver.
+        from runtime.radiosity import system as radiosity_system
+
+        cache = None if radiosity_cache is None else Path(radiosity_cache)
+        radiosity = radiosity_system.compute(prepared, cache_dir=cache)
+    ctx.radiosity = radiosity
     left, top, right, bottom = region if region is not None else (0, 0, width, height)
     left, top = max(0, left), max(0, top)
     right, bottom = min(width, right), min(height, bottom)

@@ -220,3 +220,29 @@ def test_ex3_ir_matches_povray(tmp_path, aa):
     # sample (float rounding decides the side) and AA sample-order effects.
     assert diff.mean() < 0.002
     assert (diff.max(axis=2) > 4 / 255).mean() < 0.01
+
+
+class _FlatRadiosity:
+    """Stands in for a RadiosityResult: the same gathered light everywhere."""
+
+    def __init__(self, g):
+        self.g = np.asarray(g, dtype=np.float64)
+
+    def gathered(self, obj, points, ray_dir, prim=None):
+        return np.broadcast_to(self.g, (len(points), 3)).copy()
+
+
+def test_radiosity_replaces_ambient_with_gathered_light_times_diffuse():
+    tex = ir.Texture(
+        pigment=ir.Pigment(color=(0.5, 0.5, 0.5, 0, 0)),
+        finish=ir.Finish(ambient=(0.3, 0.3, 0.3), diffuse=0.8),
+    )
+    scene = ir.Scene(
+        camera=ir.Camera(location=(0, 0, -5), right=(1, 0, 0)),
+        objects=(ir.Object(ir.Sphere((0, 0, 0), 1.0), texture=tex),),
+        settings=LINEAR,
+    )
+    plain = render_scene(scene, 8, 8, threads=1)
+    lit = render_scene(scene, 8, 8, threads=1, radiosity=_FlatRadiosity([0.25, 0.5, 1.0]))
+    np.testing.assert_allclose(plain[4, 4], [0.15, 0.15, 0.15], atol=1e-6)  # 0.5 * 0.3
+    np.testing.assert_allclose(lit[4, 4], 0.5 * 0.8 * np.array([0.25, 0.5, 1.0]), atol=1e-6)
