@@ -607,7 +607,16 @@ def shade_texture(
             acc = radiosity_term(ctx, hit, rows, fin, pig, op)
         if fin.diffuse != 0 or fin.diffuse_back != 0 or fin.specular != 0 or fin.phong != 0:
             for ldir, lcol in zip(lights.direction, lights.colour, strict=True):
-                acc += shading.light_terms(fin, surf, pig, op, ldir[rows], lcol[rows], double)
+                acc += shading.light_terms(
+                    fin,
+                    surf,
+                    pig,
+                    op,
+                    ldir[rows],
+                    lcol[rows],
+                    double,
+                    shading.grain(pts) if fin.crand > 0 else None,
+                )
         result[rows] += np.where(active[:, None], acc * f, 0.0)
         # Reflection of this layer (POV-Ray: weighted by the translucency above it).
         r = fin.reflection

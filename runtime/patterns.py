@@ -94,6 +94,10 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
         return _select(pigment, kind, index, points, gamma)
     if kind == "image_map":
         return image_map(pigment.params, p, gamma)
+    if kind == "average" and pigment.pigment_map:
+        # The weighted mean of the map's pigments (their map values are the weights).
+        total = sum(w for w, _ in pigment.pigment_map) or 1.0
+        return sum(w * evaluate(q, points, gamma) for w, q in pigment.pigment_map) / total
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")

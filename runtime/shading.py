@@ -253,9 +253,12 @@ def light_terms(
     light_dir: np.ndarray,
     light_col: np.ndarray,
     double_illuminate: bool | np.ndarray = False,
+    grain: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,3) diffuse + specular + phong (+ iridescence) from one light (light_col already
-    shadowed). double_illuminate (per row or for all) lights both sides alike."""
+    shadowed). double_illuminate (per row or for all) lights both sides alike. grain:
+    (N,) random numbers in [0, 1) for `crand` (POV-Ray subtracts crand * random from the
+    diffuse intensity)."""
     n = surf.normal
     cos_l = np.einsum("ij,ij->i", n, light_dir)
     front = cos_l >= EPSILON
@@ -270,6 +273,8 @@ def light_terms(
         a = np.abs(cos_l)
         intensity = a if finish.brilliance == 1.0 else np.power(a, finish.brilliance)
         intensity = intensity * np.maximum(diffuse, 0.0) * opacity
+        if finish.crand > 0 and grain is not None:
+            intensity = intensity - grain * finish.crand
         intensity = np.where(lit | back, intensity, 0.0)
         out += intensity[:, None] * pigment * light_col
     if finish.phong > 0:
@@ -402,3 +407,10 @@ def opacity(colour: np.ndarray, legacy: bool) -> np.ndarray:
 def rgb_transmit(colour: np.ndarray) -> np.ndarray:
     """(N,3) light let through: filter * rgb + transmit."""
     return colour[:, 3, None] * colour[:, :3] + colour[:, 4, None]
+
+
+def grain(points: np.ndarray) -> np.ndarray:
+    """(N,) deterministic pseudo-random numbers in [0, 1) per surface point (for `crand`):
+    the same point always gets the same value, whatever the tiling or thread."""
+    h = np.sin(points @ np.array([12.9898, 78.233, 37.719])) * 43758.5453
+    return h - np.floor(h)

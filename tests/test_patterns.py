@@ -317,3 +317,9 @@ def test_missing_image_renders_black_with_a_warning(capsys):
     out = patterns.evaluate(pig, np.zeros((3, 3)))
     assert not out.any()
     assert "nowhere.png" in capsys.readouterr().out
+
+
+def test_average_pattern_weights_its_pigments():
+    pig = ir.Pigment(pattern="average", pigment_map=((1.0, solid(RED)), (3.0, solid(BLUE))))
+    out = patterns.evaluate(pig, np.zeros((2, 3)))
+    np.testing.assert_allclose(out[:, :3], [[0.25, 0, 0.75]] * 2)

@@ -456,3 +456,17 @@ def test_ground_fog_hides_the_floor_more_than_the_sky():
     low = shoot(scene, [0, 0, -5], unit([0, -0.2, 1]))[0, 0]
     sky = shoot(scene, [0, 0, -5], unit([0, 1, 0.2]))[0, 0]
     assert low > 0.9 and sky < low
+
+
+def test_crand_darkens_diffuse_by_a_repeatable_grain():
+    light = np.array([[0.0, 0.0, -1.0]] * 50)
+    surf = Surface(normal=np.tile([0.0, 0.0, -1.0], (50, 1)), ray_dir=np.tile([0.0, 0, 1], (50, 1)))
+    pts = np.random.default_rng(0).uniform(-5, 5, (50, 3))
+    g = shading.grain(pts)
+    assert ((g >= 0) & (g < 1)).all() and g.std() > 0.1
+    np.testing.assert_array_equal(g, shading.grain(pts.copy()))
+    fin = ir.Finish(diffuse=1.0, crand=0.2)
+    out = shading.light_terms(
+        fin, surf, np.ones((50, 3)), np.ones(50), light, np.ones((50, 3)), False, g
+    )
+    np.testing.assert_allclose(out[:, 0], 1.0 - 0.2 * g)
