@@ -310,15 +310,36 @@ def _half_edge_side(topo: Topology, e: np.ndarray, v: np.ndarray) -> np.ndarray:
     return 2 * e + (v != topo.edges[e, 0])
 
 
-def _child_edges(topo: Topology, edge_point: np.ndarray, inner: np.ndarray):
+def _interleave(*parts: np.ndarray) -> np.ndarray:
+    """[a0, b0, c0, a1, b1, c1, …]: strided stores, no (N,k) temporary."""
+    k = len(parts)
+    out = np.empty(k * len(parts[0]), dtype=np.result_type(*parts))
+    for i, p in enumerate(parts):
+        out[i::k] = p
+    return out
+
+
+def _cyclic(n: int, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """face, next and previous corner of n corners in faces of k corners each."""
+    i = np.arange(n, dtype=np.int64)
+    nxt, prv = i + 1, i - 1
+    nxt[k - 1 :: k] -= k
+    prv[0::k] += k
+    return i // k, nxt, prv
+
+
+def _child_edges(topo: Topology, edge_point: np.ndarray, inner: tuple[np.ndarray, np.ndarray]):
     """Child edge table: parent edge e → 2e (low end, EP) and 2e+1 (high end, EP), then
-    the inner edges given as (K,2) vertex pairs; face counts follow the parent's."""
-    halves = np.stack(
-        [np.stack([topo.edges[:, 0], edge_point], 1), np.stack([topo.edges[:, 1], edge_point], 1)],
-        axis=1,
-    ).reshape(-1, 2)
-    edges = np.concatenate([halves, np.sort(inner, axis=1)])
-    nf = np.concatenate([np.repeat(topo.edge_nf, 2), np.full(len(inner), 2)])
+    the inner edges given as two vertex arrays; face counts follow the parent's."""
+    E, K = len(topo.edges), len(inner[0])
+    edges = np.empty((2 * E + K, 2), dtype=np.int64)
+    edges[0 : 2 * E : 2, 0] = topo.edges[:, 0]
+    edges[1 : 2 * E : 2, 0] = topo.edges[:, 1]
+    edges[0 : 2 * E, 1] = np.repeat(edge_point, 2)
+    edges[2 * E :, 0] = np.minimum(*inner)
+    edges[2 * E :, 1] = np.maximum(*inner)
+    nf = np.full(2 * E + K, 2, dtype=topo.edge_nf.dtype)
+    nf[: 2 * E] = np.repeat(topo.edge_nf, 2)
     return edges, nf
 
 
@@ -337,39 +358,23 @@ def _quad_child_topology(mesh: ControlMesh, nfp: int) -> Topology:
     c = np.arange(C, dtype=np.int64)
     tw, nx, pv = topo.twin, topo.nxt, topo.prv
     twp = tw[pv]
-    twin = np.stack(
-        [
-            np.where(tw >= 0, 4 * nx[np.maximum(tw, 0)] + 3, -1),
-            4 * nx + 2,
-            4 * pv + 1,
-            np.where(twp >= 0, 4 * np.maximum(twp, 0), -1),
-        ],
-        axis=1,
-    ).reshape(-1)
-    edge = np.stack(
-        [
-            _half_edge_side(topo, topo.edge, fv),
-            2 * E + c,
-            2 * E + pv,
-            _half_edge_side(topo, topo.edge[pv], fv),
-        ],
-        axis=1,
-    ).reshape(-1)
-    inner = np.stack([V + topo.face, V + nfp + topo.edge], axis=1)
-    edges, edge_nf = _child_edges(topo, V + nfp + np.arange(E), inner)
-    k = np.tile(np.arange(4), C)
-    base = np.arange(4 * C) - k
-    return Topology(
-        np.repeat(c, 4),
-        base + (k + 1) % 4,
-        base + (k + 3) % 4,
-        edge,
-        edges,
-        edge_nf,
-        None,
-        twin,
-        0,
+    twin = _interleave(
+        np.where(tw >= 0, 4 * nx[np.maximum(tw, 0)] + 3, -1),
+        4 * nx + 2,
+        4 * pv + 1,
+        np.where(twp >= 0, 4 * np.maximum(twp, 0), -1),
     )
+    edge = _interleave(
+        _half_edge_side(topo, topo.edge, fv),
+        2 * E + c,
+        2 * E + pv,
+        _half_edge_side(topo, topo.edge[pv], fv),
+    )
+    edges, edge_nf = _child_edges(
+        topo, V + nfp + np.arange(E), (V + topo.face, V + nfp + topo.edge)
+    )
+    face, nxt, prv = _cyclic(4 * C, 4)
+    return Topology(face, nxt, prv, edge, edges, edge_nf, None, twin, 0)
 
 
 def _loop_child_topology(mesh: ControlMesh) -> Topology:
@@ -402,22 +407,9 @@ def _loop_child_topology(mesh: ControlMesh) -> Topology:
     centre = 12 * f + 9 + k
     twin[centre] = tri(cn) + 1
     edge[centre] = 2 * E + cn
-    inner = np.stack([V + topo.edge, V + topo.edge[pv]], axis=1)
-    edges, edge_nf = _child_edges(topo, V + np.arange(E), inner)
-    n = 12 * (C // 3)
-    i = np.arange(n)
-    base = i - i % 3
-    return Topology(
-        i // 3,
-        base + (i % 3 + 1) % 3,
-        base + (i % 3 + 2) % 3,
-        edge,
-        edges,
-        edge_nf,
-        None,
-        twin,
-        0,
-    )
+    edges, edge_nf = _child_edges(topo, V + np.arange(E), (V + topo.edge, V + topo.edge[pv]))
+    face, nxt, prv = _cyclic(12 * (C // 3), 3)
+    return Topology(face, nxt, prv, edge, edges, edge_nf, None, twin, 0)
 
 
 def _quads_from_corners(mesh: ControlMesh, nfp: int) -> np.ndarray:
@@ -425,8 +417,7 @@ def _quads_from_corners(mesh: ControlMesh, nfp: int) -> np.ndarray:
     (vertex, edge point of its out-edge, face point, edge point of its in-edge)."""
     topo, V = mesh.topology, mesh.nv
     eb = V + nfp
-    q = np.stack([mesh.fv, eb + topo.edge, V + topo.face, eb + topo.edge[topo.prv]], axis=1)
-    return q.reshape(-1)
+    return _interleave(mesh.fv, eb + topo.edge, V + topo.face, eb + topo.edge[topo.prv])
 
 
 def catmull_clark_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
