@@ -167,3 +167,24 @@ def test_stratified_points_lie_on_their_polygons():
     h = stratified_points(hexagon[None], 100, rng)[0]
     assert np.all(np.linalg.norm(h[:, :2], axis=1) <= 1 + 1e-12)
     assert abs(h[:, 0].mean()) < 0.1 and abs(h[:, 1].mean()) < 0.1
+
+
+def test_t_vertices_are_conformed_so_the_field_has_no_seam():
+    """Two unit cells side by side, the left one split twice: along the shared edge the
+    split side's Gouraud values must equal the unsplit neighbour's linear edge values."""
+    m = Mesher(1.0)
+    m.parallelogram([0, 0, 0], [2, 0, 0], [0, 1, 0], rho=0.5)
+    p = m.patches()
+    p.subdivide(p.centroid[:, 0] < 1)
+    p.subdivide(np.abs(p.centroid[:, 0] - 0.75) < 0.2)  # the column touching x = 1
+    rng = np.random.default_rng(3)
+    vals = rng.random((len(p), 3))
+    f = VertexField(p, vals)
+    assert len(f.t_vertices[0]) > 0
+    y = np.linspace(0.01, 0.99, 57)
+    left = np.column_stack([np.full_like(y, 1 - 1e-12), y, np.zeros_like(y)])
+    right = np.column_stack([np.full_like(y, 1 + 1e-12), y, np.zeros_like(y)])
+    el_l, el_r = np.zeros(len(y), int), np.ones(len(y), int)
+    assert np.allclose(f.lookup(el_l, left), f.lookup(el_r, right), atol=1e-9)
+    seam = VertexField(p, vals, conform=False)
+    assert not np.allclose(seam.lookup(el_l, left), seam.lookup(el_r, right), atol=1e-3)

@@ -44,9 +44,12 @@ class VertexField:
         flat: bool = False,
         vertex_values: np.ndarray | None = None,
         weights: np.ndarray | None = None,
+        conform: bool = True,
     ):
         """`weights` (N,) replace the patch areas in the vertex averages (the system passes
-        the open area, so a patch mostly buried under a box hardly counts)."""
+        the open area, so a patch mostly buried under a box hardly counts). `conform`
+        gives T-vertices (a split patch's corner on an unsplit neighbour's edge) the value
+        interpolated along that edge, so the displayed field has no seams."""
         self.patches = patches
         self.values = np.asarray(values, dtype=np.float64).reshape(len(patches), 3)
         self.flat = flat
@@ -72,12 +75,21 @@ class VertexField:
         if vertex_values is not None:
             # Values computed at the vertices themselves (gathered), replacing the averages.
             self.vertex_values = np.asarray(vertex_values, dtype=np.float64).reshape(nv, 3)
+        pos = np.zeros((nv, 3))
+        pos[self.vertex.reshape(-1)] = corners.reshape(-1, 3)
+        if conform and n:
+            self.t_vertices = _t_vertices(self.vertex, pos, patches)
+            v, a, b, t = self.t_vertices
+            # Nested splits put T-vertices on edges whose ends are T-vertices themselves:
+            # repeat until the deepest level has settled (each pass fixes one level).
+            for _ in range(int(patches.level.max()) + 1 if len(v) else 0):
+                self.vertex_values[v] = (1 - t)[:, None] * self.vertex_values[a] + t[
+                    :, None
+                ] * self.vertex_values[b]
         self.corner_values = self.vertex_values[self.vertex]  # (N,4,3)
         # Where each vertex is, which way it faces (area-weighted patch normals), and a
         # point nudged into its patches (for gathering: a point exactly on a corner shared
         # with a neighbouring surface would sit on that surface's polygon).
-        pos = np.zeros((nv, 3))
-        pos[self.vertex.reshape(-1)] = corners.reshape(-1, 3)
         nrm = np.zeros((nv, 3))
         cen = np.zeros((nv, 3))
         np.add.at(
@@ -115,6 +127,55 @@ class VertexField:
         uv = self.patches.element_uv(element, np.asarray(points, dtype=np.float64))
         patch, local = self.patches.locate(element, np.clip(uv, 0.0, 1.0))
         return self.at(patch, local)
+
+
+def _t_vertices(vertex: np.ndarray, pos: np.ndarray, patches: Patches):
+    """(v, a, b, t): vertex v lies strictly inside the edge a→b of a patch of its group, at
+    parameter t. Vectorised per group over (edges × vertices), in chunks."""
+    k = np.array([0, 1, 2, 3])
+    ea = vertex[:, k]
+    eb = vertex[:, (k + 1) % 4]
+    # Triangles: edges 0→1, 1→2, 2→0 (corner 3 repeats corner 2).
+    eb = np.where(patches.is_tri[:, None] & (k == 2)[None], vertex[:, [0]], eb)
+    keep = ea != eb
+    keep[patches.is_tri, 3] = False
+    grp = np.repeat(patches.group[:, None], 4, axis=1)
+    ea, eb, grp = ea[keep], eb[keep], grp[keep]
+    # Unique undirected edges.
+    e = np.unique(np.stack([np.minimum(ea, eb), np.maximum(ea, eb), grp], axis=1), axis=0)
+    vgroup = np.full(len(pos), -1)
+    vgroup[vertex.reshape(-1)] = np.repeat(patches.group, 4)
+    out_v, out_a, out_b, out_t = [], [], [], []
+    for g in np.unique(e[:, 2]):
+        eg = e[e[:, 2] == g]
+        verts = np.nonzero(vgroup == g)[0]
+        if len(verts) < 3:
+            continue
+        p = pos[verts]
+        chunk = max(1, 2_000_000 // len(verts))
+        for s in range(0, len(eg), chunk):
+            a, b = eg[s : s + chunk, 0], eg[s : s + chunk, 1]
+            pa, d = pos[a], pos[b] - pos[a]
+            dd = np.einsum("ec,ec->e", d, d)
+            rel = p[None, :, :] - pa[:, None, :]  # (E,V,3)
+            t = np.einsum("evc,ec->ev", rel, d) / np.maximum(dd, 1e-300)[:, None]
+            off = rel - t[..., None] * d[:, None, :]
+            dist2 = np.einsum("evc,evc->ev", off, off)
+            on = (t > 1e-9) & (t < 1 - 1e-9) & (dist2 < 1e-12 * dd[:, None])
+            ei, vi = np.nonzero(on)
+            out_v.append(verts[vi])
+            out_a.append(a[ei])
+            out_b.append(b[ei])
+            out_t.append(t[ei, vi])
+    if not out_v:
+        z = np.zeros(0, dtype=np.int64)
+        return z, z, z, np.zeros(0)
+    return (
+        np.concatenate(out_v),
+        np.concatenate(out_a),
+        np.concatenate(out_b),
+        np.concatenate(out_t),
+    )
 
 
 def refine_mask(field: VertexField, threshold: float, min_size: float) -> np.ndarray:

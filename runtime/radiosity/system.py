@@ -54,7 +54,7 @@ _SIDE_REL = 1e-6
 
 @dataclass(frozen=True)
 class Options:
-    patch_size: float | None = None  # None: the scene's extent / 8
+    patch_size: float | None = None  # None: the scene's extent / 14
     max_patches: int = 3000
     error_bound: float = 1.8  # refine where corners differ by error_bound·2% of mean B
     tolerance: float = 1e-4
@@ -64,7 +64,7 @@ class Options:
     far_order: int = 1  # … for pairs more than far_ratio × their radii apart
     far_ratio: float = 4.0
     vis_samples: int = 4  # segments per patch pair
-    max_rounds: int = 3  # adaptive refinement rounds after the first solve
+    max_rounds: int = 2  # adaptive refinement rounds after the first solve
     flat: bool = False  # flat instead of Gouraud display
     vertex_gather: bool = False  # Gouraud from light gathered at the vertices (else averages)
     seed: int = 0
@@ -188,7 +188,7 @@ class _SceneMesher:
         objs = [prepared.objects[i] for i in self.indices]
         self.lo, self.hi = scene_bounds(objs, [] if objs else self.lights)
         self.extent = float(np.linalg.norm(self.hi - self.lo)) or 1.0
-        size = opts.patch_size or self.extent / 8
+        size = opts.patch_size or self.extent / 14
         self.mesher = Mesher(size)
         # Witness points: where light can come from or go to (other objects, lights).
         self.witness: dict[int, np.ndarray] = {}

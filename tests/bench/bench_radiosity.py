@@ -14,6 +14,13 @@ Part 2 (`--cornell SIZE`) runs the whole pipeline on the shared Cornell box refe
 (/work/shared/reference/cornell), displays the Gouraud-interpolated solution at 256×256
 through the tracer's primary hits (one ray per pixel centre, no anti-aliasing) and reports
 the RMSE against the Mitsuba reference (all pixels and the interior mask).
+
+Measured on this 2-core machine (radiosity seconds; display adds ~0.5 s):
+    patch 1.0, 2 rounds:  957 patches,  3.7 s, RMSE 0.0120 (interior 0.0097)
+    patch 0.7, 2 rounds: 1602 patches,  7.4 s, RMSE 0.0093 (interior 0.0066)
+    patch 0.5, 2 rounds: 2590 patches, 16.8 s, RMSE 0.0078 (interior 0.0050)
+    patch 0.4, 2 rounds: 3736 patches, 39.4 s, RMSE 0.0070 (interior 0.0040)
+(POV-Ray 3.7 from the reference README: 0.012 in 7.8 s, 0.0073 in 67 s.)
 """
 
 from __future__ import annotations
