@@ -42,6 +42,11 @@ BOUNDARY_MODES = ("sharp", "smooth")
 # corner (an explicit corner, three or more sharp edges, or an isolated vertex).
 SMOOTH, CREASE, CORNER = 0, 1, 2
 
+# Index type of the per-corner and per-edge tables: int32 halves the memory traffic (and,
+# on machines where fresh pages are dear, the page faults) of int64; `check_memory` keeps
+# every count below 2**31. Keys that multiply two indices are computed in int64.
+IDX = np.int32
+
 # Part of the free memory one level may claim before it is refused (the estimate is rough
 # and numpy needs temporaries while the next level is being built).
 MEMORY_FRACTION = 0.6
@@ -78,6 +83,9 @@ class ControlMesh:
     # per-edge sharpness aligned with `_topo.edges`, set by refinement (which knows each
     # child edge's parent); without it the crease pairs are looked up by edge key
     _edge_sharp: np.ndarray | None = None
+    # the last rings built, with the sharp-edge mask they were built for (normals and the
+    # shading split usually ask for the same rings)
+    _rings: tuple[np.ndarray, Rings] | None = None
 
     @property
     def nv(self) -> int:
@@ -99,6 +107,7 @@ class ControlMesh:
         if self._topo is None:
             self._topo = build_topology(self)
             self._edge_sharp = None  # aligned with a refined topology only
+            self._rings = None
         return self._topo
 
     @classmethod
@@ -166,7 +175,7 @@ def build_topology(mesh: ControlMesh) -> Topology:
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     # one sort of the undirected edge keys gives edge ids, face counts and twins: the two
     # half-edges of a manifold edge sit next to each other in the sorted order
-    ukey = lo * nv + hi
+    ukey = lo.astype(np.int64) * nv + hi
     order = np.argsort(ukey)
     sk = ukey[order]
     run_start = np.ones(len(sk), dtype=bool)
@@ -182,6 +191,7 @@ def build_topology(mesh: ControlMesh) -> Topology:
     twin = np.full(len(sk), -1, dtype=np.int64)
     twin[c0], twin[c1] = c1, c0
     dup = int(np.count_nonzero(fv[c0] == fv[c1]))  # both run the same way
+    face, nxt, prv, edge, edges, twin = (x.astype(IDX) for x in (face, nxt, prv, edge, edges, twin))
     return Topology(face, nxt, prv, edge, edges, edge_nf, ekeys, twin, dup)
 
 
@@ -218,7 +228,7 @@ def edge_sharpness(mesh: ControlMesh, topo: Topology | None = None) -> np.ndarra
     if len(mesh.crease_pairs):
         ekeys, order = topo.ekeys, None
         if ekeys is None:  # a refined topology's edges are not in key order
-            all_keys = topo.edges[:, 0] * mesh.nv + topo.edges[:, 1]
+            all_keys = topo.edges[:, 0].astype(np.int64) * mesh.nv + topo.edges[:, 1]
             order = np.argsort(all_keys)
             ekeys = all_keys[order]
         p = mesh.crease_pairs
@@ -321,7 +331,7 @@ def _interleave(*parts: np.ndarray) -> np.ndarray:
 
 def _cyclic(n: int, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """face, next and previous corner of n corners in faces of k corners each."""
-    i = np.arange(n, dtype=np.int64)
+    i = np.arange(n, dtype=IDX)
     nxt, prv = i + 1, i - 1
     nxt[k - 1 :: k] -= k
     prv[0::k] += k
@@ -332,7 +342,7 @@ def _child_edges(topo: Topology, edge_point: np.ndarray, inner: tuple[np.ndarray
     """Child edge table: parent edge e → 2e (low end, EP) and 2e+1 (high end, EP), then
     the inner edges given as two vertex arrays; face counts follow the parent's."""
     E, K = len(topo.edges), len(inner[0])
-    edges = np.empty((2 * E + K, 2), dtype=np.int64)
+    edges = np.empty((2 * E + K, 2), dtype=IDX)
     edges[0 : 2 * E : 2, 0] = topo.edges[:, 0]
     edges[1 : 2 * E : 2, 0] = topo.edges[:, 1]
     edges[0 : 2 * E, 1] = np.repeat(edge_point, 2)
@@ -355,7 +365,7 @@ def _quad_child_topology(mesh: ControlMesh, nfp: int) -> Topology:
     half-edge h is child half-edge 4h, its second half 4·nxt(h)+3."""
     topo, V, fv = mesh.topology, mesh.nv, mesh.fv
     C, E = len(fv), len(topo.edges)
-    c = np.arange(C, dtype=np.int64)
+    c = np.arange(C, dtype=IDX)
     tw, nx, pv = topo.twin, topo.nxt, topo.prv
     twp = tw[pv]
     twin = _interleave(
@@ -371,7 +381,7 @@ def _quad_child_topology(mesh: ControlMesh, nfp: int) -> Topology:
         _half_edge_side(topo, topo.edge[pv], fv),
     )
     edges, edge_nf = _child_edges(
-        topo, V + nfp + np.arange(E), (V + topo.face, V + nfp + topo.edge)
+        topo, V + nfp + np.arange(E, dtype=IDX), (V + topo.face, V + nfp + topo.edge)
     )
     face, nxt, prv = _cyclic(4 * C, 4)
     return Topology(face, nxt, prv, edge, edges, edge_nf, None, twin, 0)
@@ -384,7 +394,7 @@ def _loop_child_topology(mesh: ControlMesh) -> Topology:
     12f+9+i on the edge points of corners 3f+i."""
     topo, V, fv = mesh.topology, mesh.nv, mesh.fv
     C, E = len(fv), len(topo.edges)
-    c = np.arange(C, dtype=np.int64)
+    c = np.arange(C, dtype=IDX)
     f, k = c // 3, c % 3
     tw, nx, pv = topo.twin, topo.nxt, topo.prv
     twp = tw[pv]
@@ -395,7 +405,7 @@ def _loop_child_topology(mesh: ControlMesh) -> Topology:
     t0 = np.where(tw >= 0, tri(nx[np.maximum(tw, 0)]) + 2, -1)
     t1 = 12 * f + 9 + (k + 2) % 3
     t2 = np.where(twp >= 0, tri(np.maximum(twp, 0)), -1)
-    twin = np.empty(12 * (C // 3), dtype=np.int64)
+    twin = np.empty(12 * (C // 3), dtype=IDX)
     e0 = _half_edge_side(topo, topo.edge, fv)
     e2 = _half_edge_side(topo, topo.edge[pv], fv)
     edge = np.empty_like(twin)
@@ -407,7 +417,9 @@ def _loop_child_topology(mesh: ControlMesh) -> Topology:
     centre = 12 * f + 9 + k
     twin[centre] = tri(cn) + 1
     edge[centre] = 2 * E + cn
-    edges, edge_nf = _child_edges(topo, V + np.arange(E), (V + topo.edge, V + topo.edge[pv]))
+    edges, edge_nf = _child_edges(
+        topo, V + np.arange(E, dtype=IDX), (V + topo.edge, V + topo.edge[pv])
+    )
     face, nxt, prv = _cyclic(12 * (C // 3), 3)
     return Topology(face, nxt, prv, edge, edges, edge_nf, None, twin, 0)
 
@@ -545,7 +557,7 @@ def check_memory(mesh: ControlMesh, scheme: str, level: int, max_bytes: int | No
     v, f, c = next_level_size(mesh, scheme)
     need = v * _BYTES_PER_VERTEX + c * _BYTES_PER_CORNER
     budget = max_bytes if max_bytes is not None else int(MEMORY_FRACTION * _available_memory())
-    if need > budget or v >= 2**31 - 1:
+    if need > budget or max(v, c) >= 2**31 - 1:
         raise SubdivisionError(
             "subdiv.memory",
             f"subdivision level {level} would have {f:,} faces and {v:,} vertices and need "
@@ -623,17 +635,25 @@ def build_rings(mesh: ControlMesh, sharp: np.ndarray) -> Rings:
     """Walk all vertex rings at once, one ring position per iteration. A boundary fan
     starts at its corner whose out-edge is on the boundary; a closed fan starts after a
     sharp edge when it has one (so sectors never wrap)."""
+    if mesh._rings is not None and np.array_equal(mesh._rings[0], sharp):
+        return mesh._rings[1]
+    rings = _walk_rings(mesh, sharp)
+    mesh._rings = (sharp.copy(), rings)
+    return rings
+
+
+def _walk_rings(mesh: ControlMesh, sharp: np.ndarray) -> Rings:
     topo, fv = mesh.topology, mesh.fv
     C = len(fv)
     rot = np.where(topo.twin[topo.prv] >= 0, topo.twin[topo.prv], -1)
-    j = np.full(C, -1, dtype=np.int64)
-    fan = np.full(C, -1, dtype=np.int64)
-    sector = np.zeros(C, dtype=np.int64)
-    rep = np.full(C, -1, dtype=np.int64)
+    j = np.full(C, -1, dtype=IDX)
+    fan = np.full(C, -1, dtype=IDX)
+    sector = np.zeros(C, dtype=IDX)
+    rep = np.full(C, -1, dtype=IDX)
     step_sharp = sharp[topo.edge[topo.prv]]
 
     def walk(starts: np.ndarray) -> None:
-        cur, fid, sec, first, k = starts, starts, np.zeros(len(starts), np.int64), starts, 0
+        cur, fid, sec, first, k = starts, starts, np.zeros(len(starts), IDX), starts, 0
         while cur.size:
             j[cur], fan[cur], sector[cur], rep[cur] = k, fid, sec, first
             nx = rot[cur]
@@ -650,7 +670,7 @@ def build_rings(mesh: ControlMesh, sharp: np.ndarray) -> Rings:
         if rest.size == 0:
             break
         # one start per vertex (any corner will do; a corner after a sharp edge wins)
-        pick = np.full(mesh.nv, -1, dtype=np.int64)
+        pick = np.full(mesh.nv, -1, dtype=IDX)
         pick[fv[rest]] = rest
         after_sharp = rest[sharp[topo.edge[rest]]]
         pick[fv[after_sharp]] = after_sharp
