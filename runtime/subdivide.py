@@ -917,7 +917,7 @@ def validate(shape: ir.Subdivision) -> list[tuple[str, str]]:
     if scheme in CURVE_SCHEMES:
         if shape.faces:
             out.append(("subdiv.curve_faces", f"`{scheme}` is a curve scheme: it takes no faces"))
-        need = 4 if scheme == "four_point" and not shape.closed else 2
+        need = 3 if shape.closed else 2
         if npts < need:
             out.append(
                 (

@@ -234,3 +234,15 @@ def test_curve_errors():
     with pytest.raises(sd.SubdivisionError) as err:
         sd.subdivision_mesh(ir.Subdivision("midpoint", ((0, 0, 0), (1, 0, 0)), radius=1), 40)
     assert err.value.code == "subdiv.memory"
+
+
+@pytest.mark.parametrize("scheme", ["midpoint", "chaikin", "four_point", "bezier"])
+def test_two_points_make_a_straight_tube(scheme):
+    shape = ir.Subdivision(scheme, ((0, 0, 0), (2, 0, 0)), radius=0.1)
+    assert sd.validate(shape) == []
+    P = cv.refine_curve(shape.points, scheme, 3)
+    assert np.allclose(P[:, 1:], 0) and np.all(np.diff(P[:, 0]) > 0)
+    codes = [
+        c for c, _ in sd.validate(ir.Subdivision(scheme, shape.points, radius=0.1, closed=True))
+    ]
+    assert "subdiv.curve_points" in codes
