@@ -186,7 +186,10 @@ class _SceneMesher:
         self.lights = [np.asarray(light.position, dtype=np.float64) for light in scene.lights]
         self.indices = _meshable(prepared)
         objs = [prepared.objects[i] for i in self.indices]
-        self.lo, self.hi = scene_bounds(objs, [] if objs else self.lights)
+        self.lo, self.hi = scene_bounds(objs, [])
+        if np.all(self.lo == -1.0) and np.all(self.hi == 1.0) and self.lights:
+            # Nothing finite (only planes): the lights are what the scene is about.
+            self.lo, self.hi = scene_bounds([], self.lights)
         self.extent = float(np.linalg.norm(self.hi - self.lo)) or 1.0
         size = opts.patch_size or self.extent / 14
         self.mesher = Mesher(size)
