@@ -470,7 +470,7 @@ BLOCKS: dict[str, BlockSpec] = {
                 "max_trace_level int | Maximum reflection/refraction depth (default 5).",
                 "adc_bailout float | Stop tracing rays weaker than this.",
                 "ambient_light rgb | Global ambient light colour.",
-                "charset string | Character set: ascii, utf8, sys.",
+                "charset word | Character set: ascii, utf8, sys.",
                 "max_intersections int | (Old) intersection stack size; ignored.",
                 "number_of_waves float | Waves count for waves/ripples.",
                 "noise_generator int | Default noise generator.",

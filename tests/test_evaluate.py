@@ -1,0 +1,651 @@
+"""The interpreter: source text → IR, with diagnostics instead of tracebacks."""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang import evaluate, ir, transforms
+from lang.evaluate import compile_file, compile_source
+
+POV_INCLUDE = "/usr/share/povray-3.7/include"
+EX3 = """#include "colors.inc"
+global_settings { assumed_gamma 2.2 }
+camera { location <1, 1, -7> look_at <0, 0, 0> angle 56 }
+light_source { <1000, 1000, -1000> White }
+plane { <0,0,1>, 6 pigment {color rgb <1, 1, 0>} }
+plane { <0, 1, 0>, -1.5 pigment { checker Green, White } }
+sphere { <0,0,0>, 1 pigment { Red } }
+sphere { <2,0,0>, 1 pigment { BrightGold }
+  finish { ambient .1 diffuse .1 specular 1 roughness .001 reflection .75 metallic } }
+"""
+COLORS = "#declare Red = rgb <1,0,0>; #declare Green = rgb <0,1,0>; #declare White = rgb 1;\n"
+
+
+def run(src: str, **kw) -> evaluate.Result:
+    return compile_source(src, "t.pov", **kw)
+
+
+def errors(r: evaluate.Result) -> list:
+    return [d for d in r.diagnostics if d.severity == "error"]
+
+
+def ok(src: str, **kw) -> evaluate.Result:
+    r = run(src, **kw)
+    assert not errors(r), [d.format() for d in errors(r)]
+    return r
+
+
+def sym_table(src: str) -> dict:
+    return ok(src).symbols
+
+
+def close(a, b, tol=1e-9):
+    return all(abs(p - q) <= tol for p, q in zip(a, b, strict=True))
+
+
+# ------------------------------------------------------------------ Ex3
+@pytest.fixture(scope="module")
+def ex3() -> evaluate.Result:
+    libs = [POV_INCLUDE] if Path(POV_INCLUDE).is_dir() else []
+    r = compile_source(
+        EX3
+        if libs
+        else COLORS
+        + EX3.replace("BrightGold", "rgb <.85,.85,.1>").replace('#include "colors.inc"', ""),
+        "ex3.pov",
+        libs,
+    )
+    assert not errors(r), [d.format() for d in r.diagnostics]
+    return r
+
+
+def test_ex3_scene(ex3):
+    s = ex3.scene
+    assert s.settings.assumed_gamma == 2.2 and s.settings.version is None
+    assert [type(o.shape).__name__ for o in s.objects] == ["Plane", "Plane", "Sphere", "Sphere"]
+    assert s.objects[0].shape == ir.Plane((0.0, 0.0, 1.0), 6.0)
+    assert s.objects[0].texture.pigment.color == (1.0, 1.0, 0.0, 0.0, 0.0)
+    checker = s.objects[1].texture.pigment
+    assert checker.pattern == "checker"
+    assert [p.color for p in checker.list] == [(0, 1, 0, 0, 0), (1, 1, 1, 0, 0)]
+    assert s.objects[2].texture.pigment.color == (1.0, 0.0, 0.0, 0.0, 0.0)
+    gold = s.objects[3]
+    assert gold.shape == ir.Sphere((2.0, 0.0, 0.0), 1.0)
+    assert close(gold.texture.pigment.color[:3], (0.85, 0.85, 0.1))
+    f = gold.texture.finish
+    assert (f.ambient, f.diffuse, f.specular, f.roughness, f.metallic) == (
+        (0.1, 0.1, 0.1),
+        0.1,
+        1.0,
+        0.001,
+        1.0,
+    )
+    assert f.reflection.min == f.reflection.max == (0.75, 0.75, 0.75)
+    assert s.lights == (
+        ir.Light((1000.0, 1000.0, -1000.0), (1.0, 1.0, 1.0), span=s.lights[0].span),
+    )
+
+
+def test_ex3_camera_follows_povray_rules(ex3):
+    c = ex3.scene.camera
+    assert c.location == (1.0, 1.0, -7.0)
+    # direction points at the origin with length |right|/2/tan(28°)
+    d = math.dist(c.direction, (0, 0, 0))
+    assert math.isclose(d, 0.5 * 1.33 / math.tan(math.radians(28)), rel_tol=1e-12)
+    unit = tuple(v / d for v in c.direction)
+    to_origin = tuple(-v / math.dist(c.location, (0, 0, 0)) for v in c.location)
+    assert close(unit, to_origin, 1e-12)
+    assert math.isclose(math.dist(c.right, (0, 0, 0)), 1.33) and c.right[1] == 0.0
+    assert math.isclose(math.dist(c.up, (0, 0, 0)), 1.0)
+    dots = [
+        sum(a * b for a, b in zip(p, q, strict=True))
+        for p, q in ((c.right, c.up), (c.up, c.direction), (c.right, c.direction))
+    ]
+    assert all(abs(v) < 1e-12 for v in dots)
+
+
+def test_ex3_file_with_the_seeds_extra_brace(tmp_path):
+    (tmp_path / "colors.inc").write_text(COLORS + "#declare BrightGold = rgb <.85,.85,.1>;\n")
+    p = tmp_path / "ex3.pov"
+    p.write_text(EX3 + "}\n")
+    r = compile_file(str(p))
+    errs = errors(r)
+    assert len(errs) == 1 and errs[0].span.line == 10 and "`}`" in errs[0].message
+    assert len(r.scene.objects) == 4  # everything before the stray brace still evaluates
+    assert str(tmp_path / "colors.inc") in r.files
+
+
+# ------------------------------------------------------------------ camera vs POV-Ray
+CAMERAS = [
+    "location <1, 1, -7> look_at <0, 0, 0> angle 56",
+    "location <3, 2, -4> look_at <0, 0.5, 0> sky <0.3, 1, 0> angle 70",
+    "location <0, 0, -6> right x*1.5 up y*1.2 direction z*1.8",
+    "location <0, 0, -5> look_at 0 rotate y*20 translate x*0.5",
+    "orthographic location <0, 0, -5> look_at 0 right 6*x up 4.5*y",
+    "location <-2, 3, -5> up y right -x*1.33 look_at <0.2, 0, 0>",
+]
+POINTS = [(0, 0, 0), (1.5, 0.8, 0.5), (-1.2, -1, 1), (0.5, 1.2, -1)]
+
+
+def _project(c: ir.Camera, p, w: int, h: int) -> tuple[float, float]:
+    """Screen position of a world point: solve p - loc = t*dir + a*right + b*up."""
+    import numpy as np
+
+    if c.kind == "orthographic":
+        m = np.array([c.right, c.up, c.direction]).T
+        a, b, _ = np.linalg.solve(m, np.subtract(p, c.location))
+    else:
+        m = np.array([c.direction, c.right, c.up]).T
+        t, a, b = np.linalg.solve(m, np.subtract(p, c.location))
+        a, b = a / t, b / t
+    return (a + 0.5) * w, (0.5 - b) * h
+
+
+def _read_ppm(path: Path) -> tuple[int, int, bytes]:
+    data = path.read_bytes()
+    toks, pos = [], 0
+    pat = re.compile(rb"\s*(?:#[^\n]*\n\s*)*(\S+)")
+    while len(toks) < 4:
+        m = pat.match(data, pos)
+        toks.append(m.group(1))
+        pos = m.end()
+    return int(toks[1]), int(toks[2]), data[pos + 1 :]
+
+
+def _spots(w: int, h: int, px: bytes) -> list[tuple[float, float]]:
+    lum = [px[i * 3] for i in range(w * h)]
+    seen, out = set(), []
+    for start in range(w * h):
+        if lum[start] <= 40 or start in seen:
+            continue
+        stack, pts = [start], []
+        while stack:
+            k = stack.pop()
+            if k in seen or lum[k] <= 40:
+                continue
+            seen.add(k)
+            pts.append(k)
+            r, c = divmod(k, w)
+            stack += [
+                k2
+                for k2, ok_ in (
+                    (k - w, r > 0),
+                    (k + w, r < h - 1),
+                    (k - 1, c > 0),
+                    (k + 1, c < w - 1),
+                )
+                if ok_
+            ]
+        tot = sum(lum[k] for k in pts)
+        out.append(
+            (
+                sum((k % w + 0.5) * lum[k] for k in pts) / tot,
+                sum((k // w + 0.5) * lum[k] for k in pts) / tot,
+            )
+        )
+    return sorted(out)
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("cam", CAMERAS)
+def test_camera_matches_povray(tmp_path, cam):
+    w, h = 160, 120
+    spheres = "\n".join(
+        f"sphere {{ <{p[0]},{p[1]},{p[2]}>, 0.05 pigment {{ rgb 1 }} "
+        "finish { ambient 1 diffuse 0 } }"
+        for p in POINTS
+    )
+    src = tmp_path / "c.pov"
+    src.write_text(f"camera {{ {cam} }}\n{spheres}\n")
+    subprocess.run(
+        [
+            shutil.which("povray") or "povray",
+            f"+I{src}",
+            f"+O{tmp_path / 'c.ppm'}",
+            "+FP",
+            f"+W{w}",
+            f"+H{h}",
+            "-D",
+            "-V",
+            "+A0.01",
+        ],
+        capture_output=True,
+        cwd=tmp_path,
+        timeout=120,
+        check=True,
+    )
+    pov = _spots(*_read_ppm(tmp_path / "c.ppm"))
+    r = compile_file(str(src))
+    ours = sorted(_project(r.scene.camera, p, w, h) for p in POINTS)
+    assert len(pov) == len(POINTS), pov
+    for (px, py), (ox, oy) in zip(pov, ours, strict=True):
+        assert abs(px - ox) < 0.6 and abs(py - oy) < 0.6, (cam, pov, ours)
+
+
+# ------------------------------------------------------------------ expressions
+def test_declare_values_and_promotion():
+    s = sym_table("""#declare A = 1 + 2 * 3;
+#declare V = <1,2,3> * 2 + 1;
+#declare C = rgb <1,0.5,0> * 0.5;
+#declare D = color red 1 green .5 filter .2;
+#declare S = concat("a", str(A, 0, 0));
+#declare B = (A > 5 ? 1 : 0);
+""")
+    assert s["A"] == 7.0 and tuple(s["V"]) == (3.0, 5.0, 7.0)
+    assert s["C"].rgbft == (0.5, 0.25, 0.0, 0.0, 0.0)
+    assert s["D"].rgbft == (1.0, 0.5, 0.0, 0.2, 0.0)
+    assert s["S"] == "a7" and s["B"] == 1.0
+
+
+def test_expression_errors_have_locations():
+    r = run('#declare A = 1;\n#declare B = A / 0;\n#declare C = sqrt(-1);\n#declare D = A + "s";')
+    errs = errors(r)
+    assert [e.span.line for e in errs] == [2, 3, 4]
+    assert "division by zero" in errs[0].message
+    assert "square root" in errs[1].message
+    assert "A" in r.symbols and "B" not in r.symbols
+
+
+def test_unknown_identifier_did_you_mean():
+    r = run("#declare White = rgb 1;\nsphere { 0, 1 pigment { Whte } }")
+    (e,) = errors(r)
+    assert e.code == "E0201" and e.span.line == 2 and "White" in (e.hint or "")
+
+
+@pytest.mark.skipif(not Path(POV_INCLUDE).is_dir(), reason="POV-Ray's includes not installed")
+def test_unknown_identifier_suggests_include():
+    r = compile_source("sphere { 0, 1 pigment { BrightGold } }", "t.pov", [POV_INCLUDE])
+    (e,) = errors(r)
+    assert "colors.inc" in (e.hint or "")
+
+
+def test_keyword_not_valid_in_block():
+    r = run("sphere { 0, 1 angle 5 }")
+    (e,) = errors(r)
+    assert e.message == "`angle` is not valid inside `sphere`"
+    assert "camera" in (e.hint or "") and e.span.col == 15
+    assert len(r.scene.objects) == 1  # the sphere survives
+
+
+def test_missing_positional_argument():
+    r = run("sphere { <0,0,0> pigment { rgb 1 } }\nbox { 0, 1 }")
+    (e,) = errors(r)
+    assert "radius" in e.message and e.span.line == 1
+    assert len(r.scene.objects) == 1
+
+
+def test_arrays_and_loops():
+    s = sym_table("""#declare A = array[2][3] { {1,2,3}, {4,5,6} };
+#declare Sum = 0;
+#for (I, 0, 1) #for (J, 0, 2) #declare Sum = Sum + A[I][J]; #end #end
+#declare B = array[4];
+#declare N = 0;
+#while (N < 4) #declare B[N] = N * N; #declare N = N + 1; #end
+#declare D = dimension_size(A, 2);
+#declare K = 0;
+#for (I, 10, 1, -3) #declare K = K + 1; #end
+""")
+    assert s["Sum"] == 21.0 and s["B"].data == [0.0, 1.0, 4.0, 9.0] and s["D"] == 3.0
+    assert s["K"] == 4.0  # 10, 7, 4, 1
+
+
+def test_array_errors():
+    r = run(
+        "#declare A = array[3];\n#declare X = A[1];\n#declare Y = A[5];\n"
+        "#declare Z = array[2] {1, 2, 3};"
+    )
+    msgs = [e.message for e in errors(r)]
+    assert "not initialised" in msgs[0] and "out of range" in msgs[1] and "initialiser" in msgs[2]
+
+
+def test_while_bound(monkeypatch):
+    monkeypatch.setattr(evaluate, "MAX_LOOP_ITERATIONS", 50)
+    r = run("#declare I = 0;\n#while (1) #declare I = I + 1; #end\nsphere { 0, 1 }")
+    (e,) = errors(r)
+    assert e.code == "E0230" and e.span.line == 2
+    assert r.symbols["I"] == 50.0 and len(r.scene.objects) == 1
+
+
+def test_if_switch_ifdef():
+    s = sym_table("""#declare A = 3;
+#if (A < 2) #declare R = 1; #elseif (A < 4) #declare R = 2; #else #declare R = 3; #end
+#switch (A)
+  #case (1) #declare S = 1; #break
+  #range (2, 4) #declare S = 2; #break
+  #else #declare S = 3;
+#end
+#switch (5) #case (1) #declare T = 1; #break #else #declare T = 9; #end
+#ifdef (A) #declare D = 1; #else #declare D = 0; #end
+#ifndef (Nope) #declare E = 1; #end
+#undef A
+#ifdef (A) #declare F = 1; #else #declare F = 0; #end
+""")
+    assert (s["R"], s["S"], s["T"], s["D"], s["E"], s["F"]) == (2.0, 2.0, 9.0, 1.0, 1.0, 0.0)
+
+
+def test_macros_scoping_and_by_reference():
+    s = sym_table("""#declare G = 1;
+#macro Sq(X) X * X #end
+#macro Inc(V) #declare V = V + 1; #end
+#macro Loc() #local G = 100; G #end
+#macro Ball(R) sphere { 0, R } #end
+#declare A = Sq(3) + 1;
+#declare N = 5; Inc(N)
+#declare L = Loc();
+#declare O = Ball(2);
+""")
+    assert s["A"] == 10.0 and s["N"] == 6.0 and s["L"] == 100.0 and s["G"] == 1.0
+    assert s["O"].shape == ir.Sphere((0.0, 0.0, 0.0), 2.0)
+
+
+def test_macro_yields_items_and_objects():
+    r = ok("""#macro Move() translate <1,0,0> scale 2 #end
+#macro Two() sphere { 0, 1 } box { 0, 1 } #end
+sphere { 0, 1 Move() }
+union { Two() }
+Two()
+""")
+    objs = r.scene.objects
+    assert transforms.apply_point(objs[0].transform, (0, 0, 0)) == (2.0, 0.0, 0.0)
+    assert isinstance(objs[1].shape, ir.CSG) and len(objs[1].shape.children) == 2
+    assert len(objs) == 4
+
+
+def test_macro_errors():
+    r = run("#macro M(A) A #end\n#declare X = M(1, 2);\n#macro R(N) R(N) #end\n#declare Y = R(1);")
+    codes = [e.code for e in errors(r)]
+    assert "E0232" in codes and "E0231" in codes
+
+
+def test_version_and_messages(capsys):
+    r = run('#version 3.7;\n#debug "hi\\n"\n#warning "careful"\nsphere { 0, 1 }')
+    assert r.scene.settings.version == 3.7
+    assert [d.code for d in r.diagnostics] == ["N0100", "W0301"]
+    assert capsys.readouterr().err == ""
+    r = run('#debug "hi\\n"', debug_to_stderr=True)
+    assert capsys.readouterr().err == "hi\n"
+
+
+def test_error_directive_halts():
+    r = run('sphere { 0, 1 }\n#error "stop here"\nbox { 0, 1 }')
+    (e,) = errors(r)
+    assert e.code == "E0240" and e.message == "stop here" and e.span.line == 2
+    assert len(r.scene.objects) == 1
+
+
+def test_includes(tmp_path):
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "a.inc").write_text("#declare FromLib = 2;\n#local Hidden = 3;\n")
+    (tmp_path / "b.inc").write_text('#include "a.inc"\n#declare FromB = FromLib + 1;\n')
+    (tmp_path / "cyc.inc").write_text('#include "cyc.inc"\n')
+    main = tmp_path / "main.pov"
+    main.write_text('#include "b.inc"\n#include "missing.inc"\n#include "cyc.inc"\n')
+    r = compile_file(str(main), [str(tmp_path / "lib")])
+    assert r.symbols["FromB"] == 3.0 and "Hidden" not in r.symbols
+    codes = [(e.code, e.span.line) for e in errors(r)]
+    assert ("E0220", 2) in codes and any(c == "E0221" for c, _ in codes)
+    assert len(r.files) == 4
+
+
+# ------------------------------------------------------------------ objects and textures
+def test_transform_order_and_texture_moves_with_object():
+    r = ok("""sphere { 0, 1 pigment { checker } translate x*2 rotate y*90 }
+sphere { 0, 1 translate x*2 pigment { checker } }""")
+    a, b = r.scene.objects
+    m = transforms.then(transforms.translate((2, 0, 0)), transforms.rotate((0, 90, 0)))
+    assert close(sum(a.transform, ()), sum(m, ()), 1e-12)
+    assert close(sum(a.texture.pigment.transform, ()), sum(m, ()), 1e-12)
+    assert b.texture.pigment.transform == ir.IDENTITY  # given after the move
+
+
+def test_csg_children_inherit_texture_and_compose_transforms():
+    r = ok("""union {
+  sphere { 0, 1 translate x }
+  sphere { 0, 1 pigment { rgb <1,0,0> } }
+  pigment { rgb <0,0,1> }
+  translate y*3
+}""")
+    (u,) = r.scene.objects
+    assert u.transform == ir.IDENTITY
+    c1, c2 = u.shape.children
+    assert transforms.apply_point(c1.transform, (0, 0, 0)) == (1.0, 3.0, 0.0)
+    assert transforms.apply_point(c2.transform, (0, 0, 0)) == (0.0, 3.0, 0.0)
+    assert c1.texture.pigment.color[:3] == (0.0, 0.0, 1.0)
+    assert c2.texture.pigment.color[:3] == (1.0, 0.0, 0.0)
+    # the child's own texture moved with the union's later translate
+    assert transforms.apply_point(c2.texture.pigment.transform, (0, 0, 0)) == (0.0, 3.0, 0.0)
+
+
+def test_object_reference_default_and_layers():
+    r = ok("""#default { finish { ambient 0.3 } }
+#declare S = sphere { 0, 1 }
+#declare T1 = texture { pigment { rgb 1 } }
+#declare T2 = texture { pigment { rgbt <1,0,0,0.5> } }
+object { S translate z }
+object { S texture { T1 } texture { T2 } }
+#declare L = texture { T1 } texture { T2 }
+""")
+    a, b = r.scene.objects
+    assert a.texture.finish.ambient == (0.3, 0.3, 0.3)
+    assert transforms.apply_point(a.transform, (0, 0, 0)) == (0.0, 0.0, 1.0)
+    assert b.texture.pigment.color[:3] == (1.0, 1.0, 1.0) and len(b.texture.layers) == 1
+    assert len(r.symbols["L"].layers) == 1
+
+
+def test_shapes_and_modifiers():
+    r = ok("""box { <-1,-1,-1>, <1,1,1> no_shadow hollow }
+cylinder { 0, y, 0.5 open }
+cone { 0, 1, y*2, 0 }
+torus { 2, 0.5 inverse }
+disc { 0, y, 2, 1 }
+polygon { 4, <0,0>, <1,0>, <1,1>, <0,0> }
+triangle { 0, x, y }
+smooth_triangle { 0, z, x, z, y, z }
+plane { y, 0 double_illuminate no_image no_reflection }
+mesh { triangle { 0, x, y } triangle { 0, y, z texture { pigment { rgb 1 } } } }
+mesh2 { vertex_vectors { 3, 0, x, y } face_indices { 1, <0,1,2> } }
+intersection { sphere { 0, 1 } box { 0, 2 } }
+difference { sphere { 0, 1 } sphere { x, 1 } }
+merge { sphere { 0, 1 } sphere { x, 1 } clipped_by { plane { y, 0 } } }
+""")
+    o = r.scene.objects
+    assert o[0].no_shadow and o[0].hollow and o[1].shape.open and o[3].inverse
+    assert o[4].shape.hole_radius == 1.0 and len(o[5].shape.points) == 4
+    assert o[7].shape.normals is not None
+    assert o[8].double_illuminate and o[8].no_image and o[8].no_reflection
+    mesh = o[9].shape
+    assert len(mesh.faces) == 2 and len(mesh.textures) == 2 and mesh.face_textures == (1, 0)
+    assert o[10].shape.faces == ((0, 1, 2),)
+    assert [c.shape.op for c in o[11:]] == ["intersection", "difference", "merge"]
+    assert len(o[13].clipped_by) == 1
+
+
+def test_lights():
+    r = ok("""light_source { <0,10,0>, rgb <1,0.5,0.5> spotlight point_at 0 radius 10
+  falloff 20 tightness 5 shadowless fade_distance 3 fade_power 2 }
+light_source { 0, 1 area_light x, z, 4, 5 adaptive 1 jitter circular orient translate y }
+light_source { <0,0,-5> rgb 1 parallel point_at 0 }
+union { sphere { 0, 1 } light_source { 0, 1 } translate x*5 }
+#declare L = light_source { 0, 1 }
+light_source { L translate z }
+object { L translate y }
+""")
+    ls = r.scene.lights
+    assert ls[0].kind == "spotlight" and ls[0].radius == 10 and ls[0].shadowless
+    assert ls[0].color == (1.0, 0.5, 0.5) and ls[0].fade_power == 2
+    assert ls[1].area == ir.AreaLight((1, 0, 0), (0, 0, 1), 4, 5, 1, True, True, True)
+    assert ls[1].position == (0.0, 1.0, 0.0)
+    assert ls[2].kind == "parallel"
+    assert ls[3].position == (5.0, 0.0, 0.0)  # moved with its union
+    assert ls[4].position == (0.0, 0.0, 1.0) and ls[5].position == (0.0, 1.0, 0.0)
+
+
+def test_finish_normal_interior_and_patterns():
+    r = ok("""sphere { 0, 1
+  pigment { gradient y color_map { [0 rgb 0] [0.5, rgb <1,0,0>] [1 rgb 1] } turbulence 0.5
+            scale 2 }
+  normal { bumps 0.4 scale 0.1 }
+  finish { ambient rgb <0.1,0.2,0.3> diffuse 0.7 phong 1 phong_size 60 brilliance 2
+           reflection { 0.1, 0.9 fresnel falloff 2 metallic } conserve_energy }
+  interior { ior 1.5 caustics 0.5 fade_distance 2 fade_power 1 }
+}
+sphere { 0, 1 pigment { brick rgb 1, rgb <1,0,0> mortar 0.1 brick_size <2,1,1> } }
+sphere { 0, 1 pigment { hexagon rgb 1, rgb 0, rgb 0.5 } }
+sphere { 0, 1 pigment { bozo pigment_map { [0 rgb 1] [1 wood color_map { [0 rgb 0][1 rgb 1] }] } } }
+sphere { 0, 1 material { texture { pigment { rgb 1 } } interior { ior 1.33 } } }
+""")
+    a, b, c, d, e = r.scene.objects
+    p = a.texture.pigment
+    assert p.pattern == "gradient" and p.params["orientation"] == (0.0, 1.0, 0.0)
+    assert [v for v, _ in p.color_map] == [0.0, 0.5, 1.0] and p.params["turbulence"] == (0.5,) * 3
+    assert transforms.apply_point(p.transform, (1, 1, 1)) == (2.0, 2.0, 2.0)
+    assert a.texture.normal.pattern == "bumps" and a.texture.normal.depth == 0.4
+    f = a.texture.finish
+    assert f.ambient == (0.1, 0.2, 0.3) and f.phong_size == 60 and f.conserve_energy
+    assert f.reflection == ir.Reflection((0.1,) * 3, (0.9,) * 3, True, 2.0, 1.0, 1.0)
+    assert a.interior == ir.Interior(1.5, 2.0, 1.0, (0, 0, 0), 0.5)
+    assert b.texture.pigment.pattern == "brick" and b.texture.pigment.params["mortar"] == 0.1
+    assert len(c.texture.pigment.list) == 3
+    assert d.texture.pigment.pigment_map[1][1].pattern == "wood"
+    assert e.interior.ior == 1.33 and e.texture.pigment.color[:3] == (1.0, 1.0, 1.0)
+
+
+def test_settings_background_fog_sky():
+    r = ok("""global_settings { assumed_gamma 1.0 max_trace_level 10 ambient_light 0.5
+  charset utf8 radiosity { count 100 recursion_limit 3 patch_size 0.2 method progressive } }
+background { color rgb <0.1, 0.2, 0.3> }
+fog { distance 10 color rgb 0.5 }
+sky_sphere { pigment { rgb <0,0,1> } }
+""")
+    s = r.scene
+    assert s.settings.assumed_gamma == 1.0 and s.settings.max_trace_level == 10
+    assert s.settings.ambient_light == (0.5, 0.5, 0.5) and s.settings.charset == "utf8"
+    rad = s.settings.radiosity
+    assert (rad.count, rad.recursion_limit, rad.patch_size, rad.method) == (
+        100,
+        3,
+        0.2,
+        "progressive",
+    )
+    assert s.background == (0.1, 0.2, 0.3, 0.0, 0.0)
+    assert s.fog.distance == 10 and s.sky_sphere[0].color[:3] == (0.0, 0.0, 1.0)
+
+
+def test_srgb_colours_use_working_gamma():
+    r = ok("global_settings { assumed_gamma 1.0 }\n#declare C = srgb 0.5;")
+    assert math.isclose(r.symbols["C"].rgbft[0], 0.214041, rel_tol=1e-5)
+
+
+def test_unsupported_features_warn_and_continue():
+    r = ok("""blob { threshold 0.5 sphere { 0, 1, 1 } cylinder { 0, x, 1, 1 } pigment { rgb 1 }
+  translate y }
+sphere { 0, 1 interior { media { emission 1 } } }
+camera { fisheye angle 180 }
+sphere { 0, 1 }""")
+    assert isinstance(r.scene.objects[0].shape, ir.Unsupported)
+    assert r.scene.objects[0].texture.pigment.color[:3] == (1.0, 1.0, 1.0)
+    warnings = [d.message for d in r.diagnostics if d.code == "W0300"]
+    assert any("blob" in w for w in warnings) and any("media" in w for w in warnings)
+    assert any("fisheye" in w for w in warnings)
+    assert len(r.scene.objects) == 3
+
+
+def test_file_io(tmp_path):
+    main = tmp_path / "io.pov"
+    main.write_text("""#fopen Out "data.txt" write
+#write (Out, 1.5, ",", <1,2,3>, ",", "\\"hi\\"", "\\n")
+#fclose Out
+#fopen In "data.txt" read
+#read (In, A, B, C)
+#fopen Bad "../escape.txt" write
+""")
+    r = compile_file(str(main))
+    assert (tmp_path / "data.txt").read_text() == '1.5,<1,2,3>,"hi"\n'
+    assert r.symbols["A"] == 1.5 and tuple(r.symbols["B"]) == (1, 2, 3) and r.symbols["C"] == "hi"
+    (e,) = errors(r)
+    assert "outside the scene's folder" in e.message
+    r = compile_file(str(main), allow_file_io=False)
+    assert not errors(r) and "A" not in r.symbols
+
+
+def test_image_size_constants():
+    r = ok("#declare R = image_width / image_height;", image_width=640, image_height=480)
+    assert math.isclose(r.symbols["R"], 4 / 3)
+    assert errors(run("#declare R = image_width / image_height;"))  # 0/0 unless given
+
+
+def test_user_functions():
+    s = sym_table(
+        "#declare F = function(a, b) { a * b + 1 }\n#declare G = function { x + y * z }\n"
+        "#declare A = F(2, 3);\n#declare B = G(1, 2, 3);"
+    )
+    assert s["A"] == 7.0 and s["B"] == 7.0
+
+
+# ------------------------------------------------------------------ robustness
+PIECES = [
+    "sphere {",
+    "}",
+    "{",
+    "box",
+    "<1,2,3>",
+    ",",
+    "1",
+    "0.5",
+    "pigment { rgb 1 }",
+    "translate",
+    "#declare A =",
+    ";",
+    "#if (A)",
+    "#end",
+    "#else",
+    "A",
+    "Foo(",
+    ")",
+    "union {",
+    "x",
+    "rotate",
+    "camera { angle",
+    "light_source {",
+    "texture {",
+    "finish { phong",
+    "#macro M(X)",
+    "M(1)",
+    "array[2]",
+    "[",
+    "]",
+    "color_map {",
+    "checker",
+    "#while (0)",
+    "/",
+    "*",
+    "+",
+    '"s"',
+    "scale 0",
+    "object { A }",
+    "#local B = A;",
+    "#undef A",
+    "clipped_by {",
+    "mesh2 {",
+]
+
+
+@given(st.lists(st.sampled_from(PIECES), max_size=25))
+def test_never_a_traceback(pieces):
+    r = run(" ".join(pieces))
+    assert isinstance(r, evaluate.Result)
+    assert all(d.code != "E0200" for d in r.diagnostics), [d.format() for d in r.diagnostics]
+
+
+@given(st.floats(-50, 50), st.floats(-50, 50), st.floats(0.1, 5))
+def test_sphere_values_round_trip(cx, cy, r_):
+    r = ok(f"sphere {{ <{cx!r}, {cy!r}, 0>, {r_!r} }}")
+    assert r.scene.objects[0].shape == ir.Sphere((cx, cy, 0.0), r_)
