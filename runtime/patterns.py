@@ -49,8 +49,49 @@ DEFAULT_LISTS: dict[str, tuple[ir.Color, ...]] = {
     "hexagon": (_BLUE, _GREEN, _RED),
     "brick": (_WHITE, _RED),  # mortar, brick
 }
-# Without a colour map, continuous patterns ramp from black to white.
+# Without a colour map, continuous patterns ramp from black to white …
 DEFAULT_MAP: tuple[tuple[float, ir.Color], ...] = ((0.0, _BLACK), (1.0, _WHITE))
+
+
+def _c(r: float, g: float, b: float) -> ir.Color:
+    return (r, g, b, 0.0, 0.0)
+
+
+# … except these, which POV-Ray gives their own default colour maps (checked against its
+# renders: marble's ramp and wood's two colours measured, radial's hue circle).
+DEFAULT_MAPS: dict[str, tuple[tuple[float, ir.Color], ...]] = {
+    "bozo": (
+        (0.4, _c(1, 1, 1)),
+        (0.4, _c(0, 1, 0)),
+        (0.6, _c(0, 1, 0)),
+        (0.6, _c(0, 0, 1)),
+        (0.8, _c(0, 0, 1)),
+        (0.8, _c(1, 0, 0)),
+    ),
+    "wood": ((0.6, _c(0.666, 0.312, 0.2)), (0.6, _c(0.4, 0.1333, 0.066))),
+    "marble": ((0.0, _c(0.9, 0.8, 0.8)), (0.9, _c(0.9, 0.08, 0.08)), (0.9, _c(0, 0, 0))),
+    "radial": (
+        (0.0, _c(0, 1, 1)),
+        (0.333, _c(1, 1, 0)),
+        (0.666, _c(1, 0, 1)),
+        (1.0, _c(0, 1, 1)),
+    ),
+    "agate": (
+        (0.0, _c(1.0, 1.0, 1.0)),
+        (0.5, _c(0.95, 0.75, 0.5)),
+        (0.5, _c(0.9, 0.7, 0.5)),
+        (0.6, _c(0.9, 0.7, 0.4)),
+        (0.6, _c(1.0, 0.7, 0.4)),
+        (1.0, _c(0.6, 0.3, 0.0)),
+    ),
+    "mandel": (
+        (0.001, _c(0, 0, 0)),
+        (0.001, _c(0, 1, 1)),
+        (0.012, _c(1, 1, 0)),
+        (0.015, _c(1, 0, 1)),
+        (0.1, _c(0, 1, 1)),
+    ),
+}
 
 _warned: set[str] = set()
 
@@ -570,25 +611,26 @@ def crackle(p: np.ndarray, params: dict) -> np.ndarray:
 
 
 def _fractal_value(params: dict, c: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Escape-time iteration z -> z² + c: exterior points give iterations / max_iteration,
-    interior points 1 (POV-Ray's default exterior and interior colouring)."""
+    """Escape-time iteration z -> z² + c, testing |z| > 2 before each step: exterior
+    points give (steps before escaping - 1) / max_iteration, interior points 1."""
     max_iter = int(params.get("max_iteration", params.get("iterations", 30)))
     n = len(c)
-    count = np.full(n, max_iter, dtype=np.int64)
+    count = np.zeros(n, dtype=np.int64)
     alive = np.ones(n, dtype=bool)
     for i in range(max_iter):
-        z = np.where(alive, z * z + c, z)
         escaped = alive & (np.abs(z) > 2.0)
-        count[escaped] = i + 1
+        count[escaped] = i
         alive &= ~escaped
         if not alive.any():
             break
-    return np.where(alive, 1.0, count / max_iter)
+        z = np.where(alive, z * z + c, z)
+    # Calibrated on POV-Ray's renders: a point escaping on the first step counts 0 steps.
+    return np.where(alive, 1.0, np.maximum(count - 1, 0) / max_iter)
 
 
 def mandel(p: np.ndarray, params: dict) -> np.ndarray:
     c = p[:, 0] + 1j * p[:, 1]
-    return _fractal_value(params, c, np.zeros(len(p), dtype=complex))
+    return _fractal_value(params, c, c.copy())
 
 
 def julia(p: np.ndarray, params: dict) -> np.ndarray:
@@ -671,7 +713,7 @@ def _map(
             )
             out[rows] += w[:, None] * col
         return out
-    cmap = pigment.color_map or DEFAULT_MAP
+    cmap = pigment.color_map or DEFAULT_MAPS.get(pigment.pattern, DEFAULT_MAP)
     keys = np.array([k for k, _ in cmap], dtype=np.float64)
     cols = np.array([c for _, c in cmap], dtype=np.float64)
     lo, hi, frac = blend_indices(keys, value)

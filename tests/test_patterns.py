@@ -323,3 +323,22 @@ def test_average_pattern_weights_its_pigments():
     pig = ir.Pigment(pattern="average", pigment_map=((1.0, solid(RED)), (3.0, solid(BLUE))))
     out = patterns.evaluate(pig, np.zeros((2, 3)))
     np.testing.assert_allclose(out[:, :3], [[0.25, 0, 0.75]] * 2)
+
+
+def test_povray_default_colour_maps():
+    # marble: rose ramp to 0.9 then black; wood: two browns split at 0.6 (POV-Ray renders).
+    marble = patterns.evaluate(ir.Pigment(pattern="marble"), np.array([[0.0, 0, 0], [0.47, 0, 0]]))
+    np.testing.assert_allclose(marble[0, :3], [0.9, 0.8, 0.8])
+    np.testing.assert_allclose(marble[1, :3], [0, 0, 0])  # value 0.94 > 0.9
+    wood = patterns.evaluate(ir.Pigment(pattern="wood"), np.array([[0.1, 0, 0], [0.45, 0, 0]]))
+    np.testing.assert_allclose(wood[0, :3], [0.666, 0.312, 0.2])
+    np.testing.assert_allclose(wood[1, :3], [0.4, 0.1333, 0.066])
+    grey = patterns.evaluate(
+        ir.Pigment(pattern="gradient", params={"orientation": (1, 0, 0)}), np.array([[0.25, 0, 0]])
+    )
+    np.testing.assert_allclose(grey[0, :3], [0.25, 0.25, 0.25])
+
+
+def test_mandel_escape_values():
+    v = patterns.mandel(np.array([[3.0, 0, 0], [0.0, 0, 0], [0.0, 1.8, 0]]), {"max_iteration": 20})
+    assert list(v) == [0.0, 1.0, 0.0]  # escapes at once; inside; escapes on the first step
