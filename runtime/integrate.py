@@ -1,15 +1,17 @@
 """The wavefront Whitted integrator: rays in numpy batches, POV-Ray 3.7's rules.
 
 `trace` takes a batch of rays and returns their colours. One call handles one wave: find
-the closest hits, shade them by object (pigments, finishes, lights with shadow rays), then
-gather every reflected ray of the wave into one batch and every transmitted ray into
-another, trace those recursively (one call per wave, never per ray) and add them in.
+the closest hits, shade them by texture group (pigments, normals, finishes, lights with
+shadow rays, radiosity when solved), then gather every ray the wave spawns (reflected,
+transmitted, refracted; each with its own trace level and skip flag) into one batch and
+trace that recursively: one call per wave and level, never one per ray or per ray kind.
 
 Bounds as in POV-Ray: a ray whose trace level has reached `max_trace_level` or whose weight
 (its largest possible contribution to the pixel) is below `adc_bailout` returns black.
 Camera rays skip `no_image` objects, reflected rays `no_reflection` objects, shadow rays
 `no_shadow` objects. Rays that pass straight through a transparent surface (ior 1) continue
-at the same trace level, as in POV-Ray.
+at the same trace level, as in POV-Ray. Shadow rays are filtered by transparent objects
+(filter, transmit, interior fade, faked caustics); area lights sample adaptively.
 """
 
 from __future__ import annotations
