@@ -639,6 +639,19 @@ def julia(p: np.ndarray, params: dict) -> np.ndarray:
     return _fractal_value(params, c, p[:, 0] + 1j * p[:, 1])
 
 
+def quilted(p: np.ndarray, params: dict) -> np.ndarray:
+    """Cushions in every unit cube: the offset from the cube's centre scaled by a cubic
+    Bezier of its length (control points control0, control1; default 1, 1), then the mean
+    of its absolute components."""
+    c0 = float(params.get("control0", 1.0))
+    c1 = float(params.get("control1", 1.0))
+    v = p - np.floor(p) - 0.5
+    t = np.linalg.norm(v, axis=1)
+    it = 1.0 - t
+    k = t**3 + 3.0 * t * it * it * c0 + 3.0 * t * t * it * c1
+    return np.abs(v * k[:, None]).sum(axis=1) / 3.0
+
+
 # Patterns whose turbulence is part of the pattern, not a warp of the point.
 BUILT_IN_TURBULENCE = {"marble", "wood", "spiral1", "spiral2", "agate"}
 
@@ -669,6 +682,7 @@ CONTINUOUS_PATTERNS = {
     "crackle": crackle,
     "mandel": mandel,
     "julia": julia,
+    "quilted": quilted,
 }
 
 

@@ -342,3 +342,8 @@ def test_povray_default_colour_maps():
 def test_mandel_escape_values():
     v = patterns.mandel(np.array([[3.0, 0, 0], [0.0, 0, 0], [0.0, 1.8, 0]]), {"max_iteration": 20})
     assert list(v) == [0.0, 1.0, 0.0]  # escapes at once; inside; escapes on the first step
+
+
+def test_quilted_is_zero_at_cube_centres_and_symmetric():
+    v = patterns.quilted(np.array([[0.5, 0.5, 0.5], [0.3, 0.5, 0.5], [0.7, 0.5, 0.5]]), {})
+    assert v[0] == 0.0 and v[1] > 0 and v[1] == pytest.approx(v[2])
