@@ -12,6 +12,7 @@ one). Errors become Diagnostics at the element's span and evaluation goes on.
 from __future__ import annotations
 
 import difflib
+import math
 import os
 import re
 import sys
@@ -648,12 +649,9 @@ class Interpreter:
             out.append(El("entry", self.expand(node.body, None), node.span))
         elif t is syntax.Call and not node.builtin and self._is_macro(node.name):
             out.extend(self._call_macro(node))
-        elif (
-            t is syntax.Ident
-            and spec is not None
-            and node.name in spec.soft
-            and not self.lookup(node.name)[0]
-        ):
+        elif t is syntax.Ident and spec is not None and node.name in spec.soft:
+            # strala's soft words are keywords inside the blocks that list them (and plain
+            # names everywhere else), as lang/keywords.py documents
             out.append(El("kw", node.name, node.span))
         elif t in _DIRECTIVES:
             _DIRECTIVES[t](self, node, out, spec)
@@ -1279,10 +1277,7 @@ class Interpreter:
             els = [e for e in self.expand(node.body, None) if e.kind != "comma"]
             items = [e.value for e in els]
             count = None
-            if items and kw not in ("texture_list",) and isinstance(items[0], float):
-                count = int(items[0])
-                items = items[1:]
-            elif kw == "texture_list" and items and isinstance(items[0], float):
+            if kw not in schema.UNCOUNTED_LISTS and items and isinstance(items[0], float):
                 count = int(items[0])
                 items = items[1:]
             if count is not None and count != len(items) and kw != "face_indices":
@@ -2509,7 +2504,300 @@ def _b_clip(it: Interpreter, g: Grouped, node: syntax.Block) -> _Clip:
     return _Clip(node.keyword, objs, other)
 
 
+def _lists(g: Grouped) -> tuple[dict[str, ListValue], list[tuple[str, list[Any], Span]]]:
+    lists: dict[str, ListValue] = {}
+    rest = []
+    for name, args, span in g.items:
+        if name == "list":
+            lists[args[0].keyword] = args[0]
+        else:
+            rest.append((name, args, span))
+    return lists, rest
+
+
+def _list_span(lv: ListValue, g: Grouped) -> Span:
+    return lv.span or g.span
+
+
+def _clamped_knots(n: int, p: int) -> tuple[float, ...]:
+    """Clamped uniform knots: p+1 zeros, 1 … n-p-1, p+1 copies of n-p."""
+    return (0.0,) * (p + 1) + tuple(float(i) for i in range(1, n - p)) + (float(n - p),) * (p + 1)
+
+
+def _check_knots(
+    it: Interpreter, knots: tuple[float, ...], n: int, p: int, name: str, span: Span
+) -> None:
+    want = n + p + 1
+    if len(knots) != want:
+        raise it.error(
+            "E0280",
+            f"`{name}` has {len(knots)} knots; {n} control points of degree {p} need {want}",
+            span,
+            "a knot vector has n + degree + 1 values",
+        )
+    if any(b < a for a, b in zip(knots, knots[1:], strict=False)):
+        raise it.error("E0280", f"`{name}` must not decrease", span)
+    if knots[p] >= knots[n]:
+        raise it.error("E0280", f"`{name}` leaves no parameter range (knots[p] = knots[n])", span)
+
+
+def _b_nurbs(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
+    lists, mods = _lists(g)
+    settings: dict[str, Any] = {}
+    keep = []
+    for name, args, span in mods:
+        if name in ("u_degree", "v_degree", "degree", "tolerance", "radius"):
+            settings[name] = args[0]
+        else:
+            keep.append((name, args, span))
+    cp = lists.get("control_points")
+    if cp is None:
+        raise it.error(
+            "E0211",
+            "`nurbs` needs control_points",
+            g.span,
+            "control_points { nu, nv, <x,y,z>, … } (or one count for a curve)",
+        )
+    cspan = _list_span(cp, g)
+    items = list(cp.items)
+    counts = []
+    while items and isinstance(items[0], float) and len(counts) < 2:
+        counts.append(int(items.pop(0)))
+    if not counts:
+        raise it.error("E0281", "control_points starts with its count", cspan)
+    is_curve = len(counts) == 1
+    nu, nv = (counts[0], 0) if is_curve else (counts[0], counts[1])
+    total = nu if is_curve else nu * nv
+    if len(items) != total:
+        raise it.error(
+            "E0281",
+            f"control_points declares {total} points but lists {len(items)}",
+            cspan,
+            "a surface lists nu × nv points, u varying fastest",
+        )
+    points, weights = [], []
+    for v in items:
+        if not isinstance(v, Vec) or len(v) not in (3, 4):
+            raise it.error("E0281", "a control point is <x, y, z> or <x, y, z, w>", cspan)
+        points.append((v[0], v[1], v[2]))
+        weights.append(v[3] if len(v) == 4 else 1.0)
+    if "weights" in lists:
+        wl = lists["weights"]
+        if len(wl.items) != total:
+            raise it.error(
+                "E0282",
+                f"weights lists {len(wl.items)} values for {total} points",
+                _list_span(wl, g),
+            )
+        weights = [as_float(w, "a weight") for w in wl.items]
+    if any(w <= 0 for w in weights):
+        bad = next(i for i, w in enumerate(weights) if w <= 0)
+        raise it.error(
+            "E0282",
+            f"weight {bad} is {weights[bad]:g}; weights must be positive",
+            _list_span(lists.get("weights", cp), g),
+        )
+    if is_curve:
+        p = int(settings.get("degree", settings.get("u_degree", 3)))
+        q = 0
+    else:
+        if "degree" in settings:
+            it.sink.error(
+                "E0210", "`degree` is for curves; a surface takes u_degree and v_degree", g.span
+            )
+        p, q = int(settings.get("u_degree", 3)), int(settings.get("v_degree", 3))
+    for deg, n, axis in ((p, nu, "u"), (q, nv, "v")) if not is_curve else ((p, nu, "u"),):
+        if deg < 1:
+            raise it.error("E0283", f"the {axis} degree must be at least 1", g.span)
+        if n < deg + 1:
+            raise it.error(
+                "E0283",
+                f"{n} control points in {axis} are too few for degree {deg}",
+                cspan,
+                f"degree {deg} needs at least {deg + 1}",
+            )
+    ukl = lists.get("u_knots") or lists.get("knots")
+    uk = tuple(as_float(k, "a knot") for k in ukl.items) if ukl else _clamped_knots(nu, p)
+    _check_knots(it, uk, nu, p, "u_knots", _list_span(ukl, g) if ukl else g.span)
+    vk: tuple[float, ...] = ()
+    if not is_curve:
+        vkl = lists.get("v_knots")
+        vk = tuple(as_float(k, "a knot") for k in vkl.items) if vkl else _clamped_knots(nv, q)
+        _check_knots(it, vk, nv, q, "v_knots", _list_span(vkl, g) if vkl else g.span)
+    radius = float(settings.get("radius", 0.0))
+    if is_curve and radius <= 0:
+        raise it.error(
+            "E0284", "a NURBS curve needs a positive `radius` (it is drawn as a tube)", g.span
+        )
+    if not is_curve and radius:
+        it.sink.warning("W0302", "`radius` applies to curves; ignored on a surface", g.span)
+        radius = 0.0
+    tol = settings.get("tolerance")
+    if tol is not None and tol <= 0:
+        raise it.error("E0202", "tolerance must be positive", g.span)
+    shape = ir.Nurbs(p, q, nu, nv, tuple(points), tuple(weights), uk, vk, tol, radius)
+    obj = ObjectValue(shape, "nurbs", span=node.span, default=it.default_texture)
+    return it._apply_object_items(obj, Grouped({}, keep, g.span))
+
+
+def _b_subdivision(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
+    lists, mods = _lists(g)
+    st: dict[str, Any] = {}
+    keep = []
+    for name, args, span in mods:
+        if name in ("scheme", "levels", "tolerance", "m", "limit", "boundary", "radius", "closed"):
+            st[name] = (args[0], span)
+        elif name == "adaptive":
+            st["adaptive"] = (True, span)
+        else:
+            keep.append((name, args, span))
+    surface = "face_indices" in lists
+    curve = "control_points" in lists
+    if surface == curve:
+        raise it.error(
+            "E0211",
+            "`subdivision` needs vertex_vectors and face_indices (a surface) or control_points "
+            "(a curve)",
+            g.span,
+        )
+    scheme, sspan = st.get("scheme", ("catmull_clark" if surface else "midpoint", g.span))
+    allowed = schema.SUBDIVISION_SURFACE_SCHEMES if surface else schema.SUBDIVISION_CURVE_SCHEMES
+    if scheme not in allowed:
+        raise it.error(
+            "E0285",
+            f"`{scheme}` is not a {'surface' if surface else 'curve'} scheme",
+            sspan,
+            ", ".join(sorted(allowed)),
+        )
+    levels = st.get("levels", (None, g.span))[0]
+    tol = st.get("tolerance", (None, g.span))[0]
+    if levels is None and tol is None:
+        levels = 3
+    if levels is not None and not 0 <= levels <= 12:
+        raise it.error("E0285", f"levels {levels} is outside 0..12", st["levels"][1])
+    m = float(st.get("m", (6.0, g.span))[0])
+    if m == 0:
+        raise it.error("E0285", "m must not be zero", st["m"][1])
+    boundary = st.get("boundary", ("sharp", g.span))[0]
+    if boundary not in ("sharp", "smooth"):
+        raise it.error("E0285", "boundary is sharp or smooth", st["boundary"][1])
+    limit = st.get("limit", (False, g.span))[0]
+    common = dict(
+        levels=levels,
+        tolerance=tol,
+        adaptive=st.get("adaptive", (False, g.span))[0],
+        limit=bool(limit) if limit is not None else True,
+        m=m,
+        boundary=boundary,
+    )
+    if curve:
+        cp = lists["control_points"]
+        pts = list(cp.items[1:]) if cp.items and isinstance(cp.items[0], float) else []
+        if not pts:
+            raise it.error("E0286", "control_points starts with its count", _list_span(cp, g))
+        if int(cp.items[0]) != len(pts):
+            it.sink.warning(
+                "W0302",
+                f"control_points declares {int(cp.items[0])} points but lists {len(pts)}",
+                _list_span(cp, g),
+            )
+        closed = st.get("closed", (False, g.span))[0]
+        closed = True if closed is None else bool(closed)
+        if len(pts) < (3 if closed else 2):
+            raise it.error("E0286", "too few control points for a curve", _list_span(cp, g))
+        radius = float(st.get("radius", (0.0, g.span))[0])
+        if radius <= 0:
+            raise it.error("E0284", "a subdivision curve needs a positive `radius`", g.span)
+        shape = ir.Subdivision(
+            scheme, tuple(as_vec(v, 3).xyz for v in pts), radius=radius, closed=closed, **common
+        )
+    else:
+        if "vertex_vectors" not in lists:
+            raise it.error("E0211", "a subdivision surface needs vertex_vectors", g.span)
+        verts = tuple(as_vec(v, 3).xyz for v in lists["vertex_vectors"].items)
+        fl = lists["face_indices"]
+        faces = []
+        for f in fl.items:
+            if not isinstance(f, Vec):
+                raise it.error(
+                    "E0286",
+                    "face_indices holds index vectors <a, b, c[, d[, e]]>",
+                    _list_span(fl, g),
+                )
+            face = tuple(int(c) for c in f)
+            if len(face) not in (3, 4, 5):
+                raise it.error(
+                    "E0286", f"faces have 3 to 5 corners, not {len(face)}", _list_span(fl, g)
+                )
+            if scheme == "loop" and len(face) != 3:
+                raise it.error("E0286", "Loop subdivision takes triangles only", _list_span(fl, g))
+            bad = [c for c in face if not 0 <= c < len(verts)]
+            if bad:
+                raise it.error(
+                    "E0286",
+                    f"face {face} uses vertex {bad[0]}, outside 0..{len(verts) - 1}",
+                    _list_span(fl, g),
+                )
+            if len(set(face)) != len(face):
+                raise it.error("E0286", f"face {face} repeats a vertex", _list_span(fl, g))
+            faces.append(face)
+        edge_use: dict[tuple[int, int], int] = {}
+        for face in faces:
+            for a, b in zip(face, face[1:] + face[:1], strict=True):
+                key = (min(a, b), max(a, b))
+                edge_use[key] = edge_use.get(key, 0) + 1
+        nonmanifold = [e for e, k in edge_use.items() if k > 2]
+        if nonmanifold:
+            raise it.error(
+                "E0287",
+                f"edge {nonmanifold[0]} is shared by more than two faces (non-manifold)",
+                _list_span(fl, g),
+            )
+        creases = []
+        if "crease_edges" in lists:
+            ce = lists["crease_edges"]
+            pairs = [tuple(int(c) for c in as_vec(v, 2)) for v in ce.items]
+            sharp = [math.inf] * len(pairs)
+            if "crease_sharpness" in lists:
+                cs = lists["crease_sharpness"]
+                sharp = [as_float(v, "a sharpness") for v in cs.items]
+                if len(sharp) != len(pairs):
+                    raise it.error(
+                        "E0288",
+                        f"crease_sharpness lists {len(sharp)} values for {len(pairs)} edges",
+                        _list_span(cs, g),
+                    )
+            for (a, b), s_ in zip(pairs, sharp, strict=True):
+                if (min(a, b), max(a, b)) not in edge_use:
+                    raise it.error(
+                        "E0288", f"crease <{a}, {b}> is not an edge of the mesh", _list_span(ce, g)
+                    )
+                if s_ < 0:
+                    raise it.error(
+                        "E0288", "crease sharpness must not be negative", _list_span(ce, g)
+                    )
+                creases.append((a, b, s_))
+        corners: tuple[int, ...] = ()
+        if "corner_vertices" in lists:
+            corners = tuple(
+                int(as_float(v, "a vertex index")) for v in lists["corner_vertices"].items
+            )
+            if any(not 0 <= c < len(verts) for c in corners):
+                raise it.error(
+                    "E0288",
+                    "a corner vertex is outside the vertex list",
+                    _list_span(lists["corner_vertices"], g),
+                )
+        shape = ir.Subdivision(
+            scheme, verts, tuple(faces), creases=tuple(creases), corners=corners, **common
+        )
+    obj = ObjectValue(shape, "subdivision", span=node.span, default=it.default_texture)
+    return it._apply_object_items(obj, Grouped({}, keep, g.span))
+
+
 _BUILDERS: dict[str, Callable[[Interpreter, Grouped, syntax.Block], Any]] = {
+    "nurbs": _b_nurbs,
+    "subdivision": _b_subdivision,
     **{
         k: _b_shape
         for k in (

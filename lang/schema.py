@@ -696,6 +696,52 @@ BLOCKS: dict[str, BlockSpec] = {
         frozenset({"object"}),
     ),
 }
+BLOCKS["nurbs"] = BlockSpec(
+    "nurbs",
+    "object",
+    "A NURBS surface, or with `degree` and `radius` a NURBS curve drawn as a tube.",
+    (),
+    _items(
+        OBJECT_ITEMS,
+        [
+            "u_degree int | Degree in u (default 3).",
+            "v_degree int | Degree in v (default 3).",
+            "degree int | A curve's degree (default 3).",
+            "tolerance float | Tessellation chord-error bound in world units.",
+            "radius float | Tube radius (curves only).",
+        ],
+    ),
+    OBJECT_ACCEPTS | {"list"},
+    soft=frozenset({"degree"}),
+)
+BLOCKS["subdivision"] = BlockSpec(
+    "subdivision",
+    "object",
+    "A subdivision surface (vertex_vectors, face_indices) or curve (control_points).",
+    (),
+    _items(
+        OBJECT_ITEMS,
+        [
+            "scheme word | catmull_clark, loop, bilinear; curves: midpoint, chaikin, "
+            "four_point, bezier.",
+            "levels int | Subdivision steps (default 3).",
+            "tolerance float | Subdivide until the chord error is below this.",
+            "adaptive | Subdivide adaptively.",
+            "m float | The midpoint method's smoothing parameter (6 = the seed's).",
+            "limit bool? | Push vertices to the limit surface.",
+            "boundary word | Boundary rule: sharp (default) or smooth.",
+            "radius float | Tube radius (curves).",
+            "closed bool? | The control polygon is closed (curves).",
+        ],
+    ),
+    OBJECT_ACCEPTS | {"list"},
+    soft=frozenset(
+        "scheme levels boundary limit m chaikin midpoint loop bilinear sharp bezier closed".split()
+    ),
+)
+SUBDIVISION_SURFACE_SCHEMES = frozenset(("catmull_clark", "loop", "bilinear"))
+SUBDIVISION_CURVE_SCHEMES = frozenset(("midpoint", "chaikin", "four_point", "bezier"))
+
 for _m in MAP_WORDS:
     BLOCKS[_m] = BlockSpec(_m, "map", f"`{_m} {{ [value entry] … }}`.", (), {}, frozenset({"map"}))
 
@@ -708,7 +754,17 @@ LIST_BLOCKS = {
     "face_indices": "Triangles: count, then <a,b,c> [, texture index(es)] each.",
     "normal_indices": "Normal index triples, one per face.",
     "uv_indices": "uv index triples, one per face.",
+    "control_points": "Control points: count (nu, nv for a surface), then <x,y,z[,w]> each.",
+    "weights": "One weight per control point (no count).",
+    "u_knots": "The u knot vector (no count): n + degree + 1 non-decreasing values.",
+    "v_knots": "The v knot vector (no count).",
+    "knots": "A curve's knot vector (no count).",
+    "crease_edges": "Creased edges: count, then <a, b> vertex pairs.",
+    "crease_sharpness": "One sharpness per creased edge: count, then values.",
+    "corner_vertices": "Vertices kept sharp: count, then indices.",
 }
+# List blocks without a leading count (or with the counts read by their block's builder).
+UNCOUNTED_LISTS = frozenset(("weights", "u_knots", "v_knots", "knots", "control_points"))
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(

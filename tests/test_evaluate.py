@@ -649,3 +649,103 @@ def test_never_a_traceback(pieces):
 def test_sphere_values_round_trip(cx, cy, r_):
     r = ok(f"sphere {{ <{cx!r}, {cy!r}, 0>, {r_!r} }}")
     assert r.scene.objects[0].shape == ir.Sphere((cx, cy, 0.0), r_)
+
+
+# ------------------------------------------------------------------ nurbs and subdivision
+def test_nurbs_circle_curve_and_surface():
+    r = ok("""#declare C = sqrt(1/2);
+nurbs { degree 2
+  control_points { 9, <1,0,0>, <1,1,0>, <0,1,0>, <-1,1,0>, <-1,0,0>, <-1,-1,0>, <0,-1,0>,
+                   <1,-1,0>, <1,0,0> }
+  weights { 1, C, 1, C, 1, C, 1, C, 1 }
+  u_knots { 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 4 }
+  radius 0.05 tolerance 0.001 translate x }
+nurbs { u_degree 2 v_degree 1
+  control_points { 3, 2, <0,0,0>, <1,0,1>, <2,0,0>, <0,1,0>, <1,1,1,2>, <2,1,0> } }
+""")
+    c, s = (o.shape for o in r.scene.objects)
+    assert (c.u_degree, c.nu, c.nv, c.radius, c.tolerance) == (2, 9, 0, 0.05, 0.001)
+    assert math.isclose(c.weights[1], math.sqrt(0.5)) and len(c.u_knots) == 12
+    assert r.scene.objects[0].transform == transforms.translate((1, 0, 0))
+    assert (s.nu, s.nv, s.v_degree) == (3, 2, 1) and s.weights[4] == 2.0
+    assert s.u_knots == (0, 0, 0, 1, 1, 1) and s.v_knots == (0, 0, 1, 1)  # clamped uniform
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        (
+            "degree 2 control_points { 3, <0,0,0>, <1,0,0>, <2,0,0> } u_knots { 0, 1, 2 } "
+            "radius 0.1",
+            "knots",
+        ),
+        (
+            "degree 2 control_points { 3, <0,0,0>, <1,0,0>, <2,0,0> } "
+            "u_knots { 0, 0, 2, 1, 2, 2 } radius 0.1",
+            "decrease",
+        ),
+        (
+            "degree 2 control_points { 3, <0,0,0>, <1,0,0>, <2,0,0> } weights { 1, 0, 1 } "
+            "radius 0.1",
+            "positive",
+        ),
+        ("degree 2 control_points { 4, <0,0,0>, <1,0,0>, <2,0,0> } radius 0.1", "declares"),
+        ("degree 3 control_points { 3, <0,0,0>, <1,0,0>, <2,0,0> } radius 0.1", "too few"),
+        ("degree 2 control_points { 3, <0,0,0>, <1,0,0>, <2,0,0> }", "radius"),
+    ],
+)
+def test_nurbs_diagnostics(body, message):
+    r = run(f"nurbs {{\n {body} }}")
+    (e,) = errors(r)
+    assert message in e.message and e.span.line in (1, 2)
+    assert r.scene.objects == ()
+
+
+def test_subdivision_surface_and_curve():
+    r = ok("""#declare m = 2;  // a variable outside the block, a keyword inside it
+subdivision { scheme catmull_clark levels 2 limit on boundary smooth
+  vertex_vectors { 4, <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> }
+  face_indices { 1, <0,1,2,3> }
+  crease_edges { 2, <0,1>, <1,2> } crease_sharpness { 2, 1, 2.5 }
+  corner_vertices { 1, 3 } }
+subdivision { scheme midpoint m 6 levels 5 control_points { 3, 0, x, y } radius 0.1 }
+#declare K = m;
+""")
+    a, b = (o.shape for o in r.scene.objects)
+    assert (a.scheme, a.levels, a.limit, a.boundary) == ("catmull_clark", 2, True, "smooth")
+    assert a.faces == ((0, 1, 2, 3),) and a.creases == ((0, 1, 1.0), (1, 2, 2.5))
+    assert a.corners == (3,)
+    assert (b.scheme, b.m, b.levels, b.radius, len(b.points)) == ("midpoint", 6.0, 5, 0.1, 3)
+    assert r.symbols["K"] == 2.0
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ("scheme loop vertex_vectors { 4, 0, x, y, z } face_indices { 1, <0,1,2,3> }", "triangles"),
+        ("vertex_vectors { 3, 0, x, y } face_indices { 1, <0,1,5> }", "outside"),
+        (
+            "vertex_vectors { 5, 0, x, y, z, -x } face_indices { 3, <0,1,2>, <0,1,3>, <0,1,4> }",
+            "non-manifold",
+        ),
+        (
+            "scheme chaikin vertex_vectors { 3, 0, x, y } face_indices { 1, <0,1,2> }",
+            "not a surface scheme",
+        ),
+        (
+            "vertex_vectors { 3, 0, x, y } face_indices { 1, <0,1,2> } crease_edges { 1, <0,5> }",
+            "not an edge",
+        ),
+    ],
+)
+def test_subdivision_diagnostics(body, message):
+    (e,) = errors(run(f"subdivision {{ {body} }}"))
+    assert message in e.message
+
+
+def test_repository_examples_compile():
+    root = Path(__file__).resolve().parent.parent
+    for path in sorted((root / "examples").glob("*.scene")):
+        r = compile_file(str(path))
+        assert not errors(r), (path.name, [d.format() for d in errors(r)])
+        assert r.scene.objects, path.name
