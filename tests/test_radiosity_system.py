@@ -189,3 +189,20 @@ def test_patch_half_under_a_box_is_lit_by_its_open_half():
     # B = ρ·D + ρ·G: D is the same (≈ 1) on both open parts; G differs a little (the box).
     assert r.B[half, 0] == pytest.approx(r.B[open_, 0], rel=0.1)
     assert r.B[half, 0] > 0.45
+
+
+def test_being_inside_a_hollow_solid_is_not_being_buried():
+    """Ex3's back plane puts the whole scene in its half-space (POV planes are solids), and
+    a room box holds its light: neither buries what is inside. A plane the scene stands
+    on does bury what sinks below it."""
+    back = ir.Object(ir.Plane((0.0, 0.0, 1.0), 6.0), texture=_tex())
+    ground = ir.Object(ir.Plane((0.0, 1.0, 0.0), -0.5), texture=_tex())
+    ball = ir.Object(ir.Sphere((0.0, 0.0, 0.0), 1.0), texture=_tex())
+    r = _solve(_scene((back, ground, ball), [ir.Light((10.0, 10.0, -10.0))]), patch_size=0.5)
+    on_ball = r.patches.surface == 2
+    buried = 1 - r.open_area[on_ball] / r.patches.area[on_ball]
+    below = r.patches.centroid[on_ball, 1] < -0.6
+    above = r.patches.centroid[on_ball, 1] > -0.4
+    assert np.all(buried[above] == 0.0)
+    assert np.all(buried[below] > 0.99)
+    assert np.all(r.B[on_ball][above & (r.patches.normal[on_ball, 1] > 0.5)] > 0)

@@ -151,7 +151,8 @@ class RadiosityResult:
 
 
 def scene_bounds(objects: list[ir.Object], extra: list[np.ndarray]) -> tuple[np.ndarray, ...]:
-    """World bounding box of the finite objects and the extra points (lights)."""
+    """World bounding box of the finite objects and the extra points (lights); ±inf when
+    there is nothing finite."""
     from runtime import shapes  # lazily: only radiosity scenes need it here
 
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
@@ -171,9 +172,7 @@ def scene_bounds(objects: list[ir.Object], extra: list[np.ndarray]) -> tuple[np.
             lo, hi = np.minimum(lo, a), np.maximum(hi, b)
     for p in extra:
         lo, hi = np.minimum(lo, p), np.maximum(hi, p)
-    if not np.all(np.isfinite(lo)):
-        lo, hi = -np.ones(3), np.ones(3)
-    return lo, hi
+    return lo, hi  # ±inf when there was nothing finite
 
 
 class _SceneMesher:
@@ -187,9 +186,11 @@ class _SceneMesher:
         self.indices = _meshable(prepared)
         objs = [prepared.objects[i] for i in self.indices]
         self.lo, self.hi = scene_bounds(objs, [])
-        if np.all(self.lo == -1.0) and np.all(self.hi == 1.0) and self.lights:
+        if not np.all(np.isfinite(self.lo)):
             # Nothing finite (only planes): the lights are what the scene is about.
             self.lo, self.hi = scene_bounds([], self.lights)
+        if not np.all(np.isfinite(self.lo)):
+            self.lo, self.hi = -np.ones(3), np.ones(3)
         self.extent = float(np.linalg.norm(self.hi - self.lo)) or 1.0
         size = opts.patch_size or self.extent / 14
         self.mesher = Mesher(size)
@@ -198,6 +199,9 @@ class _SceneMesher:
         boxes = []
         for i in self.indices:
             lo, hi = scene_bounds([prepared.objects[i]], [])
+            if not np.all(np.isfinite(lo)):  # a plane: witnesses come from the others
+                boxes.append((i, np.zeros((0, 3))))
+                continue
             corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                                 for z in (lo[2], hi[2])])  # fmt: skip
             boxes.append((i, corners))
@@ -394,10 +398,31 @@ def _meshable(prepared) -> list[int]:
     return sorted(set(out))
 
 
-def _open_points(prepared, patches: Patches, count: int, rng, extent: float):
+def _hollow_solids(prepared, sm: _SceneMesher) -> set[int]:
+    """Tracer nodes whose inside holds a light source or part of an emitter: the scene
+    happens inside them (a room box, the half-space of Ex3's back plane), so they bury
+    nothing. Indices into prepared.tracer.nodes."""
+    pts = list(sm.lights)
+    for i in sm.indices:
+        obj = prepared.objects[i]
+        if max(obj.texture.finish.emission) > 0:
+            lo, hi = scene_bounds([obj], [])
+            if np.all(np.isfinite(lo)):
+                box = np.array([lo, hi])
+                corners = box[np.indices((2, 2, 2)).reshape(3, -1).T, [0, 1, 2]]
+                pts += [(lo + hi) / 2, *corners]
+    if not pts:
+        return set()
+    w = np.array(pts, dtype=np.float64).reshape(-1, 3)
+    return {k for k, node in enumerate(prepared.tracer.nodes) if node.inside(w).any()}
+
+
+def _open_points(prepared, patches: Patches, count: int, rng, extent: float, hollow: set[int]):
     """(N,count,3) sample points on each patch that lie outside every other solid, and the
     buried fraction β (N,) of each patch (from 8·count candidates). A fully buried patch
-    keeps buried points (its β = 1 removes it from the exchange anyway)."""
+    keeps buried points (its β = 1 removes it from the exchange anyway).
+
+    Solids in `hollow` (see _hollow_solids) bury nothing."""
     cand_n = 8 * count
     cand = patches.sample_points(cand_n, rng)  # (N,C,3)
     n = len(patches)
@@ -407,7 +432,9 @@ def _open_points(prepared, patches: Patches, count: int, rng, extent: float):
     probe = flat + np.repeat(patches.normal, cand_n, axis=0) * (1e-7 * extent)
     owner = np.repeat(patches.surface, cand_n)
     buried = np.zeros(len(flat), dtype=bool)
-    for node in prepared.tracer.nodes:
+    for k, node in enumerate(prepared.tracer.nodes):
+        if k in hollow:
+            continue
         inside = node.inside(probe)
         if inside.any():
             mine = np.isin(owner, node.leaves)
@@ -648,6 +675,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     patches = sm.mesher.patches(opts.max_patches)
     _attach_triangle_geometry(sm)
     extra = _unmeshed_tracer(prepared, set(sm.records))
+    hollow = _hollow_solids(prepared, sm)
     rng = np.random.default_rng(opts.seed)
     min_size = sm.mesher.size / 16
     threshold_rel = 0.02 * opts.error_bound
@@ -656,7 +684,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     for round_ in range(opts.max_rounds + 1):
         t0 = time.perf_counter()
         n = len(patches)
-        pts, beta = _open_points(prepared, patches, opts.vis_samples, rng, sm.extent)
+        pts, beta = _open_points(prepared, patches, opts.vis_samples, rng, sm.extent, hollow)
         vis = PatchVisibility(patches.verts, extra)
         if solver.fits_dense(n):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
