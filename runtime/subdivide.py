@@ -610,9 +610,129 @@ def limit_positions(mesh: ControlMesh, scheme: str, boundary: str = "sharp") -> 
         chi = (1.0 / (3.0 / (8.0 * beta) + n))[:, None]
         smooth = (1.0 - n[:, None] * chi) * P + chi * esum
     crease = (r.crease_sum_parent + 4.0 * P) / 6.0
-    return np.where(
+    out = np.where(
         (r.parent == SMOOTH)[:, None], smooth, np.where((r.parent == CREASE)[:, None], crease, P)
     )
+    darts = _darts(mesh, s, r)
+    if darts is not None:
+        out[darts.vertices] = darts.apply(P, 0)
+    return out
+
+
+def _dart_matrix(scheme: str, n: int) -> np.ndarray:
+    """The subdivision matrix of a dart's 1-ring (valence n, the sharp edge to e_0).
+    Catmull–Clark: [centre, e_0..e_n-1, f_0..f_n-1] (f_j the far corner of the quad
+    between e_j and e_j+1); Loop: [centre, e_0..e_n-1]. The rules are the ones the
+    refinement applies: smooth vertex rule at the centre, smooth edge rule except on the
+    sharp edge (its midpoint), face points."""
+    if scheme == "catmull_clark":
+        m = 2 * n + 1
+        F = np.zeros((n, m))
+        for j in range(n):  # loops over one small matrix's rows, not over mesh elements
+            F[j, [0, 1 + j, 1 + n + j, 1 + (j + 1) % n]] += 0.25
+        S = np.zeros((m, m))
+        S[0, 0] = (n - 2) / n
+        S[0, 1 : 1 + n] += 1.0 / n**2
+        S[0] += F.sum(axis=0) / n**2
+        for j in range(n):
+            S[1 + j] = 0.25 * (F[j - 1] + F[j])
+            S[1 + j, 0] += 0.25
+            S[1 + j, 1 + j] += 0.25
+        S[1] = 0.0
+        S[1, [0, 1]] = 0.5
+        S[1 + n :] = F
+        return S
+    m = n + 1
+    beta = float(loop_beta(n))
+    S = np.zeros((m, m))
+    S[0, 0] = 1.0 - n * beta
+    S[0, 1:] = beta
+    for j in range(n):
+        S[1 + j, [0, 1 + j]] += 0.375
+        S[1 + j, 1 + (j - 1) % n] += 0.125
+        S[1 + j, 1 + (j + 1) % n] += 0.125
+    S[1] = 0.0
+    S[1, [0, 1]] = 0.5
+    return S
+
+
+def _dart_masks(scheme: str, n: int) -> np.ndarray:
+    """(3, m) masks over a dart's 1-ring: the limit point (left eigenvector of eigenvalue
+    1, summing to 1) and two tangents (the left eigenvectors of the subdominant pair;
+    real and imaginary parts when they are complex). The smooth closed forms assume a
+    rotationally symmetric ring, which a dart's sharp edge breaks."""
+    w, vec = np.linalg.eig(_dart_matrix(scheme, n).T)
+    order = np.argsort(-np.abs(w), kind="stable")
+    limit = np.real(vec[:, order[0]])
+    limit /= limit.sum()
+    second = vec[:, order[1]]
+    if abs(np.imag(w[order[1]])) > 1e-12:
+        t1, t2 = np.real(second), np.imag(second)
+    else:
+        t1, t2 = np.real(second), np.real(vec[:, order[2]])
+    return np.stack([limit, t1, t2])
+
+
+@dataclass
+class _Darts:
+    """Per-corner ring weights for the dart vertices of a mesh."""
+
+    vertices: np.ndarray  # (D,) dart vertex ids
+    row: np.ndarray  # (K,) the dart (0..D-1) of each of the darts' corners
+    centre: np.ndarray  # (3, D) centre weights: limit, tangent 1, tangent 2
+    edge_w: np.ndarray  # (3, K) weights of each corner's edge neighbour e_j
+    face_w: np.ndarray  # (3, K) weights of its face neighbour f_j (Catmull–Clark)
+    en: np.ndarray  # (K,) edge neighbour vertex ids
+    dn: np.ndarray | None  # (K,) face neighbour vertex ids (Catmull–Clark)
+
+    def apply(self, P: np.ndarray, mask: int) -> np.ndarray:
+        """(D,3): mask `mask` (0 the limit point, 1 and 2 the tangents) applied to P."""
+        terms = self.edge_w[mask][:, None] * P[self.en]
+        if self.dn is not None:
+            terms = terms + self.face_w[mask][:, None] * P[self.dn]
+        centre = self.centre[mask][:, None] * P[self.vertices]
+        return centre + _scatter(self.row, terms, len(self.vertices))
+
+
+def _darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> _Darts | None:
+    """Smooth-rule vertices with exactly one sharp edge (darts) in a closed fan of quads
+    (Catmull–Clark) or triangles (Loop), with their eigen-analysed masks."""
+    sharp = s > 0
+    if not sharp.any():
+        return None
+    topo, V, fv = mesh.topology, mesh.nv, mesh.fv
+    count = _edge_count(topo.edges, sharp, V)
+    cand = (r.parent == SMOOTH) & (count == 1)
+    if not cand.any():
+        return None
+    rings = build_rings(mesh, sharp)
+    open_corners = np.bincount(fv, weights=(~rings.closed).astype(np.float64), minlength=V)
+    fans = np.bincount(fv[rings.j == 0], minlength=V)
+    cand &= (open_corners == 0) & (fans == 1)
+    if not cand.any():
+        return None
+    scheme = "catmull_clark" if mesh.all_size(4) else "loop" if mesh.all_size(3) else None
+    if scheme is None:
+        return None
+    verts = np.nonzero(cand)[0]
+    slot = np.full(V, -1, dtype=np.int64)
+    slot[verts] = np.arange(len(verts))
+    corners = np.nonzero(cand[fv])[0]
+    j, n = rings.j[corners], rings.size[corners]
+    centre = np.zeros((3, len(verts)))
+    edge_w = np.zeros((3, len(corners)))
+    face_w = np.zeros((3, len(corners)))
+    valence_of = np.bincount(fv[corners], minlength=V)[verts]
+    for valence in np.unique(n):  # one small eigenproblem per distinct valence
+        masks = _dart_masks(scheme, int(valence))
+        sel = n == valence
+        edge_w[:, sel] = masks[:, 1 + j[sel]]
+        if scheme == "catmull_clark":
+            face_w[:, sel] = masks[:, 1 + valence + j[sel]]
+        centre[:, valence_of == valence] = masks[:, :1]
+    nx = topo.nxt[corners]
+    dn = fv[topo.nxt[nx]] if scheme == "catmull_clark" else None
+    return _Darts(verts, slot[fv[corners]], centre, edge_w, face_w, fv[nx], dn)
 
 
 @dataclass
@@ -714,7 +834,17 @@ def smooth_limit_normals(mesh: ControlMesh, scheme: str, boundary: str = "sharp"
             ek = Pt[k][en]
             t1[:, k] = np.bincount(fv, c * ek, V)
             t2[:, k] = np.bincount(fv, sn * ek, V)
-    return _normalize(np.cross(t1, t2)), ok
+    normals = _normalize(np.cross(t1, t2))
+    darts = _darts(mesh, s, r)
+    if darts is not None:
+        dn = _normalize(np.cross(darts.apply(P, 1), darts.apply(P, 2)))
+        # eigenvectors have no sign: turn each dart normal to its faces' side
+        cn = np.cross(P[fv[topo.nxt]] - P[fv], P[fv[topo.prv]] - P[fv])
+        side = _scatter(fv, cn, V)[darts.vertices]
+        flip = np.einsum("ij,ij->i", dn, side) < 0
+        dn[flip] *= -1.0
+        normals[darts.vertices] = dn
+    return normals, ok
 
 
 def _cc_tangent_table(n: np.ndarray, j: np.ndarray):

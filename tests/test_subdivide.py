@@ -595,3 +595,52 @@ def test_example_scenes_tessellate(name):
         assert sd.validate(shape) == []
         v, f, n = sd.tessellate(shape)
         assert len(f) and f.max() < len(v) and np.isfinite(n).all()
+
+
+CUBE_EDGES = sorted({tuple(sorted((q[i], q[(i + 1) % 4]))) for q in CUBE_FACES for i in range(4)})
+
+
+@given(
+    st.lists(st.floats(-0.3, 0.3), min_size=24, max_size=24),
+    st.sets(st.integers(0, 11), max_size=12),
+    st.sets(st.integers(0, 7), max_size=3),
+    st.sampled_from(["catmull_clark", "loop"]),
+)
+def test_limit_is_invariant_with_any_sharp_creases_and_corners(noise, sharp, corners, scheme):
+    """Whatever mix of infinitely sharp edges (darts, creases, three-edge corners) and
+    corner vertices, each vertex's limit point and smooth normal stay the same when the
+    mesh is refined further."""
+    pts = np.asarray(CUBE_POINTS) + np.asarray(noise).reshape(8, 3)
+    faces = CUBE_FACES
+    if scheme == "loop":
+        faces = tuple(t for q in CUBE_FACES for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])))
+    creases = [(*CUBE_EDGES[i], np.inf) for i in sorted(sharp)]
+    m1 = sd.subdivide_once(sd.ControlMesh.from_lists(pts, faces, creases, sorted(corners)), scheme)
+    m3 = refine(m1, scheme, 2)
+    V = m1.nv
+    assert np.allclose(
+        sd.limit_positions(m1, scheme), sd.limit_positions(m3, scheme)[:V], atol=1e-12
+    )
+    n1, ok1 = sd.smooth_limit_normals(m1, scheme)
+    n3, ok3 = sd.smooth_limit_normals(m3, scheme)
+    assert np.array_equal(ok1, ok3[:V])
+    assert np.allclose(n1[ok1], n3[:V][ok1], atol=1e-9)
+    assert np.allclose(m3.points[sorted(corners)], pts[sorted(corners)])
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+def test_dart_limit_is_exact(scheme):
+    """A dart (one sharp edge ending inside the surface) breaks the ring's symmetry, so
+    its limit point and tangents come from the eigenvectors of its ring's subdivision
+    matrix; they agree with the limit taken six levels further down."""
+    faces = CUBE_FACES
+    if scheme == "loop":
+        faces = tuple(t for q in CUBE_FACES for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])))
+    m1 = sd.subdivide_once(sd.ControlMesh.from_lists(CUBE_POINTS, faces, [(0, 1, np.inf)]), scheme)
+    m7 = refine(m1, scheme, 6)
+    lim1, lim7 = sd.limit_positions(m1, scheme), sd.limit_positions(m7, scheme)
+    assert np.allclose(lim1[[0, 1]], lim7[[0, 1]], atol=1e-12)
+    assert np.linalg.norm(m7.points[0] - lim1[0]) < 0.01  # the points do get there
+    n1, _ = sd.smooth_limit_normals(m1, scheme)
+    n7, _ = sd.smooth_limit_normals(m7, scheme)
+    assert np.allclose(n1[[0, 1]], n7[[0, 1]], atol=1e-10)
