@@ -206,3 +206,11 @@ def test_being_inside_a_hollow_solid_is_not_being_buried():
     assert np.all(buried[above] == 0.0)
     assert np.all(buried[below] > 0.99)
     assert np.all(r.B[on_ball][above & (r.patches.normal[on_ball, 1] > 0.5)] > 0)
+
+
+def test_options_from_the_scene():
+    r = ir.Radiosity(error_bound=0.5, tolerance=1e-6, method="direct", brightness=2.0)
+    o = system.Options.from_ir(r)
+    assert (o.error_bound, o.tolerance, o.method, o.brightness) == (0.5, 1e-6, "direct", 2.0)
+    assert o.max_patches == system.Options.max_patches  # the IR's default is not a request
+    assert system.Options.from_ir(ir.Radiosity(max_patches=500)).max_patches == 500

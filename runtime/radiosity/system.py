@@ -71,9 +71,13 @@ class Options:
 
     @staticmethod
     def from_ir(r: ir.Radiosity, **extra) -> Options:
+        # ir.Radiosity's default max_patches (20000) is a dense N² of 3.2 GB and about an
+        # hour of form factors here; unless the scene asks for another number, use ours.
+        default = ir.Radiosity.__dataclass_fields__["max_patches"].default
+        budget = extra.pop("max_patches", Options.max_patches)
         return Options(
             patch_size=r.patch_size,
-            max_patches=min(r.max_patches, extra.pop("max_patches", 3000)),
+            max_patches=budget if r.max_patches == default else r.max_patches,
             error_bound=r.error_bound,
             tolerance=r.tolerance,
             method=r.method,
