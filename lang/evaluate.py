@@ -323,6 +323,118 @@ def collect_lights(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> list[ir
     return out
 
 
+# POV-Ray's bound for infinite objects (BOUND_HUGE / 2 as min/max_extent report it).
+INFINITE_EXTENT = 1e10
+
+Box3 = tuple[tuple[float, float, float], tuple[float, float, float]]
+
+
+def _box_of_points(pts) -> Box3:
+    xs, ys, zs = zip(*pts, strict=True)
+    return (min(xs), min(ys), min(zs)), (max(xs), max(ys), max(zs))
+
+
+def _transform_box(box: Box3, m: ir.Matrix) -> Box3:
+    """POV-Ray's Recompute_BBox: the box of the eight transformed corners."""
+    if transforms.is_identity(m):
+        return box
+    lo, hi = box
+    if any(abs(v) >= INFINITE_EXTENT for v in (*lo, *hi)):
+        return box
+    corners = [
+        transforms.apply_point(m, (x, y, z))
+        for x in (lo[0], hi[0])
+        for y in (lo[1], hi[1])
+        for z in (lo[2], hi[2])
+    ]
+    return _box_of_points(corners)
+
+
+def _disc_extent(axis: tuple[float, float, float], r: float) -> tuple[float, float, float]:
+    n = math.sqrt(sum(a * a for a in axis)) or 1.0
+    return tuple(r * math.sqrt(max(0.0, 1.0 - (a / n) ** 2)) for a in axis)  # type: ignore[return-value]
+
+
+def _shape_box(shape: Any) -> Box3 | None:
+    big = INFINITE_EXTENT
+    if isinstance(shape, ir.Sphere):
+        c, r = shape.center, shape.radius
+        return (c[0] - r, c[1] - r, c[2] - r), (c[0] + r, c[1] + r, c[2] + r)
+    if isinstance(shape, ir.Box):
+        return _box_of_points([shape.corner1, shape.corner2])
+    if isinstance(shape, ir.Cylinder | ir.Cone):
+        if isinstance(shape, ir.Cylinder):
+            ends = ((shape.base, shape.radius), (shape.cap, shape.radius))
+        else:
+            ends = ((shape.base, shape.base_radius), (shape.cap, shape.cap_radius))
+        axis = tuple(b - a for a, b in zip(ends[0][0], ends[1][0], strict=True))
+        pts = []
+        for c, r in ends:
+            e = _disc_extent(axis, r)  # type: ignore[arg-type]
+            pts += [
+                tuple(ci - ei for ci, ei in zip(c, e, strict=True)),
+                tuple(ci + ei for ci, ei in zip(c, e, strict=True)),
+            ]
+        return _box_of_points(pts)
+    if isinstance(shape, ir.Torus):
+        r = shape.major + shape.minor
+        return (-r, -shape.minor, -r), (r, shape.minor, r)
+    if isinstance(shape, ir.Disc):
+        e = _disc_extent(shape.normal, shape.radius)
+        c = shape.center
+        return _box_of_points(
+            [
+                tuple(ci - ei for ci, ei in zip(c, e, strict=True)),
+                tuple(ci + ei for ci, ei in zip(c, e, strict=True)),
+            ]
+        )
+    if isinstance(shape, ir.Triangle):
+        return _box_of_points([shape.p1, shape.p2, shape.p3])
+    if isinstance(shape, ir.Polygon):
+        return _box_of_points(shape.points)
+    if isinstance(shape, ir.Mesh) and len(shape.vertices):
+        return _box_of_points(shape.vertices)
+    if isinstance(shape, ir.Nurbs | ir.Subdivision) and shape.points:
+        box = _box_of_points(shape.points)  # the convex hull property bounds the surface
+        r = getattr(shape, "radius", 0.0)
+        return (tuple(v - r for v in box[0]), tuple(v + r for v in box[1]))  # type: ignore[return-value]
+    if isinstance(shape, ir.Plane):
+        return (-big, -big, -big), (big, big, big)
+    return None
+
+
+def bounding_box(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> Box3 | None:
+    """The axis-aligned box POV-Ray's min_extent/max_extent report (world space)."""
+    full = transforms.compose(parent, obj.transform)
+    if obj.children:
+        boxes = [bounding_box(c, full) for c in obj.children]
+        if any(b is None for b in boxes):
+            return None
+        if obj.keyword == "difference":
+            box = boxes[0]
+        elif obj.keyword == "intersection":
+            lo = tuple(max(b[0][i] for b in boxes) for i in range(3))
+            hi = tuple(min(b[1][i] for b in boxes) for i in range(3))
+            box = (lo, hi)  # type: ignore[assignment]
+        else:
+            lo = tuple(min(b[0][i] for b in boxes) for i in range(3))
+            hi = tuple(max(b[1][i] for b in boxes) for i in range(3))
+            box = (lo, hi)  # type: ignore[assignment]
+    else:
+        local = _shape_box(obj.shape)
+        if local is None:
+            return None
+        box = _transform_box(local, full)
+    for clip in obj.clipped_by:
+        cb = bounding_box(clip, parent)
+        if cb is not None:
+            box = (
+                tuple(max(a, b) for a, b in zip(box[0], cb[0], strict=True)),
+                tuple(min(a, b) for a, b in zip(box[1], cb[1], strict=True)),
+            )  # type: ignore[assignment]
+    return box
+
+
 def _sorted_entries(entries: list[tuple[float, Any]]) -> tuple[tuple[float, Any], ...]:
     return tuple(sorted(entries, key=lambda e: e[0]))
 
@@ -1154,7 +1266,20 @@ class Interpreter:
                 if len(node.args) == 1 and isinstance(node.args[0], syntax.Ident):
                     return 1.0 if self.lookup(node.args[0].name)[0] else 0.0
                 return 1.0
-            if node.name in ("inside", "trace", "min_extent", "max_extent", "prod", "sum"):
+            if node.name in ("min_extent", "max_extent"):
+                if len(node.args) != 1:
+                    raise self.error("E0203", f"{node.name}() takes one object", node.span)
+                obj = self.eval(node.args[0])
+                if not isinstance(obj, ObjectValue):
+                    raise self.error(
+                        "E0202", f"{node.name}() needs an object, not {describe(obj)}", node.span
+                    )
+                box = bounding_box(obj)
+                if box is None:
+                    self.unsupported(f"{node.name}() of a `{obj.keyword}`", node.span)
+                    return Vec((0.0, 0.0, 0.0))
+                return Vec(box[0] if node.name == "min_extent" else box[1])
+            if node.name in ("inside", "trace", "prod", "sum"):
                 self.unsupported(f"{node.name}()", node.span)
                 return 0.0 if node.name in ("inside", "prod", "sum") else Vec((0.0, 0.0, 0.0))
             args = [self.eval(a) for a in node.args]

@@ -749,3 +749,44 @@ def test_repository_examples_compile():
         r = compile_file(str(path))
         assert not errors(r), (path.name, [d.format() for d in errors(r)])
         assert r.scene.objects, path.name
+
+
+EXTENT_OBJECTS = [
+    "sphere { <1,2,3>, 0.5 }",
+    "box { <-1,0,0>, <2,1,3> rotate <10,20,30> scale <1,2,0.5> }",
+    "cylinder { <0,-1,0>, <0,2,0>, 0.5 translate x }",
+    "torus { 2, 0.25 rotate x*90 }",
+    "union { sphere { 0, 1 } box { <1,1,1>, <3,2,2> } translate -y }",
+    "intersection { sphere { 0, 1 } box { 0, 2 } }",
+    "difference { box { -1, 1 } sphere { x, 1 } scale 2 }",
+    "triangle { <0,0,0>, <1,2,0>, <0,1,3> }",
+]
+
+
+@pytest.mark.povray
+def test_extents_match_povray(tmp_path):
+    lines = []
+    for i, obj in enumerate(EXTENT_OBJECTS):
+        lines.append(f"#declare O{i} = {obj}")
+        for fn in ("min_extent", "max_extent"):
+            lines.append(f'#debug concat("X ", vstr(3, {fn}(O{i}), ",", 0, 9), "\\n")')
+    src = tmp_path / "e.pov"
+    src.write_text("\n".join(lines) + "\n")
+    pov = subprocess.run(
+        [shutil.which("povray") or "povray", f"+I{src}", "-D", "+W1", "+H1", "+O/dev/null", "-V"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=60,
+    ).stderr
+    want = [ln for ln in pov.splitlines() if ln.startswith("X ")]
+    got = [d.message for d in compile_file(str(src)).diagnostics if d.code == "N0100"]
+    assert len(want) == len(got) == 2 * len(EXTENT_OBJECTS), pov[-1000:]
+    for k, (w, g) in enumerate(zip(want, got, strict=True)):
+        wv = [float(v) for v in w[2:].split(",")]
+        gv = [float(v) for v in g[2:].split(",")]
+        assert all(abs(a - b) < 1e-5 for a, b in zip(wv, gv, strict=True)), (
+            EXTENT_OBJECTS[k // 2],
+            w,
+            g,
+        )
