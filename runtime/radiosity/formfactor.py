@@ -351,7 +351,10 @@ class _Targets:
 
     def __init__(self, dst: np.ndarray, normal: np.ndarray, scale: float):
         self.v = dst
-        self.x, self.y, self.z = (np.ascontiguousarray(dst[..., c]) for c in range(3))
+        # Components with the first vertex repeated at the end: edge k runs from column k
+        # to column k+1, so the kernel needs no rolled copies.
+        ext = np.concatenate([dst, dst[:, :1]], axis=1)
+        self.x, self.y, self.z = (np.ascontiguousarray(ext[..., c]) for c in range(3))
         self.normal = normal
         self.off = np.einsum("nc,nc->n", normal, dst[:, 0])
         # Coplanarity margin (see _COPLANAR_REL) in this scene's coordinates.
@@ -398,16 +401,18 @@ def _kernel_rows(p, w, nrm, geo: _Targets, pair_mask) -> np.ndarray:
 
 
 def _contour_soa(rx, ry, rz, n) -> np.ndarray:
-    """`projected_solid_angle` on component arrays (M,K): the same formula with fewer
-    temporaries (this is the hot loop of the form-factor matrix)."""
+    """`projected_solid_angle` on component arrays (M,K+1) whose last column repeats the
+    first: the same formula with fewer temporaries (this is the hot loop of the
+    form-factor matrix)."""
     inv = 1.0 / np.sqrt(rx * rx + ry * ry + rz * rz)
     ux, uy, uz = rx * inv, ry * inv, rz * inv
-    vx, vy, vz = (np.roll(a, -1, axis=1) for a in (ux, uy, uz))
-    cx = uy * vz - uz * vy
-    cy = uz * vx - ux * vz
-    cz = ux * vy - uy * vx
+    ax, ay, az = ux[:, :-1], uy[:, :-1], uz[:, :-1]
+    bx, by, bz = ux[:, 1:], uy[:, 1:], uz[:, 1:]
+    cx = ay * bz - az * by
+    cy = az * bx - ax * bz
+    cz = ax * by - ay * bx
     s = np.sqrt(cx * cx + cy * cy + cz * cz)
-    c = ux * vx + uy * vy + uz * vz
+    c = ax * bx + ay * by + az * bz
     g = np.arctan2(s, c)
     f = np.where(s > _DEGENERATE_SINE, g / np.maximum(s, _DEGENERATE_SINE), 1.0)
     dot = cx * n[:, :1] + cy * n[:, 1:2] + cz * n[:, 2:3]
