@@ -47,6 +47,96 @@ def texture_layers(tex: ir.Texture) -> list[ir.Texture]:
 
 
 @dataclass
+class ReflectionRows:
+    """`ir.Reflection` with one row per hit (fresnel is never mixed in here)."""
+
+    min: np.ndarray  # (N,3)
+    max: np.ndarray  # (N,3)
+    falloff: np.ndarray  # (N,)
+    exponent: np.ndarray  # (N,)
+    metallic: np.ndarray  # (N,)
+    fresnel: bool = False
+
+
+@dataclass
+class FinishRows:
+    """`ir.Finish` with one row per hit: the shading functions take these arrays wherever
+    they take a finish's scalars, so hits of many plain textures shade in one batch."""
+
+    ambient: np.ndarray
+    emission: np.ndarray
+    diffuse: np.ndarray
+    diffuse_back: np.ndarray
+    brilliance: np.ndarray
+    specular: np.ndarray
+    roughness: np.ndarray
+    phong: np.ndarray
+    phong_size: np.ndarray
+    metallic: np.ndarray
+    crand: np.ndarray
+    conserve_energy: np.ndarray
+    reflection: ReflectionRows
+    irid: None = None
+
+
+class FinishTable:
+    """Every plain texture's finish as columns, indexed by texture id."""
+
+    def __init__(self, finishes: list[ir.Finish]):
+        def col(get, width=None):
+            a = np.array([get(f) for f in finishes], dtype=np.float64)
+            return a.reshape(len(finishes), width) if width else a
+
+        self.cols = {
+            "ambient": col(lambda f: f.ambient, 3),
+            "emission": col(lambda f: f.emission, 3),
+            **{
+                k: col(lambda f, k=k: getattr(f, k))
+                for k in (
+                    "diffuse",
+                    "diffuse_back",
+                    "brilliance",
+                    "specular",
+                    "roughness",
+                    "phong",
+                    "phong_size",
+                    "metallic",
+                    "crand",
+                )
+            },
+            "conserve_energy": col(lambda f: float(f.conserve_energy)),
+        }
+        self.refl = {
+            "min": col(lambda f: f.reflection.min, 3),
+            "max": col(lambda f: f.reflection.max, 3),
+            "falloff": col(lambda f: f.reflection.falloff),
+            "exponent": col(lambda f: f.reflection.exponent),
+            "metallic": col(lambda f: f.reflection.metallic),
+        }
+
+    def rows(self, tex: np.ndarray) -> FinishRows:
+        c = {k: v[tex] for k, v in self.cols.items()}
+        c["conserve_energy"] = c["conserve_energy"] > 0
+        return FinishRows(
+            **c, reflection=ReflectionRows(**{k: v[tex] for k, v in self.refl.items()})
+        )
+
+
+def _plain(layers: list[ir.Texture]) -> bool:
+    """A texture that shades in the shared batch: one layer, a solid pigment, a smooth
+    normal, no iridescence, no fresnel reflection."""
+    if len(layers) != 1:
+        return False
+    t = layers[0]
+    return (
+        t.pigment.pattern == "solid"
+        and t.normal is None
+        and t.finish.irid is None
+        and not t.finish.reflection.fresnel
+    )
+
+
+@dataclass
 class Context:
     """Per-render constants shared by every tile (read-only while rendering).
 
@@ -70,6 +160,9 @@ class Context:
     gamma: float | None  # working gamma (None: legacy), for image files
     background: np.ndarray  # (3,)
     radiosity: object | None = None  # runtime.radiosity.system.RadiosityResult
+    plain: np.ndarray | None = None  # (n_tex,) bool: shades in the shared batch
+    plain_colour: np.ndarray | None = None  # (n_tex,5) solid colour of plain textures
+    finish_table: FinishTable | None = None
     stats: dict[str, int] = field(default_factory=dict)
 
     @property
@@ -127,7 +220,16 @@ def make_context(prepared) -> Context:
         return np.array([any(pred(t) for t in ls) for ls in textures], dtype=bool)
 
     version = scene.settings.version
+    plain = np.array([_plain(ls) for ls in textures], dtype=bool)
+    plain_colour = np.array(
+        [ls[0].pigment.color if p else (0.0,) * 5 for ls, p in zip(textures, plain, strict=True)],
+        dtype=np.float64,
+    ).reshape(len(textures), 5)
+    table = FinishTable([ls[-1].finish for ls in textures]) if textures else None
     return Context(
+        plain=plain,
+        plain_colour=plain_colour,
+        finish_table=table,
         prepared=prepared,
         settings=scene.settings,
         textures=textures,
@@ -340,7 +442,10 @@ def shade(
     result = np.zeros((n, 3))
     fil = np.ones((n, 3))
     secondary = Secondary()
-    for tid in np.unique(tex):
+    plain = ctx.plain[tex]
+    if plain.any():
+        shade_plain(ctx, np.nonzero(plain)[0], hit, lights, result, fil, secondary, level)
+    for tid in np.unique(tex[~plain]):
         rows = np.nonzero(tex == tid)[0]
         shade_texture(ctx, int(tid), rows, hit, lights, result, fil, secondary, level)
     # Transmitted light: what the layers let through, filtered by them.
@@ -578,6 +683,78 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
     return mult
 
 
+def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondary, level):
+    """Shade the hits of every plain texture (one layer, solid pigment) in one batch, with
+    the finishes as per-row arrays: the same formulas as `shade_texture`, without a Python
+    loop over textures (scenes with hundreds of differently coloured objects)."""
+    s = ctx.settings
+    tex = hit.tex[rows]
+    colour = ctx.plain_colour[tex]
+    pig = colour[:, :3]
+    fin = ctx.finish_table.rows(tex)
+    surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows])
+    pts = hit.point[rows]
+    double = ctx.double_illuminate[hit.obj[rows]]
+    op = shading.opacity(colour, ctx.legacy_opacity)
+    if ctx.radiosity is None:
+        acc = shading.ambient_term(fin, pig, op, s.ambient_light)
+    else:
+        acc = radiosity_term(ctx, hit, rows, fin, pig, op)
+    grain = shading.grain(pts) if np.any(fin.crand > 0) else None
+    for ldir, lcol in zip(lights.direction, lights.colour, strict=True):
+        acc += shading.light_terms(fin, surf, pig, op, ldir[rows], lcol[rows], double, grain)
+    result[rows] += acc
+    r = fin.reflection
+    reflects = (r.max.max(axis=1) > 0) | (r.min.max(axis=1) > 0)
+    refl = np.zeros((len(rows), 3))
+    if reflects.any():
+        sel = np.nonzero(reflects)[0]
+        sub = FinishRows(
+            **{
+                k: getattr(fin, k)[sel]
+                for k in (
+                    "ambient",
+                    "emission",
+                    "diffuse",
+                    "diffuse_back",
+                    "brilliance",
+                    "specular",
+                    "roughness",
+                    "phong",
+                    "phong_size",
+                    "metallic",
+                    "crand",
+                    "conserve_energy",
+                )
+            },
+            reflection=ReflectionRows(
+                r.min[sel], r.max[sel], r.falloff[sel], r.exponent[sel], r.metallic[sel]
+            ),
+        )
+        cos_i = -np.einsum("ij,ij->i", surf.ray_dir[sel], surf.normal[sel])
+        refl[sel], wfac = shading.reflectivity(sub, cos_i, pig[sel])
+        use = np.abs(refl[sel]).max(axis=1) > 0
+        sel = sel[use]
+        d = shading.reflect(surf.ray_dir[sel], surf.normal[sel], surf.normal[sel])
+        exp = np.where(
+            r.exponent[sel] != 0, 1.0 / np.where(r.exponent[sel] != 0, r.exponent[sel], 1.0), 1.0
+        )
+        secondary.add(
+            rows[sel],
+            d,
+            refl[sel],
+            hit.weight[rows][sel] * wfac[use],
+            level[rows][sel],
+            False,
+            SKIP_NO_REFLECTION,
+            exp,
+        )
+    f = shading.rgb_transmit(colour)
+    conserve = fin.conserve_energy & reflects
+    f = np.where(conserve[:, None], f * np.minimum(1.0, 1.0 - refl), f)
+    fil[rows] = f
+
+
 def shade_texture(
     ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, secondary: Secondary, level
 ):
@@ -712,7 +889,8 @@ def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.
         prim = hit.prim[rows][sel] if hit.prim is not None else None
         g[sel] = ctx.radiosity.gathered(int(oid), hit.point[rows][sel], hit.dirs[rows][sel], prim)
     emis = np.asarray(fin.emission, dtype=np.float64)
-    out = pig * (fin.diffuse * g + emis) * op[:, None]
+    diffuse = np.reshape(np.asarray(fin.diffuse, dtype=np.float64), (-1, 1))
+    out = pig * (diffuse * g + emis) * op[:, None]
     if ctx.legacy_opacity:
         amb = np.asarray(fin.ambient, dtype=np.float64)
         out += pig * amb * np.asarray(ctx.settings.ambient_light, dtype=np.float64) * op[:, None]

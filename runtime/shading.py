@@ -265,21 +265,23 @@ def light_terms(
     double = np.broadcast_to(np.asarray(double_illuminate, dtype=bool), front.shape)
     # POV-Ray skips the facing test for double_illuminate; otherwise the far side only gets
     # diffuse_back, and no highlights.
-    back = ~front & ~double & (finish.diffuse_back != 0.0)
+    back = ~front & ~double & (np.asarray(finish.diffuse_back) != 0.0)
     lit = front | double
     out = np.zeros_like(pigment)
-    if finish.diffuse > 0 or finish.diffuse_back > 0:
+    # Finish values are scalars, or (N,) arrays when textures are shaded together.
+    if np.any(np.asarray(finish.diffuse) > 0) or np.any(np.asarray(finish.diffuse_back) > 0):
         diffuse = np.where(back, finish.diffuse_back, finish.diffuse)
         a = np.abs(cos_l)
-        intensity = a if finish.brilliance == 1.0 else np.power(a, finish.brilliance)
+        b = np.asarray(finish.brilliance)
+        intensity = a if np.all(b == 1.0) else np.power(a, b)
         intensity = intensity * np.maximum(diffuse, 0.0) * opacity
-        if finish.crand > 0 and grain is not None:
+        if grain is not None and np.any(np.asarray(finish.crand) > 0):
             intensity = intensity - grain * finish.crand
         intensity = np.where(lit | back, intensity, 0.0)
         out += intensity[:, None] * pigment * light_col
-    if finish.phong > 0:
+    if np.any(np.asarray(finish.phong) > 0):
         out += highlight_phong(finish, surf, light_dir, light_col, pigment, cos_l, lit)
-    if finish.specular > 0:
+    if np.any(np.asarray(finish.specular) > 0):
         out += highlight_specular(finish, surf, light_dir, light_col, pigment, cos_l, lit)
     if finish.irid is not None and finish.irid[0] > 0:
         out = out * iridescence(finish, surf, light_dir)
@@ -303,7 +305,7 @@ def iridescence(finish: ir.Finish, surf: Surface, light_dir: np.ndarray) -> np.n
 
 
 def _tinted(finish: ir.Finish, intensity, light_col, pigment, cos_l) -> np.ndarray:
-    if finish.metallic > 0:
+    if np.any(np.asarray(finish.metallic) > 0):
         return intensity[:, None] * light_col * metallic_tint(finish.metallic, cos_l, pigment)
     return intensity[:, None] * light_col
 
@@ -313,9 +315,8 @@ def highlight_phong(finish, surf: Surface, light_dir, light_col, pigment, cos_l,
     n = surf.normal
     refl = e - 2.0 * np.einsum("ij,ij->i", e, n)[:, None] * n
     c = np.einsum("ij,ij->i", refl, light_dir)
-    ok = mask & (c > 0)
-    if finish.phong_size >= 60:
-        ok &= c > 0.0008  # POV-Ray drops the tiny tail of very tight highlights
+    # POV-Ray drops the tiny tail of very tight highlights.
+    ok = mask & (c > 0) & ((np.asarray(finish.phong_size) < 60) | (c > 0.0008))
     intensity = np.where(ok, finish.phong * np.power(np.clip(c, 0, None), finish.phong_size), 0.0)
     return _tinted(finish, intensity, light_col, pigment, cos_l)
 
@@ -325,7 +326,8 @@ def highlight_specular(finish, surf: Surface, light_dir, light_col, pigment, cos
     length = np.linalg.norm(half, axis=1)
     c = np.einsum("ij,ij->i", half, surf.normal) / np.where(length > 0, length, 1.0)
     ok = mask & (length > 0) & (c > 0)
-    exponent = 1.0 / finish.roughness if finish.roughness != 0 else 0.0
+    rough = np.asarray(finish.roughness, dtype=np.float64)
+    exponent = np.where(rough != 0, 1.0 / np.where(rough != 0, rough, 1.0), 0.0)
     intensity = np.where(ok, finish.specular * np.power(np.clip(c, 0, None), exponent), 0.0)
     return _tinted(finish, intensity, light_col, pigment, cos_l)
 
@@ -340,9 +342,10 @@ def reflectivity(
     """(N,3) reflection colour and (N,) weight factor for the reflected ray
     (POV-Ray's ComputeReflectivity plus `reflection { metallic }`)."""
     r = finish.reflection
-    rmax = np.asarray(r.max, dtype=np.float64)
-    rmin = np.asarray(r.min, dtype=np.float64)
     n = len(cos_angle)
+    # Colours are (3,) for one finish or (N,3) per row; falloff/metallic scalars or (N,).
+    rmax = np.broadcast_to(np.asarray(r.max, dtype=np.float64), (n, 3))
+    rmin = np.broadcast_to(np.asarray(r.min, dtype=np.float64), (n, 3))
     if r.fresnel:
         ior = np.broadcast_to(np.asarray(relative_ior, dtype=np.float64), (n,))
         sqx = ior**2 + cos_angle**2 - 1.0
@@ -359,12 +362,13 @@ def reflectivity(
         refl = f[:, None] * rmax + (1.0 - f[:, None]) * rmin
         weight = refl.max(axis=1)
     else:
-        weight = np.full(n, max(rmax.max(), rmin.max()))
+        weight = np.maximum(rmax.max(axis=1), rmin.max(axis=1))
         frac = 1.0 - cos_angle
-        if abs(r.falloff - 1.0) > EPSILON:
-            frac = np.power(np.clip(frac, 0, None), r.falloff)
+        falloff = np.asarray(r.falloff, dtype=np.float64)
+        if np.any(np.abs(falloff - 1.0) > EPSILON):
+            frac = np.power(np.clip(frac, 0, None), falloff)
         refl = frac[:, None] * rmax + (1.0 - frac[:, None]) * rmin
-    if r.metallic != 0.0:
+    if np.any(np.asarray(r.metallic) != 0.0):
         f = fresnel_metallic(cos_angle)
         refl = refl * (1.0 + (r.metallic * (1.0 - f))[:, None] * (pigment - 1.0))
     return refl, weight

@@ -470,3 +470,52 @@ def test_crand_darkens_diffuse_by_a_repeatable_grain():
         fin, surf, np.ones((50, 3)), np.ones(50), light, np.ones((50, 3)), False, g
     )
     np.testing.assert_allclose(out[:, 0], 1.0 - 0.2 * g)
+
+
+def test_plain_batch_shading_matches_per_texture_shading():
+    # Many differently finished plain textures: the shared batch must give exactly what
+    # shading each texture on its own gives.
+    rng = np.random.default_rng(5)
+    objs = []
+    for i in range(12):
+        fin = ir.Finish(
+            ambient=tuple(rng.uniform(0, 0.3, 3)),
+            diffuse=float(rng.uniform(0.2, 1)),
+            brilliance=float(rng.uniform(0.5, 3)),
+            specular=float(rng.uniform(0, 1)),
+            roughness=float(rng.uniform(0.01, 0.1)),
+            phong=float(rng.uniform(0, 1)),
+            phong_size=float(rng.uniform(5, 100)),
+            metallic=float(rng.uniform(0, 1)),
+            reflection=ir.Reflection(
+                min=(0.1,) * 3,
+                max=tuple(rng.uniform(0, 0.8, 3)),
+                falloff=float(rng.uniform(0.5, 3)),
+                metallic=float(rng.uniform(0, 1)),
+            ),
+            conserve_energy=bool(i % 2),
+        )
+        pig = ir.Pigment(color=(*rng.uniform(0, 1, 3), float(i % 3 == 0) * 0.3, 0.0))
+        objs.append(
+            ir.Object(
+                ir.Sphere((2.5 * (i % 4) - 4, 2.5 * (i // 4) - 2.5, 0), 1.0),
+                texture=ir.Texture(pigment=pig, finish=fin),
+            )
+        )
+    scene = ir.Scene(
+        camera=ir.Camera(location=(0, 0, -12), right=(1, 0, 0)),
+        lights=(ir.Light(position=(5, 8, -10)), ir.Light(position=(-6, 2, -8))),
+        objects=tuple(objs),
+        background=(0.2, 0.3, 0.4, 0, 0),
+        settings=ir.Settings(assumed_gamma=1.0),
+    )
+    ctx = integrate.make_context(prepare(scene, 8, 8))
+    assert ctx.plain.all()
+    ys, xs = np.mgrid[-0.4:0.4:24j, -0.4:0.4:24j]
+    d = np.stack([xs.ravel(), ys.ravel(), np.ones(xs.size)], axis=1)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.tile([0.0, 0.0, -12.0], (len(d), 1))
+    batched = integrate.trace(ctx, o, d, np.ones(len(d)), 0, "no_image")
+    ctx.plain = np.zeros_like(ctx.plain)
+    single = integrate.trace(ctx, o, d, np.ones(len(d)), 0, "no_image")
+    np.testing.assert_allclose(batched, single, atol=1e-12)
