@@ -6,6 +6,10 @@ Embree). A node reports all its surface crossings along each ray as candidates
 (t, leaf, face, flip); the tracer keeps the nearest candidate inside (tmin, tmax) and only
 then computes normals, once per hit. t is invariant under the object transform because
 object-space directions are left unnormalised, so no conversion is needed.
+
+Many objects: bounded nodes sit in a box tree walked a whole ray batch at a time, and
+spheres and boxes reached by the same batch are intersected in one gathered call, so the
+Python loop runs over tree nodes and object kinds, never over rays.
 """
 
 from __future__ import annotations
@@ -241,7 +245,7 @@ def slab_hits(o, d, lo, hi, tmin, tmax, inv=None) -> np.ndarray:
     if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)):
         # A half-infinite box still culls on its finite sides; keep it simple: no culling.
         return np.ones(len(o), dtype=bool)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         if inv is None:
             inv = 1.0 / d
         t1 = (lo - o) * inv
@@ -288,21 +292,27 @@ class BoxTree:
         return k
 
     def query(self, o, d, tmin, tmax, inv) -> list[tuple[int, np.ndarray]]:
-        """[(item, rows)] for every leaf item whose tree leaf box the rows' segments touch."""
+        """[(item, rows)] for every leaf item whose tree leaf box the rows' segments touch.
+
+        Each stack entry carries its rows' ray data packed in one array (origin, 1/d, tmin,
+        tmax), already cut down by its parent, so a tree node costs one small gather."""
         out = []
-        stack = [(0, np.arange(len(o)))]
+        packed = np.column_stack([o, inv, tmin, tmax])
+        stack = [(0, np.arange(len(o)), packed)]
         while stack:
-            k, rows = stack.pop()
+            k, rows, sub = stack.pop()
             hit = slab_hits(
-                o[rows], None, self.lo[k], self.hi[k], tmin[rows], tmax[rows], inv[rows]
+                sub[:, 0:3], None, self.lo[k], self.hi[k], sub[:, 6], sub[:, 7], sub[:, 3:6]
             )
-            rows = rows[hit]
-            if len(rows) == 0:
+            if not hit.any():
                 continue
+            if not hit.all():
+                rows = rows[hit]
+                sub = sub[hit]
             if self.kids[k] is None:
                 out.extend((int(i), rows) for i in self.items[k])
             else:
-                stack.extend((c, rows) for c in self.kids[k])
+                stack.extend((c, rows, sub) for c in self.kids[k])
         return sorted(out, key=lambda item: item[0])
 
 
@@ -326,7 +336,8 @@ class Tracer:
             for i, n in enumerate(nodes)
             if np.all(np.isfinite(n.lo)) and np.all(np.isfinite(n.hi))
         ]
-        self.unbounded = [i for i, n in enumerate(nodes) if i not in set(finite)]
+        finite_set = set(finite)
+        self.unbounded = [i for i in range(len(nodes)) if i not in finite_set]
         self.bounded = finite
         self.tree = None
         if len(finite) > self.TREE_THRESHOLD:
@@ -384,9 +395,10 @@ class Tracer:
         one vectorised call per kind (many small objects would otherwise cost a Python
         call each)."""
         pending: dict[type, list[tuple[Leaf, np.ndarray]]] = {}
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", over="ignore"):
             inv = 1.0 / d
         for node, cand in self._visits(o, d, tmin_a, limit_of(None), skipped, inv):
+            batched = isinstance(node, Leaf) and isinstance(node.prim, BATCHED)
             if cand is None:
                 keep = slab_hits(o, None, node.lo, node.hi, tmin_a, limit_of(None), inv)
                 rows = np.nonzero(keep)[0]
@@ -396,7 +408,7 @@ class Tracer:
                 rows = cand[keep]
             if len(rows) == 0:
                 continue
-            if isinstance(node, Leaf) and isinstance(node.prim, BATCHED):
+            if batched:
                 pending.setdefault(type(node.prim), []).append((node, rows))
                 continue
             yield rows, node.crossings(o[rows], d[rows])
@@ -414,8 +426,9 @@ class Tracer:
         flip = np.zeros(n, dtype=bool)
 
         def limit_of(rows):
-            lim = np.minimum(hits.t, tmax_a)
-            return lim if rows is None else lim[rows]
+            if rows is None:
+                return np.minimum(hits.t, tmax_a)
+            return np.minimum(hits.t[rows], tmax_a[rows])
 
         for rows, c in self._candidates(o, d, tmin_a, limit_of, skipped):
             floor = np.maximum(tmin_a[rows, None], tol.OBJECT_REL * self.sizes[c.leaf])
@@ -466,8 +479,9 @@ class Tracer:
 
         def limit_of(rows):
             # A blocked ray needs no more tests: give it an empty segment.
-            lim = np.where(blocked, -np.inf, tmax_a)
-            return lim if rows is None else lim[rows]
+            if rows is None:
+                return np.where(blocked, -np.inf, tmax_a)
+            return np.where(blocked[rows], -np.inf, tmax_a[rows])
 
         for rows, c in self._candidates(o, d, tmin_a, limit_of, skipped):
             floor = np.maximum(tmin_a[rows, None], tol.OBJECT_REL * self.sizes[c.leaf])
