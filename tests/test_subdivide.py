@@ -644,3 +644,38 @@ def test_dart_limit_is_exact(scheme):
     n1, _ = sd.smooth_limit_normals(m1, scheme)
     n7, _ = sd.smooth_limit_normals(m7, scheme)
     assert np.allclose(n1[[0, 1]], n7[[0, 1]], atol=1e-10)
+
+
+@given(
+    st.integers(2, 4),
+    st.integers(2, 4),
+    st.sets(st.integers(0, 15), max_size=6),
+    st.sampled_from(["catmull_clark", "loop", "bilinear"]),
+    st.sampled_from(["sharp", "smooth"]),
+    st.booleans(),
+    st.lists(st.floats(0.0, 3.0) | st.just(np.inf), max_size=4),
+    st.integers(0, 2),
+)
+def test_any_open_grid_tessellates_cleanly(nx, ny, holes, scheme, boundary, limit, sharp, lv):
+    """Grids with holes (boundaries, pinched vertices, unused points), random creases:
+    the output is always finite, in range, with unit normals."""
+    rng = np.random.default_rng(nx * 100 + ny)
+    pts, quads, _ = grid(nx, ny, rng.normal(scale=0.3, size=(ny + 1, nx + 1)))
+    quads = [q for i, q in enumerate(quads) if i not in holes] or quads[:1]
+    faces = quads
+    if scheme == "loop":
+        faces = [t for q in quads for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3]))]
+    creases = tuple((q[0], q[1], s) for q, s in zip(quads, sharp, strict=False))
+    shape = ir.Subdivision(
+        scheme,
+        tuple(map(tuple, pts)),
+        tuple(map(tuple, faces)),
+        creases=creases,
+        boundary=boundary,
+        limit=limit,
+    )
+    assert sd.validate(shape) == []
+    v, f, n = sd.subdivision_mesh(shape, lv)
+    assert np.isfinite(v).all() and np.isfinite(n).all()
+    assert f.min() >= 0 and f.max() < len(v)
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0)
