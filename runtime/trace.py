@@ -36,6 +36,9 @@ class Hits:
     # (outward for solids, flipped for `inverse` and for the subtracted part of a
     # difference); not flipped toward the ray.
     prim: np.ndarray | None = None  # (N,) int32 face index within a mesh leaf, -1 otherwise
+    # (N,2) barycentric weights (u of the face's 2nd vertex, v of its 3rd) for triangle
+    # hits, for interpolating per-vertex data (mesh2 uv_vectors); NaN elsewhere.
+    bary: np.ndarray | None = None
 
     @property
     def hit(self) -> np.ndarray:
@@ -49,6 +52,7 @@ def empty_hits(n: int) -> Hits:
         point=np.full((n, 3), np.nan),
         normal=np.zeros((n, 3)),
         prim=np.full(n, -1, dtype=np.int32),
+        bary=np.full((n, 2), np.nan),
     )
 
 

@@ -198,14 +198,15 @@ class TriangleSet:
         hits.obj[rows] = self.leaf_of[tri]
         hits.prim[rows] = self.local[tri]
         p = o + t[:, None] * d
+        u, v = barycentric(p, self.v0[tri], self.e1[tri], self.e2[tri])
+        if hits.bary is not None:
+            hits.bary[rows] = np.column_stack([u, v])
         n = self.ng[tri].copy()
         sm = self.smooth[tri]
         if sm.any():
-            ts = tri[sm]
-            u, v = barycentric(p[sm], self.v0[ts], self.e1[ts], self.e2[ts])
-            vn = self.vn[ts]
+            us, vs, vn = u[sm], v[sm], self.vn[tri[sm]]
             n[sm] = tf.normalize(
-                (1 - u - v)[:, None] * vn[:, 0] + u[:, None] * vn[:, 1] + v[:, None] * vn[:, 2]
+                (1 - us - vs)[:, None] * vn[:, 0] + us[:, None] * vn[:, 1] + vs[:, None] * vn[:, 2]
             )
         hits.normal[rows] = n
 

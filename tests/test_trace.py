@@ -81,6 +81,7 @@ def test_smooth_triangle_interpolates_normals():
     expect = np.array([0.3, 0, -0.9])
     assert np.allclose(h.normal[0], expect / np.linalg.norm(expect))
     assert h.t[0] == pytest.approx(1.0, abs=1e-15)
+    assert np.allclose(h.bary[0], [0.5, 0.0])  # halfway along the edge to the 2nd vertex
 
 
 def test_no_embree_scene_without_triangles():
