@@ -295,3 +295,17 @@ def test_point_form_factors_match_the_kernel_and_visibility():
         [[0, 0, 0]], [[0, 0, 1]], faces_down[None], visible=none_visible, targets=targets
     )
     assert hidden[0, 0] == 0.0
+
+
+def test_symmetric_mode_is_reciprocal_and_close_to_the_full_matrix():
+    """Integrating each pair once and filling the other direction by reciprocity: exact
+    A_i F_ij = A_j F_ji; on the inside of a sphere (91 patches, order 3) the row sums then
+    hold to the quadrature error (measured 3.5e-5; tolerance 1e-4) instead of rounding,
+    and entries differ from the full matrix by at most 3.6e-4 (tolerance 1e-3)."""
+    p = _inside_sphere(0.5)
+    full = form_factors(p.verts, order=3)
+    sym = form_factors(p.verts, order=3, symmetric=True)
+    g = p.area[:, None] * sym
+    assert np.allclose(g, g.T, rtol=1e-12, atol=1e-15)
+    assert np.abs(sym.sum(axis=1) - 1).max() < 1e-4
+    assert np.abs(sym - full).max() < 1e-3

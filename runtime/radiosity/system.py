@@ -64,6 +64,7 @@ class Options:
     far_order: int = 1  # … for pairs more than far_ratio × their radii apart
     far_ratio: float = 4.0
     vis_samples: int = 4  # segments per patch pair
+    symmetric: bool = True  # integrate each pair once, the other way by reciprocity
     max_rounds: int = 2  # adaptive refinement rounds after the first solve
     flat: bool = False  # flat instead of Gouraud display
     vertex_gather: bool = False  # Gouraud from light gathered at the vertices (else averages)
@@ -692,7 +693,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         vis = PatchVisibility(patches.verts, extra)
         if solver.fits_dense(n):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
-                             far_ratio=opts.far_ratio, visible=vis,
+                             far_ratio=opts.far_ratio, visible=vis, symmetric=opts.symmetric,
                              vis_samples=opts.vis_samples, seed=opts.seed + round_,
                              vis_points=(pts, pts))  # fmt: skip
             # A patch partly buried in a solid (floor under a box) exchanges light through
