@@ -4,9 +4,10 @@ Gouraud shading (NOTES.md §6 step 4): a vertex takes the area-weighted mean of 
 around it *within its group* (one planar face, one side of a sphere or mesh), so creases
 such as a floor meeting a wall stay sharp; a point inside a patch interpolates its corners
 (bilinear on quads, barycentric on triangles). `flat=True` returns the patch value.
-A subdivided patch's edge midpoints are T-vertices for an undivided neighbour, whose own
-interpolation ignores them: the small seam this leaves is bounded by the refinement
-threshold that stopped the neighbour from splitting.
+A subdivided patch's edge midpoints are T-vertices for an undivided neighbour; they take
+the value interpolated along the neighbour's edge (`conform`), so the field is continuous
+(on planar groups; on a sphere a T-vertex sits off the neighbour's chord and keeps its
+average).
 
 The same vertex field drives adaptive refinement: `refine_mask` marks patches whose
 corners disagree with their own value by more than a threshold — where radiosity changes
