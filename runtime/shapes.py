@@ -40,7 +40,7 @@ def stable_quadratic(a, b, c, disc=None) -> tuple[np.ndarray, np.ndarray]:
     real = disc >= 0
     sq = np.sqrt(np.where(real, disc, 0.0))
     q = -(b + np.copysign(sq, b))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t1 = q / a
         t2 = c / q
         # Linear case (a == 0): 2 b t + c = 0; q == 0 only for b == disc == 0 (t = 0 double).
@@ -57,7 +57,7 @@ def _recentre(o: np.ndarray, d: np.ndarray, centre) -> tuple[np.ndarray, np.ndar
     """Move each ray origin along its line to the point closest to `centre`; returns the new
     origins and the t offset. Far-away origins then no longer cancel in the polynomial."""
     dd = _dot(d, d)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t0 = np.where(dd > 0, _dot(centre - o, d) / dd, 0.0)
     return o + t0[:, None] * d, t0
 
@@ -82,7 +82,7 @@ class SpherePrim:
         c = _dot(oc, oc) - self.r * self.r
         # Hearn's recentring: B^2 - AC = A (r^2 - |l|^2) with l the perpendicular from the
         # centre to the line; exact for far-away and grazing rays.
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             lv = oc - (b / a)[:, None] * d
         lnorm = np.sqrt(_dot(lv, lv))
         disc = a * (self.r - lnorm) * (self.r + lnorm)
@@ -119,7 +119,7 @@ class PlanePrim:
 
     def crossings(self, o, d):
         denom = d @ self.n
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t = (self.dist - o @ self.n) / denom
         t = np.where(np.abs(denom) > tol.PARALLEL_EPS, t, INF)
         return t[:, None], np.zeros((len(o), 1), dtype=np.int8)
@@ -148,7 +148,7 @@ class BoxPrim:
         return self.lo, self.hi
 
     def crossings(self, o, d):
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t1 = (self.lo - o) / d
             t2 = (self.hi - o) / d
         par = d == 0
@@ -239,7 +239,7 @@ class PolygonPrim:
     def plane_t(self, o, d):
         # Seed: t = (A S1 + B S2 + C S3 + D) / -(A D1 + B D2 + C D3).
         denom = -(d @ self.n)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t = (o @ self.n + self.D) / denom
         return np.where(np.abs(denom) > tol.PARALLEL_EPS, t, INF)
 
@@ -250,7 +250,7 @@ class PolygonPrim:
         ax, ay = self.e2[:, 0, 0], self.e2[:, 0, 1]
         bx, by = self.e2[:, 1, 0], self.e2[:, 1, 1]
         straddle = (ay > py) != (by > py)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             xint = ax + (py - ay) * (bx - ax) / (by - ay)
         cross = straddle & (px < xint)
         return (np.count_nonzero(cross, axis=1) % 2) == 1
@@ -312,7 +312,7 @@ def moller_trumbore(o, d, v0, e1, e2):
     miss) and barycentrics u, v (weights of vertex 1 and 2)."""
     pv = np.cross(d, e2)
     det = np.einsum("...j,...j->...", e1, pv) * np.ones(len(o))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         inv = 1.0 / det
         tv = o - v0
         u = np.einsum("ij,ij->i", tv, pv) * inv
@@ -332,7 +332,7 @@ def barycentric(p, v0, e1, e2):
     d20 = np.einsum("...j,...j->...", w, e1 * np.ones_like(w))
     d21 = np.einsum("...j,...j->...", w, e2 * np.ones_like(w))
     den = d00 * d11 - d01 * d01
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         u = (d11 * d20 - d01 * d21) / den
         v = (d00 * d21 - d01 * d20) / den
     return u, v
@@ -358,7 +358,7 @@ class DiscPrim:
 
     def crossings(self, o, d):
         denom = d @ self.n
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t = ((self.c - o) @ self.n) / denom
         t = np.where(np.abs(denom) > tol.PARALLEL_EPS, t, INF)
         fin = np.isfinite(t)
@@ -418,7 +418,7 @@ class ConePrim:
         disc = None
         if k == 0:
             # Cylinder: 2D Hearn recentring of the discriminant, as for the sphere.
-            with np.errstate(divide="ignore", invalid="ignore"):
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 lx = oc[:, 0] - b / a * d[:, 0]
                 ly = oc[:, 1] - b / a * d[:, 1]
             ln = np.hypot(lx, ly)
@@ -436,7 +436,7 @@ class ConePrim:
             if self.open or rc == 0:
                 out.append(np.full(len(o), INF))
                 continue
-            with np.errstate(divide="ignore", invalid="ignore"):
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 tc = (zc - o[:, 2]) / d[:, 2]
             fin = np.isfinite(tc) & (np.abs(d[:, 2]) > tol.PARALLEL_EPS)
             tcz = np.where(fin, tc, 0.0)
@@ -520,7 +520,7 @@ class TorusPrim:
                 # df/du = 2 s * 2 p.d - 8 R^2 (px dx + pz dz)
                 pd = np.sum(p * dd[:, None, :], axis=-1)
                 fp = 4 * s * pd - 8 * R2 * (p[..., 0] * dd[:, None, 0] + p[..., 2] * dd[:, None, 2])
-                with np.errstate(divide="ignore", invalid="ignore"):
+                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                     step = np.where(fp != 0, f / fp, 0.0)
                 # Newton near a double root can jump; only accept small corrections.
                 u = np.where(np.abs(step) < tol.NEWTON_MAX_STEP_REL * scale, u - step, u)

@@ -149,7 +149,7 @@ class TriangleSet:
     def refine_t(self, tri: np.ndarray, o: np.ndarray, d: np.ndarray) -> np.ndarray:
         """float64 distance to the planes of triangles `tri` (indices) along o + t d."""
         n = self.ng[tri]
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             return np.einsum("ij,ij->i", self.v0[tri] - o, n) / np.einsum("ij,ij->i", d, n)
 
     def closest(self, o, d, tmin, limit, skip, hits) -> None:
