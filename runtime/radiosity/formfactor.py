@@ -9,7 +9,8 @@ the polygon's solid angle projected onto the receiver's tangent plane, divided b
 R_k the unit vectors from the point to the vertices, γ_k the angle between R_k and R_{k+1}.
 The polygon is first clipped to the receiver's hemisphere (Sutherland–Hodgman), so the
 formula holds for any placement. The outer integral is a Gauss rule over the source patch
-(collapsed Gauss–Legendre on each fan triangle, any order), so
+(tensor Gauss–Legendre through the bilinear map of a quad, collapsed on triangles, any
+order), so by default
 
 - a patch's row sum equals the quadrature of Σ_j F(dA → A_j), which is exactly 1 at every
   point that sees a closed polyhedron: closed scenes conserve energy to rounding, whatever
@@ -17,6 +18,10 @@ formula holds for any placement. The outer integral is a Gauss rule over the sou
 - reciprocity A_i F_ij = A_j F_ji holds to the outer quadrature error (exact for the inner
   integral, O(h^{2n}) for smooth integrands; adjacent patches converge more slowly because
   the kernel has an x·log x term at a shared edge).
+
+`symmetric=True` swaps the two: reciprocity exact, row sums to the quadrature error, for
+half the work. `far_order` lowers the order for distant pairs (row sums then hold to the
+far-field quadrature error).
 
 Patches are one-sided: a patch sends light only to the side its normal faces
 (normal = right-hand rule over its vertices) and receives only on that side.
