@@ -896,11 +896,14 @@ def shade(
     smooth_normals: np.ndarray,
     smooth_mask: np.ndarray,
     scheme: str,
+    boundary: str = "sharp",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Output vertices, per-corner output index and normals. A vertex is split into one
     output vertex per sector between infinitely sharp edges (a crease has two normals).
-    Smooth vertices take the tangent-mask normal; sector normals are angle-weighted face
-    normals, made perpendicular to the crease's limit tangent on crease vertices."""
+    Smooth vertices take the tangent-mask normal; each sector of a crease (or boundary)
+    vertex takes its one-sided limit normal from the crease tangent and the sector's
+    eigen-analysed cross tangent; other sectors (corners, semi-sharp neighbourhoods)
+    take angle-weighted face normals, made perpendicular to a crease's limit tangent."""
     topo, V, fv = mesh.topology, mesh.nv, mesh.fv
     s = edge_sharpness(mesh, topo)
     inf_sharp = np.isinf(s)
@@ -933,6 +936,12 @@ def shade(
         sector_n = _scatter(group[need], _normalize(cn) * angle[:, None], G)
         tangent = _normalize(_crease_tangents(mesh, inf_sharp))[gvert]
         sector_n -= np.einsum("ij,ij->i", sector_n, tangent)[:, None] * tangent
+        exact = _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps)
+        if exact is not None:
+            g, en = exact
+            # the masks fix the plane, the faces the side
+            en[np.einsum("ij,ij->i", en, sector_n[g]) < 0] *= -1.0
+            sector_n[g] = en
         gn[~use_smooth] = sector_n[~use_smooth]
     gn = _normalize(gn)
     verts = np.concatenate([positions, positions[gvert[~primary]]])
@@ -941,6 +950,102 @@ def shade(
     normals[gvert[primary]] = gn[primary]
     normals = np.concatenate([normals, gn[~primary]])
     return verts, new_index[group], normals
+
+
+def _crease_sector_matrix(scheme: str, k: int) -> tuple[np.ndarray, list[int]]:
+    """Subdivision matrix of one sector of a crease vertex: k faces between its two sharp
+    edges. Catmull–Clark nodes [c, e_0..e_k, f_0..f_k-1], Loop [c, e_0..e_k]; e_0 and
+    e_k lie on the crease. Returns the matrix and the crease nodes [c, e_0, e_k], whose
+    rows (crease rule, midpoints) do not depend on the sector."""
+    m = 2 * k + 2 if scheme == "catmull_clark" else k + 2
+    S = np.zeros((m, m))
+    e = [1 + i for i in range(k + 1)]
+    S[0, [e[0], e[k]]] = 0.125
+    S[0, 0] = 0.75
+    for i in (0, k):
+        S[e[i], [0, e[i]]] = 0.5
+    if scheme == "catmull_clark":
+        F = np.zeros((k, m))
+        for i in range(k):  # rows of one small matrix, not mesh elements
+            F[i, [0, e[i], k + 2 + i, e[i + 1]]] = 0.25
+        for i in range(1, k):
+            S[e[i]] = 0.25 * (F[i - 1] + F[i])
+            S[e[i], [0, e[i]]] += 0.25
+        S[k + 2 :] = F
+    else:
+        for i in range(1, k):
+            S[e[i], [0, e[i]]] = 0.375
+            S[e[i], [e[i - 1], e[i + 1]]] += 0.125
+    return S, [0, e[0], e[k]]
+
+
+def _crease_sector_mask(scheme: str, k: int) -> np.ndarray | None:
+    """The cross tangent mask of a crease sector: the left eigenvector of the sector's
+    leading eigenvalue μ. The matrix is block-triangular (crease nodes first), so the
+    eigenvector's sector part comes from the sector block and its crease part solves
+    l_c (μ − S_cc) = l_s S_sc (least squares: where μ meets the crease's own 1/2, the
+    free part only adds the crease tangent, which the normal ignores)."""
+    S, upper = _crease_sector_matrix(scheme, k)
+    inner = [i for i in range(len(S)) if i not in upper]
+    if not inner:
+        return None
+    S_ss = S[np.ix_(inner, inner)]
+    w, vec = np.linalg.eig(S_ss.T)
+    top = int(np.argmax(np.abs(w)))
+    mu, l_s = float(np.real(w[top])), np.real(vec[:, top])
+    if mu <= 0.25 + 1e-9:
+        # a one-face Catmull–Clark sector: μ = 1/4 ties with the crease's own curvature
+        # eigenvalue, so the one-sided tangent plane is not fixed by the ring alone
+        return None
+    A = (mu * np.eye(3) - S[np.ix_(upper, upper)]).T
+    l_u = np.linalg.lstsq(A, (l_s @ S[np.ix_(inner, upper)]), rcond=None)[0]
+    mask = np.zeros(len(S))
+    mask[upper], mask[inner] = l_u, l_s
+    return mask
+
+
+def _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
+    """(groups, normals) for the sectors of crease vertices of a mesh whose rules the
+    masks describe (all quads or all triangles, no semi-sharp edge left), else None."""
+    size = {"catmull_clark": 4, "loop": 3}.get(scheme)
+    if size is None or not mesh.all_size(size) or ((s > 0) & np.isfinite(s)).any():
+        return None
+    topo, P, fv = mesh.topology, mesh.points, mesh.fv
+    r = vertex_rules(mesh, s, boundary)
+    cc = np.nonzero(r.parent[fv] == CREASE)[0]  # corners of crease vertices
+    if cc.size == 0:
+        return None
+    G = len(reps)
+    grp = group[cc]
+    k = np.bincount(group, minlength=G)[grp]
+    i = rings.j[cc] - rings.j[reps[grp]]  # position inside the sector
+    e_out, e_in = fv[topo.nxt[cc]], fv[topo.prv[cc]]
+    first, last = i == 0, i == k - 1
+    along = _scatter(grp, np.where(last[:, None], P[e_in], 0.0), G) - _scatter(
+        grp, np.where(first[:, None], P[e_out], 0.0), G
+    )
+    w_c, w_e, w_k, w_f = (np.zeros(len(cc)) for _ in range(4))
+    ok = np.zeros(len(cc), dtype=bool)
+    for kk in np.unique(k):  # one small eigenproblem per sector size
+        mask = _crease_sector_mask(scheme, int(kk))
+        if mask is None:
+            continue
+        sel = k == kk
+        ok[sel] = True
+        w_c[sel] = np.where(first[sel], mask[0], 0.0)  # the centre once per sector
+        w_e[sel] = mask[1 + i[sel]]
+        w_k[sel] = np.where(last[sel], mask[1 + kk], 0.0)
+        if scheme == "catmull_clark":
+            w_f[sel] = mask[kk + 2 + i[sel]]
+    terms = (
+        w_c[:, None] * P[fv[cc]]
+        + w_e[:, None] * P[e_out]
+        + w_k[:, None] * P[e_in]
+        + w_f[:, None] * P[fv[topo.nxt[topo.nxt[cc]]]]
+    )
+    across = _scatter(grp, terms, G)
+    groups = np.unique(grp[ok])
+    return groups, _normalize(np.cross(along[groups], across[groups]))
 
 
 # ----------------------------------------------------------- entry points
@@ -975,7 +1080,7 @@ def subdivision_mesh(
     ready = limit_ready(mesh, scheme, boundary, max_bytes)
     positions = limit_positions(ready, scheme, boundary)[:V] if shape.limit else mesh.points
     sn, smask = smooth_limit_normals(ready, scheme, boundary)
-    verts, corner_index, normals = shade(mesh, positions, sn[:V], smask[:V], scheme)
+    verts, corner_index, normals = shade(mesh, positions, sn[:V], smask[:V], scheme, boundary)
     faces = mesh.triangles(corner_index)
     if len(verts) >= 2**31 - 1:
         raise SubdivisionError("subdiv.memory", "too many vertices for 32-bit indices")

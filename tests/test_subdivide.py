@@ -679,3 +679,60 @@ def test_any_open_grid_tessellates_cleanly(nx, ny, holes, scheme, boundary, limi
     assert np.isfinite(v).all() and np.isfinite(n).all()
     assert f.min() >= 0 and f.max() < len(v)
     assert np.allclose(np.linalg.norm(n, axis=1), 1.0)
+
+
+@pytest.mark.parametrize("levels", [0, 2])
+def test_regular_boundary_normal_is_the_b_spline_one(levels):
+    """On a regular boundary the limit surface is the bicubic B-spline whose outside row
+    is the phantom 2·row0 − row1: ∂u = (e_right − e_left)/2, ∂v = the (1,4,1)/6 filtered
+    difference of the first two rows."""
+    rng = np.random.default_rng(21)
+    pts, faces, idx = grid(4, 3, rng.normal(scale=0.4, size=(4, 5)))
+    shape = ir.Subdivision(
+        "catmull_clark", tuple(map(tuple, pts)), tuple(faces), boundary="smooth", limit=True
+    )
+    _, _, n = sd.subdivision_mesh(shape, levels)
+    w = np.array([1.0, 4.0, 1.0]) / 6
+    for c in (1, 2, 3):
+        row0, row1 = pts[idx[0, c - 1 : c + 2]], pts[idx[1, c - 1 : c + 2]]
+        du = (row0[2] - row0[0]) / 2
+        dv = w @ row1 - w @ row0
+        expect = np.cross(du, dv) / np.linalg.norm(np.cross(du, dv))
+        assert np.allclose(n[idx[0, c]], expect, atol=1e-10)
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+def test_crease_sector_normals_do_not_depend_on_the_level(scheme):
+    """A sharp belt round a (perturbed, once refined) cube: every belt vertex has two
+    sectors of two faces, and each sector's one-sided limit normal, from the crease
+    tangent and the sector's eigenvector mask, is the same at every level."""
+    rng = np.random.default_rng(4)
+    base = sd.ControlMesh.from_lists(
+        np.asarray(CUBE_POINTS) + 0.15 * rng.normal(size=(8, 3)), CUBE_FACES
+    )
+    m = sd.bilinear_once(base)
+    quads = m.fv.reshape(-1, 4)
+    # the belt: the points made on the four edges along y and the centres of the four
+    # faces around y (z = ±1 and x = ±1: faces 0, 1, 4, 5 of CUBE_FACES)
+    side = {0, 1, 4, 5}
+    vertical = [
+        e
+        for e, (a, b) in enumerate(base.topology.edges)
+        if (CUBE_POINTS[a][1] != CUBE_POINTS[b][1])
+    ]
+    ring = set((8 + f) for f in side) | set(8 + 6 + e for e in vertical)
+    edges = m.topology.edges
+    creases = tuple((int(a), int(b), np.inf) for a, b in edges if a in ring and b in ring)
+    assert len(creases) == 8
+    faces = tuple(map(tuple, quads))
+    if scheme == "loop":
+        faces = tuple(t for q in faces for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])))
+    shape = ir.Subdivision(scheme, tuple(map(tuple, m.points)), faces, limit=True, creases=creases)
+    v1, _, n1 = sd.subdivision_mesh(shape, 1)
+    v3, _, n3 = sd.subdivision_mesh(shape, 3)
+    for vertex in sorted(ring):
+        ones = n1[np.all(np.isclose(v1, v1[vertex], atol=1e-12), axis=1)]
+        threes = n3[np.all(np.isclose(v3, v3[vertex], atol=1e-12), axis=1)]
+        assert len(ones) == len(threes) == 2
+        _, dist = nearest(ones, threes)
+        assert dist.max() < 1e-9
