@@ -14,9 +14,12 @@ Creases follow DeRose, Kass & Truong's uniform rule (OpenSubdiv's default, not i
 Chaikin variant): both halves of an edge of sharpness s get s − 1, an edge with
 0 < s < 1 blends the smooth and sharp edge rules, and a vertex whose rule changes during
 a step blends the two rules by the mean sharpness of the edges that stop being sharp.
-Normals: smooth vertices take the exact limit normal from the tangent masks; a vertex on
-infinitely sharp edges is split into one output vertex per sector between them, with the
-sector's angle-weighted face normal, made perpendicular to the crease's limit tangent.
+Limits: smooth vertices use the closed-form limit and tangent masks; darts (one sharp
+edge) and the sectors of crease and boundary vertices use masks read off the
+eigenvectors of their ring's subdivision matrix (one small eigenproblem per valence or
+sector size), so limit points and normals are exact there too. A vertex on infinitely
+sharp edges is split into one output vertex per sector, each with its one-sided normal;
+corners and one-face Catmull–Clark sectors take the angle-weighted face normal.
 
 Vertex numbering is stable: a refined mesh keeps the parent's vertices first (then face
 points, then edge points), so a control vertex keeps its index at every level. Limit
