@@ -539,12 +539,19 @@ def frame_jobs(
 def cmd_render(args: argparse.Namespace) -> int:
     from runtime import image  # numpy + OpenImageIO: only now
 
+    to_stdout = args.output == "-"  # POV-Ray's +O-: the image goes to standard output
+    if to_stdout:
+        if args.frames is not None:
+            raise UsageError("an animation cannot go to standard output")
+        args.output = None
     out = output_path(args.file, args.output, args.output_type or ".png")
+    if to_stdout:
+        out = Path("-" + out.suffix)  # only the format matters
     try:
         image.output_format(out, args.bits)
     except image.ImageFormatError as exc:
         raise UsageError(str(exc)) from None
-    if not out.parent.is_dir():
+    if not to_stdout and not out.parent.is_dir():
         raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
     if args.frames is not None and args.file.lower().endswith(".json"):
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
@@ -554,6 +561,20 @@ def cmd_render(args: argparse.Namespace) -> int:
         if status:
             return status
     return 0
+
+
+def _save_to_stdout(suffix: str, pixels, settings, bits: int | None) -> None:
+    """OpenImageIO writes files, so the image is written to a scratch file and copied."""
+    import tempfile
+
+    from runtime import image
+
+    with tempfile.TemporaryDirectory(prefix="strala-") as tmp:
+        path = Path(tmp) / ("image" + suffix)
+        image.save_render(path, pixels, settings, bits)
+        sys.stdout.flush()
+        sys.stdout.buffer.write(path.read_bytes())
+        sys.stdout.buffer.flush()
 
 
 @contextmanager
@@ -620,13 +641,17 @@ def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -
             print_diagnostics([exc.diagnostic], sys.stderr, summary=False)
             return 1
     try:
-        image.save_render(out, pixels, scene.settings, args.bits)
+        if out.stem == "-":
+            _save_to_stdout(out.suffix, pixels, scene.settings, args.bits)
+        else:
+            image.save_render(out, pixels, scene.settings, args.bits)
     except OSError as exc:
         print(f"strala: error: {exc}", file=sys.stderr)
         return 1
     if not args.quiet:
         took = time.perf_counter() - start
-        print(f"wrote {out} ({width}x{height}, {took:.2f} s)", file=sys.stderr)
+        where = "standard output" if out.stem == "-" else out
+        print(f"wrote {where} ({width}x{height}, {took:.2f} s)", file=sys.stderr)
     return 0
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import subprocess
 import sys
 from pathlib import Path
 
@@ -355,6 +356,26 @@ def test_formats_agree_png_is_srgb_of_exr_and_16_bit_refines_8(tmp_path):
 
 @needs_evaluator
 @needs_renderer
+def test_image_to_standard_output(tmp_path):
+    proc = subprocess.run(
+        [sys.executable, "-m", "runtime.cli", "render", str(EX3), "+W16", "+H12", "+O-"],
+        cwd=ROOT,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith(b"\x89PNG\r\n\x1a\n")
+    assert b"wrote standard output" in proc.stderr
+    (tmp_path / "o.png").write_bytes(proc.stdout)
+    from runtime.image import read_image
+
+    assert read_image(tmp_path / "o.png").shape == (12, 16, 3)
+    assert not (EXAMPLES / "-.png").exists()
+
+
+@needs_evaluator
+@needs_renderer
 def test_partial_render_leaves_the_rest_black(tmp_path):
     from runtime.image import read_image
 
@@ -372,7 +393,6 @@ def test_partial_render_leaves_the_rest_black(tmp_path):
 def test_interrupted_render_stops_at_once_and_leaves_no_file(tmp_path):
     import os
     import signal
-    import subprocess
     import time
 
     out = tmp_path / "big.png"
