@@ -510,6 +510,32 @@ def _gallery():
             "merge { sphere { <3.2, 4, 2.5>, 0.6 %s } box { <3, 3.6, 1.6>, <4.2, 4.2, 2.8> %s } }",
         )
     )
+    # Nested CSG with an inverse child: (box - sphere) & cylinder, then minus an inverse
+    # sphere (which keeps only what lies inside that sphere).
+    g = ir.Object(ir.Box((0.6, -0.9, -5.0), (2.2, 0.5, -3.8)))
+    h = ir.Object(ir.Sphere((1.4, 0.5, -5.0), 0.7))
+    k = ir.Object(ir.Cylinder((1.4, -1.0, -4.4), (1.4, 0.6, -4.4), 0.75))
+    m = ir.Object(ir.Sphere((1.4, -0.2, -4.4), 0.95), inverse=True)
+    inner = ir.Object(ir.CSG("difference", (g, h)))
+    both = ir.Object(ir.CSG("intersection", (inner, k)))
+    out.append(
+        (
+            [ir.Object(ir.CSG("difference", (both, m)))],
+            "difference { intersection { difference {"
+            " box { <0.6, -0.9, -5>, <2.2, 0.5, -3.8> %s }"
+            " sphere { <1.4, 0.5, -5>, 0.7 %s } }"
+            " cylinder { <1.4, -1, -4.4>, <1.4, 0.6, -4.4>, 0.75 %s } }"
+            " sphere { <1.4, -0.2, -4.4>, 0.95 inverse %s } }",
+        )
+    )
+    # A non-uniformly scaled, sheared torus.
+    st = ((0.6, 0.3, 0, 3.9), (0, 1.6, 0, 4.9), (0.2, 0, 0.9, 3.5), (0, 0, 0, 1))
+    out.append(
+        (
+            [ir.Object(ir.Torus(0.8, 0.3), transform=st)],
+            "torus { 0.8, 0.3 %s " + _pov_matrix(st) + " }",
+        )
+    )
     # Clipped to a shallow bowl (the part below y = 1.0): seen from above, its inside shows.
     clip = ir.Object(ir.Plane((0, 1, 0), 1.0))
     out.append(
