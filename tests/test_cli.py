@@ -356,6 +356,24 @@ def test_formats_agree_png_is_srgb_of_exr_and_16_bit_refines_8(tmp_path):
 
 @needs_evaluator
 @needs_renderer
+def test_animation_frames_see_the_clock(tmp_path):
+    from runtime.image import read_image
+
+    scene = tmp_path / "anim.pov"
+    scene.write_text(
+        "camera { location <0, 0, -5> look_at 0 }\n"
+        "light_source { <0, 5, -5> rgb 1 }\n"
+        "sphere { <-1.5 + 3*clock, 0, 0>, 0.5 pigment { rgb 1 } }\n"
+    )
+    assert cli.main(["render", str(scene), "+W24", "+H18", "+KFI1", "+KFF3", "-q"]) == 0
+    frames = [read_image(tmp_path / f"anim{i}.png") for i in (1, 2, 3)]
+    # the bright sphere moves from left to right: its centre of mass follows the clock
+    xs = [float((f.sum(axis=(0, 2)) * range(24)).sum() / f.sum()) for f in frames]
+    assert xs[0] < xs[1] < xs[2]
+
+
+@needs_evaluator
+@needs_renderer
 def test_image_to_standard_output(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "runtime.cli", "render", str(EX3), "+W16", "+H12", "+O-"],
