@@ -38,6 +38,15 @@ def test_povray_switches_become_strala_options():
     assert warnings == []
 
 
+def test_the_seeds_own_command_line_works():
+    # NOTES §5: "povray +IEx3.pov +X +D +W512 +H512"
+    argv = ["+IEx3.pov", "+X", "+D", "+W512", "+H512"]
+    assert cli._looks_like_render(argv)
+    args = cli.build_parser().parse_args(["render", *_translate(*argv)[0]])
+    assert (args.file, args.width, args.height, args.aa) == ("Ex3.pov", 512, 512, None)
+    assert cli.output_path(args.file, args.output, ".png") == Path("Ex3.png")
+
+
 def test_display_switches_are_ignored_and_unknown_ones_warned():
     out, warnings = _translate("-D", "+D", "-V", "+V", "-P", "+GA", "+Q9", "scene.pov")
     assert out == ["scene.pov"]
