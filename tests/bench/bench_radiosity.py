@@ -15,11 +15,14 @@ Part 2 (`--cornell SIZE`) runs the whole pipeline on the shared Cornell box refe
 through the tracer's primary hits (one ray per pixel centre, no anti-aliasing) and reports
 the RMSE against the Mitsuba reference (all pixels and the interior mask).
 
-Measured on this 2-core machine (radiosity seconds; display adds ~0.5 s):
-    patch 1.0, 2 rounds:  957 patches,  3.7 s, RMSE 0.0120 (interior 0.0097)
-    patch 0.7, 2 rounds: 1602 patches,  7.4 s, RMSE 0.0093 (interior 0.0066)
-    patch 0.5, 2 rounds: 2590 patches, 16.8 s, RMSE 0.0078 (interior 0.0050)
-    patch 0.4, 2 rounds: 3736 patches, 39.4 s, RMSE 0.0070 (interior 0.0040)
+Measured on this 2-core machine while others used it (load average 4-5), radiosity
+seconds (display adds ~0.5 s), one ray per pixel centre:
+    patch 1.0, 2 rounds:  966 patches,  3.3 s, RMSE 0.0125 (interior 0.0104)
+    patch 0.7, 2 rounds: 1620 patches,  7.6 s, RMSE 0.0090 (interior 0.0063)
+    patch 0.5, 2 rounds: 2599 patches, 19.6 s, RMSE 0.0081 (interior 0.0055)
+    patch 0.4, 2 rounds: 3748 patches, 32.3 s, RMSE 0.0070 (interior 0.0037)
+End to end (`strala render cornell.pov -W 256 -H 256 --aa`, default options: patch =
+extent/14, 2 rounds): RMSE 0.0068 (interior 0.0057), 16 s wall under the same load.
 (POV-Ray 3.7 from the reference README: 0.012 in 7.8 s, 0.0073 in 67 s.)
 """
 
