@@ -1,4 +1,4 @@
-"""The `strala` command: render, check and compile scenes.
+"""The `strala` command: render, check, compile and format scenes, and the language server.
 
 `check` must start fast (well under 0.3 s) and must not import numpy, Embree or
 OpenImageIO, so this module imports only the standard library and `lang` at the top; the
@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -36,7 +37,8 @@ class UsageError(Exception):
 # ------------------------------------------------------------ POV-Ray options
 # Options that take a separate value: the token after them is never translated.
 _VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
-_VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height"}
+_VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height", "--frames"}
+_VALUE_OPTIONS |= {"--indent", "--output-type"}
 # Display, verbosity, pause and statistics switches change nothing in a file render.
 _IGNORED = ("D", "V", "P", "X", "GA", "GD", "GF", "GR", "GS", "GW", "GI", "GP", "UA", "UD")
 _FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
@@ -113,8 +115,7 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
             continue
         sign, body = tok[0], tok[1:]
         if sign == "-" and tok[:2] in _OWN_SHORT:
-            out.append(tok)  # strala's own short option (-W512, -o…): argparse judges it
-            after_value_option = tok in _VALUE_OPTIONS
+            out.append(tok)  # strala's own short option (-W512, -q…): argparse judges it
             continue
         upper = body.upper()
         head, rest = upper[:1], body[1:]
@@ -167,8 +168,11 @@ def resolve_region(
     """POV-Ray's partial render (+SC +EC +SR +ER) → (left, top, right, bottom) pixels,
     right/bottom exclusive. A value in [0, 1] is a fraction of the size, above 1 a 1-based
     pixel number (both ends inclusive, as POV-Ray counts)."""
-    if all(v is None for v in (start_col, end_col, start_row, end_row)):
+    ends = (start_col, end_col, start_row, end_row)
+    if all(v is None for v in ends):
         return None
+    if any(v is not None and not math.isfinite(v) for v in ends):
+        raise UsageError("region bounds must be finite numbers")
 
     def start(v, size):
         if v is None:

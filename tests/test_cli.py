@@ -124,12 +124,14 @@ def test_partial_render_region_counts_like_povray():
     assert cli.resolve_region(100, 80, None, None, 0.5, None) == (0, 40, 100, 80)
     with pytest.raises(cli.UsageError, match="no pixels"):
         cli.resolve_region(100, 80, 0.8, 0.2, None, None)
+    with pytest.raises(cli.UsageError, match="finite"):
+        cli.resolve_region(100, 80, float("nan"), None, None, None)
 
 
 @given(
     st.integers(1, 400),
     st.integers(1, 400),
-    st.tuples(*[st.none() | st.floats(0, 1) | st.integers(2, 500).map(float)] * 4),
+    st.tuples(*[st.none() | st.floats(0, 1) | st.integers(2, 500).map(float) | st.floats()] * 4),
 )
 def test_region_is_inside_the_image_or_refused(width, height, ends):
     try:
