@@ -214,3 +214,15 @@ def test_options_from_the_scene():
     assert (o.error_bound, o.tolerance, o.method, o.brightness) == (0.5, 1e-6, "direct", 2.0)
     assert o.max_patches == system.Options.max_patches  # the IR's default is not a request
     assert system.Options.from_ir(ir.Radiosity(max_patches=500)).max_patches == 500
+
+
+def test_memory_bounded_path_matches_the_dense_one():
+    """With no room for a dense matrix the pipeline computes form-factor rows on demand
+    (LRU-cached within the budget) and solves by progressive refinement: same furnace."""
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex(emission=0.05))
+    dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
+    r = _solve(_scene((room,), [dark]), dense_bytes=0, tolerance=1e-6)
+    assert r.solution.method == "progressive"
+    inside = np.einsum("nc,nc->n", r.patches.normal, 1.0 - r.patches.centroid) > 0
+    assert np.allclose(r.B[inside], 0.1, rtol=0.01)
+    assert np.allclose(r.G[inside], 0.1, rtol=0.01)

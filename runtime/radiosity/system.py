@@ -65,6 +65,7 @@ class Options:
     far_ratio: float = 4.0
     vis_samples: int = 4  # segments per patch pair
     symmetric: bool = True  # integrate each pair once, the other way by reciprocity
+    dense_bytes: int = solver.DENSE_BYTES  # above: rows on demand, progressive refinement
     max_rounds: int = 2  # adaptive refinement rounds after the first solve
     flat: bool = False  # flat instead of Gouraud display
     vertex_gather: bool = False  # Gouraud from light gathered at the vertices (else averages)
@@ -691,7 +692,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         n = len(patches)
         pts, beta = _open_points(prepared, patches, opts.vis_samples, rng, sm.extent, hollow)
         vis = PatchVisibility(patches.verts, extra)
-        if solver.fits_dense(n):
+        if solver.fits_dense(n, opts.dense_bytes):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
                              far_ratio=opts.far_ratio, visible=vis, symmetric=opts.symmetric,
                              vis_samples=opts.vis_samples, seed=opts.seed + round_,
@@ -710,7 +711,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
                                  visible=vis, vis_points=(pts[idx], pts))  # fmt: skip
                 return f * (1.0 - beta)[None, :]
 
-            rows = solver.RowCache(provider, n)
+            rows = solver.RowCache(provider, n, budget=max(opts.dense_bytes // 2, 8 * n))
 
         ff_s += time.perf_counter() - t0
         t0 = time.perf_counter()
