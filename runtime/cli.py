@@ -750,6 +750,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("\nstrala: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # `strala check … | head`: the reader left; say nothing more and don't fail at exit
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141  # what a shell reports for SIGPIPE
     except Exception as exc:  # the last line of defence: never a bare traceback
         print(f"internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
         if args.debug:

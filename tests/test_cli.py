@@ -275,6 +275,22 @@ def test_example_is_formatted():
 
 # ------------------------------------------------------------ check (needs lang)
 @needs_evaluator
+def test_check_into_a_closed_pipe_is_quiet(tmp_path):
+    bad = tmp_path / "bad.pov"
+    bad.write_text("sphere { 0, 1 }\n" + "}\n" * 60)
+    # more output than a pipe buffers, so the writer meets the closed end
+    cmd = [sys.executable, "-m", "runtime.cli", "check", *[str(bad)] * 40]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    assert proc.stdout.readline().startswith(str(bad).encode())
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141
+    assert "Traceback" not in err and "internal error" not in err
+
+
+@needs_evaluator
 def test_check_json_and_sarif(tmp_path):
     bad = tmp_path / "bad.pov"
     bad.write_text("sphere { <0,0,0>, 1 }\n}\n")
