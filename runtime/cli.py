@@ -5,7 +5,8 @@ OpenImageIO, so this module imports only the standard library and `lang` at the 
 heavy `runtime` modules are imported inside the commands that render.
 
 Exit codes: 0 ok, 1 the scene (or an input file) has errors, 2 bad command line,
-3 internal error (one line; the traceback only with --debug), 130 interrupted.
+3 internal error (one line; the traceback only with --debug), 130 interrupted (^C),
+141 the reader of standard output went away (`strala check … | head`).
 """
 
 from __future__ import annotations
