@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -226,3 +228,16 @@ def test_memory_bounded_path_matches_the_dense_one():
     inside = np.einsum("nc,nc->n", r.patches.normal, 1.0 - r.patches.centroid) > 0
     assert np.allclose(r.B[inside], 0.1, rtol=0.01)
     assert np.allclose(r.G[inside], 0.1, rtol=0.01)
+
+
+def test_brightness_and_gray_threshold_shape_the_gathered_light():
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex((1.0, 0.5, 0.25), emission=0.05))
+    dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
+    r = _solve(_scene((room,), [dark]))
+    pts, view = np.array([[1.0, 0.0, 1.0]]), np.array([[0.0, -1.0, 0.0]])
+    g = r.gathered(0, pts, view)[0]
+    assert g[0] > g[1] > g[2] > 0
+    opts = dataclasses.replace(r.options, gray_threshold=1.0, brightness=2.0)
+    grey = dataclasses.replace(r, options=opts, _field=None)
+    gg = grey.gathered(0, pts, view)[0]
+    assert np.allclose(gg, 2.0 * (g @ [0.2126, 0.7152, 0.0722]))

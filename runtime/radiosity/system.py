@@ -60,6 +60,7 @@ class Options:
     tolerance: float = 1e-4
     method: str = "gauss_seidel"
     brightness: float = 1.0
+    gray_threshold: float = 0.0  # POV-Ray's: desaturate the gathered light by this much
     order: int = 3  # Gauss points per direction on each source patch (near pairs)
     far_order: int = 1  # … for pairs more than far_ratio × their radii apart
     far_ratio: float = 4.0
@@ -84,6 +85,7 @@ class Options:
             tolerance=r.tolerance,
             method=r.method,
             brightness=r.brightness,
+            gray_threshold=r.gray_threshold,
             **extra,
         )
 
@@ -150,6 +152,10 @@ class RadiosityResult:
             out[ok] = self.field.lookup(element[ok], points[ok])
         # The side facing the viewer was not meshed: nothing can light it.
         out[~ok] = 0.0
+        t = self.options.gray_threshold
+        if t > 0:
+            grey = luminance(out)[:, None]
+            out = (1 - t) * out + t * grey
         return out * self.options.brightness
 
 
