@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from runtime.radiosity.formfactor import polygon_normal_area, stratified_points
+from runtime.radiosity.formfactor import polygon_centroid, polygon_normal_area, stratified_points
 from runtime.radiosity.gouraud import VertexField, refine_mask
 from runtime.radiosity.patches import Mesher, ear_clip
 
@@ -188,3 +188,11 @@ def test_t_vertices_are_conformed_so_the_field_has_no_seam():
     assert np.allclose(f.lookup(el_l, left), f.lookup(el_r, right), atol=1e-9)
     seam = VertexField(p, vals, conform=False)
     assert not np.allclose(seam.lookup(el_l, left), seam.lookup(el_r, right), atol=1e-3)
+
+
+def test_centroids_ignore_padding_vertices():
+    tri = np.array([[[0, 0, 0], [3, 0, 0], [0, 3, 0], [0, 3, 0]]], float)
+    assert np.allclose(polygon_centroid(tri), [[1, 1, 0]])
+    m = Mesher(10.0)
+    m.triangle([0, 0, 0], [3, 0, 0], [0, 3, 0], rho=0.5)
+    assert np.allclose(m.patches().centroid, [[1, 1, 0]])

@@ -72,6 +72,18 @@ def polygon_normal_area(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _normalize(twice), area
 
 
+def polygon_centroid(verts: np.ndarray) -> np.ndarray:
+    """Area centroids (N,3) of convex polygons (N,K,3); repeated (padding) vertices add
+    nothing, unlike a plain vertex mean."""
+    a = verts[:, :1]
+    b, c = verts[:, 1:-1], verts[:, 2:]
+    w = np.linalg.norm(np.cross(b - a, c - a), axis=-1)  # twice the fan triangles' areas
+    cen = (a + b + c) / 3.0
+    total = w.sum(axis=1, keepdims=True)
+    out = (w[..., None] * cen).sum(axis=1) / np.maximum(total, 1e-300)
+    return np.where(total > 0, out, verts.mean(axis=1))
+
+
 def clip_to_hemisphere(rel: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """Clip polygons to the half-space above the receiver's tangent plane.
 
@@ -313,8 +325,8 @@ def form_factors(
     rules = [polygon_quadrature(src, order)]
     if far_order is not None and far_order != order:
         rules.append(polygon_quadrature(src, far_order))
-        c_src, r_src = src.mean(axis=1), _radius(src)
-        c_dst, r_dst = dst.mean(axis=1), _radius(dst)
+        c_src, r_src = polygon_centroid(src), _radius(src)
+        c_dst, r_dst = polygon_centroid(dst), _radius(dst)
     q = rules[0][0].shape[1]
     out = np.zeros((ns, nd))
     # Largest temporaries: a few (pairs·q, kd) float64 arrays.
@@ -361,7 +373,7 @@ def _run_chunks(fn, starts, workers: int | None) -> None:
 
 
 def _radius(verts: np.ndarray) -> np.ndarray:
-    c = verts.mean(axis=1, keepdims=True)
+    c = polygon_centroid(verts)[:, None]
     return np.linalg.norm(verts - c, axis=2).max(axis=1)
 
 

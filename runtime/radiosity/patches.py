@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from runtime.radiosity.formfactor import polygon_normal_area
+from runtime.radiosity.formfactor import polygon_centroid, polygon_normal_area
 
 QUAD, TRI, SPHERE = 0, 1, 2
 
@@ -317,7 +317,7 @@ class Patches:
             self.verts,
         )
         self.normal, self.area = polygon_normal_area(self.verts)
-        self.centroid = self.verts.mean(axis=1)
+        self.centroid = polygon_centroid(self.verts)
         self.reflectance = self.reflectance_el[self.element]
         self.emission = self.emission_el[self.element]
         self.group = self.group_el[self.element]
