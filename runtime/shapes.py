@@ -96,6 +96,11 @@ class SpherePrim:
         q = p - self.c
         return _dot(q, q) < self.r * self.r
 
+    def outside(self, p):
+        # POV-Ray: a point on the sphere is neither inside it nor inside its inverse.
+        q = p - self.c
+        return _dot(q, q) > self.r * self.r
+
 
 # ---------------------------------------------------------------------------- plane
 class PlanePrim:
@@ -128,7 +133,11 @@ class PlanePrim:
         return np.broadcast_to(self.n, p.shape).copy()
 
     def inside(self, p):
-        return p @ self.n < self.dist
+        return p @ self.n - self.dist < tol.INSIDE_EPS
+
+    def outside(self, p):
+        # The inverse of a plane is the flipped plane: points on it count for both.
+        return p @ self.n - self.dist > -tol.INSIDE_EPS
 
 
 # ------------------------------------------------------------------------------ box
@@ -177,7 +186,11 @@ class BoxPrim:
         return n
 
     def inside(self, p):
-        return np.all((p > self.lo) & (p < self.hi), axis=1)
+        # POV-Ray: the box's surface belongs to the box, not to its inverse.
+        return np.all((p >= self.lo) & (p <= self.hi), axis=1)
+
+    def outside(self, p):
+        return ~self.inside(p)
 
 
 # -------------------------------------------------------------------------- polygon
@@ -273,6 +286,10 @@ class PolygonPrim:
     def inside(self, p):
         return np.zeros(len(p), dtype=bool)
 
+    def outside(self, p):
+        # Flat shapes have no inside, and neither has their inverse (as in POV-Ray).
+        return np.zeros(len(p), dtype=bool)
+
 
 # ------------------------------------------------------------------------- triangle
 class TrianglePrim:
@@ -304,6 +321,10 @@ class TrianglePrim:
         return (1 - u - v)[:, None] * self.vn[0] + u[:, None] * self.vn[1] + v[:, None] * self.vn[2]
 
     def inside(self, p):
+        return np.zeros(len(p), dtype=bool)
+
+    def outside(self, p):
+        # Flat shapes have no inside, and neither has their inverse (as in POV-Ray).
         return np.zeros(len(p), dtype=bool)
 
 
@@ -373,6 +394,9 @@ class DiscPrim:
     def inside(self, p):
         # POV-Ray's disc is "inside" on the side its normal points away from.
         return (p - self.c) @ self.n < 0
+
+    def outside(self, p):
+        return ~self.inside(p)
 
 
 # ----------------------------------------------------------------- cylinder and cone
@@ -458,9 +482,15 @@ class ConePrim:
         return n @ self.frame_inv[:3, :3]
 
     def inside(self, p):
+        # POV-Ray: a closed cylinder / cone keeps its surface outside, an open one inside.
         q = tf.apply_points(self.frame_inv, p)
         rho = self.r0 + self.k * q[:, 2]
-        return (q[:, 2] > 0) & (q[:, 2] < 1) & (q[:, 0] ** 2 + q[:, 1] ** 2 < rho * rho)
+        e = tol.INSIDE_EPS if self.open else -tol.INSIDE_EPS
+        w2 = q[:, 0] ** 2 + q[:, 1] ** 2
+        return (q[:, 2] >= -e) & (q[:, 2] <= 1 + e) & (w2 <= rho * rho + e)
+
+    def outside(self, p):
+        return ~self.inside(p)
 
 
 # ---------------------------------------------------------------------------- torus
@@ -536,8 +566,12 @@ class TorusPrim:
         return n
 
     def inside(self, p):
-        s = np.sum(p * p, axis=1) + self.R**2 - self.r**2
-        return s * s - 4 * self.R**2 * (p[:, 0] ** 2 + p[:, 2] ** 2) < 0
+        # Distance to the core circle, surface included (as POV-Ray).
+        rho = np.hypot(p[:, 0], p[:, 2])
+        return p[:, 1] ** 2 + (rho - self.R) ** 2 <= self.r**2
+
+    def outside(self, p):
+        return ~self.inside(p)
 
 
 def gather(prims: list, which: np.ndarray):

@@ -61,3 +61,7 @@ EMBREE_ROUNDS: int = 3
 # Automatic chord-error bound for NURBS / subdivision tessellation: this many pixels at the
 # surface's nearest distance from the eye (half a pixel: facets stay below visibility).
 AUTO_TESSELLATION_PIXELS: float = 0.5
+
+# Inside tests (CSG, clipped_by) on planes and cylinders allow this much, as POV-Ray's
+# EPSILON does, so a point computed on the surface is classified like POV-Ray classifies it.
+INSIDE_EPS: float = 1e-10

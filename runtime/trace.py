@@ -115,9 +115,13 @@ class Leaf:
             np.full(shape, self.inverse, dtype=bool),
         )
 
-    def inside(self, p: np.ndarray) -> np.ndarray:
+    def inside(self, p: np.ndarray, inverted: bool = False) -> np.ndarray:
+        """POV-Ray's inside test, of the inverse when `inverted` (a subtracted CSG child):
+        each shape says itself where its surface belongs, so this is not simply `not`."""
         po = p if self.identity else tf.apply_points(self.m_inv, p)
-        return self.prim.inside(po) ^ self.inverse
+        if self.inverse ^ inverted:
+            return self.prim.outside(po)
+        return self.prim.inside(po)
 
     def normals(self, o: np.ndarray, d: np.ndarray, t: np.ndarray, face: np.ndarray) -> np.ndarray:
         """Unit world normals at o + t*d (before any flip)."""
@@ -178,30 +182,26 @@ class CsgNode:
             for j, other in enumerate(self.children):
                 if j == i:
                     continue
-                ins = other.inside(p)
-                if self.op == "intersection":
-                    ok &= ins
-                elif self.op == "merge":
-                    ok &= ~ins
-                elif self.op == "difference":
-                    if i == 0:
-                        ok &= ~ins
-                    elif j == 0:
-                        ok &= ins
-                    else:
-                        ok &= ~ins
+                if self.op == "merge":
+                    ok &= ~other.inside(p)
+                else:
+                    # intersection; a difference is the intersection with the inverses of
+                    # the subtracted children (as POV-Ray builds it).
+                    ok &= other.inside(p, inverted=self.op == "difference" and j > 0)
             keep[rows, k] = ok
         return keep
 
-    def inside(self, p: np.ndarray) -> np.ndarray:
-        ins = [c.inside(p) for c in self.children]
-        if self.op == "intersection":
-            r = np.logical_and.reduce(ins)
-        elif self.op == "difference":
-            r = ins[0] & ~np.logical_or.reduce(ins[1:]) if len(ins) > 1 else ins[0]
-        else:
-            r = np.logical_or.reduce(ins)
-        return r ^ self.inverse
+    def inside(self, p: np.ndarray, inverted: bool = False) -> np.ndarray:
+        """Inside the whole, or (inverted) inside its inverse: by De Morgan, the inverse of
+        a union is the intersection of the inverted children and vice versa (POV-Ray's
+        Invert), down to the leaves, which know where their surface belongs."""
+        inv = self.inverse ^ inverted
+        flags = [self.op == "difference" and j > 0 for j in range(len(self.children))]
+        ins = [c.inside(p, f ^ inv) for c, f in zip(self.children, flags, strict=True)]
+        all_of = self.op in ("intersection", "difference")
+        if inv:
+            all_of = not all_of
+        return np.logical_and.reduce(ins) if all_of else np.logical_or.reduce(ins)
 
 
 class ClipNode:
@@ -231,8 +231,11 @@ class ClipNode:
             c.t[rows[~ok], k] = np.inf
         return c
 
-    def inside(self, p: np.ndarray) -> np.ndarray:
-        return self.inner.inside(p) & np.logical_and.reduce([c.inside(p) for c in self.clips])
+    def inside(self, p: np.ndarray, inverted: bool = False) -> np.ndarray:
+        clipped = np.logical_and.reduce([c.inside(p) for c in self.clips])
+        if inverted:
+            return self.inner.inside(p, True) | ~clipped
+        return self.inner.inside(p) & clipped
 
 
 # --------------------------------------------------------------------------- tracer
