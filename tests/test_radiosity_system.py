@@ -111,15 +111,23 @@ def test_cache_is_viewer_independent(tmp_path):
     assert system.content_key(a, system.Options(patch_size=0.5)) != system.content_key(a, opts)
 
 
-def test_plane_is_clipped_to_the_scene():
+def test_plane_is_clipped_to_the_scene_and_graded():
+    """An infinite ground plane becomes plane_scale × the scene's box, meshed finely under
+    the scene and coarser with the distance (patch edge ∝ distance), on its lit side only."""
     ground = ir.Object(ir.Plane((0.0, 1.0, 0.0), -1.0), texture=_tex())
     ball = ir.Object(ir.Sphere((0.0, 0.0, 0.0), 1.0), texture=_tex())
-    r = _solve(_scene((ground, ball), [ir.Light((0.0, 10.0, 0.0))]), patch_size=1.0)
+    r = _solve(_scene((ground, ball), [ir.Light((0.0, 10.0, 0.0))]), patch_size=0.25)
     on_plane = r.patches.surface == 0
     c = r.patches.centroid[on_plane]
     assert np.allclose(c[:, 1], -1.0)
-    assert np.abs(c[:, [0, 2]]).max() < 3.0  # bounds of the sphere, plus 10 %, not infinity
+    reach = np.abs(c[:, [0, 2]]).max()
+    assert 6.0 < reach < 8.0  # 8 × the unit sphere's box (half-width 8), not infinity
     assert np.allclose(r.patches.normal[on_plane], [0, 1, 0])  # only the side that sees
+    edge = r.patches.edge_length()[on_plane]
+    dist = np.linalg.norm(c[:, [0, 2]], axis=1)
+    assert edge[dist < 1.0].max() <= 0.25 + 1e-9
+    assert edge[dist > 5.0].min() > 0.5
+    assert on_plane.sum() < 1000  # uniform 0.25 patches would be 4096
     assert any("clipped" in w for w in r.warnings)
 
 

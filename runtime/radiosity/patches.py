@@ -105,14 +105,16 @@ class Mesher:
 
     # ---------------------------------------------------------------- surfaces
     def parallelogram(
-        self, p0, eu, ev, *, rho, emission=0.0, surface=-1, sides=(False,)
+        self, p0, eu, ev, *, rho, emission=0.0, surface=-1, sides=(False,), cell=None
     ) -> tuple[int, int]:
         """The parallelogram p0 + u·eu + v·ev, cut into a grid of nu×nv cells ≤ the patch
-        size (returned; element j·nu + i of each side, sides in the order given).
+        size, or `cell` if larger (returned; element j·nu + i of each side, sides in the
+        order given).
         sides: for each side to mesh, whether it is the flipped one (normal −eu×ev)."""
         p0, eu, ev = (np.asarray(a, dtype=np.float64) for a in (p0, eu, ev))
-        nu = max(1, int(np.ceil(np.linalg.norm(eu) / self.size - 1e-9)))
-        nv = max(1, int(np.ceil(np.linalg.norm(ev) / self.size - 1e-9)))
+        cell = self.size if cell is None else max(float(cell), self.size)
+        nu = max(1, int(np.ceil(np.linalg.norm(eu) / cell - 1e-9)))
+        nv = max(1, int(np.ceil(np.linalg.norm(ev) / cell - 1e-9)))
         for flip in sides:
             g = self.new_group()
             for j in range(nv):
@@ -221,9 +223,9 @@ class Mesher:
                     group=g,
                 )
 
-    def patches(self, max_patches: int | None = None) -> Patches:
+    def patches(self, max_patches: int | None = None, grade=None) -> Patches:
         p = Patches(self.el)
-        p.refine_to(self.size, max_patches)
+        p.refine_to(self.size, max_patches, grade)
         return p
 
 
@@ -416,10 +418,17 @@ class Patches:
         e = np.roll(self.verts, -1, axis=1) - self.verts
         return np.linalg.norm(e, axis=2).max(axis=1)
 
-    def refine_to(self, size: float, max_patches: int | None = None) -> None:
-        """Uniformly split until every patch edge ≤ size (or the budget would be exceeded)."""
+    def refine_to(self, size: float, max_patches: int | None = None, grade=None) -> None:
+        """Split until every patch edge ≤ its target size (or the budget would be exceeded).
+        The target is `size`, or with `grade` = (lo, hi, scale) it grows with the distance d
+        from the box [lo, hi]: size·max(1, d/scale) (coarse far away, e.g. on planes)."""
         while True:
-            big = self.edge_length() > size * (1 + 1e-9)
+            target = np.full(len(self), size)
+            if grade is not None:
+                lo, hi, scale = grade
+                d = np.linalg.norm(self.centroid - np.clip(self.centroid, lo, hi), axis=1)
+                target = size * np.maximum(1.0, d / scale)
+            big = self.edge_length() > target * (1 + 1e-9)
             if not big.any():
                 return
             if max_patches is not None and len(self) + 3 * int(big.sum()) > max_patches:

@@ -70,6 +70,7 @@ class Options:
     max_rounds: int = 2  # adaptive refinement rounds after the first solve
     flat: bool = False  # flat instead of Gouraud display
     vertex_gather: bool = False  # Gouraud from light gathered at the vertices (else averages)
+    plane_scale: float = 8.0  # planes are clipped to the scene's box scaled by this
     seed: int = 0
 
     @staticmethod
@@ -331,7 +332,7 @@ class _SceneMesher:
         if recs:
             self.records[i] = recs
 
-    def _grid(self, i, recs, p0, eu, ev, rho, emis, solid=False) -> None:
+    def _grid(self, i, recs, p0, eu, ev, rho, emis, solid=False, cell=None) -> None:
         n = np.cross(eu, ev)
         n = n / np.linalg.norm(n)
         if solid:
@@ -343,7 +344,7 @@ class _SceneMesher:
             return
         first = len(self.mesher.el)
         nu, nv = self.mesher.parallelogram(
-            p0, eu, ev, rho=rho, emission=emis, surface=i, sides=sides
+            p0, eu, ev, rho=rho, emission=emis, surface=i, sides=sides, cell=cell
         )
         recs.append(_Record("grid", first, nu * nv, sides, p0=p0, eu=eu, ev=ev, nu=nu, nv=nv))
 
@@ -360,10 +361,13 @@ class _SceneMesher:
         p_obj = n_obj * shape.distance / float(n_obj @ n_obj)
         p = tf.apply_points(m, p_obj[None])[0]
         n = tf.apply_normals(tf.inverse(m), n_obj[None])[0]
-        # Clip the infinite plane to the scene's bounds (plus 10%): a parallelogram that
-        # covers the projection of the bounding box.
-        pad = 0.1 * (self.hi - self.lo) + 1e-9 * self.extent
-        lo, hi = self.lo - pad, self.hi + pad
+        # Clip the infinite plane to the scene's box scaled by plane_scale about its centre
+        # (a parallelogram covering the box's projection): far enough that the light an
+        # infinite floor or wall sends back is nearly all there; patches grow with the
+        # distance from the scene (see _compute), so this costs O(log plane_scale) patches.
+        half = 0.5 * self.opts.plane_scale * np.maximum(self.hi - self.lo, 1e-3 * self.extent)
+        mid = 0.5 * (self.lo + self.hi)
+        lo, hi = mid - half, mid + half
         a = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
         a /= np.linalg.norm(a)
         b = np.cross(n, a)
@@ -375,8 +379,12 @@ class _SceneMesher:
         if np.cross(eu, ev) @ n < 0:
             eu, ev = ev, eu
         rho, emis = self.material(obj, (p0 + 0.5 * (eu + ev))[None])
-        self._grid(i, recs, p0, eu, ev, rho, emis)
-        self.warn("infinite planes are clipped to the scene's bounds for radiosity")
+        # Coarse cells; the graded refinement splits those near the scene.
+        self._grid(i, recs, p0, eu, ev, rho, emis, cell=self.extent / 2)
+        self.warn(
+            f"infinite planes are clipped to {self.opts.plane_scale:g}× the scene's bounds "
+            "for radiosity"
+        )
 
 
 def _polygon_points(shape) -> np.ndarray:
@@ -408,6 +416,16 @@ def _meshable(prepared) -> list[int]:
     if tri is not None and len(getattr(tri, "leaf_of", ())):
         out += [int(i) for i in np.unique(tri.leaf_of)]
     return sorted(set(out))
+
+
+def _gathered(F, B, patches: Patches, D) -> np.ndarray:
+    """G = F B, the light each patch gathers from the others; without a dense F, from the
+    patch's own equation B = E + ρ (D + G) (exact where ρ > 0; 0 on black patches)."""
+    if F is not None:
+        return np.maximum(F @ B, 0.0)
+    rho = patches.reflectance
+    g = np.where(rho > 0, (B - patches.emission - rho * D) / np.maximum(rho, 1e-12), 0.0)
+    return np.maximum(g, 0.0)
 
 
 def _hollow_solids(prepared, sm: _SceneMesher) -> set[int]:
@@ -684,7 +702,9 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     stats: dict[str, float] = {}
     if len(sm.mesher.el) == 0:
         return _empty_result(sm, opts)
-    patches = sm.mesher.patches(opts.max_patches)
+    # Patch size grows with the distance from the finite objects' box (planes reach far).
+    grade = (sm.lo, sm.hi, sm.extent / 6)
+    patches = sm.mesher.patches(opts.max_patches, grade)
     _attach_triangle_geometry(sm)
     extra = _unmeshed_tracer(prepared, set(sm.records))
     hollow = _hollow_solids(prepared, sm)
@@ -733,8 +753,11 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
             f"residual {sol.residual:.2e}")  # fmt: skip
         if round_ == opts.max_rounds:
             break
-        field = VertexField(patches, sol.B)
-        mean = float((luminance(sol.B) * patches.area).sum() / patches.area.sum())
+        # Refine where the displayed quantity, the gathered light G, changes fast (not B:
+        # a checker pigment makes B jump at every check while G stays smooth).
+        g = _gathered(F, sol.B, patches, D)
+        field = VertexField(patches, g, weights=area, conform=False)
+        mean = float((luminance(g) * area).sum() / area.sum())
         mask = refine_mask(field, threshold_rel * max(mean, 1e-12), min_size)
         k = int(mask.sum())
         if k == 0 or n + 3 * k > opts.max_patches:
@@ -742,8 +765,8 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         patches.subdivide(mask)
     assert sol is not None
     B = sol.B
+    G = _gathered(F, B, patches, D)
     if F is not None:
-        G = F @ B
         # Light that leaves a patch and hits nothing escapes. Patches that see nothing at
         # all (buried under a box) are not openings, so only patches that see something
         # count.
@@ -752,7 +775,6 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         a = patches.area[seen]
         open_fraction = float(1.0 - (a * sums[seen]).sum() / a.sum()) if seen.any() else 1.0
     else:
-        G = (B - patches.emission) / np.maximum(patches.reflectance, 1e-12) - D
         open_fraction = 0.0
     G = np.maximum(G, 0.0)
     G_vertex = None
