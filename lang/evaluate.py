@@ -461,6 +461,7 @@ _CAMERA_KINDS = frozenset(
 _OBJECT_FLAGS = frozenset(
     "no_shadow no_reflection no_image no_radiosity hollow double_illuminate".split()
 )
+_INHERITED_FLAGS = ("no_shadow", "no_reflection", "no_image", "hollow", "double_illuminate")
 _IGNORED_OBJECT_ITEMS = frozenset(
     "sturm uv_mapping split_union cutaway_textures open inside_vector hierarchy".split()
 )
@@ -1657,6 +1658,7 @@ class Interpreter:
         parent: ir.Matrix = ir.IDENTITY,
         inherited: ir.Texture | None = None,
         interior: ir.Interior | None = None,
+        flags: dict[str, bool] | None = None,
     ) -> ir.Object:
         """Resolve an object: `parent` is the enclosing CSGs' transform (children store theirs
         relative to it); `inherited` is the nearest CSG texture, already in world space."""
@@ -1668,9 +1670,14 @@ class Interpreter:
         inter = obj.interior or interior or ir.Interior()
         full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
         shape = obj.shape
+        # no_shadow, hollow … on a CSG hold for every child (the runtime may flatten CSG)
+        merged = dict(flags or {})
+        for k in _INHERITED_FLAGS:
+            if obj.flags.get(k):
+                merged[k] = True
         if obj.children:
             kids = tuple(
-                self.to_ir(c, full, own or inherited, obj.interior or interior)
+                self.to_ir(c, full, own or inherited, obj.interior or interior, merged)
                 for c in obj.children
             )
             shape = ir.CSG(obj.keyword, kids)
@@ -1688,7 +1695,7 @@ class Interpreter:
                     mine = len(textures) - 1
                     faces = [mine if f < 0 else f for f in faces]
                 shape = replace(shape, textures=tuple(textures), face_textures=tuple(faces))
-        f = obj.flags
+        f = {**obj.flags, **merged}
         return ir.Object(
             shape=shape,
             transform=full,

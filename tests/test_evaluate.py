@@ -424,6 +424,13 @@ def test_csg_children_inherit_texture_and_compose_transforms():
     assert transforms.apply_point(c2.texture.pigment.transform, (0, 0, 0)) == (0.0, 3.0, 0.0)
 
 
+def test_csg_flags_reach_children():
+    (u,) = ok("union { sphere { 0, 1 } sphere { x, 1 inverse } no_shadow hollow }").scene.objects
+    a, b = u.shape.children
+    assert u.no_shadow and a.no_shadow and b.no_shadow and a.hollow and b.hollow
+    assert b.inverse and not a.inverse and not u.inverse
+
+
 def test_object_reference_default_and_layers():
     r = ok("""#default { finish { ambient 0.3 } }
 #declare S = sphere { 0, 1 }
