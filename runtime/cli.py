@@ -18,7 +18,7 @@ import os
 import sys
 import time
 from collections.abc import Iterable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, redirect_stdout
 from pathlib import Path
 from typing import TextIO
 
@@ -561,14 +561,18 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.frames is not None and args.file.lower().endswith(".json"):
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
 
+    stdout = sys.stdout
     for target, clock, label in frame_jobs(out, args.clock, args.frames):
-        status = _render_one(args, target, clock, label)
+        # runtime modules print their warnings; on stderr they never mix into an image
+        # written to standard output
+        with redirect_stdout(sys.stderr):
+            status = _render_one(args, target, clock, label, stdout)
         if status:
             return status
     return 0
 
 
-def _save_to_stdout(suffix: str, pixels, settings, bits: int | None) -> None:
+def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | None) -> None:
     """OpenImageIO writes files, so the image is written to a scratch file and copied."""
     import tempfile
 
@@ -577,9 +581,9 @@ def _save_to_stdout(suffix: str, pixels, settings, bits: int | None) -> None:
     with tempfile.TemporaryDirectory(prefix="strala-") as tmp:
         path = Path(tmp) / ("image" + suffix)
         image.save_render(path, pixels, settings, bits)
-        sys.stdout.flush()
-        sys.stdout.buffer.write(path.read_bytes())
-        sys.stdout.buffer.flush()
+        stdout.flush()
+        stdout.buffer.write(path.read_bytes())
+        stdout.buffer.flush()
 
 
 @contextmanager
@@ -613,7 +617,9 @@ def _quick_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
-def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -> int:
+def _render_one(
+    args: argparse.Namespace, out: Path, clock: float, label: str, stdout: TextIO
+) -> int:
     from runtime import image
     from runtime.progress import Progress
 
@@ -647,7 +653,7 @@ def _render_one(args: argparse.Namespace, out: Path, clock: float, label: str) -
             return 1
     try:
         if out.stem == "-":
-            _save_to_stdout(out.suffix, pixels, scene.settings, args.bits)
+            _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
         else:
             image.save_render(out, pixels, scene.settings, args.bits)
     except OSError as exc:

@@ -421,6 +421,24 @@ def test_image_to_standard_output(tmp_path):
 
 @needs_evaluator
 @needs_renderer
+def test_runtime_prints_never_mix_into_an_image_on_stdout(monkeypatch, capsysbinary):
+    import numpy as np
+
+    import runtime.render
+
+    def chatty_render(scene, width, height, **kw):
+        print("strala: warning: something the runtime says")  # as runtime modules do
+        return np.zeros((height, width, 3), dtype=np.float32)
+
+    monkeypatch.setattr(runtime.render, "render_scene", chatty_render)
+    assert cli.main(["render", str(EX3), "-W", "8", "-H", "6", "-o", "-", "-q"]) == 0
+    out, err = capsysbinary.readouterr()
+    assert out.startswith(b"\x89PNG\r\n\x1a\n")
+    assert b"something the runtime says" in err
+
+
+@needs_evaluator
+@needs_renderer
 def test_partial_render_leaves_the_rest_black(tmp_path):
     from runtime.image import read_image
 
