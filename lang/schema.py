@@ -739,6 +739,9 @@ BLOCKS["subdivision"] = BlockSpec(
         "scheme levels boundary limit m chaikin midpoint loop bilinear sharp bezier closed".split()
     ),
 )
+SPLINE_TYPES = ("linear_spline", "quadratic_spline", "cubic_spline", "natural_spline")
+SPLINE_DOC = "A spline: `spline { [type] t0, <v0>, t1, <v1> … }`, called as `S(t)`."
+
 SUBDIVISION_SURFACE_SCHEMES = frozenset(("catmull_clark", "loop", "bilinear"))
 SUBDIVISION_CURVE_SCHEMES = frozenset(("midpoint", "chaikin", "four_point", "bezier"))
 
@@ -768,7 +771,7 @@ UNCOUNTED_LISTS = frozenset(("weights", "u_knots", "v_knots", "knots", "control_
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
-    """media photons warp density subsurface spline bump_map material_map interior_texture
+    """media photons warp density subsurface bump_map material_map interior_texture
     density_map pigment_pattern image_pattern function_image projected_through""".split()
 )
 

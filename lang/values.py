@@ -167,6 +167,15 @@ class MacroValue:
 
 
 @dataclass(frozen=True)
+class SplineValue:
+    """`spline { cubic_spline t0, <v0>, t1, <v1> … }`, entries sorted by parameter."""
+
+    spline_type: str  # linear_spline | quadratic_spline | cubic_spline | natural_spline
+    entries: tuple[tuple[float, Any], ...]
+    kind: str = "spline"
+
+
+@dataclass(frozen=True)
 class FunctionValue:
     """`function(a, b) { expression }`; params default to x, y, z as in POV-Ray."""
 

@@ -797,3 +797,48 @@ def test_extents_match_povray(tmp_path):
             w,
             g,
         )
+
+
+SPLINES = {
+    "L": "linear_spline 0, <0,0,0>, 1, <1,2,0>, 3, <2,0,1>, 4, <5,1,1>",
+    "C": "cubic_spline 0, <0,0,0>, 1, <1,2,0>, 3, <2,0,1>, 4, <5,1,1>, 6, <0,0,2>",
+    "N": "natural_spline 0, <0,0,0>, 1, <1,2,0>, 3, <2,0,1>, 4, <5,1,1>",
+    "Q": "quadratic_spline 0, <0,0,0>, 1, <1,2,0>, 3, <2,0,1>, 4, <5,1,1>",
+}
+
+
+def _spline_scene() -> str:
+    lines = [f"#declare {k} = spline {{ {v} }}" for k, v in SPLINES.items()]
+    lines.append("#for (T, -0.5, 6.5, 0.25)")
+    for k in SPLINES:
+        lines.append(f'#debug concat("{k} ", vstr(3, {k}(T), ",", 0, 9), "\\n")')
+    lines.append("#end")
+    return "\n".join(lines) + "\n"
+
+
+def test_spline_values():
+    r = ok(_spline_scene() + "#declare A = L(0.5);\n#declare B = C(2);")
+    assert tuple(r.symbols["A"]) == (0.5, 1.0, 0.0)
+    assert close(r.symbols["B"], (1.25, 1.125, 0.5), 1e-12)
+    (e,) = errors(run("#declare S = spline { cubic_spline 0, x, 1, y }"))
+    assert "at least 4" in e.message
+
+
+@pytest.mark.povray
+def test_splines_match_povray(tmp_path):
+    src = tmp_path / "s.pov"
+    src.write_text(_spline_scene())
+    pov = subprocess.run(
+        [shutil.which("povray") or "povray", f"+I{src}", "-D", "+W1", "+H1", "+O/dev/null", "-V"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=60,
+    ).stderr
+    want = [ln for ln in pov.splitlines() if ln[:2] in ("L ", "C ", "N ", "Q ")]
+    got = [d.message for d in compile_file(str(src)).diagnostics if d.code == "N0100"]
+    assert len(want) == len(got) > 100, pov[-800:]
+    for w, g in zip(want, got, strict=True):
+        wv = [float(v) for v in w[2:].split(",")]
+        gv = [float(v) for v in g[2:].split(",")]
+        assert w[0] == g[0] and close(wv, gv, 1e-6), (w, g)
