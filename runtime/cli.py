@@ -39,7 +39,7 @@ class UsageError(Exception):
 # Options that take a separate value: the token after them is never translated.
 _VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
 _VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height", "--frames"}
-_VALUE_OPTIONS |= {"--indent", "--output-type"}
+_VALUE_OPTIONS |= {"--indent", "--output-type", "--radiosity-cache"}
 # Display, verbosity, pause and statistics switches change nothing in a file render.
 _IGNORED = ("D", "V", "P", "X", "GA", "GD", "GF", "GR", "GS", "GW", "GI", "GP", "UA", "UD")
 _FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
@@ -251,6 +251,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=parse_frames,
         metavar="A..B",
         help="render frames A to B, clock 0 → 1 (images SCENE01.png …)",
+    )
+    r.add_argument(
+        "--radiosity-cache",
+        metavar="DIR",
+        help="keep radiosity solutions in DIR and reuse them (they do not depend on the camera)",
     )
     for flag in _REGION.values():  # partial render, POV-Ray's +SC +EC +SR +ER
         r.add_argument(flag, type=float, help=argparse.SUPPRESS)
@@ -572,6 +577,16 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _radiosity_options(args: argparse.Namespace) -> dict:
+    if args.radiosity_cache is None:
+        return {}
+    folder = Path(args.radiosity_cache)
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"--radiosity-cache {folder}: not a folder")
+    folder.mkdir(parents=True, exist_ok=True)
+    return {"radiosity_cache": folder}
+
+
 def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | None) -> None:
     """OpenImageIO writes files, so the image is written to a scratch file and copied."""
     import tempfile
@@ -646,6 +661,7 @@ def _render_one(
                 threads=args.threads,
                 progress=bar,
                 region=region,
+                **_radiosity_options(args),
             )
         except SceneError as exc:
             bar.close()

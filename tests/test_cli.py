@@ -437,6 +437,37 @@ def test_runtime_prints_never_mix_into_an_image_on_stdout(monkeypatch, capsysbin
     assert b"something the runtime says" in err
 
 
+RADIOSITY_SCENE = """#version 3.7;
+global_settings { assumed_gamma 1 radiosity { count 20 } }
+camera { location <0, 1, -5> look_at <0, 0.5, 0> }
+light_source { <2, 5, -3> rgb 1 }
+box { <-1, 0, -1>, <1, 1, 1> pigment { rgb <1, 0.2, 0.2> } }
+plane { y, 0 pigment { rgb 1 } }
+"""
+
+
+@needs_evaluator
+@needs_renderer
+def test_radiosity_cache_is_reused(tmp_path):
+    from runtime.image import read_image
+
+    scene = tmp_path / "rad.pov"
+    scene.write_text(RADIOSITY_SCENE)
+    cache = tmp_path / "cache"
+    for name in ("a.png", "b.png"):
+        argv = ["render", str(scene), "-W", "32", "-H", "24", "-o", str(tmp_path / name), "-q"]
+        assert cli.main([*argv, "--radiosity-cache", str(cache)]) == 0
+        if name == "a.png":
+            first = {p: p.stat().st_mtime_ns for p in cache.iterdir()}
+            assert first  # the solution was stored
+    assert {p: p.stat().st_mtime_ns for p in cache.iterdir()} == first  # and reused, not redone
+    assert (read_image(tmp_path / "a.png") == read_image(tmp_path / "b.png")).all()
+    not_a_folder = tmp_path / "file"
+    not_a_folder.write_text("")
+    argv = ["render", str(scene), "-W", "8", "-H", "6", "-o", str(tmp_path / "c.png"), "-q"]
+    assert cli.main([*argv, "--radiosity-cache", str(not_a_folder)]) == 2
+
+
 @needs_evaluator
 @needs_renderer
 def test_partial_render_leaves_the_rest_black(tmp_path):
