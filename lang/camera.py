@@ -3,8 +3,10 @@
 POV-Ray (3.5+ syntax) reads every item of the block first and then, in this order: sets the
 direction's length from `angle` (|direction| = |right| / 2 / tan(angle/2)), re-aims the camera
 for `look_at` (direction toward the point with its length kept, right = sky × direction with
-its length and handedness kept, up = direction × right with its length kept), and finally
-applies the block's transformations to every vector. `camera { Declared … }` starts from a
+its length and handedness kept, up = direction × right with its length kept), scales an
+orthographic camera's right and up to the perspective view's area at the look_at distance
+(unless right/up were given without an angle), and finally applies the block's
+transformations to every vector. `camera { Declared … }` starts from a
 declared camera's final state.
 """
 
@@ -58,6 +60,8 @@ class CameraBuilder:
     look_at_point: Vec3 = (0.0, 0.0, 1.0)
     had_look_at: bool = False
     had_angle: bool = False
+    had_right: bool = False
+    had_up: bool = False
     transform: Matrix = IDENTITY
     warnings: list[str] = field(default_factory=list)
 
@@ -65,6 +69,8 @@ class CameraBuilder:
         c = self.camera
         if name in ("location", "direction", "right", "up", "sky", "focal_point"):
             self.camera = replace(c, **{name: value})
+            self.had_right |= name == "right"
+            self.had_up |= name == "up"
         elif name == "look_at":
             self.look_at_point = value  # type: ignore[assignment]
             self.had_look_at = True
@@ -101,16 +107,9 @@ class CameraBuilder:
     def build(self) -> Camera:
         c = self.camera
         direction, right, up = c.direction, c.right, c.up
-        if self.had_angle and c.angle is not None:
-            if c.kind == "perspective":
-                length = 0.5 * _len(right) / math.tan(math.radians(c.angle) / 2.0)
-                direction = _scaled(_unit(direction), length)
-            elif c.kind == "orthographic":
-                # POV-Ray: the view width follows from the angle at |direction|.
-                width = 2.0 * _len(direction) * math.tan(math.radians(c.angle) / 2.0)
-                ratio = _len(up) / _len(right) if _len(right) > 0 else 1.0
-                right = _scaled(_unit(right), width)
-                up = _scaled(_unit(up), width * ratio)
+        if self.had_angle and c.angle is not None and c.kind in ("perspective", "orthographic"):
+            length = 0.5 * _len(right) / math.tan(math.radians(c.angle) / 2.0)
+            direction = _scaled(_unit(direction), length)
         if self.had_look_at:
             d_len, u_len, r_len = _len(direction), _len(up), _len(right)
             handedness = _dot(_cross(up, direction), right)
@@ -128,6 +127,14 @@ class CameraBuilder:
             up = _scaled(_cross(new_dir, new_right), u_len)
             direction = _scaled(new_dir, d_len)
             right = _scaled(new_right, r_len if handedness > 0.0 else -r_len)
+        if c.kind == "orthographic" and (self.had_angle or not (self.had_up or self.had_right)):
+            # POV-Ray: the same image area as the perspective camera would show at the
+            # look_at distance (only when right/up were not given, or with an angle)
+            k1 = _len(_sub(self.look_at_point, c.location))
+            k2 = _len(direction)
+            if k1 > CAMERA_EPSILON and k2 > CAMERA_EPSILON:
+                right = _scaled(right, k1 / k2)
+                up = _scaled(up, k1 / k2)
         c = replace(c, direction=direction, right=right, up=up)
         if not transforms.is_identity(self.transform):
             c = transform_camera(c, self.transform)

@@ -1931,6 +1931,7 @@ class Interpreter:
             "dist_exp",
             "arc_angle",
             "number_of_waves",
+            "uv_mapping",
             "solid",
             "pass_through",
             "use_alpha",

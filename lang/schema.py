@@ -172,6 +172,7 @@ PATTERN_ITEMS = [
     "number_of_waves float | Waves count.",
     "pass_through | Image pattern pass-through.",
     "use_alpha | Use the image's alpha.",
+    "uv_mapping | Map the pattern by the surface's uv coordinates.",
     "quick_color color | Preview colour (ignored).",
     "quick_colour color | Preview colour (ignored).",
 ]

@@ -131,6 +131,8 @@ CAMERAS = [
     "location <0, 0, -5> look_at 0 rotate y*20 translate x*0.5",
     "orthographic location <0, 0, -5> look_at 0 right 6*x up 4.5*y",
     "location <-2, 3, -5> up y right -x*1.33 look_at <0.2, 0, 0>",
+    "orthographic location <0, 6, 0.01> look_at 0",
+    "orthographic location <1, 1, -5> look_at 0 angle 40",
 ]
 POINTS = [(0, 0, 0), (1.5, 0.8, 0.5), (-1.2, -1, 1), (0.5, 1.2, -1)]
 
