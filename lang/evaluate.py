@@ -2670,18 +2670,39 @@ def _b_map(it: Interpreter, g: Grouped, node: syntax.Block) -> MapValue:
         vals = [e.value for e in args if e.kind == "val"]
         element = _MAP_ELEMENT.get(kind)
         try:
-            if element is not None and (len(vals) != 2 or any(e.kind == "kw" for e in args)):
-                # `[0.5 bozo color_map {…}]`: the entry's rest is the body of a pigment/…
+            if element is not None and (
+                len(vals) != 2
+                or any(e.kind == "kw" for e in args)
+                or not isinstance(vals[0], float)
+            ):
+                # `[0.5 bozo color_map {…}]`: the entry's rest is the body of a pigment/…;
+                # `average` maps may leave out the value (a weight of 1)
                 rest = [e for e in args if e.kind != "comma"]
-                if not rest or rest[0].kind != "val":
-                    raise EvalError(f"a {kind} entry starts with its value")
+                if not rest:
+                    raise EvalError(f"an empty {kind} entry")
+                weight = 1.0
+                if rest[0].kind == "val" and isinstance(rest[0].value, float):
+                    weight = rest[0].value
+                    rest = rest[1:]
                 fake = syntax.Block(span, element, [], keyword_span=span)
-                body = it.group(schema.BLOCKS[element], rest[1:], fake)
-                value = _BUILDERS[element](it, body, fake)
-                entries.append((as_float(rest[0].value, "a map value"), value))
+                body = it.group(schema.BLOCKS[element], rest, fake)
+                entries.append((weight, _BUILDERS[element](it, body, fake)))
                 continue
             if any(e.kind == "kw" for e in args):
-                raise EvalError("a keyword inside a color_map entry", "`[value colour]`")
+                # the old colour form inside a map: `[0.5 red 1 green 0.4]`
+                rest = [e for e in args if e.kind != "comma"]
+                c = [0.0] * 5
+                k = 1
+                while k + 1 < len(rest) and rest[k].kind == "kw":
+                    if rest[k].value not in schema.COMPONENT_WORDS:
+                        raise EvalError(f"`{rest[k].value}` inside a color_map entry")
+                    for slot in _component_slots(rest[k].value):
+                        c[slot] = as_float(rest[k + 1].value, f"`{rest[k].value}`")
+                    k += 2
+                if k != len(rest) or rest[0].kind != "val":
+                    raise EvalError("a keyword inside a color_map entry", "`[value colour]`")
+                entries.append((as_float(rest[0].value, "a map value"), ColorValue(tuple(c))))
+                continue
             if kind in ("color_map", "colour_map"):
                 if len(vals) == 2:
                     entries.append((as_float(vals[0], "a map value"), as_color(vals[1])))

@@ -679,6 +679,7 @@ BLOCKS: dict[str, BlockSpec] = {
             ],
         ),
         frozenset({"string"}),
+        soft=frozenset({"gamma"}),
     ),
     "clipped_by": BlockSpec(
         "clipped_by",

@@ -844,3 +844,21 @@ def test_splines_match_povray(tmp_path):
         wv = [float(v) for v in w[2:].split(",")]
         gv = [float(v) for v in g[2:].split(",")]
         assert w[0] == g[0] and close(wv, gv, 1e-6), (w, g)
+
+
+def test_map_entry_forms():
+    s = sym_table("""#declare P = pigment { average pigment_map {
+  [ gradient y color_map { [0 rgb 0] [1 rgb 1] } ] [2 rgb <1,0,0>] } }
+#declare C = color_map { [0.00 blue 0.4] [0.5 red 1 green 0.5] [0.7 0.9 rgb 0 rgb 1] }
+#declare I = pigment { image_map { png "x.png" gamma 2.2 map_type 1 once } }
+""")
+    pm = s["P"].pigment_map
+    assert [w for w, _ in pm] == [1.0, 2.0] and pm[0][1].pattern == "gradient"
+    assert [(v, c.rgbft[:3]) for v, c in s["C"].entries] == [
+        (0.0, (0, 0, 0.4)),
+        (0.5, (1, 0.5, 0)),
+        (0.7, (0, 0, 0)),
+        (0.9, (1, 1, 1)),
+    ]
+    assert s["I"].pattern == "image_map" and s["I"].params["gamma"] == 2.2
+    assert s["I"].params["map_type"] == 1 and s["I"].params["once"]
