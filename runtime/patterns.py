@@ -1,4 +1,5 @@
-"""Pigment evaluation, vectorised over hit points: (N,3) world points → (N,5) RGBFT colours.
+"""Pigment and normal patterns, vectorised over hit points: (N,3) world points → (N,5)
+RGBFT colours (`evaluate`) or perturbed normals (`perturb_normal`).
 
 A pigment is evaluated at inverse(pigment.transform) @ p_world (see `ir`); every pigment in
 the tree carries its own fully composed transform, so sub-pigments are evaluated at world
@@ -7,17 +8,26 @@ points too. Pattern values follow POV-Ray 3.7:
   never go through frequency/phase/wave (POV-Ray sets their frequency to 0);
 - continuous patterns give a value that goes through `frequency` and `phase`
   (fmod(v*f + p, 1.00001), negatives wrapped), then the wave type, then the colour map or
-  pigment map (linear interpolation between neighbouring entries, clamped at the ends).
+  pigment map (linear interpolation between neighbouring entries, clamped at the ends),
+  or POV-Ray's default map for the pattern;
+- image_map pigments look up an image file (planar, spherical, cylindrical mapping).
+Supported: solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical, planar,
+boxed, leopard, radial, spiral1/2, quilted, bozo, spotted, bumps, dents, granite, marble,
+wood, agate, wrinkles, ripples, waves, cells, crackle, mandel, julia, average, image_map.
 Unknown patterns render as the pattern's first colour with one warning each.
 
 `Pigment.params` keys read here: "orientation" (gradient vector), "brick_size", "mortar",
 "frequency", "phase", "wave" ("ramp_wave", "sine_wave", "triangle_wave", "scallop_wave",
-"cubic_wave", "poly_wave"), "wave_exponent" (poly_wave), and the classic turbulence warp
-"turbulence" (vector or float), "octaves" (6), "omega" (0.5), "lambda" (2.0).
+"cubic_wave", "poly_wave"), "wave_exponent" (poly_wave), "arms" (spirals), "control0",
+"control1" (quilted), "agate_turb", "form"/"metric" (crackle), "max_iteration"/"complex"
+(fractals), the image_map keys ("path", "map_type", "interpolate", "once", "filter",
+"transmit", "use_alpha", "gamma"), and the classic turbulence warp "turbulence" (vector
+or float), "octaves" (6), "omega" (0.5), "lambda" (2.0).
 
-Noise: POV-Ray's noise tables are not reproduced; strala uses Perlin's improved gradient
-noise mapped to [0, 1], so bozo, spotted, granite, marble, wood and wrinkles have POV-Ray's
-structure and scale but not its exact values.
+Noise: POV-Ray's noise tables are not reproduced; strala's lattice noise is built the same
+way (a random value plus a random gradient at every lattice point, blended with
+3t² - 2t³) and calibrated to POV-Ray's mean and spread, so bozo, spotted, granite, marble,
+wood, agate and the bump normals have POV-Ray's structure and scale, not its exact values.
 """
 
 from __future__ import annotations
