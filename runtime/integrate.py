@@ -352,16 +352,27 @@ def _scatter_hits(dst, rows: np.ndarray, src) -> None:
 
 
 def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
-    """Background colour for rays that hit nothing: sky_sphere layers over the background
-    (POV-Ray 3.7's rule: each layer filters the ones behind it)."""
+    """Background colour for rays that hit nothing: sky_sphere layers (evaluated at the ray
+    direction) over the background. POV-Ray 3.7 lets each layer filter the ones behind it
+    like a layered texture; scenes before 3.7 keep the old rule, where the accumulated
+    filter and transmit of all layers pass the background."""
     n = len(dirs)
     col = np.zeros((n, 3))
-    fil = np.ones((n, 3))
-    if ctx.scene.sky_sphere:
-        for pig in reversed(ctx.scene.sky_sphere):
+    layers = ctx.scene.sky_sphere or ()
+    if ctx.legacy_opacity:
+        fil = np.ones((n, 5))
+        trans = np.ones(n)
+        for pig in reversed(layers):
             c = patterns.evaluate(pig, dirs, ctx.gamma)
-            col += c[:, :3] * shading.opacity(c, False)[:, None] * fil
-            fil *= shading.rgb_transmit(c)
+            col += c[:, :3] * (trans * (1.0 - c[:, 3] - c[:, 4]))[:, None]
+            fil *= c
+            trans = np.abs(fil[:, 3]) + np.abs(fil[:, 4])
+        return col + ctx.background * (fil[:, :3] * fil[:, 3, None] + fil[:, 4, None])
+    fil = np.ones((n, 3))
+    for pig in reversed(layers):
+        c = patterns.evaluate(pig, dirs, ctx.gamma)
+        col += c[:, :3] * shading.opacity(c, False)[:, None] * fil
+        fil *= shading.rgb_transmit(c)
     return col + ctx.background * fil
 
 

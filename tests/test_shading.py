@@ -519,3 +519,29 @@ def test_plain_batch_shading_matches_per_texture_shading():
     ctx.plain = np.zeros_like(ctx.plain)
     single = integrate.trace(ctx, o, d, np.ones(len(d)), 0, "no_image")
     np.testing.assert_allclose(batched, single, atol=1e-12)
+
+
+def test_sky_sphere_filter_rule_depends_on_the_version():
+    # One layer, half filter: 3.7 lets it filter the background like a texture layer,
+    # pre-3.7 scenes pass the background through filter * colour + transmit.
+    sky = (ir.Pigment(color=(1.0, 0.0, 0.0, 0.5, 0.0)),)
+
+    def look_up(version):
+        scene = ir.Scene(
+            camera=ir.Camera(),
+            sky_sphere=sky,
+            background=(0, 1, 1, 0, 0),
+            settings=ir.Settings(assumed_gamma=1.0, version=version),
+        )
+        return shoot(scene, [0, 0, 0], [0, 1, 0])[0]
+
+    np.testing.assert_allclose(look_up(3.7), [0.5, 0.0, 0.0])  # (1-0.5) red + 0.5*red filter
+    np.testing.assert_allclose(look_up(3.6), [0.5, 0.0, 0.0])
+    sky2 = (ir.Pigment(color=(1.0, 0.0, 0.0, 0.0, 0.5)),)
+    scene = ir.Scene(
+        camera=ir.Camera(),
+        sky_sphere=sky2,
+        background=(0, 1, 1, 0, 0),
+        settings=ir.Settings(assumed_gamma=1.0, version=3.6),
+    )
+    np.testing.assert_allclose(shoot(scene, [0, 0, 0], [0, 1, 0])[0], [0.5, 0.5, 0.5])
