@@ -597,18 +597,23 @@ def cells(p: np.ndarray, params: dict) -> np.ndarray:
 
 def crackle(p: np.ndarray, params: dict) -> np.ndarray:
     """Voronoi cells around one random point per unit cube: `form` weights the distances to
-    the nearest, second and third points (default <-1, 1, 0>: the cracks are 0)."""
+    the nearest, second and third points (default <-1, 1, 0>: the cracks are 0), measured
+    with the `metric` exponent and `offset` added as POV-Ray does; `solid` gives every cell
+    one noise value instead."""
     form = np.broadcast_to(np.asarray(params.get("form", (-1.0, 1.0, 0.0)), float), (3,))
     metric = float(params.get("metric", 2.0))
+    offset = float(params.get("offset", 0.0))
     base = np.floor(p).astype(np.int64)
     best = np.full((len(p), 3), np.inf)
+    nearest = np.zeros_like(p)
     for dx in (-1, 0, 1):
         for dy in (-1, 0, 1):
             for dz in (-1, 0, 1):
                 c = base + np.array([dx, dy, dz])
                 pt = c + np.stack([_cell_hash(c, k) for k in (1, 2, 3)], axis=1)
                 d = np.abs(pt - p)
-                dist = (d**metric).sum(axis=1) ** (1.0 / metric)
+                dist = ((d**metric).sum(axis=1) + offset**metric) ** (1.0 / metric)
+                nearest = np.where((dist < best[:, 0])[:, None], pt, nearest)
                 # Insert into the running three smallest distances.
                 b0, b1, b2 = best[:, 0], best[:, 1], best[:, 2]
                 n0 = np.minimum(b0, dist)
@@ -617,6 +622,8 @@ def crackle(p: np.ndarray, params: dict) -> np.ndarray:
                 r1 = np.maximum(b1, r0)
                 n2 = np.minimum(b2, r1)
                 best = np.stack([n0, n1, n2], axis=1)
+    if params.get("solid"):
+        return noise(nearest)
     return np.clip(best @ form, 0.0, 1.0)
 
 

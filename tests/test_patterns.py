@@ -347,3 +347,11 @@ def test_mandel_escape_values():
 def test_quilted_is_zero_at_cube_centres_and_symmetric():
     v = patterns.quilted(np.array([[0.5, 0.5, 0.5], [0.3, 0.5, 0.5], [0.7, 0.5, 0.5]]), {})
     assert v[0] == 0.0 and v[1] > 0 and v[1] == pytest.approx(v[2])
+
+
+def test_crackle_cracks_are_dark_and_solid_cells_are_flat():
+    p = np.random.default_rng(4).uniform(-3, 3, (3000, 3))
+    v = patterns.crackle(p, {})
+    assert v.min() >= 0 and v.max() <= 1 and (v < 0.05).any() and (v > 0.3).any()
+    solid = patterns.crackle(p, {"solid": True})
+    assert len(np.unique(np.round(solid, 12))) < len(p) / 5  # one value per cell
