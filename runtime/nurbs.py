@@ -142,20 +142,23 @@ class KnotVector:
         self.spans = spans[self.knots[spans] < self.knots[spans + 1]]
         self.starts = self.knots[self.spans]
 
-    def span(self, u: np.ndarray) -> np.ndarray:
+    def span(self, u: np.ndarray, left: bool = False) -> np.ndarray:
         """A2.1 for many parameters: the index s with knots[s] <= u < knots[s+1] (the last
-        non-empty span at the domain end); parameters outside the domain are clamped."""
-        k = np.searchsorted(self.starts, u, side="right") - 1
+        non-empty span at the domain end); parameters outside the domain are clamped. With
+        `left`, knots[s] < u <= knots[s+1] instead: the left-hand limit at a knot (the start
+        of the domain keeps the first span)."""
+        side = "left" if left else "right"
+        k = np.searchsorted(self.starts, u, side=side) - 1
         return self.spans[np.clip(k, 0, len(self.spans) - 1)]
 
     def clamp(self, u) -> np.ndarray:
         return np.clip(np.asarray(u, dtype=np.float64), self.lo, self.hi)
 
-    def ders(self, u: np.ndarray, nd: int) -> tuple[np.ndarray, np.ndarray]:
+    def ders(self, u: np.ndarray, nd: int, left: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """A2.3 vectorised: (span (K,), ders (nd+1, K, p+1)); ders[k, :, j] is the k-th
         derivative of basis function span-p+j. Derivatives above the degree are zero."""
         u = self.clamp(u)
-        s = self.span(u)
+        s = self.span(u, left)
         return s, basis_ders(self.knots, self.degree, s, u, nd)
 
 
@@ -306,14 +309,15 @@ class Curve:
     def from_ir(cls, shape: ir.Nurbs) -> Curve:
         return cls.from_arrays(shape.u_degree, shape.u_knots, shape.points, shape.weights)
 
-    def derivatives(self, t, nd: int = 0) -> np.ndarray:
-        """C^(k)(t) for k = 0..nd, shape (nd+1, K, 3); C^(0) includes the origin."""
+    def derivatives(self, t, nd: int = 0, left: bool = False) -> np.ndarray:
+        """C^(k)(t) for k = 0..nd, shape (nd+1, K, 3); C^(0) includes the origin. `left`
+        takes left-hand limits at knots (the incoming tangent at a kink)."""
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
         out = np.empty((nd + 1, t.shape[0], 3))
         p = self.degree
         for a in range(0, t.shape[0], BATCH):
             tt = t[a : a + BATCH]
-            span, N = self.kv.ders(tt, nd)
+            span, N = self.kv.ders(tt, nd, left)
             idx = span[:, None] - p + np.arange(p + 1)
             hom = np.einsum("dkj,kjc->dkc", N, self.pw[idx])
             out[:, a : a + BATCH] = _rational(hom[:, None])[:, 0]

@@ -264,10 +264,11 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.where(n > 0, n, 1.0)
 
 
-def _tangents(curve: Curve, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Points and unit tangents; where C' vanishes (coincident control points) the tangent is
-    the direction of C'' (the limit of C'/|C'|), then the chord to the next sample."""
-    D = curve.derivatives(ts, 2)
+def _tangents(curve: Curve, ts: np.ndarray, left: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Points and unit tangents (right-hand, or with `left` the left-hand limits at knots);
+    where C' vanishes (coincident control points) the tangent is the direction of C'' (the
+    limit of C'/|C'|), then the chord to the next sample."""
+    D = curve.derivatives(ts, 2, left)
     C, t1, t2 = D[0], D[1], D[2]
     scale = float(np.linalg.norm(np.ptp(C, axis=0))) + 1e-300
     lo, hi = curve.domain
@@ -294,9 +295,12 @@ def _curve_samples(curve: Curve, radius: float, tol: float, max_rings: int):
     for _ in range(MAX_PASSES):
         ts = axis.params
         C, T = _tangents(curve, ts)
+        _, T_in = _tangents(curve, ts, left=True)
         mid = curve.points(ts[:-1] + 0.5 * np.diff(ts))
         e_c = _err(mid, 0.5 * (C[:-1] + C[1:]))
-        cosang = np.clip(np.sum(T[:-1] * T[1:], axis=-1), -1.0, 1.0)
+        # The turn inside each segment (leaving i, arriving at i+1): a kink at a knot is a
+        # mitre joint, not something finer steps could smooth.
+        cosang = np.clip(np.sum(T[:-1] * T_in[1:], axis=-1), -1.0, 1.0)
         half = 0.5 * np.arccos(cosang)
         # The outside of a bend of the tube is a circle of radius (rho + r): its sagitta is the
         # centreline's plus r(1 - cos(half the turn)).
@@ -315,41 +319,69 @@ def _curve_samples(curve: Curve, radius: float, tol: float, max_rings: int):
     return ts, C, T, worst
 
 
-def _rmf(C: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Rotation-minimising reference vectors along the samples by double reflection. It is
-    inherently sequential (each frame follows the previous), one step per ring."""
-    t0 = T[0]
-    axis = np.eye(3)[int(np.argmin(np.abs(t0)))]
-    r = np.cross(t0, axis)
-    r /= np.linalg.norm(r)
-    R = np.empty_like(C)
-    R[0] = r
-    for i in range(len(C) - 1):
+def _turn(v: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """v turned by the smallest rotation taking unit a to unit b (Rodrigues). For a U-turn
+    the axis is v itself, which keeps a vector perpendicular to a unchanged."""
+    axis = np.cross(a, b)
+    s2 = float(axis @ axis)
+    c = float(a @ b)
+    if s2 < 1e-24:
+        return v.copy()
+    return v * c + np.cross(axis, v) + axis * float(axis @ v) * (1.0 - c) / s2
+
+
+def _perp_unit(r: np.ndarray, t: np.ndarray) -> np.ndarray:
+    r = r - float(r @ t) * t
+    nr = float(np.linalg.norm(r))
+    if nr < 1e-12:
+        r = np.cross(t, np.eye(3)[int(np.argmin(np.abs(t)))])
+        nr = float(np.linalg.norm(r))
+    return r / nr
+
+
+def _rmf(C: np.ndarray, T_in: np.ndarray, T_out: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation-minimising reference vectors by double reflection (Wang et al. 2008): one
+    perpendicular to the arriving tangent and one to the leaving tangent at every sample (they
+    differ only at kinks, where the smallest rotation turns one into the other). Inherently
+    sequential, one step per ring."""
+    n = len(C)
+    R_in = np.empty_like(C)
+    R_out = np.empty_like(C)
+    r = _perp_unit(np.cross(T_out[0], np.eye(3)[int(np.argmin(np.abs(T_out[0])))]), T_out[0])
+    R_in[0] = _turn(r, T_out[0], T_in[0])
+    R_out[0] = r
+    for i in range(n - 1):
         v1 = C[i + 1] - C[i]
         c1 = float(v1 @ v1)
+        t0 = T_out[i]
         if c1 > 0:
             rl = r - (2.0 / c1) * float(v1 @ r) * v1
-            tl = T[i] - (2.0 / c1) * float(v1 @ T[i]) * v1
+            tl = t0 - (2.0 / c1) * float(v1 @ t0) * v1
         else:
-            rl, tl = r, T[i]
-        v2 = T[i + 1] - tl
+            rl, tl = r, t0
+        v2 = T_in[i + 1] - tl
         c2 = float(v2 @ v2)
         r = rl - (2.0 / c2) * float(v2 @ rl) * v2 if c2 > 0 else rl
-        # Keep r exactly perpendicular to the tangent and unit (drift over many steps).
-        r = r - float(r @ T[i + 1]) * T[i + 1]
-        nr = np.linalg.norm(r)
-        if nr < 1e-12:
-            axis = np.eye(3)[int(np.argmin(np.abs(T[i + 1])))]
-            r = np.cross(T[i + 1], axis)
-            nr = np.linalg.norm(r)
-        r = r / nr
-        R[i + 1] = r
-    return R
+        r = _perp_unit(r, T_in[i + 1])  # drift over many steps
+        R_in[i + 1] = r
+        r = _perp_unit(_turn(r, T_in[i + 1], T_out[i + 1]), T_out[i + 1])
+        R_out[i + 1] = r
+    return R_in, R_out
+
+
+def _rotate_about(r: np.ndarray, t: np.ndarray, ang: np.ndarray) -> np.ndarray:
+    b = np.cross(t, r)
+    return np.cos(ang)[:, None] * r + np.sin(ang)[:, None] * b
 
 
 def tube_mesh(
     curve: Curve, radius: float, tol: float, max_triangles: int = MAX_TRIANGLES
 ) -> TriMesh:
+    """A tube of `radius` around the curve. Rings follow a rotation-minimising frame; at a
+    kink (a knot where the tangent jumps: degree 1, or full multiplicity) the ring lies in
+    the bisecting plane (a mitre joint), with one copy of its vertices per side so each side
+    keeps its own normals. A closed curve closes the tube (the frame's twist spread along the
+    length); an open one gets flat caps."""
     if not radius > 0:
         raise ValueError(f"a tube needs a positive radius, got {radius}")
     # Ring: a regular polygon's chord error r(1 - cos(pi/k)) within half the tolerance.
@@ -357,61 +389,82 @@ def tube_mesh(
     k = max(3, math.ceil(math.pi / math.acos(1.0 - x))) if x < 1.0 else 3
     max_rings = max(2, max_triangles // (2 * k))
     ts, C, T, worst = _curve_samples(curve, radius, tol, max_rings)
-    R = _rmf(C, T)
+    _, T_left = _tangents(curve, ts, left=True)
     lo, hi = curve.domain
     scale = float(np.linalg.norm(np.ptp(C, axis=0)))
     eps = WELD_REL * (scale + float(np.abs(C).max()))
-    closed = bool(np.linalg.norm(C[-1] - C[0]) <= eps and T[0] @ T[-1] > 1 - 1e-9)
+    closed = bool(np.linalg.norm(C[-1] - C[0]) <= eps) and len(ts) > 2
+    T_in, T_out = T_left.copy(), T.copy()
+    T_in[0] = T_left[-1] if closed else T[0]
+    T_out[-1] = T_out[0] if closed else T_left[-1]
+    R_in, R_out = _rmf(C, T_in, T_out)
     n = len(ts)
+    m = n - 1 if closed else n  # rings
     if closed:
         # The frame comes back turned by the curve's total torsion: spread the correction
         # along the arc length so the last ring meets the first.
-        rN = R[-1]
-        phi = math.atan2(float(np.cross(rN, R[0]) @ T[0]), float(rN @ R[0]))
+        rN = R_out[-1]
+        phi = math.atan2(float(np.cross(rN, R_out[0]) @ T_out[0]), float(rN @ R_out[0]))
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))])
         ang = phi * s / max(s[-1], 1e-300)
-        B = np.cross(T, R)
-        R = np.cos(ang)[:, None] * R + np.sin(ang)[:, None] * B
-    B = np.cross(T, R)
+        R_in = np.stack(
+            [_rotate_about(R_in[i : i + 1], T_in[i], ang[i : i + 1])[0] for i in range(n)]
+        )
+        R_out = np.stack(
+            [_rotate_about(R_out[i : i + 1], T_out[i], ang[i : i + 1])[0] for i in range(n)]
+        )
+    C, T_in, T_out, R_in, R_out = C[:m], T_in[:m], T_out[:m], R_in[:m], R_out[:m]
     theta = 2.0 * np.pi * np.arange(k) / k
-    dirs = (
-        np.cos(theta)[None, :, None] * R[:, None, :] + np.sin(theta)[None, :, None] * B[:, None, :]
-    )
-    rings = n - 1 if closed else n
-    V = (C[:rings, None, :] + radius * dirs[:rings]).reshape(-1, 3)
-    Nn = dirs[:rings].reshape(-1, 3)
-    tn = (ts[:rings] - lo) / (hi - lo)
-    UV = np.stack([np.repeat(tn, k), np.tile(np.arange(k) / k, rings)], axis=1)
+    cos_t, sin_t = np.cos(theta)[None, :, None], np.sin(theta)[None, :, None]
+    d_in = cos_t * R_in[:, None] + sin_t * np.cross(T_in, R_in)[:, None]
+    d_out = cos_t * R_out[:, None] + sin_t * np.cross(T_out, R_out)[:, None]
+    kink = np.sum(T_in * T_out, axis=1) < 1.0 - 1e-12
+    mitre = T_in + T_out
+    ml = np.linalg.norm(mitre, axis=1)
+    kink &= ml > 1e-6  # a full U-turn has no mitre plane: plain rings there
+    P = C[:, None] + radius * d_out
+    if kink.any():
+        M = mitre[kink] / ml[kink, None]
+        ti = T_in[kink]
+        lam = -radius * np.einsum("rkc,rc->rk", d_in[kink], M) / np.sum(ti * M, 1)[:, None]
+        P[kink] = C[kink][:, None] + radius * d_in[kink] + lam[..., None] * ti[:, None]
+    tn = (ts[:m] - lo) / (hi - lo)
+    ring_uv = np.stack(np.broadcast_arrays(tn[:, None], (np.arange(k) / k)[None, :]), -1)
+    kinks = np.flatnonzero(kink)
+    verts = [P.reshape(-1, 3), P[kinks].reshape(-1, 3)]
+    norms = [d_out.reshape(-1, 3), d_in[kinks].reshape(-1, 3)]
+    uvs = [ring_uv.reshape(-1, 2), ring_uv[kinks].reshape(-1, 2)]
+    out_block = np.arange(m)
+    in_block = np.arange(m)
+    in_block[kinks] = m + np.arange(len(kinks))
     i = np.arange(n - 1)[:, None]
     j = np.arange(k)[None, :]
-    a = i * k + j
-    b = i * k + (j + 1) % k
-    nxt = (i + 1) % rings if closed else i + 1
-    c = nxt * k + (j + 1) % k
-    d = nxt * k + j
+    nxt = (i + 1) % m
+    a = out_block[i] * k + j
+    b = out_block[i] * k + (j + 1) % k
+    c = in_block[nxt] * k + (j + 1) % k
+    d = in_block[nxt] * k + j
     faces = [
         np.stack([a.ravel(), b.ravel(), c.ravel()], 1),
         np.stack([a.ravel(), c.ravel(), d.ravel()], 1),
     ]
-    verts, norms, uvs = [V], [Nn], [UV]
     if not closed:
-        base = len(V)
-        for end, sign in ((0, -1.0), (n - 1, 1.0)):
-            ring = V[end * k : (end + 1) * k]
-            centre = base
+        base = (m + len(kinks)) * k
+        jj = np.arange(k)
+        for block, tangent, sign in ((out_block[0], T_out[0], -1.0), (in_block[-1], T_in[-1], 1.0)):
+            ring = np.concatenate(verts)[block * k : (block + 1) * k]
+            end = 0 if sign < 0 else m - 1
             verts += [C[end][None], ring]
-            norms += [np.repeat((sign * T[end])[None], k + 1, axis=0)]
-            uvs += [np.array([[tn[end], 0.5]]), UV[end * k : (end + 1) * k]]
-            jj = np.arange(k)
+            norms += [np.repeat((sign * tangent)[None], k + 1, axis=0)]
+            uvs += [np.array([[tn[end], 0.5]]), ring_uv[end]]
             r0 = base + 1 + jj
             r1 = base + 1 + (jj + 1) % k
-            cc = np.full(k, centre)
+            cc = np.full(k, base)
             faces.append(np.stack([cc, r1, r0] if sign < 0 else [cc, r0, r1], 1))
             base += k + 1
-    faces = np.concatenate(faces).astype(np.int32)
     return TriMesh(
         np.concatenate(verts),
-        faces,
+        np.concatenate(faces).astype(np.int32),
         np.concatenate(norms),
         np.concatenate(uvs),
         worst + radius * (1.0 - math.cos(math.pi / k)),

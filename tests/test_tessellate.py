@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from lang import ir
@@ -252,7 +252,7 @@ def test_open_tube_is_capped_and_watertight_by_position():
     assert np.all(np.isfinite(N)) and np.allclose(np.linalg.norm(N, axis=1), 1.0)
     # Side vertices sit at the radius from the curve: check against dense curve samples.
     c = nb.Curve.from_ir(curve)
-    dense = c.points(np.linspace(0, 2, 200_001))
+    dense = c.points(np.linspace(0, 2, 40_001))
     side = sample_points(V, F)[:: max(1, len(F) // 500)]
     d = np.min(np.linalg.norm(side[:, None, :] - dense[None, ::20, :], axis=2), axis=1)
     # Cap triangles are flat discs (distance <= radius); side triangles hug the tube.
@@ -371,3 +371,86 @@ def test_corner_uvs_give_exact_normals_inside_triangles():
     wrong = surf.normals_at_uv(np.einsum("mk,mkc->mc", bary, m.uvs[m.faces]))
     bad = np.abs(np.sum(wrong * hit / np.linalg.norm(hit, axis=1)[:, None], axis=1))
     assert bad[seam].min() < 0.9
+
+
+def test_unclamped_closed_cubic_tube_closes():
+    """The seed's uniform cubic B-spline on 12 circle points, closed by repeating three points
+    on unclamped uniform knots (examples/nurbs_circle.scene): its tube closes up."""
+    k = 12
+    ang = 2 * np.pi * np.arange(k + 3) / k
+    pts = tuple((float(np.cos(a)), float(np.sin(a)), 0.0) for a in ang)
+    curve = ir.Nurbs(
+        u_degree=3,
+        v_degree=0,
+        nu=k + 3,
+        nv=0,
+        points=pts,
+        weights=(1.0,) * (k + 3),
+        u_knots=tuple(float(i) for i in range(k + 7)),
+        radius=0.04,
+    )
+    assert nb.validate(curve) == []
+    V, F, N, _ = ts.nurbs_mesh(curve, 1e-3)
+    assert closed_manifold(F)
+    assert len(V) - len(edge_counts(F)) + len(F) == 0
+
+
+@st.composite
+def gentle_curves(draw):
+    """Random rational curves whose curvature radius stays well above the tube radius (a
+    tighter bend makes the tube overlap itself, where distance-to-curve is not the test)."""
+    p = draw(st.integers(1, 4))
+    n = draw(st.integers(p + 1, p + 5))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    pts = np.cumsum(rng.uniform(-1, 1, (n, 3)) + (1.5, 0, 0), axis=0)
+    w = rng.uniform(0.5, 2.0, n)
+    return ir.Nurbs(
+        u_degree=p,
+        v_degree=0,
+        nu=n,
+        nv=0,
+        points=tuple(map(tuple, pts)),
+        weights=tuple(w),
+        u_knots=nb.clamped_uniform_knots(n, p),
+        radius=0.02,
+    )
+
+
+@settings(max_examples=12)
+@given(gentle_curves(), st.sampled_from([1e-2, 1e-3]))
+def test_random_tubes_hug_their_curve(curve, tol):
+    c = nb.Curve.from_ir(curve)
+    lo, hi = c.domain
+    t = np.linspace(lo, hi, 20_001)
+    D = c.derivatives(t, 2)
+    speed = np.linalg.norm(D[1], axis=1)
+    kappa = np.linalg.norm(np.cross(D[1], D[2]), axis=1) / np.maximum(speed, 1e-300) ** 3
+    if curve.u_degree > 1 and np.nanmax(kappa) * 0.02 > 0.2:
+        return  # too tight a bend for a distance test
+    m = ts.tessellate(curve, tol)
+    assert np.all(np.isfinite(m.vertices)) and np.all(np.isfinite(m.normals))
+    assert closed_manifold(weld_by_position(m.vertices, m.faces))
+    dense = c.points(np.linspace(lo, hi, 40_001))
+
+    def dist(q):
+        return np.array([np.min(np.linalg.norm(dense - x, axis=1)) for x in q])
+
+    pick = np.random.default_rng(0).choice(len(m.faces), min(len(m.faces), 120), replace=False)
+    F = m.faces[pick]
+    corner = dist(m.vertices[F].reshape(-1, 3)).reshape(-1, 3)
+    side = corner.min(axis=1) > 0.01  # cap fans have their centre on the curve
+    d = dist(sample_points(m.vertices, F))
+    r = 0.02
+    # Kinks (degree 1 here) are mitre joints: the outer tip of a joint with turn a reaches
+    # r / cos(a/2) from the curve.
+    knots = np.unique(np.asarray(curve.u_knots))
+    t_out = c.derivatives(knots, 1)[1]
+    t_in = c.derivatives(knots, 1, left=True)[1]
+    cosang = np.sum(t_out * t_in, 1) / np.linalg.norm(t_out, axis=1) / np.linalg.norm(t_in, axis=1)
+    reach = r / np.cos(0.5 * np.arccos(np.clip(cosang.min(), -1, 1)))
+    # Everything stays inside the tube's outer bound; side triangles also stay outside the
+    # inner one (the dense polyline's own sagitta is below 1e-5 here).
+    assert d.max() <= reach + tol + 1e-5
+    d_side = dist(sample_points(m.vertices, F[side]))
+    assert d_side.min() >= r - tol - 1e-5
