@@ -1,23 +1,26 @@
 """Adaptive tessellation of NURBS surfaces and curves (as tubes) into indexed triangle meshes.
 
-Surfaces: the parameter domain is cut into a tensor grid whose spacing is uniform inside each
-knot span but chosen per span: each u-span gets its own number of columns, each v-span its own
-number of rows. A single grid shared by the whole surface is watertight by construction (every
-edge between two cells has the same two vertices on both sides), and spans with high curvature
-still get more vertices than flat ones. The counts are found by measuring: every cell's
-triangles are compared with the true surface at their edge midpoints and centroids, and a span
-whose cells miss the chord-error bound is refined by sqrt(error / bound) (chord error falls as
-the square of the step), until every measured point is within `tolerance`.
+Surfaces: the parameter domain is cut into one tensor grid for the whole surface. Each knot
+span owns its own grid lines in u (and in v), so span boundaries are the knots themselves and
+a single grid is watertight by construction: every edge between two cells has the same two
+vertices on both sides. The lines are found by measuring: every cell's two triangles are
+compared with the true surface at their edge midpoints and centroids (at the same parameters,
+a bound on the distance to the surface), and a span whose cells miss the chord-error bound
+gets its lines re-placed by equidistributing sqrt(error density) (chord error ~ h^2 g), which
+also gives their number; passes repeat until every measured point is within `tolerance`.
+Refinement is therefore adaptive per span and, inside a span, per row/column of the grid
+(not per cell: that is the price of a crack-free tensor grid).
 
 Closed surfaces are welded: a seam whose two boundary columns (or rows) coincide shares one
 column of vertices, and a boundary that collapses to a point (the pole of a sphere) becomes one
 vertex; triangles that collapse with it are dropped. So a sphere or a torus comes out as a
-closed 2-manifold: every edge is shared by exactly two triangles.
+closed 2-manifold: every edge is shared by exactly two triangles. `TriMesh.corner_uvs` keeps
+each triangle corner's own parameters (a seam vertex is u = 0 on one side, u = 1 on the other).
 
 Normals and uvs come from the exact surface (`Surface.normals_from_derivatives`), never from
 the triangles. Curves become tubes: rings around the curve on a rotation-minimising frame
-(double reflection, Wang et al. 2008), closed curves closed up with the frame's twist
-distributed along the length, open ends capped flat.
+(double reflection, Wang et al. 2008), mitre joints at kinks, closed curves closed up with
+the frame's twist distributed along the length, open ends capped flat.
 """
 
 from __future__ import annotations
