@@ -166,4 +166,6 @@ def apply_normal(m: Matrix, n: Sequence[float]) -> tuple[float, float, float]:
 
 
 def is_identity(m: Matrix, tol: float = 0.0) -> bool:
+    if tol == 0.0:
+        return m == IDENTITY  # tuple equality: the common, fast case
     return all(abs(m[i][j] - IDENTITY[i][j]) <= tol for i in range(4) for j in range(4))
