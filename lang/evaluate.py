@@ -1890,9 +1890,6 @@ class Interpreter:
             return v
         return ir.Pigment(color=as_color(v, "a pigment").rgbft)
 
-    def _pattern_state(self) -> dict[str, Any]:
-        return {"pattern": None, "params": {}, "transform": ir.IDENTITY}
-
     def _apply_pattern_item(
         self, st: dict[str, Any], name: str, args: list[Any], span: Span
     ) -> bool:
@@ -1939,11 +1936,6 @@ class Interpreter:
             params[name] = (args[0] if len(args) == 1 else tuple(args)) if args else True
         elif name in ("quick_color", "quick_colour"):
             pass
-        elif name in _TRANSFORM_WORDS:
-            st["transform"] = transforms.compose(_item_matrix(name, args), st["transform"])
-            st.setdefault("moves", []).append(_item_matrix(name, args))
-        elif name == "map":
-            st["map"] = args[0]
         elif name == "function":
             st["pattern"] = "function"
             self.unsupported("function pattern", span)
@@ -2055,8 +2047,6 @@ def _b_csg(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
     if not obj.children:
         it.sink.warning("W0304", f"`{node.keyword}` has no objects", g.span)
         obj.shape = ir.Unsupported(node.keyword)
-    elif node.keyword == "difference" and len(obj.children) == 1:
-        pass
     return it._apply_object_items(obj, Grouped(g.positional, mods, g.span))
 
 
@@ -2604,7 +2594,6 @@ def _b_interior(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Interior:
 
 def _b_texture(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Texture:
     t = ir.Texture(span=node.span)
-    pattern = None
     for name, args, span in g.items:
         v = args[0] if args else None
         if name == "texture":
@@ -2631,9 +2620,7 @@ def _b_texture(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Texture:
             pass
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in texture")
-        else:
-            pattern = name
-    del pattern
+        # other pattern keywords only matter with a texture_map (approximated above)
     return t
 
 
