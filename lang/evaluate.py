@@ -53,6 +53,7 @@ STDLIB = Path(lang.__file__).resolve().parent.parent / "stdlib"
 MAX_LOOP_ITERATIONS = 1_000_000
 MAX_MACRO_DEPTH = 200
 MAX_INCLUDE_DEPTH = 64
+RECURSION_LIMIT = 30_000
 
 
 @dataclass
@@ -617,10 +618,15 @@ class Interpreter:
         tree, diags = self._parse(text, filename)
         self.sink.items.extend(diags)
         self.file_stack.append(filename)
+        # Scenes recurse through macros (trees, fractals); each macro level costs a few dozen
+        # Python frames, so give the interpreter room (MAX_MACRO_DEPTH still bounds it).
+        old_limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(old_limit, RECURSION_LIMIT))
         try:
             for el in self.expand(tree.body, None, top=True):
                 self._top_level(el)
         finally:
+            sys.setrecursionlimit(old_limit)
             self.file_stack.pop()
         for h in list(self.handles.values()):
             self._flush(h)

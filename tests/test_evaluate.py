@@ -862,3 +862,13 @@ def test_map_entry_forms():
     ]
     assert s["I"].pattern == "image_map" and s["I"].params["gamma"] == 2.2
     assert s["I"].params["map_type"] == 1 and s["I"].params["once"]
+
+
+def test_deep_macro_recursion():
+    s = sym_table("""#macro F(N) #if (N > 0) F(N-1) + 1 #else 0 #end #end
+#declare V = F(150);
+#macro Down(N) #if (N > 0) union { sphere { 0, 1 } object { Down(N-1) } } #else sphere { 0, 1 }
+#end #end
+#declare T = Down(100);
+""")
+    assert s["V"] == 150.0 and s["T"].keyword == "union"
