@@ -157,6 +157,10 @@ class _Break(Exception):
     pass
 
 
+class _Quiet(Exception):
+    """Abandon a construct whose cause has already been reported."""
+
+
 class _Halt(Exception):
     """`#error`: POV-Ray stops parsing."""
 
@@ -820,6 +824,8 @@ class Interpreter:
                 self.sink.error("E0203", e.message, node.span, e.hint)
             except RecursionError:
                 self.sink.error("E0231", "recursion too deep", node.span)
+            except _Quiet:
+                pass
             except _Halt:
                 if top:
                     return out
@@ -932,14 +938,17 @@ class Interpreter:
         if type(node) in _DIRECTIVES or (
             isinstance(node, syntax.Call) and not node.builtin and self._is_macro(node.name)
         ):
+            since = len(self.sink.items)
             els = self.expand([node], None)
-            return self._single(els, node.span, "this declaration")
+            return self._single(els, node.span, "this declaration", since)
         return self.eval(node)
 
-    def _single(self, els: list[El], span: Span, what: str) -> Any:
+    def _single(self, els: list[El], span: Span, what: str, since: int | None = None) -> Any:
         vals = [e for e in els if e.kind != "comma"]
         if len(vals) == 1 and vals[0].kind == "val":
             return vals[0].value
+        if since is not None and any(d.severity is Severity.ERROR for d in self.sink.items[since:]):
+            raise _Quiet()  # the cause is already reported; do not add a cascade
         if not vals:
             raise self.error("E0202", f"{what} yields no value", span)
         raise self.error(
@@ -1375,7 +1384,9 @@ class Interpreter:
         if not found:
             raise self._unknown_ident(node.name, node.span)
         if isinstance(v, MacroValue):
-            return self._single(self._call_macro(node), node.span, f"macro `{node.name}`")
+            since = len(self.sink.items)
+            els = self._call_macro(node)
+            return self._single(els, node.span, f"macro `{node.name}`", since)
         if isinstance(v, FunctionValue):
             return self._call_function(v, [self.eval(a) for a in node.args], node.span)
         if isinstance(v, SplineValue):
