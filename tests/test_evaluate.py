@@ -872,3 +872,26 @@ def test_deep_macro_recursion():
 #declare T = Down(100);
 """)
     assert s["V"] == 150.0 and s["T"].keyword == "union"
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("gamma", ["1.0", "2.2"])
+def test_srgb_matches_povray(tmp_path, gamma):
+    src = tmp_path / "s.pov"
+    src.write_text(
+        f"#version 3.7;\nglobal_settings {{ assumed_gamma {gamma} }}\n"
+        "#declare D = srgbft <0.5, 0.2, 1, 0.3, 0.4>;\n"
+        '#debug concat("S ", vstr(5, D, ",", 0, 9), "\\n")\n'
+    )
+    pov = subprocess.run(
+        [shutil.which("povray") or "povray", f"+I{src}", "-D", "+W1", "+H1", "+O/dev/null", "-V"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=60,
+    ).stderr
+    (want,) = [ln for ln in pov.splitlines() if ln.startswith("S ")]
+    (got,) = [d.message for d in compile_file(str(src)).diagnostics if d.code == "N0100"]
+    wv = [float(v) for v in want[2:].split(",")]
+    gv = [float(v) for v in got[2:].split(",")]
+    assert close(wv, gv, 1e-6), (want, got)  # POV-Ray keeps colours in float32
