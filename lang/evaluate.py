@@ -521,11 +521,12 @@ def _sorted_entries(entries: list[tuple[float, Any]]) -> tuple[tuple[float, Any]
     return tuple(sorted(entries, key=lambda e: e[0]))
 
 
-# Pattern default colours when a list pattern is given fewer than it takes (POV-Ray's).
+# Pattern default colours when a list pattern is given fewer than it takes (POV-Ray's, read
+# back from its renders).
 _LIST_DEFAULTS = {
     "checker": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0)],
     "hexagon": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)],
-    "brick": [(1.0, 1.0, 1.0), (1.0, 0.0, 0.0)],
+    "brick": [(0.5, 0.5, 0.5), (0.6, 0.15, 0.15)],  # mortar, brick (rendered by POV-Ray)
 }
 _COMPONENT_INDEX = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}
 

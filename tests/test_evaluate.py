@@ -895,3 +895,14 @@ def test_srgb_matches_povray(tmp_path, gamma):
     wv = [float(v) for v in want[2:].split(",")]
     gv = [float(v) for v in got[2:].split(",")]
     assert close(wv, gv, 1e-6), (want, got)  # POV-Ray keeps colours in float32
+
+
+def test_list_pattern_defaults_are_povrays():
+    r = ok(
+        "plane { z, 0 pigment { checker } }\nplane { z, 0 pigment { brick } }\n"
+        "plane { z, 0 pigment { hexagon rgb 1 } }"
+    )
+    a, b, c = (o.texture.pigment.list for o in r.scene.objects)
+    assert [p.color[:3] for p in a] == [(0, 0, 1), (0, 1, 0)]
+    assert [p.color[:3] for p in b] == [(0.5, 0.5, 0.5), (0.6, 0.15, 0.15)]
+    assert [p.color[:3] for p in c] == [(1, 1, 1), (0, 1, 0), (1, 0, 0)]
