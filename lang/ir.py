@@ -140,8 +140,8 @@ class Sphere:
 
 @dataclass(frozen=True)
 class Plane:
-    """Points p with dot(normal, p) = distance (normal as written, not normalised: POV-Ray
-    normalises it and scales the distance accordingly, and so must the runtime).
+    """Points p with dot(normalize(normal), p) = distance: POV-Ray 3.7 normalises the normal
+    and keeps the distance as written (plane {<0,2,0>, 1} is y = 1, checked against POV-Ray).
     The inside is the side the normal points away from."""
 
     normal: Vec3

@@ -39,9 +39,10 @@ import numpy as np
 
 from lang import ir
 
-# POV-Ray's Small_Tolerance: checker adds it to every coordinate before flooring, so a
-# plane at an integer coordinate (y = 0, the classic floor) does not flicker between cells.
-CHECKER_OFFSET: float = 1e-3
+# POV-Ray adds a tiny epsilon to every coordinate before flooring, so a plane at an integer
+# coordinate (y = 0, the classic floor) does not flicker between cells. 1e-6 matches POV-Ray
+# 3.7's renders pixel for pixel (1e-3 shifts cell edges visibly; tests/test_checker_povray.py).
+CHECKER_OFFSET: float = 1e-6
 
 # POV-Ray wraps frequency/phase with fmod(…, 1.00001) so that a value of exactly 1.0 (the
 # last colour map entry) stays reachable.
