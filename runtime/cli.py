@@ -280,6 +280,17 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("-q", "--quiet", action="store_true")
     k.set_defaults(func=cmd_compile)
 
+    e = sub.add_parser(
+        "export", parents=[common], help="write the tessellated triangles as OBJ or PLY"
+    )
+    e.add_argument("file")
+    e.add_argument("-o", "--output", metavar="OUT", help="mesh.obj or mesh.ply")
+    e.add_argument("--clock", type=float, default=0.0)
+    e.add_argument("-W", "--width", type=_positive_int, metavar="W", help="image_width seen")
+    e.add_argument("-H", "--height", type=_positive_int, metavar="H", help="image_height seen")
+    e.add_argument("-q", "--quiet", action="store_true")
+    e.set_defaults(func=cmd_export)
+
     f = sub.add_parser("fmt", help="format scene files in place (canonical layout)")
     f.add_argument("files", nargs="+", metavar="FILE")
     f.add_argument("--check", action="store_true", help="change nothing; exit 1 if unformatted")
@@ -705,6 +716,37 @@ def cmd_compile(args: argparse.Namespace) -> int:
         return 1
     if not args.quiet:
         print(f"wrote {out}", file=sys.stderr)
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    scene, diags = _compile(
+        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet
+    )
+    print_diagnostics(diags, sys.stderr, summary=False)
+    if scene is None or _counts(diags)[0]:
+        return 1
+    out = output_path(args.file, args.output, ".obj")
+    if out.suffix.lower() not in (".obj", ".ply"):
+        raise UsageError(f"cannot export to `{out.suffix}`: use .obj or .ply")
+    if not out.parent.is_dir():
+        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    from runtime import export
+
+    mesh = export.collect(scene, (args.width or 320))
+    try:
+        export.write(mesh, str(out))
+    except OSError as exc:
+        print(f"strala: error: cannot write {out}: {exc.strerror}", file=sys.stderr)
+        return 1
+    if not args.quiet:
+        left = f"; not triangle geometry, left out: {', '.join(sorted(set(mesh.skipped)))}"
+        print(
+            f"wrote {out} ({len(mesh.vertices)} vertices, {len(mesh.faces)} triangles"
+            + (left if mesh.skipped else "")
+            + ")",
+            file=sys.stderr,
+        )
     return 0
 
 

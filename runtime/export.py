@@ -1,0 +1,143 @@
+"""`strala export`: the scene's triangle geometry in world space as one indexed mesh.
+
+The seed's "modellers export the resulting triangle data" step, and a test hook: nurbs and
+subdivision surfaces are tessellated exactly as for rendering (runtime.prepare), triangles
+and meshes pass through; analytic shapes are not triangles and are left out (reported).
+Vertices stay shared (indexed faces) with normals and, where the surface has them, uvs.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from lang import ir
+from runtime import transform as tf
+from runtime.prepare import _Builder
+
+
+@dataclass
+class ExportMesh:
+    vertices: np.ndarray  # (N,3) world space
+    faces: np.ndarray  # (M,3) int
+    normals: np.ndarray  # (N,3) unit
+    uvs: np.ndarray | None  # (N,2) or None when no part has uvs
+    skipped: list[str] = field(default_factory=list)  # shapes that are not triangle geometry
+
+
+def _leaves(objects, parent_flags=()):
+    for obj in objects:
+        if isinstance(obj.shape, ir.CSG):
+            yield from _leaves(obj.shape.children)
+        else:
+            yield obj
+
+
+def _face_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals for meshes that carry none."""
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    n = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(n, f[:, k], fn)
+    return tf.normalize(n)
+
+
+def collect(scene: ir.Scene, width: int = 320) -> ExportMesh:
+    builder = _Builder(scene.camera, width)
+    parts = []
+    skipped: list[str] = []
+    for obj in _leaves(scene.objects):
+        shape = obj.shape
+        if isinstance(shape, ir.Nurbs | ir.Subdivision):
+            mesh = builder.tessellate(obj)
+            if mesh is None:
+                skipped.append(type(shape).__name__.lower())
+                continue
+        elif isinstance(shape, ir.Mesh):
+            mesh = shape
+        elif isinstance(shape, ir.Triangle):
+            mesh = ir.Mesh(
+                vertices=(shape.p1, shape.p2, shape.p3),
+                faces=((0, 1, 2),),
+                normals=shape.normals,
+            )
+        else:
+            skipped.append(type(shape).__name__.lower())
+            continue
+        v = np.asarray(mesh.vertices, dtype=float).reshape(-1, 3)
+        f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+        n = (
+            np.asarray(mesh.normals, dtype=float).reshape(-1, 3)
+            if mesh.normals is not None
+            else _face_normals(v, f)
+        )
+        uv = np.asarray(mesh.uvs, dtype=float).reshape(-1, 2) if mesh.uvs is not None else None
+        m = tf.as_matrix(obj.transform)
+        parts.append(
+            (tf.apply_points(m, v), f, tf.normalize(tf.apply_normals(tf.inverse(m), n)), uv)
+        )
+    if not parts:
+        empty = np.zeros((0, 3))
+        return ExportMesh(empty, np.zeros((0, 3), np.int64), empty, None, skipped)
+    offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
+    has_uv = any(p[3] is not None for p in parts)
+    return ExportMesh(
+        np.concatenate([p[0] for p in parts]),
+        np.concatenate([p[1] + o for p, o in zip(parts, offsets, strict=True)]),
+        np.concatenate([p[2] for p in parts]),
+        np.concatenate([p[3] if p[3] is not None else np.zeros((len(p[0]), 2)) for p in parts])
+        if has_uv
+        else None,
+        skipped,
+    )
+
+
+def _obj_text(mesh: ExportMesh) -> str:
+    lines = ["# strala export: world-space triangles"]
+    lines += [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in mesh.vertices]
+    lines += [f"vn {x:.9g} {y:.9g} {z:.9g}" for x, y, z in mesh.normals]
+    if mesh.uvs is not None:
+        lines += [f"vt {u:.9g} {v:.9g}" for u, v in mesh.uvs]
+        lines += [f"f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}" for a, b, c in mesh.faces + 1]
+    else:
+        lines += [f"f {a}//{a} {b}//{b} {c}//{c}" for a, b, c in mesh.faces + 1]
+    return "\n".join(lines) + "\n"
+
+
+def _ply_text(mesh: ExportMesh) -> str:
+    props = ["x", "y", "z", "nx", "ny", "nz"] + (["s", "t"] if mesh.uvs is not None else [])
+    head = ["ply", "format ascii 1.0", "comment strala export: world-space triangles"]
+    head.append(f"element vertex {len(mesh.vertices)}")
+    head += [f"property double {p}" for p in props]
+    head += [f"element face {len(mesh.faces)}", "property list uchar int vertex_indices"]
+    head.append("end_header")
+    cols = [mesh.vertices, mesh.normals] + ([mesh.uvs] if mesh.uvs is not None else [])
+    table = np.concatenate(cols, axis=1)
+    rows = [" ".join(f"{x:.17g}" for x in row) for row in table]
+    rows += [f"3 {a} {b} {c}" for a, b, c in mesh.faces]
+    return "\n".join(head + rows) + "\n"
+
+
+def write(mesh: ExportMesh, path: str) -> None:
+    """OBJ or PLY by extension; written to a temporary name and renamed into place."""
+    ext = Path(path).suffix.lower()
+    if ext == ".obj":
+        text = _obj_text(mesh)
+    elif ext == ".ply":
+        text = _ply_text(mesh)
+    else:
+        raise ValueError(f"unknown mesh format `{ext}` (use .obj or .ply)")
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".strala-", suffix=ext, dir=folder)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
