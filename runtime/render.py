@@ -20,7 +20,9 @@ from lang import ir
 from runtime import antialias, integrate
 from runtime.camera import primary_rays
 
-TILE: int = 64  # pixels per tile side: ~4k camera rays per batch amortises numpy overhead
+# ~16k camera rays per batch: numpy work large enough to release the GIL, so two threads
+# overlap (Ex3 1280x960: 0.97 s on 2 threads vs 1.67 s with 64-pixel tiles).
+TILE: int = 128
 
 
 def render_scene(
