@@ -643,11 +643,11 @@ def parse(text: str, file: str = "<string>") -> tuple[syntax.SourceFile, list[Di
                 ("MORETHAN", ">"),
             ):
                 if closer in accepts:
-                    if end_repairs == 1:
+                    if end_repairs == 1 and not quiet_since_last(len(clean)):
                         _report_unclosed(closer)
                     e.interactive_parser.feed_token(Token(closer, text_))
                     return True
-            if end_repairs == 1:
+            if end_repairs == 1 and not quiet_since_last(len(clean)):
                 report(
                     "E0001",
                     "unexpected end of file",

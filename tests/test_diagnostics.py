@@ -1,0 +1,172 @@
+"""Golden diagnostics: a corpus of broken scenes, each with its first error's code and
+position, plus the messages users read. Every case is a mistake people make."""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from lang.diagnostics import Severity
+from lang.evaluate import compile_source
+
+# (name, source, code, line, col) of the first error
+CORPUS = [
+    ("stray_brace", "sphere { 0, 1 }\n}\n", "E0101", 2, 1),
+    ("unclosed_block", "sphere { 0, 1\n", "E0106", 1, 8),
+    ("missing_end", "#if (1)\nsphere { 0, 1 }\n", "E0107", 2, 16),
+    ("unterminated_string", '#debug "abc\n', "E0004", 1, 8),
+    ("unterminated_comment", "/* never\nsphere{0,1}\n", "E0003", 1, 1),
+    ("bad_char", "sphere { 0, 1 } @\n", "E0005", 1, 17),
+    ("reserved_name", "#declare sphere = 1;\n", "E0102", 1, 10),
+    ("unknown_ident", "sphere { 0, Radiu }\n", "E0201", 1, 13),
+    ("did_you_mean", "#declare Radius = 1;\nsphere { 0, Radiuss }\n", "E0201", 2, 13),
+    ("item_not_in_block", "sphere { 0, 1 angle 5 }\n", "E0210", 1, 15),
+    ("div_zero", "#declare A = 1/0;\n", "E0203", 1, 14),
+    ("sqrt_negative", "#declare A = sqrt(-1);\n", "E0203", 1, 14),
+    ("wrong_type_add", '#declare A = 1 + "s";\n', "E0203", 1, 14),
+    ("include_missing", '#include "nope.inc"\n', "E0220", 1, 1),
+    ("macro_arity", "#macro M(A, B) sphere{A,B} #end\nM(1)\n", "E0201", 1, 25),
+    ("unknown_macro", "Foo(1)\n", "E0201", 1, 1),
+    ("error_directive", '#error "stop here"\n', "E0240", 1, 1),
+    ("bad_vector_index", "#declare V = <1,2,3>;\n#declare A = V.w;\n", "E0203", 2, 14),
+    ("array_out_of_range", "#declare A = array[2] {1,2};\n#declare B = A[5];\n", "E0250", 2, 14),
+    ("runaway_while", "#declare I = 0;\n#while (1) #declare I = I + 1; #end\n", "E0230", 2, 1),
+    ("include_cycle", '#include "cycle.inc"\n', "E0221", 1, 1),
+    ("sphere_missing_radius", "sphere { <0,0,0> }\n", "E0211", 1, 1),
+    ("box_one_corner", "box { <0,0,0> }\n", "E0211", 1, 1),
+    ("camera_bad_item", "camera { location <0,0,-5> radius 3 }\n", "E0210", 1, 28),
+    ("light_no_colour", "light_source { <0,0,0> }\n", "E0211", 1, 1),
+    ("finish_bad_value", 'sphere { 0, 1 finish { ambient "x" } }\n', "E0211", 1, 32),
+    ("pigment_unknown_pattern_ident", "sphere { 0, 1 pigment { Nonesuch } }\n", "E0201", 1, 25),
+    ("color_bad", "#declare C = rgb <1,0>;\n", "E0202", 1, 14),
+    (
+        "nurbs_bad_count",
+        "nurbs { u_degree 1 v_degree 1 control_points { 2, 2, <0,0,0>, <1,0,0>, <0,1,0> } }\n",
+        "E0281",
+        1,
+        31,
+    ),
+    (
+        "nurbs_bad_weight",
+        "nurbs { u_degree 1 v_degree 1 control_points { 2, 2, <0,0,0>, <1,0,0>, <0,1,0>, <1,1,0> } weights { 1, 0, 1, 1 } }\n",
+        "E0282",
+        1,
+        91,
+    ),
+    (
+        "nurbs_decreasing_knots",
+        "nurbs { degree 1 control_points { 3, <0,0,0>, <1,0,0>, <2,0,0> } knots { 0, 0, 2, 1, 3 } radius 0.1 }\n",
+        "E0280",
+        1,
+        66,
+    ),
+    (
+        "subdiv_index_range",
+        "subdivision { scheme catmull_clark vertex_vectors { 3, <0,0,0>, <1,0,0>, <0,1,0> } face_indices { 1, <0,1,7> } }\n",
+        "E0286",
+        1,
+        84,
+    ),
+    (
+        "subdiv_loop_quad",
+        "subdivision { scheme loop vertex_vectors { 4, <0,0,0>, <1,0,0>, <1,1,0>, <0,1,0> } face_indices { 1, <0,1,2,3> } }\n",
+        "E0286",
+        1,
+        84,
+    ),
+    (
+        "subdiv_unknown_scheme",
+        "subdivision { scheme sqrt3 vertex_vectors { 3, <0,0,0>, <1,0,0>, <0,1,0> } face_indices { 1, <0,1,2> } }\n",
+        "E0201",
+        1,
+        22,
+    ),
+    ("declare_no_value", "#declare A = ;\n", "E0002", 1, 14),
+    ("unclosed_vector", "sphere { <0,0,0, 1 }\n", "E0002", 1, 20),
+    ("missing_paren", "#if (1\nsphere {0,1}\n#end\n", "E0002", 2, 1),
+    ("switch_no_case", "#switch (1)\nsphere{0,1}\n#end\n", "E0104", 2, 1),
+    ("for_bad_step", "#for (I, 0, 10, 0) sphere { I*x, .1 } #end\n", "E0230", 1, 1),
+    ("two_errors", "sphere { 0, Foo }\nbox { 0, Bar }\n", "E0201", 1, 13),
+]
+
+
+def errors_of(name: str, src: str, tmp_path):
+    folder = tmp_path
+    if name == "include_cycle":
+        (folder / "cycle.inc").write_text('#include "cycle.inc"\n')
+    path = folder / f"{name}.pov"
+    result = compile_source(src, str(path))
+    return [d for d in result.diagnostics if d.severity is Severity.ERROR]
+
+
+@pytest.mark.parametrize("name, src, code, line, col", CORPUS, ids=[c[0] for c in CORPUS])
+def test_first_error_code_and_position(name, src, code, line, col, tmp_path):
+    errs = errors_of(name, src, tmp_path)
+    assert errs, f"{name}: no error reported"
+    first = errs[0]
+    assert (first.code, first.span.line, first.span.col) == (code, line, col), first
+    assert first.span.file.endswith((f"{name}.pov", "cycle.inc"))
+    text = first.format(src.splitlines())
+    assert f":{line}:{col}: error:" in text and "^" in text  # gcc style with a caret
+
+
+def test_corpus_is_large_enough():
+    assert len(CORPUS) >= 40
+
+
+@pytest.mark.parametrize(
+    "src, words",
+    [
+        ("sphere { 0, 1 }\n}\n", ["unmatched `}`", "`sphere` block opened at 1:1"]),
+        ("#declare Radius = 1;\nsphere { 0, Radiuss }\n", ["Radius"]),
+        ("sphere { 0, 1 angle 5 }\n", ["not valid inside `sphere`"]),
+        ('#include "nope.inc"\n', ["nope.inc"]),
+    ],
+)
+def test_messages_and_hints_use_the_users_words(src, words):
+    result = compile_source(src, "m.pov")
+    d = [x for x in result.diagnostics if x.severity is Severity.ERROR][0]
+    text = d.message + " " + (d.hint or "")
+    for w in words:
+        assert w in text, text
+
+
+def test_several_errors_in_one_file_are_all_reported():
+    src = "sphere { 0, Foo }\nbox { 0, Bar }\n}\n#declare A = 1/0;\n"
+    errs = [d for d in compile_source(src, "m.pov").diagnostics if d.severity is Severity.ERROR]
+    lines = {d.span.line for d in errs}
+    assert {1, 2, 3, 4} <= lines
+
+
+_EX3 = (Path(__file__).resolve().parent.parent / "examples" / "ex3.scene").read_text()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31), st.sampled_from(["delete", "duplicate", "swap", "bytes"]))
+def test_mutated_example_never_raises(seed, kind):
+    """Mutations of the seed scene: the checker reports, it never crashes or hangs."""
+    rng = random.Random(seed)
+    tokens = _EX3.split(" ")
+    i = rng.randrange(len(tokens))
+    if kind == "delete":
+        del tokens[i]
+    elif kind == "duplicate":
+        tokens.insert(i, tokens[i])
+    elif kind == "swap":
+        j = rng.randrange(len(tokens))
+        tokens[i], tokens[j] = tokens[j], tokens[i]
+    else:
+        tokens.insert(i, "".join(chr(rng.randrange(1, 256)) for _ in range(rng.randrange(1, 8))))
+    result = compile_source(" ".join(tokens), "mutant.pov")
+    assert all(d.code != "E0000" for d in result.diagnostics)
+
+
+def test_deep_nesting_and_huge_numbers_terminate():
+    deep = "union { " * 300 + "sphere { 0, 1 }" + " }" * 300
+    assert compile_source(deep, "deep.pov").scene is not None
+    huge = "sphere { <1e308, 1e308, 1e308>, 1e308 }\n#declare A = 1e400 * 1e400;\n"
+    compile_source(huge, "huge.pov")  # finishes with diagnostics or a scene, never raises
