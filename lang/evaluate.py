@@ -74,7 +74,15 @@ def compile_file(
     image_height: int = 0,
     debug_to_stderr: bool = False,
 ) -> Result:
-    interp = Interpreter(
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError as e:
+        span = Span(path, 1, 1, 1, 1)
+        diag = Diagnostic(Severity.ERROR, "E0220", f"cannot read {path}: {e.strerror}", span)
+        return Result(None, [diag], {}, [])
+    return compile_source(
+        text,
+        str(Path(path)),
         library_paths,
         clock=clock,
         allow_file_io=allow_file_io,
@@ -82,13 +90,6 @@ def compile_file(
         image_height=image_height,
         debug_to_stderr=debug_to_stderr,
     )
-    try:
-        text = Path(path).read_text(encoding="utf-8", errors="replace")
-    except OSError as e:
-        span = Span(path, 1, 1, 1, 1)
-        diag = Diagnostic(Severity.ERROR, "E0220", f"cannot read {path}: {e.strerror}", span)
-        return Result(None, [diag], {}, [])
-    return interp.run(text, str(Path(path)))
 
 
 def compile_source(
