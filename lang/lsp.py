@@ -78,34 +78,28 @@ def _library_paths() -> list[str]:
 
 
 def _keyword_docs() -> dict[str, str]:
-    """One-line docs per keyword from the schema, when it provides them."""
-    try:
-        from lang import schema
-    except ImportError:
-        return {}
-    docs = getattr(schema, "keyword_docs", None)
-    if callable(docs):
-        try:
-            return dict(docs())
-        except Exception:  # a schema bug must not take the editor down
-            return {}
-    return {}
+    """One-line docs per keyword from the schema: a block's doc, an item's signature and doc."""
+    from lang import schema
+
+    docs: dict[str, str] = {}
+    for name, block in schema.BLOCKS.items():
+        for item in block.items.values():
+            docs.setdefault(item.name, f"`{item.signature}` — {item.doc}".rstrip(" —"))
+        docs[name] = f"`{name} {{ … }}` — {block.doc}"
+    return docs
 
 
 def _block_items(block: str) -> list[str] | None:
-    """Keywords valid inside `block`, from the schema when it provides them."""
-    try:
-        from lang import schema
-    except ImportError:
+    """Keywords valid inside `block` (its items and the blocks it takes), from the schema."""
+    from lang import schema
+
+    found = schema.spec(block)
+    if found is None:
         return None
-    items = getattr(schema, "items_for", None)
-    if callable(items):
-        try:
-            found = items(block)
-        except Exception:
-            return None
-        return list(found) if found is not None else None
-    return None
+    words = set(found.items) | set(found.soft)
+    # blocks whose value kind this block accepts (pigment inside texture, objects in union…)
+    words |= {name for name, b in schema.BLOCKS.items() if b.produces in found.accepts}
+    return sorted(words)
 
 
 class StralaServer(LanguageServer):

@@ -131,3 +131,21 @@ async def test_definition_of_include_opens_the_stdlib_file(client: LanguageClien
         )
     )
     assert locs and locs[0].uri.endswith("stdlib/colors.inc")
+
+
+async def test_completion_is_driven_by_the_schema_and_hover_shows_docs(
+    client: LanguageClient, tmp_path
+):
+    text = "sphere { 0, 1\n  finish { phong 1  }\n}\n"
+    uri = _open(client, tmp_path / "d.pov", text)
+    doc = T.TextDocumentIdentifier(uri=uri)
+    result = await client.text_document_completion_async(
+        T.CompletionParams(text_document=doc, position=T.Position(line=1, character=19))
+    )
+    keywords = {i.label for i in result.items if i.kind == T.CompletionItemKind.Keyword}
+    assert {"phong", "specular", "reflection", "metallic"} <= keywords
+    assert "sphere" not in keywords and "look_at" not in keywords
+    hov = await client.text_document_hover_async(
+        T.HoverParams(text_document=doc, position=T.Position(line=1, character=13))
+    )
+    assert hov is not None and "phong <float>" in hov.contents.value
