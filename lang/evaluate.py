@@ -1044,7 +1044,12 @@ class Interpreter:
 
     def _d_macro(self, node: syntax.MacroDef, out, spec) -> None:
         self.scopes[0][node.name] = MacroValue(
-            node.name, tuple(node.params), tuple(node.body), self.file_stack[-1], node.span
+            node.name,
+            tuple(node.params),
+            tuple(node.body),
+            self.file_stack[-1],
+            node.span,
+            optional=frozenset(node.optional),
         )
 
     def _d_version(self, node: syntax.Version, out, spec) -> None:
@@ -1187,6 +1192,15 @@ class Interpreter:
             raise self.error(
                 "E0232",
                 f"macro `{macro.name}` takes {len(macro.params)} argument(s), got {len(node.args)}",
+                node.span,
+                f"#macro {macro.name}({', '.join(macro.params)})",
+            )
+        missing = [p for p in macro.params[len(node.args) :] if p not in macro.optional]
+        if missing:
+            raise self.error(
+                "E0232",
+                f"macro `{macro.name}` takes {len(macro.params)} argument(s), got "
+                f"{len(node.args)}: `{missing[0]}` is missing",
                 node.span,
                 f"#macro {macro.name}({', '.join(macro.params)})",
             )

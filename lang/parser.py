@@ -144,6 +144,7 @@ class _Else:
 @dataclass
 class _Param:
     name: str
+    optional: bool = False
 
 
 @dataclass
@@ -466,13 +467,14 @@ class _Builder(Transformer):
                 _tok_span(self.file, children[0]),
                 "parameters are names, optionally preceded by `optional`",
             )
-        return _Param(str(children[-1]))
+        return _Param(str(children[-1]), optional=len(children) == 2)
 
     def macro(self, meta, children):
         name = children[1]
         params = [c.name for c in children if isinstance(c, _Param)]
+        optional = [c.name for c in children if isinstance(c, _Param) and c.optional]
         body = self._nodes(children[2:])
-        return syntax.MacroDef(self._span(meta, children), str(name), params, body)
+        return syntax.MacroDef(self._span(meta, children), str(name), params, body, optional)
 
     def version(self, meta, children):
         return syntax.Version(self._span(meta, children), children[1])

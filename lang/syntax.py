@@ -223,6 +223,7 @@ class MacroDef(Node):
     name: str
     params: list[str]
     body: list[Node]
+    optional: list[str] = field(default_factory=list)  # parameters marked `optional`
 
 
 @dataclass(slots=True)

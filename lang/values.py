@@ -164,6 +164,7 @@ class MacroValue:
     file: str
     span: Span | None = None
     kind: str = "macro"
+    optional: frozenset[str] = frozenset()  # parameters that may be left out (POV-Ray 3.7)
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ CORPUS = [
     ("sqrt_negative", "#declare A = sqrt(-1);\n", "E0203", 1, 14),
     ("wrong_type_add", '#declare A = 1 + "s";\n', "E0203", 1, 14),
     ("include_missing", '#include "nope.inc"\n', "E0220", 1, 1),
-    ("macro_arity", "#macro M(A, B) sphere{A,B} #end\nM(1)\n", "E0201", 1, 25),
+    ("macro_arity", "#macro M(A, B) sphere{A,B} #end\nM(1)\n", "E0232", 2, 1),
     ("unknown_macro", "Foo(1)\n", "E0201", 1, 1),
     ("error_directive", '#error "stop here"\n', "E0240", 1, 1),
     ("bad_vector_index", "#declare V = <1,2,3>;\n#declare A = V.w;\n", "E0203", 2, 14),

@@ -906,3 +906,17 @@ def test_list_pattern_defaults_are_povrays():
     assert [p.color[:3] for p in a] == [(0, 0, 1), (0, 1, 0)]
     assert [p.color[:3] for p in b] == [(0.5, 0.5, 0.5), (0.6, 0.15, 0.15)]
     assert [p.color[:3] for p in c] == [(1, 1, 1), (0, 1, 0), (1, 0, 0)]
+
+
+def test_macro_optional_parameters_may_be_left_out_and_others_may_not():
+    from lang.evaluate import compile_source as _cs
+
+    ok = _cs(
+        "#macro M(A, optional B) #ifdef (B) sphere{A,B} #else sphere{A,1} #end #end\nM(0)\n",
+        "m.pov",
+    )
+    assert not [d for d in ok.diagnostics if d.severity.value == "error"]
+    assert ok.scene.objects[0].shape.radius == 1.0
+    bad = _cs("#macro M(A, B) sphere{A,B} #end\nM(1)\n", "m.pov")
+    (err,) = [d for d in bad.diagnostics if d.severity.value == "error"]
+    assert err.code == "E0232" and "`B` is missing" in err.message and err.span.line == 2
