@@ -605,6 +605,10 @@ class Interpreter:
         self.version_set = False
         self.main_file = ""
         self.warned: set[str] = set()
+        # Names the main file #declares (first place) and every name ever read, for the
+        # "declared but never used" warning.
+        self.main_declares: dict[str, Span] = {}
+        self.used: set[str] = set()
         # scene state
         self.camera: ir.Camera | None = None
         self.lights: list[ir.Light] = []
@@ -636,6 +640,14 @@ class Interpreter:
             self.file_stack.pop()
         for h in list(self.handles.values()):
             self._flush(h)
+        for name, span in self.main_declares.items():
+            if name not in self.used:
+                self.sink.warning(
+                    "W0400",
+                    f"`{name}` is declared but never used",
+                    span,
+                    "remove the declaration, or use the name",
+                )
         scene = self._scene()
         symbols = {k: v for k, v in self.scopes[0].items()}
         return Result(scene, self.sink.items, symbols, list(self.files))
@@ -689,6 +701,7 @@ class Interpreter:
     def lookup(self, name: str) -> tuple[bool, Any]:
         for scope in reversed(self.scopes):
             if name in scope:
+                self.used.add(name)
                 return True, scope[name]
         return False, None
 
@@ -933,6 +946,17 @@ class Interpreter:
             return
         if isinstance(value, ArrayValue) and isinstance(node.value, syntax.Ident):
             value = ArrayValue(value.dims, list(value.data))  # POV-Ray copies arrays
+        span = node.name_span or node.span
+        if node.local and len(self.scopes) > 1 and node.name in self.scopes[0]:
+            if node.name not in self.scopes[-1]:
+                self.sink.warning(
+                    "W0401",
+                    f"`#local {node.name}` hides the global `{node.name}` inside this macro",
+                    span,
+                    "rename one of them if the global was meant",
+                )
+        elif not node.local and self.file_stack and self.file_stack[-1] == self.main_file:
+            self.main_declares.setdefault(node.name, span)
         self.declare(node.name, value, node.local)
 
     def _eval_value(self, node: syntax.Node) -> Any:

@@ -170,3 +170,13 @@ def test_deep_nesting_and_huge_numbers_terminate():
     assert compile_source(deep, "deep.pov").scene is not None
     huge = "sphere { <1e308, 1e308, 1e308>, 1e308 }\n#declare A = 1e400 * 1e400;\n"
     compile_source(huge, "huge.pov")  # finishes with diagnostics or a scene, never raises
+
+
+def test_unused_declare_and_shadowing_local_are_warned():
+    src = (
+        "#declare Unused = 3;\n#declare R = 1;\n"
+        "#macro M(A) #local R = 2; sphere { A, R } #end\nM(0)\nsphere { 0, R }\n"
+    )
+    diags = compile_source(src, "w.pov").diagnostics
+    got = {(d.code, d.span.line, d.span.col) for d in diags if d.severity is Severity.WARNING}
+    assert got == {("W0400", 1, 10), ("W0401", 3, 20)}
