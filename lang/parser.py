@@ -668,8 +668,10 @@ def parse(text: str, file: str = "<string>") -> tuple[syntax.SourceFile, list[Di
             )
             e.interactive_parser.feed_token(Token.new_borrow_pos("IDENT", str(tok), tok))
             return True
-        if not quiet_since_last(pos):
-            if tok.type == "RBRACE" and pos in braces.unmatched_close:
+        stray = tok.type == "RBRACE" and pos in braces.unmatched_close
+        # Every stray `}` is its own mistake; other errors right after one are its cascade.
+        if stray or not quiet_since_last(pos):
+            if stray:
                 last = braces.unmatched_close[pos]
                 if last is not None:
                     head, head_pos = _block_head(clean, last[0])

@@ -8,6 +8,7 @@ triangle geometry goes into one Embree-backed TriangleSet, built only when there
 from __future__ import annotations
 
 import dataclasses
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -50,10 +51,12 @@ class _Builder:
         self.culled: list[str] = []
         self.cull: _Culler | None = None
 
-    def warn_once(self, msg: str) -> None:
+    def warn_once(self, msg: str, span=None) -> None:
+        """One line per distinct problem, on stderr, blaming the object's source when known."""
         if msg not in self.warnings:
             self.warnings.append(msg)
-            print(f"strala: warning: {msg}")
+            where = f"{span}" if span is not None else "strala"
+            print(f"{where}: warning: {msg}", file=sys.stderr)
 
     def add_leaf_object(self, obj: ir.Object, inherited: dict[str, bool]) -> int:
         index = len(self.objects)
@@ -86,14 +89,18 @@ class _Builder:
             shape = mesh
         if isinstance(shape, ir.Mesh | ir.Triangle):
             if _singular(obj):
-                self.warn_once(f"a {type(shape).__name__.lower()} is skipped: {_singular(obj)}")
+                self.warn_once(
+                    f"a {type(shape).__name__.lower()} is skipped: {_singular(obj)}", obj.span
+                )
                 return
             if obj.clipped_by:
-                self.warn_once("clipped_by on triangle geometry is not supported yet: ignored")
+                self.warn_once(
+                    "clipped_by on triangle geometry is not supported yet: ignored", obj.span
+                )
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
             if obj.inverse:
-                self.warn_once("inverse has no effect on triangle geometry")
+                self.warn_once("inverse has no effect on triangle geometry", obj.span)
             return
         node = self.node(obj, flags)
         if node is not None:
@@ -119,17 +126,21 @@ class _Builder:
         if isinstance(shape, ir.Mesh):
             # A mesh has no inside (no inside_vector yet): inside a CSG it acts as a plain
             # surface, traced by Embree like a union member.
-            self.warn_once("a mesh inside intersection/difference/merge is treated as a union")
+            self.warn_once(
+                "a mesh inside intersection/difference/merge is treated as a union", obj.span
+            )
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
             return None
         why = shapes.degenerate(shape) or _singular(obj)
         if why:
-            self.warn_once(f"a degenerate {type(shape).__name__.lower()} is skipped: {why}")
+            self.warn_once(
+                f"a degenerate {type(shape).__name__.lower()} is skipped: {why}", obj.span
+            )
             return None
         prim = shapes.primitive_for(shape)
         if prim is None:
-            self.warn_once(f"shape {type(shape).__name__} is not supported by the tracer")
+            self.warn_once(f"shape {type(shape).__name__} is not supported by the tracer", obj.span)
             return None
         index = self.add_leaf_object(obj, flags)
         leaf = Leaf(prim, tf.as_matrix(obj.transform), index, inverse=obj.inverse)
@@ -150,7 +161,7 @@ class _Builder:
             return CsgNode(shape.op, kids, inverse=obj.inverse) if kids else None
         prim = None if shapes.degenerate(shape) or _singular(obj) else shapes.primitive_for(shape)
         if prim is None or isinstance(shape, ir.Triangle | ir.Polygon):
-            self.warn_once(f"clipped_by {type(shape).__name__} has no inside: ignored")
+            self.warn_once(f"clipped_by {type(shape).__name__} has no inside: ignored", obj.span)
             return None
         return Leaf(prim, tf.as_matrix(obj.transform), -1, inverse=obj.inverse)
 
@@ -172,7 +183,7 @@ class _Builder:
                 verts, faces, normals = subdivision_mesh(shape, levels)
                 uvs = None
         except Exception as exc:  # noqa: BLE001 - a broken surface must not stop the render
-            self.warn_once(f"{name.lower()} could not be tessellated ({exc}); skipped")
+            self.warn_once(f"{name.lower()} could not be tessellated ({exc}); skipped", obj.span)
             return None
         return ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
 
