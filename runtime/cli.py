@@ -175,15 +175,19 @@ def resolve_region(
     if any(v is not None and not math.isfinite(v) for v in ends):
         raise UsageError("region bounds must be finite numbers")
 
+    def pixel(x: float, size: int) -> int:
+        # clamp before int(): a huge bound must not overflow to infinity
+        return int(min(max(x, -1.0), size + 1.0))
+
     def start(v, size):
         if v is None:
             return 0
-        return int(v * size) if v <= 1.0 else int(v) - 1
+        return pixel(v * size if v <= 1.0 else v - 1, size)
 
     def end(v, size):
         if v is None:
             return size
-        return int(v * size) if v <= 1.0 else int(v)
+        return pixel(v * size if v <= 1.0 else v, size)
 
     left, right = start(start_col, width), end(end_col, width)
     top, bottom = start(start_row, height), end(end_row, height)
