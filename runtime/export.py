@@ -18,6 +18,7 @@ import numpy as np
 from lang import ir
 from runtime import transform as tf
 from runtime.prepare import _Builder
+from runtime.triangles import _vertex_normals
 
 
 @dataclass
@@ -29,21 +30,12 @@ class ExportMesh:
     skipped: list[str] = field(default_factory=list)  # shapes that are not triangle geometry
 
 
-def _leaves(objects, parent_flags=()):
+def _leaves(objects):
     for obj in objects:
         if isinstance(obj.shape, ir.CSG):
             yield from _leaves(obj.shape.children)
         else:
             yield obj
-
-
-def _face_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals for meshes that carry none."""
-    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    n = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(n, f[:, k], fn)
-    return tf.normalize(n)
 
 
 def collect(scene: ir.Scene, width: int = 320) -> ExportMesh:
@@ -73,7 +65,7 @@ def collect(scene: ir.Scene, width: int = 320) -> ExportMesh:
         n = (
             np.asarray(mesh.normals, dtype=float).reshape(-1, 3)
             if mesh.normals is not None
-            else _face_normals(v, f)
+            else _vertex_normals(v, f)
         )
         uv = np.asarray(mesh.uvs, dtype=float).reshape(-1, 2) if mesh.uvs is not None else None
         m = tf.as_matrix(obj.transform)
