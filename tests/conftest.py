@@ -60,3 +60,19 @@ def run_cli(*args: str, cwd: Path | None = None, extra: tuple[str, ...] = ()):
 @pytest.fixture
 def cli():
     return run_cli
+
+
+def povray_image(scene_text: str, folder: Path, width: int, height: int):
+    """POV-Ray's render of a scene (the oracle), as (H, W, 3) floats in [0, 1]."""
+    import OpenImageIO as oiio
+
+    (folder / "oracle.pov").write_text(scene_text)
+    subprocess.run(
+        ["povray", "+Ioracle.pov", "+Ooracle.png", f"+W{width}", f"+H{height}", "-D", "-V",
+         "-GA"],
+        cwd=folder,
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )  # fmt: skip
+    return oiio.ImageBuf(str(folder / "oracle.png")).get_pixels(oiio.FLOAT)[..., :3]

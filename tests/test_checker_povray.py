@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
@@ -20,20 +19,13 @@ plane { x, -2 pigment { checker rgb <0.6, 0, 0>, rgb 1 } }
 def test_checker_on_integer_planes_matches_povray(tmp_path):
     if shutil.which("povray") is None:
         pytest.skip("POV-Ray is not installed")
-    import OpenImageIO as oiio
+    from conftest import povray_image
 
     from lang.evaluate import compile_source
     from runtime.color import to_display
     from runtime.render import render_scene
 
-    (tmp_path / "f.pov").write_text(SCENE)
-    subprocess.run(
-        ["povray", "+If.pov", "+Opov.png", "+W160", "+H120", "-D", "-V", "-GA"],
-        cwd=tmp_path,
-        check=True,
-        capture_output=True,
-    )
-    ref = oiio.ImageBuf(str(tmp_path / "pov.png")).get_pixels(oiio.FLOAT)[..., :3]
+    ref = povray_image(SCENE, tmp_path, 160, 120)
     result = compile_source(SCENE, str(tmp_path / "f.pov"))
     ours = to_display(render_scene(result.scene, 160, 120), result.scene.settings)
     off = np.abs(ours - ref).max(axis=-1) > 0.1

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
@@ -47,7 +46,7 @@ def nurbs_text(shape, modifiers: str, tolerance: float) -> str:
 def test_nurbs_sphere_and_torus_match_povray_analytic_shapes(tmp_path):
     if shutil.which("povray") is None:
         pytest.skip("POV-Ray is not installed")
-    import OpenImageIO as oiio
+    from conftest import povray_image
 
     from lang.evaluate import compile_source
     from runtime.color import to_display
@@ -56,14 +55,7 @@ def test_nurbs_sphere_and_torus_match_povray_analytic_shapes(tmp_path):
     pov = LAYOUT.format(
         sphere=f"sphere {{ 0, 1 {SPHERE_TEX} }}", torus=f"torus {{ 1, 0.3 {TORUS_TEX} }}"
     )
-    (tmp_path / "a.pov").write_text(pov)
-    subprocess.run(
-        ["povray", "+Ia.pov", "+Oa.png", "+W256", "+H192", "-D", "-V", "-GA"],
-        cwd=tmp_path,
-        check=True,
-        capture_output=True,
-    )
-    ref = oiio.ImageBuf(str(tmp_path / "a.png")).get_pixels(oiio.FLOAT)[..., :3]
+    ref = povray_image(pov, tmp_path, 256, 192)
     scene_text = LAYOUT.format(
         sphere=nurbs_text(nurbs_sphere((0.0, 0.0, 0.0), 1.0), SPHERE_TEX, 1e-3),
         torus=nurbs_text(nurbs_torus(1.0, 0.3), TORUS_TEX, 1e-3),
