@@ -177,9 +177,12 @@ class _Builder:
                 tolerance = shape.tolerance or self.auto_tolerance(obj)
                 verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
             else:
-                from runtime.subdivide import subdivision_mesh
+                from runtime.subdivide import levels_for_tolerance, subdivision_mesh
 
-                levels = shape.levels if shape.levels is not None else 3
+                levels = shape.levels
+                if levels is None:  # `tolerance`, else half a pixel from the camera
+                    tolerance = shape.tolerance or self.auto_tolerance(obj)
+                    levels = levels_for_tolerance(shape, tolerance)
                 verts, faces, normals = subdivision_mesh(shape, levels)
                 uvs = None
         except Exception as exc:  # noqa: BLE001 - a broken surface must not stop the render

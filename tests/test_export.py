@@ -106,3 +106,19 @@ def test_cli_export_rejects_unknown_format(tmp_path):
     )
     assert run.returncode == 2 and "use .obj or .ply" in run.stderr
     assert not (tmp_path / "x.stl").exists()
+
+
+def test_subdivision_tolerance_chooses_the_level():
+    cube = (
+        "subdivision {{ scheme catmull_clark tolerance {tol}\n"
+        "  vertex_vectors {{ 8, <-1,-1,-1>, <1,-1,-1>, <1,1,-1>, <-1,1,-1>,\n"
+        "                   <-1,-1,1>, <1,-1,1>, <1,1,1>, <-1,1,1> }}\n"
+        "  face_indices {{ 6, <0,3,2,1>, <4,5,6,7>, <0,1,5,4>, <2,3,7,6>, <1,2,6,5>,"
+        " <0,4,7,3> }} }}\n"
+    )
+    counts = []
+    for tol in (0.1, 0.01, 0.001):
+        result = compile_source(cube.format(tol=tol), "c.pov")
+        assert result.scene is not None, [d.message for d in result.diagnostics]
+        counts.append(len(export.collect(result.scene).faces))
+    assert counts[0] < counts[1] < counts[2]
