@@ -1,7 +1,7 @@
 """Benchmark: radiosity cost against the number of patches N, and the Cornell accuracy.
 
-    /tmp/venv/bin/python tests/bench/bench_radiosity.py [--sizes 0.8,0.6,0.45,0.35,0.28]
-    /tmp/venv/bin/python tests/bench/bench_radiosity.py --cornell 0.7 --rounds 2
+    python tests/bench/bench_radiosity.py [--sizes 0.8,0.6,0.45,0.35,0.28]
+    python tests/bench/bench_radiosity.py --cornell 0.7 --rounds 2
 
 Part 1 meshes the inside of a closed box room (6 faces; the patch size sets N), computes
 the dense form-factor matrix (analytic kernel, Embree visibility against the patches) and
@@ -11,7 +11,8 @@ form factors and one Gauss–Seidel sweep are O(N²), progressive refinement O(N
 "sweep" of shots, the direct solve O(N³).
 
 Part 2 (`--cornell SIZE`) runs the whole pipeline on the shared Cornell box reference
-(/work/shared/reference/cornell), displays the Gouraud-interpolated solution at 256×256
+(../shared/reference/cornell beside the repository), displays the Gouraud-interpolated
+solution at 256×256
 through the tracer's primary hits (one ray per pixel centre, no anti-aliasing) and reports
 the RMSE against the Mitsuba reference (all pixels and the interior mask).
 
@@ -43,7 +44,7 @@ from runtime.radiosity.formfactor import form_factors  # noqa: E402
 from runtime.radiosity.patches import Mesher  # noqa: E402
 from runtime.radiosity.visibility import PatchVisibility  # noqa: E402
 
-CORNELL = Path("/work/shared/reference/cornell")
+CORNELL = Path(__file__).resolve().parents[3] / "shared" / "reference" / "cornell"
 
 
 def room(size: float):

@@ -1,6 +1,6 @@
 """Benchmark: subdivision time per level and per face, 10k to 1M input faces.
 
-    /tmp/venv/bin/python tests/bench/bench_subdivide.py [--max-faces 1000000]
+    python tests/bench/bench_subdivide.py [--max-faces 1000000]
 
 For each size it times one refinement step (Catmull–Clark on a quad torus, Loop on a
 triangle torus), the limit positions and normals of the refined level, and the whole
