@@ -1553,6 +1553,8 @@ class Interpreter:
             return ListValue(kw, tuple(items), count, node.span)
         if kw == "spline":
             return self._spline(node)
+        if kw == "bicubic_patch":
+            return self._bicubic_patch(node)
         if kw in schema.UNSUPPORTED_SHAPES:
             self.unsupported(kw, span)
             return self._unsupported_object(node)
@@ -1607,6 +1609,47 @@ class Interpreter:
         if len(entries) < need:
             raise self.error("E0211", f"a {kind} needs at least {need} points", node.span)
         return SplineValue(kind, tuple(sorted(entries.items())))
+
+    def _bicubic_patch(self, node: syntax.Block) -> ObjectValue:
+        """POV-Ray's `bicubic_patch { type N flatness F u_steps U v_steps V <p1> … <p16> … }`
+        becomes the equal NURBS (degree 3×3, Bézier knots, unit weights), so it is tessellated
+        to the scene's tolerance like every NURBS surface."""
+        spec = schema.BlockSpec(
+            node.keyword, "object", "", (), schema._items(schema.OBJECT_ITEMS),
+            schema.OBJECT_ACCEPTS,
+        )  # fmt: skip
+        self.loose_depth += 1
+        try:
+            els = self.expand(node.body, spec)
+        finally:
+            self.loose_depth -= 1
+        points: list[tuple[float, float, float]] = []
+        i, n = 0, len(els)
+        while i < n:
+            e = els[i]
+            if e.kind == "comma":
+                i += 1
+            elif e.kind == "kw" and e.value in ("type", "flatness", "u_steps", "v_steps"):
+                i += 2  # the setting's number: tessellation follows the tolerance instead
+            elif e.kind == "val" and len(points) < 16 and isinstance(e.value, Vec):
+                points.append(as_vec(e.value, 3).xyz)
+                i += 1
+            else:
+                break
+        if len(points) != 16:
+            raise self.error(
+                "E0202",
+                f"`bicubic_patch` needs 16 control points, found {len(points)}",
+                node.keyword_span or node.span,
+                "bicubic_patch { type 1 <p1>, <p2>, … <p16> }",
+            )
+        knots = (0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0)
+        # POV-Ray lists the points row by row along v; the IR wants u varying fastest.
+        net = tuple(points[4 * u + v] for v in range(4) for u in range(4))
+        shape = ir.Nurbs(3, 3, 4, 4, net, (1.0,) * 16, knots, knots)
+        g = self.group(spec, els[i:], node, loose=True)
+        obj = ObjectValue(shape, node.keyword, span=node.span, default=self.default_texture)
+        return self._apply_object_items(obj, g)
 
     def _unsupported_object(self, node: syntax.Block) -> ObjectValue:
         spec = schema.BlockSpec(

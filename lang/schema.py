@@ -326,7 +326,7 @@ SHAPES: dict[str, BlockSpec] = {
 
 # POV-Ray shapes strala parses but does not render yet (an ir.Unsupported object + a warning).
 UNSUPPORTED_SHAPES = frozenset(
-    """blob lathe sor prism superellipsoid sphere_sweep height_field text bicubic_patch
+    """blob lathe sor prism superellipsoid sphere_sweep height_field text
     isosurface parametric julia_fractal quadric poly polynomial cubic quartic ovus lemon
     light_group""".split()
 )

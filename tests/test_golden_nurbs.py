@@ -69,3 +69,49 @@ def test_nurbs_sphere_and_torus_match_povray_analytic_shapes(tmp_path):
     off = float((np.abs(ours - ref).max(axis=-1) > 0.1).mean())
     print(f"NURBS vs analytic: RMSE {rmse:.4f}, {off:.2%} pixels off by > 0.1")
     assert rmse < 0.02
+
+
+BICUBIC = """#version 3.7;
+global_settings { assumed_gamma 1.0 }
+camera { location <1.5, 3, -4> look_at <1.5, 0, 1.5> }
+light_source { <-5, 10, -8> rgb 1 }
+background { rgb <0.4, 0.5, 0.7> }
+bicubic_patch { type 1 flatness 0.001 u_steps 4 v_steps 4
+  <0, 0, 0>, <1, 1, 0>, <2, -1, 0>, <3, 0, 0>,
+  <0, 1, 1>, <1, 2, 1>, <2, 0, 1>, <3, 1, 1>,
+  <0, -1, 2>, <1, 0, 2>, <2, 1, 2>, <3, 0, 2>,
+  <0, 0, 3>, <1, 1, 3>, <2, 0, 3>, <3, -1, 3>
+  pigment { checker rgb <0.9, 0.3, 0.2>, rgb 0.9 scale 0.5 } finish { phong 0.5 }
+}
+"""
+
+
+@pytest.mark.povray
+def test_bicubic_patch_matches_povray(tmp_path):
+    """POV-Ray's bicubic_patch runs on the NURBS machinery (an exact Bézier patch)."""
+    if shutil.which("povray") is None:
+        pytest.skip("POV-Ray is not installed")
+    from conftest import povray_image
+
+    from lang.evaluate import compile_source
+    from runtime.color import to_display
+    from runtime.render import render_scene
+
+    ref = povray_image(BICUBIC, tmp_path, 160, 120)
+    result = compile_source(BICUBIC, str(tmp_path / "b.pov"))
+    assert not [d for d in result.diagnostics if d.severity.value != "note"], result.diagnostics
+    (obj,) = result.scene.objects
+    assert type(obj.shape).__name__ == "Nurbs" and obj.shape.nu == 4
+    ours = to_display(render_scene(result.scene, 160, 120), result.scene.settings)
+    covered = (np.abs(ref - np.array([0.4, 0.5, 0.7]) ** (1 / 2.2)).max(axis=-1) > 0.05).mean()
+    assert covered > 0.05  # the patch is really in the picture
+    rmse = float(np.sqrt(((ours - ref) ** 2).mean()))
+    assert rmse < 0.02, rmse
+
+
+def test_bicubic_patch_needs_sixteen_points():
+    from lang.evaluate import compile_source
+
+    result = compile_source("bicubic_patch { type 1 <0,0,0>, <1,0,0> }\n", "b.pov")
+    (err,) = [d for d in result.diagnostics if d.severity.value == "error"]
+    assert "16 control points, found 2" in err.message
