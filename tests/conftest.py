@@ -76,3 +76,15 @@ def povray_image(scene_text: str, folder: Path, width: int, height: int):
         timeout=600,
     )  # fmt: skip
     return oiio.ImageBuf(str(folder / "oracle.png")).get_pixels(oiio.FLOAT)[..., :3]
+
+
+def povray_debug(scene: Path) -> str:
+    """What POV-Ray prints (its #debug stream goes to stderr) parsing a scene at 1×1 pixel."""
+    return subprocess.run(
+        [shutil.which("povray") or "povray", f"+I{scene}", "-D", "+W1", "+H1", "+O/dev/null",
+         "-V"],
+        capture_output=True,
+        text=True,
+        cwd=scene.parent,
+        timeout=60,
+    ).stderr  # fmt: skip

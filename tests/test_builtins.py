@@ -4,10 +4,9 @@ with POV-Ray itself (the oracle) on a batch of expressions."""
 from __future__ import annotations
 
 import math
-import shutil
-import subprocess
 
 import pytest
+from conftest import povray_debug
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -251,13 +250,7 @@ def test_strala_evaluates_the_oracle_batch():
 def test_against_povray(tmp_path):
     src = tmp_path / "b.pov"
     src.write_text(_scene())
-    pov = subprocess.run(
-        [shutil.which("povray") or "povray", f"+I{src}", "-D", "+W1", "+H1", "+O/dev/null", "-V"],
-        capture_output=True,
-        text=True,
-        cwd=tmp_path,
-        timeout=60,
-    ).stderr
+    pov = povray_debug(src)
     pov_lines = [ln for ln in pov.splitlines() if ln.startswith(("F ", "S "))]
     ours = [d.message for d in compile_source(_scene()).diagnostics if d.code == "N0100"]
     assert len(pov_lines) == len(ours) == len(FLOAT_EXPRS) + len(STRING_EXPRS), pov[-1500:]

@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from conftest import povray_debug
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -781,13 +782,7 @@ def test_extents_match_povray(tmp_path):
             lines.append(f'#debug concat("X ", vstr(3, {fn}(O{i}), ",", 0, 9), "\\n")')
     src = tmp_path / "e.pov"
     src.write_text("\n".join(lines) + "\n")
-    pov = subprocess.run(
-        [shutil.which("povray") or "povray", f"+I{src}", "-D", "+W1", "+H1", "+O/dev/null", "-V"],
-        capture_output=True,
-        text=True,
-        cwd=tmp_path,
-        timeout=60,
-    ).stderr
+    pov = povray_debug(src)
     want = [ln for ln in pov.splitlines() if ln.startswith("X ")]
     got = [d.message for d in compile_file(str(src)).diagnostics if d.code == "N0100"]
     assert len(want) == len(got) == 2 * len(EXTENT_OBJECTS), pov[-1000:]
@@ -830,13 +825,7 @@ def test_spline_values():
 def test_splines_match_povray(tmp_path):
     src = tmp_path / "s.pov"
     src.write_text(_spline_scene())
-    pov = subprocess.run(
-        [shutil.which("povray") or "povray", f"+I{src}", "-D", "+W1", "+H1", "+O/dev/null", "-V"],
-        capture_output=True,
-        text=True,
-        cwd=tmp_path,
-        timeout=60,
-    ).stderr
+    pov = povray_debug(src)
     want = [ln for ln in pov.splitlines() if ln[:2] in ("L ", "C ", "N ", "Q ")]
     got = [d.message for d in compile_file(str(src)).diagnostics if d.code == "N0100"]
     assert len(want) == len(got) > 100, pov[-800:]
@@ -883,13 +872,7 @@ def test_srgb_matches_povray(tmp_path, gamma):
         "#declare D = srgbft <0.5, 0.2, 1, 0.3, 0.4>;\n"
         '#debug concat("S ", vstr(5, D, ",", 0, 9), "\\n")\n'
     )
-    pov = subprocess.run(
-        [shutil.which("povray") or "povray", f"+I{src}", "-D", "+W1", "+H1", "+O/dev/null", "-V"],
-        capture_output=True,
-        text=True,
-        cwd=tmp_path,
-        timeout=60,
-    ).stderr
+    pov = povray_debug(src)
     (want,) = [ln for ln in pov.splitlines() if ln.startswith("S ")]
     (got,) = [d.message for d in compile_file(str(src)).diagnostics if d.code == "N0100"]
     wv = [float(v) for v in want[2:].split(",")]

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import math
-import shutil
-import subprocess
 
 import pytest
+from conftest import povray_debug
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -142,13 +141,7 @@ def test_against_povray(tmp_path):
     lines = [f'#debug concat(vstr(3, {expr}, ",", 0, 9), "\\n")' for expr, _ in CASES]
     src = tmp_path / "t.pov"
     src.write_text("\n".join(lines) + "\n")
-    out = subprocess.run(
-        [shutil.which("povray") or "povray", f"+I{src}", "-D", "+W1", "+H1", "+O/dev/null", "-V"],
-        capture_output=True,
-        text=True,
-        cwd=tmp_path,
-        timeout=60,
-    ).stderr
+    out = povray_debug(src)
     got = [ln for ln in out.splitlines() if ln.count(",") == 2 and ln[0] in "-0123456789"]
     assert len(got) == len(CASES), out[-2000:]
     for (expr, fn), line in zip(CASES, got, strict=True):
