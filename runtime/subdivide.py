@@ -435,6 +435,23 @@ def _quads_from_corners(mesh: ControlMesh, nfp: int) -> np.ndarray:
     return _interleave(mesh.fv, eb + topo.edge, V + topo.face, eb + topo.edge[topo.prv])
 
 
+def _quad_child(mesh: ControlMesh, s: np.ndarray, vp, fp, ep) -> ControlMesh:
+    """The all-quad child mesh of one face-split step (Catmull–Clark, bilinear) from its new
+    vertex, face and edge points; creases, corners and sharpness carry over."""
+    V, F, E = mesh.nv, mesh.nf, len(mesh.topology.edges)
+    pairs, cs = _child_creases(mesh, s, V + F)
+    return ControlMesh(
+        np.concatenate([vp, fp, ep]),
+        _quads_from_corners(mesh, F),
+        np.full(len(mesh.fv), 4, dtype=np.int64),
+        pairs,
+        cs,
+        np.concatenate([mesh.corner, np.zeros(F + E, dtype=bool)]),
+        _quad_child_topology(mesh, F),
+        _child_sharpness(s, len(mesh.fv)),
+    )
+
+
 def catmull_clark_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
     """One Catmull–Clark step on any polygons (the result is all quads)."""
     topo, P, V, F = mesh.topology, mesh.points, mesh.nv, mesh.nf
@@ -450,37 +467,16 @@ def catmull_clark_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMes
     esum_v = _neighbour_sum(P, topo.edges, None, V)
     smooth_v = (n - 2.0) / n * P + (esum_v + fsum_v) / (n * n)
     vp = _apply_vertex_rules(P, smooth_v, vertex_rules(mesh, s, boundary))
-    pairs, cs = _child_creases(mesh, s, V + F)
-    return ControlMesh(
-        np.concatenate([vp, fp, ep]),
-        _quads_from_corners(mesh, F),
-        np.full(len(mesh.fv), 4, dtype=np.int64),
-        pairs,
-        cs,
-        np.concatenate([mesh.corner, np.zeros(F + E, dtype=bool)]),
-        _quad_child_topology(mesh, F),
-        _child_sharpness(s, len(mesh.fv)),
-    )
+    return _quad_child(mesh, s, vp, fp, ep)
 
 
 def bilinear_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
     """One bilinear step: face centroids and edge midpoints, vertices stay."""
-    topo, P, V, F = mesh.topology, mesh.points, mesh.nv, mesh.nf
-    E = len(topo.edges)
+    topo, P, F = mesh.topology, mesh.points, mesh.nf
     fp = _scatter(topo.face, P[mesh.fv], F) / mesh.fsize[:, None]
     ep = 0.5 * (P[topo.edges[:, 0]] + P[topo.edges[:, 1]])
     s = edge_sharpness(mesh, topo)
-    pairs, cs = _child_creases(mesh, s, V + F)
-    return ControlMesh(
-        np.concatenate([P, fp, ep]),
-        _quads_from_corners(mesh, F),
-        np.full(len(mesh.fv), 4, dtype=np.int64),
-        pairs,
-        cs,
-        np.concatenate([mesh.corner, np.zeros(F + E, dtype=bool)]),
-        _quad_child_topology(mesh, F),
-        _child_sharpness(s, len(mesh.fv)),
-    )
+    return _quad_child(mesh, s, P, fp, ep)
 
 
 def loop_beta(n: np.ndarray) -> np.ndarray:
