@@ -79,6 +79,20 @@ class FinishRows:
     irid: None = None
 
 
+# The scalar finish terms shaded as per-row columns (FinishTable, FinishRows).
+FINISH_FLOATS = (
+    "diffuse",
+    "diffuse_back",
+    "brilliance",
+    "specular",
+    "roughness",
+    "phong",
+    "phong_size",
+    "metallic",
+    "crand",
+)
+
+
 class FinishTable:
     """Every plain texture's finish as columns, indexed by texture id."""
 
@@ -90,20 +104,7 @@ class FinishTable:
         self.cols = {
             "ambient": col(lambda f: f.ambient, 3),
             "emission": col(lambda f: f.emission, 3),
-            **{
-                k: col(lambda f, k=k: getattr(f, k))
-                for k in (
-                    "diffuse",
-                    "diffuse_back",
-                    "brilliance",
-                    "specular",
-                    "roughness",
-                    "phong",
-                    "phong_size",
-                    "metallic",
-                    "crand",
-                )
-            },
+            **{k: col(lambda f, k=k: getattr(f, k)) for k in FINISH_FLOATS},
             "conserve_energy": col(lambda f: float(f.conserve_energy)),
         }
         self.refl = {
@@ -723,20 +724,7 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
         sub = FinishRows(
             **{
                 k: getattr(fin, k)[sel]
-                for k in (
-                    "ambient",
-                    "emission",
-                    "diffuse",
-                    "diffuse_back",
-                    "brilliance",
-                    "specular",
-                    "roughness",
-                    "phong",
-                    "phong_size",
-                    "metallic",
-                    "crand",
-                    "conserve_energy",
-                )
+                for k in ("ambient", "emission", *FINISH_FLOATS, "conserve_energy")
             },
             reflection=ReflectionRows(
                 r.min[sel], r.max[sel], r.falloff[sel], r.exponent[sel], r.metallic[sel]
