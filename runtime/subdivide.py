@@ -19,7 +19,8 @@ edge) and the sectors of crease and boundary vertices use masks read off the
 eigenvectors of their ring's subdivision matrix (one small eigenproblem per valence or
 sector size), so limit points and normals are exact there too. A vertex on infinitely
 sharp edges is split into one output vertex per sector, each with its one-sided normal;
-corners and one-face Catmull–Clark sectors take the angle-weighted face normal.
+a corner's sector takes the plane of its two sharp edges; one-face Catmull–Clark crease
+sectors take the angle-weighted face normal.
 
 Vertex numbering is stable: a refined mesh keeps the parent's vertices first (then face
 points, then edge points), so a control vertex keeps its index at every level. Limit
@@ -935,12 +936,15 @@ def shade(
         sector_n = _scatter(group[need], _normalize(cn) * angle[:, None], G)
         tangent = _normalize(_crease_tangents(mesh, inf_sharp))[gvert]
         sector_n -= np.einsum("ij,ij->i", sector_n, tangent)[:, None] * tangent
-        exact = _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps)
-        if exact is not None:
-            g, en = exact
-            # the masks fix the plane, the faces the side
-            en[np.einsum("ij,ij->i", en, sector_n[g]) < 0] *= -1.0
-            sector_n[g] = en
+        for exact in (
+            _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps),
+            _corner_sector_normals(mesh, scheme, boundary, s, rings, group, reps),
+        ):
+            if exact is not None:
+                g, en = exact
+                # the masks fix the plane, the faces the side
+                en[np.einsum("ij,ij->i", en, sector_n[g]) < 0] *= -1.0
+                sector_n[g] = en
         gn[~use_smooth] = sector_n[~use_smooth]
     gn = _normalize(gn)
     verts = np.concatenate([positions, positions[gvert[~primary]]])
@@ -1045,6 +1049,46 @@ def _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
     across = _scatter(grp, terms, G)
     groups = np.unique(grp[ok])
     return groups, _normalize(np.cross(along[groups], across[groups]))
+
+
+# Corner sectors whose two sharp edges meet at less than this angle (or more than π minus
+# it) have no well-defined tangent plane from their edges; they keep the face normals.
+CORNER_MIN_ANGLE = math.radians(2.0)
+
+
+def _corner_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
+    """(groups, normals) for the sectors of corner vertices between two infinitely sharp
+    (or boundary) edges. A corner stays put and its edge points are midpoints, so each
+    sharp edge's limit curve leaves the corner along the edge's own direction at every
+    level: the sector's tangent plane holds both edges, whatever the faces between them."""
+    if scheme == "bilinear" or ((s > 0) & np.isfinite(s)).any():
+        return None
+    topo, P, fv = mesh.topology, mesh.points, mesh.fv
+    r = vertex_rules(mesh, s, boundary)
+    cc = np.nonzero(r.parent[fv] == CORNER)[0]
+    if cc.size == 0:
+        return None
+    G = len(reps)
+    grp = group[cc]
+    k = np.bincount(group, minlength=G)[grp]
+    i = rings.j[cc] - rings.j[reps[grp]]
+    # a sector is bounded when its first out-edge and its last in-edge are sharp or open
+    edge_sharp = np.isinf(s) | (topo.edge_nf == 1)
+    first, last = i == 0, i == k - 1
+    a = _scatter(grp, np.where(first[:, None], P[fv[topo.nxt[cc]]] - P[fv[cc]], 0.0), G)
+    b = _scatter(grp, np.where(last[:, None], P[fv[topo.prv[cc]]] - P[fv[cc]], 0.0), G)
+    bounded = np.zeros(G, dtype=bool)
+    bounded[grp[first]] = edge_sharp[topo.edge[cc[first]]]
+    closed_end = np.zeros(G, dtype=bool)
+    closed_end[grp[last]] = edge_sharp[topo.edge[topo.prv[cc[last]]]]
+    groups = np.unique(grp)
+    groups = groups[bounded[groups] & closed_end[groups]]
+    n = np.cross(a[groups], b[groups])
+    sin = np.linalg.norm(n, axis=1) / np.maximum(
+        np.linalg.norm(a[groups], axis=1) * np.linalg.norm(b[groups], axis=1), 1e-300
+    )
+    keep = sin > math.sin(CORNER_MIN_ANGLE)
+    return groups[keep], _normalize(n[keep])
 
 
 # ----------------------------------------------------------- entry points

@@ -736,3 +736,34 @@ def test_crease_sector_normals_do_not_depend_on_the_level(scheme):
         assert len(ones) == len(threes) == 2
         _, dist = nearest(ones, threes)
         assert dist.max() < 1e-9
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+@pytest.mark.parametrize("levels", [0, 2])
+def test_corner_sector_normal_is_the_plane_of_its_edges(scheme, levels):
+    """A corner stays put and its sharp edges' limit curves leave it along the edges, so
+    the one-sided limit normal of a corner sector is the cross product of its two edges —
+    at every level, and it is what the faces at the corner turn to as the level grows."""
+    rng = np.random.default_rng(8)
+    pts, faces, idx = grid(3, 3, rng.normal(scale=0.5, size=(4, 4)))
+    if scheme == "loop":
+        faces = [t for a, b, c, d in faces for t in ((a, b, c), (a, c, d))]
+    shape = ir.Subdivision(scheme, tuple(map(tuple, pts)), tuple(faces), limit=True)
+    v, f, n = sd.subdivision_mesh(shape, levels)
+    fine_v, fine_f, _ = sd.subdivision_mesh(shape, 7)
+    for corner, (ia, ib) in {
+        idx[0, 3]: (idx[0, 2], idx[1, 3]),  # one face each, also once triangulated
+        idx[3, 0]: (idx[3, 1], idx[2, 0]),
+    }.items():
+        expect = np.cross(pts[ia] - pts[corner], pts[ib] - pts[corner])
+        expect /= np.linalg.norm(expect)
+        got = n[np.nonzero(np.all(v == pts[corner], axis=1))[0]]
+        assert len(got) == 1
+        assert abs(abs(got[0] @ expect) - 1.0) < 1e-12
+        # the faces touching the corner at level 7 lean towards the same plane
+        at = np.nonzero(np.all(fine_v == pts[corner], axis=1))[0][0]
+        tri = fine_f[(fine_f == at).any(axis=1)]
+        fn = np.cross(fine_v[tri[:, 1]] - fine_v[tri[:, 0]], fine_v[tri[:, 2]] - fine_v[tri[:, 0]])
+        fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+        assert np.all(np.abs(fn @ expect) > 0.99)
+        assert got[0] @ fn[0] > 0  # and on the faces' side
