@@ -3029,7 +3029,8 @@ def _b_subdivision(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectVal
         )
     levels = st.get("levels", (None, g.span))[0]
     tol = st.get("tolerance", (None, g.span))[0]
-    if levels is None and tol is None:
+    adaptive = "adaptive" in st
+    if levels is None and tol is None and not adaptive:
         levels = 3
     if levels is not None and not 0 <= levels <= 12:
         raise it.error("E0285", f"levels {levels} is outside 0..12", st["levels"][1])
@@ -3043,7 +3044,7 @@ def _b_subdivision(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectVal
     common = dict(
         levels=levels,
         tolerance=tol,
-        adaptive=st.get("adaptive", (False, g.span))[0],
+        adaptive=adaptive,
         limit=bool(limit) if limit is not None else True,
         m=m,
         boundary=boundary,

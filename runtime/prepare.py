@@ -21,6 +21,8 @@ from runtime.camera import view_planes
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
 FLAG_NAMES = ("no_image", "no_reflection", "no_shadow")
+# Deepest level `adaptive` subdivision picks on its own (each level has 4x the faces).
+MAX_ADAPTIVE_LEVELS = 6
 
 
 @dataclass
@@ -180,7 +182,13 @@ class _Builder:
                 from runtime.subdivide import levels_for_tolerance, subdivision_mesh
 
                 levels = shape.levels
-                if levels is None:  # `tolerance`, else half a pixel from the camera
+                if shape.adaptive:  # half a pixel from the camera; `levels` caps it
+                    tolerance = self.auto_tolerance(obj)
+                    if shape.tolerance:
+                        tolerance = min(tolerance, shape.tolerance)
+                    cap = MAX_ADAPTIVE_LEVELS if levels is None else levels
+                    levels = levels_for_tolerance(shape, tolerance, cap)
+                elif levels is None:  # `tolerance`, else half a pixel from the camera
                     tolerance = shape.tolerance or self.auto_tolerance(obj)
                     levels = levels_for_tolerance(shape, tolerance)
                 verts, faces, normals = subdivision_mesh(shape, levels)

@@ -767,3 +767,35 @@ def test_corner_sector_normal_is_the_plane_of_its_edges(scheme, levels):
         fn /= np.linalg.norm(fn, axis=1, keepdims=True)
         assert np.all(np.abs(fn @ expect) > 0.99)
         assert got[0] @ fn[0] > 0  # and on the faces' side
+
+
+ADAPTIVE_SCENE = """
+camera {{ location <0, 0, -{dist}> look_at 0 angle 40 }}
+subdivision {{
+  scheme catmull_clark adaptive {extra}
+  vertex_vectors {{ 8, <-1,-1,-1>, <1,-1,-1>, <1,1,-1>, <-1,1,-1>,
+                      <-1,-1,1>, <1,-1,1>, <1,1,1>, <-1,1,1> }}
+  face_indices {{ 6, <0,3,2,1>, <4,5,6,7>, <0,1,5,4>, <2,3,7,6>, <1,2,6,5>, <0,4,7,3> }}
+  pigment {{ rgb 1 }}
+}}
+"""
+
+
+def _adaptive_faces(dist: float, width: int, extra: str = "") -> int:
+    from lang.evaluate import compile_source
+    from runtime.prepare import _Builder
+
+    res = compile_source(ADAPTIVE_SCENE.format(dist=dist, extra=extra))
+    assert not [d for d in res.diagnostics if d.severity == "error"]
+    (obj,) = res.scene.objects
+    assert obj.shape.adaptive and (obj.shape.levels is None) == (not extra)
+    return len(_Builder(res.scene.camera, width).tessellate(obj).faces)
+
+
+def test_adaptive_level_follows_the_screen_size():
+    """`adaptive` picks the level from half a pixel at the object's distance: closer or
+    bigger on screen means more levels (4x the faces each), and `levels` caps it."""
+    near, far = _adaptive_faces(4, 640), _adaptive_faces(400, 640)
+    assert near >= 16 * far
+    assert _adaptive_faces(4, 64) < near
+    assert _adaptive_faces(4, 640, "levels 1") == 2 * 6 * 4  # one level: 24 quads
