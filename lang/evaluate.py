@@ -53,6 +53,8 @@ STDLIB = Path(lang.__file__).resolve().parent.parent / "stdlib"
 MAX_LOOP_ITERATIONS = 1_000_000
 MAX_MACRO_DEPTH = 200
 MAX_INCLUDE_DEPTH = 64
+# Errors reported per list (faces, edges) before the rest are only counted.
+MAX_ITEM_ERRORS = 10
 RECURSION_LIMIT = 30_000
 
 
@@ -870,10 +872,21 @@ class Interpreter:
             # strala's soft words are keywords inside the blocks that list them (and plain
             # names everywhere else), as lang/keywords.py documents
             out.append(El("kw", node.name, node.span))
+        elif t is syntax.Ident and self._word_slot(out, spec) and not self.lookup(node.name)[0]:
+            # an unknown word where an item takes a word (`scheme sqrt3`): the item's own
+            # check names the choices, which says more than "unknown identifier"
+            out.append(El("kw", node.name, node.span))
         elif t in _DIRECTIVES:
             _DIRECTIVES[t](self, node, out, spec)
         else:
             out.append(El("val", self.eval(node), node.span))
+
+    @staticmethod
+    def _word_slot(out: list[El], spec: schema.BlockSpec | None) -> bool:
+        if spec is None or not out or out[-1].kind != "kw":
+            return False
+        item = spec.items.get(out[-1].value)
+        return item is not None and item.args[:1] == ("word",)
 
     def _is_macro(self, name: str) -> bool:
         found, v = self.lookup(name)
@@ -1540,17 +1553,18 @@ class Interpreter:
         if kw in schema.LIST_BLOCKS:
             els = [e for e in self.expand(node.body, None) if e.kind != "comma"]
             items = [e.value for e in els]
+            spans = [e.span for e in els]
             count = None
             if kw not in schema.UNCOUNTED_LISTS and items and isinstance(items[0], float):
                 count = int(items[0])
-                items = items[1:]
+                items, spans = items[1:], spans[1:]
             if count is not None and count != len(items) and kw != "face_indices":
                 self.sink.warning(
                     "W0302",
                     f"`{kw}` declares {count} item(s) but lists {len(items)}",
                     span,
                 )
-            return ListValue(kw, tuple(items), count, node.span)
+            return ListValue(kw, tuple(items), count, node.span, item_spans=tuple(spans))
         if kw == "spline":
             return self._spline(node)
         if kw == "bicubic_patch":
@@ -2877,6 +2891,69 @@ def _list_span(lv: ListValue, g: Grouped) -> Span:
     return lv.span or g.span
 
 
+def _item_span(lv: ListValue, i: int, g: Grouped) -> Span:
+    return lv.item_spans[i] if i < len(lv.item_spans) else _list_span(lv, g)
+
+
+def _subdivision_faces(
+    it: Interpreter, fl: ListValue, g: Grouped, scheme: str, nverts: int
+) -> list[tuple[int, ...]]:
+    """The faces as index tuples; every bad face is reported (at the face) before the
+    block is given up, so one check shows them all."""
+    faces, bad_faces = [], 0
+    for i, f in enumerate(fl.items):
+        span = _item_span(fl, i, g)
+        problem, hint = None, None
+        face: tuple[int, ...] = ()
+        if not isinstance(f, Vec):
+            problem = "face_indices holds index vectors <a, b, c[, d[, e]]>"
+        else:
+            face = tuple(int(c) for c in f)
+            bad = [c for c in face if not 0 <= c < nverts]
+            if len(face) not in (3, 4, 5):
+                problem = f"faces have 3 to 5 corners, not {len(face)}"
+            elif scheme == "loop" and len(face) != 3:
+                problem = "Loop subdivision takes triangles only"
+                hint = "split the face into triangles, or use `scheme catmull_clark`"
+            elif bad:
+                problem = f"face {face} uses vertex {bad[0]}, outside 0..{nverts - 1}"
+            elif len(set(face)) != len(face):
+                problem = f"face {face} repeats a vertex"
+        if problem is None:
+            faces.append(face)
+            continue
+        bad_faces += 1
+        if bad_faces <= MAX_ITEM_ERRORS:
+            it.sink.error("E0286", problem, span, hint)
+    if bad_faces:
+        raise _Quiet()  # each face is reported; the object is dropped
+    return faces
+
+
+def _check_subdivision_edges(it, fl: ListValue, g: Grouped, faces, edge_use) -> None:
+    """Non-manifold edges (more than two faces) and faces wound against a neighbour (a
+    directed edge used twice), each reported at the first face where it shows."""
+    directed: set[tuple[int, int]] = set()
+    found = 0
+    for i, face in enumerate(faces):
+        for a, b in zip(face, face[1:] + face[:1], strict=True):
+            problem, key = None, (min(a, b), max(a, b))
+            if edge_use[key] > 2:
+                problem = f"edge ({a}, {b}) is shared by more than two faces (non-manifold)"
+                code, hint = "E0287", "an edge may border one face (boundary) or two"
+                edge_use[key] = -1  # reported: no orientation errors on it either
+            elif edge_use[key] > 0 and (a, b) in directed:
+                problem = f"face {face} runs edge ({a}, {b}) the same way as a neighbour"
+                code, hint = "E0289", "inconsistent orientation: reverse this face's vertex order"
+            directed.add((a, b))
+            if problem is not None:
+                found += 1
+                if found <= MAX_ITEM_ERRORS:
+                    it.sink.error(code, problem, _item_span(fl, i, g), hint)
+    if found:
+        raise _Quiet()
+
+
 def _clamped_knots(n: int, p: int) -> tuple[float, ...]:
     """Clamped uniform knots: p+1 zeros, 1 … n-p-1, p+1 copies of n-p."""
     return (0.0,) * (p + 1) + tuple(float(i) for i in range(1, n - p)) + (float(n - p),) * (p + 1)
@@ -3075,43 +3152,13 @@ def _b_subdivision(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectVal
             raise it.error("E0211", "a subdivision surface needs vertex_vectors", g.span)
         verts = tuple(as_vec(v, 3).xyz for v in lists["vertex_vectors"].items)
         fl = lists["face_indices"]
-        faces = []
-        for f in fl.items:
-            if not isinstance(f, Vec):
-                raise it.error(
-                    "E0286",
-                    "face_indices holds index vectors <a, b, c[, d[, e]]>",
-                    _list_span(fl, g),
-                )
-            face = tuple(int(c) for c in f)
-            if len(face) not in (3, 4, 5):
-                raise it.error(
-                    "E0286", f"faces have 3 to 5 corners, not {len(face)}", _list_span(fl, g)
-                )
-            if scheme == "loop" and len(face) != 3:
-                raise it.error("E0286", "Loop subdivision takes triangles only", _list_span(fl, g))
-            bad = [c for c in face if not 0 <= c < len(verts)]
-            if bad:
-                raise it.error(
-                    "E0286",
-                    f"face {face} uses vertex {bad[0]}, outside 0..{len(verts) - 1}",
-                    _list_span(fl, g),
-                )
-            if len(set(face)) != len(face):
-                raise it.error("E0286", f"face {face} repeats a vertex", _list_span(fl, g))
-            faces.append(face)
+        faces = _subdivision_faces(it, fl, g, scheme, len(verts))
         edge_use: dict[tuple[int, int], int] = {}
         for face in faces:
             for a, b in zip(face, face[1:] + face[:1], strict=True):
                 key = (min(a, b), max(a, b))
                 edge_use[key] = edge_use.get(key, 0) + 1
-        nonmanifold = [e for e, k in edge_use.items() if k > 2]
-        if nonmanifold:
-            raise it.error(
-                "E0287",
-                f"edge {nonmanifold[0]} is shared by more than two faces (non-manifold)",
-                _list_span(fl, g),
-            )
+        _check_subdivision_edges(it, fl, g, faces, edge_use)
         creases = []
         if "crease_edges" in lists:
             ce = lists["crease_edges"]

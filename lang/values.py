@@ -106,6 +106,7 @@ class ListValue:
     count: int | None = None
     span: Span | None = None
     kind: str = "list"
+    item_spans: tuple[Span, ...] = ()  # one per item, for diagnostics that name one item
 
 
 @dataclass
