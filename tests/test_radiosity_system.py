@@ -249,3 +249,62 @@ def test_brightness_and_gray_threshold_shape_the_gathered_light():
     grey = dataclasses.replace(r, options=opts, _field=None)
     gg = grey.gathered(0, pts, view)[0]
     assert np.allclose(gg, 2.0 * (g @ [0.2126, 0.7152, 0.0722]))
+
+
+def test_camera_inside_a_lone_sphere_meshes_its_inner_side():
+    """Nothing but the eye is inside an emitting sphere: the inner side is what the viewer
+    sees, so it is meshed and gathers the interreflection (a white furnace: B = E/(1−ρ));
+    from outside the same sphere has no inner patches. The cache key tells the two apart
+    but not two cameras inside."""
+    ball = ir.Object(ir.Sphere((0.0, 0.0, 0.0), 2.0), texture=_tex(diffuse=0.9, emission=0.05))
+    inside = _scene((ball,), camera=ir.Camera(location=(0.1, 0.2, -0.3)))
+    r = _solve(inside, patch_size=1.0)
+    facing = np.einsum("nc,nc->n", r.patches.normal, r.patches.centroid)
+    assert len(r.patches) > 0 and np.all(facing < 0)
+    assert np.allclose(r.B, 0.5, rtol=1e-3)
+    assert np.allclose(r.G, 0.5, rtol=1e-3)
+    assert not r.warnings
+    outside = _scene((ball,), camera=ir.Camera(location=(0.0, 0.0, -5.0)))
+    r_out = _solve(outside, patch_size=1.0)
+    assert not np.any(np.einsum("nc,nc->n", r_out.patches.normal, r_out.patches.centroid) < 0)
+    other = _scene((ball,), camera=ir.Camera(location=(-1.0, 0.5, 0.0)))
+    opts = system.Options(patch_size=1.0)
+
+    def key(scene):
+        return system.content_key(scene, opts, system.eye_cell(prepare(scene, 8, 8)))
+
+    assert key(inside) == key(other) != key(outside)
+
+
+def test_eye_on_a_surface_is_inside_nothing():
+    """A camera exactly on a box's face (the half-buried floor scene's default eye) does not
+    make the box hollow: it still buries the floor under it."""
+    block = ir.Object(ir.Box((0.0, 0.0, 0.0), (1.0, 0.5, 2.0)), texture=_tex())
+    on_face = _scene((block,), camera=ir.Camera(location=(0.5, 0.5, 0.5)))
+    assert system.eye_cell(prepare(on_face, 8, 8)) == system.EyeCell()
+    within = _scene((block,), camera=ir.Camera(location=(0.5, 0.25, 0.5)))
+    cell = system.eye_cell(prepare(within, 8, 8))
+    assert cell.objects == {0} and len(cell.nodes) == 1
+
+
+def test_closed_patches_conserve_energy_exactly():
+    """Row sums of patches that see only surfaces are 1 after conservation (the far-field
+    quadrature alone leaves them ~1e-3 off); an open floor's rows are left as they are."""
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex(emission=0.05))
+    dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
+    prep = prepare(_scene((room,), [dark]), 8, 8)
+    sm = system._SceneMesher(prep, system.Options(patch_size=0.5))
+    sm.run()
+    patches = sm.mesher.patches()
+    rng = np.random.default_rng(1)
+    pts, _ = system._open_points(prep, patches, 4, rng, sm.extent, set())
+    vis = system.PatchVisibility(patches.verts)
+    closed = system._closed_patches(vis, pts, patches.normal, 32, rng)
+    inner = np.einsum("nc,nc->n", patches.normal, 1.0 - patches.centroid) > 0
+    assert np.all(closed[inner]) and not np.any(closed[~inner])
+    F = system.form_factors(patches.verts, far_order=1, visible=vis, vis_points=(pts, pts))
+    raw = F.sum(axis=1)
+    system._conserve(F, closed)
+    assert np.abs(raw[inner] - 1).max() > 1e-5  # there was something to correct
+    assert np.allclose(F.sum(axis=1)[inner], 1.0, atol=1e-12)
+    assert np.all(F.sum(axis=1) <= 1.0 + 1e-12)

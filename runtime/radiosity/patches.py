@@ -394,7 +394,11 @@ class Patches:
 
     def sample_points(self, count: int, rng: np.random.Generator) -> np.ndarray:
         """(N,count,3) Latin-hypercube points on the *true* surface of each patch (on a
-        sphere: on the sphere, not on the inscribed facet), for shadow and visibility rays."""
+        sphere: on the sphere, not on the inscribed facet), for shadow and visibility rays.
+        The inner side of a sphere is the exception: the true sphere lies outside the
+        facets, so a segment from it into the sphere would cross its own facet; its points
+        lie on the facet (the polyhedron is convex, so a segment between two facets stays
+        inside it)."""
         n = len(self)
         s = (np.argsort(rng.random((n, count)), axis=1) + rng.random((n, count))) / count
         t = (np.argsort(rng.random((n, count)), axis=1) + rng.random((n, count))) / count
@@ -411,7 +415,29 @@ class Patches:
             + (1 - ss) * tt * c[:, :, 3]
         )
         uv = np.where(tri, on_tri, on_quad)
-        return self.surface_points(self.element[:, None], uv)
+        out = self.surface_points(self.element[:, None], uv)
+        inner = np.nonzero(self._sphere_inner())[0]
+        if len(inner):
+            v = self.verts[inner][:, None]  # (k,1,4,3), a planar quad (or a pole triangle)
+            ss, tt = s[inner][..., None], t[inner][..., None]
+            out[inner] = (
+                (1 - ss) * (1 - tt) * v[:, :, 0]
+                + ss * (1 - tt) * v[:, :, 1]
+                + ss * tt * v[:, :, 2]
+                + (1 - ss) * tt * v[:, :, 3]
+            )
+        return out
+
+    def _sphere_inner(self) -> np.ndarray:
+        """(N,) bool: sphere patches facing the sphere's centre."""
+        a = self._a
+        sph = a["kind"][self.element] == SPHERE
+        out = np.zeros(len(self), dtype=bool)
+        if sph.any():
+            mats = np.asarray(self.elements.matrices)[a["matrix"][self.element[sph]]]
+            outward = self.centroid[sph] - mats[:, :3, 3]
+            out[sph] = np.einsum("nc,nc->n", self.normal[sph], outward) < 0
+        return out
 
     def edge_length(self) -> np.ndarray:
         """Longest edge of each leaf patch."""

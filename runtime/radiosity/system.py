@@ -65,6 +65,7 @@ class Options:
     far_order: int = 1  # … for pairs more than far_ratio × their radii apart
     far_ratio: float = 4.0
     vis_samples: int = 4  # segments per patch pair
+    closure_rays: int = 32  # rays per patch testing that it sees only surfaces (0: off)
     symmetric: bool = True  # integrate each pair once, the other way by reciprocity
     dense_bytes: int = solver.DENSE_BYTES  # above: rows on demand, progressive refinement
     max_rounds: int = 2  # adaptive refinement rounds after the first solve
@@ -188,6 +189,39 @@ def scene_bounds(objects: list[ir.Object], extra: list[np.ndarray]) -> tuple[np.
     return lo, hi  # ±inf when there was nothing finite
 
 
+@dataclass(frozen=True)
+class EyeCell:
+    """The solids the camera is strictly inside: meshable objects (indices into
+    Prepared.objects) and tracer nodes (indices into Prepared.tracer.nodes)."""
+
+    objects: frozenset[int] = frozenset()
+    nodes: frozenset[int] = frozenset()
+
+
+def eye_cell(prepared) -> EyeCell:
+    """Which solids hold the eye, by a margin (a camera on a surface is inside nothing)."""
+    eye = np.asarray(prepared.scene.camera.location, dtype=np.float64)
+    lo, hi = scene_bounds(prepared.objects, [eye])
+    extent = float(np.linalg.norm(hi - lo)) if np.all(np.isfinite(lo)) else 0.0
+    eps = _SIDE_REL * max(extent, float(np.linalg.norm(eye)), 1.0)
+    probes = eye + eps * np.vstack([np.zeros(3), np.eye(3), -np.eye(3)])
+    nodes = frozenset(
+        k for k, node in enumerate(prepared.tracer.nodes) if bool(node.inside(probes).all())
+    )
+    leaf_nodes = {getattr(prepared.tracer.nodes[k], "index", -1) for k in nodes}
+    objects = set()
+    for i in _meshable(prepared):
+        obj = prepared.objects[i]
+        if isinstance(obj.shape, ir.Triangle | ir.Mesh):
+            # Triangle geometry has no inside test here: its box must hold the eye.
+            a, b = scene_bounds([obj], [])
+            if np.all((probes > a) & (probes < b)):
+                objects.add(i)
+        elif i in leaf_nodes:
+            objects.add(i)
+    return EyeCell(frozenset(objects), nodes)
+
+
 class _SceneMesher:
     def __init__(self, prepared, opts: Options):
         self.prepared = prepared
@@ -218,8 +252,16 @@ class _SceneMesher:
             corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                                 for z in (lo[2], hi[2])])  # fmt: skip
             boxes.append((i, corners))
+        # The eye is a witness only for the solids it is inside: the viewer looks at their
+        # inner side, which must be meshed even when nothing else is in there (a camera
+        # inside a lone emitting sphere). Elsewhere it changes nothing, so the solution
+        # stays viewer independent for every camera in the same cell (see eye_cell).
+        self.eye_cell = eye_cell(prepared)
+        eye = np.asarray(scene.camera.location, dtype=np.float64).reshape(1, 3)
         for i, _ in boxes:
             pts = [c for j, c in boxes if j != i] + [np.array(self.lights).reshape(-1, 3)]
+            if i in self.eye_cell.objects:
+                pts.append(eye)
             self.witness[i] = np.vstack(pts) if pts else np.zeros((0, 3))
 
     def warn(self, msg: str) -> None:
@@ -429,9 +471,9 @@ def _gathered(F, B, patches: Patches, D) -> np.ndarray:
 
 
 def _hollow_solids(prepared, sm: _SceneMesher) -> set[int]:
-    """Tracer nodes whose inside holds a light source or part of an emitter: the scene
-    happens inside them (a room box, the half-space of Ex3's back plane), so they bury
-    nothing. Indices into prepared.tracer.nodes."""
+    """Tracer nodes whose inside holds a light source, part of an emitter or the eye: the
+    scene happens inside them (a room box, the half-space of Ex3's back plane), so they
+    bury nothing. Indices into prepared.tracer.nodes."""
     pts = list(sm.lights)
     for i in sm.indices:
         obj = prepared.objects[i]
@@ -441,10 +483,55 @@ def _hollow_solids(prepared, sm: _SceneMesher) -> set[int]:
                 box = np.array([lo, hi])
                 corners = box[np.indices((2, 2, 2)).reshape(3, -1).T, [0, 1, 2]]
                 pts += [(lo + hi) / 2, *corners]
+    # A solid holding the eye is seen from inside: its inside is open space too.
+    hollow = set(sm.eye_cell.nodes)
     if not pts:
-        return set()
+        return hollow
     w = np.array(pts, dtype=np.float64).reshape(-1, 3)
-    return {k for k, node in enumerate(prepared.tracer.nodes) if node.inside(w).any()}
+    return hollow | {k for k, node in enumerate(prepared.tracer.nodes) if node.inside(w).any()}
+
+
+def _residual_tolerance(F: np.ndarray | None, rho: np.ndarray, tolerance: float) -> float:
+    """The solvers' residual target for a relative error of B within `tolerance`: the
+    error is at most the residual over 1 − q, q = max ρ·rowsum (the contraction factor of
+    ρF), so a furnace with ρ = 0.99 needs a residual 100 times smaller than ρ = 0."""
+    sums = F.sum(axis=1) if F is not None else np.ones(len(rho))
+    q = float((rho.max(axis=1) * sums).max()) if len(rho) else 0.0
+    return tolerance * max(1.0 - q, 1e-4)
+
+
+def _closed_patches(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays: int,
+                    rng) -> np.ndarray:  # fmt: skip
+    """(N,) bool: every one of `rays` cosine-distributed rays from the patch's open points
+    hits a surface, i.e. the patch sees a closed scene (no sky through any opening)."""
+    n = len(normal)
+    if rays <= 0 or n == 0:
+        return np.zeros(n, dtype=bool)
+    # Stratified cosine-weighted directions about each patch normal.
+    k = np.arange(rays)
+    u1 = (k[None] + rng.random((n, rays))) / rays
+    u2 = rng.permutation(rays)[None] / rays + rng.random((n, rays)) / rays
+    r, phi = np.sqrt(u1), 2 * np.pi * u2
+    a = np.where(np.abs(normal[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    t = np.cross(normal, a)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(normal, t)
+    z = np.sqrt(np.maximum(0.0, 1 - u1))
+    d = (r * np.cos(phi))[..., None] * t[:, None] + (r * np.sin(phi))[..., None] * b[:, None]
+    d += z[..., None] * normal[:, None]
+    o = pts[:, k % pts.shape[1]]
+    return vis.hits(o.reshape(-1, 3), d.reshape(-1, 3)).reshape(n, rays).all(axis=1)
+
+
+def _conserve(F: np.ndarray, closed: np.ndarray) -> None:
+    """Scale form-factor rows in place so that energy is conserved: a patch that sees only
+    surfaces (`closed`) sends all its light to them (row sum 1), no row sends more than
+    all. The quadrature (far pairs use fewer points) and the visibility sampling leave row
+    sums off by ~1e-3, which ρ/(1−ρ) amplifies: 10% at ρ = 0.99."""
+    s = F.sum(axis=1)
+    # A closed patch whose row holds less than half its light is buried, not leaky.
+    target = np.where(closed & (s > 0.5), 1.0, np.minimum(s, 1.0))
+    F *= np.where(s > 0, target / np.maximum(s, 1e-300), 1.0)[:, None]
 
 
 def _open_points(prepared, patches: Patches, count: int, rng, extent: float, hollow: set[int]):
@@ -624,12 +711,15 @@ def direct_light(
 # ------------------------------------------------------------------ pipeline
 
 
-def content_key(scene: ir.Scene, opts: Options) -> str:
-    """A hash of everything the solution depends on: objects, lights, radiosity options.
-    Not the camera (viewer independence), not source positions (spans)."""
+def content_key(scene: ir.Scene, opts: Options, cell: EyeCell | None = None) -> str:
+    """A hash of everything the solution depends on: objects, lights, radiosity options,
+    and which solids hold the eye (their inner sides are meshed only then). Not the
+    camera itself (viewer independence), not source positions (spans)."""
     h = hashlib.sha256()
     h.update(f"strala-radiosity-{CACHE_VERSION}".encode())
     _hash_value(h, (scene.objects, scene.lights, opts))
+    if cell is not None and (cell.objects or cell.nodes):
+        _hash_value(h, (sorted(cell.objects), sorted(cell.nodes)))
     return h.hexdigest()
 
 
@@ -672,7 +762,7 @@ def compute(
     if opts is None:
         r = scene.settings.radiosity or ir.Radiosity()
         opts = Options.from_ir(r)
-    key = content_key(scene, opts)
+    key = content_key(scene, opts, eye_cell(prepared))
     path = None
     if cache_dir is not None:
         path = Path(cache_dir) / f"{key}.pkl"
@@ -718,6 +808,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         n = len(patches)
         pts, beta = _open_points(prepared, patches, opts.vis_samples, rng, sm.extent, hollow)
         vis = PatchVisibility(patches.verts, extra)
+        closed = _closed_patches(vis, pts, patches.normal, opts.closure_rays, rng)
         if solver.fits_dense(n, opts.dense_bytes):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
                              far_ratio=opts.far_ratio, visible=vis, symmetric=opts.symmetric,
@@ -727,15 +818,18 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
             # its open part only: its visibility came from open points, and it is hit in
             # proportion to its open area (reciprocity with the effective area A(1-β)).
             F *= (1.0 - beta)[None, :]
+            _conserve(F, closed)
             rows = None
         else:  # memory-bounded: rows on demand for progressive refinement
             F = None
 
-            def provider(idx, pts=pts, vis=vis, beta=beta):
+            def provider(idx, pts=pts, vis=vis, beta=beta, closed=closed):
                 f = form_factors(patches.verts[idx], patches.verts, order=opts.order,
                                  far_order=opts.far_order, far_ratio=opts.far_ratio,
                                  visible=vis, vis_points=(pts[idx], pts))  # fmt: skip
-                return f * (1.0 - beta)[None, :]
+                f *= (1.0 - beta)[None, :]
+                _conserve(f, closed[idx])
+                return f
 
             rows = solver.RowCache(provider, n, budget=max(opts.dense_bytes // 2, 8 * n))
 
@@ -747,7 +841,8 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         E = patches.emission + patches.reflectance * D
         area = patches.area * np.maximum(1.0 - beta, 1e-6)
         sol = solver.solve(F, patches.reflectance, E, area, method=opts.method,
-                           tol=opts.tolerance, rows=rows)  # fmt: skip
+                           tol=_residual_tolerance(F, patches.reflectance, opts.tolerance),
+                           rows=rows)  # fmt: skip
         solve_s += time.perf_counter() - t0
         say(f"radiosity round {round_}: {n} patches, {sol.method} {sol.iterations} iterations, "
             f"residual {sol.residual:.2e}")  # fmt: skip

@@ -76,3 +76,30 @@ class PatchVisibility:
                     o[rows], d[rows], tmax=dist[rows] - gap[rows], tmin=gap[rows]
                 )
         return (~blocked).astype(np.float64)
+
+    def hits(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """(N,) bool: does the ray from each origin (on a surface) along its unit direction
+        hit anything at all (a patch, or an unmeshed object)?"""
+        o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+        d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        gap = REL_GAP * self.extent
+        far = np.float32(1e30)
+        hit = np.zeros(len(o), dtype=bool)
+        if self.scene is not None and len(o):
+            for s in range(0, len(o), _BATCH):
+                rows = slice(s, s + _BATCH)
+                start = (o[rows] - self.offset) + gap * d[rows]
+                res = self.scene.run(
+                    np.ascontiguousarray(start.astype(np.float32)),
+                    np.ascontiguousarray(d[rows].astype(np.float32)),
+                    dists=np.full(len(start), far, dtype=np.float32),
+                    query="OCCLUDED",
+                )
+                hit[rows] = np.asarray(res) != -1
+        if self.extra is not None:
+            rows = np.nonzero(~hit)[0]
+            if len(rows):
+                hit[rows] = self.extra.occluded(
+                    o[rows], d[rows], tmax=np.full(len(rows), np.inf), tmin=np.full(len(rows), gap)
+                )
+        return hit
