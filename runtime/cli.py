@@ -592,6 +592,20 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def radiosity_summary(stats: dict) -> str:
+    """One line of radiosity figures from render_scene's stats."""
+    if stats.get("radiosity_cache_hit"):
+        return f"radiosity: {int(stats['radiosity_patches'])} patches, solution from the cache"
+    return (
+        f"radiosity: {int(stats['radiosity_patches'])} patches, "
+        f"{stats.get('radiosity_method', 'solver')} {int(stats['radiosity_iterations'])} "
+        f"iterations, residual {stats['radiosity_residual']:.1e}, "
+        f"solve {stats['radiosity_solve_seconds']:.2f} s "
+        f"(form factors {stats['radiosity_form_factor_seconds']:.2f} s, "
+        f"radiosity in all {stats['radiosity_seconds']:.2f} s)"
+    )
+
+
 def _radiosity_options(args: argparse.Namespace) -> dict:
     if args.radiosity_cache is None:
         return {}
@@ -665,6 +679,7 @@ def _render_one(
     region = resolve_region(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
+    stats: dict = {}
     with Progress(label, enabled=False if args.quiet else None) as bar, _quick_interrupt():
         try:
             pixels = render_scene(
@@ -676,6 +691,7 @@ def _render_one(
                 threads=args.threads,
                 progress=bar,
                 region=region,
+                stats=stats,
                 **_radiosity_options(args),
             )
         except SceneError as exc:
@@ -691,6 +707,8 @@ def _render_one(
         print(f"strala: error: {exc}", file=sys.stderr)
         return 1
     if not args.quiet:
+        if "radiosity_patches" in stats:
+            print(radiosity_summary(stats), file=sys.stderr)
         took = time.perf_counter() - start
         where = "standard output" if out.stem == "-" else out
         print(f"wrote {where} ({width}x{height}, {took:.2f} s)", file=sys.stderr)

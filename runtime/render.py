@@ -97,6 +97,9 @@ def render_scene(
                     progress(done, total)
     if stats is not None:
         stats.update(ctx.stats)
+        if radiosity is not None:  # the solver's figures, for `strala render` to report
+            stats.update({f"radiosity_{k}": v for k, v in radiosity.stats.items()})
+            stats["radiosity_method"] = radiosity.solution.method
         stats["supersampled"] = supersampled
         stats["pixels"] = total
     return image

@@ -299,7 +299,7 @@ def test_closed_patches_conserve_energy_exactly():
     rng = np.random.default_rng(1)
     pts, _ = system._open_points(prep, patches, 4, rng, sm.extent, set())
     vis = system.PatchVisibility(patches.verts)
-    closed = system._closed_patches(vis, pts, patches.normal, 32, rng)
+    closed = system._hit_fraction(vis, pts, patches.normal, 32, rng) == 1.0
     inner = np.einsum("nc,nc->n", patches.normal, 1.0 - patches.centroid) > 0
     assert np.all(closed[inner]) and not np.any(closed[~inner])
     F = system.form_factors(patches.verts, far_order=1, visible=vis, vis_points=(pts, pts))

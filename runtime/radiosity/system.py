@@ -27,6 +27,7 @@ import dataclasses
 import hashlib
 import os
 import pickle
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -500,13 +501,14 @@ def _residual_tolerance(F: np.ndarray | None, rho: np.ndarray, tolerance: float)
     return tolerance * max(1.0 - q, 1e-4)
 
 
-def _closed_patches(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays: int,
-                    rng) -> np.ndarray:  # fmt: skip
-    """(N,) bool: every one of `rays` cosine-distributed rays from the patch's open points
-    hits a surface, i.e. the patch sees a closed scene (no sky through any opening)."""
+def _hit_fraction(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays: int,
+                  rng) -> np.ndarray:  # fmt: skip
+    """(N,) the fraction of `rays` cosine-distributed rays from each patch's open points
+    that hit a surface: 1 where the patch sees a closed scene (no sky through any
+    opening); 1 − it estimates the patch's light that escapes. NaN when rays = 0."""
     n = len(normal)
     if rays <= 0 or n == 0:
-        return np.zeros(n, dtype=bool)
+        return np.full(n, np.nan)
     # Stratified cosine-weighted directions about each patch normal.
     k = np.arange(rays)
     u1 = (k[None] + rng.random((n, rays))) / rays
@@ -520,7 +522,7 @@ def _closed_patches(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, r
     d = (r * np.cos(phi))[..., None] * t[:, None] + (r * np.sin(phi))[..., None] * b[:, None]
     d += z[..., None] * normal[:, None]
     o = pts[:, k % pts.shape[1]]
-    return vis.hits(o.reshape(-1, 3), d.reshape(-1, 3)).reshape(n, rays).all(axis=1)
+    return vis.hits(o.reshape(-1, 3), d.reshape(-1, 3)).reshape(n, rays).mean(axis=1)
 
 
 def _conserve(F: np.ndarray, closed: np.ndarray) -> None:
@@ -771,10 +773,12 @@ def compute(
                 with path.open("rb") as f:
                     res = pickle.load(f)
                 res.stats["cache_hit"] = 1.0
+                _print_warnings(res)
                 return res
             except (OSError, pickle.UnpicklingError, EOFError, AttributeError):
                 pass  # a stale or broken cache file: recompute and overwrite it
     res = _compute(prepared, opts, log)
+    _print_warnings(res)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(".tmp")
@@ -782,6 +786,12 @@ def compute(
             pickle.dump(dataclasses.replace(res, _field=None), f)
         tmp.replace(path)
     return res
+
+
+def _print_warnings(res: RadiosityResult) -> None:
+    """On stderr, as prepare does with its own (one line each)."""
+    for msg in res.warnings:
+        print(f"strala: warning: {msg}", file=sys.stderr)
 
 
 def _compute(prepared, opts: Options, log) -> RadiosityResult:
@@ -808,7 +818,8 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         n = len(patches)
         pts, beta = _open_points(prepared, patches, opts.vis_samples, rng, sm.extent, hollow)
         vis = PatchVisibility(patches.verts, extra)
-        closed = _closed_patches(vis, pts, patches.normal, opts.closure_rays, rng)
+        hit = _hit_fraction(vis, pts, patches.normal, opts.closure_rays, rng)
+        closed = hit == 1.0
         if solver.fits_dense(n, opts.dense_bytes):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
                              far_ratio=opts.far_ratio, visible=vis, symmetric=opts.symmetric,
@@ -861,16 +872,15 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     assert sol is not None
     B = sol.B
     G = _gathered(F, B, patches, D)
-    if F is not None:
-        # Light that leaves a patch and hits nothing escapes. Patches that see nothing at
-        # all (buried under a box) are not openings, so only patches that see something
-        # count.
-        sums = F.sum(axis=1)
-        seen = sums > 0.05
-        a = patches.area[seen]
-        open_fraction = float(1.0 - (a * sums[seen]).sum() / a.sum()) if seen.any() else 1.0
-    else:
-        open_fraction = 0.0
+    # The share of the light the surfaces reflect (power A·(B − E)) that hits nothing:
+    # patches in the dark (a floor plane outside a room) or only emitting (an emitter's
+    # back) are not openings that matter.
+    escape = 1.0 - hit
+    if np.isnan(escape).any():  # no closure rays: the form factors' row sums
+        escape = 1.0 - F.sum(axis=1) if F is not None else np.zeros(len(patches))
+    power = luminance(np.maximum(B - patches.emission, 0.0)) * area
+    total = float(power.sum())
+    open_fraction = float((power * np.clip(escape, 0, 1)).sum() / total) if total > 0 else 0.0
     G = np.maximum(G, 0.0)
     G_vertex = None
     if opts.vertex_gather and F is not None:
