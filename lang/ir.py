@@ -257,6 +257,124 @@ class Subdivision:
     closed: bool = False  # curves: the control polygon is closed
 
 
+Vec2 = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Poly:
+    """The implicit polynomial surface sum(c · x^i y^j z^k) = 0 of POV-Ray's `quadric`,
+    `cubic`, `quartic`, `poly` and `polynomial`; the inside is where the sum is negative.
+    `terms` lists the nonzero (i, j, k, c) with i + j + k <= order."""
+
+    order: int
+    terms: tuple[tuple[int, int, int, float], ...]
+    sturm: bool = False
+
+
+@dataclass(frozen=True)
+class Superellipsoid:
+    """(|x|^(2/e) + |y|^(2/e))^(e/n) + |z|^(2/n) = 1, inside the box -1..1."""
+
+    e: float
+    n: float
+
+
+@dataclass(frozen=True)
+class BlobComponent:
+    """One field source of a blob: a `sphere` (centre `a`, `b` = `a`) or a `cylinder`
+    (axis `a`-`b`, hemispherical ends). Its density at distance d (to the centre, or to
+    the axis segment) is strength · (1 − (d/radius)²)² inside the radius, 0 outside.
+    `transform` maps the component's own space into the blob's; `texture` is its own
+    texture (None: the blob's)."""
+
+    kind: str
+    a: Vec3
+    b: Vec3
+    radius: float
+    strength: float
+    transform: Matrix = IDENTITY
+    texture: Texture | None = None
+
+
+@dataclass(frozen=True)
+class Blob:
+    """The surface where the summed component density equals `threshold`; inside where it
+    is greater."""
+
+    threshold: float
+    components: tuple[BlobComponent, ...]
+    sturm: bool = False
+
+
+@dataclass(frozen=True)
+class Lathe:
+    """A 2D spline of (radius, height) points rotated about the y axis. spline:
+    linear_spline | quadratic_spline | cubic_spline | bezier_spline (POV-Ray's rules for
+    which points the curve passes through)."""
+
+    spline: str
+    points: tuple[Vec2, ...]
+    sturm: bool = False
+
+
+@dataclass(frozen=True)
+class Sor:
+    """Surface of revolution: radius² is a cubic spline of the height through (radius,
+    height) points 2..n-1 (the first and last only steer the ends); `open` drops the caps."""
+
+    points: tuple[Vec2, ...]
+    open: bool = False
+    sturm: bool = False
+
+
+@dataclass(frozen=True)
+class Prism:
+    """A closed 2D spline of (x, z) points swept along y from height1 to height2;
+    linear_sweep keeps its size, conic_sweep scales it by y (apex at the origin). A spline
+    may hold several sub-shapes (holes by the even-odd rule); `open` drops the caps."""
+
+    spline: str
+    sweep: str
+    height1: float
+    height2: float
+    points: tuple[Vec2, ...]
+    open: bool = False
+    sturm: bool = False
+
+
+@dataclass(frozen=True)
+class Text:
+    """TrueType glyphs of `string` from the font file `font` (a resolved path), extruded
+    from z = 0 to z = thickness; `offset` is added after each character."""
+
+    font: str
+    string: str
+    thickness: float
+    offset: Vec3 = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class HeightField:
+    """Heights 0..1 from an image file (`source`, a resolved path; its kind from the
+    POV-Ray type word) over the unit square x, z in 0..1. `smooth` interpolates normals;
+    parts below `water_level` are left out."""
+
+    source: str
+    kind: str = ""
+    smooth: bool = False
+    water_level: float = 0.0
+
+
+@dataclass(frozen=True)
+class SphereSweep:
+    """A sphere swept along a spline through (x, y, z, radius) points: linear_spline,
+    b_spline or cubic_spline (POV-Ray's rules for the end points)."""
+
+    spline: str
+    spheres: tuple[tuple[float, float, float, float], ...]
+    tolerance: float = 1e-6
+
+
 @dataclass(frozen=True)
 class CSG:
     """op: "union" | "merge" | "intersection" | "difference". Children carry their own
@@ -284,6 +402,15 @@ Shape = (
     | Cone
     | Torus
     | Disc
+    | Poly
+    | Superellipsoid
+    | Blob
+    | Lathe
+    | Sor
+    | Prism
+    | Text
+    | HeightField
+    | SphereSweep
     | CSG
     | Unsupported
 )

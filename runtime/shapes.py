@@ -626,4 +626,6 @@ def primitive_for(shape):
         return ConePrim(shape.base, shape.cap, shape.base_radius, shape.cap_radius, shape.open)
     if isinstance(shape, ir.Torus):
         return TorusPrim(shape.major, shape.minor)
-    return None
+    from runtime import prims  # the rarer shapes, each in its own module
+
+    return prims.primitive_for(shape)
