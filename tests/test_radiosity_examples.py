@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from lang.evaluate import compile_file, compile_source
 from runtime.render import render_scene
 
@@ -26,3 +28,22 @@ def test_egg_compiles_with_and_without_radiosity():
         result = compile_source(text, str(EXAMPLES / "egg.scene"))
         assert result.scene is not None
         assert (result.scene.settings.radiosity is not None) == bool(flag)
+
+
+def test_cornell_room_renders_from_the_command_line(tmp_path):
+    """The Cornell-style room through `strala render` (small): no errors or warnings, the
+    panel shows its emission, the walls their colours, and the white tall box, turned
+    toward the red wall, is reddened by it (colour bleeding needs the interreflection)."""
+    import OpenImageIO as oiio
+    from conftest import run_cli
+
+    out = tmp_path / "cornell.exr"
+    proc = run_cli("render", str(EXAMPLES / "cornell.scene"), "-W", "48", "-H", "48",
+                   "-o", str(out))  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert "warning" not in proc.stderr and "error" not in proc.stderr
+    img = oiio.ImageBuf(str(out)).get_pixels(oiio.FLOAT)[..., :3]
+    assert img[2, 24] == pytest.approx([14.0, 12.0, 9.0], rel=1e-4)  # the panel
+    red_wall, green_wall, tall_box = img[24, 3], img[24, 44], img[24, 15]
+    assert red_wall[0] > 3 * red_wall[1] and green_wall[1] > 2 * green_wall[0]
+    assert tall_box[0] > 1.5 * tall_box[1] > 0
