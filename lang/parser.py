@@ -8,12 +8,19 @@ braces, so an error at a stray or missing brace can say which block it belongs t
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import re
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from lark import Lark, Token, Transformer, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
+from lark.lexer import LexerState, LineCounter
+from lark.parsers.lalr_analysis import Shift
+from lark.parsers.lalr_parser_state import ParseConf, ParserState
+from lark.utils import TextSlice
 
 from lang import keywords, syntax
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
@@ -582,170 +589,509 @@ def _expected(expected: set[str]) -> str:
     return "expected " + ", ".join(words[:6])
 
 
-def parse(text: str, file: str = "<string>") -> tuple[syntax.SourceFile, list[Diagnostic]]:
-    """Parse one file. Returns the tree (partial where there were errors) and diagnostics."""
-    sink = DiagnosticSink()
-    clean = strip_comments(text, file, sink)
-    braces = scan_braces(clean)
-    builder = _Builder(file, sink)
-    reported = 0
-    last_error_end = -1
-    end_repairs = 0
+# ------------------------------------------------------------------ chunks
+# A file is parsed as a run of *chunks*. A chunk ends before a line whose first token the LALR
+# state would take as the start of a new top-level element (the parse table decides, not a
+# guess from the text), and the next chunk is parsed from a fresh parser state. On text without
+# errors this gives exactly the tree one parse of the whole file gives (tests/test_parser.py
+# checks it on POV-Ray's own files); it lets the language server re-parse only the chunks an
+# edit touched (lang/incremental.py), and it keeps a syntax error inside its chunk: a line that
+# starts a new statement where the open construct cannot take it ends the chunk (the construct
+# is closed quietly after the error is reported) instead of feeding a cascade of errors.
 
-    def span_at(pos: int, length: int = 1) -> Span:
-        line, col = _line_col(clean, pos)
-        return Span(file, line, col, line, col + length)
+_NEW, _CONTINUES, _ERROR = "new", "continues", "error"
 
-    def quiet_since_last(pos: int) -> bool:
+# Codes of the syntax errors counted against MAX_SYNTAX_ERRORS.
+_COUNTED = frozenset({"E0001", "E0002", "E0004", "E0005", "E0101", "E0102", "E0106", "E0107"})
+
+
+@dataclass
+class Chunk:
+    """A run of top-level elements parsed from a fresh parser state."""
+
+    start: int  # offset of its first character in the comment-free text (a line start)
+    text: str  # its comment-free text, up to the line the next chunk starts on
+    line: int  # the line it starts on (its spans are absolute)
+    nodes: list
+    span: Span | None  # first token to last token; None when it holds no token
+    diags: list[Diagnostic]
+    strays: list[int]  # offsets (in `text`) of the unmatched `}` reported as E0101, in order
+    errors: int  # syntax errors found, shown or not
+    follow_end: int  # where the token that ended it ends (the text's length at the end of file)
+
+    @property
+    def end(self) -> int:
+        return self.start + len(self.text)
+
+    def move(self, chars: int, lines: int) -> None:
+        """Follow an edit above this chunk: offsets move by `chars`, spans by `lines`."""
+        self.start += chars
+        self.follow_end += chars
+        if lines:
+            self.line += lines
+            shift_lines(self.nodes, lines)
+            if self.span is not None:
+                self.span = _moved(self.span, lines)
+            self.diags = [
+                Diagnostic(d.severity, d.code, d.message, _moved(d.span, lines), d.hint)
+                for d in self.diags
+            ]
+
+
+def _span_mover():
+    """A fast `Span` with lines moved: the fields are set through their slot descriptors,
+    which skips the frozen dataclass's checked `__init__` (half the cost, and a large file
+    moves tens of thousands of spans after a line is inserted near its top)."""
+    new = object.__new__
+    f, ln, c, el, ec = (
+        getattr(Span, n).__set__ for n in ("file", "line", "col", "end_line", "end_col")
+    )
+
+    def moved(s: Span, lines: int) -> Span:
+        o = new(Span)
+        f(o, s.file)
+        ln(o, s.line + lines)
+        c(o, s.col)
+        el(o, s.end_line + lines)
+        ec(o, s.end_col)
+        return o
+
+    return moved
+
+
+_moved = _span_mover()
+
+_SKIP_FIELDS = {"str", "bool", "float", "int", "str | None", "list[str]", "list[str] | None"}
+
+
+def _make_shifter(cls: type) -> Callable:
+    """A function moving the spans of one node class and pushing its children (generated from
+    the dataclass fields: a generic getattr loop is three times slower)."""
+    if cls is list or cls is tuple:
+        return lambda v, lines, push, extend: extend(v)
+    if not (isinstance(cls, type) and issubclass(cls, syntax.Node)):
+        return lambda v, lines, push, extend: None
+    body = []
+    for fld in dataclasses.fields(cls):
+        kind, name = str(fld.type), fld.name
+        if kind in _SKIP_FIELDS:
+            continue
+        if "Span" in kind:
+            body.append(f"    s = v.{name}")
+            body.append(f"    if s is not None: v.{name} = moved(s, lines)")
+        elif kind == "list[Node]":
+            body.append(f"    extend(v.{name})")
+        else:
+            body.append(f"    x = v.{name}")
+            body.append("    if x is not None: push(x)")
+    code = "def shift(v, lines, push, extend):\n" + ("\n".join(body) or "    pass") + "\n"
+    scope: dict = {"moved": _moved}
+    exec(code, scope)  # noqa: S102 - generated from dataclass fields, no outside input
+    return scope["shift"]
+
+
+_SHIFTERS: dict[type, Callable] = {}
+
+
+def shift_lines(items: list, lines: int) -> None:
+    """Move every span in a list of syntax nodes (in place) by `lines` lines."""
+    stack: list = list(items)
+    pop, push, extend = stack.pop, stack.append, stack.extend
+    shifters = _SHIFTERS
+    while stack:
+        v = pop()
+        f = shifters.get(type(v))
+        if f is None:
+            f = shifters[type(v)] = _make_shifter(type(v))
+        f(v, lines, push, extend)
+
+
+@dataclass
+class _Table:
+    """The LALR table, read once: enough to ask what a token would do without feeding it."""
+
+    conf: ParseConf
+    states: dict
+    start_state: int
+    top: frozenset[tuple[int, ...]]  # state stacks between two top-level elements
+    starters: frozenset[str]  # terminals that can begin a top-level element
+
+
+_table: _Table | None = None
+
+
+def _get_table() -> _Table:
+    global _table
+    if _table is None:
+        conf = _get_parser().parse_interactive("").parser_state.parse_conf
+        s0 = conf.start_state
+        star = conf.states[s0]["__start_star_0"][1]  # `start: element*`, one element read
+        starters = frozenset(t for t in conf.states[s0] if t.isupper() and t != "$END")
+        _table = _Table(conf, conf.states, s0, frozenset({(s0,), (s0, star)}), starters)
+    return _table
+
+
+def _verdict(table: _Table, stack: list[int], ttype: str) -> str:
+    """What a token of type `ttype` would do in this state: start a new top-level element,
+    continue the construct in progress, or be an error. Simulates the reductions on a copy of
+    the state stack; nothing is built."""
+    states = table.states
+    action = states[stack[-1]].get(ttype)
+    if action is None:
+        return _ERROR
+    if action[0] is not Shift:
+        stack = stack[:]
+        while action[0] is not Shift:
+            rule = action[1]
+            size = len(rule.expansion)
+            if size:
+                del stack[-size:]
+            stack.append(states[stack[-1]][rule.origin.name][1])
+            action = states[stack[-1]].get(ttype)
+            if action is None:
+                return _ERROR
+    return _NEW if tuple(stack) in table.top else _CONTINUES
+
+
+class _ChunkErrors:
+    """Error reporting and recovery inside one chunk (the former `on_error` of one parse)."""
+
+    def __init__(self, clean: str, file: str, start: int) -> None:
+        self.clean = clean
+        self.file = file
+        self.start = start
+        self.sink = DiagnosticSink()
+        self.reported = 0
+        self.last_error_end = -1
+        self.strays: list[int] = []
+        self._braces: BraceReport | None = None
+
+    @property
+    def braces(self) -> BraceReport:
+        """Braces from the chunk's start on: a `}` unmatched here has no `{` before it in this
+        chunk (matching looks backwards only, so the text after the chunk changes nothing)."""
+        if self._braces is None:
+            self._braces = scan_braces(self.clean[self.start :])
+        return self._braces
+
+    def span_at(self, pos: int, length: int = 1) -> Span:
+        line, col = _line_col(self.clean, pos)
+        return Span(self.file, line, col, line, col + length)
+
+    def quiet_since_last(self, pos: int) -> bool:
         """True when only whitespace separates this error from the previous one (a cascade)."""
-        return last_error_end >= 0 and not clean[last_error_end:pos].strip()
+        return self.last_error_end >= 0 and not self.clean[self.last_error_end : pos].strip()
 
-    def report(code: str, message: str, span: Span, hint: str | None) -> None:
-        nonlocal reported
-        reported += 1
-        if reported <= MAX_SYNTAX_ERRORS:
-            sink.error(code, message, span, hint)
-
-    def on_error(e: UnexpectedInput) -> bool:
-        nonlocal last_error_end, end_repairs
-        if isinstance(e, UnexpectedCharacters):
-            pos = e.pos_in_stream
-            ch = clean[pos]
-            if not quiet_since_last(pos):
-                if ch == '"':
-                    report(
-                        "E0004",
-                        "unterminated string",
-                        span_at(pos),
-                        'a string ends with `"` on the same line',
-                    )
-                else:
-                    report(
-                        "E0005",
-                        f"unexpected character `{ch}`",
-                        span_at(pos),
-                        "this character has no meaning here",
-                    )
-            last_error_end = pos + 1
+    def report(self, code: str, message: str, span: Span, hint: str | None) -> bool:
+        self.reported += 1
+        if self.reported <= MAX_SYNTAX_ERRORS:
+            self.sink.error(code, message, span, hint)
             return True
-        if not isinstance(e, UnexpectedToken):
-            return False
-        tok = e.token
-        if tok.type == "$END":
-            # Close what is open so the tree is usable, and say what was left open.
-            end_repairs += 1
-            if end_repairs > 64:
-                return False
-            accepts = e.interactive_parser.accepts()
-            for closer, text_ in (
-                ("RBRACE", "}"),
-                ("END", "#end"),
-                ("RPAR", ")"),
-                ("RSQB", "]"),
-                ("MORETHAN", ">"),
-            ):
-                if closer in accepts:
-                    if end_repairs == 1 and not quiet_since_last(len(clean)):
-                        _report_unclosed(closer)
-                    e.interactive_parser.feed_token(Token(closer, text_))
-                    return True
-            if end_repairs == 1 and not quiet_since_last(len(clean)):
-                report(
-                    "E0001",
-                    "unexpected end of file",
-                    span_at(max(len(clean) - 1, 0)),
-                    _expected(e.expected),
+        return False
+
+    def bad_character(self, pos: int) -> None:
+        ch = self.clean[pos]
+        if not self.quiet_since_last(pos):
+            if ch == '"':
+                self.report(
+                    "E0004",
+                    "unterminated string",
+                    self.span_at(pos),
+                    'a string ends with `"` on the same line',
                 )
-            return False
+            else:
+                self.report(
+                    "E0005",
+                    f"unexpected character `{ch}`",
+                    self.span_at(pos),
+                    "this character has no meaning here",
+                )
+        self.last_error_end = pos + 1
+
+    def unexpected(self, tok: Token, expected: set[str], state: ParserState | None) -> None:
+        """An unexpected token: report it (unless it belongs to the last error's cascade) and
+        drop it, except a reserved word where a name belongs, which is read as the name."""
         pos = tok.start_pos
-        if "IDENT" in e.expected and tok.type in _RESERVED_TYPES:
-            # A reserved word where a name belongs: say so, then read it as the name.
-            report(
+        if state is not None and "IDENT" in expected and tok.type in _RESERVED_TYPES:
+            self.report(
                 "E0102",
                 f"`{tok}` is a reserved word and cannot be used as a name",
-                _tok_span(file, tok),
+                _tok_span(self.file, tok),
                 "choose another name; POV-Ray's convention is a capital first letter",
             )
-            e.interactive_parser.feed_token(Token.new_borrow_pos("IDENT", str(tok), tok))
-            return True
-        stray = tok.type == "RBRACE" and pos in braces.unmatched_close
+            try:
+                state.feed_token(Token.new_borrow_pos("IDENT", str(tok), tok))
+            except UnexpectedToken:
+                pass
+            return
+        rel = pos - self.start
+        stray = tok.type == "RBRACE" and rel in self.braces.unmatched_close
         # Every stray `}` is its own mistake; other errors right after one are its cascade.
-        if stray or not quiet_since_last(pos):
+        if stray or not self.quiet_since_last(pos):
             if stray:
-                last = braces.unmatched_close[pos]
-                if last is not None:
-                    head, head_pos = _block_head(clean, last[0])
-                    o_line, o_col = _line_col(clean, head_pos)
-                    c_line, c_col = _line_col(clean, last[1])
-                    hint = (
-                        f"unmatched `}}`: the {head}block opened at {o_line}:{o_col} was "
-                        f"already closed at {c_line}:{c_col}; delete this brace"
-                    )
-                else:
-                    hint = "unmatched `}`: no block is open here; delete this brace"
-                report("E0101", "unexpected `}`: no block is open here", span_at(pos), hint)
-            else:
-                expected = _expected(e.expected)
-                report(
-                    "E0002",
-                    f"unexpected {_describe_token(tok)}" + (f"; {expected}" if expected else ""),
-                    _tok_span(file, tok),
-                    _hint_for(tok, e.expected),
+                shown = self.report(
+                    "E0101",
+                    "unexpected `}`: no block is open here",
+                    self.span_at(pos),
+                    _stray_hint(self.clean, self.start, self.braces.unmatched_close[rel]),
                 )
-        last_error_end = tok.end_pos if tok.end_pos is not None else pos + len(tok)
-        return True
+                if shown:
+                    self.strays.append(rel)
+            else:
+                words = _expected(expected)
+                self.report(
+                    "E0002",
+                    f"unexpected {_describe_token(tok)}" + (f"; {words}" if words else ""),
+                    _tok_span(self.file, tok),
+                    _hint_for(tok, expected),
+                )
+        self.last_error_end = tok.end_pos if tok.end_pos is not None else pos + len(tok)
 
-    def _report_unclosed(closer: str) -> None:
-        if closer == "RBRACE" and braces.unclosed_open:
-            pos = braces.unclosed_open[-1]
-            report(
+    def close(self, table: _Table, state: ParserState, end: Token, report: bool):
+        """Feed the end of input, first closing whatever is still open (`}`, `#end`, `)` …, or
+        a `0` where an operand is missing) so the tree is usable. Says what was left open when
+        `report` (the end of the file, not a chunk closed after an error)."""
+        eof = len(self.clean)
+        report = report and not self.quiet_since_last(eof)
+        for attempt in range(64):
+            try:
+                return state.feed_token(end, True)
+            except UnexpectedToken as e:
+                expected = e.expected
+            filler = None
+            for kind, text in _FILLERS:
+                if kind in expected and _verdict(table, state.state_stack, kind) != _ERROR:
+                    filler = kind, text
+                    break
+            if attempt == 0 and report:
+                self._report_open(filler[0] if filler else None, expected)
+            if filler is None:
+                return None
+            state.feed_token(Token.new_borrow_pos(filler[0], filler[1], end))
+        return None
+
+    def _report_open(self, closer: str | None, expected: set[str]) -> None:
+        end = self.span_at(max(len(self.clean) - 1, 0))
+        if closer == "RBRACE" and self.braces.unclosed_open:
+            pos = self.start + self.braces.unclosed_open[-1]
+            self.report(
                 "E0106",
                 "this block is never closed",
-                span_at(pos),
+                self.span_at(pos),
                 "add the missing `}` at the end of the block",
             )
         elif closer == "END":
-            report(
+            self.report(
                 "E0107",
                 "a directive is never closed",
-                span_at(max(len(clean) - 1, 0)),
+                end,
                 "every #if/#while/#for/#macro/#switch needs its `#end`",
             )
-        else:
-            report(
-                "E0001",
-                "unexpected end of file",
-                span_at(max(len(clean) - 1, 0)),
-                f"`{ {'RPAR': ')', 'RSQB': ']', 'MORETHAN': '>'}.get(closer, '?') }` is missing",
+        elif closer in _CLOSER_TEXT:
+            self.report(
+                "E0001", "unexpected end of file", end, f"`{_CLOSER_TEXT[closer]}` is missing"
             )
-
-    parser = _get_parser()
-    try:
-        tree = parser.parse(clean, on_error=on_error)
-        result = builder.transform(tree)
-    except VisitError as e:  # a builder failure is a bug, but the user gets a diagnostic
-        orig = e.orig_exc
-        if isinstance(orig, SceneError):
-            sink.items.append(orig.diagnostic)
         else:
-            sink.error("E0000", f"internal parser error: {orig}", Span(file, 1, 1, 1, 1))
-        result = syntax.SourceFile(Span(file, 1, 1, 1, 1), [])
-    except UnexpectedInput as e:
-        if not sink.has_errors:
-            line = getattr(e, "line", 1) or 1
-            col = getattr(e, "column", 1) or 1
-            sink.error("E0001", "syntax error", Span(file, line, col, line, col + 1))
-        result = syntax.SourceFile(Span(file, 1, 1, 1, 1), [])
-    if reported > MAX_SYNTAX_ERRORS:
-        sink.note(
-            "N0001",
-            f"{reported - MAX_SYNTAX_ERRORS} more syntax errors not shown",
-            Span(file, 1, 1, 1, 1),
-        )
-    diags = sorted(
-        sink.items, key=lambda d: (d.severity is not Severity.ERROR, d.span.line, d.span.col)
+            self.report("E0001", "unexpected end of file", end, _expected(expected))
+
+
+_CLOSER_TEXT = {"RPAR": ")", "RSQB": "]", "MORETHAN": ">"}
+# What `close` may add at the end, in order: closers first, then an operand.
+_FILLERS = (
+    ("RBRACE", "}"),
+    ("END", "#end"),
+    ("RPAR", ")"),
+    ("RSQB", "]"),
+    ("MORETHAN", ">"),
+    ("NUMBER", "0"),
+)
+
+
+def _stray_hint(clean: str, base: int, last: tuple[int, int] | None) -> str:
+    """The hint for an unmatched `}`: which block was closed last before it."""
+    if last is None:
+        return "unmatched `}`: no block is open here; delete this brace"
+    head, head_pos = _block_head(clean, base + last[0])
+    o_line, o_col = _line_col(clean, head_pos)
+    c_line, c_col = _line_col(clean, base + last[1])
+    return (
+        f"unmatched `}}`: the {head}block opened at {o_line}:{o_col} was "
+        f"already closed at {c_line}:{c_col}; delete this brace"
     )
-    return result, diags
+
+
+class ChunkParser:
+    """Parses a comment-free text chunk by chunk, from a given line start on."""
+
+    def __init__(self, clean: str, file: str, *, split: bool = True) -> None:
+        self.clean = clean
+        self.file = file
+        self.split = split
+        self.table = _get_table()
+        self.builder = _Builder(file, DiagnosticSink())
+        self.thread = _get_parser().parse_interactive(clean).lexer_thread
+
+    def run(
+        self, pos: int = 0, line: int = 1, stop_at: frozenset[int] | set[int] = frozenset()
+    ) -> tuple[list[Chunk], int | None, int]:
+        """Chunks from `pos` (a line start, on line `line`) to the end of the text, or up to
+        the first chunk boundary in `stop_at`; returns them, and the offset and line where it
+        stopped (None at the end of the text)."""
+        counter = LineCounter("\n")
+        counter.char_pos = counter.line_start_pos = pos
+        counter.line = line
+        self.thread.state = LexerState(TextSlice(self.clean, 0, len(self.clean)), counter)
+        chunks: list[Chunk] = []
+        first: Token | None = None
+        while True:
+            chunk, first = self._chunk(pos, line, first)
+            chunks.append(chunk)
+            if first is None:
+                return chunks, None, line
+            pos, line = chunk.end, first.line
+            if pos in stop_at:
+                return chunks, pos, line
+
+    def _chunk(self, start: int, line: int, first: Token | None) -> tuple[Chunk, Token | None]:
+        table = self.table
+        errors = _ChunkErrors(self.clean, self.file, start)
+        state = ParserState(table.conf, self.thread)
+        counter = self.thread.state.line_ctr
+        last = first  # the last token read in this chunk
+        cur_line = first.line if first is not None else -1
+        follow: Token | None = None  # the token that starts the next chunk
+        recovered = False
+        pending = [first] if first is not None else []
+        while True:
+            try:
+                for tok in itertools.chain(pending, self.thread.lex(state)):
+                    if tok.line != cur_line:
+                        cur_line = tok.line
+                        if self.split and last is not None:
+                            verdict = _verdict(table, state.state_stack, tok.type)
+                            if verdict is _NEW:
+                                follow = tok
+                                break
+                            if verdict is _ERROR and tok.type in table.starters:
+                                # A new statement the open construct cannot take: report it,
+                                # close the construct, and start afresh from this line.
+                                stack = state.state_stack
+                                expected = {t for t in table.states[stack[-1]] if t.isupper()}
+                                errors.unexpected(tok, expected, None)
+                                follow, recovered = tok, True
+                                break
+                    last = tok
+                    try:
+                        state.feed_token(tok)
+                    except UnexpectedToken as e:
+                        errors.unexpected(tok, e.expected, state)
+                break
+            except UnexpectedCharacters as e:
+                pending = []
+                pos = e.pos_in_stream
+                errors.bad_character(pos)
+                if counter.char_pos == pos:
+                    counter.feed(self.clean[pos : pos + 1])
+        end_tok = (
+            Token.new_borrow_pos("$END", "", last)
+            if last is not None
+            else Token("$END", "", start, line, 1, line, 1, start)
+        )
+        nodes: list = []
+        span: Span | None = None
+        try:
+            tree = errors.close(table, state, end_tok, report=follow is None and not recovered)
+            if tree is None:
+                if not errors.sink.has_errors:
+                    errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
+            else:
+                self.builder.sink = errors.sink
+                result = self.builder.transform(tree)
+                nodes = result.body
+                if not getattr(tree.meta, "empty", True):
+                    span = result.span
+        except VisitError as e:  # a builder failure is a bug, but the user gets a diagnostic
+            orig = e.orig_exc
+            if isinstance(orig, SceneError):
+                errors.sink.items.append(orig.diagnostic)
+            else:
+                errors.sink.error(
+                    "E0000", f"internal parser error: {orig}", Span(self.file, line, 1, line, 1)
+                )
+        except UnexpectedInput:
+            if not errors.sink.has_errors:
+                errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
+        if follow is not None:
+            end = follow.start_pos - (follow.column - 1)  # the start of the follower's line
+            follow_end = follow.end_pos
+        else:
+            end = follow_end = len(self.clean)
+        chunk = Chunk(
+            start,
+            self.clean[start:end],
+            line,
+            nodes,
+            span,
+            errors.sink.items,
+            errors.strays,
+            errors.reported,
+            follow_end,
+        )
+        return chunk, follow
+
+
+def assemble(
+    clean: str, file: str, chunks: list[Chunk], leading: list[Diagnostic]
+) -> tuple[syntax.SourceFile, list[Diagnostic]]:
+    """One tree and one sorted diagnostic list from a file's chunks (`leading`: diagnostics
+    found before parsing, such as an unterminated comment)."""
+    body = [n for c in chunks for n in c.nodes]
+    spans = [c.span for c in chunks if c.span is not None]
+    if spans:
+        a, b = spans[0], spans[-1]
+        span = Span(file, a.line, a.col, b.end_line, b.end_col)
+    else:
+        span = Span(file, 1, 1, 1, 1)
+    braces = scan_braces(clean) if any(c.strays for c in chunks) else None
+    items = list(leading)
+    shown = total = 0
+    for c in chunks:
+        total += c.errors
+        strays = iter(c.strays)
+        for d in c.diags:
+            if d.code in _COUNTED:
+                if shown >= MAX_SYNTAX_ERRORS:
+                    continue
+                shown += 1
+                if d.code == "E0101" and braces is not None:
+                    # The block closed last before a stray `}` may lie in an earlier chunk.
+                    last = braces.unmatched_close.get(c.start + next(strays), None)
+                    d = replace(d, hint=_stray_hint(clean, 0, last))
+            items.append(d)
+    if total > shown:
+        items.append(
+            Diagnostic(
+                Severity.NOTE,
+                "N0001",
+                f"{total - shown} more syntax errors not shown",
+                Span(file, 1, 1, 1, 1),
+            )
+        )
+    diags = sorted(items, key=lambda d: (d.severity is not Severity.ERROR, d.span.line, d.span.col))
+    return syntax.SourceFile(span, body), diags
+
+
+def parse(
+    text: str, file: str = "<string>", *, split: bool = True
+) -> tuple[syntax.SourceFile, list[Diagnostic]]:
+    """Parse one file. Returns the tree (partial where there were errors) and diagnostics.
+
+    `split=False` reads the whole file as one chunk (the reference the chunked parse is
+    tested against)."""
+    sink = DiagnosticSink()
+    clean = strip_comments(text, file, sink)
+    chunks, _, _ = ChunkParser(clean, file, split=split).run()
+    return assemble(clean, file, chunks, sink.items)
 
 
 _HEAD_WORD = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)\s*$")
