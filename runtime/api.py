@@ -1,0 +1,214 @@
+"""strala from Python: compile a scene (a file or a string) and render it to a numpy array.
+
+    from runtime import api
+
+    image = api.render("scene.pov", width=320, height=240, aa=0.3)   # (240, 320, 3) floats
+    scene = api.compile_string('sphere { 0, 1 pigment { rgb 1 } }  light_source { <2, 4, -3>, 1 }')
+    image = api.render(scene, width=160, height=120)
+    api.save_image("out.png", image)
+
+The options are the command line's: width, height, aa (the +A threshold; None for one ray
+per pixel), aa_depth, threads, clock, library paths (-L), region, radiosity cache.
+Scenes with errors raise `CompileError`, whose message lists every diagnostic as the
+command line prints them; warnings stay readable on the compiled scene.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from lang import ir
+from lang.diagnostics import Diagnostic, SceneError, Severity
+
+DEFAULT_SIZE = (320, 240)  # POV-Ray's image size, as on the command line
+PathLike = str | os.PathLike[str]
+
+
+class CompileError(Exception):
+    """The scene has errors; `diagnostics` holds all of them (and the warnings)."""
+
+    def __init__(self, diagnostics: Sequence[Diagnostic]):
+        self.diagnostics = list(diagnostics)
+        errors = [d for d in self.diagnostics if d.severity is Severity.ERROR]
+        lines = [d.format(_source_lines(d.span.file)) for d in errors]
+        count = f"{len(errors)} error{'' if len(errors) == 1 else 's'}"
+        super().__init__(count + "\n" + "\n".join(lines))
+
+
+@dataclass(frozen=True)
+class Compiled:
+    """An evaluated scene: the IR the renderer takes, and what the compiler said about it.
+
+    `size` is the image size the scene saw as image_width/image_height when it was
+    compiled (scenes often shape their camera with them)."""
+
+    scene: ir.Scene
+    diagnostics: tuple[Diagnostic, ...]
+    size: tuple[int, int]
+    clock: float
+
+    @property
+    def warnings(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.WARNING]
+
+
+def _source_lines(file: str) -> list[str] | None:
+    try:
+        return Path(file).read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return None
+
+
+def _libraries(library_paths: Sequence[PathLike]) -> tuple[str, ...]:
+    """The given folders, then $STRALA_LIBRARY_PATH (the stdlib is always searched last)."""
+    env = os.environ.get("STRALA_LIBRARY_PATH", "")
+    return tuple(str(p) for p in library_paths) + tuple(p for p in env.split(os.pathsep) if p)
+
+
+def _finish(result, size: tuple[int, int], clock: float) -> Compiled:
+    diagnostics = tuple(result.diagnostics)
+    if result.scene is None or any(d.severity is Severity.ERROR for d in diagnostics):
+        raise CompileError(diagnostics)
+    return Compiled(result.scene, diagnostics, size, clock)
+
+
+def compile_string(
+    text: str,
+    *,
+    filename: PathLike = "<string>",
+    library_paths: Sequence[PathLike] = (),
+    clock: float = 0.0,
+    width: int = DEFAULT_SIZE[0],
+    height: int = DEFAULT_SIZE[1],
+    debug_output: bool = False,
+) -> Compiled:
+    """Evaluate scene text. `filename` names it in diagnostics, and its folder is where
+    `#include` looks first (the current folder for the default name)."""
+    from lang.evaluate import compile_source
+
+    result = compile_source(
+        text,
+        str(filename),
+        _libraries(library_paths),
+        clock=clock,
+        image_width=width,
+        image_height=height,
+        debug_to_stderr=debug_output,
+    )
+    return _finish(result, (width, height), clock)
+
+
+def compile_file(
+    path: PathLike,
+    *,
+    library_paths: Sequence[PathLike] = (),
+    clock: float = 0.0,
+    width: int = DEFAULT_SIZE[0],
+    height: int = DEFAULT_SIZE[1],
+    debug_output: bool = False,
+) -> Compiled:
+    """Evaluate a scene file (.pov, .scene, .inc); a file that cannot be read is a
+    `CompileError` like any other."""
+    from lang.evaluate import compile_file as _compile_file
+
+    result = _compile_file(
+        str(path),
+        _libraries(library_paths),
+        clock=clock,
+        image_width=width,
+        image_height=height,
+        debug_to_stderr=debug_output,
+    )
+    return _finish(result, (width, height), clock)
+
+
+def render(
+    scene: Compiled | ir.Scene | PathLike,
+    *,
+    width: int | None = None,
+    height: int | None = None,
+    aa: float | None = None,
+    aa_depth: int = 3,
+    threads: int | None = None,
+    clock: float = 0.0,
+    library_paths: Sequence[PathLike] = (),
+    region: tuple[int, int, int, int] | None = None,
+    radiosity_cache: PathLike | None = None,
+    linear: bool = False,
+) -> np.ndarray:
+    """Render to an (height, width, 3) float32 array.
+
+    `scene` is a scene file's path, a `Compiled` scene or a bare IR scene. The values are
+    what an 8/16-bit image file would hold (the scene's gamma applied, clipped to [0, 1]);
+    with linear=True, linear light, unclipped (what an EXR holds). The size defaults to the
+    compiled scene's, else 320x240; `clock` and `library_paths` apply to a path only.
+    region=(left, top, right, bottom) renders part of the image (the rest stays black)."""
+    from runtime import color
+    from runtime.render import render_scene
+
+    default = scene.size if isinstance(scene, Compiled) else DEFAULT_SIZE
+    width = default[0] if width is None else width
+    height = default[1] if height is None else height
+    if width < 1 or height < 1:
+        raise ValueError(f"the image size must be positive, got {width}x{height}")
+    if aa is not None and not 0.0 <= aa <= 3.0:
+        raise ValueError(f"the anti-aliasing threshold must lie in [0, 3], got {aa}")
+    if not 1 <= aa_depth <= 9:
+        raise ValueError(f"aa_depth must lie in 1..9, got {aa_depth}")
+    if isinstance(scene, str | os.PathLike):
+        scene = compile_file(
+            scene, library_paths=library_paths, clock=clock, width=width, height=height
+        )
+    if isinstance(scene, Compiled):
+        scene = scene.scene
+    try:
+        working = render_scene(
+            scene,
+            width,
+            height,
+            antialias=aa,
+            aa_depth=aa_depth,
+            threads=threads,
+            region=region,
+            radiosity_cache=radiosity_cache,
+        )
+    except SceneError as exc:
+        raise CompileError([exc.diagnostic]) from None
+    convert = color.to_linear if linear else color.to_display
+    return np.ascontiguousarray(convert(working, scene.settings), dtype=np.float32)
+
+
+def render_frames(
+    path: PathLike,
+    first: int,
+    last: int,
+    *,
+    width: int = DEFAULT_SIZE[0],
+    height: int = DEFAULT_SIZE[1],
+    library_paths: Sequence[PathLike] = (),
+    **options,
+) -> Iterator[tuple[float, np.ndarray]]:
+    """An animation, frame by frame, as `--frames first..last`: (clock, image) with the
+    clock running from 0 at the first frame to 1 at the last. `options` as for `render`."""
+    if last < first:
+        raise ValueError(f"the last frame ({last}) comes before the first ({first})")
+    for frame in range(first, last + 1):
+        t = 0.0 if last == first else (frame - first) / (last - first)
+        compiled = compile_file(
+            path, library_paths=library_paths, clock=t, width=width, height=height
+        )
+        yield t, render(compiled, **options)
+
+
+def save_image(path: PathLike, image: np.ndarray, bits: int | None = None) -> None:
+    """Write an array from `render` (display values) to PNG/TIFF/JPEG, or a linear one
+    (linear=True) to EXR; the extension picks the format."""
+    from runtime import image as image_io
+
+    image_io.output_format(path, bits)  # an unknown extension fails before any work
+    image_io.write_pixels(path, np.asarray(image, dtype=np.float32), bits)
