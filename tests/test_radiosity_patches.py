@@ -151,6 +151,22 @@ def test_refine_mask_finds_the_step():
     assert not refine_mask(VertexField(p, vals), threshold=0.1, min_size=1.0).any()
 
 
+def test_refine_mask_within_a_budget_takes_the_worst_first():
+    """Two steps, a big one at x = 1 and a small one at x = 0.5: with room for only some
+    splits, the patches along the big step go first, and never more than the budget."""
+    p = _wall(0.25)
+    x = p.centroid[:, 0]
+    vals = np.repeat((1.0 * (x > 1.0) + 0.2 * (x > 0.5))[:, None], 3, axis=1)
+    field = VertexField(p, vals)
+    everything = refine_mask(field, threshold=0.05, min_size=0.1)
+    big = everything & (np.abs(x - 1.0) < 0.25)
+    assert everything.sum() > big.sum() > 0
+    mask = refine_mask(field, threshold=0.05, min_size=0.1, budget=int(big.sum()))
+    assert np.array_equal(mask, big)
+    assert refine_mask(field, threshold=0.05, min_size=0.1, budget=3).sum() == 3
+    assert not refine_mask(field, threshold=0.05, min_size=0.1, budget=0).any()
+
+
 def test_stratified_points_lie_on_their_polygons():
     rng = np.random.default_rng(0)
     quad = np.array([[[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]]], float)

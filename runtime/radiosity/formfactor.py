@@ -509,10 +509,21 @@ def pair_visibility(
         o, t = points
         vis_samples = o.shape[1]
     batch = max(1, 2**20 // vis_samples)
+    # Strata are paired by a random permutation per pair: drawn from a table of all
+    # permutations when that is small (sorting random keys per pair costs more than the
+    # rays), else by sorting.
+    table = None
+    if vis_samples <= 5:
+        import itertools
+
+        table = np.array(list(itertools.permutations(range(vis_samples))), dtype=np.int64)
     for b in range(0, len(ii), batch):
         i, j = ii[b : b + batch], jj[b : b + batch]
-        perm = np.argsort(rng.random((len(i), vis_samples)), axis=1)
-        tg = np.take_along_axis(t[j], perm[:, :, None], axis=1)
+        if table is not None:
+            perm = table[rng.integers(0, len(table), len(i))]
+        else:
+            perm = np.argsort(rng.random((len(i), vis_samples)), axis=1)
+        tg = t[j[:, None], perm]
         v = np.asarray(visible(o[i].reshape(-1, 3), tg.reshape(-1, 3)), dtype=np.float64)
         frac[i, j] = v.reshape(-1, vis_samples).mean(axis=1)
     if same:

@@ -179,11 +179,26 @@ def _t_vertices(vertex: np.ndarray, pos: np.ndarray, patches: Patches):
     )
 
 
-def refine_mask(field: VertexField, threshold: float, min_size: float) -> np.ndarray:
-    """Patches to split: some corner differs from the patch value by more than `threshold`
-    (luminance, absolute) and the patch is still larger than `min_size`."""
-    p = field.patches
+def corner_spread(field: VertexField) -> np.ndarray:
+    """(N,) the largest luminance difference between a patch's value and its corners'."""
     own = luminance(field.values)[:, None]
     corners = luminance(field.corner_values)
-    spread = np.abs(corners - own).max(axis=1)
-    return (spread > threshold) & (p.edge_length() > min_size)
+    return np.abs(corners - own).max(axis=1)
+
+
+def refine_mask(
+    field: VertexField, threshold: float, min_size: float, budget: int | None = None
+) -> np.ndarray:
+    """Patches to split: some corner differs from the patch value by more than `threshold`
+    (luminance, absolute) and the patch is still larger than `min_size`. With `budget`
+    (how many patches may be split) only the worst that many: worst by spread² × area,
+    a patch's share of the squared error of an image of the surfaces."""
+    p = field.patches
+    spread = corner_spread(field)
+    mask = (spread > threshold) & (p.edge_length() > min_size)
+    if budget is not None and mask.sum() > budget:
+        score = np.where(mask, spread**2 * p.area, -np.inf)
+        keep = np.argsort(score)[::-1][: max(budget, 0)]
+        mask = np.zeros_like(mask)
+        mask[keep] = True
+    return mask

@@ -864,9 +864,11 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         g = _gathered(F, sol.B, patches, D)
         field = VertexField(patches, g, weights=area, conform=False)
         mean = float((luminance(g) * area).sum() / area.sum())
-        mask = refine_mask(field, threshold_rel * max(mean, 1e-12), min_size)
+        # A split adds three patches: within the budget, the worst patches go first.
+        room = (opts.max_patches - n) // 3
+        mask = refine_mask(field, threshold_rel * max(mean, 1e-12), min_size, budget=room)
         k = int(mask.sum())
-        if k == 0 or n + 3 * k > opts.max_patches:
+        if k == 0:
             break
         patches.subdivide(mask)
     assert sol is not None
