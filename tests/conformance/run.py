@@ -8,6 +8,7 @@ once (where the scene names a file from that folder) with strala's own stdlib on
 
     python tests/conformance/run.py [--out DIR] [--timeout 60] [--jobs 1] [--subset]
                                     [--only TEXT]... [--no-stdlib]
+                                    [--resume] [--report-only]
 
 It writes DIR/results.csv, results.md (the table), results.json, reasons.md (failures
 grouped by message: the roadmap) and prints the summary line. Scenes POV-Ray itself
@@ -223,8 +224,16 @@ def strala_render(
         run = StralaRun(status="ok", eval_ok=True, seconds=seconds, diagnostics=diags)
         run.errors = sum(s == "error" for s, _ in diags)
         run.warnings = sum(s == "warning" for s, _ in diags)
+    elif code == 1 and any(s == "error" for s, _ in diags):
+        # errors reported before any pixel: the scene did not evaluate (a runtime error
+        # would need a render after evaluation, which `check` alone would tell apart; the
+        # rare case is not worth evaluating every failing scene twice)
+        errors = [m for s, m in diags if s == "error"]
+        run = StralaRun(status="eval-errors", seconds=seconds, diagnostics=diags)
+        run.errors, run.warnings = len(errors), len(diags) - len(errors)
+        run.note = errors[0]
     else:
-        # Did evaluation fail, or the render after it? `check` tells (it loads no renderer).
+        # A time-out or a crash: did evaluation get through? `check` tells (no renderer).
         run = strala_check(scene, library, timeout)
         run.seconds = seconds
         run.diagnostics += [d for d in diags if d not in run.diagnostics]
@@ -325,10 +334,16 @@ def load_results(path: Path) -> list[SceneResult]:
     return results
 
 
+def _save_json(results: Sequence[SceneResult], path: Path) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps([asdict(r) for r in results], indent=1))
+    os.replace(tmp, path)
+
+
 def write_results(results: Sequence[SceneResult], out: Path, stdlib_column: bool = True) -> str:
     """Write the table, the JSON and the reasons; returns the summary text."""
     out.mkdir(parents=True, exist_ok=True)
-    (out / "results.json").write_text(json.dumps([asdict(r) for r in results], indent=1))
+    _save_json(results, out / "results.json")
     (out / "results.csv").write_text(report.csv_table(results))
     summary = report.summary_text(results, stdlib_column)
     (out / "results.md").write_text(summary + "\n\n" + report.markdown_table(results))
@@ -370,6 +385,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="only scenes whose path contains TEXT (repeatable)")  # fmt: skip
     ap.add_argument("--no-stdlib", action="store_true", help="skip the stdlib-only column")
     ap.add_argument("--report-only", action="store_true", help="rewrite the reports from OUT")
+    ap.add_argument("--resume", action="store_true", help="keep the scenes OUT already has")
     args = ap.parse_args(argv)
     if args.report_only:
         results = load_results(args.out / "results.json")
@@ -379,15 +395,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"needs POV-Ray and its examples in {args.examples}", file=sys.stderr)
         return 2
     scenes = select(corpus.scenes(args.examples), args.examples, args.subset, args.only)
-    results = run_suite(
-        scenes,
+    saved = args.out / "results.json"
+    done = {r.scene: r for r in load_results(saved)} if args.resume and saved.exists() else {}
+    todo = [s for s in scenes if s.relative_to(args.examples).as_posix() not in done]
+    args.out.mkdir(parents=True, exist_ok=True)
+
+    def progress(result: SceneResult) -> None:
+        # saved after every scene: a long run can be reported (--report-only) or resumed
+        done[result.scene] = result
+        _save_json(list(done.values()), saved)
+        _progress_line(result)
+
+    run_suite(
+        todo,
         args.out,
         examples=args.examples,
         timeout=args.timeout,
         jobs=args.jobs,
         stdlib_column=not args.no_stdlib,
-        progress=_progress_line,
+        progress=progress,
     )
+    order = {s.relative_to(args.examples).as_posix(): i for i, s in enumerate(scenes)}
+    results = sorted(done.values(), key=lambda r: order.get(r.scene, len(order)))
     print(write_results(results, args.out, not args.no_stdlib))
     print(f"table: {args.out / 'results.md'}; reasons: {args.out / 'reasons.md'}")
     return 0
