@@ -149,3 +149,42 @@ async def test_completion_is_driven_by_the_schema_and_hover_shows_docs(
         T.HoverParams(text_document=doc, position=T.Position(line=1, character=13))
     )
     assert hov is not None and "phong <float>" in hov.contents.value
+
+
+def _scene(n: int) -> str:
+    out = ['#include "colors.inc"', "camera { location <0, 2, -9> look_at 0 }"]
+    for i in range(n):
+        out.append(f"#declare P{i} = <{i % 5}, 0, {i % 3}>;")
+        out.append(f"#if (P{i}.x > 1)\n  sphere {{ P{i}, 0.3 pigment {{ Red }} }}\n#end")
+    return "\n".join(out) + "\n"
+
+
+async def test_diagnostics_after_edits_equal_those_of_a_fresh_open(
+    client: LanguageClient, tmp_path
+):
+    """The server re-parses only what each edit touched; what it reports must not depend on
+    that: after a series of edits, the same diagnostics as the final text opened afresh."""
+    text = _scene(200)
+    uri = _open(client, tmp_path / "edited.pov", text)
+    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    mid = text.index("#declare P100 ")
+    steps = [
+        text[:mid] + "#declare W = <1, 2\n" + text[mid:],  # an unfinished vector
+        "// a comment line\n\n" + text[:mid] + "sphere { Missing, 1 }\n" + text[mid:],
+        "// a comment line\n\n" + text.replace("P152, 0.3", "P152, 0.3 angle 2"),
+    ]
+    for version, new in enumerate(steps, start=2):
+        client.text_document_did_change(
+            T.DidChangeTextDocumentParams(
+                text_document=T.VersionedTextDocumentIdentifier(uri=uri, version=version),
+                content_changes=[T.TextDocumentContentChangeWholeDocument(text=new)],
+            )
+        )
+        await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+        edited = client.diagnostics[uri]
+        fresh_uri = _open(client, tmp_path / f"fresh{version}.pov", new)
+        await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+        fresh = client.diagnostics[fresh_uri]
+        assert edited, new[:40]  # every step has a mistake in it
+        key = [(d.range, d.code, d.message) for d in edited]
+        assert key == [(d.range, d.code, d.message) for d in fresh]

@@ -302,11 +302,14 @@ def test_povray_corpus_parses():
     files = sorted(glob.glob(f"{POV_CORPUS[0]}/*.inc"))
     files += sorted(glob.glob(f"{POV_CORPUS[1]}/**/*.pov", recursive=True))
     failed = []
-    for f in files:
+    for i, f in enumerate(files):
         with open(f, encoding="latin-1") as fh:
-            _, diags = parse(fh.read(), f)
-        if any(d.severity is Severity.ERROR for d in diags):
+            text = fh.read()
+        result = parse(text, f)
+        if any(d.severity is Severity.ERROR for d in result[1]):
             failed.append(f)
+        elif i % 8 == 0:  # a sample: the chunked parse is the one parse of the whole file
+            assert result == parse(text, f, split=False), f
     share = 1 - len(failed) / len(files)
     print(f"corpus: {len(files)} files, {len(files) - len(failed)} parse ({share:.1%})")
     assert len(files) > 400
@@ -318,3 +321,94 @@ def test_reserved_word_as_name_recovers_and_keeps_parsing():
     errs = [d for d in diags if d.severity is Severity.ERROR]
     assert len(errs) == 1 and errs[0].code == "E0102" and errs[0].span.col == 10
     assert [type(n).__name__ for n in tree.body] == ["Declare", "Block"]
+
+
+# ----------------------------------------------------------------- chunks
+# The parser reads a file as chunks of top-level statements (what the language server
+# re-parses after an edit). On valid text that must give exactly the tree of one parse.
+
+_STATEMENTS = [
+    "#declare X = 1 + 2 * 3 ;",
+    "#declare X = #if ( 1 ) 2 #else 3 #end",
+    "#declare S = sphere { 0 , 1 pigment { Red } }",
+    "#declare C = color red 1 green 0.5 ;",
+    "#declare F = function { x + y }",
+    "#declare G = function ( a , b ) { a * b }",
+    "#declare A = array [ 2 ] { 1 , 2 }",
+    "#declare V = < 1 , 2 , 3 > ;",
+    "#local L = A [ 1 ] . x ;",
+    "#macro M ( P , optional Q ) sphere { P , 1 } #end",
+    "M ( < 1 , 0 , 0 > )",
+    '#if ( X > 1 ) box { 0 , 1 } #elseif ( X < 0 ) plane { y , 0 } #else #debug "no" #end',
+    "#ifdef ( X ) #undef X #end",
+    "#switch ( X ) #case ( 1 ) sphere { 0 , 1 } #break #range ( 2 , 3 ) #else #end",
+    "#while ( X < 3 ) #declare X = X + 1 ; #end",
+    "#for ( I , 0 , 2 ) cylinder { 0 , y , 0.1 } #end",
+    "#version 3.7",
+    '#include "colors.inc"',
+    "camera { location < 0 , 1 , -3 > look_at 0 }",
+    "global_settings { assumed_gamma 1 }",
+    "texture { pigment { checker color Red color Blue } finish { phong 1 metallic } }",
+    "pigment { gradient y color_map { [ 0 Red ] [ 1 Blue ] } }",
+    '#fopen H "out.txt" write',
+    '#write ( H , X , "\\n" )',
+    "#fclose H",
+    "union { sphere { 0 , 1 } box { 0 , 1 } translate x }",
+]
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.lists(st.sampled_from(_STATEMENTS), min_size=1, max_size=6),
+    st.randoms(use_true_random=False),
+)
+def test_line_breaks_anywhere_in_valid_text_give_the_tree_of_one_parse(statements, rnd):
+    """Statements whose tokens are separated by a space or a line break at random: wherever a
+    line starts, the chunked parse agrees with one parse of the whole text."""
+    words = " ".join(statements).split(" ")
+    text = "".join(w + rnd.choice([" ", "\n", "\n  "]) for w in words)
+    whole = parse(text, "t.pov", split=False)
+    assert not [d for d in whole[1] if d.severity is Severity.ERROR], text
+    assert parse(text, "t.pov") == whole
+
+
+def test_chunked_parse_equals_one_parse_on_the_stdlib_and_examples():
+    import glob
+
+    from lang.diagnostics import DiagnosticSink
+    from lang.parser import ChunkParser
+
+    files = sorted(glob.glob("stdlib/*.inc")) + sorted(glob.glob("examples/*.scene"))
+    assert len(files) > 10
+    chunks = 0
+    for f in files:
+        with open(f) as fh:
+            text = fh.read()
+        assert parse(text, f) == parse(text, f, split=False), f
+        clean = strip_comments(text, f, DiagnosticSink())
+        chunks += len(ChunkParser(clean, f).run()[0])
+    assert chunks > 3 * len(files)  # statements really are separate chunks
+
+
+def test_a_new_statement_ends_an_unfinished_one():
+    """One error for the unfinished vector; the next line starts afresh (no cascade)."""
+    text = "#declare W = <1, 2\n#declare V = 3;\nsphere { V, 1 }\n"
+    tree, diags = parse(text, "t.pov")
+    assert [(d.code, d.span.line, d.span.col) for d in diags] == [("E0002", 2, 1)]
+    assert "`#declare`" in diags[0].message and "vector `<…>` is not closed" in diags[0].hint
+    assert [type(n).__name__ for n in tree.body] == ["Declare", "Declare", "Block"]
+    # One parse of the whole text reads on inside the vector and reports more.
+    assert len(parse(text, "t.pov", split=False)[1]) > 1
+
+
+def test_an_operand_missing_at_the_end_keeps_the_tree():
+    tree, diags = parse("#declare A = 1;\n#declare B = 1 +", "t.pov")
+    assert [d.code for d in diags] == ["E0001"]
+    assert [n.name for n in tree.body] == ["A", "B"]
+
+
+def test_a_block_closed_at_the_end_of_file_ends_at_its_last_token():
+    tree, diags = parse("sphere { 0, 1\n  pigment { Red }\n", "t.pov")
+    assert [d.code for d in diags] == ["E0106"]
+    (sphere,) = tree.body
+    assert (sphere.span.end_line, sphere.span.end_col) == (2, 18)
