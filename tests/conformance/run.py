@@ -8,7 +8,7 @@ once (where the scene names a file from that folder) with strala's own stdlib on
 
     python tests/conformance/run.py [--out DIR] [--timeout 60] [--jobs 1] [--subset]
                                     [--only TEXT]... [--no-stdlib]
-                                    [--resume] [--report-only]
+                                    [--resume] [--report-only] [--add-stdlib]
 
 It writes DIR/results.csv, results.md (the table), results.json, reasons.md (failures
 grouped by message: the roadmap) and prints the summary line. Scenes POV-Ray itself
@@ -321,6 +321,26 @@ def run_suite(
         return list(pool.map(one, scenes))
 
 
+def add_stdlib_column(
+    results: list[SceneResult], examples: Path, work: Path, timeout: float
+) -> list[SceneResult]:
+    """The stdlib-only runs a `--no-stdlib` run left out, against its reference images."""
+    for r in results:
+        scene = examples / r.scene
+        if r.std is not None or not r.counted or not corpus.uses_standard_includes(scene):
+            continue
+        local = work / "examples" / r.scene
+        frame = corpus.frame_for(scene)
+        images = work / "images"
+        reference = images / f"{_slug(r.scene)}.povray.png"
+        ref = reference if r.povray == "ok" else None
+        r.std = strala_render(local, frame, [], images / f"{_slug(r.scene)}.stdlib.png", ref,
+                              timeout)  # fmt: skip
+        _save_json(results, work / "results.json")
+        _progress_line(r)
+    return results
+
+
 def load_results(path: Path) -> list[SceneResult]:
     """Results written by an earlier run (results.json), to report them again."""
     results = []
@@ -386,6 +406,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--no-stdlib", action="store_true", help="skip the stdlib-only column")
     ap.add_argument("--report-only", action="store_true", help="rewrite the reports from OUT")
     ap.add_argument("--resume", action="store_true", help="keep the scenes OUT already has")
+    ap.add_argument("--add-stdlib", action="store_true",
+                    help="add the stdlib-only column to a run made with --no-stdlib")  # fmt: skip
     args = ap.parse_args(argv)
     if args.report_only:
         results = load_results(args.out / "results.json")
@@ -396,6 +418,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     scenes = select(corpus.scenes(args.examples), args.examples, args.subset, args.only)
     saved = args.out / "results.json"
+    if args.add_stdlib:
+        results = add_stdlib_column(load_results(saved), args.examples, args.out, args.timeout)
+        print(write_results(results, args.out, True))
+        return 0
     done = {r.scene: r for r in load_results(saved)} if args.resume and saved.exists() else {}
     todo = [s for s in scenes if s.relative_to(args.examples).as_posix() not in done]
     args.out.mkdir(parents=True, exist_ok=True)
