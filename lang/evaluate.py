@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import lang
-from lang import builtins, ir, schema, syntax, transforms
+from lang import builtins, ir, pov_shapes, schema, syntax, transforms
 from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.camera import CameraBuilder, CameraError
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
@@ -601,6 +601,7 @@ class Interpreter:
         self.parse_cache: dict[str, syntax.SourceFile] = {}
         self.macro_depth = 0
         self.loose_depth = 0
+        self.blob_depth = 0  # inside a blob body, `sphere`/`cylinder` are components
         self.state = builtins.BuiltinState()
         self.fn_bindings: list[dict[str, float]] = []
         self.version = 3.7
@@ -1569,6 +1570,14 @@ class Interpreter:
             return self._spline(node)
         if kw == "bicubic_patch":
             return self._bicubic_patch(node)
+        if self.blob_depth and kw in ("sphere", "cylinder"):
+            self.blob_depth, depth = 0, self.blob_depth  # nested blocks are ordinary again
+            try:
+                return pov_shapes.component(self, node)
+            finally:
+                self.blob_depth = depth
+        if kw in schema.DATA_SHAPES:
+            return pov_shapes.build(self, node)
         if kw in schema.UNSUPPORTED_SHAPES:
             self.unsupported(kw, span)
             return self._unsupported_object(node)

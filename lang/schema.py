@@ -324,11 +324,15 @@ SHAPES: dict[str, BlockSpec] = {
     ]
 }
 
+# POV-Ray shapes whose data is a free-form list (lang/pov_shapes.py reads them).
+DATA_SHAPES = frozenset(
+    """quadric cubic quartic poly superellipsoid blob lathe sor prism text height_field
+    sphere_sweep""".split()
+)
+
 # POV-Ray shapes strala parses but does not render yet (an ir.Unsupported object + a warning).
 UNSUPPORTED_SHAPES = frozenset(
-    """blob lathe sor prism superellipsoid sphere_sweep height_field text
-    isosurface parametric julia_fractal quadric poly polynomial cubic quartic ovus lemon
-    light_group""".split()
+    """isosurface parametric julia_fractal polynomial ovus lemon light_group""".split()
 )
 
 LIGHT_ITEMS = TRANSFORM_ITEMS + [
@@ -784,7 +788,9 @@ def spec(name: str) -> BlockSpec | None:
 
 def all_item_names() -> frozenset[str]:
     """Every keyword the schema knows (for did-you-mean hints)."""
-    names: set[str] = set(BLOCKS) | set(LIST_BLOCKS) | UNSUPPORTED_SHAPES | UNSUPPORTED_BLOCKS
+    names: set[str] = (
+        set(BLOCKS) | set(LIST_BLOCKS) | DATA_SHAPES | UNSUPPORTED_SHAPES | UNSUPPORTED_BLOCKS
+    )
     for b in BLOCKS.values():
         names |= set(b.items)
     return frozenset(names)

@@ -1,0 +1,464 @@
+"""The shape data of POV-Ray's rarer shapes: `quadric cubic quartic poly superellipsoid
+blob lathe sor prism text height_field sphere_sweep`, read from their expanded elements
+into IR shapes.
+
+These blocks are free-form lists (a spline word, a count, then points; a long coefficient
+vector; blob components), so they are read with a small cursor rather than through the
+schema's positional slots. What follows the shape data is ordinary object modifiers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from lang import ir, schema, syntax
+from lang.builtins import as_vec
+from lang.diagnostics import Span
+from lang.values import ObjectValue, Vec
+
+if TYPE_CHECKING:  # the interpreter imports this module
+    from lang.evaluate import El, Interpreter
+
+SPLINES_2D = ("linear_spline", "quadratic_spline", "cubic_spline", "bezier_spline")
+SWEEP_SPLINES = ("linear_spline", "b_spline", "cubic_spline")
+HF_TYPES = ("gif", "tga", "pot", "png", "pgm", "ppm", "jpeg", "tiff", "sys", "exr", "hdr")
+# Folders POV-Ray itself searches for its bundled fonts (timrom.ttf …) when a scene's
+# library paths do not name them: its standard include folders.
+FONT_FOLDERS = ("/usr/share/povray-3.7/include", "/usr/local/share/povray-3.7/include")
+# POV-Ray 3.7's built-in fonts (`text { internal N … }`) are these four faces; strala reads
+# the same faces from POV-Ray's font files when they are installed.
+INTERNAL_FONTS = {0: "povlogo.ttf", 1: "timrom.ttf", 2: "cyrvetic.ttf", 3: "crystal.ttf"}
+
+
+class Cursor:
+    """Reads shape data from expanded elements, skipping commas."""
+
+    def __init__(self, it: Interpreter, els: list[El], span: Span, keyword: str):
+        self.it, self.els, self.i, self.span, self.keyword = it, els, 0, span, keyword
+
+    def _skip(self) -> None:
+        while self.i < len(self.els) and self.els[self.i].kind == "comma":
+            self.i += 1
+
+    def peek(self) -> El | None:
+        self._skip()
+        return self.els[self.i] if self.i < len(self.els) else None
+
+    def word(self, *choices: str) -> str | None:
+        """The next keyword if it is one of `choices` (consumed), else None."""
+        e = self.peek()
+        if e is not None and e.kind == "kw" and e.value in choices:
+            self.i += 1
+            return e.value
+        return None
+
+    def flag(self, name: str) -> bool:
+        """`name` alone, or followed by an on/off value (`open`, `sturm`, `smooth`)."""
+        if self.word(name) is None:
+            return False
+        e = self.peek()
+        if e is not None and e.kind == "val" and isinstance(e.value, float | bool | int):
+            self.i += 1
+            return bool(e.value)
+        return True
+
+    def value(self, what: str) -> Any:
+        e = self.peek()
+        if e is None or e.kind != "val":
+            where = e.span if e is not None else self.span
+            raise self.it.error("E0202", f"`{self.keyword}` needs {what} here", where, self.usage())
+        self.i += 1
+        return e.value
+
+    def number(self, what: str) -> float:
+        e = self.peek()
+        v = self.value(what)
+        if isinstance(v, Vec) and len(v) == 1:
+            v = v[0]
+        if not isinstance(v, float | int | bool):
+            raise self.it.error("E0202", f"`{self.keyword}` needs {what}, not a vector", e.span)
+        return float(v)
+
+    def vector(self, n: int, what: str) -> tuple[float, ...]:
+        e = self.peek()
+        v = self.value(what)
+        if isinstance(v, float | int | bool):
+            return (float(v),) * n  # POV-Ray promotes a float to a vector
+        if not isinstance(v, Vec):
+            raise self.it.error("E0202", f"`{self.keyword}` needs {what}", e.span)
+        return tuple(as_vec(v, n))
+
+    def string(self, what: str) -> str:
+        e = self.peek()
+        v = self.value(what)
+        if not isinstance(v, str):
+            raise self.it.error("E0202", f"`{self.keyword}` needs {what} (a string)", e.span)
+        return v
+
+    def usage(self) -> str:
+        return USAGE.get(self.keyword, "")
+
+    def count(self, minimum: int, what: str) -> int:
+        e = self.peek()
+        n = int(self.number(f"the number of {what}"))
+        if n < minimum:
+            raise self.it.error(
+                "E0202", f"`{self.keyword}` needs at least {minimum} {what}, not {n}", e.span
+            )
+        return n
+
+    def points(self, n: int, dims: int, what: str) -> tuple[tuple[float, ...], ...]:
+        pts = []
+        for k in range(n):
+            e = self.peek()
+            if e is None or e.kind != "val" or not isinstance(e.value, Vec | float | int):
+                raise self.it.error(
+                    "E0202",
+                    f"`{self.keyword}` declares {n} {what} but lists {k}",
+                    e.span if e is not None else self.span,
+                    self.usage(),
+                )
+            pts.append(self.vector(dims, what))
+        return tuple(pts)
+
+
+USAGE = {
+    "quadric": "quadric { <A,B,C>, <D,E,F>, <G,H,I>, J }",
+    "cubic": "cubic { <20 coefficients> [sturm] }",
+    "quartic": "quartic { <35 coefficients> [sturm] }",
+    "poly": "poly { Order, <(Order+1)(Order+2)(Order+3)/6 coefficients> [sturm] }",
+    "superellipsoid": "superellipsoid { <e, n> }",
+    "blob": "blob { threshold T sphere { <centre>, radius, strength S } … }",
+    "lathe": "lathe { [linear_spline] N, <r, y>, … [sturm] }",
+    "sor": "sor { N, <r, y>, … [open] [sturm] }",
+    "prism": "prism { [linear_sweep] [linear_spline] h1, h2, N, <x, z>, … [open] }",
+    "text": 'text { ttf "font.ttf" "string", thickness, <offset> }',
+    "height_field": 'height_field { png "file.png" [smooth] [water_level W] }',
+    "sphere_sweep": "sphere_sweep { linear_spline N, <centre>, radius, … [tolerance T] }",
+}
+
+
+def poly_terms(order: int, coefficients) -> tuple[tuple[int, int, int, float], ...]:
+    """POV-Ray's coefficient order: x's power falls fastest-outermost, then y's, then z's
+    (x^n, x^(n-1)y, x^(n-1)z, x^(n-1), x^(n-2)y², …, z, 1)."""
+    exps = [
+        (i, j, k)
+        for i in range(order, -1, -1)
+        for j in range(order - i, -1, -1)
+        for k in range(order - i - j, -1, -1)
+    ]
+    pairs = zip(exps, coefficients, strict=True)
+    return tuple((i, j, k, float(c)) for (i, j, k), c in pairs if c != 0.0)
+
+
+def poly_size(order: int) -> int:
+    return (order + 1) * (order + 2) * (order + 3) // 6
+
+
+def _poly_of(cur: Cursor, order: int) -> ir.Poly:
+    e = cur.peek()
+    coeffs = cur.value("the coefficient vector")
+    if not isinstance(coeffs, Vec):
+        raise cur.it.error("E0202", "the coefficients are one vector <…>", e.span, cur.usage())
+    want = poly_size(order)
+    if len(coeffs) != want:
+        raise cur.it.error(
+            "E0202",
+            f"a polynomial of order {order} has {want} coefficients, not {len(coeffs)}",
+            e.span,
+            cur.usage(),
+        )
+    sturm = cur.flag("sturm")
+    return ir.Poly(order, poly_terms(order, coeffs), sturm)
+
+
+def _quadric(cur: Cursor) -> ir.Poly:
+    a, b, c = cur.vector(3, "<A, B, C>")
+    d, e, f = cur.vector(3, "<D, E, F>")
+    g, h, i = cur.vector(3, "<G, H, I>")
+    j = cur.number("J")
+    coeffs = {
+        (2, 0, 0): a, (0, 2, 0): b, (0, 0, 2): c, (1, 1, 0): d, (1, 0, 1): e,
+        (0, 1, 1): f, (1, 0, 0): g, (0, 1, 0): h, (0, 0, 1): i, (0, 0, 0): j,
+    }  # fmt: skip
+    return ir.Poly(2, tuple((*k, float(v)) for k, v in coeffs.items() if v != 0.0))
+
+
+def _poly(cur: Cursor) -> ir.Poly:
+    e = cur.peek()
+    order = int(cur.number("the order"))
+    if not 2 <= order <= 15:
+        raise cur.it.error("E0202", f"poly's order is 2 to 15, not {order}", e.span)
+    return _poly_of(cur, order)
+
+
+def _superellipsoid(cur: Cursor) -> ir.Superellipsoid:
+    e = cur.peek()
+    en = cur.vector(2, "<e, n>")
+    if not (en[0] > 0 and en[1] > 0):
+        raise cur.it.error("E0202", "superellipsoid exponents must be positive", e.span)
+    return ir.Superellipsoid(float(en[0]), float(en[1]))
+
+
+def _lathe(cur: Cursor) -> ir.Lathe:
+    spline = cur.word(*SPLINES_2D) or "linear_spline"
+    n = cur.count(2, "points")
+    pts = cur.points(n, 2, "points")
+    need = {"quadratic_spline": 3, "cubic_spline": 4, "bezier_spline": 4}.get(spline, 2)
+    if n < need or (spline == "bezier_spline" and n % 4):
+        raise cur.it.error(
+            "E0202",
+            f"a {spline} lathe needs "
+            + ("a multiple of 4 points" if spline == "bezier_spline" else f"{need}+ points"),
+            cur.span,
+        )
+    return ir.Lathe(spline, pts, cur.flag("sturm"))  # type: ignore[arg-type]
+
+
+def _sor(cur: Cursor) -> ir.Sor:
+    n = cur.count(4, "points")
+    pts = cur.points(n, 2, "points")
+    heights = [p[1] for p in pts]
+    if any(b <= a for a, b in zip(heights[1:-2], heights[2:-1], strict=False)):
+        raise cur.it.error(
+            "E0202", "sor heights must increase from the second point to the last but one",
+            cur.span,
+        )  # fmt: skip
+    open_ = sturm = False
+    while (w := cur.word("open", "sturm")) is not None:
+        open_ |= w == "open"
+        sturm |= w == "sturm"
+    return ir.Sor(pts, open_, sturm)  # type: ignore[arg-type]
+
+
+def _prism(cur: Cursor) -> ir.Prism:
+    sweep = spline = None
+    for _ in range(2):
+        sweep = sweep or cur.word("linear_sweep", "conic_sweep")
+        spline = spline or cur.word(*SPLINES_2D)
+    h1 = cur.number("the first height")
+    h2 = cur.number("the second height")
+    n = cur.count(3, "points")
+    pts = cur.points(n, 2, "points")
+    open_ = sturm = False
+    while (w := cur.word("open", "sturm")) is not None:
+        open_ |= w == "open"
+        sturm |= w == "sturm"
+    return ir.Prism(
+        spline or "linear_spline",
+        sweep or "linear_sweep",
+        h1,
+        h2,
+        pts,
+        open_,
+        sturm,  # type: ignore[arg-type]
+    )
+
+
+def _text(cur: Cursor) -> ir.Text:
+    e = cur.peek()
+    if cur.word("internal") is not None:
+        number = int(cur.number("the internal font number"))
+        font = INTERNAL_FONTS.get(number, INTERNAL_FONTS[0])
+        fspan = e.span if e is not None else cur.span
+    elif cur.word("ttf") is not None:
+        nxt = cur.peek()
+        fspan = nxt.span if nxt is not None else cur.span
+        font = cur.string("the font file")
+    else:
+        raise cur.it.error("E0202", '`text` starts with ttf "font.ttf"', cur.span, cur.usage())
+    string = cur.string("the text")
+    thickness = cur.number("the thickness")
+    offset = (
+        cur.vector(3, "the offset")
+        if cur.peek() is not None and cur.peek().kind == "val"
+        else (0, 0, 0)
+    )
+    path = None
+    for name in (font, font + ".ttf"):  # POV-Ray adds the extension when it is missing
+        path = path or cur.it._resolve(name) or _font_fallback(name)
+    if path is None:
+        raise cur.it.error(
+            "E0220",
+            f"font file `{font}` not found",
+            fspan,
+            "searched the scene's folder, the -L library paths and POV-Ray's include folder",
+        )
+    return ir.Text(path, string, thickness, tuple(float(v) for v in offset))  # type: ignore[arg-type]
+
+
+def _font_fallback(name: str) -> str | None:
+    for folder in FONT_FOLDERS:
+        p = Path(folder) / name
+        if p.is_file():
+            return str(p)
+    return None
+
+
+def _height_field(cur: Cursor) -> ir.HeightField:
+    e = cur.peek()
+    kind = cur.word(*HF_TYPES) or ""
+    if cur.word("function") is not None or (
+        e is not None and e.kind == "val" and not isinstance(e.value, str)
+    ):
+        cur.it.unsupported("height_field function", e.span if e else cur.span)
+        raise _Skip()
+    name = cur.string("the image file")
+    path = cur.it._resolve(name)
+    if path is None:
+        raise cur.it.error(
+            "E0220", f"height_field image `{name}` not found", e.span if e else cur.span,
+            "searched the scene's folder and the -L library paths",
+        )  # fmt: skip
+    smooth, water = False, 0.0
+    while True:
+        if cur.word("smooth") is not None:
+            smooth = True
+        elif cur.word("water_level") is not None:
+            water = cur.number("the water level")
+        elif cur.word("hierarchy") is not None:
+            nxt = cur.peek()
+            if nxt is not None and nxt.kind == "val":
+                cur.i += 1
+        else:
+            break
+    return ir.HeightField(path, kind, smooth, water)
+
+
+def _sphere_sweep(cur: Cursor) -> ir.SphereSweep:
+    spline = cur.word(*SWEEP_SPLINES) or "linear_spline"
+    n = cur.count(2, "spheres")
+    spheres = []
+    for _ in range(n):
+        c = cur.vector(3, "a centre")
+        r = cur.number("a radius")
+        spheres.append((*c, r))
+    need = 4 if spline != "linear_spline" else 2
+    if n < need:
+        raise cur.it.error("E0202", f"a {spline} sphere_sweep needs {need}+ spheres", cur.span)
+    tolerance = 1e-6
+    if cur.word("tolerance") is not None:
+        tolerance = cur.number("the tolerance")
+    return ir.SphereSweep(spline, tuple(spheres), tolerance)  # type: ignore[arg-type]
+
+
+class _Skip(Exception):
+    """The shape is a known but unsupported form (already warned): keep modifiers only."""
+
+
+READERS: dict[str, Callable[[Cursor], Any]] = {
+    "quadric": _quadric,
+    "cubic": lambda cur: _poly_of(cur, 3),
+    "quartic": lambda cur: _poly_of(cur, 4),
+    "poly": _poly,
+    "superellipsoid": _superellipsoid,
+    "lathe": _lathe,
+    "sor": _sor,
+    "prism": _prism,
+    "text": _text,
+    "height_field": _height_field,
+    "sphere_sweep": _sphere_sweep,
+}
+SHAPES = frozenset(READERS) | {"blob"}
+
+
+def object_spec(keyword: str, extra: list[str] | None = None) -> schema.BlockSpec:
+    return schema.BlockSpec(
+        keyword, "object", "", (), schema._items(schema.OBJECT_ITEMS, extra or []),
+        schema.OBJECT_ACCEPTS,
+    )  # fmt: skip
+
+
+def build(it: Interpreter, node: syntax.Block) -> ObjectValue:
+    """The object for one of these shapes' blocks."""
+    kw = node.keyword
+    spec = object_spec(kw)
+    it.loose_depth += 1  # shape data has words the object spec does not list
+    try:
+        if kw == "blob":
+            return _blob(it, node, spec)
+        els = it.expand(node.body, spec)
+    finally:
+        it.loose_depth -= 1
+    cur = Cursor(it, els, node.keyword_span or node.span, kw)
+    try:
+        shape: Any = READERS[kw](cur)
+    except _Skip:
+        shape = ir.Unsupported(kw)
+        _skip_data(cur, spec)
+    g = it.group(spec, els[cur.i :], node, loose=True)
+    obj = ObjectValue(shape, kw, span=node.span, default=it.default_texture)
+    return it._apply_object_items(obj, g)
+
+
+def _skip_data(cur: Cursor, spec: schema.BlockSpec) -> None:
+    while (e := cur.peek()) is not None and not (e.kind == "kw" and e.value in spec.items):
+        cur.i += 1
+
+
+# ------------------------------------------------------------------ blob
+class BlobPart:
+    """A blob component while the blob's body is expanded (its `sphere`/`cylinder`
+    blocks become these instead of objects)."""
+
+    kind = "blob_component"
+
+    def __init__(self, component: ir.BlobComponent):
+        self.component = component
+
+
+def component(it: Interpreter, node: syntax.Block) -> BlobPart:
+    """`sphere { <c>, r, [strength] s  modifiers }` or `cylinder { <a>, <b>, r, [strength]
+    s  modifiers }` inside a blob."""
+    kw = node.keyword
+    spec = object_spec(kw)
+    els = it.expand(node.body, spec)
+    cur = Cursor(it, els, node.keyword_span or node.span, "blob")
+    a = cur.vector(3, "the centre" if kw == "sphere" else "the first end")
+    b = a if kw == "sphere" else cur.vector(3, "the second end")
+    radius = cur.number("the radius")
+    cur.word("strength")
+    strength = cur.number("the strength")
+    g = it.group(spec, els[cur.i :], node, loose=True)
+    obj = it._apply_object_items(ObjectValue(None, kw, span=node.span), g)
+    return BlobPart(
+        ir.BlobComponent(kw, a, b, radius, strength, obj.transform, obj.texture)  # type: ignore[arg-type]
+    )
+
+
+def _blob(it: Interpreter, node: syntax.Block, spec: schema.BlockSpec) -> ObjectValue:
+    it.blob_depth += 1
+    try:
+        els = it.expand(node.body, spec)
+    finally:
+        it.blob_depth -= 1
+    threshold, sturm = 1.0, False
+    parts: list[ir.BlobComponent] = []
+    rest = []
+    cur = Cursor(it, els, node.keyword_span or node.span, "blob")
+    while (e := cur.peek()) is not None:
+        if e.kind == "val" and isinstance(e.value, BlobPart):
+            parts.append(e.value.component)
+            cur.i += 1
+        elif e.kind == "kw" and e.value == "threshold":
+            cur.i += 1
+            threshold = cur.number("the threshold")
+        elif e.kind == "kw" and e.value == "component":  # the old form: strength, radius, centre
+            cur.i += 1
+            s = cur.number("the strength")
+            r = cur.number("the radius")
+            c = cur.vector(3, "the centre")
+            parts.append(ir.BlobComponent("sphere", c, c, r, s))  # type: ignore[arg-type]
+        elif e.kind == "kw" and e.value in ("sturm", "hierarchy"):
+            sturm |= cur.flag(e.value) and e.value == "sturm"
+        else:
+            rest.append(e)
+            cur.i += 1
+    if not parts:
+        it.sink.warning("W0304", "`blob` has no components", node.keyword_span or node.span)
+    g = it.group(spec, rest, node, loose=True)
+    shape = ir.Blob(threshold, tuple(parts), sturm) if parts else ir.Unsupported("blob")
+    obj = ObjectValue(shape, "blob", span=node.span, default=it.default_texture)
+    return it._apply_object_items(obj, g)
