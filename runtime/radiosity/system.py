@@ -65,6 +65,7 @@ class Options:
     order: int = 3  # Gauss points per direction on each source patch (near pairs)
     far_order: int = 1  # … for pairs more than far_ratio × their radii apart
     far_ratio: float = 4.0
+    point_ratio: float | None = 8.0  # … beyond this, the point-to-point kernel
     vis_samples: int = 4  # segments per patch pair
     closure_rays: int = 32  # rays per patch testing that it sees only surfaces (0: off)
     symmetric: bool = True  # integrate each pair once, the other way by reciprocity
@@ -823,6 +824,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         if solver.fits_dense(n, opts.dense_bytes):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
                              far_ratio=opts.far_ratio, visible=vis, symmetric=opts.symmetric,
+                             point_ratio=opts.point_ratio,
                              vis_samples=opts.vis_samples, seed=opts.seed + round_,
                              vis_points=(pts, pts))  # fmt: skip
             # A patch partly buried in a solid (floor under a box) exchanges light through
@@ -837,7 +839,8 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
             def provider(idx, pts=pts, vis=vis, beta=beta, closed=closed):
                 f = form_factors(patches.verts[idx], patches.verts, order=opts.order,
                                  far_order=opts.far_order, far_ratio=opts.far_ratio,
-                                 visible=vis, vis_points=(pts[idx], pts))  # fmt: skip
+                                 point_ratio=opts.point_ratio, visible=vis,
+                                 vis_points=(pts[idx], pts))  # fmt: skip
                 f *= (1.0 - beta)[None, :]
                 _conserve(f, closed[idx])
                 return f
