@@ -37,7 +37,15 @@ class Prepared:
 
 
 # Shapes prepare turns into meshes before tracing (absent from older IR versions).
-_TESSELLATED = tuple(t for t in (getattr(ir, "Nurbs", None), getattr(ir, "Subdivision", None)) if t)
+_TESSELLATED = tuple(
+    t
+    for t in (
+        getattr(ir, "Nurbs", None),
+        getattr(ir, "Subdivision", None),
+        getattr(ir, "HeightField", None),
+    )
+    if t
+)
 
 
 class _Builder:
@@ -173,6 +181,10 @@ class _Builder:
         shape = obj.shape
         name = type(shape).__name__
         try:
+            if name == "HeightField":
+                from runtime.heightfield import height_field_mesh
+
+                return height_field_mesh(shape)
             if name == "Nurbs":
                 from runtime.tessellate import nurbs_mesh
 
@@ -296,6 +308,9 @@ class _Culler:
     def _hull(obj: ir.Object) -> np.ndarray | None:
         """World points whose convex hull holds the surface, or None when there are none."""
         shape = obj.shape
+        if type(shape).__name__ == "HeightField":  # inside the unit cube
+            cube = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
+            return tf.apply_points(tf.as_matrix(obj.transform), cube)
         if type(shape).__name__ == "Nurbs":
             if min(shape.weights, default=1.0) <= 0:
                 return None

@@ -1,0 +1,152 @@
+"""POV-Ray's `height_field` from an image: the unit square x, z in 0..1 with heights 0..1,
+two triangles per square of four neighbouring pixels, as an indexed mesh for Embree.
+
+The height is the pixel's colour number, or its palette index in a palette image (POV-Ray's
+rule: the largest possible value is height 1). Palette indices are not something image
+libraries hand out, so palette PNGs are decoded here (zlib + the five PNG row filters);
+every other image goes through OpenImageIO.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from functools import lru_cache
+
+import numpy as np
+
+from lang import ir
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+class HeightFieldError(ValueError):
+    pass
+
+
+def _png_palette_indices(data: bytes) -> np.ndarray | None:
+    """The index array of a palette PNG (colour type 3), or None for any other PNG."""
+    if not data.startswith(PNG_SIGNATURE):
+        return None
+    pos, idat, header = 8, [], None
+    while pos + 8 <= len(data):
+        length, kind = struct.unpack(">I4s", data[pos : pos + 8])
+        body = data[pos + 8 : pos + 8 + length]
+        if kind == b"IHDR":
+            header = struct.unpack(">IIBBBBB", body)
+        elif kind == b"IDAT":
+            idat.append(body)
+        elif kind == b"IEND":
+            break
+        pos += 12 + length
+    if header is None:
+        raise HeightFieldError("PNG file without a header")
+    width, height, depth, colour, _, _, interlace = header
+    if colour != 3:
+        return None
+    if interlace:
+        raise HeightFieldError("interlaced palette PNGs are not supported for height fields")
+    raw = np.frombuffer(zlib.decompress(b"".join(idat)), dtype=np.uint8)
+    stride = (width * depth + 7) // 8
+    rows = _unfilter(raw.reshape(height, stride + 1), stride)
+    if depth == 8:
+        return rows[:, :width]
+    bits = np.unpackbits(rows, axis=1).reshape(height, -1, depth)
+    weights = 1 << np.arange(depth - 1, -1, -1)
+    return (bits * weights).sum(axis=2)[:, :width].astype(np.uint8)
+
+
+def _unfilter(rows: np.ndarray, stride: int) -> np.ndarray:
+    """Undo the PNG row filters (one byte per pixel: palette images)."""
+    out = np.zeros((rows.shape[0], stride), dtype=np.uint8)
+    prev = np.zeros(stride, dtype=np.int64)
+    for r, row in enumerate(rows):
+        kind, cur = row[0], row[1:].astype(np.int64)
+        if kind == 0:
+            line = cur
+        elif kind == 2:
+            line = (cur + prev) & 255
+        elif kind in (1, 3, 4):
+            # left-dependent filters run along the row one pixel at a time
+            line = np.zeros(stride, dtype=np.int64)
+            left = up_left = 0
+            for i in range(stride):
+                up = int(prev[i])
+                if kind == 1:
+                    pred = left
+                elif kind == 3:
+                    pred = (left + up) >> 1
+                else:
+                    p = left + up - up_left
+                    pa, pb, pc = abs(p - left), abs(p - up), abs(p - up_left)
+                    pred = left if pa <= pb and pa <= pc else (up if pb <= pc else up_left)
+                left = (int(cur[i]) + pred) & 255
+                line[i] = left
+                up_left = up
+        else:
+            raise HeightFieldError(f"unknown PNG filter type {kind}")
+        out[r] = line
+        prev = line
+    return out
+
+
+@lru_cache(maxsize=16)
+def read_heights(path: str) -> np.ndarray:
+    """Heights 0..1 as (rows, columns), row 0 the image's top row."""
+    with open(path, "rb") as f:
+        data = f.read()
+    index = _png_palette_indices(data)
+    if index is not None:
+        return index.astype(np.float64) / 255.0
+    import OpenImageIO as oiio
+
+    buf = oiio.ImageBuf(path)
+    if buf.has_error:
+        raise HeightFieldError(f"cannot read `{path}`: {buf.geterror()}")
+    px = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float64)
+    if px.ndim == 2:
+        return px
+    if px.shape[2] >= 3 and not np.allclose(px[..., 0], px[..., 1]):
+        # a colour image: its grey value, as POV-Ray converts colours to grey
+        return px[..., 0] * 0.297 + px[..., 1] * 0.589 + px[..., 2] * 0.114
+    return px[..., 0]
+
+
+def height_field_mesh(shape: ir.HeightField) -> ir.Mesh:
+    """The triangles of a height field: pixel (row, column) of an R×C image sits at
+    x = column/(C−1), z = 1 − row/(R−1) (the image's top row at the back), y = height.
+    Triangles wholly below `water_level` are left out (POV-Ray also cuts the ones that
+    straddle it at the level; those stay whole here)."""
+    h = read_heights(shape.source)
+    R, C = h.shape
+    if R < 2 or C < 2:
+        raise HeightFieldError("a height field image needs at least 2×2 pixels")
+    xs = np.arange(C) / (C - 1)
+    zs = 1.0 - np.arange(R) / (R - 1)
+    X, Z = np.meshgrid(xs, zs)
+    verts = np.stack([X, h, Z], axis=-1).reshape(-1, 3)
+    idx = np.arange(R * C).reshape(R, C)
+    a, b = idx[:-1, :-1], idx[:-1, 1:]  # a row and the one below it (towards the front)
+    c, d = idx[1:, :-1], idx[1:, 1:]
+    t1 = np.stack([a, b, d], axis=-1).reshape(-1, 3)
+    t2 = np.stack([a, d, c], axis=-1).reshape(-1, 3)
+    faces = np.concatenate([t1, t2])
+    if shape.water_level > 0:
+        keep = (h.reshape(-1)[faces] > shape.water_level).any(axis=1)
+        faces = faces[keep]
+    normals = _vertex_normals(verts, faces) if shape.smooth else None
+    return ir.Mesh(
+        vertices=verts, faces=faces.astype(np.int32), normals=normals, smooth=shape.smooth
+    )
+
+
+def _vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    e1 = verts[faces[:, 1]] - verts[faces[:, 0]]
+    e2 = verts[faces[:, 2]] - verts[faces[:, 0]]
+    fn = np.cross(e1, e2)
+    fn[fn[:, 1] < 0] *= -1.0  # every face normal up: the winding above is not uniform
+    n = np.zeros_like(verts)
+    for k in range(3):
+        np.add.at(n, faces[:, k], fn)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return n / np.where(length > 0, length, 1.0)
