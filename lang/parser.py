@@ -15,8 +15,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from lark import Lark, Token, Transformer, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
+from lark import Lark, Token, Transformer
+from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 from lark.lexer import LexerState, LineCounter
 from lark.parsers.lalr_analysis import Shift
 from lark.parsers.lalr_parser_state import ParseConf, ParserState
@@ -129,12 +129,21 @@ def _tok_span(file: str, tok: Token) -> Span:
 @dataclass
 class _Sub:
     node: syntax.Node
+    span: Span
 
 
 @dataclass
 class _Part:
     name: str
     node: syntax.Node
+    span: Span
+
+
+@dataclass
+class _Mark:
+    """A place without an element (a stray `;`): it still counts for the spans around it."""
+
+    span: Span
 
 
 @dataclass
@@ -170,7 +179,7 @@ class _Case:
 
 
 class _ArrayInit(list):
-    pass
+    span: Span
 
 
 _ESCAPES = {
@@ -199,78 +208,108 @@ def _unescape(body: str) -> str:
     return _ESCAPE_RE.sub(repl, body)
 
 
-@v_args(meta=True)
 class _Builder(Transformer):
-    """Builds syntax nodes while the parser reduces."""
+    """Builds syntax nodes while the parser reduces (the parser's callbacks: no parse tree is
+    built). Every token is kept (`keep_all_tokens`), so a node's span runs from its first
+    child's start to its last child's end, brackets and `;` included."""
 
-    def __init__(self, file: str, sink: DiagnosticSink):
+    def __init__(self) -> None:
         super().__init__()
+        self.file = "<string>"
+        self.sink = DiagnosticSink()
+        # A parenthesised expression is its inner node, but an operation it starts or ends
+        # spans the parentheses too: id(inner node) → the span with them.
+        self.containers: dict[int, Span] = {}
+        self.empty = False  # the last `start` held no token
+
+    def reset(self, file: str, sink: DiagnosticSink) -> None:
         self.file = file
         self.sink = sink
+        self.containers = {}
 
-    def _span(self, meta, children=()) -> Span:
-        if not getattr(meta, "empty", True):
-            return Span(self.file, meta.line, meta.column, meta.end_line, meta.end_column)
+    def _extent(self, c) -> Span | None:
+        if isinstance(c, Token):
+            return _tok_span(self.file, c) if c.line is not None else None
+        span = getattr(c, "span", None)
+        if span is None:
+            return None
+        return self.containers.get(id(c), span) if self.containers else span
+
+    def _span(self, children) -> Span:
+        first = last = None
         for c in children:
-            if isinstance(c, Token) and c.line is not None:
-                return _tok_span(self.file, c)
-            if isinstance(c, syntax.Node):
-                return c.span
-        return Span(self.file, 1, 1, 1, 1)
+            first = self._extent(c)
+            if first is not None:
+                break
+        else:
+            return Span(self.file, 1, 1, 1, 1)
+        for c in reversed(children):
+            last = self._extent(c)
+            if last is not None:
+                break
+        return Span(self.file, first.line, first.col, last.end_line, last.end_col)
 
     @staticmethod
     def _nodes(children) -> list:
         return [c for c in children if isinstance(c, syntax.Node)]
 
     # ---- file and elements
-    def start(self, meta, children):
-        return syntax.SourceFile(self._span(meta, children), self._nodes(children))
+    def start(self, children):
+        self.empty = not children
+        return syntax.SourceFile(self._span(children), self._nodes(children))
 
-    def keyword(self, meta, children):
+    def keyword(self, children):
         tok = children[0]
         return syntax.Keyword(_tok_span(self.file, tok), str(tok))
 
-    def semicolon(self, meta, children):
-        """A stray `;` (after a macro's result value, as POV-Ray scenes write it): no element."""
-        return None
+    def semicolon(self, children):
+        """A stray `;` (after a macro's result value, as POV-Ray scenes write it): no element,
+        only a place."""
+        return _Mark(self._span(children))
 
-    def fparam(self, meta, children):
+    def fparam(self, children):
         return _Param(str(children[0]))
 
-    def comma(self, meta, children):
-        return syntax.Comma(self._span(meta, children))
+    def comma(self, children):
+        return syntax.Comma(self._span(children))
 
-    def map_entry(self, meta, children):
-        return syntax.MapEntry(self._span(meta, children), self._nodes(children))
+    def map_entry(self, children):
+        return syntax.MapEntry(self._span(children), self._nodes(children))
 
     # ---- expressions
-    def number(self, meta, children):
+    def number(self, children):
         tok = children[0]
         return syntax.Number(_tok_span(self.file, tok), float(tok))
 
-    def string(self, meta, children):
+    def string(self, children):
         tok = children[0]
         return syntax.String(_tok_span(self.file, tok), _unescape(str(tok)[1:-1]))
 
-    def ident(self, meta, children):
+    def ident(self, children):
         tok = children[0]
         return syntax.Ident(_tok_span(self.file, tok), str(tok))
 
-    def const(self, meta, children):
+    def const(self, children):
         tok = children[0]
         return syntax.Const(_tok_span(self.file, tok), str(tok))
 
-    def vector(self, meta, children):
-        return syntax.Vector(self._span(meta, children), self._nodes(children))
+    def primary(self, children):
+        """`( expr )`: the inner node, remembered with the span of its parentheses."""
+        inner = children[1]
+        if isinstance(inner, syntax.Node):
+            self.containers[id(inner)] = self._span(children)
+        return inner
 
-    def binary(self, meta, children):
+    def vector(self, children):
+        return syntax.Vector(self._span(children), self._nodes(children))
+
+    def binary(self, children):
         left, op, right = children
-        return syntax.Binary(self._span(meta, children), str(op), left, right)
+        return syntax.Binary(self._span(children), str(op), left, right)
 
     def _binop(op):  # noqa: N805 - a method factory used in the class body
-        def method(self, meta, children):
-            left, right = children
-            return syntax.Binary(self._span(meta, children), op, left, right)
+        def method(self, children):
+            return syntax.Binary(self._span(children), op, children[0], children[2])
 
         return method
 
@@ -281,163 +320,157 @@ class _Builder(Transformer):
     or_ = _binop("|")
     del _binop
 
-    def unary(self, meta, children):
+    def unary(self, children):
         op, operand = children
-        return syntax.Unary(self._span(meta, children), str(op), operand)
+        return syntax.Unary(self._span(children), str(op), operand)
 
-    def ternary(self, meta, children):
-        cond, then, other = children
-        return syntax.Ternary(self._span(meta, children), cond, then, other)
+    def ternary(self, children):
+        return syntax.Ternary(self._span(children), children[0], children[2], children[4])
 
-    def member(self, meta, children):
-        target, name = children
-        return syntax.Member(self._span(meta, children), target, name)
+    def member(self, children):
+        return syntax.Member(self._span(children), children[0], str(children[2]))
 
-    def member_name(self, meta, children):
-        return str(children[0])
+    def member_name(self, children):
+        return children[0]  # the token: a string that knows where it is
 
-    def subscript(self, meta, children):
-        return _Sub(children[0])
+    def subscript(self, children):
+        return _Sub(children[1], self._span(children))
 
-    def index(self, meta, children):
+    def index(self, children):
         target, sub = children
-        return syntax.Index(self._span(meta, children), target, sub.node)
+        return syntax.Index(self._span(children), target, sub.node)
 
-    def args(self, meta, children):
-        return [c for c in children if c is not None]
+    def args(self, children):
+        return [c for c in children if c is not None and not isinstance(c, Token)]
 
-    def call(self, meta, children):
-        name, args = children
-        return syntax.Call(self._span(meta, children), str(name), args, builtin=False)
+    def call(self, children):
+        return syntax.Call(self._span(children), str(children[0]), children[2], builtin=False)
 
-    def builtin_call(self, meta, children):
-        name, args = children
-        return syntax.Call(self._span(meta, children), str(name), args, builtin=True)
+    def builtin_call(self, children):
+        return syntax.Call(self._span(children), str(children[0]), children[2], builtin=True)
 
-    def color_part(self, meta, children):
+    def color_part(self, children):
         comp, value = children
-        return _Part(str(comp), value)
+        return _Part(str(comp), value, self._span(children))
 
-    def _color(self, meta, children, kind, value):
+    def _color(self, children, kind, value):
         parts = [(p.name, p.node) for p in children if isinstance(p, _Part)]
-        return syntax.ColorCtor(self._span(meta, children), kind, value, parts)
+        return syntax.ColorCtor(self._span(children), kind, value, parts)
 
-    def color_typed(self, meta, children):
+    def color_typed(self, children):
         kind = next(str(c) for c in children if isinstance(c, Token) and c.type == "COLOR_TYPE")
         value = next(c for c in children if isinstance(c, syntax.Node))
-        return self._color(meta, children, kind, value)
+        return self._color(children, kind, value)
 
-    def color_plain(self, meta, children):
+    def color_plain(self, children):
         value = next(c for c in children if isinstance(c, syntax.Node))
-        return self._color(meta, children, None, value)
+        return self._color(children, None, value)
 
-    def color_parts(self, meta, children):
-        return self._color(meta, children, None, None)
+    def color_parts(self, children):
+        return self._color(children, None, None)
 
-    def block(self, meta, children):
+    def block(self, children):
         head = children[0]
         return syntax.Block(
-            self._span(meta, children),
+            self._span(children),
             str(head),
             self._nodes(children[1:]),
             keyword_span=_tok_span(self.file, head),
         )
 
-    def function_block(self, meta, children):
+    def function_block(self, children):
         head = children[0]
         params = [c.name for c in children[1:] if isinstance(c, _Param)]
-        has_params = any(isinstance(c, _Param) for c in children[1:]) or any(
-            isinstance(c, Token) and c.type == "LPAR" for c in children
-        )
         return syntax.Block(
-            self._span(meta, children),
+            self._span(children),
             "function",
             self._nodes(children[1:]),
-            params=params if has_params else None,
+            params=params or None,
             keyword_span=_tok_span(self.file, head),
         )
 
-    def sized_function_block(self, meta, children):
+    def sized_function_block(self, children):
         """`function W, H { pattern }` (an image of a pattern): the sizes lead the body."""
         head = children[0]
         return syntax.Block(
-            self._span(meta, children),
+            self._span(children),
             "function",
             self._nodes(children[1:]),
             params=None,
             keyword_span=_tok_span(self.file, head),
         )
 
-    def array(self, meta, children):
+    def array(self, children):
         mixed = any(isinstance(c, Token) and c.type == "KEYWORD" for c in children)
         dims = [c.node for c in children if isinstance(c, _Sub)]
         init = next((c for c in children if isinstance(c, _ArrayInit)), None)
-        return syntax.ArrayLit(self._span(meta, children), dims, init, mixed=mixed)
+        return syntax.ArrayLit(self._span(children), dims, init, mixed=mixed)
 
-    def array_init(self, meta, children):
-        return _ArrayInit(c for c in children if c is not None)
+    def array_init(self, children):
+        init = _ArrayInit(c for c in children if c is not None and not isinstance(c, Token))
+        init.span = self._span(children)
+        return init
 
     # ---- directives
-    def include(self, meta, children):
-        return syntax.Include(self._span(meta, children), children[1])
+    def include(self, children):
+        return syntax.Include(self._span(children), children[1])
 
-    def declare(self, meta, children):
+    def declare(self, children):
         head, name = children[0], children[1]
-        subs = [c.node for c in children[2:-1] if isinstance(c, _Sub)]
-        span = self._span(meta, children)
+        eq = next(i for i, c in enumerate(children) if isinstance(c, Token) and c.type == "EQUAL")
         return syntax.Declare(
-            span,
+            self._span(children),
             local="local" in str(head),
             name=str(name),
-            indices=subs,
-            value=children[-1],
+            indices=[c.node for c in children[2:eq] if isinstance(c, _Sub)],
+            value=children[eq + 1],
             name_span=_tok_span(self.file, name),
         )
 
-    def undef(self, meta, children):
-        return syntax.Undef(self._span(meta, children), str(children[1]))
+    def undef(self, children):
+        return syntax.Undef(self._span(children), str(children[1]))
 
-    def elseif(self, meta, children):
-        return _Elseif(children[1], self._nodes(children[2:]))
+    def elseif(self, children):
+        return _Elseif(children[2], self._nodes(children[4:]))
 
-    def else_part(self, meta, children):
+    def else_part(self, children):
         return _Else(self._nodes(children[1:]))
 
-    def if_(self, meta, children):
-        branches: list = [(children[1], [])]
-        for c in children[2:]:
+    def if_(self, children):
+        branches: list = [(children[2], [])]
+        for c in children[4:]:
             if isinstance(c, _Elseif):
                 branches.append((c.cond, c.body))
             elif isinstance(c, _Else):
                 branches.append((None, c.body))
             elif isinstance(c, syntax.Node):
                 branches[-1][1].append(c)
-        return syntax.If(self._span(meta, children), branches)
+        return syntax.If(self._span(children), branches)
 
-    def ifdef(self, meta, children):
-        head, name = children[0], children[1]
+    def ifdef(self, children):
+        head, name = children[0], children[2]
         subs = [c.node for c in children if isinstance(c, _Sub)]
-        then = [c for c in children[2:] if isinstance(c, syntax.Node)]
+        then = [c for c in children[3:] if isinstance(c, syntax.Node)]
         other = next((c.body for c in children if isinstance(c, _Else)), None)
         return syntax.IfDef(
-            self._span(meta, children), str(name), subs, "ifndef" in str(head), then, other
+            self._span(children), str(name), subs, "ifndef" in str(head), then, other
         )
 
-    def case(self, meta, children):
-        return _Case([children[1]], False, self._span(meta, children))
+    def case(self, children):
+        return _Case([children[2]], False, self._span(children))
 
-    def range_(self, meta, children):
-        return _Case([children[1], children[2]], True, self._span(meta, children))
+    def range_(self, children):
+        return _Case([children[2], children[4]], True, self._span(children))
 
-    def switch_else(self, meta, children):
-        return _Case(None, False, self._span(meta, children))
+    def switch_else(self, children):
+        return _Case(None, False, self._span(children))
 
-    def switch_part(self, meta, children):
+    def switch_part(self, children):
         return children[0]
 
-    def switch(self, meta, children):
+    def switch(self, children):
         cases: list[syntax.SwitchCase] = []
-        for c in children[2:]:
+        for c in children[4:]:
             if isinstance(c, _Case):
                 cases.append(syntax.SwitchCase(c.span, c.values, c.is_range, [], False))
             elif isinstance(c, syntax.Break) and cases:
@@ -451,22 +484,22 @@ class _Builder(Transformer):
                     c.span,
                     "start with `#case (value)` or `#range (low, high)`",
                 )
-        return syntax.Switch(self._span(meta, children), children[1], cases)
+        return syntax.Switch(self._span(children), children[2], cases)
 
-    def while_(self, meta, children):
-        return syntax.While(self._span(meta, children), children[1], self._nodes(children[2:]))
+    def while_(self, children):
+        return syntax.While(self._span(children), children[2], self._nodes(children[4:]))
 
-    def for_range(self, meta, children):
-        var, start, end, *rest = children
-        return _ForRange(str(var), start, end, rest[0] if rest else None)
+    def for_range(self, children):
+        step = children[6] if len(children) > 6 else None
+        return _ForRange(str(children[0]), children[2], children[4], step)
 
-    def for_(self, meta, children):
-        r = children[1]
+    def for_(self, children):
+        r = children[2]
         return syntax.For(
-            self._span(meta, children), r.var, r.start, r.end, r.step, self._nodes(children[2:])
+            self._span(children), r.var, r.start, r.end, r.step, self._nodes(children[4:])
         )
 
-    def param(self, meta, children):
+    def param(self, children):
         if len(children) == 2 and str(children[0]) != "optional":
             self.sink.error(
                 "E0103",
@@ -476,37 +509,40 @@ class _Builder(Transformer):
             )
         return _Param(str(children[-1]), optional=len(children) == 2)
 
-    def macro(self, meta, children):
+    def macro(self, children):
         name = children[1]
         params = [c.name for c in children if isinstance(c, _Param)]
         optional = [c.name for c in children if isinstance(c, _Param) and c.optional]
         body = self._nodes(children[2:])
-        return syntax.MacroDef(self._span(meta, children), str(name), params, body, optional)
+        return syntax.MacroDef(self._span(children), str(name), params, body, optional)
 
-    def version(self, meta, children):
-        return syntax.Version(self._span(meta, children), children[1])
+    def version(self, children):
+        return syntax.Version(self._span(children), children[1])
 
-    def message(self, meta, children):
+    def message(self, children):
         kind = str(children[0]).lstrip("#").strip()
-        return syntax.Message(self._span(meta, children), kind, children[1])
+        return syntax.Message(self._span(children), kind, children[1])
 
-    def default(self, meta, children):
-        return syntax.Default(self._span(meta, children), self._nodes(children[1:]))
+    def default(self, children):
+        return syntax.Default(self._span(children), self._nodes(children[1:]))
 
-    def fopen(self, meta, children):
+    def fopen(self, children):
         _, handle, path, mode = children
-        return syntax.FileOp(self._span(meta, children), "fopen", str(handle), [path], str(mode))
+        return syntax.FileOp(self._span(children), "fopen", str(handle), [path], str(mode))
 
-    def fclose(self, meta, children):
-        return syntax.FileOp(self._span(meta, children), "fclose", str(children[1]), [])
+    def fclose(self, children):
+        return syntax.FileOp(self._span(children), "fclose", str(children[1]), [])
 
-    def fileio(self, meta, children):
+    def fileio(self, children):
         op = str(children[0]).lstrip("#").strip()
-        args = [c for c in self._nodes(children[2:]) if not isinstance(c, syntax.Comma)]
-        return syntax.FileOp(self._span(meta, children), op, str(children[1]), args)
+        args = [c for c in self._nodes(children[3:]) if not isinstance(c, syntax.Comma)]
+        return syntax.FileOp(self._span(children), op, str(children[2]), args)
 
-    def break_(self, meta, children):
-        return syntax.Break(self._span(meta, children))
+    def break_(self, children):
+        return syntax.Break(self._span(children))
+
+
+_BUILDER = _Builder()
 
 
 # ------------------------------------------------------------------ the parser
@@ -546,8 +582,9 @@ def _get_parser() -> Lark:
             GRAMMAR_PATH.read_text(),
             parser="lalr",
             lexer="basic",
-            propagate_positions=True,
             maybe_placeholders=False,
+            keep_all_tokens=True,
+            transformer=_BUILDER,
             lexer_callbacks={"IDENT": _classify},
             cache=True,
         )
@@ -928,7 +965,6 @@ class ChunkParser:
         self.file = file
         self.split = split
         self.table = _get_table()
-        self.builder = _Builder(file, DiagnosticSink())
         self.thread = _get_parser().parse_interactive(clean).lexer_thread
 
     def run(
@@ -953,14 +989,51 @@ class ChunkParser:
                 return chunks, pos, line
 
     def _chunk(self, start: int, line: int, first: Token | None) -> tuple[Chunk, Token | None]:
-        table = self.table
         errors = _ChunkErrors(self.clean, self.file, start)
+        _BUILDER.reset(self.file, errors.sink)
+        nodes: list = []
+        span: Span | None = None
+        follow: Token | None = None  # the token that starts the next chunk
+        try:
+            result, follow = self._read(errors, start, line, first)
+            if result is not None:
+                nodes = result.body
+                span = None if _BUILDER.empty else result.span
+        except SceneError as e:
+            errors.sink.items.append(e.diagnostic)
+        except Exception as e:  # a builder failure is a bug, but the user gets a diagnostic
+            errors.sink.error(
+                "E0000", f"internal parser error: {e}", Span(self.file, line, 1, line, 1)
+            )
+        if follow is not None:
+            end = follow.start_pos - (follow.column - 1)  # the start of the follower's line
+            follow_end = follow.end_pos
+        else:
+            end = follow_end = len(self.clean)
+        chunk = Chunk(
+            start,
+            self.clean[start:end],
+            line,
+            nodes,
+            span,
+            errors.sink.items,
+            errors.strays,
+            errors.reported,
+            follow_end,
+        )
+        return chunk, follow
+
+    def _read(
+        self, errors: _ChunkErrors, start: int, line: int, first: Token | None
+    ) -> tuple[syntax.SourceFile | None, Token | None]:
+        """Feed tokens until the end of the text or a line that starts a new chunk; returns
+        the chunk's tree (None if it could not be completed) and that line's first token."""
+        table = self.table
         state = ParserState(table.conf, self.thread)
         counter = self.thread.state.line_ctr
         last = first  # the last token read in this chunk
         cur_line = first.line if first is not None else -1
-        follow: Token | None = None  # the token that starts the next chunk
-        recovered = False
+        follow: Token | None = None
         pending = [first] if first is not None else []
         while True:
             try:
@@ -978,7 +1051,7 @@ class ChunkParser:
                                 stack = state.state_stack
                                 expected = {t for t in table.states[stack[-1]] if t.isupper()}
                                 errors.unexpected(tok, expected, None)
-                                follow, recovered = tok, True
+                                follow = tok
                                 break
                     last = tok
                     try:
@@ -997,47 +1070,13 @@ class ChunkParser:
             if last is not None
             else Token("$END", "", start, line, 1, line, 1, start)
         )
-        nodes: list = []
-        span: Span | None = None
         try:
-            tree = errors.close(table, state, end_tok, report=follow is None and not recovered)
-            if tree is None:
-                if not errors.sink.has_errors:
-                    errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
-            else:
-                self.builder.sink = errors.sink
-                result = self.builder.transform(tree)
-                nodes = result.body
-                if not getattr(tree.meta, "empty", True):
-                    span = result.span
-        except VisitError as e:  # a builder failure is a bug, but the user gets a diagnostic
-            orig = e.orig_exc
-            if isinstance(orig, SceneError):
-                errors.sink.items.append(orig.diagnostic)
-            else:
-                errors.sink.error(
-                    "E0000", f"internal parser error: {orig}", Span(self.file, line, 1, line, 1)
-                )
+            result = errors.close(table, state, end_tok, report=follow is None)
         except UnexpectedInput:
-            if not errors.sink.has_errors:
-                errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
-        if follow is not None:
-            end = follow.start_pos - (follow.column - 1)  # the start of the follower's line
-            follow_end = follow.end_pos
-        else:
-            end = follow_end = len(self.clean)
-        chunk = Chunk(
-            start,
-            self.clean[start:end],
-            line,
-            nodes,
-            span,
-            errors.sink.items,
-            errors.strays,
-            errors.reported,
-            follow_end,
-        )
-        return chunk, follow
+            result = None
+        if result is None and not errors.sink.has_errors:
+            errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
+        return result, follow
 
 
 def assemble(
