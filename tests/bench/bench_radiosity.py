@@ -28,9 +28,20 @@ as linear EXR. Wall seconds of the whole command and RMSE against the reference 
 RGB, all pixels; interior mask in brackets). It ends with whether strala reaches POV-Ray's
 best error in less than half POV-Ray's time. `--slow` adds POV-Ray's 340-second level.
 
-Measured (2 cores, other work running; see the issue's report for the latest table):
-    strala 1998 patches 5.4 s RMSE 0.0055 … POV-Ray best of the default levels 0.0096 in
-    9 s (count 1000 / error_bound 0.3: 0.0073 in ~67 s).
+Measured with --compare (2 cores shared with other work, load average ~3; wall s, RMSE
+(interior)):
+    strala  patch 1.4 / max 500   (499 patches)    7.6 s  0.0155 (0.0144)
+    strala  patch 1.0 / max 1000  (999 patches)    7.7 s  0.0102 (0.0092)
+    strala  patch 0.7 / max 2000  (1998 patches)   7.4 s  0.0071 (0.0060)
+    strala  patch 0.7 / max 3000  (3000 patches)  13.2 s  0.0047 (0.0037)
+    strala  patch 0.5 / max 4000  (4000 patches)  29.2 s  0.0052 (0.0042)
+    POV-Ray count 35, error_bound 1.8, recursion 2          2.5 s  0.0766 (energy −38%)
+    POV-Ray count 400, error_bound 0.5, recursion 4        12.4 s  0.0165 (energy −7%)
+    POV-Ray count 400, error_bound 0.5, recursion 8 (adc)  15.5 s  0.0098
+    POV-Ray count 1000, error_bound 0.3, recursion 8 (adc) 71.0 s  0.0065
+    → strala reaches POV-Ray's best error (0.0065) in 13.2 s: 0.19× its time (goal < 0.5×).
+The 0.5/4000 run is worse than 0.7/3000: a finer uniform start leaves less of the budget
+for adaptive refinement where the light changes.
 """
 
 from __future__ import annotations
@@ -143,7 +154,7 @@ def cornell(size: float, rounds: int) -> None:
 
 
 # strala: (patch_size, max_patches); the scene's error_bound (0.5) drives refinement.
-STRALA_LEVELS = [(1.4, 500), (1.0, 1000), (0.7, 2000), (0.5, 4000)]
+STRALA_LEVELS = [(1.4, 500), (1.0, 1000), (0.7, 2000), (0.7, 3000), (0.5, 4000)]
 # POV-Ray: the reference README's levels (count, error_bound, recursion_limit, adc_bailout).
 POV_LEVELS = [(35, 1.8, 2, 0.01), (400, 0.5, 4, 0.01), (400, 0.5, 8, 2e-4), (1000, 0.3, 8, 2e-4)]
 POV_SLOW = [(1600, 0.2, 6, 0.01)]
