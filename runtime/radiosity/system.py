@@ -18,7 +18,13 @@ Meshed: sphere, box, polygon, triangle, mesh, plane (clipped to the scene's boun
 (as a polygon). Other shapes and CSG still block light (visibility uses the tracer) but
 get no patches; their `gathered` value is the area-weighted mean G (an ambient estimate).
 The solution depends only on geometry, materials and lights, so it is cached by a content
-hash (no camera in the key) and any viewpoint reuses it.
+hash and any viewpoint reuses it. The one exception is a camera inside a solid (a room
+box, a sphere): that solid's inner side is meshed, so the key holds which solids contain
+the eye (not where it is); every camera in the same room shares the solution.
+
+Energy: rows of patches that see only surfaces (every closure ray hits something) are
+scaled to sum to 1, and no row exceeds 1. The form-factor quadrature alone is off by
+~1e-3, which a near-white furnace (ρ = 0.99) would amplify a hundredfold.
 """
 
 from __future__ import annotations
