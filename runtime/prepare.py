@@ -122,6 +122,9 @@ class _Builder:
         flags = {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
         if isinstance(shape, ir.Unsupported):
             return None
+        if isinstance(shape, ir.SphereSweep):
+            sweep = self.sphere_sweep(obj, flags)
+            return None if sweep is None else self.clipped(obj, sweep)
         if isinstance(shape, ir.CSG):
             children = [c for c in (self.node(ch, flags) for ch in shape.children) if c]
             if not children:
@@ -156,6 +159,21 @@ class _Builder:
         leaf = Leaf(prim, tf.as_matrix(obj.transform), index, inverse=obj.inverse)
         self.sizes[index] = leaf.size
         return self.clipped(obj, leaf)
+
+    def sphere_sweep(self, obj: ir.Object, flags: dict[str, bool]):
+        """One object whose surface is the merge of spheres and tangent cones."""
+        from runtime.sphere_sweep import pieces
+
+        parts = pieces(obj.shape)
+        if not parts:
+            self.warn_once("a sphere_sweep with no positive radius is skipped", obj.span)
+            return None
+        m = tf.as_matrix(obj.transform)
+        # one object entry per piece: a hit's normal comes from the leaf its index names
+        leaves = [Leaf(p, m, self.add_leaf_object(obj, flags)) for p in parts]
+        for leaf in leaves:
+            self.sizes[leaf.index] = leaf.size
+        return CsgNode("merge", leaves, inverse=obj.inverse)
 
     def clipped(self, obj: ir.Object, node):
         """Wrap node in its `clipped_by` objects (which are never reported as hits)."""

@@ -8,7 +8,7 @@ import importlib
 
 from lang import ir
 
-# IR class → (module, class) of its primitive
+# IR class → (module, class) of its primitive (`sphere_sweep` is a merge: runtime.prepare)
 _PRIMS: dict[type, tuple[str, str]] = {
     ir.Poly: ("polynomial", "PolyPrim"),
     ir.Superellipsoid: ("superellipsoid", "SuperellipsoidPrim"),
@@ -17,7 +17,6 @@ _PRIMS: dict[type, tuple[str, str]] = {
     ir.Sor: ("lathe", "SorPrim"),
     ir.Prism: ("prism", "PrismPrim"),
     ir.Text: ("text", "TextPrim"),
-    ir.SphereSweep: ("sphere_sweep", "SphereSweepPrim"),
 }
 
 
