@@ -45,6 +45,10 @@ class PatchVisibility:
         if len(tris):
             self.scene = rtcore_scene.EmbreeScene()
             TriangleMesh(self.scene, np.ascontiguousarray((tris - self.offset).astype(np.float32)))
+            # embreex commits the scene on its first query: do it now, before threads
+            # share the scene (two threads must not commit it at once).
+            one = np.zeros((1, 3), np.float32)
+            self.scene.run(one, one + np.float32(1), dists=np.zeros(1, np.float32))
         self.extra = extra
 
     def __call__(self, origins: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -84,12 +88,12 @@ class PatchVisibility:
 
     def hits(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """(N,) bool: does the ray from each origin (on a surface) along its unit direction
-        hit anything at all (a patch, or an unmeshed object)?"""
+        hit a patch first? A ray that escapes, or meets an unmeshed object (light the
+        patch system does not carry) before any patch, does not."""
         o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
         d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
         gap = REL_GAP * self.extent
-        far = np.float32(1e30)
-        hit = np.zeros(len(o), dtype=bool)
+        far = np.full(len(o), np.inf)
         if self.scene is not None and len(o):
             for s in range(0, len(o), _BATCH):
                 rows = slice(s, s + _BATCH)
@@ -97,14 +101,16 @@ class PatchVisibility:
                 res = self.scene.run(
                     np.ascontiguousarray(start.astype(np.float32)),
                     np.ascontiguousarray(d[rows].astype(np.float32)),
-                    dists=np.full(len(start), far, dtype=np.float32),
-                    query="OCCLUDED",
+                    dists=np.full(len(start), 1e30, dtype=np.float32),
+                    output=1,
                 )
-                hit[rows] = np.asarray(res) != -1
+                got = np.asarray(res["geomID"]) != -1
+                far[rows] = np.where(got, np.asarray(res["tfar"], dtype=np.float64) + gap, np.inf)
+        hit = np.isfinite(far)
         if self.extra is not None:
-            rows = np.nonzero(~hit)[0]
+            rows = np.nonzero(hit)[0]
             if len(rows):
-                hit[rows] = self.extra.occluded(
-                    o[rows], d[rows], tmax=np.full(len(rows), np.inf), tmin=np.full(len(rows), gap)
+                hit[rows] = ~self.extra.occluded(
+                    o[rows], d[rows], tmax=far[rows], tmin=np.full(len(rows), gap)
                 )
         return hit
