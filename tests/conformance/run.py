@@ -26,6 +26,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -426,11 +427,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     todo = [s for s in scenes if s.relative_to(args.examples).as_posix() not in done]
     args.out.mkdir(parents=True, exist_ok=True)
 
+    lock = threading.Lock()  # with --jobs > 1 scenes finish on several threads
+
     def progress(result: SceneResult) -> None:
         # saved after every scene: a long run can be reported (--report-only) or resumed
-        done[result.scene] = result
-        _save_json(list(done.values()), saved)
-        _progress_line(result)
+        with lock:
+            done[result.scene] = result
+            _save_json(list(done.values()), saved)
+            _progress_line(result)
 
     run_suite(
         todo,
