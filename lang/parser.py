@@ -704,7 +704,7 @@ _SKIP_FIELDS = {"str", "bool", "float", "int", "str | None", "list[str]", "list[
 def _make_shifter(cls: type) -> Callable:
     """A function moving the spans of one node class and pushing its children (generated from
     the dataclass fields: a generic getattr loop is three times slower)."""
-    if cls is list or cls is tuple:
+    if issubclass(cls, (list, tuple)):  # also an array initialiser (a list subclass)
         return lambda v, lines, push, extend: extend(v)
     if not (isinstance(cls, type) and issubclass(cls, syntax.Node)):
         return lambda v, lines, push, extend: None
@@ -1040,7 +1040,18 @@ class ChunkParser:
                 for tok in itertools.chain(pending, self.thread.lex(state)):
                     if tok.line != cur_line:
                         cur_line = tok.line
-                        if self.split and last is not None:
+                        # Only a token first on its line (a skipped bad character before it
+                        # belongs to this chunk's text and errors) can start a chunk.
+                        if (
+                            self.split
+                            and last is not None
+                            and (
+                                tok.column == 1
+                                or not self.clean[
+                                    tok.start_pos - tok.column + 1 : tok.start_pos
+                                ].strip()
+                            )
+                        ):
                             verdict = _verdict(table, state.state_stack, tok.type)
                             if verdict is _NEW:
                                 follow = tok

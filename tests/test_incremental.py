@@ -34,6 +34,8 @@ _PIECES = st.sampled_from(
         "sphere { 0, 1 }\n",
         "#declare Q = 1;\n",
         "#declare W = <1, 2\n",
+        "#declare A = array[2] { <1, 0, 0>, <0, 1, 0> }\n",
+        "#declar",
         "#if (1)\n",
         "#end\n",
         "#else\n",
@@ -124,6 +126,20 @@ def test_an_unfinished_statement_mid_file_is_one_error_and_the_rest_still_parses
     names = [n.name for n in tree.body if isinstance(n, S.Declare)]
     assert "W" in names and "V20" in names and len(names) == 51
     assert inc.reparsed < 200
+
+
+def test_regressions_found_by_random_edits():
+    # An array initialiser (a list subclass) moves with its declaration.
+    text = "#declare A = array[2] { <1, 0, 0>, <0, 1, 0> }\nsphere { A[0], 1 }\n"
+    inc = IncrementalParser("t.pov")
+    inc.parse(text)
+    assert inc.parse("\n" + text) == parse("\n" + text, "t.pov")
+    # A bad character before a statement stays in the chunk that reported it.
+    text = "#declare A = 1;\n#declarx B = 2;\n#declare C = 3;\n"
+    inc = IncrementalParser("t.pov")
+    inc.parse(text)
+    edited = text.replace("B = 2", "B = 5")
+    assert inc.parse(edited) == parse(edited, "t.pov")
 
 
 @given(st.text("ab\n", max_size=30), st.text("ab\n", max_size=30))
