@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import lang
-from lang import builtins, ir, pov_shapes, schema, syntax, transforms
+from lang import builtins, functions, ir, pov_shapes, schema, syntax, transforms
 from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.camera import CameraBuilder, CameraError
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
@@ -1273,21 +1273,14 @@ class Interpreter:
             raise self.error(
                 "E0232", f"this function takes {len(fn.params)} argument(s), got {len(args)}", span
             )
-        exprs = [n for n in fn.body if not isinstance(n, syntax.Comma)]
-        if len(exprs) != 1 or isinstance(exprs[0], syntax.Keyword | syntax.Block):
-            self.unsupported("function { pattern }", span, " (pattern functions)")
+        values = tuple(as_float(a, "function argument") for a in args)
+        if fn.compiled is None:
             return 0.0
-        bindings = {
-            p: as_float(a, "function argument") for p, a in zip(fn.params, args, strict=True)
-        }
-        self.fn_bindings.append(bindings)
-        self.scopes.append(_Scope("function"))
-        self.scopes[-1].update(bindings)
         try:
-            return as_float(self.eval(exprs[0]), "a function's value")
-        finally:
-            self.scopes.pop()
-            self.fn_bindings.pop()
+            return functions.call(fn.compiled, values)
+        except functions.Unevaluable as e:
+            self.unsupported(f"{e.what} called from the scene language", span)
+            return 0.0
 
     # ------------------------------------------------------------ expressions
     def eval(self, node: syntax.Node) -> Any:
@@ -1549,8 +1542,7 @@ class Interpreter:
         kw = node.keyword
         span = node.keyword_span or node.span
         if kw == "function":
-            params = tuple(node.params) if node.params is not None else ("x", "y", "z")
-            return FunctionValue(params, tuple(node.body), node.span)
+            return functions.build(self, node)
         if kw in schema.LIST_BLOCKS:
             els = [e for e in self.expand(node.body, None) if e.kind != "comma"]
             items = [e.value for e in els]

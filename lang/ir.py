@@ -131,6 +131,107 @@ class Texture:
     span: Span | None = None
 
 
+# ------------------------------------------------------------ user functions
+# A `function { … }` body as an expression tree, built by the evaluator with every declared
+# constant it names already folded in (POV-Ray binds them when the function is declared).
+# The runtime compiles it to a vectorised numpy callable (runtime.functions).
+
+
+@dataclass(frozen=True)
+class FnNum:
+    value: float
+
+
+@dataclass(frozen=True)
+class FnArg:
+    """The function's parameter number `index` (x, y, z by default)."""
+
+    index: int
+    name: str
+
+
+@dataclass(frozen=True)
+class FnUnary:
+    op: str  # "-" | "+" | "!"
+    a: Any
+
+
+@dataclass(frozen=True)
+class FnBinary:
+    """op: + - * / and the comparisons < <= > >= = != and logical & | (1.0 or 0.0)."""
+
+    op: str
+    a: Any
+    b: Any
+
+
+@dataclass(frozen=True)
+class FnCond:
+    """`cond ? then : other`."""
+
+    cond: Any
+    then: Any
+    other: Any
+
+
+@dataclass(frozen=True)
+class FnBuiltin:
+    """A built-in float function by its SDL name: sin, pow, select, min, mod …"""
+
+    name: str
+    args: tuple[Any, ...]
+
+
+@dataclass(frozen=True)
+class FnInternal:
+    """One of POV-Ray's built-in render-time functions (`internal(N)`, the `f_…` functions
+    of functions.inc) by name; args are x, y, z and then its parameters."""
+
+    name: str
+    args: tuple[Any, ...]
+
+
+@dataclass(frozen=True)
+class FnCall:
+    """A call of another user function (kept by reference, compiled once)."""
+
+    fn: Function
+    args: tuple[Any, ...]
+
+
+@dataclass(frozen=True)
+class FnPattern:
+    """`function { pattern { … } }`: the pattern's value (0..1) at (args), with the pattern's
+    transform, turbulence and wave applied, without any map."""
+
+    pigment: Pigment
+    args: tuple[Any, Any, Any]
+
+
+@dataclass(frozen=True)
+class FnPigment:
+    """`function { pigment { … } }`: component `component` (0-4 = red green blue filter
+    transmit, 5 = gray) of the pigment's colour at (args)."""
+
+    pigment: Pigment
+    args: tuple[Any, Any, Any]
+    component: int = 5
+
+
+FnExpr = FnNum | FnArg | FnUnary | FnBinary | FnCond | FnBuiltin | FnInternal | FnCall
+
+
+@dataclass(frozen=True)
+class Function:
+    """A user function: its parameter names and body (an Fn… tree). `kind` is "float", or
+    "pigment" for a pigment function (its calls pick a colour component)."""
+
+    params: tuple[str, ...]
+    body: Any
+    kind: str = "float"
+    span: Span | None = None
+
+
 # -------------------------------------------------------------------- shapes
 @dataclass(frozen=True)
 class Sphere:
@@ -376,6 +477,24 @@ class SphereSweep:
 
 
 @dataclass(frozen=True)
+class Isosurface:
+    """The surface function(x, y, z) = threshold inside `container` (a Box or Sphere); the
+    inside is where the function is below the threshold. Crossings are found by marching
+    with steps |f - threshold| / max_gradient and refined to `accuracy`; at most
+    `max_trace` crossings count per ray (0: all). `open` leaves the container's walls out."""
+
+    function: Function
+    container: Box | Sphere = field(
+        default_factory=lambda: Box((-1.0, -1.0, -1.0), (1.0, 1.0, 1.0))
+    )
+    threshold: float = 0.0
+    accuracy: float = 0.001
+    max_gradient: float = 1.1
+    max_trace: int = 1
+    open: bool = False
+
+
+@dataclass(frozen=True)
 class CSG:
     """op: "union" | "merge" | "intersection" | "difference". Children carry their own
     (already composed, world-space) transforms and resolved textures."""
@@ -411,6 +530,7 @@ Shape = (
     | Text
     | HeightField
     | SphereSweep
+    | Isosurface
     | CSG
     | Unsupported
 )

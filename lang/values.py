@@ -185,6 +185,7 @@ class FunctionValue:
     body: tuple[Any, ...]
     span: Span | None = None
     kind: str = "function"
+    compiled: ir.Function | None = None  # the body as an expression tree (lang.functions)
 
 
 @dataclass
