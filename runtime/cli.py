@@ -304,6 +304,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     f.set_defaults(func=cmd_fmt)
 
+    b = sub.add_parser(
+        "bench", parents=[common], help="time and error of the scene's quality settings"
+    )
+    b.add_argument("file")
+    b.add_argument("-W", "--width", type=_positive_int, default=320, metavar="W")
+    b.add_argument("-H", "--height", type=_positive_int, default=240, metavar="H")
+    b.add_argument("--reference", metavar="IMAGE", help="compare with this image (same size)")
+    b.add_argument(
+        "--vs-povray", action="store_true", help="POV-Ray's own curve, measured in the same run"
+    )
+    b.add_argument(
+        "-o", "--output", metavar="PREFIX", help="PREFIX.csv and PREFIX.png (default: SCENE-bench)"
+    )
+    b.set_defaults(func=cmd_bench)
+
     s = sub.add_parser("lsp", help="run the language server on stdio (for editors)")
     s.add_argument(
         "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
@@ -795,6 +810,36 @@ def cmd_fmt(args: argparse.Namespace) -> int:
             _write_text_atomically(path, formatted)
             print(f"reformatted {file}", file=sys.stderr)
     return status
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from runtime import bench
+    from runtime.api import CompileError
+
+    path = Path(args.file)
+    if not path.is_file():
+        raise UsageError(f"no such scene file: {path}")
+    prefix = Path(args.output) if args.output else None
+    try:
+        rows = bench.run(
+            path,
+            args.width,
+            args.height,
+            list(args.library),
+            Path(args.reference) if args.reference else None,
+            args.vs_povray,
+            prefix,
+            log=lambda line: print(line, file=sys.stderr),
+        )
+    except CompileError as exc:
+        print(exc, file=sys.stderr)
+        return 1
+    except (RuntimeError, ValueError, OSError) as exc:
+        raise UsageError(str(exc)) from None
+    print(bench.table(rows))
+    out = prefix or path.with_name(path.stem + "-bench")
+    print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}", file=sys.stderr)
+    return 0
 
 
 def cmd_lsp(args: argparse.Namespace) -> int:
