@@ -2053,7 +2053,11 @@ class Interpreter:
             pass
         elif name == "function":
             st["pattern"] = "function"
-            self.unsupported("function pattern", span)
+            fn = args[0] if args else None
+            if isinstance(fn, FunctionValue) and fn.compiled is not None:
+                params["function"] = fn.compiled
+            else:
+                self.unsupported("function pattern", span)
         elif name in _PATTERN_KEYWORDS:
             st["pattern"] = name
             if name == "gradient":

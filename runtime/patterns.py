@@ -671,6 +671,49 @@ def quilted(p: np.ndarray, params: dict) -> np.ndarray:
 
 
 # Patterns whose turbulence is part of the pattern, not a warp of the point.
+def function_pattern(p: np.ndarray, params: dict) -> np.ndarray:
+    """`function { … }` as a pattern: the user function at the point; values above 1 wrap
+    (fmod 1) as POV-Ray's function pattern does, negatives wrap in `apply_wave`."""
+    fn = params.get("function")
+    if fn is None:
+        return np.zeros(len(p))
+    value = _compiled_function(fn)(p)
+    value = np.where(np.isfinite(value), value, 0.0)
+    return np.where(value > 1.0, np.fmod(value, 1.0), value)
+
+
+_FUNCTIONS: dict[int, tuple[ir.Function, object]] = {}
+
+
+def _compiled_function(fn: ir.Function):
+    hit = _FUNCTIONS.get(id(fn))
+    if hit is None:
+        from runtime.functions import compile_xyz
+
+        hit = _FUNCTIONS[id(fn)] = (fn, compile_xyz(fn))  # fn kept alive: its id stays unique
+    return hit[1]
+
+
+def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
+    """(N,) the pattern's value at world points, as `function { pattern { … } }` gives it:
+    the pattern's transform and turbulence applied, then frequency, phase and wave; no map.
+    List patterns give their index (checker 0 or 1, brick 0 mortar or 1 brick …)."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    kind = pattern.pattern
+    if kind == "solid":
+        return np.zeros(len(points))
+    p = pattern_points(pattern, points)
+    if kind not in BUILT_IN_TURBULENCE:
+        p = turbulence_warp(p, pattern.params)
+    if kind in LIST_PATTERNS:
+        return LIST_PATTERNS[kind](p, pattern.params).astype(np.float64)
+    fn = CONTINUOUS_PATTERNS.get(kind)
+    if fn is None:
+        _warn(f"pattern `{kind}` is not supported yet in a function: its value is 0")
+        return np.zeros(len(points))
+    return apply_wave(fn(p, pattern.params), pattern.params)
+
+
 BUILT_IN_TURBULENCE = {"marble", "wood", "spiral1", "spiral2", "agate"}
 
 
@@ -701,6 +744,7 @@ CONTINUOUS_PATTERNS = {
     "mandel": mandel,
     "julia": julia,
     "quilted": quilted,
+    "function": function_pattern,
 }
 
 
