@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from lang import ir, schema, syntax
 from lang.builtins import as_vec
 from lang.diagnostics import Span
-from lang.values import ObjectValue, Vec
+from lang.values import FunctionValue, ObjectValue, Vec
 
 if TYPE_CHECKING:  # the interpreter imports this module
     from lang.evaluate import El, Interpreter
@@ -137,6 +137,8 @@ USAGE = {
     "text": 'text { ttf "font.ttf" "string", thickness, <offset> }',
     "height_field": 'height_field { png "file.png" [smooth] [water_level W] }',
     "sphere_sweep": "sphere_sweep { linear_spline N, <centre>, radius, … [tolerance T] }",
+    "isosurface": "isosurface { function { … } [contained_by { box { <a>, <b> } }] "
+    "[threshold T] [accuracy A] [max_gradient G] [open] [max_trace N | all_intersections] }",
 }
 
 
@@ -379,6 +381,8 @@ def build(it: Interpreter, node: syntax.Block) -> ObjectValue:
     try:
         if kw == "blob":
             return _blob(it, node, spec)
+        if kw == "isosurface":
+            return _isosurface(it, node, spec)
         els = it.expand(node.body, spec)
     finally:
         it.loose_depth -= 1
@@ -462,3 +466,87 @@ def _blob(it: Interpreter, node: syntax.Block, spec: schema.BlockSpec) -> Object
     shape = ir.Blob(threshold, tuple(parts), sturm) if parts else ir.Unsupported("blob")
     obj = ObjectValue(shape, "blob", span=node.span, default=it.default_texture)
     return it._apply_object_items(obj, g)
+
+
+# ------------------------------------------------------------------ isosurface
+ISO_NUMBERS = ("threshold", "accuracy", "max_gradient", "max_trace")
+
+
+def _isosurface(it: Interpreter, node: syntax.Block, spec: schema.BlockSpec) -> ObjectValue:
+    """`isosurface { function { … } contained_by { box | sphere } threshold accuracy
+    max_gradient evaluate open max_trace all_intersections … modifiers }`."""
+    where = node.keyword_span or node.span
+    container: Any = None
+    body = []
+    for n in node.body:
+        if isinstance(n, syntax.Block) and n.keyword == "contained_by":
+            container = _container(it, n) or container
+        else:
+            body.append(n)
+    els = it.expand(body, spec)
+    cur = Cursor(it, els, where, "isosurface")
+    fn: ir.Function | None = None
+    opts: dict[str, Any] = {}
+    rest = []
+    while (e := cur.peek()) is not None:
+        if e.kind == "val" and isinstance(e.value, FunctionValue) and fn is None:
+            fn = e.value.compiled
+            cur.i += 1
+        elif e.kind == "kw" and e.value in ISO_NUMBERS:
+            cur.i += 1
+            opts[e.value] = cur.number(f"the {e.value.replace('_', ' ')}")
+        elif e.kind == "kw" and e.value == "all_intersections":
+            cur.i += 1
+            opts["max_trace"] = 0
+        elif e.kind == "kw" and e.value == "open":
+            opts["open"] = cur.flag("open")
+        elif e.kind == "kw" and e.value == "evaluate":
+            cur.i += 1  # POV-Ray's adaptive gradient estimate: the given max_gradient is used
+            for _ in range(3):
+                cur.number("the three evaluate values")
+        elif e.kind == "kw" and e.value in ("eval", "polarity"):
+            cur.i += 1
+        else:
+            rest.append(e)
+            cur.i += 1
+    g = it.group(spec, rest, node, loose=True)
+    if fn is None:
+        raise it.error("E0202", "`isosurface` needs a function { … }", where, USAGE["isosurface"])
+    if fn.kind != "float":
+        raise it.error("E0202", "an isosurface's function gives a float, not a colour", where)
+    for name in ("accuracy", "max_gradient"):
+        if name in opts and not opts[name] > 0:
+            raise it.error("E0202", f"the isosurface's {name} must be positive", where)
+    if "max_trace" in opts:
+        opts["max_trace"] = max(0, int(opts["max_trace"]))
+    if container is not None:
+        opts["container"] = container
+    shape = ir.Isosurface(fn, **opts)
+    obj = ObjectValue(shape, "isosurface", span=node.span, default=it.default_texture)
+    return it._apply_object_items(obj, g)
+
+
+def _container(it: Interpreter, node: syntax.Block) -> ir.Box | ir.Sphere | None:
+    """The box or sphere of `contained_by { … }`, its own transform applied (a rotated box
+    becomes its bounding box, as the container only bounds the search)."""
+    objs = [e.value for e in it.expand(node.body, None) if e.kind == "val"]
+    obj = objs[0] if objs else None
+    if not isinstance(obj, ObjectValue) or not isinstance(obj.shape, ir.Box | ir.Sphere):
+        it.sink.error(
+            "E0202", "`contained_by` holds a box or a sphere", node.keyword_span or node.span
+        )
+        return None
+    m = obj.transform
+    if isinstance(obj.shape, ir.Sphere):
+        c = obj.shape.center
+        centre = tuple(sum(m[r][k] * c[k] for k in range(3)) + m[r][3] for r in range(3))
+        scale = max(sum(m[r][k] ** 2 for r in range(3)) ** 0.5 for k in range(3))
+        return ir.Sphere(centre, obj.shape.radius * scale)  # type: ignore[arg-type]
+    a, b = obj.shape.corner1, obj.shape.corner2
+    pts = [
+        tuple(sum(m[r][k] * p[k] for k in range(3)) + m[r][3] for r in range(3))
+        for p in ((x, y, z) for x in (a[0], b[0]) for y in (a[1], b[1]) for z in (a[2], b[2]))
+    ]
+    lo = tuple(min(p[r] for p in pts) for r in range(3))
+    hi = tuple(max(p[r] for p in pts) for r in range(3))
+    return ir.Box(lo, hi)  # type: ignore[arg-type]

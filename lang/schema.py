@@ -327,12 +327,12 @@ SHAPES: dict[str, BlockSpec] = {
 # POV-Ray shapes whose data is a free-form list (lang/pov_shapes.py reads them).
 DATA_SHAPES = frozenset(
     """quadric cubic quartic poly superellipsoid blob lathe sor prism text height_field
-    sphere_sweep""".split()
+    sphere_sweep isosurface""".split()
 )
 
 # POV-Ray shapes strala parses but does not render yet (an ir.Unsupported object + a warning).
 UNSUPPORTED_SHAPES = frozenset(
-    """isosurface parametric julia_fractal polynomial ovus lemon light_group""".split()
+    """parametric julia_fractal polynomial ovus lemon light_group""".split()
 )
 
 LIGHT_ITEMS = TRANSFORM_ITEMS + [

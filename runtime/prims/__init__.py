@@ -17,6 +17,7 @@ _PRIMS: dict[type, tuple[str, str]] = {
     ir.Sor: ("lathe", "SorPrim"),
     ir.Prism: ("prism", "PrismPrim"),
     ir.Text: ("text", "TextPrim"),
+    ir.Isosurface: ("isosurface", "IsosurfacePrim"),
 }
 
 
