@@ -65,3 +65,31 @@ AUTO_TESSELLATION_PIXELS: float = 0.5
 # Inside tests (CSG, clipped_by) on planes and cylinders allow this much, as POV-Ray's
 # EPSILON does, so a point computed on the surface is classified like POV-Ray classifies it.
 INSIDE_EPS: float = 1e-10
+
+# Swept shapes (lathe, sor, prism, text) ------------------------------------------------
+# POV-Ray closes a prism's sub-shape when a point repeats its first point to within its
+# EPSILON (1e-10); the same bound decides which spline segments join end to start.
+SPLINE_CLOSE_EPS: float = 1e-10
+
+# A crossing at a joint of two spline segments must count once: segment parameters are
+# accepted in [-e, 1 - e) when the segment continues into another, [-e, 1 + e] at a free
+# end. Root errors after polishing are far below this; it is far below any visible size.
+SPLINE_PARAM_EPS: float = 1e-9
+
+# A polynomial's leading coefficients below this fraction of its largest are dropped before
+# root finding: their roots lie beyond 1/LEAD_REL, far outside a segment's [0, 1], and the
+# Newton polish on the full polynomial restores the accuracy of the roots that matter.
+LEAD_REL: float = 1e-9
+
+# Normals of swept shapes are turned outward by an inside test this fraction of the
+# shape's size off the surface: far above root noise, far below any feature of a curve.
+SWEEP_SIDE_REL: float = 1e-7
+
+# A lathe ray whose unit direction has a y component below this is treated as horizontal
+# (height fixed, then the circle along the ray): eliminating k = (Y - P_y) / D_y would turn
+# its two hits into a nearly double root the eigenvalue solver cannot separate. The joint
+# Newton polish removes the small error of either path.
+LATHE_FLAT_DIR: float = 1e-6
+
+# POV-Ray leaves out a sor cap whose squared radius is below its depth tolerance (1e-4).
+SOR_CAP_MIN_R2: float = 1e-4
