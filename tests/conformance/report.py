@@ -129,7 +129,7 @@ _QUOTED = re.compile(r"'[^']*'|\"[^\"]*\"")
 _PATH = re.compile(r"(?<!\w)(/[\w.+-]+)+")
 
 
-def normalize(message: str) -> str:
+def normalize(message: str, keep_names: bool = False) -> str:
     """A message with its particulars (identifiers, numbers, names of files) replaced, so
     that one missing feature is one line however many scenes hit it. Ticked lower-case
     words stay: they are POV-Ray's keywords, naming the feature (scenes' names mostly
@@ -139,7 +139,7 @@ def normalize(message: str) -> str:
         text = m.group(1)
         return "`…`" if text != text.lower() or _NUMBER.search(text) else m.group(0)
 
-    text = _TICKED.sub(ticked, message)
+    text = message if keep_names else _TICKED.sub(ticked, message)
     text = _QUOTED.sub("'…'", text)
     text = _PATH.sub("PATH", text)
     return _NUMBER.sub("N", text)
@@ -170,8 +170,16 @@ def reasons(results: Sequence[SceneResult], top: int = 40) -> str:
     out.append("Render status: " + ", ".join(f"{k} {v}" for k, v in status.most_common()))
     out.append("")
     failed = [(r.scene, r.lib) for r in counted if not r.lib.eval_ok]
+    first = Counter(normalize(s.note, keep_names=True) for _, s in failed)
+    out += [f"## The first error of each scene that does not evaluate ({len(failed)})", ""]
+    out += ["| scenes | first error | e.g. |", "|---|---|---|"]
+    for message, n in first.most_common(top):
+        names = [sc for sc, s in failed if normalize(s.note, keep_names=True) == message]
+        cell = message.replace("|", "\\|")
+        out.append(f"| {n} | {cell} | {', '.join(names[:3])}{' …' if n > 3 else ''} |")
+    out.append("")
     sections = [
-        ("Errors in scenes that do not evaluate", failed, "error"),
+        ("All errors in scenes that do not evaluate", failed, "error"),
         ("Warnings in scenes that render but do not match",
          [(r.scene, r.lib) for r in counted if r.lib.rendered and not r.lib.match], "warning"),
         ("Warnings over all scenes", [(r.scene, r.lib) for r in counted], "warning"),
