@@ -55,3 +55,23 @@ def test_quiet_render_prints_no_radiosity_figures(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "radiosity:" not in proc.stderr
     assert np.allclose(_read(out), E / 0.5, rtol=0.01)
+
+
+def test_cached_solution_is_reported_and_reused_from_another_camera(tmp_path):
+    """A second render from another camera inside the same sphere takes the solution
+    from --radiosity-cache and says so; the furnace value is unchanged."""
+    cache = tmp_path / "cache"
+    first = FURNACE.format(rho=0.9, e=E)
+    other = first.replace("location <0.3, -0.4, -0.5>", "location <-0.6, 0.5, 0.2>")
+    lines = []
+    for i, text in enumerate((first, other)):
+        scene = tmp_path / f"view{i}.pov"
+        scene.write_text(text)
+        out = tmp_path / f"view{i}.exr"
+        proc = run_cli("render", str(scene), "-W", "8", "-H", "8", "-o", str(out),
+                       "--radiosity-cache", str(cache))  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        assert np.allclose(_read(out), E / (1 - 0.9), rtol=0.01)
+        lines.append(next(s for s in proc.stderr.splitlines() if s.startswith("radiosity:")))
+    assert "iterations" in lines[0] and "from the cache" not in lines[0]
+    assert lines[1].endswith("patches, solution from the cache")
