@@ -1,0 +1,1 @@
+"""The numerical stability suite: extreme scales, grazing rays, degenerate input, tolerances."""
