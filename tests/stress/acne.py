@@ -9,8 +9,10 @@ A pixel *must be lit* when its surface faces the light by more than `MARGIN` (NÂ
 nothing lies between it and the light. The scenes are built so that this is known in
 closed form: convex shapes alone (nothing can shadow a point that faces the light), a torus
 lit from a point on its axis (a shadow ray stays in the plane through the axis, where the
-tube's cross-section is a convex circle), and the seed's sphere on a plane, whose shadow on
-the plane is computed analytically here. A must-be-lit pixel whose red channel is below half
+tube's cross-section is a convex circle), a plane and a triangle pair lit 2.3 degrees above
+their horizon (every shadow ray grazes the surface it leaves), and the seed's sphere on a
+plane, whose shadow on the plane is computed analytically here. A tessellated NURBS sphere
+is measured too; its terminator is bounded rather than clean (see TERMINATOR_SHARE). A must-be-lit pixel whose red channel is below half
 its green one is *acne*; a pixel analytically in the sphere's shadow that comes out lit is a
 *leak* (an offset so large that the shadow ray jumped over the occluder).
 
@@ -39,6 +41,11 @@ SCALES = tuple(10.0**k for k in range(-6, 8))
 ACNE_SCALES = tuple(10.0**k for k in range(-3, 7))
 # NÂ·L below this is the terminator: a flat facet or a near-tangent light can go either way.
 MARGIN = 0.02
+# A tessellated surface shades with its exact normals but casts shadows with its facets:
+# near the terminator a facet can face away from the light while the normal still faces
+# it (the "shadow terminator" of smooth meshes, POV-Ray's too). Its pixels are not
+# numerical acne, and stay below this share of the lit ones.
+TERMINATOR_SHARE = 0.01
 # The analytic classification of the sphere-on-plane scene keeps this relative distance from
 # every boundary it cannot resolve per pixel (silhouette, shadow edge).
 EDGE = 0.02
@@ -108,9 +115,28 @@ class Case:
     convex: bool = True
     seed: bool = False
     angle: float = 35.0
+    smooth: bool = False  # tessellated with interpolated normals (see TERMINATOR_SHARE)
 
 
 _ICO = icosphere(2)
+
+
+def nurbs_sphere(s: float) -> str:
+    """The exact rational sphere (9 x 5 quadratic net) as a `nurbs` block at scale s."""
+    from runtime.nurbs import nurbs_sphere as exact
+
+    sh = exact((0.0, 1.0, 0.0), 1.0)
+    pts = ", ".join(
+        f"<{num(p[0] * s)}, {num(p[1] * s)}, {num(p[2] * s)}, {num(w)}>"
+        for p, w in zip(sh.points, sh.weights, strict=True)
+    )
+    knots = [", ".join(num(k) for k in kv) for kv in (sh.u_knots, sh.v_knots)]
+    return (
+        f"nurbs {{ u_degree {sh.u_degree} v_degree {sh.v_degree} "
+        f"control_points {{ {sh.nu}, {sh.nv}, {pts} }} "
+        f"u_knots {{ {knots[0]} }} v_knots {{ {knots[1]} }} MATERIAL }}"
+    )
+
 
 CASES: tuple[Case, ...] = (
     Case("sphere", lambda s: f"sphere {{ {vec((0, 1, 0), s)}, {num(s)} MATERIAL }}"),
@@ -147,6 +173,26 @@ CASES: tuple[Case, ...] = (
         ),
         light=(6.0, 5.0, -4.0),
     ),
+    # Light at 2.3 degrees above the horizon: every shadow ray grazes the plane.
+    Case(
+        "grazing",
+        lambda s: "plane { y, 0 MATERIAL }",
+        eye=(0.0, 4.0, -3.0),
+        at=(0.0, 0.0, 0.0),
+        light=(-1000.0, 40.0, 300.0),
+    ),
+    # The same with a triangle pair: float32 Embree hits must not shadow their own plane.
+    Case(
+        "grazmesh",
+        lambda s: mesh2(
+            np.array([(-9, 0, -9), (9, 0, -9), (9, 0, 9), (-9, 0, 9)]),
+            np.array([(0, 1, 2), (0, 2, 3)]),
+            s,
+        ),  # fmt: skip
+        eye=(0.0, 4.0, -3.0),
+        at=(0.0, 0.0, 0.0),
+        light=(-1000.0, 40.0, 300.0),
+    ),
     Case(
         "seed",
         lambda s: f"sphere {{ {vec((0, 1, 0), s)}, {num(s)} MATERIAL }} plane {{ y, 0 MATERIAL }}",
@@ -157,6 +203,7 @@ CASES: tuple[Case, ...] = (
         convex=False,
         seed=True,
     ),
+    Case("nurbs", nurbs_sphere, smooth=True),
 )
 CASE_NAMES = tuple(c.name for c in CASES)
 

@@ -27,6 +27,8 @@ def test_no_acne_from_1e_minus_3_to_1e6(name):
         # The image is the same at every scale (the metric compares like with like).
         assert abs(m.must_be_lit - first.must_be_lit) <= 2, (s, m)
         limit = 0 if s in acne.ACNE_SCALES else OUTSIDE_RANGE_SHARE * m.must_be_lit
+        if c.smooth:
+            limit = acne.TERMINATOR_SHARE * m.must_be_lit
         assert m.acne <= limit, (s, m)
         assert m.mirror_bad <= limit, (s, m)
         assert m.leaks == 0, (s, m)
@@ -36,7 +38,7 @@ def test_no_acne_from_1e_minus_3_to_1e6(name):
             assert m.in_shadow > 50, (s, m)  # the sphere's shadow on the plane is checked
 
 
-CONVEX = [c.name for c in acne.CASES if c.convex]
+CONVEX = [c.name for c in acne.CASES if c.convex and not c.smooth]
 
 
 @given(
