@@ -11,6 +11,8 @@ Three methods, each stopping when the residual ‖E + ρFB − B‖∞ is at mos
 - `gauss_seidel`: sweeps in blocks of rows, each block solved exactly against the newest
   values of the others (block size 1 is the textbook method; blocks keep the Python loop
   per block, not per patch). Converges because ρ·F is a contraction (row sums ≤ 1, ρ < 1).
+  Each sweep ends with a coarse correction on the constant vector (see `gauss_seidel`),
+  so near-white closed scenes (ρ = 0.99) take a handful of sweeps, not ~1/(1 − ρ).
 - `progressive`: progressive refinement (shooting): the patches with the most unshot power
   shoot it through their column of F, F[j, i] = F[i, j]·A_i/A_j by reciprocity, so a row
   provider that computes one patch's form factors on demand keeps memory O(N). The unshot
@@ -72,8 +74,16 @@ def gauss_seidel(
     max_iter: int = 100000,
     block: int = 32,
     B0: np.ndarray | None = None,
+    area=None,
+    coarse: bool = True,
 ) -> Solution:
-    """Block Gauss–Seidel (see the module docstring); one iteration is one sweep."""
+    """Block Gauss–Seidel (see the module docstring); one iteration is one sweep.
+
+    `coarse`: after each sweep, a coarse correction on the constant vector (Cohen's
+    "ambient" term made exact): B += α·1 per channel, α from the area-weighted (Galerkin)
+    projection of the residual, α = Σ A r / Σ A (1 − ρ·rowsum), kept only when it lowers
+    the residual. Gauss–Seidel alone removes the smooth part of the error at a rate of
+    only ρ per sweep (a furnace at ρ = 0.99 takes ~500 sweeps); this removes it at once."""
     t0 = time.perf_counter()
     n = F.shape[0]
     rho, E = _as3(rho, n), _as3(E, n)
@@ -87,7 +97,12 @@ def gauss_seidel(
         eye = np.eye(len(rows))
         mats = eye[None] - rho[rows].T[:, :, None] * frr[None]  # (3,b,b)
         inv.append(np.linalg.inv(mats))
-    rel = _rel(residual(F, rho, E, B), B)
+    w = np.ones(n) if area is None else np.asarray(area, dtype=np.float64)
+    # (I − ρF)·1: how the residual changes when every B moves by one.
+    shift = 1.0 - rho * F.sum(axis=1)[:, None]  # (N,3)
+    shift_mass = (w[:, None] * shift).sum(axis=0)  # (3,)
+    r = residual(F, rho, E, B)
+    rel = _rel(r, B)
     it = 0
     while rel > tol and it < max_iter:
         for rows, minv in zip(blocks, inv, strict=True):
@@ -96,7 +111,19 @@ def gauss_seidel(
             rhs = E[rows] + rho[rows] * g  # (b,3)
             B[rows] = np.einsum("cij,jc->ic", minv, rhs)
         it += 1
-        rel = _rel(residual(F, rho, E, B), B)
+        r = residual(F, rho, E, B)
+        if coarse:
+            alpha = np.divide(
+                (w[:, None] * r).sum(axis=0),
+                shift_mass,
+                out=np.zeros(3),
+                where=shift_mass > 0,
+            )
+            r2 = r - alpha * shift  # residual is affine in B: no second mat-vec
+            if np.abs(r2).max() < np.abs(r).max():
+                B += alpha
+                r = r2
+        rel = _rel(r, B)
     return Solution(B, "gauss_seidel", it, rel, rel <= tol, time.perf_counter() - t0)
 
 
@@ -204,7 +231,7 @@ def solve(
         return direct(F, rho, E, tol=tol)
     if method == "progressive":
         return progressive(F, rho, E, area, tol=tol, ambient=ambient)
-    return gauss_seidel(F, rho, E, tol=tol)
+    return gauss_seidel(F, rho, E, tol=tol, area=area)
 
 
 class RowCache:
