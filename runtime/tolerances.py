@@ -77,9 +77,11 @@ SPLINE_CLOSE_EPS: float = 1e-10
 SPLINE_PARAM_EPS: float = 1e-9
 
 # A polynomial's leading coefficients below this fraction of its largest are dropped before
-# root finding: their roots lie beyond 1/LEAD_REL, far outside a segment's [0, 1], and the
-# Newton polish on the full polynomial restores the accuracy of the roots that matter.
-LEAD_REL: float = 1e-9
+# root finding: their roots lie beyond ~1/LEAD_REL, far outside the unit range the callers
+# scale their variable to, and the Newton polish on the full polynomial restores the
+# accuracy of the roots that matter. Keeping them would cost more: a closed-form cubic with
+# roots 1e8 apart loses the small ones entirely.
+LEAD_REL: float = 1e-6
 
 # Normals of swept shapes are turned outward by an inside test this fraction of the
 # shape's size off the surface: far above root noise, far below any feature of a curve.
@@ -93,3 +95,40 @@ LATHE_FLAT_DIR: float = 1e-6
 
 # POV-Ray leaves out a sor cap whose squared radius is below its depth tolerance (1e-4).
 SOR_CAP_MIN_R2: float = 1e-4
+
+# Iterations of the bracketed Newton/bisection root solver (runtime.prims.roots): bisection
+# alone halves the bracket each step, so 200 reach float64 precision from any bracket that
+# fits in float64 (2^-1074 .. 2^1024); Newton usually stops it after a handful.
+ROOT_MAX_ITER: int = 200
+
+# POV-Ray's poly/cubic/quartic count a point as inside while the polynomial is below this
+# (its INSIDE_TOLERANCE; quadrics use <= 0): the surface itself is inside, as in POV-Ray.
+POLY_INSIDE: float = 1e-4
+
+# Polynomial surfaces are unbounded: roots are sought within this many object sizes of the
+# ray's closest approach to the object's origin. Farther crossings are beyond any scene.
+POLY_REACH: float = 1e6
+
+# A polynomial coefficient along a ray below this fraction of the largest one does not set
+# the degree for the root bound (it would only add roots ~1e14 sizes away, beyond the reach).
+POLY_LEAD_REL: float = 1e-14
+
+# A superellipsoid is searched inside its box widened by this fraction, so a ray along a
+# face (where the surface touches the box) is not clipped away by rounding.
+SUPERELLIPSOID_BOX_PAD: float = 1e-9
+
+# Pinched superellipsoids (e or n > 2) are not convex: their chord is cut into this many
+# equal cells (besides the planes of symmetry) before minima and sign changes are sought.
+# 32 keeps features thinner than 1/32 of the box along the ray from hiding between samples.
+SUPERELLIPSOID_CELLS: int = 32
+
+# Bisection steps for the minimum of f along a chord: 60 halvings of a chord of at most
+# 2 sqrt(3) reach float64 resolution.
+SUPERELLIPSOID_MIN_ITER: int = 60
+
+# POV-Ray's superellipsoid inside test accepts f < EPSILON (1e-10): the surface is inside.
+SUPERELLIPSOID_INSIDE: float = 1e-10
+
+# POV-Ray's blob counts a point as inside when its density exceeds threshold - 1e-6 (its
+# INSIDE_TOLERANCE): the surface itself is inside.
+BLOB_INSIDE: float = 1e-6
