@@ -194,7 +194,7 @@ class _Builder:
                 )
             if fn.kind == "pigment":
                 return _pigment_at(fn, args, 5)
-            return ir.FnCall(fn, args)
+            return _fold(ir.FnCall(fn, args))
         if isinstance(v, ArrayValue | Vec) or not isinstance(v, MacroValue):
             if all(isinstance(a, ir.FnNum) for a in args):
                 return self.constant(node)  # a spline or similar at a fixed point
@@ -227,7 +227,7 @@ def _fold(e: Any) -> Any:
     if kids and all(isinstance(k, ir.FnNum) for k in kids):
         try:
             value = evaluate(e, ())
-        except (EvalError, ArithmeticError, ValueError):
+        except (EvalError, ArithmeticError, ValueError, Unevaluable):
             return e  # left for the runtime (NaN or inf there, as POV-Ray's VM)
         return ir.FnNum(value)
     return e
@@ -240,7 +240,7 @@ def _operands(e: Any) -> tuple[Any, ...]:
         return (e.a, e.b)
     if isinstance(e, ir.FnCond):
         return (e.cond, e.then, e.other)
-    if isinstance(e, ir.FnBuiltin):
+    if isinstance(e, ir.FnBuiltin | ir.FnCall):
         return e.args
     return ()
 
