@@ -12,9 +12,10 @@ lit from a point on its axis (a shadow ray stays in the plane through the axis, 
 tube's cross-section is a convex circle), a plane and a triangle pair lit 2.3 degrees above
 their horizon (every shadow ray grazes the surface it leaves), and the seed's sphere on a
 plane, whose shadow on the plane is computed analytically here. A tessellated NURBS sphere
-is measured too; its terminator is bounded rather than clean (see TERMINATOR_SHARE). A must-be-lit pixel whose red channel is below half
-its green one is *acne*; a pixel analytically in the sphere's shadow that comes out lit is a
-*leak* (an offset so large that the shadow ray jumped over the occluder).
+is measured too; its terminator is bounded rather than clean (see TERMINATOR_SHARE).
+A must-be-lit pixel whose red channel is below half its green one is *acne*; a pixel
+analytically in the sphere's shadow that comes out lit is a *leak* (an offset so large that
+the shadow ray jumped over the occluder).
 
 Mirror check on the convex shapes: a black mirror (`reflection 0.5`) under a blue background
 must show exactly half the background in every pixel it covers, because a reflected ray leaving
