@@ -274,17 +274,19 @@ class SorPrim:
             r = Dr[:, 0] ** 2 + Dr[:, 2] ** 2
             m = Pr[:, 0] * Dr[:, 0] + Pr[:, 2] * Dr[:, 2]
             rho0 = Pr[:, 0] ** 2 + Pr[:, 2] ** 2
-            # f(P_y + k D_y) - |P_xz + k D_xz|^2 as a cubic in k.
+            # f(P_y + k D_y) - |P_xz + k D_xz|^2 as a cubic in k = s kappa, s the shape's
+            # size (the roots that matter then lie within about 1 of 0).
+            s = max(self.size, tol.ABS_FLOOR)
             poly = np.stack(
                 [
-                    A * dy**3,
-                    dy * dy * (3 * A * py + B) - r,
-                    dy * (py * (3 * A * py + 2 * B) + C) - 2 * m,
+                    A * dy**3 * s**3,
+                    (dy * dy * (3 * A * py + B) - r) * s**2,
+                    (dy * (py * (3 * A * py + 2 * B) + C) - 2 * m) * s,
                     py * (py * (A * py + B) + C) + Dc - rho0,
                 ],
                 axis=1,
             )
-            k = sp.real_roots(poly)
+            k = sp.real_roots(poly) * s
             hgt = py[:, None] + k * dy[:, None]
             y1, y2 = self.y[si, 0, None], self.y[si, 1, None]
             last = (si == len(self.coef) - 1)[:, None]

@@ -168,7 +168,7 @@ def real_roots(c: np.ndarray) -> np.ndarray:
             disc = b * b - 4 * a * cc
             ok = disc >= 0
             q = -0.5 * (b + np.copysign(np.sqrt(np.where(ok, disc, 0.0)), b))
-            with np.errstate(divide="ignore", invalid="ignore"):
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 out[rows, 0] = np.where(ok, q / a, np.nan)
                 out[rows, 1] = np.where(ok & (q != 0), cc / q, np.where(ok, q / a, np.nan))
         elif d == 3:
