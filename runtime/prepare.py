@@ -151,7 +151,11 @@ class _Builder:
                 f"a degenerate {type(shape).__name__.lower()} is skipped: {why}", obj.span
             )
             return None
-        prim = shapes.primitive_for(shape)
+        try:
+            prim = shapes.primitive_for(shape)
+        except ValueError as exc:  # unreadable data behind a shape (a broken font file)
+            self.warn_once(f"{type(shape).__name__.lower()} skipped: {exc}", obj.span)
+            return None
         if prim is None:
             self.warn_once(f"shape {type(shape).__name__} is not supported by the tracer", obj.span)
             return None

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -371,3 +372,17 @@ def test_not_a_font(tmp_path):
     bad.write_bytes(b"\0\1\0\0" + b"\0" * 20)
     with pytest.raises(FontError):
         load_font(str(bad))
+
+
+def test_broken_font_is_a_warning_at_the_text(tmp_path):
+    (tmp_path / "bad.ttf").write_bytes(b"not a font, only some bytes of text")
+    scene = tmp_path / "s.pov"
+    scene.write_text(
+        "camera { location <0, 0, -3> look_at 0 }\n"
+        'text { ttf "bad.ttf" "Hi" 0.2, 0 pigment { rgb 1 } }\n'
+    )
+    res = run_cli("render", str(scene), "-o", str(tmp_path / "s.png"), "-W", "8", "-H", "6")
+    assert res.returncode == 0, res.stderr
+    assert "s.pov:2:1: warning: text skipped" in res.stderr
+    assert "not a readable TrueType font" in res.stderr
+    assert "Traceback" not in res.stderr

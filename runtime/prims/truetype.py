@@ -276,8 +276,10 @@ def load_font(path: str) -> Font:
         data = fh.read()
     try:
         return Font(data)
-    except (struct.error, IndexError) as exc:
-        raise FontError(f"{path}: not a readable TrueType font ({exc})") from exc
+    except (struct.error, IndexError, ValueError) as exc:
+        if isinstance(exc, FontError):
+            raise FontError(f"font `{path}`: {exc}") from None
+        raise FontError(f"`{path}` is not a readable TrueType font (truncated or corrupt)") from exc
 
 
 def contour_segments(contour: list[tuple[float, float, bool]]) -> np.ndarray:
