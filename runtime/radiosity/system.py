@@ -48,7 +48,7 @@ from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
 from runtime.radiosity.patches import Mesher, Patches, box_faces
 from runtime.radiosity.visibility import PatchVisibility
 
-CACHE_VERSION = 1
+CACHE_VERSION = 2  # 2: energy conservation, eye cell, budgeted refinement
 
 # A scene is "not closed" when more than this fraction of the light leaving its surfaces
 # (area-weighted row sums of F, visibility included) escapes to infinity.
