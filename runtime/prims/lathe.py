@@ -112,7 +112,7 @@ class LathePrim:
             poly[:, 3:] += 2 * (Dy[g] * m[g])[:, None] * Wg
             poly -= (Dy[g] ** 2)[:, None] * sp.polymul(X[g], X[g])
             poly[:, 6] += Dy[g] ** 2 * rho0[g]
-            ug = sp.real_roots(poly)
+            ug = sp.real_roots(poly, refine=False)  # _polish refines u and k together
             u[g] = ug
             k[g] = sp.polyval(Wg[:, None, :], np.nan_to_num(ug)) / Dy[g, None]
         h = np.nonzero(flat)[0]
@@ -126,19 +126,21 @@ class LathePrim:
             with np.errstate(divide="ignore", invalid="ignore"):
                 k[h] = np.concatenate([(-b - sq) / a, (-b + sq) / a], axis=1)
             u[h] = np.concatenate([uh, uh], axis=1)
-        u, k = self._polish(cf, Pr, Dr, u, k)
-        ok = sp.in_window(u, self.curve.joined[si, None]) & np.isfinite(k)
-        t = np.where(ok, t0[ri, None] + k / dl[ri, None], np.inf)
-        face = np.repeat((si % LATHE_MOD)[:, None], 6, axis=1).astype(np.int8)
-        return sp.pairs_to_rows(n, ri, t, face)
+        # Polish only the candidates near the segment (most columns are empty).
+        pi, ci = np.nonzero(np.isfinite(u) & np.isfinite(k) & (u > -0.01) & (u < 1.01))
+        uq, kq = self._polish(cf[pi], Pr[pi], Dr[pi], u[pi, ci], k[pi, ci])
+        ok = sp.in_window(uq, self.curve.joined[si[pi]]) & np.isfinite(kq)
+        t = np.where(ok, t0[ri[pi]] + kq / dl[ri[pi]], np.inf)
+        face = (si[pi] % LATHE_MOD).astype(np.int8)
+        return sp.pairs_to_rows(n, ri[pi], t[:, None], face[:, None])
 
     def _polish(self, cf, P, D, u, k):
         """Joint Newton on Y(u) - P_y - k D_y = 0 and |P_xz + k D_xz|^2 - X(u)^2 = 0; roots
         that do not settle on the surface are dropped."""
-        X, Y = cf[:, 0][:, None, :], cf[:, 1][:, None, :]
-        dX, dY = sp.polyder(cf[:, 0])[:, None, :], sp.polyder(cf[:, 1])[:, None, :]
-        Px, Py, Pz = (P[:, i, None] for i in range(3))
-        Dx, Dy, Dz = (D[:, i, None] for i in range(3))
+        X, Y = cf[:, 0], cf[:, 1]
+        dX, dY = sp.polyder(cf[:, 0]), sp.polyder(cf[:, 1])
+        Px, Py, Pz = P.T
+        Dx, Dy, Dz = D.T
         scale = max(self.size, tol.ABS_FLOOR)
         for _ in range(tol.NEWTON_STEPS + 1):
             x, y = sp.polyval(X, u), sp.polyval(Y, u)

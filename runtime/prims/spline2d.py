@@ -138,13 +138,13 @@ def _cubic(c: np.ndarray) -> np.ndarray:
     return out
 
 
-def real_roots(c: np.ndarray) -> np.ndarray:
+def real_roots(c: np.ndarray, refine: bool = True) -> np.ndarray:
     """Real roots of the polynomials c (M, n+1), highest power first: (M, n), nan-padded.
 
     Leading coefficients below LEAD_REL of the row's largest are dropped (their roots lie
     far outside the unit interval the callers care about); degrees 1-3 are solved in closed
     form, higher ones by companion-matrix eigenvalues, and every root is Newton-polished on
-    the full polynomial."""
+    the full polynomial (unless `refine` is off: the caller polishes itself)."""
     c = np.asarray(c, dtype=np.float64)
     M, n1 = c.shape
     n = n1 - 1
@@ -181,7 +181,7 @@ def real_roots(c: np.ndarray) -> np.ndarray:
             ev = np.linalg.eigvals(m)
             real = np.abs(ev.imag) <= tol.QUARTIC_IMAG_REL * (np.abs(ev) + 1.0)
             out[rows, :d] = np.where(real, ev.real, np.nan)
-    return polish(cn, out)
+    return polish(cn, out) if refine else out
 
 
 def polish(c: np.ndarray, roots: np.ndarray) -> np.ndarray:
