@@ -4,9 +4,11 @@ The parser reads a file as chunks of top-level statements, each from a fresh par
 (lang/parser.py). An open document keeps its chunks; after an edit, the chunks wholly before
 the first changed character are kept, the chunks wholly after the last changed character are
 kept and moved (offsets, and line numbers in every span), and the parser re-reads the text in
-between, stopping as soon as a chunk boundary falls where an old chunk began. The result is
-the same tree and the same diagnostics as parsing the new text from scratch
-(tests/test_incremental.py checks it under random edits).
+between, stopping as soon as a chunk boundary falls where an old chunk began. On the way it
+takes error-free old chunks as they are where they begin, even inside a block or directive
+left open above them (the `{` typed before its `}`): their elements parse the same in every
+element list. The result is the same tree and the same diagnostics as parsing the new text
+from scratch (tests/test_incremental.py checks it under random edits).
 """
 
 from __future__ import annotations
@@ -74,12 +76,24 @@ class IncrementalParser:
         pos, line = (chunks[k].start, chunks[k].line) if keep else (0, 1)
         s = common_suffix(old, clean, min(len(old), len(clean)) - p) if chunks else 0
         delta = len(clean) - len(old)
-        resume = {
-            c.start + delta: j for j, c in enumerate(chunks) if j > k and c.start >= len(old) - s
-        }
-        parser = ChunkParser(clean, self.file)
+        suffix = len(old) - s
+        resume = {c.start + delta: j for j, c in enumerate(chunks) if j > k and c.start >= suffix}
+        # Every error-free chunk before or after the edit, also those a construct left open
+        # had taken over, can be taken again where it now stands.
+        reusable: dict[int, Chunk] = {}
+        for top in chunks[k:]:
+            for c in top.flatten():
+                if c.diags:
+                    continue
+                if c.follow_end < p:
+                    reusable[c.start] = c
+                elif c.start >= suffix:
+                    reusable[c.start + delta] = c
+        parser = ChunkParser(clean, self.file, reusable=reusable)
         fresh, stop, stop_line = parser.run(pos, line, frozenset(resume))
-        self.reparsed = sum(len(c.text) for c in fresh)
+        taken = {id(c) for c in reusable.values()}
+        self.reparsed = sum(len(c.text) for c in fresh if id(c) not in taken)
+        self.reparsed -= sum(len(p.text) for c in fresh if id(c) not in taken for p in c.pieces)
         tail: list[Chunk] = []
         if stop is not None:
             tail = chunks[resume[stop] :]

@@ -218,8 +218,9 @@ class _Builder(Transformer):
         self.file = "<string>"
         self.sink = DiagnosticSink()
         # A parenthesised expression is its inner node, but an operation it starts or ends
-        # spans the parentheses too: id(inner node) → the span with them.
-        self.containers: dict[int, Span] = {}
+        # spans the parentheses too: id(inner node) → (the node, the span with them). The node
+        # is held so that its id is not reused by another while the chunk is parsed.
+        self.containers: dict[int, tuple[syntax.Node, Span]] = {}
         self.empty = False  # the last `start` held no token
 
     def reset(self, file: str, sink: DiagnosticSink) -> None:
@@ -233,7 +234,11 @@ class _Builder(Transformer):
         span = getattr(c, "span", None)
         if span is None:
             return None
-        return self.containers.get(id(c), span) if self.containers else span
+        if self.containers:
+            held = self.containers.get(id(c))
+            if held is not None and held[0] is c:
+                return held[1]
+        return span
 
     def _span(self, children) -> Span:
         first = last = None
@@ -297,7 +302,7 @@ class _Builder(Transformer):
         """`( expr )`: the inner node, remembered with the span of its parentheses."""
         inner = children[1]
         if isinstance(inner, syntax.Node):
-            self.containers[id(inner)] = self._span(children)
+            self.containers[id(inner)] = (inner, self._span(children))
         return inner
 
     def vector(self, children):
@@ -655,24 +660,56 @@ class Chunk:
     strays: list[int]  # offsets (in `text`) of the unmatched `}` reported as E0101, in order
     errors: int  # syntax errors found, shown or not
     follow_end: int  # where the token that ended it ends (the text's length at the end of file)
+    last: Token | None = None  # its last token
+    # Error-free chunks of an earlier parse whose elements this one took over (inside a block
+    # or directive left open above them), in order: still reusable by the next parse.
+    pieces: list[Chunk] = dataclasses.field(default_factory=list)
 
     @property
     def end(self) -> int:
         return self.start + len(self.text)
 
+    @property
+    def end_line(self) -> int:
+        return self.line + self.text.count("\n")
+
     def move(self, chars: int, lines: int) -> None:
-        """Follow an edit above this chunk: offsets move by `chars`, spans by `lines`."""
+        """Follow an edit above this chunk: offsets move by `chars`, spans by `lines`. A piece
+        moves its own nodes, wherever they ended up in this chunk's tree (or outside it: a
+        construct may drop an element, as `#switch` drops what comes before its first `#case`)."""
         self.start += chars
         self.follow_end += chars
+        t = self.last
+        if t is not None:
+            self.last = Token(
+                t.type,
+                t.value,
+                t.start_pos + chars,
+                t.line + lines,
+                t.column,
+                t.end_line + lines,
+                t.end_column,
+                t.end_pos + chars,
+            )
         if lines:
             self.line += lines
-            shift_lines(self.nodes, lines)
+            skip = {id(n) for piece in self.pieces for n in piece.nodes}
+            shift_lines(self.nodes, lines, skip)
             if self.span is not None:
                 self.span = _moved(self.span, lines)
             self.diags = [
                 Diagnostic(d.severity, d.code, d.message, _moved(d.span, lines), d.hint)
                 for d in self.diags
             ]
+        for piece in self.pieces:
+            piece.move(chars, lines)
+
+    def flatten(self) -> list[Chunk]:
+        """This chunk and, recursively, the pieces it took over."""
+        out = [self]
+        for piece in self.pieces:
+            out.extend(piece.flatten())
+        return out
 
 
 def _span_mover():
@@ -730,13 +767,16 @@ def _make_shifter(cls: type) -> Callable:
 _SHIFTERS: dict[type, Callable] = {}
 
 
-def shift_lines(items: list, lines: int) -> None:
-    """Move every span in a list of syntax nodes (in place) by `lines` lines."""
+def shift_lines(items: list, lines: int, skip: set[int] | None = None) -> None:
+    """Move every span in a list of syntax nodes (in place) by `lines` lines, except under
+    the nodes whose id is in `skip`."""
     stack: list = list(items)
     pop, push, extend = stack.pop, stack.append, stack.extend
     shifters = _SHIFTERS
     while stack:
         v = pop()
+        if skip and id(v) in skip:
+            continue
         f = shifters.get(type(v))
         if f is None:
             f = shifters[type(v)] = _make_shifter(type(v))
@@ -958,14 +998,37 @@ def _stray_hint(clean: str, base: int, last: tuple[int, int] | None) -> str:
 
 
 class ChunkParser:
-    """Parses a comment-free text chunk by chunk, from a given line start on."""
+    """Parses a comment-free text chunk by chunk, from a given line start on.
 
-    def __init__(self, clean: str, file: str, *, split: bool = True) -> None:
+    `reusable` maps offsets in this text to error-free chunks of an earlier parse of the same
+    text there (lang/incremental.py): where one begins a new top-level statement it is taken
+    as it is, and where it begins an element inside a construct left open above it (a block
+    whose `}` is not typed yet), its elements are fed to the parser as they are: elements
+    parse the same in every element list, and only error-free chunks are taken."""
+
+    def __init__(
+        self, clean: str, file: str, *, split: bool = True, reusable: dict[int, Chunk] | None = None
+    ) -> None:
         self.clean = clean
         self.file = file
         self.split = split
+        self.reusable = reusable or {}
         self.table = _get_table()
         self.thread = _get_parser().parse_interactive(clean).lexer_thread
+        self.thread.state = LexerState(TextSlice(clean, 0, len(clean)), LineCounter("\n"))
+        self._pieces: list[Chunk] = []
+        self._last: Token | None = None
+
+    def _seek(self, pos: int, line: int) -> None:
+        counter = self.thread.state.line_ctr
+        counter.char_pos = counter.line_start_pos = pos
+        counter.line, counter.column = line, 1
+
+    def _take(self, piece: Chunk, pos: int, line: int) -> Chunk:
+        """An earlier chunk now at `pos`, `line`: moved there, and the lexer moved past it."""
+        piece.move(pos - piece.start, line - piece.line)
+        self._seek(piece.end, piece.end_line)
+        return piece
 
     def run(
         self, pos: int = 0, line: int = 1, stop_at: frozenset[int] | set[int] = frozenset()
@@ -973,10 +1036,7 @@ class ChunkParser:
         """Chunks from `pos` (a line start, on line `line`) to the end of the text, or up to
         the first chunk boundary in `stop_at`; returns them, and the offset and line where it
         stopped (None at the end of the text)."""
-        counter = LineCounter("\n")
-        counter.char_pos = counter.line_start_pos = pos
-        counter.line = line
-        self.thread.state = LexerState(TextSlice(self.clean, 0, len(self.clean)), counter)
+        self._seek(pos, line)
         chunks: list[Chunk] = []
         first: Token | None = None
         while True:
@@ -985,12 +1045,20 @@ class ChunkParser:
             if first is None:
                 return chunks, None, line
             pos, line = chunk.end, first.line
+            while pos not in stop_at and pos in self.reusable:
+                piece = self._take(self.reusable[pos], pos, line)
+                chunks.append(piece)
+                pos, line, first = piece.end, piece.end_line, None
+                if pos >= len(self.clean):
+                    return chunks, None, line
             if pos in stop_at:
                 return chunks, pos, line
 
     def _chunk(self, start: int, line: int, first: Token | None) -> tuple[Chunk, Token | None]:
         errors = _ChunkErrors(self.clean, self.file, start)
         _BUILDER.reset(self.file, errors.sink)
+        self._pieces = []
+        self._last = None
         nodes: list = []
         span: Span | None = None
         follow: Token | None = None  # the token that starts the next chunk
@@ -1020,8 +1088,33 @@ class ChunkParser:
             errors.strays,
             errors.reported,
             follow_end,
+            self._last,
+            self._pieces,
         )
         return chunk, follow
+
+    def _absorb(self, state: ParserState, ttype: str, piece: Chunk) -> bool:
+        """Feed an earlier chunk's elements into the open construct, if the parser stands
+        between two elements of a list there (the piece's first token, of type `ttype`, would
+        start a new element)."""
+        table = self.table
+        states = table.states
+        stack = state.state_stack[:]
+        action = states[stack[-1]].get(ttype)
+        while action is not None and action[0] is not Shift:
+            rule = action[1]
+            if rule.expansion:
+                del stack[-len(rule.expansion) :]
+            stack.append(states[stack[-1]][rule.origin.name][1])
+            action = states[stack[-1]].get(ttype)
+        if action is None or "element" not in states[stack[-1]]:
+            return False
+        _reduce(state, ttype)
+        for node in piece.nodes:
+            state.state_stack.append(states[state.state_stack[-1]]["element"][1])
+            state.value_stack.append(node)
+            _reduce(state, ttype)  # fold it into the list, as the next element's start would
+        return True
 
     def _read(
         self, errors: _ChunkErrors, start: int, line: int, first: Token | None
@@ -1036,20 +1129,20 @@ class ChunkParser:
         follow: Token | None = None
         pending = [first] if first is not None else []
         while True:
+            jumped = False
             try:
                 for tok in itertools.chain(pending, self.thread.lex(state)):
                     if tok.line != cur_line:
                         cur_line = tok.line
                         # Only a token first on its line (a skipped bad character before it
                         # belongs to this chunk's text and errors) can start a chunk.
+                        line_start = tok.start_pos - tok.column + 1
                         if (
                             self.split
                             and last is not None
                             and (
                                 tok.column == 1
-                                or not self.clean[
-                                    tok.start_pos - tok.column + 1 : tok.start_pos
-                                ].strip()
+                                or not self.clean[line_start : tok.start_pos].strip()
                             )
                         ):
                             verdict = _verdict(table, state.state_stack, tok.type)
@@ -1064,18 +1157,29 @@ class ChunkParser:
                                 errors.unexpected(tok, expected, None)
                                 follow = tok
                                 break
+                            piece = self.reusable.get(line_start)
+                            if piece is not None and self._absorb(state, tok.type, piece):
+                                self._take(piece, line_start, tok.line)
+                                self._pieces.append(piece)
+                                last = piece.last
+                                cur_line = -1
+                                jumped = True
+                                break
                     last = tok
                     try:
                         state.feed_token(tok)
                     except UnexpectedToken as e:
                         errors.unexpected(tok, e.expected, state)
-                break
+                pending = []
+                if not jumped:
+                    break
             except UnexpectedCharacters as e:
                 pending = []
                 pos = e.pos_in_stream
                 errors.bad_character(pos)
                 if counter.char_pos == pos:
                     counter.feed(self.clean[pos : pos + 1])
+        self._last = last
         end_tok = (
             Token.new_borrow_pos("$END", "", last)
             if last is not None
@@ -1088,6 +1192,28 @@ class ChunkParser:
         if result is None and not errors.sink.has_errors:
             errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
         return result, follow
+
+
+def _reduce(state: ParserState, ttype: str) -> None:
+    """Make the reductions a token of type `ttype` would cause, without shifting it (the
+    reduce half of lark's `ParserState.feed_token`)."""
+    states = state.parse_conf.states
+    callbacks = state.parse_conf.callbacks
+    stack, values = state.state_stack, state.value_stack
+    while True:
+        action, rule = states[stack[-1]][ttype]
+        if action is Shift:
+            return
+        size = len(rule.expansion)
+        if size:
+            args = values[-size:]
+            del stack[-size:]
+            del values[-size:]
+        else:
+            args = []
+        value = callbacks[rule](args)
+        stack.append(states[stack[-1]][rule.origin.name][1])
+        values.append(value)
 
 
 def assemble(
