@@ -82,6 +82,15 @@ class Leaf:
     """One analytic primitive (object space) placed in the world by `matrix`."""
 
     def __init__(self, prim, matrix: np.ndarray, index: int, inverse: bool = False):
+        if isinstance(prim, shapes.BoxPrim) and _axis_aligned(matrix):
+            # POV-Ray moves and scales an untransformed box's corners instead of keeping a
+            # matrix: world points are then classified against the corners without a round
+            # trip through the inverse, so faces shared by CSG children stay coincident
+            # (with the matrix, flush cuts at scale 1e-3 speckled 11% of an image).
+            lo = matrix[:3, :3].diagonal() * prim.lo + matrix[:3, 3]
+            hi = matrix[:3, :3].diagonal() * prim.hi + matrix[:3, 3]
+            prim = shapes.BoxPrim(lo, hi)
+            matrix = np.eye(4)
         self.prim = prim
         self.index = index
         self.inverse = inverse
@@ -130,6 +139,16 @@ class Leaf:
         if self.identity:
             return tf.normalize(n)
         return tf.apply_normals(self.m_inv, n)
+
+
+def _axis_aligned(m: np.ndarray) -> bool:
+    """Only scaling (non-zero) and translation: an axis-aligned box stays one."""
+    lin = m[:3, :3]
+    return bool(
+        np.count_nonzero(lin - np.diag(lin.diagonal())) == 0
+        and np.all(lin.diagonal() != 0)
+        and np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0])
+    )
 
 
 class CsgNode:
