@@ -128,6 +128,28 @@ def test_an_unfinished_statement_mid_file_is_one_error_and_the_rest_still_parses
     assert inc.reparsed < 200
 
 
+def test_a_block_left_open_takes_the_statements_below_without_reparsing_them():
+    """`sphere {` typed before its `}`: everything below is now inside the sphere, and
+    the parser feeds the already parsed statements into it instead of reading them again."""
+    text = _big(300)
+    inc = IncrementalParser("big.pov")
+    inc.parse(text)
+    at = text.index("#declare V150 ")
+    steps = [
+        text[:at] + "sphere {\n" + text[at:],
+        text[:at] + "sphere { 0, 1\n" + text[at:],
+        text[:at] + "sphere { 0, 1 }\n" + text[at:],
+    ]
+    for new in steps:
+        tree, diags = inc.parse(new)
+        assert (tree, diags) == parse(new, "big.pov")
+        assert inc.reparsed < 200
+    assert [d.code for d in inc.parse(steps[0])[1]] == ["E0106"]
+    assert inc.reparsed < 200
+    sphere = [n for n in inc.parse(steps[1])[0].body if isinstance(n, S.Block)][-1]
+    assert sphere.keyword == "sphere" and len(sphere.body) > 290  # it took the rest
+
+
 def test_regressions_found_by_random_edits():
     # An array initialiser (a list subclass) moves with its declaration.
     text = "#declare A = array[2] { <1, 0, 0>, <0, 1, 0> }\nsphere { A[0], 1 }\n"
