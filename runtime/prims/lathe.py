@@ -126,8 +126,9 @@ class LathePrim:
             with np.errstate(divide="ignore", invalid="ignore"):
                 k[h] = np.concatenate([(-b - sq) / a, (-b + sq) / a], axis=1)
             u[h] = np.concatenate([uh, uh], axis=1)
-        # Polish only the candidates near the segment (most columns are empty).
-        pi, ci = np.nonzero(np.isfinite(u) & np.isfinite(k) & (u > -0.01) & (u < 1.01))
+        # Polish only the candidates near the segment (most columns are empty); the margin
+        # keeps the roots an eigenvalue near a double root misplaces.
+        pi, ci = np.nonzero(np.isfinite(u) & np.isfinite(k) & (u > -0.2) & (u < 1.2))
         uq, kq = self._polish(cf[pi], Pr[pi], Dr[pi], u[pi, ci], k[pi, ci])
         ok = sp.in_window(uq, self.curve.joined[si[pi]]) & np.isfinite(kq)
         t = np.where(ok, t0[ri[pi]] + kq / dl[ri[pi]], np.inf)
