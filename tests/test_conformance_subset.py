@@ -1,0 +1,47 @@
+"""A fast slice of the conformance suite in the default run: about forty of POV-Ray's
+example scenes through strala and through POV-Ray (tests/conformance/run.py does all of
+them). The floors are the counts measured when the subset was chosen; a change that makes
+fewer scenes evaluate, render or match POV-Ray fails here. Raise them as strala improves."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+from conformance import corpus, report
+from conformance.run import run_suite
+
+# Measured on the subset (corpus.FAST_SUBSET, 42 scenes) when it was chosen: the scenes
+# that evaluate without errors, render, and match POV-Ray's image (RMSE < 0.05, < 3% of
+# pixels off by more than 0.1).
+FLOOR_PARSED = 35
+FLOOR_RENDERED = 35
+FLOOR_MATCHED = 31
+
+pytestmark = [
+    pytest.mark.povray,
+    pytest.mark.skipif(
+        not corpus.EXAMPLES.is_dir() or shutil.which("povray") is None,
+        reason="POV-Ray's example scenes are not installed (apt-get install povray-examples)",
+    ),
+]
+
+
+def test_the_subset_is_a_fixed_list_of_existing_scenes():
+    assert 30 <= len(corpus.FAST_SUBSET) <= 50
+    assert len(set(corpus.FAST_SUBSET)) == len(corpus.FAST_SUBSET)
+    missing = [s for s in corpus.FAST_SUBSET if not (corpus.EXAMPLES / s).is_file()]
+    assert missing == []
+
+
+def test_subset_keeps_its_counts(tmp_path):
+    scenes = [corpus.EXAMPLES / s for s in corpus.FAST_SUBSET]
+    # two scenes at a time: the work is in subprocesses, one per renderer
+    results = run_suite(scenes, tmp_path, timeout=30, jobs=2, stdlib_column=False)
+    c = report.counts(results)
+    summary = report.summary_line(c)
+    lost = [r.scene for r in results if not r.lib.match]
+    assert c.skipped == 0, [r.povray_note for r in results if not r.counted]
+    assert c.parsed >= FLOOR_PARSED, summary
+    assert c.rendered >= FLOOR_RENDERED, summary
+    assert c.matched >= FLOOR_MATCHED, (summary, lost)
