@@ -30,39 +30,62 @@ Fdf = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 def bracketed(fdf: Fdf, a: np.ndarray, b: np.ndarray, neg_a: np.ndarray, atol) -> np.ndarray:
     """A root of each problem i in the bracket [a_i, b_i] (either order), where f(a_i) < 0
     is `neg_a[i]` and f(b_i) has the other sign. `atol` (scalar or per problem) is the
-    absolute accuracy wanted near x = 0; elsewhere the result is good to a few ulps."""
+    absolute accuracy wanted near x = 0; elsewhere the result is good to a few ulps.
+
+    Newton steps are taken from the end of the current bracket evaluated last, or from the
+    other end when that one overshoots (from the side where f curves away from the root
+    Newton never overshoots); bisection otherwise, and whenever four steps have not halved the
+    smaller |f| at the ends (so a flat stretch of f cannot make Newton crawl)."""
     a = np.asarray(a, dtype=np.float64).copy()
     b = np.asarray(b, dtype=np.float64).copy()
     n = len(a)
-    atol = np.broadcast_to(np.asarray(atol, dtype=np.float64), (n,))
-    x = 0.5 * (a + b)
-    step_old = np.abs(b - a)
-    out = x.copy()
-    rows = np.arange(n)
+    atol = np.broadcast_to(np.asarray(atol, dtype=np.float64), (n,)).copy()
     neg_a = np.asarray(neg_a, dtype=bool)
-    for _ in range(tol.ROOT_MAX_ITER):
+    rows = np.arange(n)
+    fa, dfa = fdf(rows, a)
+    fb, dfb = fdf(rows, b)
+    out = 0.5 * (a + b)
+    f_ref = np.minimum(np.abs(fa), np.abs(fb))
+    newest_b = np.abs(fb) < np.abs(fa)  # the end last evaluated: Newton from it first
+    tiny = 4 * np.finfo(np.float64).eps
+    for it in range(tol.ROOT_MAX_ITER):
+        if len(rows) == 0:
+            break
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        eps = tiny * np.maximum(np.abs(lo), np.abs(hi)) + atol
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            da, db = fa / dfa, fb / dfb
+        na, nb = a - da, b - db
+        ok_a = np.isfinite(na) & (na >= lo) & (na <= hi)
+        ok_b = np.isfinite(nb) & (nb >= lo) & (nb <= hi)
+        use_b = ok_b & (~ok_a | newest_b)
+        step = np.where(use_b, np.abs(db), np.abs(da))
+        # the first step bisects: an end may be a far-away bound, where Newton crawls
+        newton = (ok_a | ok_b) & (it > 0)
+        # every fourth step: bisect if |f| has not halved since the last check
+        if it % 4 == 3:
+            f_now = np.minimum(np.abs(fa), np.abs(fb))
+            newton &= ~(f_now > 0.5 * f_ref)
+            f_ref = f_now
+        x = np.where(newton, np.where(use_b, nb, na), 0.5 * (lo + hi))
+        done = (fa == 0) | (fb == 0) | (hi - lo <= eps) | (newton & (step <= eps))
+        out[rows[done]] = np.where(
+            fa[done] == 0, a[done], np.where(fb[done] == 0, b[done], x[done])
+        )
+        keep = ~done
+        rows, x, a, b, neg_a = rows[keep], x[keep], a[keep], b[keep], neg_a[keep]
+        newest_b = newest_b[keep]
+        fa, dfa, fb, dfb = fa[keep], dfa[keep], fb[keep], dfb[keep]
+        atol, f_ref = atol[keep], f_ref[keep]
         if len(rows) == 0:
             break
         f, df = fdf(rows, x)
         same = (f < 0) == neg_a
-        a = np.where(same, x, a)
-        b = np.where(same, b, x)
-        lo, hi = np.minimum(a, b), np.maximum(a, b)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            xn = x - f / df
-        # Newton only while it stays in the bracket and at least halves the step (else a
-        # flat stretch of f could make it crawl); bisection otherwise.
-        newton = np.isfinite(xn) & (xn > lo) & (xn < hi) & (np.abs(xn - x) < 0.5 * step_old)
-        xnew = np.where(newton, xn, 0.5 * (lo + hi))
-        step_old = np.abs(xnew - x)
-        eps = 4 * np.finfo(np.float64).eps * np.maximum(np.abs(lo), np.abs(hi)) + atol
-        done = (f == 0) | (hi - lo <= eps) | (step_old <= 0.25 * eps)
-        out[rows[done]] = np.where(f[done] == 0, x[done], xnew[done])
-        keep = ~done
-        rows, x, a, b = rows[keep], xnew[keep], a[keep], b[keep]
-        neg_a, atol, step_old = neg_a[keep], atol[keep], step_old[keep]
+        a, fa, dfa = np.where(same, x, a), np.where(same, f, fa), np.where(same, df, dfa)
+        b, fb, dfb = np.where(same, b, x), np.where(same, fb, f), np.where(same, dfb, df)
+        newest_b = ~same
     if len(rows):
-        out[rows] = x  # out of iterations: the bracket is still tiny relative to its start
+        out[rows] = 0.5 * (a + b)  # out of iterations: the bracket is tiny by now
     return out
 
 

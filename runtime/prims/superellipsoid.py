@@ -101,8 +101,10 @@ class SuperellipsoidPrim:
 
     def _slope(self, o: np.ndarray, d: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The sign-carrying slope of f along the ray (grad direction . d, positive scale):
-        enough to bisect for the minimum, whose location does not depend on the scale."""
-        return _dot(self.gradient(o + t[:, None] * d), d)
+        enough to bisect for the minimum, whose location does not depend on the scale.
+        A convex f has a finite gradient everywhere, and its plain form is cheaper."""
+        p = o + t[:, None] * d
+        return _dot(self.exact_gradient(p) if self.convex else self.gradient(p), d)
 
     # ------------------------------------------------------------------- protocol
     def crossings(self, o, d):
@@ -156,9 +158,16 @@ class SuperellipsoidPrim:
             oo, dd = o[ri], d[ri]
 
             def fdf(sel, x):
+                # Solve S^(1/q) - 1 = 0 (S = f + 1): the same surface and signs, but a
+                # norm-like function (degree-1 homogeneous), nearly linear along the ray,
+                # where f itself is flat and then a wall for small e, n; Newton then
+                # converges in a few steps.
                 p = oo[sel] + x[:, None] * dd[sel]
-                grad = self.exact_gradient(p)
-                return self.value(p), _dot(grad, dd[sel])
+                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                    big = self.value(p) + 1.0
+                    root = big ** (1.0 / self.q)
+                    slope = root / (self.q * big) * _dot(self.exact_gradient(p), dd[sel])
+                return root - 1.0, slope
 
             out[ri, ci] = roots.bracketed(
                 fdf, allp[ri, ci], allp[ri, ci + 1], neg[ri, ci], tol.ABS_FLOOR
