@@ -14,8 +14,9 @@ from scratch (tests/test_incremental.py checks it under random edits).
 from __future__ import annotations
 
 from lang import syntax
+from lang.chunks import Chunk, ChunkParser, assemble
 from lang.diagnostics import Diagnostic, DiagnosticSink
-from lang.parser import Chunk, ChunkParser, assemble, strip_comments
+from lang.parser import strip_comments
 
 
 def common_prefix(a: str, b: str) -> int:

@@ -376,7 +376,7 @@ def test_chunked_parse_equals_one_parse_on_the_stdlib_and_examples():
     import glob
 
     from lang.diagnostics import DiagnosticSink
-    from lang.parser import ChunkParser
+    from lang.chunks import ChunkParser
 
     files = sorted(glob.glob("stdlib/*.inc")) + sorted(glob.glob("examples/*.scene"))
     assert len(files) > 10

@@ -1,0 +1,657 @@
+"""The parser driven one top-level statement at a time: chunks, error recovery, assembly.
+
+A file is parsed as a run of *chunks*. A chunk ends before a line whose first token the LALR
+state would take as the start of a new top-level element (the parse table decides, not a
+guess from the text), and the next chunk is parsed from a fresh parser state. On text without
+errors this gives exactly the tree one parse of the whole file gives (tests/test_parser.py
+checks it on POV-Ray's own files); it lets the language server re-parse only the chunks an
+edit touched (lang/incremental.py), and it keeps a syntax error inside its chunk: a line that
+starts a new statement where the open construct cannot take it ends the chunk (the construct
+is closed quietly after the error is reported) instead of feeding a cascade of errors.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from lark import Token
+from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
+from lark.lexer import LexerState, LineCounter
+from lark.parsers.lalr_analysis import Shift
+from lark.parsers.lalr_parser_state import ParseConf, ParserState
+from lark.utils import TextSlice
+
+from lang import syntax
+from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
+from lang.parser import (
+    _BUILDER,
+    _RESERVED_TYPES,
+    MAX_SYNTAX_ERRORS,
+    BraceReport,
+    _block_head,
+    _describe_token,
+    _expected,
+    _get_parser,
+    _hint_for,
+    _line_col,
+    _tok_span,
+    scan_braces,
+)
+
+_NEW, _CONTINUES, _ERROR = "new", "continues", "error"
+
+# Codes of the syntax errors counted against MAX_SYNTAX_ERRORS.
+_COUNTED = frozenset({"E0001", "E0002", "E0004", "E0005", "E0101", "E0102", "E0106", "E0107"})
+
+
+@dataclass
+class Chunk:
+    """A run of top-level elements parsed from a fresh parser state."""
+
+    start: int  # offset of its first character in the comment-free text (a line start)
+    text: str  # its comment-free text, up to the line the next chunk starts on
+    line: int  # the line it starts on (its spans are absolute)
+    nodes: list
+    span: Span | None  # first token to last token; None when it holds no token
+    diags: list[Diagnostic]
+    strays: list[int]  # offsets (in `text`) of the unmatched `}` reported as E0101, in order
+    errors: int  # syntax errors found, shown or not
+    follow_end: int  # where the token that ended it ends (the text's length at the end of file)
+    last: Token | None = None  # its last token
+    # Error-free chunks of an earlier parse whose elements this one took over (inside a block
+    # or directive left open above them), in order: still reusable by the next parse.
+    pieces: list[Chunk] = dataclasses.field(default_factory=list)
+
+    @property
+    def end(self) -> int:
+        return self.start + len(self.text)
+
+    @property
+    def end_line(self) -> int:
+        return self.line + self.text.count("\n")
+
+    def move(self, chars: int, lines: int) -> None:
+        """Follow an edit above this chunk: offsets move by `chars`, spans by `lines`. A piece
+        moves its own nodes, wherever they ended up in this chunk's tree (or outside it: a
+        construct may drop an element, as `#switch` drops what comes before its first `#case`)."""
+        self.start += chars
+        self.follow_end += chars
+        t = self.last
+        if t is not None:
+            self.last = Token(
+                t.type,
+                t.value,
+                t.start_pos + chars,
+                t.line + lines,
+                t.column,
+                t.end_line + lines,
+                t.end_column,
+                t.end_pos + chars,
+            )
+        if lines:
+            self.line += lines
+            skip = {id(n) for piece in self.pieces for n in piece.nodes}
+            shift_lines(self.nodes, lines, skip)
+            if self.span is not None:
+                self.span = _moved(self.span, lines)
+            self.diags = [
+                Diagnostic(d.severity, d.code, d.message, _moved(d.span, lines), d.hint)
+                for d in self.diags
+            ]
+        for piece in self.pieces:
+            piece.move(chars, lines)
+
+    def flatten(self) -> list[Chunk]:
+        """This chunk and, recursively, the pieces it took over."""
+        out = [self]
+        for piece in self.pieces:
+            out.extend(piece.flatten())
+        return out
+
+
+def _span_mover():
+    """A fast `Span` with lines moved: the fields are set through their slot descriptors,
+    which skips the frozen dataclass's checked `__init__` (half the cost, and a large file
+    moves tens of thousands of spans after a line is inserted near its top)."""
+    new = object.__new__
+    f, ln, c, el, ec = (
+        getattr(Span, n).__set__ for n in ("file", "line", "col", "end_line", "end_col")
+    )
+
+    def moved(s: Span, lines: int) -> Span:
+        o = new(Span)
+        f(o, s.file)
+        ln(o, s.line + lines)
+        c(o, s.col)
+        el(o, s.end_line + lines)
+        ec(o, s.end_col)
+        return o
+
+    return moved
+
+
+_moved = _span_mover()
+
+_SKIP_FIELDS = {"str", "bool", "float", "int", "str | None", "list[str]", "list[str] | None"}
+
+
+def _make_shifter(cls: type) -> Callable:
+    """A function moving the spans of one node class and pushing its children (generated from
+    the dataclass fields: a generic getattr loop is three times slower)."""
+    if issubclass(cls, (list, tuple)):  # also an array initialiser (a list subclass)
+        return lambda v, lines, push, extend: extend(v)
+    if not (isinstance(cls, type) and issubclass(cls, syntax.Node)):
+        return lambda v, lines, push, extend: None
+    body = []
+    for fld in dataclasses.fields(cls):
+        kind, name = str(fld.type), fld.name
+        if kind in _SKIP_FIELDS:
+            continue
+        if "Span" in kind:
+            body.append(f"    s = v.{name}")
+            body.append(f"    if s is not None: v.{name} = moved(s, lines)")
+        elif kind == "list[Node]":
+            body.append(f"    extend(v.{name})")
+        else:
+            body.append(f"    x = v.{name}")
+            body.append("    if x is not None: push(x)")
+    code = "def shift(v, lines, push, extend):\n" + ("\n".join(body) or "    pass") + "\n"
+    scope: dict = {"moved": _moved}
+    exec(code, scope)  # noqa: S102 - generated from dataclass fields, no outside input
+    return scope["shift"]
+
+
+_SHIFTERS: dict[type, Callable] = {}
+
+
+def shift_lines(items: list, lines: int, skip: set[int] | None = None) -> None:
+    """Move every span in a list of syntax nodes (in place) by `lines` lines, except under
+    the nodes whose id is in `skip`."""
+    stack: list = list(items)
+    pop, push, extend = stack.pop, stack.append, stack.extend
+    shifters = _SHIFTERS
+    while stack:
+        v = pop()
+        if skip and id(v) in skip:
+            continue
+        f = shifters.get(type(v))
+        if f is None:
+            f = shifters[type(v)] = _make_shifter(type(v))
+        f(v, lines, push, extend)
+
+
+@dataclass
+class _Table:
+    """The LALR table, read once: enough to ask what a token would do without feeding it."""
+
+    conf: ParseConf
+    states: dict
+    start_state: int
+    top: frozenset[tuple[int, ...]]  # state stacks between two top-level elements
+    starters: frozenset[str]  # terminals that can begin a top-level element
+
+
+_table: _Table | None = None
+
+
+def _get_table() -> _Table:
+    global _table
+    if _table is None:
+        conf = _get_parser().parse_interactive("").parser_state.parse_conf
+        s0 = conf.start_state
+        star = conf.states[s0]["__start_star_0"][1]  # `start: element*`, one element read
+        starters = frozenset(t for t in conf.states[s0] if t.isupper() and t != "$END")
+        _table = _Table(conf, conf.states, s0, frozenset({(s0,), (s0, star)}), starters)
+    return _table
+
+
+def _verdict(table: _Table, stack: list[int], ttype: str) -> str:
+    """What a token of type `ttype` would do in this state: start a new top-level element,
+    continue the construct in progress, or be an error. Simulates the reductions on a copy of
+    the state stack; nothing is built."""
+    states = table.states
+    action = states[stack[-1]].get(ttype)
+    if action is None:
+        return _ERROR
+    if action[0] is not Shift:
+        stack = stack[:]
+        while action[0] is not Shift:
+            rule = action[1]
+            size = len(rule.expansion)
+            if size:
+                del stack[-size:]
+            stack.append(states[stack[-1]][rule.origin.name][1])
+            action = states[stack[-1]].get(ttype)
+            if action is None:
+                return _ERROR
+    return _NEW if tuple(stack) in table.top else _CONTINUES
+
+
+class _ChunkErrors:
+    """Error reporting and recovery inside one chunk (the former `on_error` of one parse)."""
+
+    def __init__(self, clean: str, file: str, start: int) -> None:
+        self.clean = clean
+        self.file = file
+        self.start = start
+        self.sink = DiagnosticSink()
+        self.reported = 0
+        self.last_error_end = -1
+        self.strays: list[int] = []
+        self._braces: BraceReport | None = None
+
+    @property
+    def braces(self) -> BraceReport:
+        """Braces from the chunk's start on: a `}` unmatched here has no `{` before it in this
+        chunk (matching looks backwards only, so the text after the chunk changes nothing)."""
+        if self._braces is None:
+            self._braces = scan_braces(self.clean[self.start :])
+        return self._braces
+
+    def span_at(self, pos: int, length: int = 1) -> Span:
+        line, col = _line_col(self.clean, pos)
+        return Span(self.file, line, col, line, col + length)
+
+    def quiet_since_last(self, pos: int) -> bool:
+        """True when only whitespace separates this error from the previous one (a cascade)."""
+        return self.last_error_end >= 0 and not self.clean[self.last_error_end : pos].strip()
+
+    def report(self, code: str, message: str, span: Span, hint: str | None) -> bool:
+        self.reported += 1
+        if self.reported <= MAX_SYNTAX_ERRORS:
+            self.sink.error(code, message, span, hint)
+            return True
+        return False
+
+    def bad_character(self, pos: int) -> None:
+        ch = self.clean[pos]
+        if not self.quiet_since_last(pos):
+            if ch == '"':
+                self.report(
+                    "E0004",
+                    "unterminated string",
+                    self.span_at(pos),
+                    'a string ends with `"` on the same line',
+                )
+            else:
+                self.report(
+                    "E0005",
+                    f"unexpected character `{ch}`",
+                    self.span_at(pos),
+                    "this character has no meaning here",
+                )
+        self.last_error_end = pos + 1
+
+    def unexpected(self, tok: Token, expected: set[str], state: ParserState | None) -> None:
+        """An unexpected token: report it (unless it belongs to the last error's cascade) and
+        drop it, except a reserved word where a name belongs, which is read as the name."""
+        pos = tok.start_pos
+        if state is not None and "IDENT" in expected and tok.type in _RESERVED_TYPES:
+            self.report(
+                "E0102",
+                f"`{tok}` is a reserved word and cannot be used as a name",
+                _tok_span(self.file, tok),
+                "choose another name; POV-Ray's convention is a capital first letter",
+            )
+            try:
+                state.feed_token(Token.new_borrow_pos("IDENT", str(tok), tok))
+            except UnexpectedToken:
+                pass
+            return
+        rel = pos - self.start
+        stray = tok.type == "RBRACE" and rel in self.braces.unmatched_close
+        # Every stray `}` is its own mistake; other errors right after one are its cascade.
+        if stray or not self.quiet_since_last(pos):
+            if stray:
+                shown = self.report(
+                    "E0101",
+                    "unexpected `}`: no block is open here",
+                    self.span_at(pos),
+                    _stray_hint(self.clean, self.start, self.braces.unmatched_close[rel]),
+                )
+                if shown:
+                    self.strays.append(rel)
+            else:
+                words = _expected(expected)
+                self.report(
+                    "E0002",
+                    f"unexpected {_describe_token(tok)}" + (f"; {words}" if words else ""),
+                    _tok_span(self.file, tok),
+                    _hint_for(tok, expected),
+                )
+        self.last_error_end = tok.end_pos if tok.end_pos is not None else pos + len(tok)
+
+    def close(self, table: _Table, state: ParserState, end: Token, report: bool):
+        """Feed the end of input, first closing whatever is still open (`}`, `#end`, `)` …, or
+        a `0` where an operand is missing) so the tree is usable. Says what was left open when
+        `report` (the end of the file, not a chunk closed after an error)."""
+        eof = len(self.clean)
+        report = report and not self.quiet_since_last(eof)
+        for attempt in range(64):
+            try:
+                return state.feed_token(end, True)
+            except UnexpectedToken as e:
+                expected = e.expected
+            filler = None
+            for kind, text in _FILLERS:
+                if kind in expected and _verdict(table, state.state_stack, kind) != _ERROR:
+                    filler = kind, text
+                    break
+            if attempt == 0 and report:
+                self._report_open(filler[0] if filler else None, expected)
+            if filler is None:
+                return None
+            state.feed_token(Token.new_borrow_pos(filler[0], filler[1], end))
+        return None
+
+    def _report_open(self, closer: str | None, expected: set[str]) -> None:
+        end = self.span_at(max(len(self.clean) - 1, 0))
+        if closer == "RBRACE" and self.braces.unclosed_open:
+            pos = self.start + self.braces.unclosed_open[-1]
+            self.report(
+                "E0106",
+                "this block is never closed",
+                self.span_at(pos),
+                "add the missing `}` at the end of the block",
+            )
+        elif closer == "END":
+            self.report(
+                "E0107",
+                "a directive is never closed",
+                end,
+                "every #if/#while/#for/#macro/#switch needs its `#end`",
+            )
+        elif closer in _CLOSER_TEXT:
+            self.report(
+                "E0001", "unexpected end of file", end, f"`{_CLOSER_TEXT[closer]}` is missing"
+            )
+        else:
+            self.report("E0001", "unexpected end of file", end, _expected(expected))
+
+
+_CLOSER_TEXT = {"RPAR": ")", "RSQB": "]", "MORETHAN": ">"}
+# What `close` may add at the end, in order: closers first, then an operand.
+_FILLERS = (
+    ("RBRACE", "}"),
+    ("END", "#end"),
+    ("RPAR", ")"),
+    ("RSQB", "]"),
+    ("MORETHAN", ">"),
+    ("NUMBER", "0"),
+)
+
+
+def _stray_hint(clean: str, base: int, last: tuple[int, int] | None) -> str:
+    """The hint for an unmatched `}`: which block was closed last before it."""
+    if last is None:
+        return "unmatched `}`: no block is open here; delete this brace"
+    head, head_pos = _block_head(clean, base + last[0])
+    o_line, o_col = _line_col(clean, head_pos)
+    c_line, c_col = _line_col(clean, base + last[1])
+    return (
+        f"unmatched `}}`: the {head}block opened at {o_line}:{o_col} was "
+        f"already closed at {c_line}:{c_col}; delete this brace"
+    )
+
+
+class ChunkParser:
+    """Parses a comment-free text chunk by chunk, from a given line start on.
+
+    `reusable` maps offsets in this text to error-free chunks of an earlier parse of the same
+    text there (lang/incremental.py): where one begins a new top-level statement it is taken
+    as it is, and where it begins an element inside a construct left open above it (a block
+    whose `}` is not typed yet), its elements are fed to the parser as they are: elements
+    parse the same in every element list, and only error-free chunks are taken."""
+
+    def __init__(
+        self, clean: str, file: str, *, split: bool = True, reusable: dict[int, Chunk] | None = None
+    ) -> None:
+        self.clean = clean
+        self.file = file
+        self.split = split
+        self.reusable = reusable or {}
+        self.table = _get_table()
+        self.thread = _get_parser().parse_interactive(clean).lexer_thread
+        self.thread.state = LexerState(TextSlice(clean, 0, len(clean)), LineCounter("\n"))
+        self._pieces: list[Chunk] = []
+        self._last: Token | None = None
+
+    def _seek(self, pos: int, line: int) -> None:
+        counter = self.thread.state.line_ctr
+        counter.char_pos = counter.line_start_pos = pos
+        counter.line, counter.column = line, 1
+
+    def _take(self, piece: Chunk, pos: int, line: int) -> Chunk:
+        """An earlier chunk now at `pos`, `line`: moved there, and the lexer moved past it."""
+        piece.move(pos - piece.start, line - piece.line)
+        self._seek(piece.end, piece.end_line)
+        return piece
+
+    def run(
+        self, pos: int = 0, line: int = 1, stop_at: frozenset[int] | set[int] = frozenset()
+    ) -> tuple[list[Chunk], int | None, int]:
+        """Chunks from `pos` (a line start, on line `line`) to the end of the text, or up to
+        the first chunk boundary in `stop_at`; returns them, and the offset and line where it
+        stopped (None at the end of the text)."""
+        self._seek(pos, line)
+        chunks: list[Chunk] = []
+        first: Token | None = None
+        while True:
+            chunk, first = self._chunk(pos, line, first)
+            chunks.append(chunk)
+            if first is None:
+                return chunks, None, line
+            pos, line = chunk.end, first.line
+            while pos not in stop_at and pos in self.reusable:
+                piece = self._take(self.reusable[pos], pos, line)
+                chunks.append(piece)
+                pos, line, first = piece.end, piece.end_line, None
+                if pos >= len(self.clean):
+                    return chunks, None, line
+            if pos in stop_at:
+                return chunks, pos, line
+
+    def _chunk(self, start: int, line: int, first: Token | None) -> tuple[Chunk, Token | None]:
+        errors = _ChunkErrors(self.clean, self.file, start)
+        _BUILDER.reset(self.file, errors.sink)
+        self._pieces = []
+        self._last = None
+        nodes: list = []
+        span: Span | None = None
+        follow: Token | None = None  # the token that starts the next chunk
+        try:
+            result, follow = self._read(errors, start, line, first)
+            if result is not None:
+                nodes = result.body
+                span = None if _BUILDER.empty else result.span
+        except SceneError as e:
+            errors.sink.items.append(e.diagnostic)
+        except Exception as e:  # a builder failure is a bug, but the user gets a diagnostic
+            errors.sink.error(
+                "E0000", f"internal parser error: {e}", Span(self.file, line, 1, line, 1)
+            )
+        if follow is not None:
+            end = follow.start_pos - (follow.column - 1)  # the start of the follower's line
+            follow_end = follow.end_pos
+        else:
+            end = follow_end = len(self.clean)
+        chunk = Chunk(
+            start,
+            self.clean[start:end],
+            line,
+            nodes,
+            span,
+            errors.sink.items,
+            errors.strays,
+            errors.reported,
+            follow_end,
+            self._last,
+            self._pieces,
+        )
+        return chunk, follow
+
+    def _absorb(self, state: ParserState, ttype: str, piece: Chunk) -> bool:
+        """Feed an earlier chunk's elements into the open construct, if the parser stands
+        between two elements of a list there (the piece's first token, of type `ttype`, would
+        start a new element)."""
+        table = self.table
+        states = table.states
+        stack = state.state_stack[:]
+        action = states[stack[-1]].get(ttype)
+        while action is not None and action[0] is not Shift:
+            rule = action[1]
+            if rule.expansion:
+                del stack[-len(rule.expansion) :]
+            stack.append(states[stack[-1]][rule.origin.name][1])
+            action = states[stack[-1]].get(ttype)
+        if action is None or "element" not in states[stack[-1]]:
+            return False
+        _reduce(state, ttype)
+        for node in piece.nodes:
+            state.state_stack.append(states[state.state_stack[-1]]["element"][1])
+            state.value_stack.append(node)
+            _reduce(state, ttype)  # fold it into the list, as the next element's start would
+        return True
+
+    def _read(
+        self, errors: _ChunkErrors, start: int, line: int, first: Token | None
+    ) -> tuple[syntax.SourceFile | None, Token | None]:
+        """Feed tokens until the end of the text or a line that starts a new chunk; returns
+        the chunk's tree (None if it could not be completed) and that line's first token."""
+        table = self.table
+        state = ParserState(table.conf, self.thread)
+        counter = self.thread.state.line_ctr
+        last = first  # the last token read in this chunk
+        cur_line = first.line if first is not None else -1
+        follow: Token | None = None
+        pending = [first] if first is not None else []
+        while True:
+            jumped = False
+            try:
+                for tok in itertools.chain(pending, self.thread.lex(state)):
+                    if tok.line != cur_line:
+                        cur_line = tok.line
+                        # Only a token first on its line (a skipped bad character before it
+                        # belongs to this chunk's text and errors) can start a chunk.
+                        line_start = tok.start_pos - tok.column + 1
+                        if (
+                            self.split
+                            and last is not None
+                            and (
+                                tok.column == 1
+                                or not self.clean[line_start : tok.start_pos].strip()
+                            )
+                        ):
+                            verdict = _verdict(table, state.state_stack, tok.type)
+                            if verdict is _NEW:
+                                follow = tok
+                                break
+                            if verdict is _ERROR and tok.type in table.starters:
+                                # A new statement the open construct cannot take: report it,
+                                # close the construct, and start afresh from this line.
+                                stack = state.state_stack
+                                expected = {t for t in table.states[stack[-1]] if t.isupper()}
+                                errors.unexpected(tok, expected, None)
+                                follow = tok
+                                break
+                            piece = self.reusable.get(line_start)
+                            if piece is not None and self._absorb(state, tok.type, piece):
+                                self._take(piece, line_start, tok.line)
+                                self._pieces.append(piece)
+                                last = piece.last
+                                cur_line = -1
+                                jumped = True
+                                break
+                    last = tok
+                    try:
+                        state.feed_token(tok)
+                    except UnexpectedToken as e:
+                        errors.unexpected(tok, e.expected, state)
+                pending = []
+                if not jumped:
+                    break
+            except UnexpectedCharacters as e:
+                pending = []
+                pos = e.pos_in_stream
+                errors.bad_character(pos)
+                if counter.char_pos == pos:
+                    counter.feed(self.clean[pos : pos + 1])
+        self._last = last
+        end_tok = (
+            Token.new_borrow_pos("$END", "", last)
+            if last is not None
+            else Token("$END", "", start, line, 1, line, 1, start)
+        )
+        try:
+            result = errors.close(table, state, end_tok, report=follow is None)
+        except UnexpectedInput:
+            result = None
+        if result is None and not errors.sink.has_errors:
+            errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
+        return result, follow
+
+
+def _reduce(state: ParserState, ttype: str) -> None:
+    """Make the reductions a token of type `ttype` would cause, without shifting it (the
+    reduce half of lark's `ParserState.feed_token`)."""
+    states = state.parse_conf.states
+    callbacks = state.parse_conf.callbacks
+    stack, values = state.state_stack, state.value_stack
+    while True:
+        action, rule = states[stack[-1]][ttype]
+        if action is Shift:
+            return
+        size = len(rule.expansion)
+        if size:
+            args = values[-size:]
+            del stack[-size:]
+            del values[-size:]
+        else:
+            args = []
+        value = callbacks[rule](args)
+        stack.append(states[stack[-1]][rule.origin.name][1])
+        values.append(value)
+
+
+def assemble(
+    clean: str, file: str, chunks: list[Chunk], leading: list[Diagnostic]
+) -> tuple[syntax.SourceFile, list[Diagnostic]]:
+    """One tree and one sorted diagnostic list from a file's chunks (`leading`: diagnostics
+    found before parsing, such as an unterminated comment)."""
+    body = [n for c in chunks for n in c.nodes]
+    spans = [c.span for c in chunks if c.span is not None]
+    if spans:
+        a, b = spans[0], spans[-1]
+        span = Span(file, a.line, a.col, b.end_line, b.end_col)
+    else:
+        span = Span(file, 1, 1, 1, 1)
+    braces = scan_braces(clean) if any(c.strays for c in chunks) else None
+    items = list(leading)
+    shown = total = 0
+    for c in chunks:
+        total += c.errors
+        strays = iter(c.strays)
+        for d in c.diags:
+            if d.code in _COUNTED:
+                if shown >= MAX_SYNTAX_ERRORS:
+                    continue
+                shown += 1
+                if d.code == "E0101" and braces is not None:
+                    # The block closed last before a stray `}` may lie in an earlier chunk.
+                    last = braces.unmatched_close.get(c.start + next(strays), None)
+                    d = replace(d, hint=_stray_hint(clean, 0, last))
+            items.append(d)
+    if total > shown:
+        items.append(
+            Diagnostic(
+                Severity.NOTE,
+                "N0001",
+                f"{total - shown} more syntax errors not shown",
+                Span(file, 1, 1, 1, 1),
+            )
+        )
+    diags = sorted(items, key=lambda d: (d.severity is not Severity.ERROR, d.span.line, d.span.col))
+    return syntax.SourceFile(span, body), diags
