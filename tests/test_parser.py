@@ -375,8 +375,8 @@ def test_line_breaks_anywhere_in_valid_text_give_the_tree_of_one_parse(statement
 def test_chunked_parse_equals_one_parse_on_the_stdlib_and_examples():
     import glob
 
-    from lang.diagnostics import DiagnosticSink
     from lang.chunks import ChunkParser
+    from lang.diagnostics import DiagnosticSink
 
     files = sorted(glob.glob("stdlib/*.inc")) + sorted(glob.glob("examples/*.scene"))
     assert len(files) > 10
