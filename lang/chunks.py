@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -397,6 +398,9 @@ def _stray_hint(clean: str, base: int, last: tuple[int, int] | None) -> str:
     )
 
 
+_PARSING = threading.Lock()
+
+
 class ChunkParser:
     """Parses a comment-free text chunk by chunk, from a given line start on.
 
@@ -436,6 +440,12 @@ class ChunkParser:
         """Chunks from `pos` (a line start, on line `line`) to the end of the text, or up to
         the first chunk boundary in `stop_at`; returns them, and the offset and line where it
         stopped (None at the end of the text)."""
+        with _PARSING:  # the node builder is one object, shared by every parse
+            return self._run(pos, line, stop_at)
+
+    def _run(
+        self, pos: int, line: int, stop_at: frozenset[int] | set[int]
+    ) -> tuple[list[Chunk], int | None, int]:
         self._seek(pos, line)
         chunks: list[Chunk] = []
         first: Token | None = None
