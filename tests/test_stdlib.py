@@ -112,6 +112,8 @@ def test_stdlib_has_the_promised_files():
         "shapes.inc",
         "shapes_old.inc",
         "shapes2.inc",
+        "skies.inc",
+        "functions.inc",
     ):
         assert (STDLIB / name).is_file(), name
     assert (STDLIB / "README.md").is_file()
@@ -850,3 +852,80 @@ def test_strala_evaluates_every_sky(tmp_path, body):
     result = compile_text(tmp_path, _sky_scene(body))
     assert errors(result) == []
     assert result.scene is not None
+
+
+# --------------------------------------------- oracle 5: POV-Ray evaluates functions.inc
+_POINTS = [
+    "0.3, -0.7, 1.1",
+    "-1.2, 0.4, 0.25",
+    "0.05, 2.0, -0.6",
+    "1.5, 1.5, 1.5",
+    "0.2, 0.1, 0.05",
+]
+_FORMULAS = [
+    *(f"{f}({p})" for f in ("f_r", "f_th", "f_ph") for p in _POINTS),
+    *(f"f_sphere({p}, 0.7)" for p in _POINTS),
+    *(f"f_torus({p}, 1, 0.3)" for p in _POINTS),
+    *(f"f_rounded_box({p}, 0.3, 1, 0.5, 0.8)" for p in _POINTS),
+    *(f"f_rounded_box({p}, 0, 0.2, 2, 0.1)" for p in _POINTS),
+    "f_sine_wave(0.3, 2, 1.5)",
+    "f_scallop_wave(-0.7, 1.5, 2)",
+]
+_PATTERN_FUNCTIONS = (
+    "f_noise3d f_snoise3d f_agate f_boxed f_bozo f_brick f_bumps f_checker f_crackle "
+    "f_cylindrical f_dents f_gradientX f_gradientY f_gradientZ f_granite f_leopard f_mandel "
+    "f_marble f_onion f_planar f_radial f_ripples f_spherical f_spiral1 f_spiral2 f_spotted "
+    "f_waves f_wood f_wrinkles"
+).split()
+_FUNCTION_PROBES = [
+    *_FORMULAS,
+    *(f"{f}({p})" for f in _PATTERN_FUNCTIONS for p in _POINTS),
+    "eval_pigment(pigment { checker rgb 1, rgb <0.2, 0.4, 0.6> }, <0.5, 0.5, 0.5>).green",
+]
+
+
+def _function_probe_scene() -> str:
+    lines = ["#version 3.7;", "global_settings { assumed_gamma 1 }", '#include "functions.inc"']
+    lines.append('#fopen Probe_Out "probes.txt" write')
+    for i, call in enumerate(_FUNCTION_PROBES):
+        lines.append(f'#write (Probe_Out, "@@{i}=", str({call}, 0, 17), "\\n")')
+    lines.append("#fclose Probe_Out")
+    return "\n".join(lines) + "\n"
+
+
+def _read_function_probes(folder: Path) -> list[float]:
+    found = dict(re.findall(r"@@(\d+)=([^\n]*)", (folder / "probes.txt").read_text()))
+    assert len(found) == len(_FUNCTION_PROBES)
+    return [float(found[str(i)]) for i in range(len(_FUNCTION_PROBES))]
+
+
+@pytest.fixture(scope="module")
+def povray_functions(tmp_path_factory) -> list[float]:
+    """The probes as POV-Ray computes them with its own functions.inc (built-ins)."""
+    if not shutil.which("povray") or not POV_INCLUDE.exists():
+        pytest.skip("POV-Ray is not installed")
+    folder = tmp_path_factory.mktemp("pov_functions")
+    run_povray(folder, _function_probe_scene(), with_stdlib=False, size=(1, 1))
+    return _read_function_probes(folder)
+
+
+@pytest.mark.povray
+@needs_pov_includes
+def test_povray_running_the_stdlib_functions_agrees_with_its_own(tmp_path, povray_functions):
+    run_povray(tmp_path, _function_probe_scene(), with_stdlib=True, size=(1, 1))
+    ours = _read_function_probes(tmp_path)
+    assert len(set(povray_functions)) > len(_FUNCTION_PROBES) // 2  # the probes vary
+    for call, got, want in zip(_FUNCTION_PROBES, ours, povray_functions, strict=True):
+        assert got == pytest.approx(want, rel=1e-9, abs=1e-9), call
+
+
+@needs_evaluator
+@pytest.mark.povray
+@needs_pov_includes
+def test_strala_evaluates_the_formulas_like_povray(tmp_path, povray_functions):
+    decls = "".join(f"#declare Probe_{i} = {c};\n" for i, c in enumerate(_FORMULAS))
+    result = compile_text(tmp_path, '#include "functions.inc"\n' + decls)
+    assert errors(result) == []
+    for i, call in enumerate(_FORMULAS):
+        got = float(result.symbols[f"Probe_{i}"])
+        assert got == pytest.approx(povray_functions[i], rel=1e-9, abs=1e-9), call
