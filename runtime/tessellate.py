@@ -130,6 +130,10 @@ class Axis:
             if e.max() <= tol:
                 continue
             hs = h[sel]
+            if not (hs > 0).all():
+                # Knots an ulp apart: a span too narrow to split in floats (the surface
+                # jumps there, as at a repeated knot); refining it would divide by zero.
+                continue
             g = e / hs**2
             # A cell measured exact (a straight stretch) still gets a little density, so no
             # new cell grows more than ~1000x at once on an error model made for small cells.
