@@ -326,9 +326,9 @@ class _ChunkErrors:
         self.last_error_end = tok.end_pos if tok.end_pos is not None else pos + len(tok)
 
     def close(self, table: _Table, state: ParserState, end: Token, report: bool):
-        """Feed the end of input, first closing whatever is still open (`}`, `#end`, `)` …, or
-        a `0` where an operand is missing) so the tree is usable. Says what was left open when
-        `report` (the end of the file, not a chunk closed after an error)."""
+        """Feed the end of input, first closing whatever is still open (`}`, `#end`, `)` …)
+        so the tree is usable. Says what was left open when `report` (the end of the file,
+        not a chunk closed after an error)."""
         eof = len(self.clean)
         report = report and not self.quiet_since_last(eof)
         for attempt in range(64):
@@ -374,14 +374,15 @@ class _ChunkErrors:
 
 
 _CLOSER_TEXT = {"RPAR": ")", "RSQB": "]", "MORETHAN": ">"}
-# What `close` may add at the end, in order: closers first, then an operand.
+# What `close` may add at the end, in order. No operand is made up for an unfinished
+# expression: the statement is dropped instead (a made-up `0` would be evaluated, and could
+# give a second, misleading error).
 _FILLERS = (
     ("RBRACE", "}"),
     ("END", "#end"),
     ("RPAR", ")"),
     ("RSQB", "]"),
     ("MORETHAN", ">"),
-    ("NUMBER", "0"),
 )
 
 

@@ -401,10 +401,10 @@ def test_a_new_statement_ends_an_unfinished_one():
     assert len(parse(text, "t.pov", split=False)[1]) > 1
 
 
-def test_an_operand_missing_at_the_end_keeps_the_tree():
+def test_an_operand_missing_at_the_end_loses_only_its_own_statement():
     tree, diags = parse("#declare A = 1;\n#declare B = 1 +", "t.pov")
     assert [d.code for d in diags] == ["E0001"]
-    assert [n.name for n in tree.body] == ["A", "B"]
+    assert [n.name for n in tree.body] == ["A"]
 
 
 def test_a_block_closed_at_the_end_of_file_ends_at_its_last_token():
