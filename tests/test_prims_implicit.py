@@ -411,3 +411,27 @@ def test_shapes_trace_and_work_in_csg(src, x):
         assert np.all(hits.obj >= 0)
         z = o[:, 2] + hits.t * d[:, 2]
         assert np.allclose(z, 0.0) if cut_away else np.all(z < 0)
+
+
+@pytest.mark.parametrize("which, x", [(0, 1.0), (1, 0.05), (2, 0.05)])
+def test_far_and_large_objects_keep_their_hits(which, x):
+    """The same shape scaled by 1000 and moved a million units away: the hit scales with
+    it to float64 precision (the primitives recentre each ray near the object)."""
+    src = [
+        "quartic { <" + ", ".join(map(str, TORUS)) + "> }",
+        "superellipsoid { <0.3, 0.6> }",
+        "blob { threshold 0.5 sphere { 0, 1.2, 1 } cylinder { -x, x, 0.6, 1 } }",
+    ][which]
+    near = compile_source(src).scene.objects[0]
+    far = compile_source(
+        "#declare S = " + src + "\nobject { S scale 1000 translate <1e6, -2e6, 3e6> }"
+    ).scene.objects[0]
+    o = np.array([[x, 0.02, -5.0]])
+    d = np.array([[0.0, 0.01, 1.0]])
+    t_near = prepare(ir.Scene(camera=ir.Camera(), objects=(near,)), 8, 8).tracer.closest(o, d).t
+    shift = np.array([1e6, -2e6, 3e6])
+    hits = prepare(ir.Scene(camera=ir.Camera(), objects=(far,)), 8, 8).tracer.closest(
+        o * 1000 + shift, d
+    )
+    assert np.isfinite(t_near).all()
+    assert np.allclose(hits.t, t_near * 1000, rtol=1e-9)

@@ -56,7 +56,10 @@ class BlobPrim:
             r = abs(float(comp.radius))
             if r == 0 or comp.strength == 0:
                 continue
-            to_comp = tf.inverse(tf.as_matrix(comp.transform))
+            m = tf.as_matrix(comp.transform)
+            if not abs(np.linalg.det(m[:3, :3])) > 0:
+                continue  # scaled flat: a field of zero volume adds nothing
+            to_comp = tf.inverse(m)
             a = np.asarray(comp.a, dtype=np.float64)
             b = np.asarray(comp.b, dtype=np.float64)
             axis = b - a
