@@ -92,14 +92,24 @@ class PolyPrim:
             for _ in range(self.degree):
                 powers.append(_mul(powers[-1], lin))
             pw.append(powers)
+        # Nested like Horner's rule: for each x power i, the sum over j of y^j times the sum
+        # over k of c z^k; one product per distinct (i, j) and per i instead of per term.
         out = np.zeros((n, self.degree + 1))
-        xy: dict[tuple[int, int], np.ndarray] = {}
-        for i, j, k, c in zip(self.i, self.j, self.k, self.c, strict=True):
-            key = (int(i), int(j))
-            if key not in xy:
-                xy[key] = _mul(pw[0][i], pw[1][j])
-            prod = _mul(xy[key], pw[2][k])
-            out[:, : prod.shape[1]] += c * prod
+        for i in np.unique(self.i):
+            in_i = self.i == i
+            ysum = np.zeros((n, 1))
+            for j in np.unique(self.j[in_i]):
+                sel = in_i & (self.j == j)
+                kmax = int(self.k[sel].max())
+                zsum = np.zeros((n, kmax + 1))
+                for k, c in zip(self.k[sel], self.c[sel], strict=True):
+                    zsum[:, : k + 1] += c * pw[2][k]
+                term = _mul(pw[1][j], zsum)
+                if term.shape[1] > ysum.shape[1]:
+                    ysum = np.pad(ysum, ((0, 0), (0, term.shape[1] - ysum.shape[1])))
+                ysum[:, : term.shape[1]] += term
+            prod = _mul(pw[0][i], ysum)
+            out[:, : prod.shape[1]] += prod
         return out
 
     # ------------------------------------------------------------------- protocol
