@@ -20,10 +20,17 @@ OBJECT_REL: float = 1e-7
 # strala can represent meaningfully, above float64 noise at unit scale.
 ABS_FLOOR: float = 1e-12
 
-# Embree intersects in float32 (~6e-8 relative): its hit distance can be off by a few ulps of
-# the coordinates involved, so triangle rays start 1e-5 of (|origin| + mesh size) further out
-# (the reported t is refined in float64 afterwards).
+# Embree intersects in float32 (~6e-8 relative): a ray leaving a mesh at a grazing angle can
+# meet its own triangle again anywhere within ~1e-6 of (|origin| + mesh size). Such a hit
+# (refined in float64, it falls at the ray's start) is cast again from past it, by a step
+# growing tenfold per round up to this fraction of (|hit distance| + mesh size).
 EMBREE_REL: float = 1e-5
+
+# The first cast of a triangle ray starts only this fraction of (|origin| + mesh size) out:
+# float32 rounding of the origin (~6e-8), no more, so an object resting closer than
+# EMBREE_REL of the scene's mesh size above a mesh still shadows it. Self-hits that get
+# through are refined, rejected and cast again (EMBREE_ROUNDS).
+EMBREE_START_REL: float = 1e-7
 
 # Newton refinement steps for a float32 (Embree) or eigenvalue (torus) root: each step
 # doubles the correct digits, two take a 1e-7 guess to float64 precision.
@@ -54,8 +61,8 @@ TESSELLATION_REL: float = 1e-6
 NEWTON_MAX_STEP_REL: float = 0.1
 
 # Casts per ray when a float64-refined Embree hit falls at or before the ray start (a
-# self-hit at a grazing angle): one retry from just past it is enough in practice, a third
-# round is a margin.
+# self-hit at a grazing angle): the retries step 1e-6 and then 1e-5 of the reach past it;
+# rays leaving a mesh 1e-2 radians above it need both (one cast only: 1 in 5 is lost).
 EMBREE_ROUNDS: int = 3
 
 # Automatic chord-error bound for NURBS / subdivision tessellation: this many pixels at the

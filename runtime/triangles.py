@@ -2,8 +2,9 @@
 traced by Embree (embreex), with every hit refined in float64.
 
 Embree works in float32, so the triangles are stored relative to the centre of their
-bounding box (far-away meshes keep their precision), rays start a float32-aware distance
-further out (tolerances.EMBREE_REL), and the reported distance is recomputed in float64
+bounding box (far-away meshes keep their precision), rays start just past the float32
+noise of their origin (tolerances.EMBREE_START_REL) and a self-hit is cast again from
+further out (EMBREE_REL, EMBREE_ROUNDS), and the reported distance is recomputed in float64
 against the hit triangle's plane, with the normal (geometric, or interpolated for smooth
 triangles) computed in float64 from the refined point.
 """
@@ -132,10 +133,14 @@ class TriangleSet:
                 self._scenes[left_out] = (scene, ids)
             return self._scenes[left_out]
 
+    def _reach(self, o: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(o - self.offset, axis=1) + self.extent
+
     def _start(self, o: np.ndarray, tmin: np.ndarray) -> np.ndarray:
-        """Float32-safe start distance for rays from o (see tolerances.EMBREE_REL)."""
-        reach = np.linalg.norm(o - self.offset, axis=1) + self.extent
-        return np.maximum(tmin, tol.EMBREE_REL * reach)
+        """First start distance for rays from o: float32 noise of the origin only
+        (tolerances.EMBREE_START_REL); a self-hit it lets through is refined, rejected and
+        cast again from further out (`_first_hits`), so a close occluder is not skipped."""
+        return np.maximum(tmin, tol.EMBREE_START_REL * self._reach(o))
 
     def _cast(self, scene, o, d, start, far, query):
         eo = np.ascontiguousarray(((o - self.offset) + start[:, None] * d).astype(np.float32))
@@ -169,7 +174,7 @@ class TriangleSet:
         rows = np.nonzero(limit > tmin)[0]
         start = self._start(o[rows], tmin[rows])
         out_rows, out_tri, out_t = [], [], []
-        for _ in range(tol.EMBREE_ROUNDS):
+        for round_ in range(tol.EMBREE_ROUNDS):
             if len(rows) == 0:
                 break
             orow, drow = o[rows], d[rows]
@@ -188,7 +193,10 @@ class TriangleSet:
             retry = ~ok & ~(t >= limit[rows])
             t_e = start + res["tfar"][got].astype(np.float64)
             rows = rows[retry]
-            start = t_e[retry] + tol.EMBREE_REL * (np.abs(t_e[retry]) + self.extent)
+            # Past the rejected hit by a step that grows tenfold per round up to EMBREE_REL
+            # (a grazing self-hit can repeat for ~1e-6 of the reach in float32).
+            step = tol.EMBREE_REL * 10.0 ** (round_ + 2 - tol.EMBREE_ROUNDS)
+            start = t_e[retry] + step * (np.abs(t_e[retry]) + self.extent)
         if not out_rows:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
         return np.concatenate(out_rows), np.concatenate(out_tri), np.concatenate(out_t)
