@@ -6,6 +6,15 @@ tests/test_golden_implicit.py: quadric/cubic/quartic, superellipsoids, blobs), s
 Every timing is the wall time of a fresh process (`strala render …` / `povray …`), start-up,
 parsing and file output included; the best of N runs is reported, with the CPU time (all
 threads) beside it, and the ratio strala / POV-Ray. Not part of the default test run.
+
+Measured when written (320x240, best of 3, a shared two-core machine; wall s, CPU s):
+
+    scene            strala          POV-Ray         ratio (wall)
+    blob             0.84 (1.14)     0.65 (0.10)     1.3x
+    poly             2.39 (1.27)     0.75 (0.13)     3.2x
+    superellipsoid   2.61 (1.49)     0.69 (0.17)     3.8x
+
+(strala's times include about 1 s of interpreter start-up and the checkered floor.)
 """
 
 from __future__ import annotations
