@@ -14,7 +14,7 @@ Measured when written (320x240, best of 3, a shared two-core machine; wall s, CP
     poly             2.39 (1.27)     0.75 (0.13)     3.2x
     superellipsoid   2.61 (1.49)     0.69 (0.17)     3.8x
 
-(strala's times include about 1 s of interpreter start-up and the checkered floor.)
+(The same scene without its shapes takes strala about 0.7-0.9 s wall: start-up and the floor.)
 """
 
 from __future__ import annotations
