@@ -125,9 +125,15 @@ POLY_LEAD_REL: float = 1e-14
 SUPERELLIPSOID_BOX_PAD: float = 1e-9
 
 # Pinched superellipsoids (e or n > 2) are not convex: their chord is cut into this many
-# equal cells (besides the planes of symmetry) before minima and sign changes are sought.
-# 32 keeps features thinner than 1/32 of the box along the ray from hiding between samples.
+# equal cells (besides the planes of symmetry) before extrema and sign changes are sought.
+# Where both e, n >= 2 f is concave between the axis planes and one cell is exact; mixed
+# shapes need ~8 (measured on random rays); 32 is the margin.
 SUPERELLIPSOID_CELLS: int = 32
+
+# The slope of a pinched superellipsoid's f is sampled this fraction of the chord inside
+# each cell's ends: a cell end on an axis plane is a cusp, where the two sides slope
+# differently; far below any feature, far above rounding of the chord.
+SUPERELLIPSOID_INSET: float = 1e-9
 
 # Bisection steps for the minimum of f along a chord: the minimum only decides whether the
 # ray dips inside and splits the chord, and f there is off by ~f''·dt²/2; 32 halvings of a

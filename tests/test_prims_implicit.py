@@ -435,3 +435,72 @@ def test_far_and_large_objects_keep_their_hits(which, x):
     )
     assert np.isfinite(t_near).all()
     assert np.allclose(hits.t, t_near * 1000, rtol=1e-9)
+
+
+# ------------------------------------------------------------- named tolerances
+def test_surface_points_count_as_inside_as_in_povray():
+    """POLY_INSIDE, SUPERELLIPSOID_INSIDE, BLOB_INSIDE: a computed hit point is inside (as
+    POV-Ray's inside tests with their tolerances say), a point 1e-3 further out is not."""
+    prims = [
+        PolyPrim(torus_quartic(1.0, 0.3)),
+        SuperellipsoidPrim(ir.Superellipsoid(0.3, 0.6)),
+        BlobPrim(ir.Blob(0.5, (comp("sphere", (0, 0, 0), (0, 0, 0), 1.2, 1.0),))),
+    ]
+    o, d = random_rays(11, 500, aim=0.5)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    for prim in prims:
+        t, _ = prim.crossings(o, d)
+        rows = np.isfinite(t[:, 0])
+        assert rows.sum() > 50
+        p = o[rows] + t[rows, 0, None] * d[rows]
+        assert prim.inside(p).all()
+        # clear of the surface (not a grazing ray): 1e-3 before the hit is outside
+        n = prim.normal(p, None)
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        clear = np.abs(np.einsum("ij,ij->i", n, d[rows])) > 0.3
+        back = o[rows] + (t[rows, 0, None] - 1e-3) * d[rows]
+        assert clear.sum() > 30 and not prim.inside(back[clear]).any()
+
+
+def test_root_max_iter_is_enough_for_pure_bisection(monkeypatch):
+    """ROOT_MAX_ITER: with no usable derivative the solver bisects; from a bracket of 1e10
+    it still reaches float64 precision, which 20 steps do not."""
+
+    def fdf(rows, x):
+        return x - np.pi, np.full_like(x, np.nan)
+
+    a, b, neg = np.array([0.0]), np.array([1e10]), np.array([True])
+    assert abs(roots.bracketed(fdf, a, b, neg, 0.0)[0] - np.pi) < 1e-15
+    monkeypatch.setattr(roots.tol, "ROOT_MAX_ITER", 20)
+    assert abs(roots.bracketed(fdf, a, b, neg, 0.0)[0] - np.pi) > 1e-6
+
+
+def test_superellipsoid_cells_catch_what_a_single_cell_misses(monkeypatch):
+    """SUPERELLIPSOID_CELLS: a pinched shape that is neither convex nor concave between
+    its axis planes (e = 2.5, n = 0.5); 32 cells find every crossing 256 find, a single
+    cell per plane piece misses some."""
+    prim = SuperellipsoidPrim(ir.Superellipsoid(2.5, 0.5))
+    o, d = random_rays(12, 3000, aim=0.6)
+    counts = {}
+    for cells in (1, 32, 256):
+        monkeypatch.setattr(prim_tol(), "SUPERELLIPSOID_CELLS", cells)
+        counts[cells] = int(np.isfinite(prim.crossings(o, d)[0]).sum())
+    assert counts[32] == counts[256]
+    assert counts[1] < counts[32]
+
+
+def test_superellipsoid_inset_reads_the_slope_beside_a_cusp(monkeypatch):
+    """SUPERELLIPSOID_INSET: e = n = 3 is concave between its axis planes, so a ray that
+    leaves and re-enters between two of them needs the slope just inside the piece, not
+    at the cusp on its end (with no inset, crossings are lost)."""
+    prim = SuperellipsoidPrim(ir.Superellipsoid(3.0, 3.0))
+    o, d = random_rays(12, 3000, aim=0.6)
+    with_inset = int(np.isfinite(prim.crossings(o, d)[0]).sum())
+    monkeypatch.setattr(prim_tol(), "SUPERELLIPSOID_INSET", 0.0)
+    assert int(np.isfinite(prim.crossings(o, d)[0]).sum()) < with_inset
+
+
+def prim_tol():
+    from runtime import tolerances
+
+    return tolerances

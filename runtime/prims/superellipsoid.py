@@ -9,8 +9,9 @@ There is no closed form along a ray, so the ray is clipped to the box and f is s
   the sliver a grazing ray cuts off a nearly square shape.
 - otherwise (the pinched, star-like shapes): the chord is cut where the ray crosses the
   planes x=0, y=0, z=0, x=±y, x=±z, y=±z (where f has cusps and creases, as POV-Ray cuts it)
-  and into `SUPERELLIPSOID_CELLS` equal cells; a minimum inside a cell (f' from - to +) is
-  found as above and splits it.
+  and into `SUPERELLIPSOID_CELLS` equal cells; an extremum inside a cell (f' changes sign
+  between just inside its ends) is found as above and splits it (a minimum may dip inside,
+  a maximum rise outside between two inside stretches).
 
 Crossings are then the sign changes between the sorted points, refined by Newton/bisection
 (`roots.bracketed`) to float64 precision. f is evaluated in POV-Ray's stable form
@@ -134,16 +135,24 @@ class SuperellipsoidPrim:
                 tp = -(o @ _PLANES.T) / (d @ _PLANES.T)
             tp = np.where((tp > lo[:, None]) & (tp < hi[:, None]), tp, hi[:, None])
             pts = np.sort(np.concatenate([even, tp], axis=1), axis=1)
-        # a minimum inside a cell (slope from - to +) splits it
+        # an extremum inside a cell (the slope changes sign) splits it: a minimum may dip
+        # inside, a maximum (pinched shapes are concave between the axis planes) may rise
+        # outside between two inside stretches
+        # The slopes are taken just inside each cell: at a cusp (a point on an axis plane)
+        # the two sides slope differently.
         k = pts.shape[1]
-        slope = np.empty_like(pts)
-        for c in range(k):
-            slope[:, c] = self._slope(o, d, pts[:, c])
-        dip = (slope[:, :-1] < 0) & (slope[:, 1:] > 0) & (pts[:, 1:] > pts[:, :-1])
+        inset = tol.SUPERELLIPSOID_INSET * (hi - lo)
+        a, b = pts[:, :-1] + inset[:, None], pts[:, 1:] - inset[:, None]
+        s_a, s_b = np.empty_like(a), np.empty_like(b)
+        for c in range(k - 1):
+            s_a[:, c] = self._slope(o, d, a[:, c])
+            s_b[:, c] = self._slope(o, d, b[:, c])
+        turn = (s_a * s_b < 0) & (b > a)
         mins = np.full((m, k - 1), INF)
-        ri, ci = np.nonzero(dip)
+        ri, ci = np.nonzero(turn)
         if len(ri):
-            mins[ri, ci] = self._minimum(o[ri], d[ri], pts[ri, ci], pts[ri, ci + 1])
+            ext = self._extremum(o[ri], d[ri], a[ri, ci], b[ri, ci], s_a[ri, ci] < 0)
+            mins[ri, ci] = ext
         allp = np.sort(
             np.concatenate([pts, np.where(np.isfinite(mins), mins, hi[:, None])], axis=1), axis=1
         )
@@ -174,13 +183,15 @@ class SuperellipsoidPrim:
             )
         return out
 
-    def _minimum(self, o, d, a, b) -> np.ndarray:
-        """The minimum of f along each ray between a (slope < 0) and b (slope > 0)."""
+    def _extremum(self, o, d, a, b, falling) -> np.ndarray:
+        """The extremum of f along each ray between a and b, where the slope changes sign
+        (from negative when `falling`: a minimum)."""
         for _ in range(tol.SUPERELLIPSOID_MIN_ITER):
             mid = 0.5 * (a + b)
             s = self._slope(o, d, mid)
-            a = np.where(s < 0, mid, a)
-            b = np.where(s < 0, b, mid)
+            left = (s < 0) == falling
+            a = np.where(left, mid, a)
+            b = np.where(left, b, mid)
         return 0.5 * (a + b)
 
     def exact_gradient(self, p: np.ndarray) -> np.ndarray:
