@@ -162,6 +162,16 @@ def _examples(runs, message: str, severity: str, n: int = 3) -> str:
     return ", ".join(names[:n]) + (" …" if len(names) > n else "")
 
 
+def _first_errors(failed: Sequence[tuple[str, StralaRun]], title: str, top: int) -> list[str]:
+    first = Counter(normalize(s.note, keep_names=True) for _, s in failed)
+    out = [f"## {title} ({len(failed)})", "", "| scenes | first error | e.g. |", "|---|---|---|"]
+    for message, n in first.most_common(top):
+        names = [sc for sc, s in failed if normalize(s.note, keep_names=True) == message]
+        cell = message.replace("|", "\\|")
+        out.append(f"| {n} | {cell} | {', '.join(names[:3])}{' …' if n > 3 else ''} |")
+    return out + [""]
+
+
 def reasons(results: Sequence[SceneResult], top: int = 40) -> str:
     """Why scenes fail, grouped by message, most common first."""
     counted = [r for r in results if r.counted]
@@ -170,14 +180,11 @@ def reasons(results: Sequence[SceneResult], top: int = 40) -> str:
     out.append("Render status: " + ", ".join(f"{k} {v}" for k, v in status.most_common()))
     out.append("")
     failed = [(r.scene, r.lib) for r in counted if not r.lib.eval_ok]
-    first = Counter(normalize(s.note, keep_names=True) for _, s in failed)
-    out += [f"## The first error of each scene that does not evaluate ({len(failed)})", ""]
-    out += ["| scenes | first error | e.g. |", "|---|---|---|"]
-    for message, n in first.most_common(top):
-        names = [sc for sc, s in failed if normalize(s.note, keep_names=True) == message]
-        cell = message.replace("|", "\\|")
-        out.append(f"| {n} | {cell} | {', '.join(names[:3])}{' …' if n > 3 else ''} |")
-    out.append("")
+    out += _first_errors(failed, "The first error of each scene that does not evaluate", top)
+    if any(r.std is not None for r in counted):
+        std_failed = [(r.scene, r.stdlib) for r in counted if not r.stdlib.eval_ok]
+        title = "With strala's stdlib only (no -L): the first error of each failing scene"
+        out += _first_errors(std_failed, title, top)
     sections = [
         ("All errors in scenes that do not evaluate", failed, "error"),
         ("Warnings in scenes that render but do not match",
