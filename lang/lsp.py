@@ -7,8 +7,8 @@ tree. Diagnostics are debounced so typing stays smooth on large scenes.
 
 An open document is re-parsed incrementally (only the statements an edit touched, see
 lang/incremental.py) and include files are parsed once per text, so the time from a change to
-its diagnostics is the debounce plus one evaluation: about 0.15 s for a 5,000-line scene
-(tests/bench/bench_check.py).
+its diagnostics is one evaluation (plus the debounce while typing): about 0.1 s for a
+5,000-line scene (tests/bench/bench_check.py).
 """
 
 from __future__ import annotations
@@ -29,9 +29,9 @@ from lang.incremental import IncrementalParser
 from lang.parser import parse
 from lang.syntax import SourceFile
 
-# Coalesces the changes an editor sends together (a keystroke and its auto-closed bracket).
-# Changes that arrive while an analysis runs are coalesced anyway: they wait in the queue and
-# each one re-arms this timer, so only the last text is analysed.
+# While changes keep coming (typing), diagnostics wait until none came for this long; changes
+# that arrive while an analysis runs wait in the queue and each re-arms the timer, so only the
+# last text is analysed. A change after a pause is analysed at once.
 DEBOUNCE_SECONDS = 0.05
 
 _SEVERITY = {
@@ -172,6 +172,7 @@ class StralaServer(LanguageServer):
     def __init__(self) -> None:
         super().__init__("strala", "0.1.0", text_document_sync_kind=T.TextDocumentSyncKind.Full)
         self._pending: dict[str, asyncio.TimerHandle] = {}
+        self._active: dict[str, float] = {}  # when each document last changed or was analysed
         self._docs: dict[str, str] | None = None
 
     @property
@@ -191,15 +192,23 @@ class StralaServer(LanguageServer):
         _settle_heap()
 
     def schedule(self, uri: str, delay: float = DEBOUNCE_SECONDS) -> None:
+        """Analyse after a change: at once when the document had been quiet (no change and
+        no analysis for `delay`: an edit after a pause), else once the changes stop for
+        `delay` (typing)."""
         loop = asyncio.get_event_loop()
+        now = loop.time()
+        quiet = now - self._active.get(uri, -delay) >= delay
+        self._active[uri] = now
         old = self._pending.pop(uri, None)
         if old is not None:
             old.cancel()
-        self._pending[uri] = loop.call_later(delay, self._run, uri)
+        wait = 0.0 if quiet and old is None else delay
+        self._pending[uri] = loop.call_later(wait, self._run, uri)
 
     def _run(self, uri: str) -> None:
         self._pending.pop(uri, None)
         self.publish(uri)
+        self._active[uri] = asyncio.get_event_loop().time()
 
 
 server = StralaServer()
