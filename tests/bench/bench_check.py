@@ -5,13 +5,20 @@
 1. The server end to end: `strala lsp` in a subprocess, driven over stdio by a minimal
    JSON-RPC client; the figure is the wall time from sending a `didChange` to receiving the
    `publishDiagnostics` for that version, for a generated 5,000-line scene (declarations,
-   macros, objects, directives) and three kinds of edit: a digit changed mid-file, a line
+   macros, objects, directives) and four kinds of edit: a digit changed mid-file, a line
    inserted near the top (every later span moves), a syntax error typed mid-file, and a
    `sphere {` typed mid-file before its `}`, each after a pause; then typing (five
    keystrokes 30 ms apart, timed from the last one, so it includes the debounce).
 2. The same analysis in process (incremental parse + evaluation; wall and CPU time, as other
    work on the machine inflates the wall figures), and a parse from scratch.
 3. `strala check examples/ex3.scene` wall time in a fresh process (the issue's bound: 0.3 s).
+
+Measured (2 cores shared with other jobs, load average about 4, so wall times run about twice
+the CPU times): the server spends 70 ms CPU on a digit changed, 100 ms on a line inserted at
+the top, 80 ms on a syntax error typed and 90 ms on a block left open (a parse from scratch of
+the scene takes 0.6 s); wall medians 150-250 ms for an edit after a pause and about 185 ms
+from the last keystroke while typing; `check` of ex3 about 0.21-0.27 s wall (0.17 s CPU).
+Before the incremental parser the server needed about 0.77 s for any change of this scene.
 """
 
 from __future__ import annotations
