@@ -9,39 +9,39 @@ SOR_CAP_MIN_R2, ROOT_MAX_ITER, POLY_*, SUPERELLIPSOID_*, BLOB_INSIDE) belong to 
 whose own tests exercise them (tests/test_pov_shapes.py, tests/test_intersect.py); here
 they get the name/reason/use check, and LEAD_REL and the Newton bounds a test of their own.
 
-Other modules keep their own named constants next to the code they tune:
+Other modules keep their own named constants next to the code they tune, each with its
+reason in a comment there. They are listed here so the inventory is complete; the last
+column names the test that exercises one where there is one.
 
-| module             | name                        | value      | role (tested in)           |
-|--------------------|-----------------------------|------------|----------------------------|
-| shading            | EPSILON                     | 1e-10      | N·L cut-off (test_shading) |
-| shading            | SHADOW_TOLERANCE            | 1e-3       | blockers at the light      |
-| integrate          | MAX_SHADOW_CROSSINGS        | 32         | glass layers per shadow ray|
-| integrate          | MAX_FOG_DISTANCE            | 1e7        | a miss's depth in fog      |
-| patterns           | CHECKER_OFFSET              | 1e-6       | POV-Ray's cell nudge       |
-|                    |                             |            | (test_checker_povray)      |
-| patterns           | WAVE_MODULUS, NORMAL_DELTA  | 1.00001,   | wave wrap, normal finite   |
-|                    |                             | 0.02       | differences (test_patterns)|
-| prepare            | MAX_ADAPTIVE_LEVELS         | 6          | adaptive subdivision depth |
-| tessellate         | TARGET, MAX_PASSES,         | 0.85, 12,  | NURBS grid refinement      |
-|                    | MAX_GROWTH, MAX_TRIANGLES   | 32, 4e6    | (test_tessellate; here     |
-|                    |                             |            | test_surfaces)             |
-| tessellate         | WELD_REL                    | 1e-10      | seam and pole welding      |
-| nurbs              | DEGENERATE_REL,             | 1e-9,      | degenerate tangents, cusps,|
-|                    | PARALLEL_REL, NUDGE_REL     | 1e-12, ... | fallback normals           |
-|                    |                             |            | (test_nurbs, test_surfaces)|
-| subdivide          | CORNER_MIN_ANGLE            | 2 degrees  | crease corners             |
-| bezier             | POV_EPSILON, BEZIER_EPSILON,| 1e-10,     | bicubic patch flatness and |
-|                    | MAX_STEPS, FLAT_TEST_DEPTH  | 10, 7      | splitting, as POV-Ray's    |
-| prims.isosurface   | MAX_STEPS, MAX_BISECTIONS,  | 20000, 60, | root search bounds per ray |
-|                    | MAX_CROSSINGS               | 32         |                            |
-| radiosity.*        | _DEGENERATE_SINE,           | 1e-14,     | form factors, visibility   |
-|                    | _COPLANAR_REL, REL_GAP,     | 1e-10,1e-5,| gaps, display welds        |
-|                    | _WELD_REL, _NUDGE, _SIDE_REL| 1e-9, ...  | (test_formfactor,          |
-|                    |                             |            | test_radiosity_*; here     |
-|                    |                             |            | test_radiosity_rho)        |
-| lang.camera        | CAMERA_EPSILON              | 1e-10      | degenerate look_at, as     |
-|                    |                             |            | POV-Ray (the acne scenes   |
-|                    |                             |            | scale their camera)        |
+| module           | name                          | value        | role / exercised by       |
+|------------------|-------------------------------|--------------|---------------------------|
+| shading          | EPSILON                       | 1e-10        | N·L cut-off of a light    |
+| shading          | SHADOW_TOLERANCE              | 1e-3         | blockers at the light     |
+| integrate        | MAX_SHADOW_CROSSINGS          | 32           | glass layers per shadow   |
+| integrate        | MAX_FOG_DISTANCE              | 1e7          | a miss's depth in fog     |
+| patterns         | CHECKER_OFFSET                | 1e-6         | POV-Ray's cell nudge      |
+| patterns         | WAVE_MODULUS                  | 1.00001      | POV-Ray's wave wrap       |
+| patterns         | NORMAL_DELTA                  | 0.02         | normal differences        |
+|                  |                               |              | (test_patterns)           |
+| prepare          | MAX_ADAPTIVE_LEVELS           | 6            | adaptive subdivision      |
+| tessellate       | TARGET, MAX_PASSES,           | 0.85, 12,    | NURBS grid refinement     |
+|                  | MAX_GROWTH, MAX_TRIANGLES     | 32, 4e6      | (stress/test_surfaces)    |
+| tessellate       | WELD_REL                      | 1e-10        | seam and pole welding     |
+| nurbs            | DEGENERATE_REL, PARALLEL_REL, | 1e-9, 1e-12, | degenerate tangents,      |
+|                  | NUDGE_REL                     | 1e-6 .. 1e-2 | fallback normals          |
+|                  |                               |              | (stress/test_surfaces)    |
+| subdivide        | CORNER_MIN_ANGLE              | 2 degrees    | crease corners            |
+| bezier           | POV_EPSILON, BEZIER_EPSILON,  | 1e-10, 1e-10,| bicubic patch flatness    |
+|                  | MAX_STEPS, FLAT_TEST_DEPTH    | 10, 7        | and splitting             |
+| prims.isosurface | MAX_STEPS, MAX_BISECTIONS,    | 20000, 60,   | root search per ray       |
+|                  | MAX_CROSSINGS                 | 32           |                           |
+| radiosity.*      | _DEGENERATE_SINE,             | 1e-14,       | form factors, visibility  |
+|                  | _COPLANAR_REL, REL_GAP,       | 1e-10, 1e-5, | gaps, display welds       |
+|                  | _WELD_REL, _NUDGE, _SIDE_REL  | 1e-9, 1e-3,  | (stress/test_radiosity_   |
+|                  |                               | 1e-6         | rho: rho = 0.999)         |
+| lang.camera      | CAMERA_EPSILON                | 1e-10        | degenerate look_at, as    |
+|                  |                               |              | POV-Ray's (the acne       |
+|                  |                               |              | scenes scale the camera)  |
 """
 
 from __future__ import annotations
