@@ -114,6 +114,8 @@ def test_stdlib_has_the_promised_files():
         "shapes2.inc",
         "skies.inc",
         "functions.inc",
+        "stdcam.inc",
+        "stdinc.inc",
     ):
         assert (STDLIB / name).is_file(), name
     assert (STDLIB / "README.md").is_file()
@@ -915,3 +917,36 @@ def test_povray_running_the_stdlib_functions_agrees_with_its_own(tmp_path, povra
     assert len(set(povray_functions)) > len(_FUNCTION_PROBES) // 2  # the probes vary
     for call, got, want in zip(_FUNCTION_PROBES, ours, povray_functions, strict=True):
         assert got == pytest.approx(want, rel=1e-9, abs=1e-9), call
+
+
+# ------------------------------------------------ oracle 6: POV-Ray renders the test stage
+_STAGE = """#version 3.7;
+global_settings { assumed_gamma 1 }
+#include "colors.inc"
+#include "stdcam.inc"
+sphere { <0, 0.5, 0>, 0.5 pigment { rgb <1, 0.8, 0.2> } }
+"""
+
+
+@pytest.mark.povray
+@needs_pov_includes
+def test_povray_renders_the_stdcam_stage_exactly_like_its_own(tmp_path):
+    from OpenImageIO import UINT8, ImageBuf
+
+    images = []
+    for with_stdlib in (False, True):
+        folder = tmp_path / str(with_stdlib)
+        folder.mkdir()
+        run_povray(folder, _STAGE, with_stdlib=with_stdlib, size=(80, 60))
+        images.append(ImageBuf(str(folder / "scene.png")).get_pixels(UINT8).astype(int))
+    assert images[0].std() > 10
+    assert abs(images[0] - images[1]).max() == 0
+
+
+@needs_evaluator
+def test_stdinc_brings_the_everyday_names(tmp_path):
+    result = compile_text(tmp_path, '#include "stdinc.inc"\n#include "stdcam.inc"\n')
+    assert errors(result) == []
+    for name in ("Red", "Round_Box", "Reorient_Trans", "f_sphere", "sind", "Cube"):
+        assert name in result.symbols, name
+    assert result.scene is not None and result.scene.lights
