@@ -243,13 +243,14 @@ class _ChunkErrors:
         self.last_error_end = -1
         self.strays: list[int] = []
         self._braces: BraceReport | None = None
+        self._braces_end = -1
 
-    @property
-    def braces(self) -> BraceReport:
-        """Braces from the chunk's start on: a `}` unmatched here has no `{` before it in this
-        chunk (matching looks backwards only, so the text after the chunk changes nothing)."""
-        if self._braces is None:
-            self._braces = scan_braces(self.clean[self.start :])
+    def braces_to(self, end: int) -> BraceReport:
+        """Braces from the chunk's start to `end`: a `}` unmatched there has no `{` before it
+        in this chunk (matching looks backwards only, so the text after it changes nothing)."""
+        if self._braces is None or self._braces_end < end:
+            self._braces = scan_braces(self.clean[self.start : end])
+            self._braces_end = end
         return self._braces
 
     def span_at(self, pos: int, length: int = 1) -> Span:
@@ -303,7 +304,7 @@ class _ChunkErrors:
                 pass
             return
         rel = pos - self.start
-        stray = tok.type == "RBRACE" and rel in self.braces.unmatched_close
+        stray = tok.type == "RBRACE" and rel in self.braces_to(pos + 1).unmatched_close
         # Every stray `}` is its own mistake; other errors right after one are its cascade.
         if stray or not self.quiet_since_last(pos):
             if stray:
@@ -311,7 +312,9 @@ class _ChunkErrors:
                     "E0101",
                     "unexpected `}`: no block is open here",
                     self.span_at(pos),
-                    _stray_hint(self.clean, self.start, self.braces.unmatched_close[rel]),
+                    _stray_hint(
+                        self.clean, self.start, self.braces_to(pos + 1).unmatched_close[rel]
+                    ),
                 )
                 if shown:
                     self.strays.append(rel)
@@ -350,8 +353,9 @@ class _ChunkErrors:
 
     def _report_open(self, closer: str | None, expected: set[str]) -> None:
         end = self.span_at(max(len(self.clean) - 1, 0))
-        if closer == "RBRACE" and self.braces.unclosed_open:
-            pos = self.start + self.braces.unclosed_open[-1]
+        braces = self.braces_to(len(self.clean))
+        if closer == "RBRACE" and braces.unclosed_open:
+            pos = self.start + braces.unclosed_open[-1]
             self.report(
                 "E0106",
                 "this block is never closed",
