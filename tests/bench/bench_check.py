@@ -13,11 +13,11 @@
    work on the machine inflates the wall figures), and a parse from scratch.
 3. `strala check examples/ex3.scene` wall time in a fresh process (the issue's bound: 0.3 s).
 
-Measured (2 cores shared with other jobs, load average about 4, so wall times run about twice
-the CPU times): the server spends 70 ms CPU on a digit changed, 100 ms on a line inserted at
-the top, 80 ms on a syntax error typed and 90 ms on a block left open (a parse from scratch of
-the scene takes 0.6 s); wall medians 150-250 ms for an edit after a pause and about 185 ms
-from the last keystroke while typing; `check` of ex3 about 0.21-0.27 s wall (0.17 s CPU).
+Measured (2 cores shared with other jobs): the server spends 60-70 ms CPU on a digit changed,
+100 ms on a line inserted at the top, 70-80 ms on a syntax error typed and 80-90 ms on a block
+left open (a parse from scratch of the scene takes 0.6-0.7 s). Wall medians at load average 3:
+106, 152, 122 and 132 ms (max 183 ms), typing 150 ms from the last keystroke; at load 4-5 the
+wall times roughly double the CPU times. `check` of ex3: 0.21-0.27 s wall (0.17 s CPU).
 Before the incremental parser the server needed about 0.77 s for any change of this scene.
 """
 
