@@ -378,7 +378,7 @@ class _ChunkErrors:
 
 
 _CLOSER_TEXT = {"RPAR": ")", "RSQB": "]", "MORETHAN": ">"}
-# What `close` may add at the end, in order. No operand is made up for an unfinished
+# What `close` (and `_close_until`) may add, in order. No operand is made up for an unfinished
 # expression: the statement is dropped instead (a made-up `0` would be evaluated, and could
 # give a second, misleading error).
 _FILLERS = (
@@ -566,12 +566,17 @@ class ChunkParser:
                                 break
                             if verdict is _ERROR and tok.type in table.starters:
                                 # A new statement the open construct cannot take: report it,
-                                # close the construct, and start afresh from this line.
+                                # then close the innermost constructs (a vector, a bracket)
+                                # until it fits, in the enclosing block or at the top level;
+                                # if that cannot be done (an operand is missing), end the
+                                # chunk here and start afresh from this line.
                                 stack = state.state_stack
                                 expected = {t for t in table.states[stack[-1]] if t.isupper()}
                                 errors.unexpected(tok, expected, None)
-                                follow = tok
-                                break
+                                verdict = _close_until(table, state, tok.type, last)
+                                if verdict is not _CONTINUES:
+                                    follow = tok
+                                    break
                             piece = self.reusable.get(line_start)
                             if piece is not None and self._absorb(state, tok.type, piece):
                                 self._take(piece, line_start, tok.line)
@@ -607,6 +612,32 @@ class ChunkParser:
         if result is None and not errors.sink.has_errors:
             errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
         return result, follow
+
+
+def _close_until(table: _Table, state: ParserState, ttype: str, last: Token | None) -> str:
+    """Feed closers (`>`, `)`, `]`, `}`, `#end`, innermost first: the state accepts only
+    those of constructs still open) until a token of type `ttype` is no longer an error;
+    returns its verdict then (still an error if no closer helps)."""
+    verdict = _ERROR
+    for _ in range(64):
+        closer = next(
+            (
+                (kind, text)
+                for kind, text in _FILLERS
+                if _verdict(table, state.state_stack, kind) is not _ERROR
+            ),
+            None,
+        )
+        if closer is None:
+            return _ERROR
+        if last is None:
+            state.feed_token(Token(closer[0], closer[1]))
+        else:
+            state.feed_token(Token.new_borrow_pos(closer[0], closer[1], last))
+        verdict = _verdict(table, state.state_stack, ttype)
+        if verdict is not _ERROR:
+            return verdict
+    return verdict
 
 
 def _reduce(state: ParserState, ttype: str) -> None:

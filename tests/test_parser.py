@@ -401,6 +401,22 @@ def test_a_new_statement_ends_an_unfinished_one():
     assert len(parse(text, "t.pov", split=False)[1]) > 1
 
 
+def test_recovery_closes_only_the_innermost_construct():
+    """The unfinished vector is closed; the sphere around it stays open for the next line
+    and its own `}` (which would otherwise be reported as unmatched)."""
+    text = "sphere { 0, 1\n  #declare W = <1, 2\n  #declare V = 3;\n}\n"
+    tree, diags = parse(text, "t.pov")
+    assert [(d.code, d.span.line) for d in diags] == [("E0002", 3)]
+    (sphere,) = tree.body
+    assert [type(n).__name__ for n in sphere.body] == [
+        "Number",
+        "Comma",
+        "Number",
+        "Declare",
+        "Declare",
+    ]
+
+
 def test_an_operand_missing_at_the_end_loses_only_its_own_statement():
     tree, diags = parse("#declare A = 1;\n#declare B = 1 +", "t.pov")
     assert [d.code for d in diags] == ["E0001"]
