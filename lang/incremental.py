@@ -94,7 +94,9 @@ class IncrementalParser:
         fresh, stop, stop_line = parser.run(pos, line, frozenset(resume))
         taken = {id(c) for c in reusable.values()}
         self.reparsed = sum(len(c.text) for c in fresh if id(c) not in taken)
-        self.reparsed -= sum(len(p.text) for c in fresh if id(c) not in taken for p in c.pieces)
+        self.reparsed -= sum(
+            len(piece.text) for c in fresh if id(c) not in taken for piece in c.pieces
+        )
         tail: list[Chunk] = []
         if stop is not None:
             tail = chunks[resume[stop] :]
