@@ -172,6 +172,7 @@ async def test_diagnostics_after_edits_equal_those_of_a_fresh_open(
         text[:mid] + "#declare W = <1, 2\n" + text[mid:],  # an unfinished vector
         "// a comment line\n\n" + text[:mid] + "sphere { Missing, 1 }\n" + text[mid:],
         "// a comment line\n\n" + text.replace("P152, 0.3", "P152, 0.3 angle 2"),
+        text[:mid] + "sphere {\n" + text[mid:],  # a block left open: the rest is inside it
     ]
     for version, new in enumerate(steps, start=2):
         client.text_document_did_change(
