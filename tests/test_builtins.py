@@ -132,9 +132,16 @@ def test_vcross_is_perpendicular(a, b):
 
 @given(finite, finite)
 def test_div_mod_identity(a, b):
+    """POV-Ray's div truncates a/b and its mod is C's fmod (exact, sign of a). The identity
+    div·b + mod = a then holds up to the rounding of a/b: when a/b rounds up to a whole
+    number (1/0.01 → 100), div is one more than the true quotient and mod is close to |b|."""
     if abs(b) < 1e-3:
         return
-    assert math.isclose(call("div", a, b) * b + call("mod", a, b), a, rel_tol=1e-9, abs_tol=1e-6)
+    d, m = call("div", a, b), call("mod", a, b)
+    assert d == math.trunc(a / b) and m == math.fmod(a, b)
+    assert abs(m) < abs(b) and (m == 0 or math.copysign(1, m) == math.copysign(1, a))
+    slack = abs(b) if abs(abs(m) - abs(b)) < 1e-9 * abs(b) + 1e-12 else 0.0
+    assert abs(d * b + m - a) <= 1e-9 * abs(a) + 1e-6 + slack
 
 
 @given(st.lists(finite, min_size=1, max_size=8))
