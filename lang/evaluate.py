@@ -2596,8 +2596,10 @@ def _with_map(it: Interpreter, pig: ir.Pigment, m: MapValue, span: Span) -> ir.P
 
 
 def _b_normal(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Normal:
-    nrm = ir.Normal("none", span=node.span)
-    params: dict[str, Any] = {}
+    # a normal block starts from the `#default` normal where there is one
+    base = it.default_texture.normal
+    nrm = ir.Normal("none", span=node.span) if base is None else replace(base, span=node.span)
+    params: dict[str, Any] = {} if base is None else dict(base.params)
     for name, args, span in g.items:
         v = args[0] if args else None
         if name == "normal":
@@ -2631,7 +2633,8 @@ def _b_normal(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Normal:
 
 
 def _b_finish(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Finish:
-    f = ir.Finish()
+    # POV-Ray starts every finish block from a copy of the `#default` finish
+    f = it.default_texture.finish
     refl: dict[str, Any] = {}
     for name, args, span in g.items:
         v = args[0] if args else None
@@ -2712,7 +2715,8 @@ def _b_interior(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Interior:
 
 
 def _b_texture(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Texture:
-    t = ir.Texture(span=node.span)
+    # a texture block starts from a copy of the `#default` texture (its pigment, finish, normal)
+    t = replace(it.default_texture, layers=(), span=node.span)
     for name, args, span in g.items:
         v = args[0] if args else None
         if name == "texture":
