@@ -311,7 +311,13 @@ class BoxTree:
             centre = (lo[ids] + hi[ids]) / 2
             axis = int(np.argmax(np.ptp(centre, axis=0)))
             order = ids[np.argsort(centre[:, axis], kind="stable")]
-            half = len(order) // 2
+            # Split at the middle of the centres' span, not at the median: a few objects far
+            # from the crowd (the visible ones, next to a heap of hidden ones) get a box of
+            # their own near the root, so rays stop meeting the crowd's boxes early.
+            c = np.sort(centre[:, axis])
+            half = int(np.searchsorted(c, (c[0] + c[-1]) / 2, side="right"))
+            if not 0 < half < len(order):
+                half = len(order) // 2
             left = self._build(order[:half], lo, hi)
             right = self._build(order[half:], lo, hi)
             self.kids[k] = (left, right)
@@ -374,13 +380,15 @@ class Tracer:
     # Below this many bounded objects a plain per-object box test is cheaper than a tree.
     TREE_THRESHOLD = 8
 
-    def _visits(self, o, d, tmin, tmax, skipped, inv) -> list[tuple[object, np.ndarray | None]]:
-        """(node, candidate rows or None for all) pairs to intersect, nodes in scene order
-        for the unbounded ones, tree order for the rest."""
+    def _visits(
+        self, o, d, tmin, tmax, skipped, inv, bounded: bool = True
+    ) -> list[tuple[object, np.ndarray | None]]:
+        """(node, candidate rows or None for all) pairs to intersect: the unbounded nodes in
+        scene order (bounded=False), or the bounded ones in tree order (bounded=True)."""
         out: list[tuple[object, np.ndarray | None]] = []
-        for i in self.unbounded:
-            out.append((self.nodes[i], None))
-        if self.tree is None:
+        if not bounded:
+            out.extend((self.nodes[i], None) for i in self.unbounded)
+        elif self.tree is None:
             out.extend((self.nodes[i], None) for i in self.bounded)
         else:
             for item, rows in self.tree.query(o, d, tmin, tmax, inv):
@@ -423,7 +431,15 @@ class Tracer:
         pending: dict[type, list[tuple[Leaf, np.ndarray]]] = {}
         with np.errstate(divide="ignore", over="ignore"):
             inv = 1.0 / d
-        for node, cand in self._visits(o, d, tmin_a, limit_of(None), skipped, inv):
+        # Unbounded nodes (planes …) first: the hits they give shorten the rays before the
+        # tree is queried, so objects hidden behind a floor or a wall are never visited.
+        visits = self._visits(o, d, tmin_a, limit_of(None), skipped, inv, bounded=False)
+        visits.append((None, None))  # the tree is queried here, with the limits so far
+        while visits:
+            node, cand = visits.pop(0)
+            if node is None:
+                visits = self._visits(o, d, tmin_a, limit_of(None), skipped, inv)
+                continue
             batched = isinstance(node, Leaf) and isinstance(node.prim, BATCHED)
             if cand is None:
                 keep = slab_hits(o, None, node.lo, node.hi, tmin_a, limit_of(None), inv)
