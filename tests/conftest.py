@@ -78,6 +78,28 @@ def povray_image(scene_text: str, folder: Path, width: int, height: int):
     return oiio.ImageBuf(str(folder / "oracle.png")).get_pixels(oiio.FLOAT)[..., :3]
 
 
+def strala_image(scene_text: str, folder: Path, width: int, height: int, name="scene.pov"):
+    """strala's render of a scene in-process, as the display values an image file holds
+    (H, W, 3) in [0, 1]; returns (image, diagnostic messages). The scene is compiled as if
+    it were `folder/name`, so files beside it (images, fonts) are found."""
+    from lang.evaluate import compile_source
+    from runtime.color import to_display
+    from runtime.render import render_scene
+
+    result = compile_source(scene_text, str(folder / name))
+    messages = [d.message for d in result.diagnostics]
+    assert result.scene is not None, messages
+    image = to_display(render_scene(result.scene, width, height), result.scene.settings)
+    return image, messages
+
+
+def image_errors(ours, ref, threshold: float = 0.1) -> tuple[float, float]:
+    """(RMSE, share of pixels off by more than `threshold` in some channel)."""
+    from runtime.metrics import off_share, rmse
+
+    return rmse(ours, ref), off_share(ours, ref, threshold)
+
+
 def povray_debug(scene: Path) -> str:
     """What POV-Ray prints (its #debug stream goes to stderr) parsing a scene at 1×1 pixel."""
     return subprocess.run(

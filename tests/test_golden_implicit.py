@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import povray_image
+from conftest import image_errors, povray_image, strala_image
 
 RMSE_LIMIT = 0.02
 OUTLIER_DIFF = 0.1
@@ -72,31 +72,18 @@ blob { threshold 0.5
 }
 
 
-def compare(ours: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
-    diff = ours.astype(np.float64) - ref.astype(np.float64)
-    off = float(np.mean(np.abs(diff).max(axis=2) > OUTLIER_DIFF))
-    return float(np.sqrt(np.mean(diff**2))), off
-
-
 @pytest.mark.povray
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_implicit_shapes_match_povray(name, tmp_path):
-    from lang.evaluate import compile_source
-    from runtime.color import to_display
-    from runtime.render import render_scene
-
     text = HEAD + SCENES[name]
     ref = povray_image(text, tmp_path, W, H)
-    result = compile_source(text, str(tmp_path / "scene.pov"))
-    assert result.scene is not None, [d.message for d in result.diagnostics]
-    assert not result.diagnostics, [d.message for d in result.diagnostics]
-    ours = to_display(render_scene(result.scene, W, H), result.scene.settings)
-    rmse, off = compare(ours, ref)
+    ours, messages = strala_image(text, tmp_path, W, H)
+    assert not messages, messages
+    rmse, off = image_errors(ours, ref, OUTLIER_DIFF)
     print(f"{name}: RMSE {rmse:.4f}, {off:.2%} of pixels off by > {OUTLIER_DIFF}")
     assert rmse < RMSE_LIMIT
     assert off < OUTLIER_LIMIT
     # The shapes are in the picture (not a background-and-floor-only match): the middle
     # of the image differs from a render without them.
-    bare = compile_source(HEAD, str(tmp_path / "bare.pov")).scene
-    empty = to_display(render_scene(bare, W, H), bare.settings)
+    empty, _ = strala_image(HEAD, tmp_path, W, H, "bare.pov")
     assert np.mean(np.abs(ours - empty).max(axis=2) > 0.1) > 0.1

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import povray_image
+from conftest import image_errors, povray_image, strala_image
 
 FONTS = Path("/usr/share/povray-3.7/include")
 RMSE_LIMIT = 0.02
@@ -70,29 +70,17 @@ text { ttf "cyrvetic.ttf" "AVO" 0.5, <0.1, 0.05, 0>
 }
 
 
-def compare(ours: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
-    diff = ours.astype(np.float64) - ref.astype(np.float64)
-    return float(np.sqrt(np.mean(diff**2))), float(np.mean(np.abs(diff).max(axis=2) > OUTLIER_DIFF))
-
-
 @pytest.mark.povray
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_swept_shapes_match_povray(name, tmp_path):
-    from lang.evaluate import compile_source
-    from runtime.color import to_display
-    from runtime.render import render_scene
-
     if name == "text":
         for font in ("timrom.ttf", "cyrvetic.ttf"):
             shutil.copyfile(FONTS / font, tmp_path / font)
     text = HEAD + SCENES[name]
     ref = povray_image(text, tmp_path, W, H)
-    result = compile_source(text, str(tmp_path / "scene.pov"))
-    assert result.scene is not None, [d.message for d in result.diagnostics]
-    warnings = [d.message for d in result.diagnostics]
+    ours, warnings = strala_image(text, tmp_path, W, H)
     assert not any("not supported" in m for m in warnings), warnings
-    ours = to_display(render_scene(result.scene, W, H), result.scene.settings)
-    rmse, off = compare(ours, ref)
+    rmse, off = image_errors(ours, ref, OUTLIER_DIFF)
     print(f"{name}: RMSE {rmse:.4f}, {off:.2%} of pixels off by > {OUTLIER_DIFF}")
     assert rmse < RMSE_LIMIT
     assert off < OUTLIER_LIMIT

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import povray_image, run_cli
+from conftest import image_errors, povray_image, strala_image
 
 from lang import ir
 from runtime import heightfield as hf
@@ -83,13 +83,6 @@ def test_height_field_renders_like_povray(tmp_path, smooth):
     shutil.copy(PLASMA, tmp_path / "plasma3.png")
     text = SCENE.format(smooth=smooth)
     pov = povray_image(text, tmp_path, 160, 120)
-    (tmp_path / "s.pov").write_text(text)
-    r = run_cli("render", str(tmp_path / "s.pov"), "-o", str(tmp_path / "s.png"), "-W", "160",
-                "-H", "120", "-q")  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    import OpenImageIO as oiio
-
-    ours = oiio.ImageBuf(str(tmp_path / "s.png")).get_pixels(oiio.FLOAT)[..., :3]
-    rmse = float(np.sqrt(((ours - pov) ** 2).mean()))
-    off = float((np.abs(ours - pov).max(axis=2) > 0.1).mean())
+    ours, _ = strala_image(text, tmp_path, 160, 120)
+    rmse, off = image_errors(ours, pov)
     assert rmse < 0.03 and off < 0.02, (rmse, off)

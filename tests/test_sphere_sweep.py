@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import povray_image, run_cli
+from conftest import image_errors, povray_image, strala_image
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -74,14 +74,9 @@ sphere_sweep { cubic_spline 5, <-1,1.8,0>, 0.1, <-0.5,2,0>, 0.1, <0.5,1.6,0>, 0.
 def test_sphere_sweeps_render_like_povray(tmp_path):
     """Metric: RMSE over sRGB [0,1] < 0.01 and under 0.5% of pixels off by > 0.1
     (measured 0.0009 / 0.002% at 240x180)."""
-    import OpenImageIO as oiio
 
-    pov = povray_image(SCENE, tmp_path, 160, 120)
-    (tmp_path / "s.pov").write_text(SCENE)
-    r = run_cli("render", str(tmp_path / "s.pov"), "-o", str(tmp_path / "s.png"), "-W", "160",
-                "-H", "120", "-q")  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    ours = oiio.ImageBuf(str(tmp_path / "s.png")).get_pixels(oiio.FLOAT)[..., :3]
-    rmse = float(np.sqrt(((ours - pov) ** 2).mean()))
-    off = float((np.abs(ours - pov).max(axis=2) > 0.1).mean())
+    text = SCENE
+    pov = povray_image(text, tmp_path, 160, 120)
+    ours, _ = strala_image(text, tmp_path, 160, 120)
+    rmse, off = image_errors(ours, pov)
     assert rmse < 0.01 and off < 0.005, (rmse, off)
