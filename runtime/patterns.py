@@ -24,10 +24,9 @@ Unknown patterns render as the pattern's first colour with one warning each.
 "transmit", "use_alpha", "gamma"), and the classic turbulence warp "turbulence" (vector
 or float), "octaves" (6), "omega" (0.5), "lambda" (2.0).
 
-Noise: POV-Ray's noise tables are not reproduced; strala's lattice noise is built the same
-way (a random value plus a random gradient at every lattice point, blended with
-3t² - 2t³) and calibrated to POV-Ray's mean and spread, so bozo, spotted, granite, marble,
-wood, agate and the bump normals have POV-Ray's structure and scale, not its exact values.
+Noise: POV-Ray's own noise (runtime.noise: its hash and value tables rebuilt the way POV-Ray
+built them, generators 1-3, 2 by default), so bozo, spotted, granite, wrinkles, dents, marble,
+wood, agate, turbulence and the bump normals give POV-Ray's values, not just its look.
 """
 
 from __future__ import annotations
@@ -38,6 +37,7 @@ from functools import lru_cache
 import numpy as np
 
 from lang import ir
+from runtime.noise import DEFAULT_GENERATOR, dnoise, dturbulence, noise, turbulence
 
 # POV-Ray adds a tiny epsilon to every coordinate before flooring, so a plane at an integer
 # coordinate (y = 0, the classic floor) does not flicker between cells. 1e-6 matches POV-Ray
@@ -154,7 +154,7 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
         return _fallback(pigment, points, gamma)
-    value = apply_wave(fn(p, pigment.params), pigment.params)
+    value = apply_wave(fn(p, pigment.params), pigment.params, kind)
     return _map(pigment, value, points, gamma)
 
 
@@ -229,7 +229,7 @@ def gradient(p: np.ndarray, params: dict) -> np.ndarray:
 
 
 def onion(p: np.ndarray, params: dict) -> np.ndarray:
-    return np.linalg.norm(p, axis=1)
+    return np.fmod(np.linalg.norm(p, axis=1), 1.0)
 
 
 def spherical(p: np.ndarray, params: dict) -> np.ndarray:
@@ -366,97 +366,22 @@ def image_map(params: dict, p: np.ndarray, gamma: float | None) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------ noise
-def _lattice_tables(seed: int = 1991) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    # A fixed shuffle and fixed random lattice values/gradients (POV-Ray's first release
-    # year as the seed): the same noise on every machine and every run.
-    rng = np.random.default_rng(seed)
-    perm = rng.permutation(256).astype(np.int64)
-    values = rng.uniform(-1.0, 1.0, 256)
-    grads = rng.uniform(-1.0, 1.0, (256, 3))
-    return np.concatenate([perm, perm]), values, grads
-
-
-_PERM, _VALUES, _GRADS = _lattice_tables()
-# Scales the raw lattice sum so `noise` has the spread of POV-Ray's noise (measured on
-# POV-Ray renders of `bozo`: standard deviation ~0.135 around 0.5).
-_NOISE_GAIN: float = 0.53
-
-
-def perlin(p: np.ndarray) -> np.ndarray:
-    """(N,) lattice noise in about [-1, 1] at points (N,3), built like POV-Ray's: at every
-    lattice corner a random value plus a random gradient, blended with 3t² - 2t³ weights
-    (the value term keeps the lattice points from all being zeros, which would show the
-    grid in granite-like patterns)."""
-    cell = np.floor(p)
-    f = p - cell
-    i = cell.astype(np.int64) & 255
-    u = f * f * (3.0 - 2.0 * f)
-    out = 0.0
-    for dx in (0, 1):
-        wx = u[:, 0] if dx else 1.0 - u[:, 0]
-        hx = _PERM[i[:, 0] + dx]
-        for dy in (0, 1):
-            wy = u[:, 1] if dy else 1.0 - u[:, 1]
-            hy = _PERM[hx + ((i[:, 1] + dy) & 255)]
-            for dz in (0, 1):
-                wz = u[:, 2] if dz else 1.0 - u[:, 2]
-                h = _PERM[hy + ((i[:, 2] + dz) & 255)]
-                d = f - np.array([dx, dy, dz], dtype=np.float64)
-                corner = 0.5 * _VALUES[h] + np.einsum("ij,ij->i", _GRADS[h], d)
-                out = out + wx * wy * wz * corner
-    return out
-
-
-def noise(p: np.ndarray) -> np.ndarray:
-    """(N,) noise in [0, 1] with mean 0.5, like POV-Ray's Noise()."""
-    return np.clip(0.5 + _NOISE_GAIN * perlin(p), 0.0, 1.0)
-
-
-# Offsets that decorrelate the three components of vector noise.
-_DNOISE_OFFSETS = np.array([[0.0, 0.0, 0.0], [31.416, -47.853, 12.793], [-23.171, 11.317, 97.421]])
-
-
-def dnoise(p: np.ndarray) -> np.ndarray:
-    """(N,3) vector noise with components in [-1, 1] (POV-Ray's DNoise)."""
-    return np.stack([perlin(p + o) for o in _DNOISE_OFFSETS], axis=1)
+# POV-Ray's own noise (runtime.noise); `noise_generator` in a pattern picks the generator.
+def _generator(params: dict) -> int:
+    return int(params.get("noise_generator", DEFAULT_GENERATOR) or DEFAULT_GENERATOR)
 
 
 def _turb_params(params: dict) -> tuple[np.ndarray | None, int, float, float]:
     t = params.get("turbulence")
+    octaves = int(params.get("octaves", 6))
+    omega = float(params.get("omega", 0.5))
+    lam = float(params.get("lambda", 2.0))
     if t is None:
-        return None, 6, 0.5, 2.0
+        return None, octaves, omega, lam
     vec = np.broadcast_to(np.asarray(t, dtype=np.float64), (3,))
     if not vec.any():
-        return None, 6, 0.5, 2.0
-    return (
-        vec,
-        int(params.get("octaves", 6)),
-        float(params.get("omega", 0.5)),
-        float(params.get("lambda", 2.0)),
-    )
-
-
-def turbulence(p: np.ndarray, octaves: int, omega: float, lam: float) -> np.ndarray:
-    """(N,) POV-Ray's scalar Turbulence(): noise summed over octaves, each `lam` times finer
-    and `omega` times weaker than the last."""
-    value = noise(p)
-    scale, amp = lam, omega
-    for _ in range(2, octaves + 1):
-        value = value + amp * noise(p * scale)
-        scale *= lam
-        amp *= omega
-    return value
-
-
-def dturbulence(p: np.ndarray, octaves: int, omega: float, lam: float) -> np.ndarray:
-    """(N,3) vector turbulence (POV-Ray's DTurbulence) used by the turbulence warp."""
-    value = dnoise(p)
-    scale, amp = lam, omega
-    for _ in range(2, octaves + 1):
-        value = value + amp * dnoise(p * scale)
-        scale *= lam
-        amp *= omega
-    return value
+        return None, octaves, omega, lam
+    return vec, octaves, omega, lam
 
 
 def turbulence_warp(p: np.ndarray, params: dict) -> np.ndarray:
@@ -471,7 +396,7 @@ def _builtin_turb(p: np.ndarray, params: dict, axis: int) -> np.ndarray | float:
     vec, octaves, omega, lam = _turb_params(params)
     if vec is None:
         return 0.0
-    return vec[axis] * turbulence(p, octaves, omega, lam)
+    return vec[axis] * turbulence(p, octaves, omega, lam, _generator(params))
 
 
 def _triangle(v: np.ndarray) -> np.ndarray:
@@ -479,46 +404,67 @@ def _triangle(v: np.ndarray) -> np.ndarray:
     return np.where(f < 0.5, 2.0 * f, 2.0 - 2.0 * f)
 
 
+def _cycloidal(v: np.ndarray) -> np.ndarray:
+    """POV-Ray's cycloidal(): sin(2 pi v)."""
+    return np.sin(2.0 * math.pi * (v - np.floor(v)))
+
+
 def bozo(p: np.ndarray, params: dict) -> np.ndarray:
-    return noise(p)
+    """bozo, spotted and bumps as pigments: the noise itself."""
+    return noise(p, _generator(params))
 
 
 def granite(p: np.ndarray, params: dict) -> np.ndarray:
-    """Six octaves of min(|1 - 2 noise|, 0.5) at 4x scale, each half as strong (POV-Ray's
-    granite with its default, range-corrected noise generator)."""
+    """Six octaves of noise at 4x scale, each half as strong: |0.5 - n| for the original
+    generator, min(|1 - 2n|, 0.5) for the others."""
+    gen = _generator(params)
     total = np.zeros(len(p))
     freq = 1.0
     for _ in range(6):
-        total += np.minimum(np.abs(1.0 - 2.0 * noise(p * (4.0 * freq))), 0.5) / freq
+        n = noise(p * (4.0 * freq), gen)
+        if gen == 1:
+            t = np.abs(0.5 - n)
+        else:
+            t = np.minimum(np.abs(1.0 - 2.0 * n), 0.5)
+        total += t / freq
         freq *= 2.0
     return total
 
 
 def marble(p: np.ndarray, params: dict) -> np.ndarray:
-    """Bands along x, bent by the pattern's own turbulence, as a triangle wave."""
-    return _triangle(p[:, 0] + _builtin_turb(p, params, 0))
+    """x bent by the pattern's own turbulence (its wave, triangle by default, makes bands)."""
+    return p[:, 0] + _builtin_turb(p, params, 0)
 
 
 def wood(p: np.ndarray, params: dict) -> np.ndarray:
-    """Rings around the z axis as a triangle wave. Turbulence bends the rings the way
-    POV-Ray's wood does: x += sin(2 pi (x + DTurbulence.x) turbulence.x), same for y."""
+    """The distance from the z axis (rings through the triangle wave). Turbulence bends the
+    rings the way POV-Ray's wood does: x += sin(2 pi (x + DTurbulence.x) turbulence.x),
+    the same for y."""
     x, y = p[:, 0], p[:, 1]
     vec, octaves, omega, lam = _turb_params(params)
     if vec is not None:
         d = dturbulence(p, octaves, omega, lam)
-        x = x + np.sin(2.0 * math.pi * (x + d[:, 0]) * vec[0])
-        y = y + np.sin(2.0 * math.pi * (y + d[:, 1]) * vec[1])
-    return _triangle(np.hypot(x, y))
+        x = x + _cycloidal((x + d[:, 0]) * vec[0])
+        y = y + _cycloidal((y + d[:, 1]) * vec[1])
+    return np.hypot(x, y)
 
 
 def wrinkles(p: np.ndarray, params: dict) -> np.ndarray:
-    """Ten octaves of |noise - 0.5| with doubling frequency (POV-Ray's wrinkles)."""
-    total = np.zeros(len(p))
-    scale = 1.0
-    for _ in range(10):
-        total += np.abs(noise(p * scale) - 0.5) / scale
-        scale *= 2.0
-    return np.clip(total, 0.0, 1.0)
+    """Ten octaves of noise, each twice as fine and half as strong, halved (POV-Ray's
+    wrinkles pigment); generators 2 and 3 stretch each octave to 2n - 0.5, clipped."""
+    gen = _generator(params)
+
+    def octave(q: np.ndarray) -> np.ndarray:
+        n = noise(q, gen)
+        return n if gen == 1 else np.clip(2.0 * n - 0.5, 0.0, 1.0)
+
+    total = octave(p)
+    lam, omega = 2.0, 0.5
+    for _ in range(1, 10):
+        total += omega * octave(p * lam)
+        lam *= 2.0
+        omega *= 0.5
+    return total / 2.0
 
 
 def radial(p: np.ndarray, params: dict) -> np.ndarray:
@@ -528,59 +474,58 @@ def radial(p: np.ndarray, params: dict) -> np.ndarray:
     return np.where(on_axis, 0.25, 0.25 + (np.arctan2(x, z) + math.pi) / (2.0 * math.pi))
 
 
-def _spiral(p: np.ndarray, params: dict, sign: float) -> np.ndarray:
-    """Spirals around the z axis with `arms` arms (spiral1: +, spiral2: -), as a triangle
-    wave; turbulence is part of the pattern."""
+def _spiral_arg(p: np.ndarray, params: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(distance from the z axis, z + distance + arms * angle / 2 pi + turbulence)."""
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
     arms = float(params.get("arms", 1.0))
     rad = np.hypot(x, y)
     safe = np.where(rad > 0, rad, 1.0)
     s = np.arcsin(np.clip(y / safe, -1.0, 1.0))
     phi = np.where(rad == 0, 0.0, np.where(x < 0, 1.5 * math.pi - s, 0.5 * math.pi + s))
-    value = z + rad + sign * arms * phi / (2.0 * math.pi) + _builtin_turb(p, params, 0)
-    return _triangle(value)
+    return rad, z + rad + arms * phi / (2.0 * math.pi) + _builtin_turb(p, params, 0)
 
 
 def spiral1(p: np.ndarray, params: dict) -> np.ndarray:
-    return _spiral(p, params, 1.0)
+    """Spirals around the z axis with `arms` arms (through the triangle wave by default)."""
+    return _spiral_arg(p, params)[1]
 
 
 def spiral2(p: np.ndarray, params: dict) -> np.ndarray:
-    return _spiral(p, params, -1.0)
+    rad, arg = _spiral_arg(p, params)
+    return _triangle(rad) + _triangle(arg)
 
 
 def ripples(p: np.ndarray, params: dict) -> np.ndarray:
-    """Concentric sine waves from ten fixed sources, averaged to [0, 1]."""
+    """Concentric sine waves from POV-Ray's ten wave sources, averaged to [0, 1]."""
     total = np.zeros(len(p))
     for src in _WAVE_SOURCES:
         length = np.linalg.norm(p - src, axis=1)
-        total += np.sin(2.0 * math.pi * length)
+        total += _cycloidal(length)
     return 0.5 + total / (2.0 * len(_WAVE_SOURCES))
 
 
 def waves(p: np.ndarray, params: dict) -> np.ndarray:
-    """Cosine waves of varied frequencies from ten fixed sources, averaged to [0, 1]."""
+    """Cosine waves of varied frequencies from POV-Ray's ten wave sources."""
     total = np.zeros(len(p))
     for src, f in zip(_WAVE_SOURCES, _WAVE_FREQS, strict=True):
         length = np.linalg.norm(p - src, axis=1)
-        total += np.cos(2.0 * math.pi * length * f) / f
-    return 0.5 + total / (2.0 * float((1.0 / _WAVE_FREQS).sum()))
+        length = np.where(length == 0.0, 1.0, length)
+        total += _cycloidal(length * f) / f
+    return 0.2 * (2.5 + total / len(_WAVE_SOURCES))
 
 
 def dents(p: np.ndarray, params: dict) -> np.ndarray:
-    return noise(p) ** 3
+    return noise(p, _generator(params)) ** 3
 
 
 def agate(p: np.ndarray, params: dict) -> np.ndarray:
-    """Turbulent bands along z: 0.5 (1 + sin(2 pi (z + agate_turb * turbulence)))^0.77."""
+    """0.5 (1 + sin(2 pi (1.3 agate_turb turbulence + 1.1 z)))^0.77; the turbulence uses
+    the pattern's octaves/omega/lambda (6, 0.5, 2 unless given)."""
     turb = float(params.get("agate_turb", 1.0))
-    octaves = int(params.get("octaves", 6))
-    omega = float(params.get("omega", 0.5))
-    lam = float(params.get("lambda", 2.0))
-    value = 0.5 * (
-        np.cos(2.0 * math.pi * (p[:, 2] + turb * turbulence(p, octaves, omega, lam))) + 1
-    )
-    return np.clip(np.abs(value) ** 0.77, 0.0, 1.0)
+    _, octaves, omega, lam = _turb_params(params)
+    t = turb * turbulence(p, octaves, omega, lam, _generator(params))
+    value = 0.5 * (_cycloidal(1.3 * t + 1.1 * p[:, 2]) + 1.0)
+    return np.clip(value, 0.0, 1.0) ** 0.77
 
 
 def _cell_hash(c: np.ndarray, salt: int) -> np.ndarray:
@@ -666,7 +611,8 @@ def quilted(p: np.ndarray, params: dict) -> np.ndarray:
     v = p - np.floor(p) - 0.5
     t = np.linalg.norm(v, axis=1)
     it = 1.0 - t
-    k = t**3 + 3.0 * t * it * it * c0 + 3.0 * t * t * it * c1
+    # POV-Ray scales the Bezier by 1/sqrt(3/4) (2/sqrt(3) printed to ten digits).
+    k = (t**3 + 3.0 * t * it * it * c0 + 3.0 * t * t * it * c1) * 1.154700538
     return np.abs(v * k[:, None]).sum(axis=1) / 3.0
 
 
@@ -711,7 +657,7 @@ def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
     if fn is None:
         _warn(f"pattern `{kind}` is not supported yet in a function: its value is 0")
         return np.zeros(len(points))
-    return apply_wave(fn(p, pattern.params), pattern.params)
+    return apply_wave(fn(p, pattern.params), pattern.params, kind)
 
 
 BUILT_IN_TURBULENCE = {"marble", "wood", "spiral1", "spiral2", "agate"}
@@ -748,14 +694,18 @@ CONTINUOUS_PATTERNS = {
 }
 
 
-def apply_wave(value: np.ndarray, params: dict) -> np.ndarray:
+# Patterns whose wave is a triangle unless the scene names one (POV-Ray's parser sets it).
+TRIANGLE_BY_DEFAULT = frozenset({"marble", "wood", "spiral1", "spiral2"})
+
+
+def apply_wave(value: np.ndarray, params: dict, kind: str = "") -> np.ndarray:
     """POV-Ray's frequency/phase wrap, then the wave type."""
     freq = float(params.get("frequency", 1.0))
     phase = float(params.get("phase", 0.0))
     if freq != 0.0:
         value = np.fmod(value * freq + phase, WAVE_MODULUS)
     value = np.where(value < 0.0, value - np.floor(value), value)
-    wave = params.get("wave", "ramp_wave")
+    wave = params.get("wave", "triangle_wave" if kind in TRIANGLE_BY_DEFAULT else "ramp_wave")
     if wave == "sine_wave":
         value = (1.0 + np.sin(value * 2.0 * math.pi)) * 0.5
     elif wave == "triangle_wave":
@@ -847,11 +797,21 @@ def may_transmit(pigment: ir.Pigment) -> bool:
 # POV-Ray's sampling distance for the slope of a pattern used as a normal.
 NORMAL_DELTA: float = 0.02
 
-# Fixed ripple/wave sources (POV-Ray draws its ten from its noise tables; these are drawn
-# once from strala's own generator, so ripples have POV-Ray's look, not its exact layout).
-_WAVE_SOURCES = np.random.default_rng(1992).normal(size=(10, 3))
-_WAVE_SOURCES /= np.linalg.norm(_WAVE_SOURCES, axis=1, keepdims=True)
-_WAVE_FREQS = np.random.default_rng(1993).uniform(0.01, 1.01, 10)
+
+def _wave_tables(count: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    """POV-Ray's ripple/wave sources and frequencies: source i is DNoise(<i, 0, 0>)
+    normalised, frequency i a draw of POV-Ray's LCG (seeded -560851967) in [0.01, 1.01]."""
+    sources = dnoise(np.array([[float(i), 0.0, 0.0] for i in range(count)]))
+    sources /= np.linalg.norm(sources, axis=1, keepdims=True)
+    x = -560851967 & 0xFFFFFFFF
+    freqs = []
+    for _ in range(count):
+        x = (x * 1812433253 + 12345) & 0xFFFFFFFF
+        freqs.append(((x >> 16) & 0x7FFF) / 32767.0 + 0.01)
+    return sources, np.array(freqs)
+
+
+_WAVE_SOURCES, _WAVE_FREQS = _wave_tables()
 
 
 def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -> np.ndarray:
@@ -910,7 +870,7 @@ def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -
 def _pattern_value(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
     if kind in LIST_PATTERNS:
         return LIST_PATTERNS[kind](p, params).astype(np.float64)
-    return apply_wave(CONTINUOUS_PATTERNS[kind](p, params), params)
+    return apply_wave(CONTINUOUS_PATTERNS[kind](p, params), params, kind)
 
 
 # A regular tetrahedron of unit vectors: POV-Ray samples a pattern used as a normal at
