@@ -140,6 +140,23 @@ def dnoise(p: np.ndarray) -> np.ndarray:
     return out
 
 
+# ---------------------------------------------------------- cell random values
+def _pattern_rands(count: int = 32768) -> np.ndarray:
+    """POV-Ray's table of random doubles for cells and crackle: the Mersenne Twister
+    (MT19937, default seed 5489) scaled to [0, 1) as u32 / 2^32."""
+    bits = np.random.MT19937()
+    bits._legacy_seeding(5489)
+    return bits.random_raw(count).astype(np.float64) / 4294967296.0
+
+
+PATTERN_RANDS = _pattern_rands()
+
+
+def hash3d(ix: np.ndarray, iy: np.ndarray, iz: np.ndarray) -> np.ndarray:
+    """POV-Ray's Hash3d of integer cells (each coordinate taken modulo 4096)."""
+    return HASH[HASH[HASH[ix & 0xFFF] ^ (iy & 0xFFF)] ^ (iz & 0xFFF)]
+
+
 # ------------------------------------------------------- gradient noise (generator 3)
 _SOLID_ENTRIES = 2048
 _ROLLOVER = 10000000.023157213

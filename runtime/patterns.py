@@ -37,7 +37,15 @@ from functools import lru_cache
 import numpy as np
 
 from lang import ir
-from runtime.noise import DEFAULT_GENERATOR, dnoise, dturbulence, noise, turbulence
+from runtime.noise import (
+    DEFAULT_GENERATOR,
+    PATTERN_RANDS,
+    dnoise,
+    dturbulence,
+    hash3d,
+    noise,
+    turbulence,
+)
 
 # POV-Ray adds a tiny epsilon to every coordinate before flooring, so a plane at an integer
 # coordinate (y = 0, the classic floor) does not flicker between cells. 1e-6 matches POV-Ray
@@ -528,49 +536,62 @@ def agate(p: np.ndarray, params: dict) -> np.ndarray:
     return np.clip(value, 0.0, 1.0) ** 0.77
 
 
-def _cell_hash(c: np.ndarray, salt: int) -> np.ndarray:
-    """(N,) deterministic pseudo-random numbers in [0, 1) for integer cells (N,3)."""
-    h = (c[:, 0] * 73856093) ^ (c[:, 1] * 19349663) ^ (c[:, 2] * 83492791) ^ (salt * 2654435761)
-    h = (h ^ (h >> 13)) * 1274126177
-    h = h ^ (h >> 16)
-    return (h & 0xFFFFFF).astype(np.float64) / float(1 << 24)
-
-
 def cells(p: np.ndarray, params: dict) -> np.ndarray:
-    """One random value per unit cube."""
-    return _cell_hash(np.floor(p + CHECKER_OFFSET).astype(np.int64), 0)
+    """One random value per unit cube (POV-Ray's table entry for the cube's hash)."""
+    c = np.floor(p + CHECKER_OFFSET).astype(np.int64)
+    return PATTERN_RANDS[hash3d(c[:, 0], c[:, 1], c[:, 2])]
+
+
+# The cubes whose random points can be nearest: the 3x3x3 block around the point's cube and
+# the 3x3 squares beyond each of its faces (81 in all).
+_CRACKLE_CUBES = np.array(
+    [
+        (dx, dy, dz)
+        for dx in range(-2, 3)
+        for dy in range(-2, 3)
+        for dz in range(-2, 3)
+        if (abs(dx) == 2) + (abs(dy) == 2) + (abs(dz) == 2) <= 1
+    ],
+    dtype=np.int64,
+)
 
 
 def crackle(p: np.ndarray, params: dict) -> np.ndarray:
-    """Voronoi cells around one random point per unit cube: `form` weights the distances to
-    the nearest, second and third points (default <-1, 1, 0>: the cracks are 0), measured
-    with the `metric` exponent and `offset` added as POV-Ray does; `solid` gives every cell
-    one noise value instead."""
+    """Voronoi cells around one random point per unit cube (POV-Ray's points: cube corner
+    plus three table entries from the cube's hash): `form` weights the distances to the
+    nearest, second and third points (default <-1, 1, 0>: the cracks are 0), measured with
+    the `metric` exponent and `offset` added as POV-Ray does; `solid` gives every cell the
+    noise at its point instead."""
     form = np.broadcast_to(np.asarray(params.get("form", (-1.0, 1.0, 0.0)), float), (3,))
     metric = float(params.get("metric", 2.0))
     offset = float(params.get("offset", 0.0))
-    base = np.floor(p).astype(np.int64)
-    best = np.full((len(p), 3), np.inf)
-    nearest = np.zeros_like(p)
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
-            for dz in (-1, 0, 1):
-                c = base + np.array([dx, dy, dz])
-                pt = c + np.stack([_cell_hash(c, k) for k in (1, 2, 3)], axis=1)
-                d = np.abs(pt - p)
-                dist = ((d**metric).sum(axis=1) + offset**metric) ** (1.0 / metric)
-                nearest = np.where((dist < best[:, 0])[:, None], pt, nearest)
-                # Insert into the running three smallest distances.
-                b0, b1, b2 = best[:, 0], best[:, 1], best[:, 2]
-                n0 = np.minimum(b0, dist)
-                r0 = np.maximum(b0, dist)
-                n1 = np.minimum(b1, r0)
-                r1 = np.maximum(b1, r0)
-                n2 = np.minimum(b2, r1)
-                best = np.stack([n0, n1, n2], axis=1)
+    base = np.floor(p - 1.0e-10).astype(np.int64)
+    n = len(p)
+    sums = np.empty((n, len(_CRACKLE_CUBES)))
+    points = np.empty((n, len(_CRACKLE_CUBES), 3))
+    for j, d in enumerate(_CRACKLE_CUBES):
+        c = base + d
+        seed = hash3d(c[:, 0], c[:, 1], c[:, 2])
+        pt = c + np.stack([PATTERN_RANDS[seed + k] for k in range(3)], axis=1)
+        points[:, j] = pt
+        diff = np.abs(pt - p)
+        if metric == 2.0:
+            sums[:, j] = (diff * diff).sum(axis=1)
+        elif metric == 1.0:
+            sums[:, j] = diff.sum(axis=1)
+        else:
+            sums[:, j] = (diff**metric).sum(axis=1)
+    order = np.argpartition(sums, 2, axis=1)[:, :3]
+    three = np.take_along_axis(sums, order, axis=1)
+    rank = np.argsort(three, axis=1)
+    three = np.take_along_axis(three, rank, axis=1)
+    nearest = order[np.arange(n), rank[:, 0]]
+    if offset:
+        three = three + (offset * offset if metric == 2.0 else offset**metric)
     if params.get("solid"):
-        return noise(nearest)
-    return np.clip(best @ form, 0.0, 1.0)
+        return noise(points[np.arange(n), nearest], _generator(params))
+    dist = three if metric == 1.0 else three ** (1.0 / metric)
+    return np.clip(dist @ form, 0.0, 1.0)
 
 
 def _fractal_value(params: dict, c: np.ndarray, z: np.ndarray) -> np.ndarray:

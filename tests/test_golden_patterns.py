@@ -46,6 +46,15 @@ SCENES: dict[str, str] = {
     "bozo_generator1": _plane(f"bozo noise_generator 1 {GREY}"),
     "bozo_generator3": _plane(f"bozo noise_generator 3 {GREY}"),
     "bumps_normal": _normal("bumps 0.8 scale 0.5"),
+    "dents_normal": _normal("dents 0.8 scale 0.5"),
+    "wrinkles_normal": _normal("wrinkles 0.8 scale 0.5"),
+    "granite_normal": _normal("granite 0.5 scale 2"),
+    "crackle": _plane(f"crackle {GREY} scale 0.5"),
+    "crackle_solid": _plane(f"crackle solid {GREY} scale 0.5"),
+    "crackle_metric": _plane(f"crackle metric 1 offset 0.1 form <1, 0, 0> {GREY} scale 0.5"),
+    "cells": _plane(f"cells {GREY} scale 0.5"),
+    "ripples": _plane(f"ripples {GREY} scale 0.5"),
+    "waves": _plane(f"waves {GREY} scale 0.5"),
 }
 
 # strala evaluates POV-Ray's noise itself, so the images agree to 8-bit rounding: measured
