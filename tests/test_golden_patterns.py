@@ -46,7 +46,7 @@ SCENES: dict[str, str] = {
     "bozo_generator1": _plane(f"bozo noise_generator 1 {GREY}"),
     "bozo_generator3": _plane(f"bozo noise_generator 3 {GREY}"),
     "bumps_normal": _normal("bumps 0.8 scale 0.5"),
-    "dents_normal": _normal("dents 0.8 scale 0.5"),
+    "dents_normal": _normal("dents 4 scale 0.5"),
     "wrinkles_normal": _normal("wrinkles 0.8 scale 0.5"),
     "granite_normal": _normal("granite 0.5 scale 2"),
     "crackle": _plane(f"crackle {GREY} scale 0.5"),
