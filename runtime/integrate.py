@@ -533,6 +533,7 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
     shared by all texture layers, like POV-Ray's light colour cache)."""
     dirs_out, cols_out = [], []
     lit = ctx.lit[hit.tex]
+    origins = _shadow_origins(ctx, hit)
     # A bumpy normal may face a light the smooth one does not: test those hits too.
     any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex] | ctx.bumpy[hit.tex]
     for light in ctx.scene.lights:
@@ -546,11 +547,28 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
             rows = np.nonzero(need)[0]
             if len(rows):
                 col[rows] *= shadow(
-                    ctx, light, hit.point[rows], ls.direction[rows], ls.distance[rows]
+                    ctx, light, origins[rows], ls.direction[rows], ls.distance[rows]
                 )
         dirs_out.append(ls.direction)
         cols_out.append(col)
     return LightColours(dirs_out, cols_out)
+
+
+def _shadow_origins(ctx: Context, hit: Hit) -> np.ndarray:
+    """Where shadow rays start: the hit points, except on meshes tessellated from curved
+    surfaces, whose points move onto the surface their smooth normals describe."""
+    curved = getattr(ctx.prepared, "curved", None)
+    triangles = ctx.tracer.triangles
+    if curved is None or not curved.any() or hit.prim is None or triangles is None:
+        return hit.point
+    sel = np.nonzero((hit.prim >= 0) & curved[hit.obj])[0]
+    if len(sel) == 0:
+        return hit.point
+    out = hit.point.copy()
+    out[sel] = triangles.terminator_points(
+        hit.obj[sel], hit.prim[sel], hit.point[sel], hit.normal[sel]
+    )
+    return out
 
 
 def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:

@@ -34,6 +34,9 @@ class Prepared:
     has_refraction: bool  # any filter/transmit > 0 in a pigment colour
     warnings: list[str] = field(default_factory=list)  # one line each, already printed
     culled: list[str] = field(default_factory=list)  # shapes not tessellated: never seen
+    # (n_objects,) bool: a mesh tessellated from a curved surface (nurbs, subdivision), whose
+    # shadow rays start from the curved surface its normals describe (see integrate)
+    curved: np.ndarray | None = None
 
 
 # Shapes prepare turns into meshes before tracing (absent from older IR versions).
@@ -59,6 +62,8 @@ class _Builder:
         self.triangle_leaves: list[tuple[int, ir.Object]] = []
         self.warnings: list[str] = []
         self.culled: list[str] = []
+        self.curved: list[bool] = []
+        self.curved_ids: set[int] = set()  # id() of the meshes tessellated from curved shapes
         self.cull: _Culler | None = None
 
     def warn_once(self, msg: str, span=None) -> None:
@@ -71,6 +76,7 @@ class _Builder:
     def add_leaf_object(self, obj: ir.Object, inherited: dict[str, bool]) -> int:
         index = len(self.objects)
         self.objects.append(obj)
+        self.curved.append(id(obj.shape) in self.curved_ids)
         for k in FLAG_NAMES:
             self.flags[k].append(bool(getattr(obj, k)) or inherited[k])
         self.sizes.append(0.0)
@@ -230,7 +236,9 @@ class _Builder:
         except Exception as exc:  # noqa: BLE001 - a broken surface must not stop the render
             self.warn_once(f"{name.lower()} could not be tessellated ({exc}); skipped", obj.span)
             return None
-        return ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
+        mesh = ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
+        self.curved_ids.add(id(mesh))
+        return mesh
 
     def auto_tolerance(self, obj: ir.Object) -> float:
         """Chord-error bound from the camera: half a pixel at the control net's nearest
@@ -287,6 +295,7 @@ def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:
         has_refraction=any(_texture_transparent(t) for o in b.objects for t in _textures(o)),
         warnings=b.warnings,
         culled=b.culled,
+        curved=np.array(b.curved, dtype=bool),
     )
 
 

@@ -89,6 +89,12 @@ class TriangleSet:
         self.tri_size = np.concatenate(tri_size) if tri_size else np.zeros(0)
         self.leaf_of = np.concatenate(leaf_of) if leaf_of else np.zeros(0, np.int32)
         self.local = np.concatenate(local) if local else np.zeros(0, np.int32)
+        # the first global triangle of each leaf (object index): global = first + local
+        self.first: dict[int, int] = {}
+        start = 0
+        for (index, _), t in zip(leaves, tris, strict=True):
+            self.first[index] = start
+            start += len(t)
         self.v0 = self.tri[:, 0]
         self.e1 = self.tri[:, 1] - self.tri[:, 0]
         self.e2 = self.tri[:, 2] - self.tri[:, 0]
@@ -200,6 +206,29 @@ class TriangleSet:
         if not out_rows:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
         return np.concatenate(out_rows), np.concatenate(out_tri), np.concatenate(out_t)
+
+    def terminator_points(self, obj, prim, point, normal) -> np.ndarray:
+        """Shadow-ray origins for hits on smooth triangles (Hanika 2021, "Hacking the
+        Shadow Terminator"): the hit point pushed onto the curved surface the vertex normals
+        describe, so that a flat triangle near the light/shadow boundary does not shadow
+        itself. `normal` is the shading normal turned toward the viewer; points on flat
+        triangles stay where they are."""
+        tri = np.array([self.first[int(o)] for o in obj], dtype=np.int64) + prim
+        out = np.array(point, dtype=np.float64, copy=True)
+        sm = self.smooth[tri]
+        if not sm.any():
+            return out
+        tri, p = tri[sm], out[sm]
+        u, v = barycentric(p, self.v0[tri], self.e1[tri], self.e2[tri])
+        w = np.stack([1.0 - u - v, u, v], axis=1)
+        vn = self.vn[tri]  # (M,3,3) vertex normals, turned to the viewer's side
+        side = np.sign(np.einsum("mkj,mj->mk", vn, normal[sm]))
+        vn = vn * np.where(side == 0, 1.0, side)[..., None]
+        to_p = p[:, None, :] - self.tri[tri]  # from each vertex to the point
+        below = np.minimum(0.0, np.einsum("mkj,mkj->mk", to_p, vn))
+        lifted = self.tri[tri] + to_p - below[..., None] * vn
+        out[sm] = np.einsum("mk,mkj->mj", w, lifted)
+        return out
 
     def _record(self, hits, rows, tri, t, o, d) -> None:
         hits.t[rows] = t

@@ -12,7 +12,8 @@ lit from a point on its axis (a shadow ray stays in the plane through the axis, 
 tube's cross-section is a convex circle), a plane and a triangle pair lit 2.3 degrees above
 their horizon (every shadow ray grazes the surface it leaves), and the seed's sphere on a
 plane, whose shadow on the plane is computed analytically here. A tessellated NURBS sphere
-is measured too; its terminator is bounded rather than clean (see TERMINATOR_SHARE).
+is measured too: its shadow rays start on the curved surface, so it has no acne either;
+its mirror rays still may hit their own facets near the terminator (see TERMINATOR_SHARE).
 A must-be-lit pixel whose red channel is below half its green one is *acne*; a pixel
 analytically in the sphere's shadow that comes out lit is a *leak* (an offset so large that
 the shadow ray jumped over the occluder).
@@ -44,8 +45,8 @@ ACNE_SCALES = tuple(10.0**k for k in range(-3, 7))
 MARGIN = 0.02
 # A tessellated surface shades with its exact normals but casts shadows with its facets:
 # near the terminator a facet can face away from the light while the normal still faces
-# it (the "shadow terminator" of smooth meshes, POV-Ray's too). Its pixels are not
-# numerical acne, and stay below this share of the lit ones.
+# it (the "shadow terminator" of smooth meshes, POV-Ray's too). Shadow rays avoid it by
+# starting on the curved surface; mirror rays' self-hits stay below this share.
 TERMINATOR_SHARE = 0.01
 # The analytic classification of the sphere-on-plane scene keeps this relative distance from
 # every boundary it cannot resolve per pixel (silhouette, shadow edge).

@@ -27,10 +27,12 @@ def test_no_acne_from_1e_minus_3_to_1e6(name):
         # The image is the same at every scale (the metric compares like with like).
         assert abs(m.must_be_lit - first.must_be_lit) <= 2, (s, m)
         limit = 0 if s in acne.ACNE_SCALES else OUTSIDE_RANGE_SHARE * m.must_be_lit
-        if c.smooth:
-            limit = acne.TERMINATOR_SHARE * m.must_be_lit
+        # shadow rays on tessellated surfaces start on the curved surface (Hanika's
+        # terminator offset), so they are held to 0 like the rest; reflected rays do not
+        # move yet, which leaves a bounded share of mirror self-hits near the terminator
         assert m.acne <= limit, (s, m)
-        assert m.mirror_bad <= limit, (s, m)
+        mirror_limit = acne.TERMINATOR_SHARE * m.must_be_lit if c.smooth else limit
+        assert m.mirror_bad <= mirror_limit, (s, m)
         assert m.leaks == 0, (s, m)
         if c.convex:
             assert m.mirror_pixels > 150, (s, m)
