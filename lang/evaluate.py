@@ -2061,7 +2061,7 @@ class Interpreter:
         elif name in _PATTERN_KEYWORDS:
             st["pattern"] = name
             if name == "gradient":
-                params["orientation"] = args[0]
+                params["orientation"] = _unit_or_same(args[0])
             elif name in ("spiral1", "spiral2"):
                 params["arms"] = args[0]
             elif name in ("mandel", "magnet", "tiling"):
@@ -2095,6 +2095,16 @@ class Interpreter:
         else:
             return False
         return True
+
+
+def _unit_or_same(v: Any) -> Any:
+    """POV-Ray normalises a gradient's vector (`gradient <1, 1, 0>` repeats every 1/√2 along
+    the diagonal, not every 1/2); a zero vector stays as given."""
+    if isinstance(v, tuple) and len(v) == 3:
+        n = math.hypot(*v)
+        if n > 0:
+            return tuple(c / n for c in v)
+    return v
 
 
 # Pattern keywords (the modifiers such as turbulence are handled before these).
