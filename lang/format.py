@@ -25,9 +25,8 @@ _SCAN = re.compile(r'"(?:[^"\\\n]|\\.)*"?|//[^\n]*|/\*|\*/|[{}\[\]]|#[ \t]*[A-Za
 def format_source(text: str) -> str:
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     out: list[str] = []
-    depth = 0
+    state = _State()
     comment_depth = 0  # nesting of /* */ carried across lines
-    switch_depths: list[int] = []
     blank_run = 0
     for raw in lines:
         if comment_depth > 0:
@@ -43,15 +42,20 @@ def format_source(text: str) -> str:
                 out.append("")
             continue
         blank_run = 0
-        body, depth_delta, lead_out, comment_depth, switch_depths = _scan_line(
-            stripped, depth, switch_depths
-        )
-        indent = max(depth - lead_out, 0)
+        body, indent, comment_depth = _scan_line(stripped, state)
         out.append(INDENT * indent + body)
-        depth = max(depth + depth_delta, 0)
     while out and out[-1] == "":
         out.pop()
     return "\n".join(out) + "\n"
+
+
+class _State:
+    """The nesting carried from line to line: the depth, and for each open directive the
+    depth of its body."""
+
+    def __init__(self) -> None:
+        self.depth = 0
+        self.frames: list[int] = []
 
 
 def _comment_depth_after(line: str, depth: int) -> int:
@@ -63,16 +67,18 @@ def _comment_depth_after(line: str, depth: int) -> int:
     return max(depth, 0)
 
 
-def _scan_line(line: str, depth: int, switches: list[int]):
-    """Returns the re-spaced line, the depth change it causes, how far its own first token
-    steps out, the open block-comment depth at its end, and the #switch stack."""
+def _scan_line(line: str, state: _State) -> tuple[str, int, int]:
+    """Returns the re-spaced line, its indentation (from its first token: a closing `}`,
+    `#end` or `#else` steps out), and the open block-comment depth at its end.
+
+    Each branch of a directive starts at the depth of the directive's body, so a branch that
+    opens a block's `{` for a shared body (`#if (A) merge { #else union { #end … }`, a "cut"
+    block) indents the same as the others, and the shared body stays one level in."""
     pieces: list[str] = []
     pos = 0
-    delta = 0
-    lead_out = 0
-    first = True
+    indent = state.depth
+    at_start = True  # no token of the line seen yet
     comment = 0
-    switches = list(switches)
     for m in _SCAN.finditer(line):
         tok = m.group()
         if comment > 0:
@@ -86,8 +92,8 @@ def _scan_line(line: str, depth: int, switches: list[int]):
         if tok == "/*":
             comment = 1
             continue
-        at_start = first and not line[: m.start()].strip()
-        first = False
+        first = at_start and not line[: m.start()].strip()
+        at_start = False
         if tok.startswith('"'):
             continue
         if tok == ",":
@@ -98,28 +104,27 @@ def _scan_line(line: str, depth: int, switches: list[int]):
                 pos += 1
             continue
         if tok in "{[":
-            delta += 1
+            state.depth += 1
         elif tok in "}]":
-            if at_start or delta <= 0:
-                if at_start:
-                    lead_out += 1
-            delta -= 1
+            state.depth = max(state.depth - 1, 0)
+            if first:
+                indent = state.depth
         elif tok.startswith("#"):
             word = tok[1:].strip()
             if word in _OPENERS:
-                delta += 1
-                if word == "switch":
-                    switches.append(depth + delta)
+                state.depth += 1
+                state.frames.append(state.depth)
             elif word == "end":
-                if at_start:
-                    lead_out += 1
-                delta -= 1
-                if switches and switches[-1] == depth + delta + 1:
-                    switches.pop()
-            elif word in _MIDDLES and at_start:
-                lead_out += 1
+                level = state.frames.pop() if state.frames else state.depth
+                # depth - 1, not the frame's outer level: a cut block's `{` stays open
+                state.depth = max(state.depth - 1, 0)
+                if first:
+                    indent = max(level - 1, 0)
+            elif word in _MIDDLES:
+                level = state.frames[-1] if state.frames else state.depth
+                state.depth = level
+                if first:
+                    indent = max(level - 1, 0)
     pieces.append(line[pos:])
     text = "".join(pieces).rstrip()
-    # A line like `} else {` or `}}` steps out only once for its first token; the rest is
-    # carried by delta.
-    return text, delta, min(lead_out, 1), comment, switches
+    return text, indent, comment

@@ -399,6 +399,22 @@ class _Builder(Transformer):
             keyword_span=_tok_span(self.file, head),
         )
 
+    def cut_head(self, children):
+        head = children[0]
+        return syntax.CutHead(_tok_span(self.file, head), None, str(head))
+
+    def cut_elseif(self, children):
+        head = children[-1]
+        head.cond = children[2]
+        return head
+
+    def cut_block(self, children):
+        heads = [c for c in children if isinstance(c, syntax.CutHead)]
+        heads[0].cond = children[2]
+        heads[-1].cond = None  # the #else
+        body = [c for c in self._nodes(children[4:]) if not isinstance(c, syntax.CutHead)]
+        return syntax.CutBlock(self._span(children), heads, body)
+
     def array(self, children):
         mixed = any(isinstance(c, Token) and c.type == "KEYWORD" for c in children)
         dims = [c.node for c in children if isinstance(c, _Sub)]
@@ -652,6 +668,11 @@ def _block_head(text: str, brace: int) -> tuple[str, int]:
 
 
 def _hint_for(tok: Token, expected: set[str]) -> str | None:
+    if tok.type == "END" and "ELSE" in expected:  # only a cut block's head expects #else, not #end
+        return (
+            "an #if that opens a block needs an #else that opens it too: "
+            "`#if (A) merge { #else union { #end … }`"
+        )
     if tok.type == "RBRACE":
         return "a `}` closes a block; check that the item before it is complete"
     if tok.type == "KEYWORD" and "RPAR" in expected:

@@ -119,6 +119,23 @@ class Block(Node):
 
 
 @dataclass(slots=True)
+class CutHead(Node):
+    """One choice of a CutBlock: its condition (None for `#else`) and keyword."""
+
+    cond: Node | None
+    keyword: str
+
+
+@dataclass(slots=True)
+class CutBlock(Node):
+    """`#if (c) merge { #else union { #end body }`: a block whose keyword an #if chooses; the
+    body is shared. The first head whose condition holds names the block."""
+
+    heads: list[CutHead]
+    body: list[Node]
+
+
+@dataclass(slots=True)
 class ArrayLit(Node):
     """`array[d1][d2] { items }`; `items` is None when no initialiser is given.
     Nested initialisers `{ {1,2}, {3,4} }` appear as nested lists of nodes."""

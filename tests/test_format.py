@@ -43,6 +43,27 @@ def test_switch_cases_step_out():
     )
 
 
+def test_cut_block_branches_indent_alike_and_the_body_stays_in():
+    src = (
+        "#macro M(A)\n#if (A)\nmerge {\n#else\nunion {\n#end\nsphere {0,1}\n}\n#end\n"
+        "#if (B) merge { #else union { #end\nbox {0,1}\n}\n"
+    )
+    assert format_source(src) == (
+        "#macro M(A)\n"
+        "  #if (A)\n"
+        "    merge {\n"
+        "  #else\n"
+        "    union {\n"
+        "  #end\n"
+        "    sphere {0, 1}\n"
+        "  }\n"
+        "#end\n"
+        "#if (B) merge { #else union { #end\n"
+        "  box {0, 1}\n"
+        "}\n"
+    )
+
+
 def test_comments_and_strings_are_kept_verbatim():
     src = 'plane {y,0} // a,b  {\n/* keep\n     this,as is {\n*/\n#debug "x,y {"\n'
     out = format_source(src)

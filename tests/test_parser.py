@@ -292,8 +292,8 @@ POV_CORPUS = ["/usr/share/povray-3.7/include", "/usr/share/doc/povray/examples"]
 @pytest.mark.povray
 def test_povray_corpus_parses():
     """POV-Ray's own include files and example scenes (read at test time, never copied):
-    at least 98% parse without a syntax error. The rest use textual-macro tricks (a directive
-    that cuts a block in half) that strala reports instead of guessing."""
+    at least 98% parse without a syntax error. The rest use textual-macro tricks (half a
+    `#write` call in one #if branch) that strala reports instead of guessing."""
     import glob
     import os
 
@@ -354,6 +354,9 @@ _STATEMENTS = [
     '#write ( H , X , "\\n" )',
     "#fclose H",
     "union { sphere { 0 , 1 } box { 0 , 1 } translate x }",
+    "#if ( A ) merge { #elseif ( B ) intersection { #else union { #end sphere { 0 , 1 } }",
+    "#declare U = #if ( A ) merge { #else union { #end box { 0 , 1 } } ;",
+    "#declare I = 2 * ( #if ( A ) 1 #else #local T = 2 ; T + 1 #end ) ;",
 ]
 
 
@@ -428,3 +431,58 @@ def test_a_block_closed_at_the_end_of_file_ends_at_its_last_token():
     assert [d.code for d in diags] == ["E0106"]
     (sphere,) = tree.body
     assert (sphere.span.end_line, sphere.span.end_col) == (2, 18)
+
+
+CUT = """#macro RB(M)
+  #if (M)
+    merge {
+  #elseif (M < 0)
+    intersection {
+  #else
+    union {
+  #end
+    sphere { 0, 1 }
+  }
+#end
+"""
+
+
+def test_cut_block_is_one_block_with_its_heads():
+    (macro,) = ok(CUT)
+    (cut,) = macro.body
+    assert isinstance(cut, S.CutBlock)
+    assert [h.keyword for h in cut.heads] == ["merge", "intersection", "union"]
+    assert isinstance(cut.heads[0].cond, S.Ident) and isinstance(cut.heads[1].cond, S.Binary)
+    assert cut.heads[2].cond is None
+    assert (cut.heads[1].span.line, cut.heads[1].span.col) == (5, 5)
+    assert [type(n) for n in cut.body] == [S.Block]
+    assert (cut.span.line, cut.span.end_line) == (2, 10)
+
+
+def test_cut_block_without_else_names_the_form():
+    (e, *_) = errors("#if (A) merge {\n#end\nsphere {0,1} }\n")
+    assert e.span.line == 2 and "#else union {" in e.hint
+
+
+def test_cut_block_incremental_parse_equals_full_parse_under_edits():
+    from lang.incremental import IncrementalParser
+
+    text = CUT + "object { RB(1) }\n" + CUT.replace("RB", "RC")
+    inc = IncrementalParser("t.pov")
+    assert inc.parse(text) == parse(text, "t.pov")
+    for at, cut, new in [
+        (text.index("#else"), 5, ""),
+        (text.index("#else"), 0, "#else"),
+        (text.index("union"), 0, "}\n"),
+        (text.index("union") + 1, 1, ""),
+        (0, 0, "#declare Q = 1;\n"),
+    ]:
+        text = text[:at] + new + text[at + cut :]
+        assert inc.parse(text) == parse(text, "t.pov"), text
+
+
+def test_directive_inside_parentheses_is_the_expression():
+    (decl,) = ok("#declare V = 2 * (#if (A) 1 #else #local T = 2; T #end);")
+    inner = decl.value.right
+    assert isinstance(inner, S.If)
+    assert [type(n) for n in inner.branches[1][1]] == [S.Declare, S.Ident]

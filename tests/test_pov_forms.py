@@ -1,0 +1,111 @@
+"""Forms POV-Ray's own include files use that a plain block grammar does not have: a block
+whose keyword an #if chooses, directives inside a parenthesised expression, `deprecated`
+declarations, and the animation's frame identifiers."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lang.evaluate import compile_source
+
+CUT_MACRO = """
+#macro RB(M)
+  #if (M > 0)
+    merge {
+  #elseif (M < 0)
+    intersection {
+  #else
+    union {
+  #end
+    sphere { 0, 1 }
+    sphere { x, 1 }
+  }
+#end
+"""
+
+
+def _errors(r) -> list:
+    return [d for d in r.diagnostics if d.severity == "error"]
+
+
+@given(st.integers(-3, 3))
+def test_cut_block_takes_the_keyword_of_the_first_true_branch(m):
+    r = compile_source(CUT_MACRO + f"object {{ RB({m}) }}\n", "t.pov")
+    assert not _errors(r), [d.format() for d in r.diagnostics]
+    (obj,) = r.scene.objects
+    want = "merge" if m > 0 else "intersection" if m < 0 else "union"
+    assert obj.shape.op == want
+    assert len(obj.shape.children) == 2
+
+
+def test_cut_block_as_a_declared_value_and_on_one_line():
+    r = compile_source(
+        "#declare U = #if (0) merge { #else difference { #end box {0,1} }\nU\n", "t.pov"
+    )
+    assert not _errors(r)
+    assert r.scene.objects[0].shape.op == "difference"
+
+
+def test_cut_block_body_is_checked_against_the_chosen_keyword():
+    r = compile_source("#if (1) sphere { #else box { #end 0, 1, 2, 3 }\n", "t.pov")
+    errs = _errors(r)
+    assert errs and errs[0].span.line == 1
+
+
+@pytest.mark.parametrize("guard", ["#if (1) merge {", "#if (1) merge { #elseif (0) union {"])
+def test_cut_block_needs_an_else(guard):
+    r = compile_source(guard + " #end sphere {0,1} }\n", "t.pov")
+    errs = _errors(r)
+    assert errs and errs[0].span.line == 1 and errs[0].span.col > 1
+
+
+INTERP = """
+#macro Interp(GC, GS, GE, TS, TE, Method)
+   (#if (Method != 0)
+      (TS + (TE - TS) * pow((GC - GS) / (GE - GS), Method))
+   #elseif (Method = 0)
+      #local X = (GC - GS) / (GE - GS);
+      #local F = (1 - cos(X * pi)) * .5;
+      (TS * (1 - F) + TE * F)
+   #end)
+#end
+"""
+
+
+@given(st.floats(0, 1), st.sampled_from([0, 1, 2]))
+def test_directives_inside_a_parenthesised_expression(t, method):
+    import math
+
+    r = compile_source(
+        INTERP + f"#declare V = 2 * Interp({t!r}, 0, 1, 10, 20, {method});\n", "t.pov"
+    )
+    assert not _errors(r), [d.format() for d in r.diagnostics]
+    want = (
+        10 + 10 * t**method
+        if method
+        else 10 * (1 - 0.5 * (1 - math.cos(t * math.pi))) + 20 * (0.5 * (1 - math.cos(t * math.pi)))
+    )
+    assert r.symbols["V"] == pytest.approx(2 * want)
+
+
+def test_a_parenthesised_directive_without_a_value_is_an_error():
+    r = compile_source("#declare V = 1 + (#if (0) 2 #end);\n", "t.pov")
+    (e,) = _errors(r)
+    assert "no value" in e.message and e.span.line == 1
+
+
+def test_include_file_macro_that_does_not_parse_fails_only_when_called(tmp_path):
+    (tmp_path / "lib.inc").write_text(
+        "#macro Good() sphere {0, 1} #end\n#macro Bad()\n  #if (1) box { #end\n#end\n"
+    )
+    scene = tmp_path / "s.pov"
+    scene.write_text('#include "lib.inc"\nobject { Good() }\n')
+    from lang.evaluate import compile_file
+
+    assert not _errors(compile_file(str(scene)))
+    scene.write_text('#include "lib.inc"\nobject { Good() }\nobject { Bad() }\n')
+    errs = _errors(compile_file(str(scene)))
+    assert any(e.code == "E0233" and e.span.line == 3 for e in errs)
+    assert any(e.span.file.endswith("lib.inc") and e.span.line == 3 for e in errs)
