@@ -599,6 +599,9 @@ class Interpreter:
         self.file_stack: list[str] = []
         self.files: list[str] = []
         self.parse_cache: dict[str, syntax.SourceFile] = {}
+        # Syntax errors inside an included file's macros, reported when the macro is called
+        # (as POV-Ray does): keyed by the macro's span.
+        self.broken_macros: dict[Span, list[Diagnostic]] = {}
         self.macro_depth = 0
         self.loose_depth = 0
         self.blob_depth = 0  # inside a blob body, `sphere`/`cylinder` are components
@@ -924,7 +927,7 @@ class Interpreter:
                     "E0220", f"cannot read `{name}`: {e.strerror}", node.span
                 ) from None
             tree, diags = self._parse(text, path)
-            self.sink.items.extend(diags)
+            self.sink.items.extend(self._defer_macro_errors(tree.body, diags))
             self.parse_cache[path] = tree
         if path not in self.files:
             self.files.append(path)
@@ -935,6 +938,31 @@ class Interpreter:
         finally:
             self.scopes.pop()
             self.file_stack.pop()
+
+    def _defer_macro_errors(
+        self, body: Sequence[syntax.Node], diags: list[Diagnostic]
+    ) -> list[Diagnostic]:
+        """An include file's syntax errors inside a macro's body wait for a call of the macro:
+        POV-Ray's own files have macros that only its textual parser reads (`#write` of half
+        a mesh in one #if branch), and a scene that never calls them must not fail."""
+        macros: list[syntax.MacroDef] = []
+        stack = list(body)
+        while stack:
+            n = stack.pop()
+            if isinstance(n, syntax.MacroDef):
+                macros.append(n)
+            elif isinstance(n, syntax.If):
+                stack.extend(x for _, b in n.branches for x in b)
+            elif isinstance(n, syntax.IfDef):
+                stack.extend(n.then + (n.other or []))
+        kept = []
+        for d in diags:
+            home = next((m for m in macros if _inside(d.span, m.span)), None)
+            if home is None or d.severity is not Severity.ERROR:
+                kept.append(d)
+            else:
+                self.broken_macros.setdefault(home.span, []).append(d)
+        return kept
 
     def _resolve(self, name: str) -> str | None:
         here = Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()
@@ -1244,6 +1272,16 @@ class Interpreter:
             )
         if self.macro_depth >= MAX_MACRO_DEPTH:
             raise self.error("E0231", f"macro `{macro.name}` recursed too deeply", node.span)
+        if macro.span is not None and macro.span in self.broken_macros:
+            self.sink.items.extend(self.broken_macros[macro.span])
+            self.broken_macros[macro.span] = []  # its own errors are shown once
+            where = f"{Path(macro.file).name}:{macro.span.line}"
+            raise self.error(
+                "E0233",
+                f"macro `{macro.name}` ({where}) does not parse",
+                node.span,
+                "its syntax errors are listed with it",
+            )
         args = [self._eval_value(a) for a in node.args]
         scope = _Scope("macro")
         refs: dict[str, tuple[_Scope, str, Any]] = {}
@@ -1536,6 +1574,14 @@ class Interpreter:
 
     def _e_block(self, node: syntax.Block) -> Any:
         return self.eval_block(node)
+
+    def _e_cut_block(self, node: syntax.CutBlock) -> Any:
+        """`#if (c) merge { #else union { #end body }`: the block the first true head names."""
+        for head in node.heads:
+            if head.cond is None or builtins.truth(self.eval(head.cond)):
+                block = syntax.Block(node.span, head.keyword, node.body, keyword_span=head.span)
+                return self.eval_block(block)
+        raise AssertionError("a cut block ends with #else")  # the grammar requires it
 
     # ------------------------------------------------------------ blocks
     def eval_block(self, node: syntax.Block) -> Any:
@@ -3256,6 +3302,11 @@ _BUILDERS: dict[str, Callable[[Interpreter, Grouped, syntax.Block], Any]] = {
     **{k: _b_map for k in schema.MAP_WORDS},
 }
 
+
+def _inside(inner: Span, outer: Span) -> bool:
+    return inner.file == outer.file and outer.line <= inner.line <= outer.end_line
+
+
 _EXPR: dict[type, Callable[[Interpreter, Any], Any]] = {
     syntax.Number: Interpreter._e_number,
     syntax.String: Interpreter._e_string,
@@ -3271,6 +3322,7 @@ _EXPR: dict[type, Callable[[Interpreter, Any], Any]] = {
     syntax.ColorCtor: Interpreter._e_color,
     syntax.ArrayLit: Interpreter._e_array,
     syntax.Block: Interpreter._e_block,
+    syntax.CutBlock: Interpreter._e_cut_block,
 }
 
 _DIRECTIVES: dict[type, Callable[..., None]] = {
