@@ -264,6 +264,11 @@ def build_parser() -> argparse.ArgumentParser:
     for flag in _REGION.values():  # partial render, POV-Ray's +SC +EC +SR +ER
         r.add_argument(flag, type=float, help=argparse.SUPPRESS)
     r.add_argument("--output-type", choices=tuple(_FILE_TYPES.values()), help=argparse.SUPPRESS)
+    r.add_argument(
+        "--preview",
+        action="store_true",
+        help="write coarse passes (1/8, 1/4, 1/2 size) to the output before the final image",
+    )
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     r.set_defaults(func=cmd_render)
 
@@ -695,6 +700,11 @@ def _render_one(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
     stats: dict = {}
+    if getattr(args, "preview", False) and out.stem != "-":
+        try:
+            _preview_passes(args, scene, out, width, height, region)
+        except (SceneError, OSError) as exc:
+            print(f"strala: preview skipped: {exc}", file=sys.stderr)
     with Progress(label, enabled=False if args.quiet else None) as bar, _quick_interrupt():
         try:
             pixels = render_scene(
@@ -728,6 +738,36 @@ def _render_one(
         where = "standard output" if out.stem == "-" else out
         print(f"wrote {where} ({width}x{height}, {took:.2f} s)", file=sys.stderr)
     return 0
+
+
+# Preview passes render at 1/8, 1/4 and 1/2 of the size (the seed's "lower resolution
+# while moving"); together they cost about a third of the final pass.
+PREVIEW_FACTORS = (8, 4, 2)
+PREVIEW_MIN_SIZE = 16  # a pass narrower or lower than this is not worth writing
+
+
+def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> None:
+    """Coarse passes written to `out` (atomically, each replacing the last) before the
+    final render: blocky first, sharper each time, no anti-aliasing."""
+    import numpy as np
+
+    from runtime import image
+    from runtime.render import render_scene
+
+    for f in PREVIEW_FACTORS:
+        w, h = -(-width // f), -(-height // f)
+        if min(w, h) < PREVIEW_MIN_SIZE:
+            continue
+        coarse = render_scene(scene, w, h, threads=args.threads, **_radiosity_options(args))
+        full = np.repeat(np.repeat(coarse, f, axis=0), f, axis=1)[:height, :width]
+        if region is not None:  # a partial render previews its own region only
+            left, top, right, bottom = region
+            mask = np.zeros(full.shape[:2], dtype=bool)
+            mask[top:bottom, left:right] = True
+            full = np.where(mask[..., None], full, 0.0)
+        image.save_render(out, full, scene.settings, args.bits)
+        if not args.quiet:
+            print(f"preview {w}x{h} written to {out}", file=sys.stderr)
 
 
 def cmd_compile(args: argparse.Namespace) -> int:

@@ -596,3 +596,21 @@ def test_progress_line_fits_the_terminal(done, total, width, now):
 )
 def test_format_seconds(seconds, text):
     assert format_seconds(seconds) == text
+
+
+def test_preview_writes_coarse_passes_then_the_same_final_image(tmp_path):
+    import OpenImageIO as oiio
+
+    scene = EXAMPLES / "ex3.scene"
+    a, b = tmp_path / "a.png", tmp_path / "b.png"
+    r = run_cli("render", str(scene), "-W", "128", "-H", "96", "--preview", "-o", str(a))
+    assert r.returncode == 0, r.stderr
+    passes = [line for line in r.stderr.splitlines() if line.startswith("preview")]
+    # 1/8 would be 16x12, under the 16-pixel minimum: two passes
+    assert [p.split()[1] for p in passes] == ["32x24", "64x48"]
+    assert (
+        run_cli("render", str(scene), "-W", "128", "-H", "96", "-o", str(b), "-q").returncode == 0
+    )
+    pa = oiio.ImageBuf(str(a)).get_pixels(oiio.FLOAT)
+    pb = oiio.ImageBuf(str(b)).get_pixels(oiio.FLOAT)
+    assert (pa == pb).all()  # the final pass replaces the previews entirely
