@@ -602,6 +602,8 @@ class Interpreter:
         # Syntax errors inside an included file's macros, reported when the macro is called
         # (as POV-Ray does): keyed by the macro's span.
         self.broken_macros: dict[Span, list[Diagnostic]] = {}
+        # `#declare deprecated [once] "message" NAME`: NAME → [message, once, warned yet]
+        self.deprecated: dict[str, list] = {}
         self.macro_depth = 0
         self.loose_depth = 0
         self.blob_depth = 0  # inside a blob body, `sphere`/`cylinder` are components
@@ -999,6 +1001,10 @@ class Interpreter:
                 )
         elif not node.local and self.file_stack and self.file_stack[-1] == self.main_file:
             self.main_declares.setdefault(node.name, span)
+        if node.deprecated is not None:
+            self.deprecated[node.name] = [node.deprecated, node.deprecated_once, False]
+        elif self.deprecated:
+            self.deprecated.pop(node.name, None)
         self.declare(node.name, value, node.local)
 
     def _eval_value(self, node: syntax.Node) -> Any:
@@ -1341,6 +1347,8 @@ class Interpreter:
         found, v = self.lookup(node.name)
         if not found:
             raise self._unknown_ident(node.name, node.span)
+        if self.deprecated and node.name in self.deprecated:
+            self._warn_deprecated(node)
         if isinstance(v, MacroValue):
             if not v.params:
                 return self._single(
@@ -1355,6 +1363,14 @@ class Interpreter:
                 f"{node.name}({', '.join(v.params)})",
             )
         return v
+
+    def _warn_deprecated(self, node: syntax.Ident) -> None:
+        note = self.deprecated[node.name]
+        message, once, warned = note
+        if once and warned:
+            return
+        note[2] = True
+        self.sink.warning("W0402", message, node.span, f"`{node.name}` is deprecated")
 
     def _e_const(self, node: syntax.Const) -> Any:
         for b in reversed(self.fn_bindings):

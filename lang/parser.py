@@ -172,6 +172,12 @@ class _Case:
     span: Span
 
 
+@dataclass
+class _Deprecation:
+    message: str
+    once: bool
+
+
 class _ArrayInit(list):
     span: Span
 
@@ -430,16 +436,31 @@ class _Builder(Transformer):
     def include(self, children):
         return syntax.Include(self._span(children), children[1])
 
+    def deprecation(self, children):
+        if len(children) == 3 and str(children[1]) != "once":
+            self.sink.error(
+                "E0103",
+                f"unexpected `{children[1]}` after `deprecated`",
+                _tok_span(self.file, children[1]),
+                '`#declare deprecated once "message" NAME = …`',
+            )
+        return _Deprecation(_unescape(str(children[-1])[1:-1]), len(children) == 3)
+
     def declare(self, children):
-        head, name = children[0], children[1]
+        head = children[0]
+        note = children[1] if isinstance(children[1], _Deprecation) else None
+        at = 2 if note else 1
+        name = children[at]
         eq = next(i for i, c in enumerate(children) if isinstance(c, Token) and c.type == "EQUAL")
         return syntax.Declare(
             self._span(children),
             local="local" in str(head),
             name=str(name),
-            indices=[c.node for c in children[2:eq] if isinstance(c, _Sub)],
+            indices=[c.node for c in children[at + 1 : eq] if isinstance(c, _Sub)],
             value=children[eq + 1],
             name_span=_tok_span(self.file, name),
+            deprecated=note.message if note else None,
+            deprecated_once=bool(note and note.once),
         )
 
     def undef(self, children):
@@ -576,6 +597,7 @@ def _word_types() -> dict[str, str]:
         table.update(dict.fromkeys(words, kind))
     table["array"] = "ARRAY"
     table["function"] = "FUNCTION"
+    table["deprecated"] = "DEPRECATED"
     return table
 
 

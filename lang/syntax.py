@@ -180,6 +180,9 @@ class Declare(Node):
     indices: list[Node]
     value: Node
     name_span: Span | None = None
+    # `#declare deprecated [once] "message" NAME = …`: a use of NAME warns with the message
+    deprecated: str | None = None
+    deprecated_once: bool = False
 
 
 @dataclass(slots=True)

@@ -357,6 +357,7 @@ _STATEMENTS = [
     "#if ( A ) merge { #elseif ( B ) intersection { #else union { #end sphere { 0 , 1 } }",
     "#declare U = #if ( A ) merge { #else union { #end box { 0 , 1 } } ;",
     "#declare I = 2 * ( #if ( A ) 1 #else #local T = 2 ; T + 1 #end ) ;",
+    '#declare deprecated once "old" D [ 1 ] = 2 ;',
 ]
 
 
@@ -486,3 +487,9 @@ def test_directive_inside_parentheses_is_the_expression():
     inner = decl.value.right
     assert isinstance(inner, S.If)
     assert [type(n) for n in inner.branches[1][1]] == [S.Declare, S.Ident]
+
+
+def test_deprecated_declaration():
+    (a, b) = ok('#declare deprecated once "gone" A = 1;\n#local deprecated "x\\n" B[2] = 2;')
+    assert (a.name, a.deprecated, a.deprecated_once) == ("A", "gone", True)
+    assert (b.name, b.deprecated, b.deprecated_once, len(b.indices)) == ("B", "x\n", False, 1)

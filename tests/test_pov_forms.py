@@ -109,3 +109,29 @@ def test_include_file_macro_that_does_not_parse_fails_only_when_called(tmp_path)
     errs = _errors(compile_file(str(scene)))
     assert any(e.code == "E0233" and e.span.line == 3 for e in errs)
     assert any(e.span.file.endswith("lib.inc") and e.span.line == 3 for e in errs)
+
+
+def test_deprecated_names_warn_on_use_and_once_warns_once():
+    r = compile_source(
+        '#declare deprecated once "T1 is old" T1 = 1;\n'
+        '#declare deprecated "T2 is old" T2 = 2;\n'
+        "#declare A = T1 + T1 + T2 + T2;\n",
+        "t.pov",
+    )
+    assert not _errors(r)
+    assert r.symbols["A"] == 6
+    warned = [(d.message, d.span.col) for d in r.diagnostics if d.code == "W0402"]
+    assert warned == [("T1 is old", 14), ("T2 is old", 24), ("T2 is old", 29)]
+
+
+def test_redeclaring_a_deprecated_name_plainly_clears_the_mark():
+    r = compile_source(
+        '#declare deprecated "old" T = 1;\n#declare T = 2;\n#declare A = T;\n', "t.pov"
+    )
+    assert not [d for d in r.diagnostics if d.code == "W0402"]
+
+
+def test_deprecated_takes_only_once():
+    r = compile_source('#declare deprecated twice "old" T = 1;\n', "t.pov")
+    (e,) = _errors(r)
+    assert (e.span.line, e.span.col) == (1, 21) and "twice" in e.message
