@@ -16,7 +16,7 @@ import math
 import os
 import re
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -66,6 +66,44 @@ class Result:
     files: list[str]  # every file read
 
 
+def animation_values(
+    clock: float, frames: tuple[int, int] | None = None, frame: int | None = None
+) -> dict[str, float]:
+    """The identifiers an animation sets, as POV-Ray sets them: a still image (no frame range,
+    or one of a single frame) sees 0 for all but `clock_on` (1 when a clock is given); frame
+    `frame` of `frames` (first, last), with the clock running from 0 to 1, sees its number,
+    the range, and the clock's step per frame."""
+    if frames is not None and frames[0] == frames[1]:
+        frame = None  # POV-Ray: an animation of one frame is a still image
+    if frames is None or frames[0] == frames[1]:
+        values = dict.fromkeys(_ANIMATION_NAMES, 0.0)
+        values["clock_on"] = 1.0 if clock or frame is not None else 0.0
+        if frame is not None:
+            values["frame_number"] = float(frame)
+        return values
+    first, last = frames
+    return {
+        "frame_number": float(first if frame is None else frame),
+        "initial_frame": float(first),
+        "final_frame": float(last),
+        "initial_clock": 0.0,
+        "final_clock": 1.0,
+        "clock_delta": 1.0 / (last - first),
+        "clock_on": 1.0,
+    }
+
+
+_ANIMATION_NAMES = (
+    "frame_number",
+    "initial_frame",
+    "final_frame",
+    "initial_clock",
+    "final_clock",
+    "clock_delta",
+    "clock_on",
+)
+
+
 def compile_file(
     path: str,
     library_paths: Sequence[str] = (),
@@ -75,6 +113,7 @@ def compile_file(
     image_width: int = 0,
     image_height: int = 0,
     debug_to_stderr: bool = False,
+    animation: Mapping[str, float] | None = None,
 ) -> Result:
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -91,6 +130,7 @@ def compile_file(
         image_width=image_width,
         image_height=image_height,
         debug_to_stderr=debug_to_stderr,
+        animation=animation,
     )
 
 
@@ -104,6 +144,7 @@ def compile_source(
     image_width: int = 0,
     image_height: int = 0,
     debug_to_stderr: bool = False,
+    animation: Mapping[str, float] | None = None,
 ) -> Result:
     interp = Interpreter(
         library_paths,
@@ -112,6 +153,7 @@ def compile_source(
         image_width=image_width,
         image_height=image_height,
         debug_to_stderr=debug_to_stderr,
+        animation=animation,
     )
     return interp.run(text, filename)
 
@@ -587,8 +629,12 @@ class Interpreter:
         image_width: int = 0,
         image_height: int = 0,
         debug_to_stderr: bool = False,
+        animation: Mapping[str, float] | None = None,
     ):
         self.sink = DiagnosticSink()
+        # frame_number, initial_frame, final_frame, initial_clock, final_clock, clock_delta,
+        # clock_on of an animation (see animation_values); absent ones are POV-Ray's 0
+        self.animation = dict(animation or {})
         self.library_paths = [str(p) for p in library_paths]
         self.clock = clock
         self.allow_file_io = allow_file_io
@@ -1376,6 +1422,8 @@ class Interpreter:
         for b in reversed(self.fn_bindings):
             if node.name in b:
                 return b[node.name]
+        if node.name in self.animation:
+            return float(self.animation[node.name])
         return builtins.constant(
             node.name,
             clock=self.clock,

@@ -39,6 +39,7 @@ class UsageError(Exception):
 # Options that take a separate value: the token after them is never translated.
 _VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
 _VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height", "--frames"}
+_VALUE_OPTIONS |= {"--frame"}
 _VALUE_OPTIONS |= {"--indent", "--output-type", "--radiosity-cache"}
 # Display, verbosity, pause and statistics switches change nothing in a file render.
 _IGNORED = ("D", "V", "P", "X", "GA", "GD", "GF", "GR", "GS", "GW", "GI", "GP", "UA", "UD")
@@ -141,6 +142,10 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
             out += [_REGION[upper[:2]], body[2:]]
         elif upper.startswith(("KFI", "KFF")) and body[3:].isdigit():
             frames[upper[:3]] = int(body[3:])
+        elif upper.startswith("SF") and body[2:].isdigit():
+            out += ["--frame", body[2:]]  # the first frame of a subset (+EF: the same one)
+        elif upper.startswith("EF") and body[2:].isdigit():
+            pass
         elif head == "K" and rest and rest[0] in "0123456789.-":
             out += ["--clock", rest]
         elif head == "F" and rest[:1].upper() in _FILE_TYPES:
@@ -255,6 +260,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=parse_frames,
         metavar="A..B",
         help="render frames A to B, clock 0 → 1 (images SCENE01.png …)",
+    )
+    r.add_argument(
+        "--frame",
+        type=int,
+        metavar="N",
+        help="the frame number the scene sees (frame_number); with --frames, render only "
+        "frame N of them, to the image named as is",
     )
     r.add_argument(
         "--radiosity-cache",
@@ -445,6 +457,7 @@ def _compile(
     clock: float = 0.0,
     file_io: bool = True,
     debug_output: bool = False,
+    animation: dict[str, float] | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -463,6 +476,7 @@ def _compile(
         image_width=size[0],
         image_height=size[1],
         debug_to_stderr=debug_output,
+        animation=animation,
     )
     return result.scene, list(result.diagnostics)
 
@@ -534,7 +548,12 @@ def _load_scene(args: argparse.Namespace, clock: float):
             span = Span(args.file, 1, 1, 1, 1)
             return None, [Diagnostic(Severity.ERROR, "E0901", f"bad IR document: {exc}", span)]
     return _compile(
-        args.file, args.library, image_size(args), clock=clock, debug_output=not args.quiet
+        args.file,
+        args.library,
+        image_size(args),
+        clock=clock,
+        debug_output=not args.quiet,
+        animation=getattr(args, "animation", None),
     )
 
 
@@ -601,8 +620,20 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.frames is not None and args.file.lower().endswith(".json"):
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
 
+    from lang.evaluate import animation_values
+
     stdout = sys.stdout
-    for target, clock, label in frame_jobs(out, args.clock, args.frames):
+    jobs = frame_jobs(out, args.clock, args.frames)
+    numbers = list(range(args.frames[0], args.frames[1] + 1)) if args.frames else [args.frame]
+    if args.frame is not None and args.frames is not None:
+        if args.frame not in numbers:
+            raise UsageError(
+                f"--frame {args.frame} is not in --frames {args.frames[0]}..{args.frames[1]}"
+            )
+        at = numbers.index(args.frame)
+        jobs, numbers = [(out, jobs[at][1], jobs[at][2])], [args.frame]
+    for (target, clock, label), number in zip(jobs, numbers, strict=True):
+        args.animation = animation_values(clock, args.frames, number)
         # runtime modules print their warnings; on stderr they never mix into an image
         # written to standard output
         with redirect_stdout(sys.stderr):

@@ -135,3 +135,46 @@ def test_deprecated_takes_only_once():
     r = compile_source('#declare deprecated twice "old" T = 1;\n', "t.pov")
     (e,) = _errors(r)
     assert (e.span.line, e.span.col) == (1, 21) and "twice" in e.message
+
+
+FRAME_DEBUG = (
+    '#warning concat("F ", str(frame_number, 0, 0), " ", str(initial_frame, 0, 0), " ", '
+    'str(final_frame, 0, 0), " ", str(clock_delta, 0, 3), " ", str(clock_on, 0, 0), " ", '
+    "str(clock, 0, 2))\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("options", "want"),
+    [
+        ((), "F 0 0 0 0.000 0 0.00"),
+        (("--clock", "0.5"), "F 0 0 0 0.000 1 0.50"),
+        (("--frames", "1..5", "--frame", "3"), "F 3 1 5 0.250 1 0.50"),
+        (("+KFI1", "+KFF5", "+SF3", "+EF3"), "F 3 1 5 0.250 1 0.50"),
+        (("--frames", "2..2"), "F 0 0 0 0.000 0 0.00"),
+        (("--frame", "4", "--clock", "0.3"), "F 4 0 0 0.000 1 0.30"),
+    ],
+)
+def test_animation_identifiers_as_povray_sets_them(tmp_path, options, want):
+    """The expected lines are POV-Ray 3.7's own output for the same options."""
+    from conftest import run_cli
+
+    scene = tmp_path / "f.pov"
+    scene.write_text(FRAME_DEBUG + "camera { location -z look_at 0 }\n")
+    r = run_cli(
+        "render", str(scene), "-W", "4", "-H", "4", "-q", "-o", str(tmp_path / "o.png"), *options
+    )
+    assert r.returncode == 0, r.stderr
+    assert want in r.stderr
+    assert len(list(tmp_path.glob("o*.png"))) == 1  # one frame: one image
+
+
+def test_frame_outside_the_animation_is_a_usage_error(tmp_path):
+    from conftest import run_cli
+
+    scene = tmp_path / "f.pov"
+    scene.write_text("camera { location -z look_at 0 }\n")
+    r = run_cli(
+        "render", str(scene), "--frames", "1..3", "--frame", "7", "-o", str(tmp_path / "o.png")
+    )
+    assert r.returncode != 0 and "--frame 7" in r.stderr

@@ -206,6 +206,17 @@ def strala_check(scene: Path, library: Sequence[str], timeout: float) -> StralaR
     return run
 
 
+def _frame_options(frame: corpus.Frame) -> list[str]:
+    """strala's options for the frame POV-Ray renders: the whole animation's range with the
+    one frame picked (frame_number, clock_delta … as POV-Ray sets them), or a clock."""
+    one_range = (frame.initial_clock, frame.final_clock) == (0.0, 1.0)
+    if frame.number is None or frame.first == frame.last:
+        return ["--clock", repr(frame.clock)]
+    if one_range:
+        return ["--frames", f"{frame.first}..{frame.last}", "--frame", str(frame.number)]
+    return ["--clock", repr(frame.clock), "--frame", str(frame.number)]
+
+
 def strala_render(
     scene: Path,
     frame: corpus.Frame,
@@ -216,7 +227,7 @@ def strala_render(
 ) -> StralaRun:
     """Render with strala's CLI, then compare with the reference image when there is one."""
     cmd = _strala("render", scene.name, "-W", str(WIDTH), "-H", str(HEIGHT), "--no-aa")
-    cmd += ["--threads", "1", "-q", "--clock", repr(frame.clock), "-o", str(out)]
+    cmd += ["--threads", "1", "-q", "-o", str(out), *_frame_options(frame)]
     for folder in library:
         cmd += ["-L", folder]
     code, _, err, seconds = run_process(cmd, scene.parent, timeout, _strala_env())
