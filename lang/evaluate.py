@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import lang
-from lang import builtins, functions, ir, pov_shapes, schema, syntax, transforms
+from lang import builtins, extents, functions, ir, pov_shapes, schema, syntax, transforms
 from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.camera import CameraBuilder, CameraError
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
@@ -451,7 +451,7 @@ def _shape_box(shape: Any) -> Box3 | None:
         return (tuple(v - r for v in box[0]), tuple(v + r for v in box[1]))  # type: ignore[return-value]
     if isinstance(shape, ir.Plane):
         return (-big, -big, -big), (big, big, big)
-    return None
+    return extents.shape_box(shape)
 
 
 def bounding_box(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> Box3 | None:

@@ -1,0 +1,184 @@
+"""What the evaluator needs of a TrueType font without reading outlines: for each character,
+its glyph's advance width, left side bearing and bounding box (the glyf header), and the
+kerning between pairs; enough for `min_extent`/`max_extent` of `text`. Pure Python (the
+renderer's reader, runtime.prims.truetype, reads the outlines with numpy).
+"""
+
+from __future__ import annotations
+
+import functools
+import struct
+from dataclasses import dataclass
+
+# cmap subtables in POV-Ray 3.7's order of preference (as runtime.prims.truetype)
+_CMAP_ORDER = ((0, 3), (3, 1), (1, 0), (3, 0))
+
+
+class FontError(ValueError):
+    """The file is not a TrueType font this reader understands."""
+
+
+@dataclass(frozen=True)
+class GlyphMetrics:
+    """In em units: advance width, left side bearing and the glyph's box (None: no outline)."""
+
+    index: int
+    advance: float
+    lsb: float
+    box: tuple[float, float, float, float] | None  # xmin, ymin, xmax, ymax
+
+
+class FontMetrics:
+    def __init__(self, data: bytes):
+        self._data = data
+        base = self._u32(12) if data[:4] == b"ttcf" else 0  # a collection: its first font
+        self._tables: dict[str, int] = {}
+        for i in range(self._u16(base + 4)):
+            rec = base + 12 + 16 * i
+            self._tables[data[rec : rec + 4].decode("latin-1")] = self._u32(rec + 8)
+        for need in ("head", "cmap", "glyf", "loca", "hhea", "hmtx", "maxp"):
+            if need not in self._tables:
+                raise FontError(f"the font has no `{need}` table")
+        head = self._tables["head"]
+        self.units_per_em = self._u16(head + 18)
+        if not 16 <= self.units_per_em <= 16384:
+            raise FontError(f"unitsPerEm {self.units_per_em} is out of range")
+        self._long_loca = self._i16(head + 50) == 1
+        self.num_glyphs = self._u16(self._tables["maxp"] + 4)
+        self._n_metrics = self._u16(self._tables["hhea"] + 34)
+        self.cmap = self._read_cmap()
+        self.kern = self._read_kern()
+
+    def _u16(self, at: int) -> int:
+        return struct.unpack_from(">H", self._data, at)[0]
+
+    def _i16(self, at: int) -> int:
+        return struct.unpack_from(">h", self._data, at)[0]
+
+    def _u32(self, at: int) -> int:
+        return struct.unpack_from(">I", self._data, at)[0]
+
+    def _loca(self, i: int) -> int:
+        at = self._tables["loca"]
+        return self._u32(at + 4 * i) if self._long_loca else 2 * self._u16(at + 2 * i)
+
+    def glyph(self, char: str) -> GlyphMetrics:
+        index = self.cmap.get(ord(char), 0)
+        em = float(self.units_per_em)
+        hmtx = self._tables["hmtx"]
+        m = min(index, self._n_metrics - 1)
+        advance = self._u16(hmtx + 4 * m)
+        if index < self._n_metrics:
+            lsb = self._i16(hmtx + 4 * index + 2)
+        elif index < self.num_glyphs:
+            lsb = self._i16(hmtx + 4 * self._n_metrics + 2 * (index - self._n_metrics))
+        else:
+            lsb = 0
+        box = None
+        if 0 <= index < self.num_glyphs and self._loca(index + 1) > self._loca(index):
+            at = self._tables["glyf"] + self._loca(index)
+            box = tuple(self._i16(at + 2 + 2 * k) / em for k in range(4))
+        return GlyphMetrics(index, advance / em, lsb / em, box)  # type: ignore[arg-type]
+
+    def _read_cmap(self) -> dict[int, int]:
+        cmap = self._tables["cmap"]
+        subtables: dict[tuple[int, int], int] = {}
+        for i in range(self._u16(cmap + 2)):
+            rec = cmap + 4 + 8 * i
+            subtables.setdefault((self._u16(rec), self._u16(rec + 2)), cmap + self._u32(rec + 4))
+        for key in _CMAP_ORDER:
+            if key in subtables:
+                table = self._cmap_table(subtables[key])
+                if table is not None:
+                    return table
+        return {}
+
+    def _cmap_table(self, at: int) -> dict[int, int] | None:
+        fmt = self._u16(at)
+        out: dict[int, int] = {}
+        if fmt == 0:
+            for c in range(256):
+                out[c] = self._data[at + 6 + c]
+        elif fmt == 4:
+            segs = self._u16(at + 6) // 2
+            ends = at + 14
+            starts = ends + 2 * segs + 2
+            deltas = starts + 2 * segs
+            ranges = deltas + 2 * segs
+            for s in range(segs):
+                end, start = self._u16(ends + 2 * s), self._u16(starts + 2 * s)
+                delta, roff = self._i16(deltas + 2 * s), self._u16(ranges + 2 * s)
+                for c in range(start, min(end, 0xFFFE) + 1):
+                    if roff == 0:
+                        out[c] = (c + delta) & 0xFFFF
+                    else:
+                        g = self._u16(ranges + 2 * s + roff + 2 * (c - start))
+                        out[c] = (g + delta) & 0xFFFF if g else 0
+        elif fmt == 6:
+            first, count = self._u16(at + 6), self._u16(at + 8)
+            for i in range(count):
+                out[first + i] = self._u16(at + 10 + 2 * i)
+        else:
+            return None
+        return out
+
+    def _read_kern(self) -> dict[tuple[int, int], int]:
+        """Horizontal format-0 kerning pairs, in font units."""
+        out: dict[tuple[int, int], int] = {}
+        at = self._tables.get("kern")
+        if at is None or self._u16(at) != 0:
+            return out
+        pos = at + 4
+        for _ in range(self._u16(at + 2)):
+            length, coverage = self._u16(pos + 2), self._u16(pos + 4)
+            if coverage >> 8 == 0 and coverage & 0x01 and not coverage & 0x06:
+                for i in range(self._u16(pos + 6)):
+                    rec = pos + 14 + 6 * i
+                    key = (self._u16(rec), self._u16(rec + 2))
+                    val = self._i16(rec + 4)
+                    out[key] = val if coverage & 0x08 else out.get(key, 0) + val
+            pos += length
+        return out
+
+
+@functools.lru_cache(maxsize=16)
+def load(path: str) -> FontMetrics:
+    with open(path, "rb") as f:
+        return FontMetrics(f.read())
+
+
+def text_box(
+    path: str, string: str, thickness: float, offset: tuple[float, float, float]
+) -> tuple[tuple[float, float, float], tuple[float, float, float]] | None:
+    """The box of the glyph boxes of `text { ttf path string thickness, offset }`, laid out
+    as the renderer does (runtime.prims.text: the first glyph's left edge at x = 0, the pen
+    advancing by advance widths, kerning and the offset); None when nothing has an outline.
+    POV-Ray's own box is this for some fonts (crystal.ttf) and up to one left bearing wider
+    for others (timrom.ttf)."""
+    font = load(path)
+    em = font.units_per_em
+    pen_x = pen_y = 0.0
+    last = 0
+    xs: list[float] = []
+    ys: list[float] = []
+    for i, ch in enumerate(string):
+        g = font.glyph(ch)
+        box = None if ch == " " else g.box
+        xmin = box[0] if box else 0.0
+        if i == 0:
+            x0 = -xmin
+            pen_x = g.advance - g.lsb
+        else:
+            kern = max(font.kern.get((last, g.index), 0), -em) / em
+            x0 = pen_x + g.lsb + kern - xmin
+            pen_x += g.advance + kern
+        y0 = pen_y
+        pen_x += offset[0]
+        pen_y += offset[1]
+        last = g.index
+        if box:
+            xs += [x0 + box[0], x0 + box[2]]
+            ys += [y0 + box[1], y0 + box[3]]
+    if not xs:
+        return None
+    return (min(xs), min(ys), 0.0), (max(xs), max(ys), float(thickness))
