@@ -192,11 +192,9 @@ def _guard_name(name: str) -> bool:
     return name.lower().endswith("_inc_temp")
 
 
-# POV-Ray 3.7's glass_old.inc (included by glass.inc) declares its textures as
-# `#declare deprecated once "…" T_Glass1 = …`; strala's parser does not know `deprecated` and
-# recovers with a stray name `deprecated` (the T_Glass* textures then go uncompared here; the
-# POV-Ray render test below covers them).
-_PARSE_ARTEFACTS = {"deprecated"}
+# Names that only a parse artefact of POV-Ray's include files would declare (none left since
+# `#declare deprecated once "…" T_Glass1 = …` of glass_old.inc parses).
+_PARSE_ARTEFACTS: set[str] = set()
 # POV-Ray's shapes2.inc builds HalfCone_Y from shapes.inc's Cone_Y without including it, so
 # evaluated alone it is incomplete (the POV-Ray shape gallery below covers it).
 _NEEDS_ANOTHER_FILE = {"HalfCone_Y"}
