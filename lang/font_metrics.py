@@ -1,7 +1,8 @@
 """What the evaluator needs of a TrueType font without reading outlines: for each character,
 its glyph's advance width, left side bearing and bounding box (the glyf header), and the
 kerning between pairs; enough for `min_extent`/`max_extent` of `text`. Pure Python (the
-renderer's reader, runtime.prims.truetype, reads the outlines with numpy).
+renderer's reader, runtime.prims.truetype, reads the outlines with numpy and shares the
+table directory, cmap and kern readers below).
 """
 
 from __future__ import annotations
@@ -10,8 +11,9 @@ import functools
 import struct
 from dataclasses import dataclass
 
-# cmap subtables in POV-Ray 3.7's order of preference (as runtime.prims.truetype)
-_CMAP_ORDER = ((0, 3), (3, 1), (1, 0), (3, 0))
+# cmap subtables in POV-Ray 3.7's order of preference for its default (UTF-8) strings:
+# Unicode, Microsoft Unicode, Macintosh Roman, Microsoft symbol.
+CMAP_ORDER = ((0, 3), (3, 1), (1, 0), (3, 0))
 
 
 class FontError(ValueError):
@@ -31,14 +33,7 @@ class GlyphMetrics:
 class FontMetrics:
     def __init__(self, data: bytes):
         self._data = data
-        base = self._u32(12) if data[:4] == b"ttcf" else 0  # a collection: its first font
-        self._tables: dict[str, int] = {}
-        for i in range(self._u16(base + 4)):
-            rec = base + 12 + 16 * i
-            self._tables[data[rec : rec + 4].decode("latin-1")] = self._u32(rec + 8)
-        for need in ("head", "cmap", "glyf", "loca", "hhea", "hmtx", "maxp"):
-            if need not in self._tables:
-                raise FontError(f"the font has no `{need}` table")
+        self._tables = {tag: at for tag, (at, _) in table_directory(data).items()}
         head = self._tables["head"]
         self.units_per_em = self._u16(head + 18)
         if not 16 <= self.units_per_em <= 16384:
@@ -46,8 +41,8 @@ class FontMetrics:
         self._long_loca = self._i16(head + 50) == 1
         self.num_glyphs = self._u16(self._tables["maxp"] + 4)
         self._n_metrics = self._u16(self._tables["hhea"] + 34)
-        self.cmap = self._read_cmap()
-        self.kern = self._read_kern()
+        self.cmap = read_cmap(data, self._tables["cmap"])
+        self.kern = read_kern(data, self._tables.get("kern"))
 
     def _u16(self, at: int) -> int:
         return struct.unpack_from(">H", self._data, at)[0]
@@ -79,66 +74,6 @@ class FontMetrics:
             at = self._tables["glyf"] + self._loca(index)
             box = tuple(self._i16(at + 2 + 2 * k) / em for k in range(4))
         return GlyphMetrics(index, advance / em, lsb / em, box)  # type: ignore[arg-type]
-
-    def _read_cmap(self) -> dict[int, int]:
-        cmap = self._tables["cmap"]
-        subtables: dict[tuple[int, int], int] = {}
-        for i in range(self._u16(cmap + 2)):
-            rec = cmap + 4 + 8 * i
-            subtables.setdefault((self._u16(rec), self._u16(rec + 2)), cmap + self._u32(rec + 4))
-        for key in _CMAP_ORDER:
-            if key in subtables:
-                table = self._cmap_table(subtables[key])
-                if table is not None:
-                    return table
-        return {}
-
-    def _cmap_table(self, at: int) -> dict[int, int] | None:
-        fmt = self._u16(at)
-        out: dict[int, int] = {}
-        if fmt == 0:
-            for c in range(256):
-                out[c] = self._data[at + 6 + c]
-        elif fmt == 4:
-            segs = self._u16(at + 6) // 2
-            ends = at + 14
-            starts = ends + 2 * segs + 2
-            deltas = starts + 2 * segs
-            ranges = deltas + 2 * segs
-            for s in range(segs):
-                end, start = self._u16(ends + 2 * s), self._u16(starts + 2 * s)
-                delta, roff = self._i16(deltas + 2 * s), self._u16(ranges + 2 * s)
-                for c in range(start, min(end, 0xFFFE) + 1):
-                    if roff == 0:
-                        out[c] = (c + delta) & 0xFFFF
-                    else:
-                        g = self._u16(ranges + 2 * s + roff + 2 * (c - start))
-                        out[c] = (g + delta) & 0xFFFF if g else 0
-        elif fmt == 6:
-            first, count = self._u16(at + 6), self._u16(at + 8)
-            for i in range(count):
-                out[first + i] = self._u16(at + 10 + 2 * i)
-        else:
-            return None
-        return out
-
-    def _read_kern(self) -> dict[tuple[int, int], int]:
-        """Horizontal format-0 kerning pairs, in font units."""
-        out: dict[tuple[int, int], int] = {}
-        at = self._tables.get("kern")
-        if at is None or self._u16(at) != 0:
-            return out
-        pos = at + 4
-        for _ in range(self._u16(at + 2)):
-            length, coverage = self._u16(pos + 2), self._u16(pos + 4)
-            if coverage >> 8 == 0 and coverage & 0x01 and not coverage & 0x06:
-                for i in range(self._u16(pos + 6)):
-                    rec = pos + 14 + 6 * i
-                    key = (self._u16(rec), self._u16(rec + 2))
-                    val = self._i16(rec + 4)
-                    out[key] = val if coverage & 0x08 else out.get(key, 0) + val
-            pos += length
-        return out
 
 
 @functools.lru_cache(maxsize=16)
@@ -182,3 +117,93 @@ def text_box(
     if not xs:
         return None
     return (min(xs), min(ys), 0.0), (max(xs), max(ys), float(thickness))
+
+
+# ------------------------------------------------- tables both font readers share
+def _u16(data: bytes, at: int) -> int:
+    return struct.unpack_from(">H", data, at)[0]
+
+
+def _i16(data: bytes, at: int) -> int:
+    return struct.unpack_from(">h", data, at)[0]
+
+
+def _u32(data: bytes, at: int) -> int:
+    return struct.unpack_from(">I", data, at)[0]
+
+
+def table_directory(data: bytes) -> dict[str, tuple[int, int]]:
+    """Each table's (offset, length); a collection (ttcf) gives its first font's tables."""
+    base = _u32(data, 12) if data[:4] == b"ttcf" else 0
+    tables: dict[str, tuple[int, int]] = {}
+    for i in range(_u16(data, base + 4)):
+        rec = base + 12 + 16 * i
+        tables[data[rec : rec + 4].decode("latin-1")] = (_u32(data, rec + 8), _u32(data, rec + 12))
+    for need in ("head", "cmap", "glyf", "loca", "hhea", "hmtx", "maxp"):
+        if need not in tables:
+            raise FontError(f"the font has no `{need}` table")
+    return tables
+
+
+def read_cmap(data: bytes, cmap: int) -> dict[int, int]:
+    """Character code → glyph index from the first usable subtable in CMAP_ORDER."""
+    subtables: dict[tuple[int, int], int] = {}
+    for i in range(_u16(data, cmap + 2)):
+        rec = cmap + 4 + 8 * i
+        subtables.setdefault((_u16(data, rec), _u16(data, rec + 2)), cmap + _u32(data, rec + 4))
+    for key in CMAP_ORDER:
+        if key in subtables:
+            table = _cmap_table(data, subtables[key])
+            if table is not None:
+                return table
+    return {}
+
+
+def _cmap_table(data: bytes, at: int) -> dict[int, int] | None:
+    """One cmap subtable of format 0, 4 or 6 (None for the others)."""
+    fmt = _u16(data, at)
+    out: dict[int, int] = {}
+    if fmt == 0:
+        for c in range(256):
+            out[c] = data[at + 6 + c]
+    elif fmt == 4:
+        segs = _u16(data, at + 6) // 2
+        ends = at + 14
+        starts = ends + 2 * segs + 2
+        deltas = starts + 2 * segs
+        ranges = deltas + 2 * segs
+        for s in range(segs):
+            end, start = _u16(data, ends + 2 * s), _u16(data, starts + 2 * s)
+            delta, roff = _i16(data, deltas + 2 * s), _u16(data, ranges + 2 * s)
+            for c in range(start, min(end, 0xFFFE) + 1):
+                if roff == 0:
+                    out[c] = (c + delta) & 0xFFFF
+                else:
+                    g = _u16(data, ranges + 2 * s + roff + 2 * (c - start))
+                    out[c] = (g + delta) & 0xFFFF if g else 0
+    elif fmt == 6:
+        first, count = _u16(data, at + 6), _u16(data, at + 8)
+        for i in range(count):
+            out[first + i] = _u16(data, at + 10 + 2 * i)
+    else:
+        return None
+    return out
+
+
+def read_kern(data: bytes, kern: int | None) -> dict[tuple[int, int], int]:
+    """Horizontal format-0 kerning pairs, in font units (later subtables add, or override
+    when their coverage says so; Apple's long header is not read)."""
+    out: dict[tuple[int, int], int] = {}
+    if kern is None or _u16(data, kern) != 0:
+        return out
+    pos = kern + 4
+    for _ in range(_u16(data, kern + 2)):
+        length, coverage = _u16(data, pos + 2), _u16(data, pos + 4)
+        if coverage >> 8 == 0 and coverage & 0x01 and not coverage & 0x06:
+            for i in range(_u16(data, pos + 6)):
+                rec = pos + 14 + 6 * i
+                key = (_u16(data, rec), _u16(data, rec + 2))
+                val = _i16(data, rec + 4)
+                out[key] = val if coverage & 0x08 else out.get(key, 0) + val
+        pos += length
+    return out

@@ -14,6 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lang import font_metrics
+from lang.font_metrics import FontError
+
 ON_CURVE = 0x01
 X_SHORT, Y_SHORT, REPEAT = 0x02, 0x04, 0x08
 X_SAME, Y_SAME = 0x10, 0x20
@@ -26,14 +29,6 @@ ARG_WORDS, ARGS_XY, HAVE_SCALE, MORE, HAVE_XY_SCALE, HAVE_2X2, MY_METRICS = (
     0x0080,
     0x0200,
 )
-
-# cmap subtables in POV-Ray 3.7's order of preference for its default (UTF-8) strings:
-# Unicode, Microsoft Unicode, Macintosh Roman, Microsoft symbol.
-CMAP_ORDER = ((0, 3), (3, 1), (1, 0), (3, 0))
-
-
-class FontError(ValueError):
-    """The file is not a TrueType font this reader understands."""
 
 
 @dataclass
@@ -49,18 +44,7 @@ class Glyph:
 class Font:
     def __init__(self, data: bytes):
         self.data = data
-        self.tables: dict[str, tuple[int, int]] = {}
-        base = 0
-        if data[:4] == b"ttcf":  # a collection: its first font
-            base = self._u32(12)
-        num = self._u16(base + 4)
-        for i in range(num):
-            rec = base + 12 + 16 * i
-            tag = data[rec : rec + 4].decode("latin-1")
-            self.tables[tag] = (self._u32(rec + 8), self._u32(rec + 12))
-        for need in ("head", "cmap", "glyf", "loca", "hhea", "hmtx", "maxp"):
-            if need not in self.tables:
-                raise FontError(f"the font has no `{need}` table")
+        self.tables = font_metrics.table_directory(data)
         head = self.tables["head"][0]
         self.units_per_em = self._u16(head + 18)
         if not 16 <= self.units_per_em <= 16384:
@@ -83,8 +67,8 @@ class Font:
             more = np.frombuffer(data, dtype=">i2", count=extra, offset=hmtx + 4 * n_metrics)
             lsb.extend(more.astype(np.int64))
         self.lsb = np.array(lsb, dtype=np.int64)
-        self.cmap = self._read_cmap()
-        self.kern = self._read_kern()
+        self.cmap = font_metrics.read_cmap(data, self.tables["cmap"][0])
+        self.kern = font_metrics.read_kern(data, self.tables.get("kern", (None,))[0])
         self._glyphs: dict[int, Glyph] = {}
 
     # ------------------------------------------------------------------ reading
@@ -96,75 +80,6 @@ class Font:
 
     def _u32(self, at: int) -> int:
         return struct.unpack_from(">I", self.data, at)[0]
-
-    def _read_cmap(self) -> dict[int, int]:
-        cmap = self.tables["cmap"][0]
-        subtables = {}
-        for i in range(self._u16(cmap + 2)):
-            rec = cmap + 4 + 8 * i
-            subtables.setdefault((self._u16(rec), self._u16(rec + 2)), cmap + self._u32(rec + 4))
-        for key in CMAP_ORDER:
-            if key in subtables:
-                table = self._cmap_table(subtables[key])
-                if table is not None:
-                    return table
-        return {}
-
-    def _cmap_table(self, at: int) -> dict[int, int] | None:
-        fmt = self._u16(at)
-        out: dict[int, int] = {}
-        if fmt == 0:
-            for c in range(256):
-                out[c] = self.data[at + 6 + c]
-        elif fmt == 4:
-            segs = self._u16(at + 6) // 2
-            ends = at + 14
-            starts = ends + 2 * segs + 2
-            deltas = starts + 2 * segs
-            ranges = deltas + 2 * segs
-            for s in range(segs):
-                end = self._u16(ends + 2 * s)
-                start = self._u16(starts + 2 * s)
-                delta = self._i16(deltas + 2 * s)
-                roff = self._u16(ranges + 2 * s)
-                for c in range(start, min(end, 0xFFFE) + 1):
-                    if roff == 0:
-                        g = (c + delta) & 0xFFFF
-                    else:
-                        g = self._u16(ranges + 2 * s + roff + 2 * (c - start))
-                        g = (g + delta) & 0xFFFF if g else 0
-                    out[c] = g
-        elif fmt == 6:
-            first, count = self._u16(at + 6), self._u16(at + 8)
-            for i in range(count):
-                out[first + i] = self._u16(at + 10 + 2 * i)
-        else:
-            return None
-        return out
-
-    def _read_kern(self) -> dict[tuple[int, int], int]:
-        """Horizontal kerning pairs (format 0 subtables; later tables add, or override
-        when their coverage says so)."""
-        out: dict[tuple[int, int], int] = {}
-        if "kern" not in self.tables:
-            return out
-        at = self.tables["kern"][0]
-        if self._u16(at) != 0:  # Apple's long header: not read
-            return out
-        pos = at + 4
-        for _ in range(self._u16(at + 2)):
-            length = self._u16(pos + 2)
-            coverage = self._u16(pos + 4)
-            fmt = coverage >> 8
-            if fmt == 0 and coverage & 0x01 and not coverage & 0x06:
-                n = self._u16(pos + 6)
-                for i in range(n):
-                    rec = pos + 14 + 6 * i
-                    key = (self._u16(rec), self._u16(rec + 2))
-                    val = self._i16(rec + 4)
-                    out[key] = val if coverage & 0x08 else out.get(key, 0) + val
-            pos += length
-        return out
 
     # ------------------------------------------------------------------- glyphs
     def glyph_index(self, char: str) -> int:
