@@ -22,11 +22,14 @@ Part 3 (`--compare`) is the error-versus-time race, end to end and in one run: t
 reference's cornell.pov rendered at 256×256 by `strala render` at several patch budgets
 (`patch_size`/`max_patches` written into the scene's radiosity block) and by POV-Ray 3.7
 at the reference README's quality levels (count / error_bound / recursion_limit /
-adc_bailout through its `Declare=` knobs), both with the same anti-aliasing (every pixel
-3×3: POV-Ray `+A0.0 +AM1 +R3`, strala `--aa 0.0 --aa-depth 3`) and two threads, written
-as linear EXR. Wall seconds of the whole command and RMSE against the reference (linear
-RGB, all pixels; interior mask in brackets). It ends with whether strala reaches POV-Ray's
-best error in less than half POV-Ray's time. `--slow` adds POV-Ray's 340-second level.
+adc_bailout through its `Declare=` knobs), with anti-aliasing (strala `--aa 0.05
+--aa-depth 3`; POV-Ray `+AM1 +R3` at `+A0.05` and at `+A0.0`, the better counting) and
+two threads, written as linear EXR, interleaved (strala, POV-Ray, strala …) so that other
+work on the machine slows both alike; `--repeat N` runs every setting N times (best time,
+mean error: POV-Ray's multi-threaded radiosity gives a different error on every run). Wall and CPU
+seconds of the whole command and RMSE against the reference (linear RGB, all pixels;
+interior mask in brackets). It ends with whether strala reaches POV-Ray's best error in
+less than half POV-Ray's time (wall, and CPU). `--slow` adds POV-Ray's 340-second level.
 
 Measured with --compare (2 cores shared with other work, load average ~3; wall s, RMSE
 (interior)):
@@ -47,6 +50,9 @@ for adaptive refinement where the light changes.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import itertools
+import resource
 import shutil
 import subprocess
 import sys
@@ -154,19 +160,24 @@ def cornell(size: float, rounds: int) -> None:
 
 
 # strala: (patch_size, max_patches); the scene's error_bound (0.5) drives refinement.
-STRALA_LEVELS = [(1.4, 500), (1.0, 1000), (0.7, 2000), (0.7, 3000), (0.5, 4000)]
+STRALA_LEVELS = [(1.4, 500), (1.0, 1000), (1.0, 1500), (0.7, 2000), (0.7, 3000), (0.5, 4000)]
 # POV-Ray: the reference README's levels (count, error_bound, recursion_limit, adc_bailout).
 POV_LEVELS = [(35, 1.8, 2, 0.01), (400, 0.5, 4, 0.01), (400, 0.5, 8, 2e-4), (1000, 0.3, 8, 2e-4)]
 POV_SLOW = [(1600, 0.2, 6, 0.01)]
-AA_POV = ["+A0.0", "+AM1", "+R3"]
-AA_STRALA = ["--aa", "0.0", "--aa-depth", "3"]
+# Anti-aliasing 3×3 where a pixel differs from its neighbours by more than the threshold.
+# strala: 0.05 (at 256×256 as good as supersampling every pixel). POV-Ray: 0.05 and 0.0,
+# each level both ways: supersampling every pixel also gathers more radiosity samples,
+# which can lower its error, so it gets the better of the two.
+POV_AA = (0.05, 0.0)
+AA_STRALA = ["--aa", "0.05", "--aa-depth", "3"]
 
 
 @dataclass
 class Run:
     who: str
     settings: str
-    seconds: float
+    seconds: float  # wall
+    cpu: float  # user + system of the command
     rmse: float
     interior: float
     mean: float
@@ -185,13 +196,18 @@ def _errors(path: Path) -> tuple[float, float, float]:
     return float(np.sqrt((diff**2).mean())), float(np.sqrt((diff[mask] ** 2).mean())), img.mean()
 
 
-def _timed_run(cmd: list[str], cwd: Path) -> tuple[float, str]:
+def _timed_run(cmd: list[str], cwd: Path) -> tuple[float, float, str]:
+    """Wall seconds, CPU seconds (the child's user + system: steadier than wall when other
+    work shares the cores) and standard error of a command."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=3600)
     took = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed:\n{proc.stderr[-2000:]}")
-    return took, proc.stderr
+    return took, cpu, proc.stderr
 
 
 def run_strala(tmp: Path, size: float, budget: int, width: int) -> Run:
@@ -205,65 +221,88 @@ def run_strala(tmp: Path, size: float, budget: int, width: int) -> Run:
     out = scene.with_suffix(".exr")
     cmd = [sys.executable, "-m", "runtime.cli", "render", str(scene), "-W", str(width),
            "-H", str(width), *AA_STRALA, "--threads", "2", "-o", str(out)]  # fmt: skip
-    took, err = _timed_run(cmd, ROOT)
+    took, cpu, err = _timed_run(cmd, ROOT)
     stats = next((ln for ln in err.splitlines() if ln.startswith("radiosity:")), "")
     patches = stats.split(" patches")[0].removeprefix("radiosity: ") if stats else "?"
     rmse, inner, mean = _errors(out)
-    return Run("strala", f"patch_size {size}, max_patches {budget}", took, rmse, inner, mean,
-               f"{patches} patches")  # fmt: skip
+    return Run("strala", f"patch_size {size}, max_patches {budget}", took, cpu, rmse, inner,
+               mean, f"{patches} patches")  # fmt: skip
 
 
 def run_povray(tmp: Path, level: tuple, width: int) -> Run:
-    count, bound, depth, bailout = level
-    out = tmp / f"pov_{count}_{bound}_{depth}_{bailout}.exr"
+    count, bound, depth, bailout, aa = level
+    out = tmp / f"pov_{count}_{bound}_{depth}_{bailout}_{aa}.exr"
     cmd = ["povray", f"+I{CORNELL / 'cornell.pov'}", f"+O{out}", "+FE", f"+W{width}",
-           f"+H{width}", "+WT2", "-D", "-V", "-GA", *AA_POV, f"Declare=RadCount={count}",
-           f"Declare=RadErrorBound={bound}", f"Declare=RadRecursion={depth}",
-           f"Declare=RadAdcBailout={bailout}"]  # fmt: skip
-    took, _ = _timed_run(cmd, tmp)
+           f"+H{width}", "+WT2", "-D", "-V", "-GA", f"+A{aa}", "+AM1", "+R3",
+           f"Declare=RadCount={count}", f"Declare=RadErrorBound={bound}",
+           f"Declare=RadRecursion={depth}", f"Declare=RadAdcBailout={bailout}"]  # fmt: skip
+    took, cpu, _ = _timed_run(cmd, tmp)
     rmse, inner, mean = _errors(out)
-    settings = f"count {count}, error_bound {bound}, recursion_limit {depth}, adc {bailout:g}"
-    return Run("POV-Ray 3.7", settings, took, rmse, inner, mean)
+    settings = (f"count {count}, error_bound {bound}, recursion_limit {depth}, "
+                f"adc {bailout:g}, +A{aa}")  # fmt: skip
+    return Run("POV-Ray 3.7", settings, took, cpu, rmse, inner, mean)
 
 
-def compare(width: int, slow: bool) -> None:
+def compare(width: int, slow: bool, repeat: int = 1) -> None:
     if not (CORNELL / "reference.npy").exists():
         raise SystemExit(f"no Cornell reference at {CORNELL}")
     if shutil.which("povray") is None:
         raise SystemExit("POV-Ray 3.7 is not installed: the comparison needs it in the same run")
     ref_mean = float(np.load(CORNELL / "reference.npy").mean())
     runs: list[Run] = []
+    # Interleaved, so that a change in the machine's load hits both renderers alike.
+    jobs = [("strala", lv) for lv in STRALA_LEVELS]
+    levels = POV_LEVELS + (POV_SLOW if slow else [])
+    pov_jobs = [("pov", (*lv, aa)) for lv in levels for aa in POV_AA]
+    order = [j for pair in itertools.zip_longest(jobs, pov_jobs) for j in pair if j]
+    trials: dict[tuple, list[Run]] = {}
     with tempfile.TemporaryDirectory(prefix="bench-radiosity-") as tmp:
-        for size, budget in STRALA_LEVELS:
-            runs.append(run_strala(Path(tmp), size, budget, width))
-            print(_row(runs[-1], ref_mean), flush=True)
-        for level in POV_LEVELS + (POV_SLOW if slow else []):
-            runs.append(run_povray(Path(tmp), level, width))
-            print(_row(runs[-1], ref_mean), flush=True)
+        for _ in range(max(1, repeat)):
+            for who, level in order:
+                if who == "strala":
+                    run = run_strala(Path(tmp), *level, width)
+                else:
+                    run = run_povray(Path(tmp), level, width)
+                trials.setdefault((who, level), []).append(run)
+                print(_row(run, ref_mean), flush=True)
+    # Per setting: the best time of the repeats (the least disturbed by other work) and
+    # the mean error (POV-Ray's multi-threaded radiosity differs from run to run).
+    for t in trials.values():
+        errs = [r.rmse for r in t]
+        spread = f" RMSE {min(errs):.4f}..{max(errs):.4f}" if len(t) > 1 else ""
+        runs.append(dataclasses.replace(
+            t[0], seconds=min(r.seconds for r in t), cpu=min(r.cpu for r in t),
+            rmse=float(np.mean(errs)), interior=float(np.mean([r.interior for r in t])),
+            mean=float(np.mean([r.mean for r in t])), detail=t[0].detail + spread,
+        ))  # fmt: skip
+    runs.sort(key=lambda r: (r.who != "strala", r.seconds))
     print()
-    print("| renderer | settings | wall s | RMSE (interior) | energy | |")
-    print("|---|---|---:|---:|---:|---|")
+    print("| renderer | settings | wall s | CPU s | RMSE (interior) | energy | |")
+    print("|---|---|---:|---:|---:|---:|---|")
     for r in runs:
-        print(f"| {r.who} | {r.settings} | {r.seconds:.1f} | {r.rmse:.4f} ({r.interior:.4f}) "
-              f"| {100 * (r.mean / ref_mean - 1):+.1f}% | {r.detail} |")  # fmt: skip
+        energy = 100 * (r.mean / ref_mean - 1)
+        print(f"| {r.who} | {r.settings} | {r.seconds:.1f} | {r.cpu:.1f} | {r.rmse:.4f} "
+              f"({r.interior:.4f}) | {energy:+.1f}% | {r.detail} |")  # fmt: skip
     pov = [r for r in runs if r.who != "strala"]
     best = min(pov, key=lambda r: r.rmse)
     reach = [r for r in runs if r.who == "strala" and r.rmse <= best.rmse]
-    print(f"\nPOV-Ray's best error: {best.rmse:.4f} in {best.seconds:.1f} s ({best.settings})")
+    print(f"\nPOV-Ray's best error: {best.rmse:.4f} in {best.seconds:.1f} s wall, "
+          f"{best.cpu:.1f} s CPU ({best.settings})")  # fmt: skip
     if not reach:
         print("strala does not reach it at these patch budgets: goal NOT met")
         return
-    fast = min(reach, key=lambda r: r.seconds)
-    ratio = fast.seconds / best.seconds
-    verdict = "met" if ratio < 0.5 else "NOT met"
-    print(
-        f"strala reaches it in {fast.seconds:.1f} s ({fast.settings}, {fast.detail}, "
-        f"RMSE {fast.rmse:.4f}): {ratio:.2f}× POV-Ray's time; goal (< 0.5×) {verdict}"
-    )
+    for label, key in (("wall", lambda r: r.seconds), ("CPU", lambda r: r.cpu)):
+        fast = min(reach, key=key)
+        ratio = key(fast) / key(best)
+        verdict = "met" if ratio < 0.5 else "NOT met"
+        print(f"strala reaches it in {key(fast):.1f} s {label} ({fast.settings}, {fast.detail}, "
+              f"RMSE {fast.rmse:.4f}): {ratio:.2f}× POV-Ray's {label} time; goal (< 0.5×) "
+              f"{verdict}")  # fmt: skip
 
 
 def _row(r: Run, ref_mean: float) -> str:
-    return (f"{r.who:12s} {r.settings:58s} {r.seconds:7.1f} s  RMSE {r.rmse:.4f} "
+    return (f"{r.who:12s} {r.settings:58s} {r.seconds:7.1f} s ({r.cpu:6.1f} CPU)  "
+            f"RMSE {r.rmse:.4f} "
             f"(interior {r.interior:.4f})  energy {100 * (r.mean / ref_mean - 1):+.1f}%  "
             f"{r.detail}")  # fmt: skip
 
@@ -276,9 +315,10 @@ def main() -> None:
     ap.add_argument("--compare", action="store_true", help="error vs time against POV-Ray")
     ap.add_argument("--slow", action="store_true", help="--compare: add POV-Ray's 340 s level")
     ap.add_argument("--width", type=int, default=256, help="--compare: the reference's 256")
+    ap.add_argument("--repeat", type=int, default=1, help="--compare: runs per setting")
     args = ap.parse_args()
     if args.compare:
-        compare(args.width, args.slow)
+        compare(args.width, args.slow, args.repeat)
     elif args.cornell is None:
         complexity([float(s) for s in args.sizes.split(",")])
     else:
