@@ -665,12 +665,15 @@ def _dart_masks(scheme: str, n: int) -> np.ndarray:
     order = np.argsort(-np.abs(w), kind="stable")
     limit = np.real(vec[:, order[0]])
     limit /= limit.sum()
-    second = vec[:, order[1]]
-    if abs(np.imag(w[order[1]])) > 1e-12:
-        t1, t2 = np.real(second), np.imag(second)
-    else:
-        t1, t2 = np.real(second), np.real(vec[:, order[2]])
-    return np.stack([limit, t1, t2])
+    # The tangents span the real invariant plane of the subdominant pair. That pair may be
+    # two real eigenvalues, a complex pair, or a double eigenvalue (Catmull–Clark valence
+    # 4: 1/2 twice) that eig returns as a "complex" pair with a rounding-sized imaginary
+    # part, whose two vectors then have the same real part. The real and imaginary parts
+    # of both vectors span the plane in every case; an SVD picks an orthonormal basis.
+    pair = vec[:, order[1:3]]
+    span = np.concatenate([np.real(pair), np.imag(pair)], axis=1)
+    basis = np.linalg.svd(span, full_matrices=False)[0][:, :2]
+    return np.stack([limit, basis[:, 0], basis[:, 1]])
 
 
 @dataclass

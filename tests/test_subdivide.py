@@ -799,3 +799,36 @@ def test_adaptive_level_follows_the_screen_size():
     assert near >= 16 * far
     assert _adaptive_faces(4, 64) < near
     assert _adaptive_faces(4, 640, "levels 1") == 2 * 6 * 4  # one level: 24 quads
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+def test_dart_on_a_regular_vertex_has_a_normal(scheme):
+    """Darts of valence 4 (Catmull–Clark) or 6 (Loop): the subdominant eigenvalue of their
+    ring is double (1/2), which eig may return as a complex pair whose vectors share their
+    real part. The tangent masks must still span a plane: the normal is a unit vector, the
+    same at every level, and the faces around the dart turn to it."""
+    rng = np.random.default_rng(13)
+    pts, faces, idx = grid(4, 4, rng.normal(scale=0.3, size=(5, 5)))
+    if scheme == "loop":
+        faces = [t for a, b, c, d in faces for t in ((a, b, c), (a, c, d))]
+    ends = [int(idx[2, 1]), int(idx[2, 2])]  # one sharp edge inside: a dart at each end
+    shape = ir.Subdivision(
+        scheme,
+        tuple(map(tuple, pts)),
+        tuple(map(tuple, faces)),
+        creases=((*ends, np.inf),),
+        limit=True,
+    )
+    m = sd.ControlMesh.from_shape(shape)
+    s = sd.edge_sharpness(m)
+    darts = sd._darts(m, s, sd.vertex_rules(m, s, "sharp"))
+    assert darts is not None and sorted(darts.vertices) == ends
+    normals = [sd.subdivision_mesh(shape, lv)[2][ends] for lv in (0, 2, 6)]
+    assert all(np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12) for n in normals)
+    assert np.allclose(normals[0], normals[1], atol=1e-10)
+    v, f, _ = sd.subdivision_mesh(shape, 6)
+    for k, vertex in enumerate(ends):
+        tri = f[(f == vertex).any(axis=1)]
+        fn = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+        fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+        assert np.all(fn @ normals[2][k] > 0.99)
