@@ -661,19 +661,21 @@ def _dart_masks(scheme: str, n: int) -> np.ndarray:
     1, summing to 1) and two tangents (the left eigenvectors of the subdominant pair;
     real and imaginary parts when they are complex). The smooth closed forms assume a
     rotationally symmetric ring, which a dart's sharp edge breaks."""
-    w, vec = np.linalg.eig(_dart_matrix(scheme, n).T)
+    St = _dart_matrix(scheme, n).T
+    w, vec = np.linalg.eig(St)
     order = np.argsort(-np.abs(w), kind="stable")
     limit = np.real(vec[:, order[0]])
     limit /= limit.sum()
-    # The tangents span the real invariant plane of the subdominant pair. That pair may be
-    # two real eigenvalues, a complex pair, or a double eigenvalue (Catmull–Clark valence
-    # 4: 1/2 twice) that eig returns as a "complex" pair with a rounding-sized imaginary
-    # part, whose two vectors then have the same real part. The real and imaginary parts
-    # of both vectors span the plane in every case; an SVD picks an orthonormal basis.
-    pair = vec[:, order[1:3]]
-    span = np.concatenate([np.real(pair), np.imag(pair)], axis=1)
-    basis = np.linalg.svd(span, full_matrices=False)[0][:, :2]
-    return np.stack([limit, basis[:, 0], basis[:, 1]])
+    # The tangents span the real invariant plane of the subdominant pair l1, l2: two real
+    # eigenvalues, a complex pair, or a double one (Catmull–Clark valence 4: 1/2 twice).
+    # eig's vectors for a double eigenvalue of this non-symmetric matrix can come back
+    # nearly parallel (which ones depends on the BLAS kernel, so it varied from run to
+    # run: a zero normal now and then). The plane is the null space of the real matrix
+    # (St - l1)(St - l2) = St^2 - (l1 + l2) St + l1 l2 in every case; an SVD finds it.
+    l1, l2 = w[order[1]], w[order[2]]
+    pencil = St @ St - np.real(l1 + l2) * St + np.real(l1 * l2) * np.eye(len(St))
+    basis = np.linalg.svd(pencil)[2][-2:]
+    return np.stack([limit, basis[0], basis[1]])
 
 
 @dataclass
