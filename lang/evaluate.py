@@ -2597,6 +2597,13 @@ def _b_radiosity(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Radiosit
                 )
             else:
                 fields["method"] = args[0]
+        elif name == "display":
+            if args[0] not in ("gouraud", "flat"):
+                it.sink.error(
+                    "E0202", f"unknown radiosity display `{args[0]}`", span, "gouraud or flat"
+                )
+            else:
+                fields["display"] = args[0]
         elif name in (
             "pretrace_start",
             "pretrace_end",

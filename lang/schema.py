@@ -515,10 +515,11 @@ BLOCKS: dict[str, BlockSpec] = {
                 "max_patches int | strala: upper bound on the number of patches.",
                 "tolerance float | strala: solver convergence tolerance.",
                 "method word | strala: gauss_seidel, progressive or direct.",
+                "display word | strala: gouraud (interpolated, the default) or flat patches.",
             ]
         ),
         frozenset(),
-        soft=frozenset({"gauss_seidel", "progressive", "direct"}),
+        soft=frozenset({"gauss_seidel", "progressive", "direct", "gouraud", "flat"}),
     ),
     "background": BlockSpec(
         "background",
