@@ -625,6 +625,7 @@ class Radiosity:
     max_patches: int = 20000
     tolerance: float = 1e-4
     method: str = "gauss_seidel"  # gauss_seidel | progressive | direct
+    display: str = "gouraud"  # gouraud | flat: how patch radiosity is shown
     span: Span | None = None
 
 

@@ -98,7 +98,7 @@ ITEM_WORDS = frozenset(
 # names): the evaluator takes them as keywords only inside the blocks whose schema lists them.
 SOFT_WORDS = frozenset(
     "degree scheme levels boundary limit m chaikin midpoint loop bilinear sharp "
-    "gauss_seidel progressive direct".split()
+    "gauss_seidel progressive direct display gouraud flat".split()
 )
 # Words that are items but also directive names (read/write as #fopen modes) stay items.
 ITEM_WORDS = ITEM_WORDS - CONSTANTS - FUNCTIONS - COLOR_TYPES - COLOR_WORDS - COMPONENTS

@@ -519,7 +519,7 @@ BLOCKS: dict[str, BlockSpec] = {
             ]
         ),
         frozenset(),
-        soft=frozenset({"gauss_seidel", "progressive", "direct", "gouraud", "flat"}),
+        soft=frozenset({"gauss_seidel", "progressive", "direct", "display", "gouraud", "flat"}),
     ),
     "background": BlockSpec(
         "background",

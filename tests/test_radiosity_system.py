@@ -331,3 +331,39 @@ def test_unmeshed_objects_open_the_closure():
     alone, with_post = fractions
     assert np.all(alone == 1.0)
     assert (with_post < 1.0).mean() > 0.5 and with_post.min() > 0.3
+
+
+def test_display_flat_comes_from_the_scene():
+    from lang.evaluate import compile_source
+
+    def radiosity(block: str):
+        return compile_source(f"global_settings {{ radiosity {{ {block} }} }}", "d.pov")
+
+    assert radiosity("").scene.settings.radiosity.display == "gouraud"
+    flat = radiosity("display flat").scene.settings.radiosity
+    assert flat.display == "flat" and system.Options.from_ir(flat).flat
+    assert not system.Options.from_ir(radiosity("display gouraud").scene.settings.radiosity).flat
+    bad = radiosity("display smooth")
+    assert [d.code for d in bad.diagnostics if d.severity == "error"] == ["E0202"]
+
+
+def test_flat_display_shows_patch_values_from_the_same_cached_solution(tmp_path):
+    """A lamp above one corner of a room: gathered light varies over the floor. Flat
+    display gives every point of a patch that patch's value; Gouraud varies inside it.
+    Both read one cached solution (the display is not part of the solution's key)."""
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex((0.8, 0.8, 0.8)))
+    lamp = ir.Light((0.4, 1.6, 0.4), color=(1.0, 1.0, 1.0))
+    scene = _scene((room,), [lamp], camera=ir.Camera(location=(1, 1, 1)))
+    base = dict(patch_size=0.5, max_rounds=0)
+    smooth = system.compute(prepare(scene, 8, 8), system.Options(**base), cache_dir=tmp_path)
+    flat = system.compute(
+        prepare(scene, 8, 8), system.Options(**base, flat=True), cache_dir=tmp_path
+    )
+    assert flat.stats.get("cache_hit") == 1.0 and np.array_equal(flat.G, smooth.G)
+    # floor points inside one patch (the floor's first 0.5 cell), seen from above
+    xs = np.linspace(0.05, 0.45, 5)
+    pts = np.stack([xs, np.full(5, 1e-9), np.full(5, 0.25)], axis=1)
+    down = np.tile([0.0, -1.0, 0.0], (5, 1))
+    f, g = flat.gathered(0, pts, down), smooth.gathered(0, pts, down)
+    assert np.ptp(f, axis=0).max() == 0.0 and f[0, 0] > 0
+    assert np.ptp(g, axis=0).max() > 1e-3

@@ -96,6 +96,7 @@ class Options:
             method=r.method,
             brightness=r.brightness,
             gray_threshold=r.gray_threshold,
+            flat=r.display == "flat",
             **extra,
         )
 
@@ -771,14 +772,15 @@ def compute(
     if opts is None:
         r = scene.settings.radiosity or ir.Radiosity()
         opts = Options.from_ir(r)
-    key = content_key(scene, opts, eye_cell(prepared))
+    # The display (flat or Gouraud) reads the solution; it is not part of it.
+    key = content_key(scene, dataclasses.replace(opts, flat=False), eye_cell(prepared))
     path = None
     if cache_dir is not None:
         path = Path(cache_dir) / f"{key}.pkl"
         if path.exists():
             try:
                 with path.open("rb") as f:
-                    res = pickle.load(f)
+                    res = dataclasses.replace(pickle.load(f), options=opts, _field=None)
                 res.stats["cache_hit"] = 1.0
                 _print_warnings(res)
                 return res
