@@ -55,3 +55,28 @@ def test_cornell_room_renders_from_the_command_line(tmp_path):
     red_wall, green_wall, tall_box = img[24, 3], img[24, 44], img[24, 15]
     assert red_wall[0] > 3 * red_wall[1] and green_wall[1] > 2 * green_wall[0]
     assert tall_box[0] > 1.5 * tall_box[1] > 0
+
+
+@pytest.mark.parametrize(("radiosity", "loaded"), [("", False), ("radiosity { count 35 }", True)])
+def test_the_solver_is_loaded_only_for_scenes_that_ask_for_it(radiosity, loaded):
+    """Without `radiosity {}` no module of runtime.radiosity is imported or run."""
+    import subprocess
+    import sys
+
+    scene = (
+        f"global_settings {{ {radiosity} }} camera {{ location <0, 1, -3> look_at 0 }}"
+        "light_source { <2, 4, -3>, 1 } box { -1, 1 pigment { rgb 1 } }"
+        "plane { y, -1 pigment { rgb 0.5 } }"
+    )
+    code = (
+        "import sys; from runtime import api;"
+        f"img = api.render(api.compile_string({scene!r}), width=8, height=6);"
+        "print(img.shape, sorted(m for m in sys.modules if m.startswith('runtime.radiosity')))"
+    )
+    root = EXAMPLES.parent
+    proc = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True,
+                          text=True, timeout=300)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    shape, _, modules = proc.stdout.strip().partition(") ")
+    assert shape == "(6, 8, 3"
+    assert (modules != "[]") == loaded, proc.stdout
