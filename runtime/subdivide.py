@@ -543,18 +543,24 @@ def _available_memory() -> int:
         return 8 << 30
 
 
-def next_level_size(mesh: ControlMesh, scheme: str) -> tuple[int, int, int]:
-    """(vertices, faces, corners) of the next level, without building it."""
-    C = len(mesh.fv)
-    E = len(mesh.topology.edges)
-    if scheme == "loop":
-        return mesh.nv + E, 4 * mesh.nf, 12 * mesh.nf
-    return mesh.nv + mesh.nf + E, C, 4 * C
+def next_level_size(mesh: ControlMesh, scheme: str, steps: int = 1) -> tuple[int, int, int]:
+    """(vertices, faces, corners) of the level `steps` below `mesh`, without building it
+    (counted exactly: a step's counts follow from the last one's)."""
+    V, F, C, E = mesh.nv, mesh.nf, len(mesh.fv), len(mesh.topology.edges)
+    for _ in range(steps):  # one iteration per level, on four integers
+        if scheme == "loop":
+            V, F, C, E = V + E, 4 * F, 12 * F, 2 * E + 3 * F
+        else:  # one quad per corner; one inner edge per corner
+            V, F, C, E = V + F + E, C, 4 * C, 2 * E + C
+    return V, F, C
 
 
-def check_memory(mesh: ControlMesh, scheme: str, level: int, max_bytes: int | None) -> None:
-    """Refuse a level that would not fit, before building it."""
-    v, f, c = next_level_size(mesh, scheme)
+def check_memory(
+    mesh: ControlMesh, scheme: str, level: int, max_bytes: int | None, steps: int = 1
+) -> None:
+    """Refuse a level that would not fit, before building it: `level` is the level that
+    lies `steps` below `mesh`."""
+    v, f, c = next_level_size(mesh, scheme, steps)
     need = v * _BYTES_PER_VERTEX + c * _BYTES_PER_CORNER
     budget = max_bytes if max_bytes is not None else int(MEMORY_FRACTION * _available_memory())
     if need > budget or max(v, c) >= 2**31 - 1:
@@ -1103,6 +1109,8 @@ def refine(shape: ir.Subdivision, levels: int, max_bytes: int | None = None) -> 
     if errors:
         raise SubdivisionError(*errors[0])
     mesh = ControlMesh.from_shape(shape)
+    if levels > 1:  # the deepest level first, so nothing is built for a level that won't fit
+        check_memory(mesh, shape.scheme, levels, max_bytes, steps=levels)
     for level in range(1, levels + 1):
         check_memory(mesh, shape.scheme, level, max_bytes)
         mesh = subdivide_once(mesh, shape.scheme, shape.boundary)

@@ -575,8 +575,8 @@ def test_crease_limit_is_on_the_crease_b_spline_at_every_level():
 # ---------------------------------------------------------------- examples
 @pytest.mark.parametrize("name", ["subdivision_creases", "loop_seed", "midpoint_curves"])
 def test_example_scenes_tessellate(name):
-    """The example scenes parse now; once the evaluator builds `ir.Subdivision` from them,
-    every subdivision in them must validate and tessellate."""
+    """The example scenes parse cleanly, and every subdivision in them validates and
+    tessellates."""
     from lang.evaluate import compile_file
     from lang.parser import parse
 
@@ -589,8 +589,7 @@ def test_example_scenes_tessellate(name):
         for o in (result.scene.objects if result.scene else ())
         if isinstance(o.shape, ir.Subdivision)
     ]
-    if not shapes:
-        pytest.skip("the evaluator does not build subdivision shapes yet")
+    assert len(shapes) >= 3, name  # each example shows several
     for shape in shapes:
         assert sd.validate(shape) == []
         v, f, n = sd.tessellate(shape)
@@ -832,3 +831,54 @@ def test_dart_on_a_regular_vertex_has_a_normal(scheme):
         fn = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
         fn /= np.linalg.norm(fn, axis=1, keepdims=True)
         assert np.all(fn @ normals[2][k] > 0.99)
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+def test_limit_off_keeps_the_control_points_and_the_limit_normals(scheme):
+    """`limit off` (the default): the vertices are the level-N control points, while the
+    shading normals are the limit normals, the same as with `limit on`; `limit on` moves
+    the vertices to the limit surface (which level N + 5 approaches)."""
+    rng = np.random.default_rng(17)
+    pts = np.asarray(CUBE_POINTS) + 0.2 * rng.normal(size=(8, 3))
+    faces = CUBE_FACES
+    if scheme == "loop":
+        faces = tuple(t for q in CUBE_FACES for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])))
+    off = ir.Subdivision(scheme, tuple(map(tuple, pts)), faces, limit=False)
+    on = dataclasses.replace(off, limit=True)
+    v_off, f_off, n_off = sd.subdivision_mesh(off, 2)
+    v_on, f_on, n_on = sd.subdivision_mesh(on, 2)
+    control = sd.refine(off, 2)
+    assert np.array_equal(v_off, control.points)
+    assert np.array_equal(f_off, f_on)
+    assert np.allclose(n_off, n_on, atol=1e-15)
+    lim, _ = sd.smooth_limit_normals(control, scheme)
+    assert np.allclose(n_off, lim, atol=1e-15)
+    assert np.abs(v_on - v_off).max() > 1e-3  # limit on does move them
+    deep = sd.refine(off, 7).points[: len(v_on)]
+    assert np.abs(deep - v_on).max() < 1e-3 < np.abs(deep - v_off).max()
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "bilinear", "loop"])
+def test_level_sizes_are_counted_exactly_without_building(scheme):
+    if scheme == "loop":
+        mesh = sd.ControlMesh.from_lists(ICO_POINTS, [tuple(f) for f in ICO_FACES[1:]])
+    else:  # an open pentagonal prism: n-gons, quads and a boundary
+        ang = 2 * np.pi * np.arange(5) / 5
+        ring = np.stack([np.cos(ang), np.sin(ang), np.zeros(5)], 1)
+        faces = [(4, 3, 2, 1, 0)] + [(i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i) for i in range(5)]
+        mesh = sd.ControlMesh.from_lists(np.vstack([ring, ring + [0, 0, 1]]), faces)
+    child = mesh
+    for steps in range(1, 4):
+        child = sd.subdivide_once(child, scheme)
+        assert sd.next_level_size(mesh, scheme, steps) == (child.nv, child.nf, len(child.fv))
+
+
+def test_a_deep_level_that_does_not_fit_is_refused_before_any_level_is_built(monkeypatch):
+    built = []
+    real = sd.subdivide_once
+    monkeypatch.setattr(sd, "subdivide_once", lambda *a: built.append(1) or real(*a))
+    with pytest.raises(sd.SubdivisionError) as err:
+        sd.subdivision_mesh(cube(), 12, max_bytes=1 << 30)
+    assert err.value.code == "subdiv.memory" and "level 12" in err.value.message
+    assert "100,663,296 faces" in err.value.message  # 6 · 4^12
+    assert built == []
