@@ -270,8 +270,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument(
         "--radiosity-cache",
-        metavar="DIR",
-        help="keep radiosity solutions in DIR and reuse them (they do not depend on the camera)",
+        metavar="DIR|FILE",
+        help="keep radiosity solutions in DIR (or the latest in FILE, e.g. room.rad) and "
+        "reuse them (they do not depend on the camera)",
     )
     for flag in _REGION.values():  # partial render, POV-Ray's +SC +EC +SR +ER
         r.add_argument(flag, type=float, help=argparse.SUPPRESS)
@@ -660,11 +661,13 @@ def radiosity_summary(stats: dict) -> str:
 def _radiosity_options(args: argparse.Namespace) -> dict:
     if args.radiosity_cache is None:
         return {}
-    folder = Path(args.radiosity_cache)
+    # A folder keeps every solution; a file (a name with a suffix) keeps the latest one.
+    where = Path(args.radiosity_cache)
+    folder = where if where.is_dir() or not where.suffix else where.parent
     if folder.exists() and not folder.is_dir():
-        raise UsageError(f"--radiosity-cache {folder}: not a folder")
+        raise UsageError(f"--radiosity-cache {where}: {folder} is not a folder")
     folder.mkdir(parents=True, exist_ok=True)
-    return {"radiosity_cache": folder}
+    return {"radiosity_cache": where}
 
 
 def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | None) -> None:

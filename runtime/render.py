@@ -47,8 +47,8 @@ def render_scene(
     counts after each tile, from the calling thread. stats, when given, receives counters
     (rays, shadow_rays, supersampled pixels …).
     radiosity: a precomputed `RadiosityResult` to use; otherwise a scene with
-    `global_settings { radiosity {} }` is solved here first (cached in the folder
-    `radiosity_cache` when given)."""
+    `global_settings { radiosity {} }` is solved here first (cached in the folder or
+    file `radiosity_cache` when given)."""
     from runtime.prepare import prepare
 
     prepared = prepare(scene, width, height)

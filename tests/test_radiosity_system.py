@@ -367,3 +367,26 @@ def test_flat_display_shows_patch_values_from_the_same_cached_solution(tmp_path)
     f, g = flat.gathered(0, pts, down), smooth.gathered(0, pts, down)
     assert np.ptp(f, axis=0).max() == 0.0 and f[0, 0] > 0
     assert np.ptp(g, axis=0).max() > 1e-3
+
+
+def test_cache_file_keeps_the_latest_solution(tmp_path):
+    """`--radiosity-cache room.rad`: one file, reused while geometry and materials match,
+    replaced (atomically) when they change."""
+    room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex(emission=0.05))
+    red = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex((1.0, 0, 0), emission=0.05))
+    dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
+    opts = system.Options(patch_size=1.0, max_rounds=0)
+    cache = tmp_path / "sub" / "room.rad"
+    a = _scene((room,), [dark], camera=ir.Camera(location=(1, 1, 1)))
+    b = _scene((room,), [dark], camera=ir.Camera(location=(0.5, 1.5, 0.2), angle=30.0))
+    first = system.compute(prepare(a, 8, 8), opts, cache_dir=cache)
+    assert "cache_hit" not in first.stats and cache.is_file()
+    again = system.compute(prepare(b, 8, 8), opts, cache_dir=cache)
+    assert again.stats.get("cache_hit") == 1.0 and np.array_equal(first.B, again.B)
+    other = system.compute(prepare(_scene((red,), [dark]), 8, 8), opts, cache_dir=cache)
+    assert "cache_hit" not in other.stats and other.B[:, 1].max() == 0.0
+    back = system.compute(prepare(a, 8, 8), opts, cache_dir=cache)
+    assert "cache_hit" not in back.stats  # the file held the red room's solution
+    assert sorted(p.name for p in cache.parent.iterdir()) == ["room.rad"]
+    cache.write_bytes(b"not a pickle")  # a broken file is recomputed, not an error
+    assert "cache_hit" not in system.compute(prepare(a, 8, 8), opts, cache_dir=cache).stats

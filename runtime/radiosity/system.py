@@ -48,7 +48,7 @@ from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
 from runtime.radiosity.patches import Mesher, Patches, box_faces
 from runtime.radiosity.visibility import PatchVisibility
 
-CACHE_VERSION = 2  # 2: energy conservation, eye cell, budgeted refinement
+CACHE_VERSION = 3  # 2: energy conservation, eye cell, budgeted refinement; 3: key inside
 
 # A scene is "not closed" when more than this fraction of the light leaving its surfaces
 # (area-weighted row sums of F, visibility included) escapes to infinity.
@@ -767,34 +767,42 @@ def default_cache_dir() -> Path:
 def compute(
     prepared, opts: Options | None = None, *, cache_dir: Path | None = None, log=None
 ) -> RadiosityResult:
-    """The radiosity solution of a prepared scene (cached when `cache_dir` is given)."""
+    """The radiosity solution of a prepared scene, reused from and saved to `cache_dir`
+    when given: a folder keeps one file per solution; a file (a path with a suffix, such
+    as `room.rad`) keeps the latest solution and is reused while the key matches."""
     scene: ir.Scene = prepared.scene
     if opts is None:
         r = scene.settings.radiosity or ir.Radiosity()
         opts = Options.from_ir(r)
     # The display (flat or Gouraud) reads the solution; it is not part of it.
     key = content_key(scene, dataclasses.replace(opts, flat=False), eye_cell(prepared))
-    path = None
-    if cache_dir is not None:
-        path = Path(cache_dir) / f"{key}.pkl"
-        if path.exists():
-            try:
-                with path.open("rb") as f:
-                    res = dataclasses.replace(pickle.load(f), options=opts, _field=None)
+    path = None if cache_dir is None else cache_path(Path(cache_dir), key)
+    if path is not None and path.is_file():
+        try:
+            with path.open("rb") as f:
+                stored = pickle.load(f)
+            if isinstance(stored, dict) and stored.get("key") == key:
+                res = dataclasses.replace(stored["result"], options=opts, _field=None)
                 res.stats["cache_hit"] = 1.0
                 _print_warnings(res)
                 return res
-            except (OSError, pickle.UnpicklingError, EOFError, AttributeError):
-                pass  # a stale or broken cache file: recompute and overwrite it
+        except (OSError, pickle.UnpicklingError, EOFError, AttributeError, TypeError):
+            pass  # a stale or broken cache file: recompute and overwrite it
     res = _compute(prepared, opts, log)
     _print_warnings(res)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp")
+        tmp = path.with_name(path.name + ".tmp")
         with tmp.open("wb") as f:
-            pickle.dump(dataclasses.replace(res, _field=None), f)
-        tmp.replace(path)
+            pickle.dump({"key": key, "result": dataclasses.replace(res, _field=None)}, f)
+        tmp.replace(path)  # a reader never sees half a file
     return res
+
+
+def cache_path(cache: Path, key: str) -> Path:
+    """Where the solution with `key` lives: in a folder, a file named by the key; a path
+    with a suffix that is not a folder is the one file itself."""
+    return cache if cache.suffix and not cache.is_dir() else cache / f"{key}.pkl"
 
 
 def _print_warnings(res: RadiosityResult) -> None:
