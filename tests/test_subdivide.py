@@ -882,3 +882,58 @@ def test_a_deep_level_that_does_not_fit_is_refused_before_any_level_is_built(mon
     assert err.value.code == "subdiv.memory" and "level 12" in err.value.message
     assert "100,663,296 faces" in err.value.message  # 6 · 4^12
     assert built == []
+
+
+MODIFIED_SCENE = """#version 3.7;
+global_settings {{ assumed_gamma 1.0 }}
+camera {{ location <0, 3, -7> look_at <0, 0.3, 0> angle 40 }}
+light_source {{ <-6, 10, -8> rgb 1 }}
+plane {{ y, -1.5 pigment {{ checker rgb 0.9, rgb 0.4 }} }}
+{shape} {{
+  {body}
+  texture {{ pigment {{ gradient y color_map {{ [0 rgb <1, 0.2, 0.1>] [1 rgb <0.1, 0.3, 1>] }} }}
+            finish {{ phong 0.6 reflection 0.1 }} }}
+  scale <1.5, 1, 1> rotate <10, 30, 0> translate <0.3, 0, 0.5>
+  {flags}
+}}
+"""
+
+
+def test_object_modifiers_and_textures_apply_as_on_its_mesh(tmp_path):
+    """A subdivision surface takes the object modifiers and textures: rendered, it is the
+    picture of the mesh2 of its own tessellation with the same modifiers (transforms, a
+    texture whose pattern lies in object space, reflection, no_shadow). Only pixels on the
+    shadow terminator may differ: shadow rays from a tessellated curved surface start on
+    the surface its normals describe, a mesh2's from its flat triangles."""
+    from conftest import strala_image
+
+    rng = np.random.default_rng(6)
+    pts = np.asarray(CUBE_POINTS) + 0.15 * rng.normal(size=(8, 3))
+    shape = ir.Subdivision("catmull_clark", tuple(map(tuple, pts)), CUBE_FACES, levels=3)
+    vv = ", ".join(f"<{x:.17g}, {y:.17g}, {z:.17g}>" for x, y, z in pts)
+    ff = ", ".join(f"<{a}, {b}, {c}, {d}>" for a, b, c, d in CUBE_FACES)
+    sub = f"scheme catmull_clark levels 3 vertex_vectors {{ 8, {vv} }} face_indices {{ 6, {ff} }}"
+    v, f, n = sd.subdivision_mesh(shape, 3)
+
+    def listing(rows):
+        return ", ".join("<" + ", ".join(f"{x:.17g}" for x in r) + ">" for r in rows)
+
+    mesh2 = (
+        f"vertex_vectors {{ {len(v)}, {listing(v)} }} normal_vectors {{ {len(n)}, {listing(n)} }}"
+        f" face_indices {{ {len(f)}, {listing(f)} }}"
+    )
+    images = {}
+    for flags in ("", "no_shadow"):
+        for name, body in (("subdivision", sub), ("mesh2", mesh2)):
+            scene = MODIFIED_SCENE.format(shape=name, body=body, flags=flags)
+            images[name, flags], messages = strala_image(scene, tmp_path, 96, 72)
+            assert messages == []
+        a, b = images["subdivision", flags], images["mesh2", flags]
+        off = np.abs(a - b).max(axis=2)
+        assert (off > 1e-5).mean() < 0.002 and np.median(off) == 0.0
+        # the object is in the picture with its gradient: red low, blue high
+        assert (a[..., 2] > a[..., 0] + 0.2).mean() > 0.02
+        assert (a[..., 0] > a[..., 2] + 0.2).mean() > 0.02
+    # no_shadow lifts the shadow off the floor
+    lit = images["subdivision", "no_shadow"].sum(axis=2) - images["subdivision", ""].sum(axis=2)
+    assert (lit > 0.1).mean() > 0.02 and lit.min() > -1e-6
