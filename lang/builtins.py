@@ -95,7 +95,7 @@ def _combine(a: Any, b: Any, fn: Callable[[float, float], float]) -> Any:
 
 def _div(p: float, q: float) -> float:
     if q == 0.0:
-        raise EvalError("division by zero")
+        raise EvalError("division by zero", "the divisor is 0 here; guard it with #if or select()")
     return p / q
 
 
@@ -139,6 +139,10 @@ def unary(op: str, a: Any) -> Any:
 
 _VEC_MEMBERS = {"x": 0, "u": 0, "y": 1, "v": 1, "z": 2, "t": 3}
 _COLOR_MEMBERS = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}
+_MEMBER_HINT = (
+    "a vector has .x .y .z (.t in 4-D, .u .v in 2-D); "
+    "a colour .red .green .blue .filter .transmit .gray"
+)
 
 
 def member(v: Any, name: str) -> float:
@@ -149,14 +153,14 @@ def member(v: Any, name: str) -> float:
     if isinstance(v, ColorValue):
         i = _COLOR_MEMBERS.get(name, _VEC_MEMBERS.get(name))
         if i is None:
-            raise EvalError(f"a colour has no component `.{name}`")
+            raise EvalError(f"a colour has no component `.{name}`", _MEMBER_HINT)
         return v.rgbft[i]
     if isinstance(v, Vec):
         i = _VEC_MEMBERS.get(name, _COLOR_MEMBERS.get(name))
         if i is None:
-            raise EvalError(f"a vector has no component `.{name}`")
+            raise EvalError(f"a vector has no component `.{name}`", _MEMBER_HINT)
         if i >= len(v):
-            raise EvalError(f"a {len(v)}-component vector has no `.{name}`")
+            raise EvalError(f"a {len(v)}-component vector has no `.{name}`", _MEMBER_HINT)
         return v[i]
     if isinstance(v, float | int) and name in _VEC_MEMBERS:
         return float(v)
@@ -199,7 +203,7 @@ def _s(args: Sequence[Any], i: int, name: str) -> str:
 
 def _domain(ok: bool, msg: str) -> None:
     if not ok:
-        raise EvalError(msg)
+        raise EvalError(msg, "the argument is outside the function's domain")
 
 
 def _unary_math(name: str, fn: Callable[[float], float], check=None, msg: str = ""):
@@ -522,7 +526,13 @@ def call(name: str, args: Sequence[Any], state: BuiltinState) -> Any:
     fn, lo, hi = entry
     if len(args) < lo or (hi is not None and len(args) > hi):
         want = f"{lo}" if hi == lo else (f"{lo} or more" if hi is None else f"{lo} to {hi}")
-        raise EvalError(f"{name}() takes {want} argument(s), got {len(args)}")
+        letters = [chr(ord("A") + i) for i in range(hi if hi is not None else lo)]
+        usage = ", ".join(letters) + (", …" if hi is None else "")
+        if hi is not None and hi > lo:
+            usage = ", ".join(letters[:lo]) + "".join(f"[, {c}]" for c in letters[lo:])
+        raise EvalError(
+            f"{name}() takes {want} argument(s), got {len(args)}", f"call it as {name}({usage})"
+        )
     try:
         return fn(args, state)
     except OverflowError:

@@ -38,6 +38,64 @@ class Severity(StrEnum):
     NOTE = "note"
 
 
+# The hint a diagnostic carries when the place that reports it has nothing more specific to
+# say: what the code means and what usually fixes it.
+DEFAULT_HINTS: dict[str, str] = {
+    "E0001": "a construct is cut off by the end of the file",
+    "E0002": "check the punctuation just before this: a missing `,`, `}`, `)` or `>`",
+    "E0003": "close it with `*/`",
+    "E0004": 'close the string with `"` on the same line',
+    "E0005": "remove it; it is not part of the scene language",
+    "E0101": "remove it, or open the block it was meant to close",
+    "E0102": "pick another name: keywords cannot be redeclared",
+    "E0103": "check the directive's form",
+    "E0104": "start the #switch body with `#case (value)` or `#range (low, high)`",
+    "E0106": "add the `}` that closes it",
+    "E0107": "add the `#end` that closes it",
+    "E0200": "this is a bug in strala; please report it with the scene",
+    "E0201": "declare it with #declare before this line, or #include the file that declares it",
+    "E0202": "check the value's kind: float, vector, colour or string",
+    "E0203": "check the operands: floats, vectors, colours and strings do not all mix",
+    "E0210": "move it into the block it belongs to",
+    "E0211": "check the block's form: its leading values come first, in order",
+    "E0212": "remove it, or move it where it belongs",
+    "E0220": "searched the scene's folder, the -L library paths and strala's stdlib",
+    "E0221": "guard the file with `#ifndef (Name_Inc) #declare Name_Inc = 1; … #end`",
+    "E0230": "make sure the loop's condition becomes false",
+    "E0231": "give the recursion a condition that ends it",
+    "E0232": "pass one argument per parameter, in order",
+    "E0233": "open the macro and fix its syntax errors",
+    "E0240": "raised by #error",
+    "E0250": "indices start at 0 and stop one before the declared size",
+    "E0260": "file I/O reads and writes only inside the scene's folder",
+    "E0270": "check the camera's vectors",
+    "E0280": "a knot vector has n + degree + 1 values that never decrease",
+    "E0281": "control_points { nu, nv, <x,y,z>, … } lists nu × nv points",
+    "E0282": "give one positive weight per control point",
+    "E0283": "a degree-p direction needs at least p + 1 control points",
+    "E0284": "a curve is drawn as a tube: give it a `radius`",
+    "E0285": "check the subdivision settings",
+    "E0286": "face indices start at 0 and stop one before the number of vertices",
+    "E0287": "an edge may border one face (boundary) or two",
+    "E0288": "list crease edges as <a, b> pairs of vertices joined by a face edge",
+    "E0289": "neighbouring faces list their shared edge in opposite directions",
+    "E0900": "check the file's name and permissions",
+    "E0901": "write the file with `strala compile`",
+    "W0300": "strala parses it and renders the rest of the scene",
+    "W0301": "raised by #warning",
+    "W0302": "make the count match the items listed",
+    "W0303": "the object renders nothing as written",
+    "W0304": "an empty construct renders nothing",
+    "W0305": "add `area_light <axis1>, <axis2>, n1, n2`",
+    "W0306": "check the camera's vectors",
+    "W0307": "the image renders black; check its name and folder",
+    "W0308": "the keyword is read and has no effect in strala",
+    "W0400": "remove the declaration, or use the name",
+    "W0401": "rename one of them if the other was meant",
+    "W0402": "the declaration is deprecated",
+}
+
+
 @dataclass(frozen=True, slots=True)
 class Diagnostic:
     severity: Severity
@@ -45,6 +103,10 @@ class Diagnostic:
     message: str
     span: Span
     hint: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.hint is None:
+            object.__setattr__(self, "hint", DEFAULT_HINTS.get(self.code))
 
     def format(self, source_lines: list[str] | None = None) -> str:
         """gcc-style text, with the source line and a caret when the source is at hand."""

@@ -737,11 +737,30 @@ class Interpreter:
     def error(self, code: str, message: str, span: Span, hint: str | None = None) -> SceneError:
         return SceneError(Diagnostic(Severity.ERROR, code, message, span, hint))
 
-    def warn_once(self, key: str, message: str, span: Span, hint: str | None = None) -> None:
+    def warn_once(
+        self, key: str, message: str, span: Span, hint: str | None = None, code: str = "W0300"
+    ) -> None:
         if key in self.warned:
             return
         self.warned.add(key)
-        self.sink.warning("W0300", message, span, hint)
+        self.sink.warning(code, message, span, hint)
+
+    def ignored(self, block: str, keyword: str, args: list[Any], span: Span) -> None:
+        """Warn once per keyword that strala accepts but ignores (schema.IGNORED_ITEMS); an
+        explicit 0 or `off` asks for nothing and is not warned about."""
+        reason = schema.ignored_reason(block, keyword)
+        if reason is None:
+            return
+        given = [a for a in args if a is not None]
+        if given and all(isinstance(a, int | float) and not a for a in given):
+            return
+        self.warn_once(
+            f"ignored:{reason}",  # one warning per missing feature (focal blur's four words)
+            f"`{keyword}` is accepted but ignored",
+            span,
+            reason,
+            code="W0308",
+        )
 
     def unsupported(self, feature: str, span: Span, what: str = "") -> None:
         self.warn_once(
@@ -1498,7 +1517,12 @@ class Interpreter:
         for r, d in zip(raw, arr.dims, strict=True):
             i = int(as_float(r, "an array index"))
             if not 0 <= i < d:
-                raise self.error("E0250", f"array index {i} is out of range 0..{d - 1}", span)
+                raise self.error(
+                    "E0250",
+                    f"array index {i} is out of range 0..{d - 1}",
+                    span,
+                    f"this dimension has {d} element(s); indices start at 0",
+                )
             idx.append(i)
         return idx
 
@@ -1877,6 +1901,8 @@ class Interpreter:
                         i += 1
                     continue
                 items.append((e.value, args, e.span))
+                if e.value in schema.IGNORED_ITEMS:
+                    self.ignored(spec.name, e.value, args, e.span)
                 continue
             if e.kind == "entry":
                 if spec.produces == "map":
@@ -1932,6 +1958,7 @@ class Interpreter:
             while j < n and els[j].kind == "comma":
                 j += 1
             if j < n and els[j].kind == "kw" and els[j].value == "albedo":
+                self.ignored(spec.name, "albedo", [], els[j].span)
                 j += 1
             if k.startswith("list"):
                 limit = int(k[4:])
@@ -3003,7 +3030,48 @@ def _b_image_map(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Pigment:
         it.sink.warning("W0307", f"image `{params['file']}` not found", g.span)
     else:
         params["path"] = path
+        problem = _unreadable_image(path)
+        if problem:
+            it.sink.warning(
+                "W0307",
+                f"image `{params['file']}` cannot be read: {problem}",
+                g.span,
+                "the image renders black; check the file",
+            )
     return ir.Pigment(pattern="image_map", params=params, span=node.span)
+
+
+# How image files start, for formats that have a signature (TGA and IFF files are not checked).
+_IMAGE_SIGNATURES = (
+    b"\x89PNG\r\n\x1a\n",
+    b"\xff\xd8\xff",
+    b"GIF87a",
+    b"GIF89a",
+    b"II*\x00",
+    b"MM\x00*",
+    b"v/1\x01",
+    b"#?RADIANCE",
+    b"#?RGBE",
+    *(b"P%d" % i for i in range(1, 7)),
+)
+_SIGNED_FORMATS = frozenset("png jpeg jpg gif tiff tif exr hdr ppm pgm".split())
+
+
+def _unreadable_image(path: str) -> str | None:
+    """Why an image file cannot be decoded, from its first bytes (None: it looks fine). Reads
+    a few bytes only, so `check` finds a broken image_map without loading an image library."""
+    if Path(path).suffix.lstrip(".").lower() not in _SIGNED_FORMATS:
+        return None
+    try:
+        with open(path, "rb") as f:
+            head = f.read(16)
+    except OSError as e:
+        return e.strerror or str(e)
+    if not head:
+        return "the file is empty"
+    if not head.startswith(_IMAGE_SIGNATURES):
+        return "it is not an image file of a known format"
+    return None
 
 
 def _b_clip(it: Interpreter, g: Grouped, node: syntax.Block) -> _Clip:
@@ -3187,9 +3255,21 @@ def _b_nurbs(it: Interpreter, g: Grouped, node: syntax.Block) -> ObjectValue:
                 cspan,
                 f"degree {deg} needs at least {deg + 1}",
             )
+    if not all(math.isfinite(c) for q_ in points for c in q_):
+        raise it.error(
+            "E0281", "a control point has a non-finite coordinate", cspan, "check the arithmetic"
+        )
+    if len(points) > 1 and all(q_ == points[0] for q_ in points):
+        raise it.error(
+            "E0281",
+            f"all {len(points)} control points coincide: the net is degenerate",
+            cspan,
+            "a nurbs net spans a surface (or a curve): its points must not all be the same",
+        )
+    uname = "knots" if "knots" in lists and "u_knots" not in lists else "u_knots"
     ukl = lists.get("u_knots") or lists.get("knots")
     uk = tuple(as_float(k, "a knot") for k in ukl.items) if ukl else _clamped_knots(nu, p)
-    _check_knots(it, uk, nu, p, "u_knots", _list_span(ukl, g) if ukl else g.span)
+    _check_knots(it, uk, nu, p, uname, _list_span(ukl, g) if ukl else g.span)
     vk: tuple[float, ...] = ()
     if not is_curve:
         vkl = lists.get("v_knots")

@@ -776,6 +776,46 @@ LIST_BLOCKS = {
 # List blocks without a leading count (or with the counts read by their block's builder).
 UNCOUNTED_LISTS = frozenset(("weights", "u_knots", "v_knots", "knots", "control_points"))
 
+# Keywords strala reads and ignores although they change POV-Ray's picture: the first use of
+# each warns (W0308) with what strala does instead. keyword -> (blocks it is ignored in, or
+# None for every block; the reason). Words that steer only POV-Ray's speed, memory or preview
+# (sturm, hierarchy, split_union, max_intersections, quick_color, hf_gray_16) are ignored
+# without a word: they leave the image as it is.
+_FOCAL_BLUR = "focal blur is not rendered: the whole image is in focus"
+IGNORED_ITEMS: dict[str, tuple[frozenset[str] | None, str]] = {
+    "uv_mapping": (None, "textures are mapped by position, not by the surface's uv coordinates"),
+    "cutaway_textures": (None, "the cut faces of a CSG take the cutting object's texture"),
+    "inside_vector": (None, "a mesh has no inside in strala's CSG"),
+    "aperture": (frozenset({"camera"}), _FOCAL_BLUR),
+    "blur_samples": (frozenset({"camera"}), _FOCAL_BLUR),
+    "confidence": (frozenset({"camera"}), _FOCAL_BLUR),
+    "variance": (frozenset({"camera"}), _FOCAL_BLUR),
+    "number_of_waves": (None, "waves and ripples use POV-Ray's default of 10 wave sources"),
+    "noise_generator": (
+        frozenset({"global_settings"}),
+        "patterns use generator 2 unless they name their own `noise_generator`",
+    ),
+    "irid_wavelength": (
+        frozenset({"global_settings"}),
+        "iridescence uses POV-Ray's default wavelengths <0.70, 0.52, 0.48>",
+    ),
+    "mm_per_unit": (frozenset({"global_settings"}), "subsurface light transport is not rendered"),
+    "albedo": (
+        None,
+        "the value after it is used as given (POV-Ray rescales it for brilliance or roughness)",
+    ),
+}
+
+
+def ignored_reason(block: str, keyword: str) -> str | None:
+    """Why `keyword` has no effect inside `block` (None: strala uses it, or ignores it
+    harmlessly)."""
+    entry = IGNORED_ITEMS.get(keyword)
+    if entry is None or (entry[0] is not None and block not in entry[0]):
+        return None
+    return entry[1]
+
+
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
     """media photons warp density subsurface bump_map material_map interior_texture

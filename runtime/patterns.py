@@ -115,10 +115,12 @@ DEFAULT_MAPS: dict[str, tuple[tuple[float, ir.Color], ...]] = {
 _warned: set[str] = set()
 
 
-def _warn(msg: str) -> None:
-    if msg not in _warned:
-        _warned.add(msg)
-        print(f"strala: warning: {msg}")
+def _warn(msg: str, span=None) -> None:
+    """Once per message; blames the source (file:line:col) when the caller knows it."""
+    key = f"{span}: {msg}" if span is not None else msg
+    if key not in _warned:
+        _warned.add(key)
+        print(f"{span if span is not None else 'strala'}: warning: {msg}")
 
 
 @lru_cache(maxsize=4096)
@@ -153,7 +155,7 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
         index = LIST_PATTERNS[kind](p, pigment.params)
         return _select(pigment, kind, index, points, gamma)
     if kind == "image_map":
-        return image_map(pigment.params, p, gamma)
+        return image_map(pigment.params, p, gamma, pigment.span)
     if kind == "average" and pigment.pigment_map:
         # The weighted mean of the map's pigments (their map values are the weights).
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
@@ -315,18 +317,19 @@ def image_uv(p: np.ndarray, map_type: int) -> tuple[np.ndarray, np.ndarray]:
     return x, y
 
 
-def image_map(params: dict, p: np.ndarray, gamma: float | None) -> np.ndarray:
-    """(N,5) colours of an `image_map` pigment at pattern-space points."""
+def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np.ndarray:
+    """(N,5) colours of an `image_map` pigment at pattern-space points; `span` (the
+    pigment's source) is named when the image cannot be had."""
     n = len(p)
     path = params.get("path")
     if not path:
-        _warn(f"image `{params.get('file')}` was not found: rendering it black")
+        _warn(f"image `{params.get('file')}` was not found: rendering it black", span)
         return np.zeros((n, 5))
     file_gamma = params.get("gamma")
     try:
         img = _load_image(str(path), None if file_gamma is None else float(file_gamma), gamma)
     except OSError as e:
-        _warn(f"image `{path}` could not be read ({e}): rendering it black")
+        _warn(f"image `{path}` could not be read ({e}): rendering it black", span)
         return np.zeros((n, 5))
     h, w = img.shape[:2]
     u, v = image_uv(p, int(params.get("map_type", 0)))

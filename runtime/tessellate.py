@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lang import ir
-from runtime.nurbs import Curve, KnotVector, Surface
+from runtime.nurbs import Curve, KnotVector, Surface, validate
 
 # Refinement aims below the bound so that one more pass is rarely needed.
 TARGET = 0.85
@@ -66,7 +66,12 @@ class TriMesh:
 def nurbs_mesh(shape: ir.Nurbs, tolerance: float, max_triangles: int = MAX_TRIANGLES):
     """(vertices (N,3) f64, faces (M,3) i32, normals (N,3) f64, uvs (N,2) f64) of a NURBS
     surface, or of the tube around a NURBS curve (`shape.nv == 0`), to chord error
-    `tolerance` (object-space units). The shape must pass `nurbs.validate`."""
+    `tolerance` (object-space units). A shape that fails `nurbs.validate` (one that reached
+    the renderer without the evaluator's checks, e.g. from an edited IR document) raises
+    ValueError naming its problems, which the caller reports at the object's source."""
+    problems = validate(shape)
+    if problems:
+        raise ValueError("; ".join(problems))
     m = tessellate(shape, tolerance, max_triangles)
     return m.vertices, m.faces, m.normals, m.uvs
 

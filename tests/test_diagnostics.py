@@ -7,6 +7,7 @@ import random
 from pathlib import Path
 
 import pytest
+from conftest import needs_renderer, run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -105,16 +106,73 @@ CORPUS = [
     ("switch_no_case", "#switch (1)\nsphere{0,1}\n#end\n", "E0104", 2, 1),
     ("for_bad_step", "#for (I, 0, 10, 0) sphere { I*x, .1 } #end\n", "E0230", 1, 1),
     ("two_errors", "sphere { 0, Foo }\nbox { 0, Bar }\n", "E0201", 1, 13),
+    ("function_too_many_args", "#declare A = sqrt(1, 2);\n", "E0203", 1, 14),
+    ("function_no_args", "#declare A = 1 + sin();\n", "E0203", 1, 18),
+    ("function_wrong_arg_type", '#declare A = sin("x");\n', "E0203", 1, 14),
+    ("macro_too_many_args", "#macro M(A) sphere { A, 1 } #end\nM(1, 2)\n", "E0232", 2, 1),
+    ("array_two_indices", "#declare A = array[2] {1, 2};\n#declare B = A[0][1];\n", "E0250", 2, 14),
+    (
+        "nurbs_knot_count",
+        "nurbs { degree 1 control_points { 3, <0,0,0>, <1,0,0>, <2,0,0> } knots { 0, 0, 1, 2 } radius 0.1 }\n",
+        "E0280",
+        1,
+        66,
+    ),
+    (
+        "nurbs_degenerate_net",
+        "nurbs { u_degree 1 v_degree 1 control_points { 2, 2, <1,1,1>, <1,1,1>, <1,1,1>, <1,1,1> } }\n",
+        "E0281",
+        1,
+        31,
+    ),
+]
+
+# (name, source, code, line, col) of a warning the scene must get
+WARNINGS = [
+    ("unused_declare", "#declare Unused = 3;\nsphere { 0, 1 }\n", "W0400", 1, 10),
+    (
+        "local_shadows_global",
+        "#declare R = 1;\n#macro M() #local R = 2; sphere { 0, R } #end\nM()\nsphere { 0, R }\n",
+        "W0401",
+        2,
+        19,
+    ),
+    ("unsupported_block", "sphere { 0, 1 photons { target } }\n", "W0300", 1, 15),
+    ("ignored_uv_mapping", "sphere { 0, 1 uv_mapping pigment { rgb 1 } }\n", "W0308", 1, 15),
+    ("ignored_focal_blur", "camera { location -z look_at 0 aperture 0.4 }\n", "W0308", 1, 32),
+    ("ignored_global_waves", "global_settings { number_of_waves 4 }\n", "W0308", 1, 19),
+    ("ignored_albedo", "sphere { 0, 1 finish { diffuse albedo 0.7 } }\n", "W0308", 1, 32),
+    (
+        "ignored_cutaway",
+        "union { sphere { 0, 1 } sphere { x, 1 } cutaway_textures }\n",
+        "W0308",
+        1,
+        41,
+    ),
+    ("count_mismatch", "polygon { 4, <0,0>, <1,0>, <0,1> }\n", "W0302", 1, 1),
+    ("image_missing", 'plane { y, 0 pigment { image_map { png "none.png" } } }\n', "W0307", 1, 24),
+    (
+        "image_unreadable",
+        'plane { y, 0 pigment { image_map { png "bad.png" } } }\n',
+        "W0307",
+        1,
+        24,
+    ),
 ]
 
 
-def errors_of(name: str, src: str, tmp_path):
+def diagnostics_of(name: str, src: str, tmp_path):
     folder = tmp_path
     if name == "include_cycle":
         (folder / "cycle.inc").write_text('#include "cycle.inc"\n')
+    if name == "image_unreadable":
+        (folder / "bad.png").write_text("this is not a PNG file\n")
     path = folder / f"{name}.pov"
-    result = compile_source(src, str(path))
-    return [d for d in result.diagnostics if d.severity is Severity.ERROR]
+    return compile_source(src, str(path)).diagnostics
+
+
+def errors_of(name: str, src: str, tmp_path):
+    return [d for d in diagnostics_of(name, src, tmp_path) if d.severity is Severity.ERROR]
 
 
 @pytest.mark.parametrize("name, src, code, line, col", CORPUS, ids=[c[0] for c in CORPUS])
@@ -130,6 +188,52 @@ def test_first_error_code_and_position(name, src, code, line, col, tmp_path):
 
 def test_corpus_is_large_enough():
     assert len(CORPUS) >= 40
+    assert len({c[0] for c in CORPUS + WARNINGS}) == len(CORPUS) + len(WARNINGS)
+
+
+@pytest.mark.parametrize("name, src, code, line, col", WARNINGS, ids=[c[0] for c in WARNINGS])
+def test_warning_code_and_position(name, src, code, line, col, tmp_path):
+    diags = diagnostics_of(name, src, tmp_path)
+    warns = [d for d in diags if d.severity is Severity.WARNING and d.code == code]
+    assert warns, f"{name}: no {code} in {diags}"
+    assert (warns[0].span.line, warns[0].span.col) == (line, col), warns[0]
+    assert warns[0].hint, warns[0]
+    assert not [d for d in diags if d.severity is Severity.ERROR], diags
+
+
+@pytest.mark.parametrize("name, src", [c[:2] for c in CORPUS], ids=[c[0] for c in CORPUS])
+def test_every_error_has_a_hint(name, src, tmp_path):
+    for d in errors_of(name, src, tmp_path):
+        assert d.hint and len(d.hint) > 10, d
+        assert "= hint: " in d.format(src.splitlines())
+
+
+def test_hints_say_how_to_call_and_what_the_range_is():
+    src = (
+        "#declare A = pow(2);\n#declare B = array[3] {1, 2, 3};\n#declare C = B[3];\n"
+        "#declare D = <1, 2>.z;\n#declare E = 1 / 0;\n"
+    )
+    hints = {d.span.line: d.hint for d in compile_source(src, "h.pov").diagnostics}
+    assert hints[1] == "call it as pow(A, B)"
+    assert "3 element(s)" in hints[3]
+    assert ".u .v" in hints[4]
+    assert "divisor is 0" in hints[5]
+
+
+def test_ignored_keywords_warn_once_per_feature_and_not_when_off():
+    src = (
+        "camera { location -z look_at 0 aperture 0.4 blur_samples 20 variance 0.1 }\n"
+        "sphere { 0, 1 uv_mapping pigment { bozo uv_mapping } }\n"
+        "camera { location -z look_at 0 aperture 0 }\n"
+        "sphere { 0, 1 sturm }\nglobal_settings { max_intersections 64 }\n"
+    )
+    warns = [d for d in compile_source(src, "i.pov").diagnostics if d.code == "W0308"]
+    assert [(d.span.line, d.message) for d in warns] == [
+        (1, "`aperture` is accepted but ignored"),
+        (2, "`uv_mapping` is accepted but ignored"),
+    ]
+    src = "camera { location -z look_at 0 aperture 0 }\n"
+    assert not [d for d in compile_source(src, "j.pov").diagnostics if d.code == "W0308"]
 
 
 @pytest.mark.parametrize(
@@ -194,3 +298,42 @@ def test_unused_declare_and_shadowing_local_are_warned():
     diags = compile_source(src, "w.pov").diagnostics
     got = {(d.code, d.span.line, d.span.col) for d in diags if d.severity is Severity.WARNING}
     assert got == {("W0400", 1, 10), ("W0401", 3, 20)}
+
+
+RUNTIME_SCENE = """camera { location <0.5, 0.5, -3> look_at <0.5, 0.5, 0> }
+light_source { <0, 5, -5>, 1 }
+nurbs { u_degree 1 v_degree 1
+  control_points { 2, 2, <0,0,0>, <1,0,0>, <0,1,0>, <1,1,0> }
+  pigment { rgb 1 }
+}
+subdivision { vertex_vectors { 4, <0,0,0>, <1,0,0>, <0,1,0>, <1,1,0> }
+  face_indices { 2, <0,1,2>, <1,3,2> } }
+plane { z, 1
+  pigment { image_map { png "img.png" } }
+}
+"""
+
+
+@needs_renderer
+def test_runtime_failures_name_the_object_that_caused_them(tmp_path):
+    """What only the renderer finds (here: in an IR document edited after `compile`, so the
+    evaluator's checks never saw it) is reported at the source of the object."""
+    import json
+
+    (tmp_path / "img.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"\0" * 40)  # a header, no image
+    scene = tmp_path / "rt.pov"
+    scene.write_text(RUNTIME_SCENE)
+    doc = tmp_path / "rt.json"
+    assert run_cli("compile", str(scene), "-o", str(doc)).returncode == 0
+    data = json.loads(doc.read_text())
+    nurbs, subdivision, _plane = data["scene"]["objects"]
+    nurbs["shape"]["points"] = [[0.0, 0.0, 0.0]] * 4  # a degenerate net
+    subdivision["shape"]["faces"] = [[0, 1, 2], [1, 0, 3], [0, 1, 3]]  # edge <0,1> thrice
+    doc.write_text(json.dumps(data))
+    proc = run_cli("render", str(doc), "-W", "16", "-H", "12", "-o", str(tmp_path / "rt.png"))
+    assert proc.returncode == 0, proc.stderr
+    out = proc.stdout + proc.stderr
+    assert f"{scene}:3:1: warning: nurbs could not be tessellated (all control points" in out
+    assert f"{scene}:7:1: warning: subdivision could not be tessellated (non-manifold" in out
+    assert f"{scene}:10:3: warning: image `" in out and "could not be read" in out
+    assert "Traceback" not in out
