@@ -4,6 +4,10 @@ The seed's "modellers export the resulting triangle data" step, and a test hook:
 subdivision surfaces are tessellated exactly as for rendering (runtime.prepare), triangles
 and meshes pass through; analytic shapes are not triangles and are left out (reported).
 Vertices stay shared (indexed faces) with normals and, where the surface has them, uvs.
+A subdivision surface's crease and corner vertices carry one normal per side (the
+renderer needs both); the file still shares their position: OBJ writes each position
+once and gives each face corner its own normal (`f v//vn`), PLY, whose vertices hold
+one normal each, writes the shared vertex with the mean of its sides' normals.
 """
 
 from __future__ import annotations
@@ -28,6 +32,25 @@ class ExportMesh:
     normals: np.ndarray  # (N,3) unit
     uvs: np.ndarray | None  # (N,2) or None when no part has uvs
     skipped: list[str] = field(default_factory=list)  # shapes that are not triangle geometry
+    # (N,) for each vertex the first vertex of its part at the same position (a copy made
+    # only to carry another normal), or None when every vertex has its own position
+    same: np.ndarray | None = None
+
+    def positions(self) -> tuple[np.ndarray, np.ndarray]:
+        """(P,) the vertices that own a position and (N,) each vertex's position number."""
+        if self.same is None:
+            n = len(self.vertices)
+            return np.arange(n), np.arange(n)
+        owners = np.nonzero(self.same == np.arange(len(self.same)))[0]
+        number = np.empty(len(self.same), dtype=np.int64)
+        number[owners] = np.arange(len(owners))
+        return owners, number[self.same]
+
+
+def _copies(v: np.ndarray) -> np.ndarray:
+    """(N,) the first vertex with exactly the same position as each vertex."""
+    _, first, inverse = np.unique(v, axis=0, return_index=True, return_inverse=True)
+    return first[inverse.reshape(-1)]
 
 
 def _leaves(objects):
@@ -69,14 +92,17 @@ def collect(scene: ir.Scene, width: int = 320) -> ExportMesh:
         )
         uv = np.asarray(mesh.uvs, dtype=float).reshape(-1, 2) if mesh.uvs is not None else None
         m = tf.as_matrix(obj.transform)
+        # subdivision splits crease vertices into copies (bit-identical positions)
+        same = _copies(v) if isinstance(shape, ir.Subdivision) else np.arange(len(v))
         parts.append(
-            (tf.apply_points(m, v), f, tf.normalize(tf.apply_normals(tf.inverse(m), n)), uv)
+            (tf.apply_points(m, v), f, tf.normalize(tf.apply_normals(tf.inverse(m), n)), uv, same)
         )
     if not parts:
         empty = np.zeros((0, 3))
         return ExportMesh(empty, np.zeros((0, 3), np.int64), empty, None, skipped)
     offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
     has_uv = any(p[3] is not None for p in parts)
+    same = np.concatenate([p[4] + o for p, o in zip(parts, offsets, strict=True)])
     return ExportMesh(
         np.concatenate([p[0] for p in parts]),
         np.concatenate([p[1] + o for p, o in zip(parts, offsets, strict=True)]),
@@ -85,32 +111,49 @@ def collect(scene: ir.Scene, width: int = 320) -> ExportMesh:
         if has_uv
         else None,
         skipped,
+        None if np.array_equal(same, np.arange(len(same))) else same,
     )
 
 
 def _obj_text(mesh: ExportMesh) -> str:
+    owners, number = mesh.positions()
     lines = ["# strala export: world-space triangles"]
-    lines += [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in mesh.vertices]
+    lines += [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in mesh.vertices[owners]]
     lines += [f"vn {x:.9g} {y:.9g} {z:.9g}" for x, y, z in mesh.normals]
+    pos = number[mesh.faces] + 1
+    nrm = mesh.faces + 1
     if mesh.uvs is not None:
         lines += [f"vt {u:.9g} {v:.9g}" for u, v in mesh.uvs]
-        lines += [f"f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}" for a, b, c in mesh.faces + 1]
+        lines += [
+            f"f {a}/{d}/{d} {b}/{e}/{e} {c}/{f}/{f}"
+            for (a, b, c), (d, e, f) in zip(pos, nrm, strict=True)
+        ]
     else:
-        lines += [f"f {a}//{a} {b}//{b} {c}//{c}" for a, b, c in mesh.faces + 1]
+        lines += [
+            f"f {a}//{d} {b}//{e} {c}//{f}" for (a, b, c), (d, e, f) in zip(pos, nrm, strict=True)
+        ]
     return "\n".join(lines) + "\n"
 
 
 def _ply_text(mesh: ExportMesh) -> str:
+    owners, number = mesh.positions()
+    normals = mesh.normals
+    if len(owners) < len(mesh.vertices):  # shared positions: the mean of their normals
+        summed = np.zeros((len(owners), 3))
+        np.add.at(summed, number, normals)
+        normals = tf.normalize(summed)
+    else:
+        normals = normals[owners]
     props = ["x", "y", "z", "nx", "ny", "nz"] + (["s", "t"] if mesh.uvs is not None else [])
     head = ["ply", "format ascii 1.0", "comment strala export: world-space triangles"]
-    head.append(f"element vertex {len(mesh.vertices)}")
+    head.append(f"element vertex {len(owners)}")
     head += [f"property double {p}" for p in props]
     head += [f"element face {len(mesh.faces)}", "property list uchar int vertex_indices"]
     head.append("end_header")
-    cols = [mesh.vertices, mesh.normals] + ([mesh.uvs] if mesh.uvs is not None else [])
+    cols = [mesh.vertices[owners], normals] + ([mesh.uvs[owners]] if mesh.uvs is not None else [])
     table = np.concatenate(cols, axis=1)
     rows = [" ".join(f"{x:.17g}" for x in row) for row in table]
-    rows += [f"3 {a} {b} {c}" for a, b, c in mesh.faces]
+    rows += [f"3 {a} {b} {c}" for a, b, c in number[mesh.faces]]
     return "\n".join(head + rows) + "\n"
 
 

@@ -122,3 +122,44 @@ def test_subdivision_tolerance_chooses_the_level():
         assert result.scene is not None, [d.message for d in result.diagnostics]
         counts.append(len(export.collect(result.scene).faces))
     assert counts[0] < counts[1] < counts[2]
+
+
+@pytest.mark.parametrize("ext", [".obj", ".ply"])
+def test_subdivision_exports_its_refined_mesh_with_shared_vertices(tmp_path, ext):
+    """A closed subdivision surface is written as its level-N mesh with one position per
+    refined vertex, shared by its faces, so the file is watertight as it stands (nothing
+    merged on reading), creases included: a crease vertex, which the renderer splits into
+    one copy per side for the two normals, keeps one position (OBJ: the face corners
+    name their normals apart; PLY: the mean normal)."""
+    points = "<-1,-1,-1>, <1,-1,-1>, <1,1,-1>, <-1,1,-1>, <-1,-1,1>, <1,-1,1>, <1,1,1>, <-1,1,1>"
+    faces = "<0,3,2,1>, <4,5,6,7>, <0,1,5,4>, <2,3,7,6>, <1,2,6,5>, <0,4,7,3>"
+    for crease in ("", "crease_edges { 4, <4,5>, <5,6>, <6,7>, <7,4> }"):
+        result = compile_source(
+            f"subdivision {{ scheme catmull_clark levels 3 vertex_vectors {{ 8, {points} }}"
+            f" face_indices {{ 6, {faces} }} {crease} translate x }}\n",
+            "c.pov",
+        )
+        mesh = export.collect(result.scene)
+        split = len(mesh.vertices) - (6 * 4**3 + 2)  # Euler: V = E - F + 2 at level 3
+        assert split == (4 * 2**3 if crease else 0)  # the crease loop's copies
+        path = tmp_path / f"c{ext}"
+        export.write(mesh, str(path))
+        text = path.read_text()
+        written = (
+            text.count("\nv ")
+            if ext == ".obj"
+            else int(text.split("element vertex ")[1].split()[0])
+        )
+        assert written == 6 * 4**3 + 2
+        if ext == ".obj":  # the faces' position indices as written (trimesh's reader
+            # would split corners whose normals differ)
+            assert text.count("\nvn ") == len(mesh.vertices)  # both normals of a crease kept
+            rows = [ln.split() for ln in text.splitlines()]
+            v = np.array([r[1:] for r in rows if r[0] == "v"], float)
+            f = np.array([[int(c.split("/")[0]) - 1 for c in r[1:]] for r in rows if r[0] == "f"])
+            back = trimesh.Trimesh(v, f, process=False)
+        else:
+            back = trimesh.load(str(path), process=False)
+        assert len(back.vertices) == written and len(back.faces) == 6 * 4**3 * 2
+        assert back.is_watertight and back.is_winding_consistent
+        assert abs(back.vertices[:, 0].mean() - 1.0) < 1e-9  # world space: translate x
