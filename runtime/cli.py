@@ -17,14 +17,14 @@ import math
 import os
 import sys
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, redirect_stdout
 from pathlib import Path
 from typing import TextIO
 
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 
-COMMANDS = ("render", "check", "compile", "fmt", "lsp")
+COMMANDS = ("render", "check", "compile", "fmt", "lsp", "translate")
 SCENE_SUFFIXES = (".scene", ".pov", ".inc", ".ini", ".json")
 POVRAY_DEFAULT_SIZE = (320, 240)  # POV-Ray's image size when +W/+H are not given
 DEFAULT_AA_THRESHOLD = 0.3  # POV-Ray's Antialias_Threshold default
@@ -290,7 +290,26 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--format", choices=("text", "json", "sarif"), default="text")
     c.add_argument("-W", "--width", type=_positive_int, metavar="W", help="image_width seen")
     c.add_argument("-H", "--height", type=_positive_int, metavar="H", help="image_height seen")
+    _frame_arguments(c)
     c.set_defaults(func=cmd_check)
+
+    t = sub.add_parser(
+        "translate", parents=[common], help="rewrite POV-Ray scenes as clean .scene files"
+    )
+    t.add_argument("file", nargs="?", help="a POV-Ray scene (.pov)")
+    t.add_argument("-r", "--recursive", metavar="DIR", help="translate every .pov under DIR")
+    t.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT",
+        help="FILE.scene (default beside the scene) or, with -r, the folder that mirrors DIR",
+    )
+    t.add_argument("--format", choices=("text", "json"), default="text", help="the report")
+    t.add_argument("-W", "--width", type=_positive_int, metavar="W", help="image_width seen")
+    t.add_argument("-H", "--height", type=_positive_int, metavar="H", help="image_height seen")
+    _frame_arguments(t)
+    t.add_argument("-q", "--quiet", action="store_true", help="no report, only errors")
+    t.set_defaults(func=cmd_translate)
 
     k = sub.add_parser("compile", parents=[common], help="write the evaluated scene (IR) as JSON")
     k.add_argument("file")
@@ -360,6 +379,28 @@ def _version() -> str:
         return version("strala")
     except Exception:  # running from a source tree that was never installed
         return "0+unknown"
+
+
+def _frame_arguments(p: argparse.ArgumentParser) -> None:
+    """The frame a scene is evaluated at (as `render` takes it): animations often fail at
+    clock 0 only (an index of frame_number - 1)."""
+    p.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
+    p.add_argument("--frames", type=parse_frames, metavar="A..B", help="the animation's frames")
+    p.add_argument("--frame", type=int, metavar="N", help="the frame evaluated (frame_number)")
+
+
+def _frame_of(args: argparse.Namespace) -> tuple[float, dict[str, float]]:
+    """(clock, animation values) for --clock/--frames/--frame, as `render` sets them."""
+    from lang.evaluate import animation_values
+
+    clock, frames, number = args.clock, args.frames, args.frame
+    if frames is not None:
+        first, last = frames
+        number = first if number is None else number
+        if not first <= number <= last:
+            raise UsageError(f"--frame {number} is not in --frames {first}..{last}")
+        clock = 0.0 if last == first else (number - first) / (last - first)
+    return clock, animation_values(clock, frames, number)
 
 
 def _positive_int(text: str) -> int:
@@ -458,7 +499,7 @@ def _compile(
     clock: float = 0.0,
     file_io: bool = True,
     debug_output: bool = False,
-    animation: dict[str, float] | None = None,
+    animation: Mapping[str, float] | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -485,8 +526,11 @@ def _compile(
 # ------------------------------------------------------------------ commands
 def cmd_check(args: argparse.Namespace) -> int:
     diags: list[Diagnostic] = []
+    clock, animation = _frame_of(args)
     for file in args.files:
-        diags += _compile(file, args.library, image_size(args), file_io=False)[1]
+        diags += _compile(
+            file, args.library, image_size(args), clock=clock, file_io=False, animation=animation
+        )[1]
     errors, warnings = _counts(diags)
     if args.format == "json":
         doc = {
@@ -501,6 +545,79 @@ def cmd_check(args: argparse.Namespace) -> int:
     else:
         print_diagnostics(diags, sys.stdout)
     return 1 if errors else 0
+
+
+def cmd_translate(args: argparse.Namespace) -> int:
+    from lang.translate import Options, Translator
+
+    jobs = _translate_jobs(args)
+    clock, animation = _frame_of(args)
+    width, height = image_size(args)
+    opts = Options(tuple(args.library), clock, animation, width, height)
+    root = Path(args.recursive) if args.recursive else Path(jobs[0][0]).parent
+    target_root = Path(args.output) if args.recursive else jobs[0][1].parent
+    translator = Translator(root, target_root, opts)
+    reports, status, written = [], 0, 0
+    for source, target in jobs:
+        t = translator.translate(source, target)
+        for f in t.files:
+            f.target.parent.mkdir(parents=True, exist_ok=True)
+            _write_text_atomically(f.target, t.output(f))
+            written += 1
+        # what `strala check` says of the written files, at the same frame
+        t.remaining = [
+            d
+            for d in _compile(
+                str(target), args.library, (width, height), clock=clock, file_io=False,
+                animation=animation,
+            )[1]
+            if d.severity is Severity.ERROR
+        ]  # fmt: skip
+        status = max(status, 1 if t.remaining else 0)
+        reports.append(t)
+    if args.format == "json":
+        print(json.dumps([t.to_json() for t in reports], indent=2))
+    elif not args.quiet:
+        for t in reports:
+            print(t.report_text())
+    clean = sum(not t.remaining for t in reports)
+    changes = sum(len(t.changes) for t in reports)
+    print(
+        f"translated {_plural(len(reports), 'scene')} ({_plural(written, 'file')} written, "
+        f"{_plural(changes, 'change')}); {clean} check clean",
+        file=sys.stderr,
+    )
+    return status
+
+
+def _translate_jobs(args: argparse.Namespace) -> list[tuple[Path, Path]]:
+    """(scene, output) pairs for the command line; a bad one is a usage error."""
+    if args.recursive:
+        if args.file:
+            raise UsageError("give a FILE or -r DIR, not both")
+        if not args.output:
+            raise UsageError("-r DIR needs -o OUT, the folder to write to")
+        root = Path(args.recursive)
+        if not root.is_dir():
+            raise UsageError(f"-r {root}: not a folder")
+        scenes = sorted(root.rglob("*.pov"))
+        if not scenes:
+            raise UsageError(f"no .pov scenes under {root}")
+        out = Path(args.output)
+        if out.exists() and not out.is_dir():
+            raise UsageError(f"-o {out}: not a folder")
+        return [(s, (out / s.relative_to(root)).with_suffix(".scene")) for s in scenes]
+    if not args.file:
+        raise UsageError("give a scene FILE or -r DIR")
+    source = Path(args.file)
+    if not source.is_file():
+        raise UsageError(f"no such scene file: {source}")
+    target = output_path(args.file, args.output, ".scene")
+    if target.resolve() == source.resolve():
+        raise UsageError(f"the translation would overwrite {source}; name another with -o")
+    if not target.parent.is_dir():
+        raise UsageError(f"cannot write {target}: folder {target.parent} does not exist")
+    return [(source, target)]
 
 
 def _sarif(diags: Sequence[Diagnostic]) -> dict:
