@@ -206,6 +206,18 @@ class _Quiet(Exception):
     """Abandon a construct whose cause has already been reported."""
 
 
+class _Els(list):
+    """A block's expanded elements; `failed` when one of them could not be evaluated (its
+    error is reported), so the block's "missing value" complaints would only repeat it."""
+
+    failed = False
+
+
+# What a block says when one of its values is missing: after a value failed to evaluate
+# (reported already), these only echo that error and are left out.
+_CASCADE_CODES = frozenset({"E0211", "E0212"})
+
+
 class _Halt(Exception):
     """`#error`: POV-Ray stops parsing."""
 
@@ -880,7 +892,7 @@ class Interpreter:
         self, body: Sequence[syntax.Node], spec: schema.BlockSpec | None, top: bool = False
     ) -> list[El]:
         """Run directives, evaluate values; `top` keeps what came before an #error."""
-        out: list[El] = []
+        out: list[El] = _Els()
         i, n = 0, len(body)
         while i < n:
             node = body[i]
@@ -908,8 +920,10 @@ class Interpreter:
                 self._expand_node(node, out, spec)
             except SceneError as e:
                 self.sink.items.append(e.diagnostic)
+                out.failed = True  # type: ignore[attr-defined]
             except EvalError as e:
                 self.sink.error("E0203", e.message, node.span, e.hint)
+                out.failed = True  # type: ignore[attr-defined]
             except RecursionError:
                 self.sink.error("E0231", "recursion too deep", node.span)
             except _Quiet:
@@ -1716,6 +1730,8 @@ class Interpreter:
                 self.loose_depth -= 1
             return UnsupportedValue(kw, span)
         els = self.expand(node.body, spec)
+        if getattr(els, "failed", False):
+            return self._build_after_failure(spec, els, node)
         g = self.group(spec, els, node)
         builder = _BUILDERS[kw]
         try:
@@ -1724,6 +1740,32 @@ class Interpreter:
             raise self.error("E0203", e.message, span, e.hint) from None
         except CameraError as e:
             raise self.error("E0270", str(e), span) from None
+
+    def _build_after_failure(self, spec: schema.BlockSpec, els: list[El], node: syntax.Block):
+        """Build a block one of whose values failed (and was reported): its complaints about a
+        missing or extra value would repeat that error, so they are dropped, and a block that
+        cannot be built without the value is dropped quietly."""
+        mark = len(self.sink.items)
+        try:
+            g = self.group(spec, els, node)
+        except SceneError as e:
+            if e.diagnostic.code in _CASCADE_CODES:
+                raise _Quiet() from None
+            raise
+        finally:
+            self.sink.items[mark:] = [
+                d for d in self.sink.items[mark:] if d.code not in _CASCADE_CODES
+            ]
+        try:
+            return _BUILDERS[node.keyword](self, g, node)
+        except SceneError as e:
+            if e.diagnostic.code in _CASCADE_CODES:
+                raise _Quiet() from None
+            raise
+        except EvalError as e:
+            raise self.error("E0203", e.message, node.keyword_span or node.span, e.hint) from None
+        except CameraError as e:
+            raise self.error("E0270", str(e), node.keyword_span or node.span) from None
 
     def _spline(self, node: syntax.Block) -> SplineValue:
         kind = "linear_spline"
@@ -1926,7 +1968,7 @@ class Interpreter:
             elif not loose:
                 self.sink.error(
                     "E0212",
-                    f"unexpected {describe(e.value)} inside `{spec.name}`",
+                    f"an extra value inside `{spec.name}`: {describe(e.value)}",
                     e.span,
                     self._positional_hint(spec) if k in ("float", "vector", "color") else None,
                 )

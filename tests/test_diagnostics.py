@@ -337,3 +337,17 @@ def test_runtime_failures_name_the_object_that_caused_them(tmp_path):
     assert f"{scene}:7:1: warning: subdivision could not be tessellated (non-manifold" in out
     assert f"{scene}:10:3: warning: image `" in out and "could not be read" in out
     assert "Traceback" not in out
+
+
+def test_a_value_that_failed_is_reported_once_not_again_as_missing():
+    src = (
+        "#declare Radius = 1;\nsphere { 0, Radiuss pigment { rgb 1 } }\n"
+        "light_source { <0, 1, 0>, Colr }\nbox { 0, 1/0 }\nbox { 0, 1, 2 }\n"
+    )
+    errs = [d for d in compile_source(src, "c.pov").diagnostics if d.severity is Severity.ERROR]
+    assert [(d.code, d.span.line) for d in errs] == [
+        ("E0201", 2),
+        ("E0201", 3),
+        ("E0203", 4),
+        ("E0212", 5),  # an extra value with nothing failed before it is still an error
+    ]
