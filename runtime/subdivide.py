@@ -913,8 +913,10 @@ def shade(
     output vertex per sector between infinitely sharp edges (a crease has two normals).
     Smooth vertices take the tangent-mask normal; each sector of a crease (or boundary)
     vertex takes its one-sided limit normal from the crease tangent and the sector's
-    eigen-analysed cross tangent; other sectors (corners, semi-sharp neighbourhoods)
-    take angle-weighted face normals, made perpendicular to a crease's limit tangent."""
+    eigen-analysed cross tangent; a corner's sector between two sharp edges takes the
+    plane of those edges. The rest (cone points: corners with fewer than two sharp edges
+    in a sector; vertices with a semi-sharp edge of their own, until it decays) take
+    angle-weighted face normals, made perpendicular to a crease's limit tangent."""
     topo, V, fv = mesh.topology, mesh.nv, mesh.fv
     s = edge_sharpness(mesh, topo)
     inf_sharp = np.isinf(s)
@@ -1018,15 +1020,27 @@ def _crease_sector_mask(scheme: str, k: int) -> np.ndarray | None:
     return mask
 
 
+def _settled(mesh: ControlMesh, s: np.ndarray) -> np.ndarray:
+    """(V,) vertices with no semi-sharp edge of their own. A vertex's 1-ring is mapped to
+    its next 1-ring by rules that read only the sharpness of the vertex's own edges (its
+    vertex rule, its edges' points; face points read none), so the sector masks hold at
+    such a vertex whatever semi-sharp edges remain elsewhere in the mesh."""
+    semi = (s > 0) & np.isfinite(s)
+    if not semi.any():
+        return np.ones(mesh.nv, dtype=bool)
+    return _edge_count(mesh.topology.edges, semi, mesh.nv) == 0
+
+
 def _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
     """(groups, normals) for the sectors of crease vertices of a mesh whose rules the
-    masks describe (all quads or all triangles, no semi-sharp edge left), else None."""
+    masks describe (all quads or all triangles; vertices without semi-sharp edges of
+    their own), else None."""
     size = {"catmull_clark": 4, "loop": 3}.get(scheme)
-    if size is None or not mesh.all_size(size) or ((s > 0) & np.isfinite(s)).any():
+    if size is None or not mesh.all_size(size):
         return None
     topo, P, fv = mesh.topology, mesh.points, mesh.fv
     r = vertex_rules(mesh, s, boundary)
-    cc = np.nonzero(r.parent[fv] == CREASE)[0]  # corners of crease vertices
+    cc = np.nonzero((r.parent == CREASE)[fv] & _settled(mesh, s)[fv])[0]  # their corners
     if cc.size == 0:
         return None
     G = len(reps)
@@ -1072,11 +1086,11 @@ def _corner_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
     (or boundary) edges. A corner stays put and its edge points are midpoints, so each
     sharp edge's limit curve leaves the corner along the edge's own direction at every
     level: the sector's tangent plane holds both edges, whatever the faces between them."""
-    if scheme == "bilinear" or ((s > 0) & np.isfinite(s)).any():
+    if scheme == "bilinear":
         return None
     topo, P, fv = mesh.topology, mesh.points, mesh.fv
     r = vertex_rules(mesh, s, boundary)
-    cc = np.nonzero(r.parent[fv] == CORNER)[0]
+    cc = np.nonzero((r.parent == CORNER)[fv] & _settled(mesh, s)[fv])[0]
     if cc.size == 0:
         return None
     G = len(reps)

@@ -937,3 +937,33 @@ def test_object_modifiers_and_textures_apply_as_on_its_mesh(tmp_path):
     # no_shadow lifts the shadow off the floor
     lit = images["subdivision", "no_shadow"].sum(axis=2) - images["subdivision", ""].sum(axis=2)
     assert (lit > 0.1).mean() > 0.02 and lit.min() > -1e-6
+
+
+@pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
+def test_crease_and_corner_normals_are_exact_beside_a_semi_sharp_edge(scheme):
+    """A semi-sharp edge elsewhere in the mesh does not stop the exact one-sided normals
+    of crease and corner sectors: a vertex's ring maps to its next ring by rules that
+    read only its own edges' sharpness. The normals at level 1, where the bottom edge of
+    sharpness 2.5 is still active, are those at level 4, where it has decayed."""
+    rng = np.random.default_rng(19)
+    pts = np.asarray(CUBE_POINTS) + 0.15 * rng.normal(size=(8, 3))
+    faces = CUBE_FACES
+    if scheme == "loop":
+        faces = tuple(t for q in CUBE_FACES for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])))
+    creases = tuple((a, b, np.inf) for a, b in TOP_LOOP) + ((0, 1, 2.5),)
+    shape = ir.Subdivision(
+        scheme, tuple(map(tuple, pts)), faces, creases=creases, corners=(6,), limit=True
+    )
+    assert np.isfinite(sd.refine(shape, 1).crease_sharpness).any()  # still semi-sharp
+    v1, _, n1 = sd.subdivision_mesh(shape, 1)
+    v4, _, n4 = sd.subdivision_mesh(shape, 4)
+    for vertex in (4, 5, 7, 6):  # crease vertices, and 6 a corner on the crease
+        ones = n1[np.all(v1 == v1[vertex], axis=1)]
+        fours = n4[np.all(v4 == v4[vertex], axis=1)]
+        assert len(ones) == len(fours) == 2
+        _, dist = nearest(ones, fours)
+        # a crease vertex's sector of one face (on the top, whose every edge is sharp) has
+        # no tangent plane from its ring and keeps the face normals; the corner's two
+        # sectors both lie between two sharp edges
+        exact = 2 if vertex == 6 else 1
+        assert np.sort(dist)[exact - 1] < 1e-9, vertex
