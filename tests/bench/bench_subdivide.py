@@ -7,6 +7,21 @@ triangle torus), the limit positions and normals of the refined level, and the w
 `subdivision_mesh` pipeline for one level with `limit on` (refine, limit positions,
 tangent-mask normals, sector split, triangulation). Wall and CPU seconds are both shown:
 CPU time is the fairer figure on a machine shared with other work.
+
+Measured (2 cores shared with other work, load average 5-6 during the run; 23 GB):
+
+    scheme          faces in  faces out  step s  cpu s cpu µs/face limit+normals s mesh() s  cpu s
+    catmull_clark     10,000     40,000   0.017  0.009        0.87           0.084    0.092  0.038
+    loop              10,000     40,000   0.006  0.004        0.44           0.039    0.061  0.023
+    catmull_clark     99,856    399,424   0.173  0.072        0.72           0.672    1.088  0.438
+    loop              99,856    399,424   0.101  0.042        0.42           0.339    0.416  0.205
+    catmull_clark  1,000,000  4,000,000   4.119  1.795        1.79          19.643   17.173  6.758
+    loop           1,000,000  4,000,000   1.852  0.772        0.77           3.756    7.897  3.884
+
+CPU time per face is flat from 10k to 100k input faces (0.7-0.9 µs Catmull–Clark, 0.4
+Loop per step) and about doubles at 1M, where the 4M-face level's fresh pages cost more
+system than user time (the whole run: 11.6 s user, 14.1 s system); wall times under this
+load are 2-3 times the CPU times.
 """
 
 from __future__ import annotations

@@ -8,6 +8,16 @@ tessellates (level 4, limit positions and limit normals) written out as a `mesh2
 (strala: parse, subdivide, trace, write; POV-Ray: parse the mesh2, trace, write). Prints
 the wall times, their ratio, the triangle count, the time strala spends subdividing, and
 the RMSE between the two images (the same triangles and normals: they should agree).
+
+Measured (2 cores shared with other work, load average about 6 during the run):
+
+    640x480 AA off: 36,864 triangles (subdivided in 0.054 s); strala 2.30 s,
+        POV-Ray mesh2 1.30 s, ratio 1.78; RMSE 0.0004, 0.00% pixels off by > 0.1
+    640x480 AA 0.3: 36,864 triangles (subdivided in 0.054 s); strala 3.31 s,
+        POV-Ray mesh2 1.38 s, ratio 2.40; RMSE 0.0035, 0.00% pixels off by > 0.1
+
+Subdividing the 72-quad cage to level 4 (limit positions and normals) takes 0.05 s of
+strala's 2.3 s; the rest is start-up, parsing, tracing and writing.
 """
 
 from __future__ import annotations
