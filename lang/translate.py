@@ -310,9 +310,11 @@ def _syntax_candidates(text: str, d: Diagnostic) -> list[tuple[_Edit, str]]:
     if d.code == "E0005":
         out.append((_Edit(start, start + 1, ""), f"removed a stray `{text[start : start + 1]}`"))
     # `<1,2> <3,4>` or `off <1,2>`: POV-Ray reads a missing comma before a vector
-    line_start = text.rfind("\n", 0, text.rfind("\n", 0, start)) + 1
+    line_start = start
+    for _ in range(3):  # the error may show a line or two after the missing comma
+        line_start = text.rfind("\n", 0, max(line_start - 1, 0)) + 1
     gaps = list(_OPERAND_GAP.finditer(text, line_start, start))
-    for m in reversed(gaps[-3:]):
+    for m in reversed(gaps[-4:]):
         at = m.end(1)
         out.append((_Edit(at, at, ","), "added the comma POV-Ray reads before a vector"))
     return out

@@ -550,6 +550,10 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_translate(args: argparse.Namespace) -> int:
     from lang.translate import Options, Translator
 
+    missing = _missing(args.file) if args.file and not args.recursive else None
+    if missing is not None:  # an input file, not the command line, is wrong: exit 1
+        print_diagnostics([missing], sys.stderr, summary=False)
+        return 1
     jobs = _translate_jobs(args)
     clock, animation = _frame_of(args)
     width, height = image_size(args)
@@ -610,8 +614,6 @@ def _translate_jobs(args: argparse.Namespace) -> list[tuple[Path, Path]]:
     if not args.file:
         raise UsageError("give a scene FILE or -r DIR")
     source = Path(args.file)
-    if not source.is_file():
-        raise UsageError(f"no such scene file: {source}")
     target = output_path(args.file, args.output, ".scene")
     if target.resolve() == source.resolve():
         raise UsageError(f"the translation would overwrite {source}; name another with -o")
