@@ -31,18 +31,20 @@ seconds of the whole command and RMSE against the reference (linear RGB, all pix
 interior mask in brackets). It ends with whether strala reaches POV-Ray's best error in
 less than half POV-Ray's time (wall, and CPU). `--slow` adds POV-Ray's 340-second level.
 
-Measured with --compare (2 cores shared with other work, load average ~3; wall s, RMSE
-(interior)):
-    strala  patch 1.4 / max 500   (499 patches)    7.6 s  0.0155 (0.0144)
-    strala  patch 1.0 / max 1000  (999 patches)    7.7 s  0.0102 (0.0092)
-    strala  patch 0.7 / max 2000  (1998 patches)   7.4 s  0.0071 (0.0060)
-    strala  patch 0.7 / max 3000  (3000 patches)  13.2 s  0.0047 (0.0037)
-    strala  patch 0.5 / max 4000  (4000 patches)  29.2 s  0.0052 (0.0042)
-    POV-Ray count 35, error_bound 1.8, recursion 2          2.5 s  0.0766 (energy −38%)
-    POV-Ray count 400, error_bound 0.5, recursion 4        12.4 s  0.0165 (energy −7%)
-    POV-Ray count 400, error_bound 0.5, recursion 8 (adc)  15.5 s  0.0098
-    POV-Ray count 1000, error_bound 0.3, recursion 8 (adc) 71.0 s  0.0065
-    → strala reaches POV-Ray's best error (0.0065) in 13.2 s: 0.19× its time (goal < 0.5×).
+Measured with --compare, 2026-12-01 (2 cores shared with other work, load average ~3;
+wall s / CPU s, RMSE (interior)):
+    strala  patch 1.4 / max 500   (499 patches)    2.0 /  1.0  0.0155 (0.0144)
+    strala  patch 1.0 / max 1000  (999 patches)    2.8 /  1.2  0.0102 (0.0092)
+    strala  patch 1.0 / max 1500  (1500 patches)   5.5 /  2.5  0.0081 (0.0073)
+    strala  patch 0.7 / max 2000  (1998 patches)   6.3 /  2.9  0.0071 (0.0060)
+    strala  patch 0.7 / max 3000  (3000 patches)   9.3 /  6.6  0.0047 (0.0037)
+    strala  patch 0.5 / max 4000  (4000 patches)  22.7 / 11.8  0.0053 (0.0042)
+    POV-Ray count 35, error_bound 1.8, recursion 2, +A0.05        0.9 /  0.3  0.0641 (energy -28%)
+    POV-Ray count 400, error_bound 0.5, recursion 4, +A0.0       16.5 /  7.9  0.0187 (energy -9%)
+    POV-Ray count 400, error_bound 0.5, recursion 8 (adc), +A0.05 11.2 /  6.5  0.0089
+    POV-Ray count 1000, error_bound 0.3, recursion 8 (adc), +A0.0 73.6 / 41.3  0.0068
+    -> strala reaches POV-Ray's best error (0.0068) in 9.3 s wall: 0.13x its time (CPU
+       0.16x; goal < 0.5x). Earlier (all pixels supersampled for both): 0.19x.
 The 0.5/4000 run is worse than 0.7/3000: a finer uniform start leaves less of the budget
 for adaptive refinement where the light changes.
 """
