@@ -972,7 +972,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     if not args.quiet:
         left = f"; not triangle geometry, left out: {', '.join(sorted(set(mesh.skipped)))}"
         print(
-            f"wrote {out} ({len(mesh.vertices)} vertices, {len(mesh.faces)} triangles"
+            f"wrote {out} ({len(mesh.positions()[0])} vertices, {len(mesh.faces)} triangles"
             + (left if mesh.skipped else "")
             + ")",
             file=sys.stderr,
