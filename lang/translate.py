@@ -466,7 +466,7 @@ def repair_evaluation(scene: SourceFile, files: dict[Path, SourceFile], opts: Op
             if target is None or _reads(target, read_names):
                 kept.append(d)
                 continue
-            f, node = target
+            f, node, _ = target
             a, b = _offsets(f.text, node.span)
             edits.setdefault(str(f.source), []).append((a, b, d.message))
         if not edits:
@@ -476,30 +476,34 @@ def repair_evaluation(scene: SourceFile, files: dict[Path, SourceFile], opts: Op
     return _errors(probe(scene, files, opts)[1])
 
 
-def _reads(target: tuple[SourceFile, syntax.Node], names: set[str]) -> bool:
+def _reads(target: tuple[SourceFile, syntax.Node, syntax.Node], names: set[str]) -> bool:
+    """True when the statement of an error uses a name `#read` fills: check does not read
+    files, render does, so the error is check's alone and nothing is dropped."""
     if not names:
         return False
-    f, node = target
-    a, b = _offsets(f.text, node.span)
+    f, _, top = target
+    a, b = _offsets(f.text, top.span)
     return any(re.search(rf"\b{re.escape(n)}\b", f.text[a:b]) for n in names)
 
 
 def _blamed(
     p: _Probe, d: Diagnostic, by_name: Mapping[str, SourceFile], outermost: bool
-) -> tuple[SourceFile, syntax.Node] | None:
-    """The element of a translated file to drop for an error: the innermost element holding
-    the error when it lies in a translated file, else the innermost one being evaluated."""
+) -> tuple[SourceFile, syntax.Node, syntax.Node] | None:
+    """The element of a translated file to drop for an error (the innermost element holding
+    it when it lies in a translated file, else the innermost one being evaluated), and the
+    top-level statement it belongs to."""
     f = by_name.get(d.span.file)
     if f is not None:
         tree, _ = parse(f.text, d.span.file)
         chain = element_chain(tree, d.span)
         if chain:
-            return f, chain[0] if outermost else chain[-1]
+            return f, chain[0] if outermost else chain[-1], chain[0]
     stack = [n for n in p.blame.get(id(d), []) if n.span.file in by_name]
     if not stack:
         return None
     node = stack[0] if outermost else stack[-1]
-    return by_name[node.span.file], node
+    top = next(n for n in stack if n.span.file == node.span.file)
+    return by_name[node.span.file], node, top
 
 
 def _drop_spans(f: SourceFile, spans: list[tuple[int, int, str]]) -> None:
