@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import gc
 import os
+import re
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
@@ -78,6 +79,8 @@ class Document:
         self.parser = IncrementalParser(path)
         self.text: str | None = None
         self.result: tuple[SourceFile, list[Diagnostic]] | None = None
+        # the global names' values at the end of the last analysis (for hover)
+        self.values: dict[str, object] = {}
 
     def parse(self, text: str) -> tuple[SourceFile, list[Diagnostic]]:
         if self.result is None or text != self.text:
@@ -122,6 +125,7 @@ def analyse(text: str, path: str) -> list[Diagnostic]:
             return parse_include(text_, filename)
 
     result = Analysis(_library_paths(), allow_file_io=False).run(text, path)
+    doc.values = result.symbols
     return [d for d in result.diagnostics if d.span.file == path] or [
         d for d in result.diagnostics if d.severity is Severity.ERROR
     ]
@@ -274,12 +278,31 @@ def resolve_include(name: str, including: str) -> str | None:
     return None
 
 
-@server.feature(T.TEXT_DOCUMENT_COMPLETION, T.CompletionOptions(trigger_characters=["#", "."]))
+@server.feature(T.TEXT_DOCUMENT_COMPLETION, T.CompletionOptions(trigger_characters=["#", ".", '"']))
 def completion(ls: StralaServer, params: T.CompletionParams) -> T.CompletionList:
     doc, tree = _tree(ls, params.text_document.uri)
     path = uri_to_path(params.text_document.uri)
     line, col = params.position.line + 1, params.position.character + 1
     offset = doc.offset_at_position(params.position)
+    before = doc.source[:offset].rsplit("\n", 1)[-1]
+    m = _INCLUDE_PREFIX.search(before)
+    if m:  # `#include "…`: the include files strala can find
+        return T.CompletionList(
+            is_incomplete=False,
+            items=[
+                T.CompletionItem(label=name, kind=T.CompletionItemKind.File, detail=folder)
+                for name, folder in _include_files(path)
+            ],
+        )
+    word_start = len(before) - len(_WORD_TAIL.search(before)[0])
+    if before[:word_start].endswith("#"):  # a directive
+        return T.CompletionList(
+            is_incomplete=False,
+            items=[
+                T.CompletionItem(label=w, kind=T.CompletionItemKind.Keyword)
+                for w in sorted(keywords.DIRECTIVES)
+            ],
+        )
     blocks = outline.open_blocks_before(doc.source, offset)
     items: list[T.CompletionItem] = []
     allowed = _block_items(blocks[-1]) if blocks else None
@@ -290,16 +313,50 @@ def completion(ls: StralaServer, params: T.CompletionParams) -> T.CompletionList
             T.CompletionItem(label=w, kind=T.CompletionItemKind.Keyword, detail=docs.get(w))
         )
     for w in sorted(keywords.FUNCTIONS):
-        items.append(T.CompletionItem(label=w, kind=T.CompletionItemKind.Function))
-    names = dict(_included_definitions(path, tree))
+        items.append(
+            T.CompletionItem(label=w, kind=T.CompletionItemKind.Function, detail="built-in")
+        )
+    for w in sorted(keywords.CONSTANTS | keywords.COLOR_TYPES):
+        items.append(
+            T.CompletionItem(label=w, kind=T.CompletionItemKind.Constant, detail="built-in")
+        )
+    included = _included_definitions(path, tree)
+    names: dict[str, list[Span]] = {k: list(v) for k, v in included.items()}
     for k, v in outline.definitions(tree).items():
         # only names declared before the cursor, as the evaluator would see them
-        before = [s for s in v if (s.line, s.col) <= (line, col)]
-        if before:
-            names.setdefault(k, []).extend(before)
+        earlier = [s for s in v if (s.line, s.col) <= (line, col)]
+        if earlier:
+            names.setdefault(k, []).extend(earlier)
     for name in sorted(names):
-        items.append(T.CompletionItem(label=name, kind=T.CompletionItemKind.Variable))
+        where = names[name][-1]
+        items.append(
+            T.CompletionItem(
+                label=name,
+                kind=T.CompletionItemKind.Variable,
+                detail=f"{Path(where.file).name}:{where.line}",
+            )
+        )
     return T.CompletionList(is_incomplete=False, items=items)
+
+
+_INCLUDE_PREFIX = re.compile(r'#\s*include\s+"[^"]*$')
+_WORD_TAIL = re.compile(r"[A-Za-z0-9_]*$")
+
+
+def _include_files(path: str) -> list[tuple[str, str]]:
+    """(file name, folder) of the .inc files in the scene's folder, the library paths and
+    strala's stdlib, first folder first (as the evaluator searches them)."""
+    stdlib = Path(__file__).resolve().parent.parent / "stdlib"
+    seen: dict[str, str] = {}
+    for folder in [Path(path).parent, *map(Path, _library_paths()), stdlib]:
+        try:
+            entries = sorted(folder.iterdir())
+        except OSError:
+            continue
+        for f in entries:
+            if f.suffix.lower() == ".inc" and f.name not in seen:
+                seen[f.name] = "stdlib" if folder == stdlib else str(folder)
+    return list(seen.items())
 
 
 @server.feature(T.TEXT_DOCUMENT_HOVER)
@@ -314,25 +371,69 @@ def hover(ls: StralaServer, params: T.HoverParams) -> T.Hover | None:
         return T.Hover(
             contents=T.MarkupContent(kind=T.MarkupKind.Markdown, value=f"**{word}** — {text}")
         )
-    for sym in _all_symbols(tree):
-        if sym.name == word:
-            where = f"{Path(sym.name_span.file).name}:{sym.name_span.line}"
-            return T.Hover(
-                contents=T.MarkupContent(
-                    kind=T.MarkupKind.Markdown,
-                    value=f"**{word}**: {sym.kind} {sym.detail} (declared at {where})",
-                )
-            )
-    defs = _included_definitions(path, tree).get(word)
-    if defs:
-        s = defs[0]
-        return T.Hover(
-            contents=T.MarkupContent(
-                kind=T.MarkupKind.Markdown,
-                value=f"**{word}** (declared at {Path(s.file).name}:{s.line})",
-            )
-        )
-    return None
+    line = params.position.line + 1
+    spans = outline.definitions(tree).get(word)
+    if spans:
+        # the declaration in force here: the last one before the cursor, else the first
+        before = [s for s in spans if s.line <= line]
+        span, source = (before[-1] if before else spans[0]), doc.source
+    else:
+        spans = _included_definitions(path, tree).get(word)
+        if not spans:
+            return None
+        span, source = spans[-1], _file_text(spans[-1].file)
+    parts = [f"**{word}**"]
+    written = _declaration_line(source, span)
+    if written:
+        parts.append(f"```pov\n{written}\n```")
+    value = _show_value(document(path).values.get(word))
+    if value is not None:
+        parts.append(f"value: `{value}`")
+    parts.append(f"declared at {Path(span.file).name}:{span.line}:{span.col}")
+    return T.Hover(
+        contents=T.MarkupContent(kind=T.MarkupKind.Markdown, value="\n\n".join(parts)),
+        range=None,
+    )
+
+
+def _file_text(path: str) -> str:
+    hit = _include_parses.get(path)
+    if hit is not None:
+        return hit[0]
+    try:
+        return Path(path).read_text(encoding="latin-1")
+    except OSError:
+        return ""
+
+
+def _declaration_line(source: str, span: Span, limit: int = 120) -> str:
+    """The source line a declaration starts on, as written (cut at `limit` characters)."""
+    lines = source.split("\n")
+    if not 1 <= span.line <= len(lines):
+        return ""
+    text = lines[span.line - 1].strip()
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _show_value(v: object) -> str | None:
+    """A declared value as a scene would write it (numbers, vectors, colours, strings), its
+    kind for anything larger, None for macros (their declaration says it all)."""
+    from lang.values import ColorValue, MacroValue, Vec, describe
+
+    if v is None or isinstance(v, MacroValue):
+        return None
+    if isinstance(v, bool | int | float):
+        return f"{float(v):g}"
+    if isinstance(v, Vec):
+        return repr(v)
+    if isinstance(v, ColorValue):
+        r, g, b, f, t = v.rgbft
+        if f == 0 and t == 0:
+            return f"rgb <{r:g}, {g:g}, {b:g}>"
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace('"', '\\"') + '"'
+    return describe(v)
 
 
 def _word_class(word: str) -> str:
@@ -343,18 +444,6 @@ def _word_class(word: str) -> str:
     if word in keywords.COLOR_TYPES or word in keywords.COLOR_WORDS:
         return "colour"
     return "keyword"
-
-
-def _all_symbols(tree) -> list[outline.Symbol]:
-    out: list[outline.Symbol] = []
-
-    def walk(items):
-        for s in items:
-            out.append(s)
-            walk(s.children)
-
-    walk(outline.symbols(tree))
-    return out
 
 
 @server.feature(T.TEXT_DOCUMENT_DEFINITION)

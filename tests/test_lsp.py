@@ -93,17 +93,29 @@ async def test_completion_hover_definition_symbols_folding_formatting(
     assert {"Gold", "Radius", "Ball"} <= labels
     assert "checker" in labels
 
-    # hover on `Radius` in line 6 tells where it was declared
+    # hover on `Radius` in line 6 shows its declaration, its value (from the analysis made on
+    # didOpen, which the server finished before it read the requests) and where it was declared
     hov = await client.text_document_hover_async(
         T.HoverParams(text_document=doc, position=T.Position(line=5, character=20))
     )
-    assert hov is not None and "Radius" in hov.contents.value and ":1" in hov.contents.value
+    assert hov is not None
+    assert "#declare Radius = 1;" in hov.contents.value
+    assert "value: `1`" in hov.contents.value and "declared at b.pov:1:10" in hov.contents.value
+    hov = await client.text_document_hover_async(
+        T.HoverParams(text_document=doc, position=T.Position(line=6, character=13))
+    )
+    assert "value: `rgb <1, 0.8, 0.2>`" in hov.contents.value, hov.contents.value
 
     # go to definition of `Gold` used on line 7
     locs = await client.text_document_definition_async(
         T.DefinitionParams(text_document=doc, position=T.Position(line=6, character=13))
     )
     assert locs and locs[0].range.start.line == 1
+    # … and of the macro `Ball` called on line 9
+    locs = await client.text_document_definition_async(
+        T.DefinitionParams(text_document=doc, position=T.Position(line=8, character=1))
+    )
+    assert locs and locs[0].uri == uri and locs[0].range.start.line == 2
 
     symbols = await client.text_document_document_symbol_async(
         T.DocumentSymbolParams(text_document=doc)
@@ -189,3 +201,56 @@ async def test_diagnostics_after_edits_equal_those_of_a_fresh_open(
         assert edited, new[:40]  # every step has a mistake in it
         key = [(d.range, d.code, d.message) for d in edited]
         assert key == [(d.range, d.code, d.message) for d in fresh]
+
+
+async def test_completion_and_hover_know_the_included_and_built_in_names(
+    client: LanguageClient, tmp_path
+):
+    (tmp_path / "mine.inc").write_text("#declare Mine_Size = 2.5;\n")
+    text = '#include "colors.inc"\n#include "mine.inc"\nsphere { 0, 1 pigment { Red } }\n\n'
+    uri = _open(client, tmp_path / "e.pov", text)
+    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    doc = T.TextDocumentIdentifier(uri=uri)
+    result = await client.text_document_completion_async(
+        T.CompletionParams(text_document=doc, position=T.Position(line=3, character=0))
+    )
+    labels = {i.label: i for i in result.items}
+    assert {"Red", "MediumAquamarine", "Mine_Size"} <= set(labels)  # from the includes
+    assert labels["Mine_Size"].detail == "mine.inc:1"
+    assert {"sqrt", "vlength", "pi", "clock", "rgb"} <= set(labels)  # built-in names
+    assert labels["pi"].kind == T.CompletionItemKind.Constant
+
+    hov = await client.text_document_hover_async(
+        T.HoverParams(text_document=doc, position=T.Position(line=2, character=25))
+    )
+    value = hov.contents.value
+    assert "#declare Red" in value and "value: `rgb <1, 0, 0>`" in value
+    assert "declared at colors.inc:" in value
+    locs = await client.text_document_definition_async(
+        T.DefinitionParams(text_document=doc, position=T.Position(line=2, character=25))
+    )
+    assert locs and locs[0].uri.endswith("stdlib/colors.inc") and locs[0].range.start.line == 15
+
+    # `#include "` offers the include files; `#` offers the directives
+    client.text_document_did_change(
+        T.DidChangeTextDocumentParams(
+            text_document=T.VersionedTextDocumentIdentifier(uri=uri, version=2),
+            content_changes=[T.TextDocumentContentChangeWholeDocument(text=text + '#include "')],
+        )
+    )
+    result = await client.text_document_completion_async(
+        T.CompletionParams(text_document=doc, position=T.Position(line=4, character=10))
+    )
+    files = {i.label for i in result.items}
+    assert {"colors.inc", "metals.inc", "mine.inc"} <= files and "Red" not in files
+    client.text_document_did_change(
+        T.DidChangeTextDocumentParams(
+            text_document=T.VersionedTextDocumentIdentifier(uri=uri, version=3),
+            content_changes=[T.TextDocumentContentChangeWholeDocument(text=text + "#dec")],
+        )
+    )
+    result = await client.text_document_completion_async(
+        T.CompletionParams(text_document=doc, position=T.Position(line=4, character=4))
+    )
+    assert {"declare", "macro", "include"} <= {i.label for i in result.items}
+    assert "sphere" not in {i.label for i in result.items}
