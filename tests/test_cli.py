@@ -291,6 +291,29 @@ def test_check_into_a_closed_pipe_is_quiet(tmp_path):
 
 
 @needs_evaluator
+def test_check_loads_no_numpy_embree_or_openimageio(tmp_path):
+    """`check` of a scene with every kind of diagnostic stays in pure Python (it starts fast)."""
+    bad = tmp_path / "bad.pov"
+    bad.write_text(
+        '#include "colors.inc"\nsphere { 0, Radiuss pigment { Red } }\n'
+        'plane { y, 0 pigment { image_map { png "x.png" } } }\n'
+        "nurbs { u_degree 1 v_degree 1 control_points { 2, 2, 0, 0, 0, 0 } }\n}\n"
+    )
+    code = (
+        "import sys; from runtime import cli; "
+        f"rc = cli.main(['check', {str(EX3)!r}, {str(bad)!r}]); "
+        "heavy = sorted({m.split('.')[0] for m in sys.modules} & "
+        "{'numpy', 'embree', 'embreex', 'OpenImageIO', 'PIL', 'scipy'}); "
+        "print('RESULT', rc, heavy)"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert "RESULT 1 []" in proc.stdout, proc.stdout + proc.stderr
+    assert "E0201" in proc.stdout and "E0281" in proc.stdout and "E0101" in proc.stdout
+
+
+@needs_evaluator
 def test_check_json_and_sarif(tmp_path):
     bad = tmp_path / "bad.pov"
     bad.write_text("sphere { <0,0,0>, 1 }\n}\n")
