@@ -72,10 +72,35 @@ _COMPONENTS = {
 
 
 def build(it: Interpreter, node: syntax.Block) -> FunctionValue:
-    """The FunctionValue of a `function [(params)] { body }` block."""
+    """The FunctionValue of a `function [(params)] { body }` block, or of a `function W, H
+    { body }` image (height_field, image_map …): the sizes lead its body."""
     params = tuple(node.params) if node.params is not None else ("x", "y", "z")
+    size = None
+    head = [n for n in node.body[:3] if not isinstance(n, syntax.Comma)][:2]
+    if (
+        node.params is None
+        and len(head) == 2
+        and len(node.body) > 2
+        and all(isinstance(n, syntax.Number | syntax.Ident) for n in head)
+    ):
+        size = (_image_size(it, head[0]), _image_size(it, head[1]))
+        at = next(i for i, n in enumerate(node.body) if n is head[1])
+        rest = node.body[at + 1 :]
+        node = syntax.Block(node.span, node.keyword, rest, None, node.keyword_span)
     fn = _Builder(it, params).function(node)
-    return FunctionValue(fn.params, tuple(node.body), node.span, compiled=fn)
+    return FunctionValue(fn.params, tuple(node.body), node.span, compiled=fn, size=size)
+
+
+def _image_size(it: Interpreter, node: syntax.Node) -> int:
+    """A size of a function image in pixels: a float rounded as POV-Ray rounds it (at least 2)."""
+    v = it.eval(node)
+    if not isinstance(v, bool | int | float):
+        raise it.error("E0240", f"an image size is a number, not {describe(v)}", node.span)
+    n = int(float(v) + 0.5)
+    if n < 2:
+        msg = f"a function image needs at least 2 pixels a side, got {n}"
+        raise it.error("E0240", msg, node.span)
+    return n
 
 
 class _Builder:

@@ -458,12 +458,15 @@ class Text:
 class HeightField:
     """Heights 0..1 from an image file (`source`, a resolved path; its kind from the
     POV-Ray type word) over the unit square x, z in 0..1. `smooth` interpolates normals;
-    parts below `water_level` are left out."""
+    parts below `water_level` are left out. A function image (`function W, H { … }`) has
+    no source: `function` is sampled on `size` (W, H) pixels instead."""
 
     source: str
     kind: str = ""
     smooth: bool = False
     water_level: float = 0.0
+    function: Function | None = None
+    size: tuple[int, int] = (0, 0)
 
 
 @dataclass(frozen=True)
@@ -566,7 +569,10 @@ class Camera:
     `right` defaults to <1.33,0,0> as in POV-Ray (so a square image is squeezed unless the
     scene sets `right x*image_width/image_height`, exactly as POV-Ray renders it)."""
 
-    kind: str = "perspective"  # perspective | orthographic (others later)
+    kind: str = "perspective"  # perspective orthographic fisheye omnimax panoramic
+    # ultra_wide_angle cylinder spherical (POV-Ray's projections; mesh_camera is not rendered)
+    cylinder: int = 0  # the cylinder camera's type, 1..4
+    v_angle: float | None = None  # spherical: the vertical angle (angle is the horizontal)
     location: Vec3 = (0.0, 0.0, 0.0)
     direction: Vec3 = (0.0, 0.0, 1.0)
     right: Vec3 = (1.33, 0.0, 0.0)

@@ -302,18 +302,27 @@ def _font_fallback(name: str) -> str | None:
 def _height_field(cur: Cursor) -> ir.HeightField:
     e = cur.peek()
     kind = cur.word(*HF_TYPES) or ""
-    if cur.word("function") is not None or (
+    fn, size, path = None, (0, 0), ""
+    if e is not None and e.kind == "val" and isinstance(e.value, FunctionValue):
+        cur.i += 1
+        fn, size = e.value.compiled, e.value.size
+        if fn is None or size is None:
+            cur.it.unsupported("height_field function without a size", e.span)
+            raise _Skip()
+    elif cur.word("function") is not None or (
         e is not None and e.kind == "val" and not isinstance(e.value, str)
     ):
         cur.it.unsupported("height_field function", e.span if e else cur.span)
         raise _Skip()
-    name = cur.string("the image file")
-    path = cur.it._resolve(name)
-    if path is None:
-        raise cur.it.error(
-            "E0220", f"height_field image `{name}` not found", e.span if e else cur.span,
-            "searched the scene's folder and the -L library paths",
-        )  # fmt: skip
+    else:
+        name = cur.string("the image file")
+        found = cur.it._resolve(name)
+        if found is None:
+            raise cur.it.error(
+                "E0220", f"height_field image `{name}` not found", e.span if e else cur.span,
+                "searched the scene's folder and the -L library paths",
+            )  # fmt: skip
+        path = found
     smooth, water = False, 0.0
     while True:
         if cur.word("smooth") is not None:
@@ -326,7 +335,7 @@ def _height_field(cur: Cursor) -> ir.HeightField:
                 cur.i += 1
         else:
             break
-    return ir.HeightField(path, kind, smooth, water)
+    return ir.HeightField(path, kind, smooth, water, fn, size)
 
 
 def _sphere_sweep(cur: Cursor) -> ir.SphereSweep:

@@ -186,6 +186,7 @@ class FunctionValue:
     span: Span | None = None
     kind: str = "function"
     compiled: ir.Function | None = None  # the body as an expression tree (lang.functions)
+    size: tuple[int, int] | None = None  # `function W, H { … }`: an image of W×H pixels
 
 
 @dataclass

@@ -112,12 +112,31 @@ def read_heights(path: str) -> np.ndarray:
     return px[..., 0]
 
 
+def function_heights(fn: ir.Function, size: tuple[int, int]) -> np.ndarray:
+    """The heights of a function image, as POV-Ray makes one: pixel (column j, row i) of a
+    W×H image is the function at x = j/(W−1), y = i/(H−1), z = 0 (a pigment function: its
+    grey value), kept in 0..1 in steps of 1/65535 (POV-Ray's 16-bit image)."""
+    from runtime.functions import compile_xyz
+
+    w, h = size
+    xs = np.arange(w) / (w - 1)
+    ys = np.arange(h) / (h - 1)
+    X, Y = np.meshgrid(xs, ys)
+    points = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], axis=1)
+    values = np.asarray(compile_xyz(fn)(points), dtype=np.float64).reshape(h, w)
+    values = np.clip(np.nan_to_num(values, nan=0.0), 0.0, 1.0)
+    return np.round(values * 65535.0) / 65535.0
+
+
 def height_field_mesh(shape: ir.HeightField) -> ir.Mesh:
     """The triangles of a height field: pixel (row, column) of an R×C image sits at
     x = column/(C−1), z = 1 − row/(R−1) (the image's top row at the back), y = height.
     Triangles wholly below `water_level` are left out (POV-Ray also cuts the ones that
     straddle it at the level; those stay whole here)."""
-    h = read_heights(shape.source)
+    if shape.function is not None:
+        h = function_heights(shape.function, shape.size)
+    else:
+        h = read_heights(shape.source)
     R, C = h.shape
     if R < 2 or C < 2:
         raise HeightFieldError("a height field image needs at least 2×2 pixels")

@@ -86,3 +86,62 @@ def test_height_field_renders_like_povray(tmp_path, smooth):
     ours, _ = strala_image(text, tmp_path, 160, 120)
     rmse, off = image_errors(ours, pov)
     assert rmse < 0.03 and off < 0.02, (rmse, off)
+
+
+# ------------------------------------------------------------------ function images
+def _field(src: str) -> ir.HeightField:
+    from lang.evaluate import compile_source
+
+    r = compile_source(src, "t.pov")
+    errs = [d.format() for d in r.diagnostics if d.severity == "error"]
+    assert not errs, errs
+    return r.scene.objects[0].shape
+
+
+def test_function_image_sizes_and_samples():
+    """`function W, H { … }`: POV-Ray samples the function at x = j/(W-1), y = i/(H-1),
+    z = 0 for pixel (j, i); the sizes may be names and round to the nearest whole number."""
+    shape = _field("#declare N = 4.6; height_field { function N, 3 { x * 0.5 + y * 0.25 } }")
+    assert shape.source == "" and shape.size == (5, 3)
+    h = hf.function_heights(shape.function, shape.size)
+    assert h.shape == (3, 5)
+    assert np.allclose(h[0], np.arange(5) / 4 * 0.5, atol=1e-4)
+    assert np.allclose(h[:, 0], np.arange(3) / 2 * 0.25, atol=1e-4)
+
+
+def test_function_image_of_a_pigment_is_its_grey_value_clipped_to_0_1():
+    shape = _field(
+        "height_field { function 5, 2 { pigment { gradient x color_map {"
+        " [0 rgb 0] [1 rgb <1, 0.5, 0>] } } } }"
+    )
+    h = hf.function_heights(shape.function, shape.size)
+    grey = 0.297 + 0.5 * 0.589  # POV-Ray's grey of rgb <1, 0.5, 0>
+    assert np.allclose(h[:, :4], np.arange(4) / 4 * grey, atol=2e-3)
+    clipped = _field("height_field { function 2, 2 { x * 3 - 1 } }")
+    assert np.allclose(hf.function_heights(clipped.function, clipped.size), [[0, 1], [0, 1]])
+
+
+FN_SCENE = """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0.5, 2.2, -0.8> look_at <0.5, 0.2, 0.5> angle 50 }
+light_source { <2, 5, -3> color rgb 1 }
+background { rgb 0.2 }
+height_field {
+  function 40, 30 { pigment { bozo color_map { [0 rgb 0] [1 rgb 1] } scale 0.3 } }
+  smooth pigment { color rgb <1, 0.8, 0.6> }
+}
+height_field {
+  function 40, 30 { min(1, y * y * 2 + 0.1 * x) }
+  scale <1, 0.5, 1> translate <1.1, 0, 0>
+  pigment { color rgb <0.6, 0.8, 1> }
+}
+"""
+
+
+@pytest.mark.povray
+def test_function_height_field_renders_like_povray(tmp_path):
+    """Metric: RMSE over sRGB [0,1] < 0.03 and under 2% of pixels off by > 0.1."""
+    pov = povray_image(FN_SCENE, tmp_path, 160, 120)
+    ours, _ = strala_image(FN_SCENE, tmp_path, 160, 120)
+    rmse, off = image_errors(ours, pov)
+    assert rmse < 0.03 and off < 0.02, (rmse, off)
