@@ -75,13 +75,21 @@ class CameraBuilder:
             self.look_at_point = value  # type: ignore[assignment]
             self.had_look_at = True
         elif name == "angle":
-            a = float(value)  # type: ignore[arg-type]
-            if a < 0:
+            # a float, or (horizontal, vertical) for the spherical camera
+            both = value if isinstance(value, tuple) else (value,)
+            a = float(both[0])  # type: ignore[arg-type]
+            if a < 0 or (len(both) > 1 and float(both[1]) < 0):  # type: ignore[arg-type]
                 raise CameraError("negative viewing angle")
             if c.kind == "perspective" and a >= 180.0:
                 raise CameraError("a perspective camera's angle must be below 180 degrees")
-            self.camera = replace(c, angle=a)
+            v = float(both[1]) if len(both) > 1 else None  # type: ignore[arg-type]
+            self.camera = replace(c, angle=a, v_angle=v)
             self.had_angle = True
+        elif name == "cylinder":
+            kind = int(value)  # type: ignore[call-overload]
+            if kind not in (1, 2, 3, 4):
+                raise CameraError(f"cylinder camera type {kind}: it is 1, 2, 3 or 4")
+            self.camera = replace(c, kind="cylinder", cylinder=kind)
         elif name in (
             "perspective",
             "orthographic",
@@ -90,7 +98,6 @@ class CameraBuilder:
             "omnimax",
             "panoramic",
             "spherical",
-            "cylinder",
             "mesh_camera",
         ):
             self.camera = replace(c, kind=name)

@@ -2599,8 +2599,8 @@ def _b_camera(it: Interpreter, g: Grouped, node: syntax.Block) -> CameraValue:
         if name in _TRANSFORM_WORDS:
             b.add_transform(_item_matrix(name, args))
         elif name in _CAMERA_KINDS:
-            b.set(name, None)
-            if name not in ("perspective", "orthographic"):
+            b.set(name, args[0] if name == "cylinder" and args else None)
+            if name == "mesh_camera":
                 it.unsupported(f"{name} camera", span)
         elif name in (
             "location",
@@ -2615,7 +2615,8 @@ def _b_camera(it: Interpreter, g: Grouped, node: syntax.Block) -> CameraValue:
         ):
             b.set(name, args[0])
         elif name == "angle":
-            b.set("angle", args[0])
+            given = tuple(a for a in args if a is not None)  # spherical: horizontal, vertical
+            b.set("angle", given if len(given) > 1 else given[0])
         elif name in ("normal", "unsupported"):
             it.unsupported("camera normal" if name == "normal" else args[0].keyword, span)
     cam = b.build()

@@ -20,7 +20,18 @@ def primary_rays(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Origins (N,3) and unit directions (N,3) for pixel coordinates xs, ys (N,).
 
-    Pixel (col, row) has its centre at (col + 0.5, row + 0.5)."""
+    Pixel (col, row) has its centre at (col + 0.5, row + 0.5). Rays a projection does not
+    trace (outside a fisheye's circle) are included; `camera_rays` says which they are."""
+    origins, directions, _ = camera_rays(camera, width, height, xs, ys)
+    return origins, directions
+
+
+def camera_rays(
+    camera: ir.Camera, width: int, height: int, xs: np.ndarray, ys: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Origins, unit directions and which rays are traced ((N,) bool, or None for all) for
+    every projection POV-Ray 3.7 has, by its formulas (the angle in degrees; 90 when the
+    scene gives none, as POV-Ray's default)."""
     sx, sy = screen_coords(width, height, xs, ys)
     sx = sx.reshape(-1, 1)
     sy = sy.reshape(-1, 1)
@@ -28,18 +39,135 @@ def primary_rays(
     dirv = np.asarray(camera.direction, dtype=np.float64)
     right = np.asarray(camera.right, dtype=np.float64)
     up = np.asarray(camera.up, dtype=np.float64)
-    if camera.kind == "orthographic":
+    kind = camera.kind
+    traced = None
+    origins = np.broadcast_to(loc, (len(sx), 3))
+    if kind == "orthographic":
         origins = loc + sx * right + sy * up
-        d = dirv / np.linalg.norm(dirv)
-        directions = np.broadcast_to(d, origins.shape).copy()
-    else:
-        if camera.kind != "perspective":
-            _warn_kind(camera.kind)
+        directions = np.broadcast_to(dirv, origins.shape)
+    elif kind == "perspective" or kind not in _PROJECTIONS:
+        if kind != "perspective":
+            _warn_kind(kind)
         directions = dirv + sx * right + sy * up
-        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-        origins = np.broadcast_to(loc, directions.shape).copy()
-    return origins, directions
+    else:
+        directions, origins, traced = _PROJECTIONS[kind](camera, sx, sy, loc, dirv, right, up)
+    directions = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    return np.array(origins, dtype=np.float64), directions, traced
 
+
+def _angle(camera: ir.Camera) -> float:
+    """The viewing angle in radians (POV-Ray's default 90 degrees)."""
+    return np.radians(90.0 if camera.angle is None else camera.angle)
+
+
+def _fisheye(camera, sx, sy, loc, d, r, u):
+    # Screen coordinates -1..1 scaled by the lengths of right and up; the angle spans the
+    # unit circle's diameter; nothing is traced outside it.
+    x0, y0 = 2.0 * sx * np.linalg.norm(r), 2.0 * sy * np.linalg.norm(u)
+    rad = np.hypot(x0, y0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        phi = np.where(rad == 0, 0.0, np.arcsin(np.clip(y0 / np.where(rad == 0, 1, rad), -1, 1)))
+    phi = np.where(x0 < 0, np.pi - phi, phi)
+    theta = rad * _angle(camera) / 2.0
+    r, u, d = _unit(r), _unit(u), _unit(d)
+    dirs = (np.cos(phi) * np.sin(theta)) * r + (np.sin(phi) * np.sin(theta)) * u
+    dirs = dirs + np.cos(theta) * d
+    return dirs, np.broadcast_to(loc, dirs.shape), (rad <= 1.0).ravel()
+
+
+def _omnimax(camera, sx, sy, loc, d, r, u):
+    aspect = np.linalg.norm(r) / np.linalg.norm(u)
+    x0, y0 = 2.0 * sx, 2.0 * sy
+    if aspect > 1.0:
+        if aspect > 1.283458:
+            x0 = x0 * aspect / 1.283458
+            y0 = (y0 - 1.0) / 1.283458 + 1.0
+        else:
+            y0 = (y0 - 1.0) / aspect + 1.0
+    else:
+        y0 = y0 / aspect
+    rad = np.hypot(x0, y0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        phi = np.where(rad == 0, 0.0, np.arcsin(np.clip(y0 / np.where(rad == 0, 1, rad), -1, 1)))
+    phi = np.where(x0 < 0, np.pi - phi, phi)
+    theta = 1.411269 * rad - 0.09439 * rad**3 + 0.25674 * rad**5  # the Omnimax lens
+    sp, st, ct = np.sin(phi), np.sin(theta), np.cos(theta)
+    r, u, d = _unit(r), _unit(u), _unit(d)
+    dirs = (np.cos(phi) * st) * r + (sp * st) * u + ct * d
+    # nothing below 45 degrees under the projection axis
+    traced = (rad <= 1.0) & ~(sp * st < np.tan(np.radians(135.0)) * ct)
+    return dirs, np.broadcast_to(loc, dirs.shape), traced.ravel()
+
+
+def _panoramic(camera, sx, sy, loc, d, r, u):
+    # Graphics Gems III: 180 degrees across, the height on a cylinder (tan of the latitude).
+    lon = (0.5 - sx) * np.pi
+    lat = np.pi * sy
+    with np.errstate(over="ignore"):
+        ty = np.where(np.abs(np.pi / 2 - np.abs(lat)) < 1e-10, np.sign(lat) * 1e30, np.tan(lat))
+    dirs = np.cos(lon) * r + ty * u + np.sin(lon) * d
+    return dirs, np.broadcast_to(loc, dirs.shape), None
+
+
+def _ultra_wide(camera, sx, sy, loc, d, r, u):
+    aspect = np.linalg.norm(u) / np.linalg.norm(r)
+    a = _angle(camera)
+    x0, y0 = sx * a, sy * a * aspect
+    dirs = np.sin(x0) * _unit(r) + np.sin(y0) * _unit(u) + (np.cos(x0) * np.cos(y0)) * _unit(d)
+    return dirs, np.broadcast_to(loc, dirs.shape), None
+
+
+def _cylinder(camera, sx, sy, loc, d, r, u):
+    """Types 1 and 3 wrap the angle around the up axis, 2 and 4 around right; 3 and 4
+    shift the origin along the axis (parallel rays along it) instead of fanning out."""
+    kind = camera.cylinder or 1
+    a = _angle(camera)
+    lr, lu = np.linalg.norm(r), np.linalg.norm(u)
+    r, u, d = _unit(r), _unit(u), _unit(d)
+    origins = np.broadcast_to(loc, (len(sx), 3))
+    if kind in (1, 3):
+        x0, y0 = sx * a, sy * lu
+        dirs = np.sin(x0) * r + np.cos(x0) * d
+        if kind == 1:
+            dirs = dirs + y0 * u
+        else:
+            origins = loc + y0 * u
+    else:
+        x0, y0 = sx * lr, sy * a
+        dirs = np.sin(y0) * u + np.cos(y0) * d
+        if kind == 2:
+            dirs = dirs + x0 * r
+        else:
+            origins = loc + x0 * r
+    return dirs, origins, None
+
+
+def _spherical(camera, sx, sy, loc, d, r, u):
+    # Latitude: turn the direction about right by -y; longitude: about up by x.
+    h = 360.0 if camera.angle is None else camera.angle
+    v = camera.v_angle if camera.v_angle is not None else h / 2.0
+    lat = sy * np.radians(v)
+    lon = sx * np.radians(h)
+    v1 = _rotate(np.broadcast_to(d, (len(sy), 3)), _unit(r), -lat)
+    return _rotate(v1, _unit(u), lon), np.broadcast_to(loc, v1.shape), None
+
+
+def _rotate(v: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rodrigues: v turned by `angle` (N,1) about the unit `axis`, counter-clockwise seen
+    from its tip in a right-handed frame (POV-Ray's Compute_Axis_Rotation_Transform)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return v * c + np.cross(axis, v) * s + axis * (v @ axis)[:, None] * (1.0 - c)
+
+
+_PROJECTIONS = {
+    "fisheye": _fisheye,
+    "omnimax": _omnimax,
+    "panoramic": _panoramic,
+    "ultra_wide_angle": _ultra_wide,
+    "cylinder": _cylinder,
+    "spherical": _spherical,
+}
+SUPPORTED_KINDS = frozenset({"perspective", "orthographic", *_PROJECTIONS})
 
 _warned: set[str] = set()
 
