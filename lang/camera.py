@@ -103,8 +103,18 @@ class CameraBuilder:
             self.camera = replace(c, kind=name)
         elif name == "aperture":
             self.camera = replace(c, aperture=float(value))  # type: ignore[arg-type]
-        elif name == "blur_samples":
-            self.camera = replace(c, blur_samples=int(value))  # type: ignore[call-overload]
+        elif name == "blur_samples":  # max, or (min, max)
+            both = value if isinstance(value, tuple) else (0, value)
+            lo, hi = int(both[0]), int(both[1])  # type: ignore[call-overload]
+            if lo < 0 or hi < 0:
+                raise CameraError("blur_samples must not be negative")
+            self.camera = replace(c, blur_samples=hi, blur_samples_min=lo)
+        elif name == "confidence":
+            if not 0.0 < float(value) < 1.0:  # type: ignore[arg-type]
+                raise CameraError("confidence must be between 0 and 1")
+            self.camera = replace(c, blur_confidence=float(value))  # type: ignore[arg-type]
+        elif name == "variance":
+            self.camera = replace(c, blur_variance=float(value))  # type: ignore[arg-type]
         else:
             raise CameraError(f"unknown camera item `{name}`")
 

@@ -2611,9 +2611,13 @@ def _b_camera(it: Interpreter, g: Grouped, node: syntax.Block) -> CameraValue:
             "sky",
             "focal_point",
             "aperture",
-            "blur_samples",
+            "confidence",
+            "variance",
         ):
             b.set(name, args[0])
+        elif name == "blur_samples":  # `blur_samples [min,] max`
+            given = tuple(a for a in args if a is not None)
+            b.set(name, given if len(given) > 1 else given[0])
         elif name == "angle":
             given = tuple(a for a in args if a is not None)  # spherical: horizontal, vertical
             b.set("angle", given if len(given) > 1 else given[0])

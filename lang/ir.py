@@ -581,7 +581,10 @@ class Camera:
     angle: float | None = None
     aperture: float = 0.0
     focal_point: Vec3 | None = None
-    blur_samples: int = 0
+    blur_samples: int = 0  # focal blur's most rays per pixel (0: none)
+    blur_samples_min: int = 0  # its fewest before the confidence test may stop
+    blur_confidence: float = 0.9
+    blur_variance: float = 1.0 / 128.0
     span: Span | None = None
 
 

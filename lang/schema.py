@@ -782,15 +782,10 @@ UNCOUNTED_LISTS = frozenset(("weights", "u_knots", "v_knots", "knots", "control_
 # None for every block; the reason). Words that steer only POV-Ray's speed, memory or preview
 # (sturm, hierarchy, split_union, max_intersections, quick_color, hf_gray_16) are ignored
 # without a word: they leave the image as it is.
-_FOCAL_BLUR = "focal blur is not rendered: the whole image is in focus"
 IGNORED_ITEMS: dict[str, tuple[frozenset[str] | None, str]] = {
     "uv_mapping": (None, "textures are mapped by position, not by the surface's uv coordinates"),
     "cutaway_textures": (None, "the cut faces of a CSG take the cutting object's texture"),
     "inside_vector": (None, "a mesh has no inside in strala's CSG"),
-    "aperture": (frozenset({"camera"}), _FOCAL_BLUR),
-    "blur_samples": (frozenset({"camera"}), _FOCAL_BLUR),
-    "confidence": (frozenset({"camera"}), _FOCAL_BLUR),
-    "variance": (frozenset({"camera"}), _FOCAL_BLUR),
     "number_of_waves": (None, "waves and ripples use POV-Ray's default of 10 wave sources"),
     "noise_generator": (
         frozenset({"global_settings"}),

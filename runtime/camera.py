@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from statistics import NormalDist
+
 import numpy as np
 
 from lang import ir
@@ -27,11 +29,17 @@ def primary_rays(
 
 
 def camera_rays(
-    camera: ir.Camera, width: int, height: int, xs: np.ndarray, ys: np.ndarray
+    camera: ir.Camera,
+    width: int,
+    height: int,
+    xs: np.ndarray,
+    ys: np.ndarray,
+    unit: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Origins, unit directions and which rays are traced ((N,) bool, or None for all) for
-    every projection POV-Ray 3.7 has, by its formulas (the angle in degrees; 90 when the
-    scene gives none, as POV-Ray's default)."""
+    """Origins, directions (unit, unless `unit` is off: then as the projection builds
+    them, which focal blur's focal distance is measured in) and which rays are traced
+    ((N,) bool, or None for all) for every projection POV-Ray 3.7 has, by its formulas
+    (the angle in degrees; 90 when the scene gives none, as POV-Ray's default)."""
     sx, sy = screen_coords(width, height, xs, ys)
     sx = sx.reshape(-1, 1)
     sy = sy.reshape(-1, 1)
@@ -51,8 +59,99 @@ def camera_rays(
         directions = dirv + sx * right + sy * up
     else:
         directions, origins, traced = _PROJECTIONS[kind](camera, sx, sy, loc, dirv, right, up)
-    directions = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-    return np.array(origins, dtype=np.float64), directions, traced
+    if unit:
+        directions = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    return np.array(origins, dtype=np.float64), np.array(directions, dtype=np.float64), traced
+
+
+def has_focal_blur(camera: ir.Camera) -> bool:
+    return camera.aperture != 0.0 and camera.blur_samples > 0
+
+
+class FocalBlur:
+    """POV-Ray's thin lens for `blur_samples` rays per pixel point: each from a sub-pixel
+    position jittered over the pixel and from a point of the lens, aimed so that a point's
+    rays meet on the focal plane (the eye moves across a disc of radius aperture/4
+    perpendicular to the view, the direction by the opposite amount at the focal
+    distance). `rays(rows, k)` gives the rays of samples k (an array of sample numbers)
+    of the points `rows`."""
+
+    def __init__(self, camera: ir.Camera, width: int, height: int, xs, ys):
+        self.camera, self.width, self.height = camera, width, height
+        self.n = n = max(1, int(camera.blur_samples))
+        xs = np.asarray(xs, dtype=np.float64)
+        ys = np.asarray(ys, dtype=np.float64)
+        rng = np.random.default_rng(_blur_seed(xs, ys))
+        # Kronecker sequences: every prefix covers its square evenly, so a point that stops
+        # after a few rounds is not biased toward part of the lens. The lens takes R2
+        # (frequencies 1/g, 1/g^2, g the plastic number), the sub-pixel position two more
+        # of Roberts' R_d frequencies; a random shift per point decorrelates neighbours
+        # (Cranley-Patterson rotation).
+        k = np.arange(n, dtype=np.float64)[None, :]
+        shift = rng.uniform(0.0, 1.0, (len(xs), 4, 1))
+        freq = (1 / 1.324717957244746, 1 / 1.324717957244746**2, 1 / 1.1673039782614187**3,
+                1 / 1.1673039782614187**4)  # fmt: skip
+        u, v, jx, jy = ((shift[:, i] + k * freq[i]) % 1.0 for i in range(4))
+        rad, ang = 0.5 * np.sqrt(u), 2.0 * np.pi * v  # area-preserving map to the disc
+        self.lx, self.ly = rad * np.cos(ang), rad * np.sin(ang)
+        self.px = xs[:, None] + jx - 0.5
+        self.py = ys[:, None] + jy - 0.5
+        d = np.asarray(camera.direction, dtype=np.float64)
+        self.xperp = _unit(np.cross(np.asarray(camera.up, dtype=np.float64), d))
+        self.yperp = _unit(np.cross(d, self.xperp))
+        loc = np.asarray(camera.location, dtype=np.float64)
+        focus = loc if camera.focal_point is None else np.asarray(camera.focal_point, float)
+        self.reach = np.linalg.norm(focus - loc) / np.linalg.norm(d)  # in direction lengths
+        self.radius = camera.aperture * 0.5
+
+    def rays(self, rows: np.ndarray, k: np.ndarray):
+        """Origins, unit directions and traced mask of samples k (M,) of points rows (M,)."""
+        origins, dirs, traced = camera_rays(
+            self.camera, self.width, self.height, self.px[rows, k], self.py[rows, k], unit=False
+        )
+        lx, ly = self.radius * self.lx[rows, k], self.radius * self.ly[rows, k]
+        deflect = lx[:, None] * self.xperp - ly[:, None] * self.yperp
+        target = origins + self.reach * dirs
+        origins = origins + deflect
+        dirs = target - origins
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        return origins, dirs, traced
+
+
+def blur_rounds(n: int):
+    """How many lens samples a point takes before each confidence test, as POV-Ray does:
+    the rings of its hexagonal lens grids first (7, then 6 and 6, then 4, 4, 4, 4, 2 for
+    the 19- and 37-sample grids; only as far as `blur_samples` reaches a grid), then 4 at
+    a time, until `n` are taken."""
+    rings = [7, 6, 6, 4, 4, 4, 4, 2] if n >= 37 else [7, 6, 6] if n >= 19 else [7] if n >= 7 else []
+    taken = 0
+    for step in rings:
+        taken += step
+        yield step
+    while taken < n:
+        taken += 4
+        yield 4
+
+
+def blur_thresholds(n: int, variance: float, confidence: float) -> np.ndarray:
+    """POV-Ray's confidence test: after i+1 samples a point is done when the variance of
+    its mean is below T[i] = variance * X(i+1) / X(n-1), X(df) the chi-square value that
+    a variable of df degrees of freedom exceeds with probability `confidence`
+    (Wilson-Hilferty's cube-root normal approximation)."""
+    if n <= 1:
+        return np.zeros(max(n, 1))
+    z = NormalDist().inv_cdf(1.0 - confidence)  # exceeded with probability `confidence`
+    df = np.arange(1, n + 1, dtype=np.float64)
+    chi = df * np.maximum(1.0 - 2.0 / (9.0 * df) + z * np.sqrt(2.0 / (9.0 * df)), 0.0) ** 3
+    last = (n - 1) * max(1.0 - 2.0 / (9.0 * (n - 1)) + z * np.sqrt(2.0 / (9.0 * (n - 1))), 0) ** 3
+    return variance * chi / last if last > 0 else np.zeros(n)
+
+
+def _blur_seed(xs: np.ndarray, ys: np.ndarray) -> int:
+    """The same pixels get the same samples on every run (and on every thread)."""
+    if len(xs) == 0:
+        return 0
+    return int(abs(hash((float(xs[0]), float(ys[0]), len(xs), float(xs[-1]), float(ys[-1])))))
 
 
 def _angle(camera: ir.Camera) -> float:
