@@ -37,6 +37,7 @@ from lang.values import (
     MacroValue,
     MapValue,
     MaterialValue,
+    ObjectPattern,
     ObjectValue,
     ReflectionValue,
     SplineValue,
@@ -585,6 +586,7 @@ _LIST_DEFAULTS = {
     "hexagon": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)],
     "brick": [(0.5, 0.5, 0.5), (0.6, 0.15, 0.15)],  # mortar, brick (rendered by POV-Ray)
 }
+_OBJECT_DEFAULTS = [(0.0, 0.0, 0.0), (1.0, 1.0, 1.0)]  # outside, inside
 _COMPONENT_INDEX = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}
 
 
@@ -963,8 +965,38 @@ class Interpreter:
             out.append(El("kw", node.name, node.span))
         elif t in _DIRECTIVES:
             _DIRECTIVES[t](self, node, out, spec)
+        elif t is syntax.Block and node.keyword == "object" and _takes_object_pattern(spec):
+            # `pigment { object { OBJ A, B } }`: the object pattern, not an object
+            out.append(El("kw", "object", node.keyword_span or node.span))
+            out.append(El("val", self._object_pattern(node), node.span))
         else:
             out.append(El("val", self.eval(node), node.span))
+
+    def _object_pattern(self, node: syntax.Block) -> ObjectPattern:
+        """`object { OBJECT item_outside, item_inside }` inside a pigment, normal or texture:
+        the object (a declared one or a shape block) and up to two list items."""
+        els = [e for e in self.expand(node.body, None) if e.kind != "comma"]
+        span = node.keyword_span or node.span
+        if not els or els[0].kind != "val" or not isinstance(els[0].value, ObjectValue):
+            raise self.error(
+                "E0211",
+                "the object pattern needs an object first",
+                els[0].span if els else span,
+                "object { MyObject color rgb 0, color rgb 1 }",
+            )
+        items = []
+        for e in els[1:]:
+            if e.kind != "val" or kind_of(e.value) not in _LIST_KINDS:
+                what = f"`{e.value}`" if e.kind == "kw" else describe(e.value)
+                raise self.error(
+                    "E0211",
+                    f"an object pattern lists colours, pigments, normals or textures, not {what}",
+                    e.span,
+                )
+            items.append(e.value)
+        if len(items) > 2:
+            raise self.error("E0211", "an object pattern has two list items", els[3].span)
+        return ObjectPattern(self.to_ir(els[0].value), tuple(items))
 
     @staticmethod
     def _word_slot(out: list[El], spec: schema.BlockSpec | None) -> bool:
@@ -2276,6 +2308,12 @@ class Interpreter:
         return True
 
 
+def _takes_object_pattern(spec: schema.BlockSpec | None) -> bool:
+    """Whether `object { … }` in this block is the object pattern (pigment, normal …)."""
+    item = spec.items.get("object") if spec is not None else None
+    return item is not None and item.args == ("object_pattern",)
+
+
 def _unit_or_same(v: Any) -> Any:
     """POV-Ray normalises a gradient's vector (`gradient <1, 1, 0>` repeats every 1/√2 along
     the diagonal, not every 1/2); a zero vector stays as given."""
@@ -2768,6 +2806,12 @@ def _b_pigment(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Pigment:
             pig = transform_pigment(pig, _item_matrix(name, args))
         elif name == "map":
             pig = _with_map(it, pig, v, span)
+        elif name == "object" and isinstance(v, ObjectPattern):
+            given = [it.as_pigment(x) for x in v.items]
+            while len(given) < 2:
+                given.append(ir.Pigment(color=(*_OBJECT_DEFAULTS[len(given)], 0.0, 0.0)))
+            pig = replace(pig, pattern="object", list=tuple(given))
+            params["object"] = v.object
         elif name in schema.LIST_PATTERNS:
             defaults = _LIST_DEFAULTS.get(name, [])
             given = [it.as_pigment(x) for x in v]
@@ -2820,6 +2864,10 @@ def _b_normal(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Normal:
                 it.unsupported("bump_map", span)
         elif name == "unsupported":
             it.unsupported(v.keyword, span)
+        elif name == "object" and isinstance(v, ObjectPattern):
+            nrm = replace(nrm, pattern="object")
+            params["list"] = v.items
+            params["object"] = v.object
         elif name in schema.LIST_PATTERNS:
             nrm = replace(nrm, pattern=name)
             params["list"] = tuple(v)
@@ -2936,10 +2984,11 @@ def _b_texture(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Texture:
                 t = replace(v.entries[0][1], span=node.span)
             else:
                 it.sink.error("E0212", f"a {v.map_kind} in a texture", span)
-        elif name in schema.LIST_PATTERNS:
+        elif name in schema.LIST_PATTERNS or (name == "object" and isinstance(v, ObjectPattern)):
             it.unsupported(f"{name} texture pattern", span, "; the first texture is used")
-            if v and isinstance(v[0], ir.Texture):
-                t = replace(v[0], span=node.span)
+            first = v.items if isinstance(v, ObjectPattern) else v
+            if first and isinstance(first[0], ir.Texture):
+                t = replace(first[0], span=node.span)
         elif name == "uv_mapping":
             pass
         elif name == "unsupported":

@@ -137,7 +137,8 @@ PATTERN_ITEMS = [
     "density_file | A density file pattern.",
     "image_pattern | An image as a pattern.",
     "pigment_pattern | A pigment's grey value as a pattern.",
-    "object | An object's inside/outside as a pattern.",
+    "object object_pattern | An object's inside/outside as a pattern: "
+    "`object { OBJECT item_outside, item_inside }`.",
     "turbulence vector | Turbulence amount (a float for all axes).",
     "octaves float | Turbulence octaves (default 6).",
     "omega float | Turbulence amplitude factor per octave (default 0.5).",

@@ -134,6 +134,17 @@ class ObjectValue:
 
 
 @dataclass(frozen=True)
+class ObjectPattern:
+    """The `object { OBJECT item_outside, item_inside }` pattern of a pigment, normal or
+    texture: the object (resolved) and its list items (colours, pigments, normals or
+    textures; at most two)."""
+
+    object: ir.Object
+    items: tuple[Any, ...]
+    kind: str = "object_pattern"
+
+
+@dataclass(frozen=True)
 class CameraValue:
     """A camera's state after POV-Ray's rules; `camera { Cam … }` continues from it."""
 

@@ -51,6 +51,12 @@ _TESSELLATED = tuple(
 )
 
 
+def inside_test(obj: ir.Object):
+    """A node whose `inside(points)` is POV-Ray's inside test of obj (for the object
+    pattern), or None when the shape has no inside."""
+    return _Builder(ir.Camera(), 1).clip_node(obj)
+
+
 class _Builder:
     def __init__(self, camera: ir.Camera, width: int) -> None:
         self.camera = camera
