@@ -360,6 +360,8 @@ def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
     n = len(dirs)
     col = np.zeros((n, 3))
     layers = ctx.scene.sky_sphere or ()
+    if not layers:
+        return np.broadcast_to(ctx.background, (n, 3)).copy()
     if ctx.legacy_opacity:
         fil = np.ones((n, 5))
         trans = np.ones(n)
