@@ -122,13 +122,21 @@ class Interior:
 @dataclass(frozen=True)
 class Texture:
     """One texture layer. `layers` holds further layers on top (POV's layered textures),
-    outermost last."""
+    outermost last.
+
+    A patterned texture (`texture { checker texture {…} texture {…} }`, `texture_map`,
+    `average`) has `pattern` set: a Pigment that carries only the pattern (its kind, params,
+    warps and transform); `map` holds its textures as (key, Texture) pairs: the list index
+    for list patterns (checker, hexagon, brick, object), the map value for `texture_map`,
+    the weight for `average`. Its own pigment, finish and normal are unused."""
 
     pigment: Pigment = field(default_factory=Pigment)
     finish: Finish = field(default_factory=Finish)
     normal: Normal | None = None
     layers: tuple[Texture, ...] = ()
     span: Span | None = None
+    pattern: Pigment | None = None
+    map: tuple[tuple[float, Texture], ...] = ()
 
 
 # ------------------------------------------------------------ user functions

@@ -46,6 +46,51 @@ def texture_layers(tex: ir.Texture) -> list[ir.Texture]:
     return [*reversed(tex.layers), tex]
 
 
+def is_patterned(tex: ir.Texture) -> bool:
+    """A patterned texture (checker/brick/hexagon/object textures, texture_map, average)."""
+    return tex.pattern is not None and bool(tex.map)
+
+
+def resolve_textures(ctx, tex: np.ndarray, points: np.ndarray):
+    """Hits of patterned textures resolved to the plain textures they show, as POV-Ray's
+    ComputeOneTextureColour does: a list pattern picks one texture, a texture_map blends
+    the two around the pattern's value, `average` weighs them all (nested maps recurse).
+    Returns None when no hit has a patterned texture, else (src, leaf, weight): for every
+    (hit, texture) pair its hit row, texture index and weight (a hit's weights sum to 1)."""
+    if ctx.patterned is None or not ctx.patterned[tex].any():
+        return None
+    pat = ctx.patterned[tex]
+    keep = np.nonzero(~pat)[0]
+    src, leaf, weight = [keep], [tex[keep]], [np.ones(len(keep))]
+    for tid in np.unique(tex[pat]):
+        rows = np.nonzero(tex == tid)[0]
+        r, lf, w = _resolve(ctx, ctx.tree[int(tid)], points[rows])
+        src.append(rows[r])
+        leaf.append(lf)
+        weight.append(w)
+    return np.concatenate(src), np.concatenate(leaf), np.concatenate(weight)
+
+
+def _resolve(ctx, tex: ir.Texture, points: np.ndarray):
+    n = len(points)
+    if not is_patterned(tex):
+        return np.arange(n), np.full(n, ctx.leaf_id[id(tex)], dtype=np.int64), np.ones(n)
+    keys = np.array([k for k, _ in tex.map], dtype=np.float64)
+    weights = patterns.entry_weights(tex.pattern, keys, points)
+    src, leaf, weight = [], [], []
+    for k, (_, sub) in enumerate(tex.map):
+        rows = np.nonzero(weights[:, k] > 0.0)[0]
+        if not len(rows):
+            continue
+        r, lf, w = _resolve(ctx, sub, points[rows])
+        src.append(rows[r])
+        leaf.append(lf)
+        weight.append(w * weights[rows[r], k])
+    if not src:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)
+    return np.concatenate(src), np.concatenate(leaf), np.concatenate(weight)
+
+
 @dataclass
 class ReflectionRows:
     """`ir.Reflection` with one row per hit (fresnel is never mixed in here)."""
@@ -162,6 +207,9 @@ class Context:
     background: np.ndarray  # (3,)
     radiosity: object | None = None  # runtime.radiosity.system.RadiosityResult
     plain: np.ndarray | None = None  # (n_tex,) bool: shades in the shared batch
+    patterned: np.ndarray | None = None  # (n_tex,) bool: a patterned texture (resolve first)
+    tree: dict[int, ir.Texture] = field(default_factory=dict)  # patterned id -> its texture
+    leaf_id: dict[int, int] = field(default_factory=dict)  # id(texture) -> texture index
     plain_colour: np.ndarray | None = None  # (n_tex,5) solid colour of plain textures
     finish_table: FinishTable | None = None
     stats: dict[str, int] = field(default_factory=dict)
@@ -195,13 +243,22 @@ def make_context(prepared) -> Context:
     textures: list[list[ir.Texture]] = []
     index: dict[int, int] = {}
 
+    tree: dict[int, ir.Texture] = {}
+
     def intern(tex: ir.Texture) -> int:
         # Identity, not equality: textures hold dicts (unhashable) and a declared texture
         # reused by many objects is one Python object.
         key = id(tex)
         if key not in index:
-            index[key] = len(textures)
-            textures.append(texture_layers(tex))
+            index[key] = tid = len(textures)
+            if is_patterned(tex):
+                # A patterned texture's stack lists the layers of all its textures (for the
+                # flags below); its hits are resolved to those textures before shading.
+                textures.append([])
+                tree[tid] = tex
+                textures[tid] = [layer for _, sub in tex.map for layer in textures[intern(sub)]]
+            else:
+                textures.append(texture_layers(tex))
         return index[key]
 
     obj_tex = np.array([intern(o.texture) for o in objs], dtype=np.int64)
@@ -221,14 +278,20 @@ def make_context(prepared) -> Context:
         return np.array([any(pred(t) for t in ls) for ls in textures], dtype=bool)
 
     version = scene.settings.version
-    plain = np.array([_plain(ls) for ls in textures], dtype=bool)
+    patterned = np.array([i in tree for i in range(len(textures))], dtype=bool)
+    plain = np.array([_plain(ls) for ls in textures], dtype=bool) & ~patterned
     plain_colour = np.array(
         [ls[0].pigment.color if p else (0.0,) * 5 for ls, p in zip(textures, plain, strict=True)],
         dtype=np.float64,
     ).reshape(len(textures), 5)
-    table = FinishTable([ls[-1].finish for ls in textures]) if textures else None
+    table = (
+        FinishTable([ls[-1].finish if ls else ir.Finish() for ls in textures]) if textures else None
+    )
     return Context(
         plain=plain,
+        patterned=patterned,
+        tree=tree,
+        leaf_id=index,
         plain_colour=plain_colour,
         finish_table=table,
         prepared=prepared,
@@ -453,15 +516,30 @@ def shade(
     raw = np.where(leaving[:, None], -normal, normal)
     hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim)
     lights = light_colours(ctx, hit)
-    result = np.zeros((n, 3))
-    fil = np.ones((n, 3))
     secondary = Secondary()
-    plain = ctx.plain[tex]
-    if plain.any():
-        shade_plain(ctx, np.nonzero(plain)[0], hit, lights, result, fil, secondary, level)
-    for tid in np.unique(tex[~plain]):
-        rows = np.nonzero(tex == tid)[0]
-        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, secondary, level)
+    resolved = resolve_textures(ctx, tex, point)
+    if resolved is None:
+        result, fil = _shade_groups(ctx, hit, lights, secondary, level)
+    else:
+        # Shade every (hit, texture) pair of the patterned textures, then add them up by
+        # weight: colour, filter and the rays each texture spawns (POV-Ray blends the fully
+        # lit colours of a texture_map's two textures).
+        src, leaf, w = resolved
+        opt = lambda a: None if a is None else a[src]  # noqa: E731
+        sub = Hit(obj[src], leaf, point[src], raw[src], leaving[src], dirs[src],
+                  weight[src] * w, opt(depth), opt(prim))  # fmt: skip
+        sub_lights = LightColours(
+            [d[src] for d in lights.direction], [c[src] for c in lights.colour]
+        )
+        sub_secondary = Secondary()
+        res, fl = _shade_groups(ctx, sub, sub_lights, sub_secondary, level[src])
+        result = np.zeros((n, 3))
+        fil = np.zeros((n, 3))
+        np.add.at(result, src, w[:, None] * res)
+        np.add.at(fil, src, w[:, None] * fl)
+        for part in sub_secondary.parts:
+            rows = part[0]
+            secondary.parts.append((src[rows], part[1], part[2] * w[rows, None], *part[3:]))
     # Transmitted light: what the layers let through, filtered by them.
     trans = np.minimum(1.0, np.abs(fil @ GREY))
     through = np.nonzero((trans > ctx.settings.adc_bailout) & ctx.transmits[tex])[0]
@@ -469,6 +547,21 @@ def shade(
         transmit(ctx, hit, level, skip, fil, through, secondary)
     secondary.trace_into(ctx, point, result)
     return result
+
+
+def _shade_groups(ctx, hit: Hit, lights: LightColours, secondary: Secondary, level):
+    """(result, filter) of hits whose textures are plain or layered (not patterned)."""
+    n = len(hit.obj)
+    result = np.zeros((n, 3))
+    fil = np.ones((n, 3))
+    tex = hit.tex
+    plain = ctx.plain[tex]
+    if plain.any():
+        shade_plain(ctx, np.nonzero(plain)[0], hit, lights, result, fil, secondary, level)
+    for tid in np.unique(tex[~plain]):
+        rows = np.nonzero(tex == tid)[0]
+        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, secondary, level)
+    return result, fil
 
 
 @dataclass
@@ -680,10 +773,16 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
         rd = ldir[active_hit]
         tex = ctx.texture_of(objs, h.prim[hit] if h.prim is not None else None)
         f = np.zeros((len(active_hit), 3))
-        for tid in np.unique(tex):
+        resolved = resolve_textures(ctx, tex, pts)
+        if resolved is None:
+            src, leaf, share = np.arange(len(tex)), tex, np.ones(len(tex))
+        else:
+            src, leaf, share = resolved
+        for tid in np.unique(leaf):
             if not ctx.transmits[tid]:
                 continue  # opaque: the light is blocked
-            sel = np.nonzero(tex == tid)[0]
+            sel_e = np.nonzero(leaf == tid)[0]
+            sel = src[sel_e]
             t = np.ones((len(sel), 3))
             caustics = np.array([ctx.interiors[int(o)].caustics for o in objs[sel]])
             # The surface normal turned against the shadow ray, for faked caustics.
@@ -701,7 +800,7 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
                         caustics != 0, 1.0 + np.power(cdot, CAUSTICS_SCALE * caustics), 1.0
                     )
                     t *= k[:, None]
-            f[sel] = t
+            np.add.at(f, sel, share[sel_e, None] * t)
         # Light that crossed an object's inside fades with the distance it travelled there.
         leaving = np.einsum("ij,ij->i", h.normal[hit], rd) > 0
         f *= interior_fade(ctx, objs, h.t[hit], leaving)

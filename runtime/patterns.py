@@ -705,6 +705,33 @@ def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
     return apply_wave(fn(p, pattern.params), pattern.params, kind)
 
 
+def entry_weights(pattern: ir.Pigment, keys: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(N, K) weights of the K entries of a patterned texture (or any blend map) at world
+    points, each row summing to 1: list patterns pick their entry (index clamped to the
+    list), `average` weights every entry by its key, other patterns blend the two map
+    entries around the pattern's value as POV-Ray's Search_Blend_Map does."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n, k = len(points), len(keys)
+    out = np.zeros((n, k))
+    if k == 0:
+        return out
+    kind = pattern.pattern
+    if kind == "average":
+        total = float(np.sum(keys)) or 1.0
+        out[:] = np.asarray(keys, dtype=np.float64) / total
+        return out
+    value = pattern_value(pattern, points)
+    rows = np.arange(n)
+    if kind in LIST_PATTERNS:
+        index = np.clip(value.astype(np.int64), 0, k - 1)
+        out[rows, index] = 1.0
+        return out
+    lo, hi, frac = blend_indices(np.asarray(keys, dtype=np.float64), value)
+    np.add.at(out, (rows, lo), 1.0 - frac)
+    np.add.at(out, (rows, hi), frac)
+    return out
+
+
 BUILT_IN_TURBULENCE = {"marble", "wood", "spiral1", "spiral2", "agate"}
 
 
