@@ -263,14 +263,13 @@ class _Builder:
         )
 
 
-def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prepared:
-    """width/height are the image size (they set the automatic tessellation tolerance);
-    `cull` off keeps surfaces the camera cannot see (trace() asks before there is one).
+def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:
+    """width/height are the image size (they set the automatic tessellation tolerance).
 
     A light's `looks_like` object is taken as modelled around the origin (as written in
     POV-Ray) and is moved to the light's position here, with `no_shadow`."""
     b = _Builder(scene.camera, width)
-    b.cull = _Culler(scene) if cull else None
+    b.cull = _Culler(scene)
     no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
         b.top(obj, no_flags)
