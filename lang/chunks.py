@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -543,10 +544,19 @@ class ChunkParser:
         cur_line = first.line if first is not None else -1
         follow: Token | None = None
         pending = [first] if first is not None else []
+        macro: _MacroExtent | None = None  # the outermost `#macro` being read
         while True:
             jumped = False
             try:
                 for tok in itertools.chain(pending, self.thread.lex(state)):
+                    if macro is not None:
+                        keep = macro.step(table, state, tok, errors.reported, last)
+                        if macro.done:
+                            macro = None
+                        if not keep:
+                            continue
+                    if macro is None and tok.type == "MACRO":
+                        macro = _MacroExtent.at(table, self.clean, tok, state, errors.reported)
                     if tok.line != cur_line:
                         cur_line = tok.line
                         # Only a token first on its line (a skipped bad character before it
@@ -612,6 +622,96 @@ class ChunkParser:
         if result is None and not errors.sink.has_errors:
             errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
         return result, follow
+
+
+# POV-Ray's directives that a `#end` closes: a macro's body ends at the `#end` matching its
+# `#macro` by this count alone (its parser reads a macro as text, braces unmatched or not).
+_OPENERS = frozenset({"if", "ifdef", "ifndef", "while", "for", "switch", "macro"})
+_DIRECTIVE_OR_STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"?|#[ \t]*([A-Za-z_][A-Za-z0-9_]*)')
+
+
+def macro_end(clean: str, pos: int) -> int | None:
+    """Where the `#macro` at `pos` ends by POV-Ray's count of directives (the offset after
+    its `#end`), or None when its `#end` is missing."""
+    depth = 0
+    for m in _DIRECTIVE_OR_STRING.finditer(clean, pos):
+        word = m.group(1)
+        if word is None:
+            continue
+        if word in _OPENERS:
+            depth += 1
+        elif word == "end":
+            depth -= 1
+            if depth == 0:
+                return m.end()
+    return None
+
+
+@dataclass
+class _MacroExtent:
+    """A `#macro` whose body may not parse as elements (POV-Ray's include files have macros
+    that `#write` half a mesh in one #if branch and give its text in the other): when its
+    body had a syntax error, the macro still ends at its own `#end`, so the statements after
+    it are read as they are. Tokens up to that `#end` that a macro closed too early leaves
+    over are dropped; a macro still open there is closed."""
+
+    end: int  # offset after the macro's `#end`
+    depth: int  # the parser's stack depth before the macro (its pending reductions made)
+    errors: int  # syntax errors counted before it
+    done: bool = False
+
+    @classmethod
+    def at(
+        cls, table: _Table, clean: str, tok: Token, state: ParserState, errors: int
+    ) -> _MacroExtent | None:
+        end = macro_end(clean, tok.start_pos)
+        if end is None:
+            return None
+        depth = _depth_after(table, state.state_stack, "MACRO")
+        return None if depth is None else cls(end, depth - 1, errors)
+
+    def step(
+        self, table: _Table, state: ParserState, tok: Token, errors: int, last: Token | None
+    ) -> bool:
+        """Before `tok` is fed: False when it must be dropped."""
+        if errors == self.errors:  # the body parses so far: the grammar's own #end counts
+            if tok.start_pos >= self.end:
+                self.done = True
+            return True
+        if tok.start_pos < self.end:
+            return not self.closed(table, state)  # what a macro closed too early leaves over
+        self.done = True
+        for _ in range(64):
+            if self.closed(table, state):
+                break
+            closer = next(
+                (f for f in _FILLERS if _verdict(table, state.state_stack, f[0]) is not _ERROR),
+                None,
+            )
+            if closer is None:
+                break
+            where = last if last is not None else tok
+            state.feed_token(Token.new_borrow_pos(closer[0], closer[1], where))
+        return True
+
+    def closed(self, table: _Table, state: ParserState) -> bool:
+        """Whether the macro is complete: a new statement would go beside it, not in it."""
+        depth = _depth_after(table, state.state_stack, "DECLARE")
+        return depth is not None and depth <= self.depth + 3
+
+
+def _depth_after(table: _Table, stack: list[int], ttype: str) -> int | None:
+    """The parser's stack depth once a token of type `ttype` is shifted (None: an error)."""
+    states = table.states
+    stack = stack[:]
+    action = states[stack[-1]].get(ttype)
+    while action is not None and action[0] is not Shift:
+        rule = action[1]
+        if rule.expansion:
+            del stack[-len(rule.expansion) :]
+        stack.append(states[stack[-1]][rule.origin.name][1])
+        action = states[stack[-1]].get(ttype)
+    return None if action is None else len(stack) + 1
 
 
 def _close_until(table: _Table, state: ParserState, ttype: str, last: Token | None) -> str:
