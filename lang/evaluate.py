@@ -192,6 +192,14 @@ class _Irid:
 
 
 @dataclass(frozen=True)
+class _Warp:
+    """A `warp { … }` block: `data` is the warp as the runtime reads it (runtime.patterns)."""
+
+    data: dict[str, Any]
+    kind: str = "warp"
+
+
+@dataclass(frozen=True)
 class _Statement:
     """A top-level block that is not a value: background, sky_sphere, fog, global_settings."""
 
@@ -2809,6 +2817,8 @@ def _b_pigment(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Pigment:
             pig = transform_pigment(pig, _item_matrix(name, args))
         elif name == "map":
             pig = _with_map(it, pig, v, span)
+        elif name == "warp":
+            pig = _add_warp(pig, params, v)
         elif name == "object" and isinstance(v, ObjectPattern):
             given = [it.as_pigment(x) for x in v.items]
             while len(given) < 2:
@@ -2862,6 +2872,8 @@ def _b_normal(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Normal:
         elif name == "map":
             params[v.map_kind] = v.entries
             it.unsupported(v.map_kind, span)
+        elif name == "warp":
+            nrm = _add_warp(nrm, params, v)
         elif name in ("bump_map", "no_bump_scale"):
             if name == "bump_map":
                 it.unsupported("bump_map", span)
@@ -2941,6 +2953,50 @@ def _b_reflection_block(it: Interpreter, g: Grouped, node: syntax.Block) -> Refl
     return ReflectionValue(r)
 
 
+def _add_warp(pattern: Any, params: dict[str, Any], warp: _Warp) -> Any:
+    """POV-Ray keeps a pattern's transforms and warps in one list, applied to the point from
+    the last written to the first: the transform written before this warp is stored with it,
+    and the pattern's own transform starts again from the identity."""
+    params["warps"] = (*params.get("warps", ()), (warp.data, pattern.transform))
+    return replace(pattern, transform=ir.IDENTITY)
+
+
+_WARP_VALUES = frozenset(
+    "turbulence octaves omega lambda strength falloff type repeat offset flip orientation "
+    "dist_exp major_radius".split()
+)
+
+
+def _b_warp(it: Interpreter, g: Grouped, node: syntax.Block) -> _Warp:
+    w: dict[str, Any] = {}
+    kind = None
+    for name, args, _span in g.items:
+        v = args[0] if args else None
+        if name == "black_hole":
+            kind = "black_hole"
+            w["center"], w["radius"] = v, args[1]
+        elif name == "planar":
+            kind = "planar"
+            if v is not None:
+                w["orientation"] = v
+            if len(args) > 1 and args[1] is not None:
+                w["offset"] = args[1]
+        elif name in ("cylindrical", "spherical", "toroidal", "cubic"):
+            kind = name
+        elif name == "inverse":
+            w["inverse"] = True
+        elif name in _WARP_VALUES:
+            w[name] = v
+    if kind is None:
+        kind = "repeat" if "repeat" in w else "turbulence"
+    if kind == "repeat":
+        axes = [i for i, c in enumerate(w["repeat"]) if c != 0.0]
+        if len(axes) != 1:
+            raise it.error("E0202", "a repeat warp repeats along one axis", g.span, "`repeat x*2`")
+    w["warp"] = kind
+    return _Warp(w)
+
+
 def _b_irid(it: Interpreter, g: Grouped, node: syntax.Block) -> _Irid:
     thickness = turbulence = 0.0
     for name, args, _ in g.items:
@@ -3006,6 +3062,11 @@ def _b_texture(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Texture:
             t = replace(t, pattern=ir.Pigment(pattern=name, span=span), map=entries)
         elif name == "uv_mapping":
             pass
+        elif name == "warp":
+            if t.pattern is None:
+                it.unsupported("warp of a plain texture", span, " (warp its pigment instead)")
+            else:
+                t = replace(t, pattern=_add_warp(t.pattern, params, v))
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in texture")
         else:
@@ -3569,6 +3630,7 @@ _BUILDERS: dict[str, Callable[[Interpreter, Grouped, syntax.Block], Any]] = {
     "finish": _b_finish,
     "reflection": _b_reflection_block,
     "irid": _b_irid,
+    "warp": _b_warp,
     "interior": _b_interior,
     "texture": _b_texture,
     "material": _b_material,

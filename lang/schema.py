@@ -178,7 +178,30 @@ PATTERN_ITEMS = [
     "quick_colour color | Preview colour (ignored).",
 ]
 MAP_WORDS = ("color_map", "colour_map", "pigment_map", "normal_map", "texture_map", "slope_map")
-PATTERN_ACCEPTS = frozenset("map transform unsupported function".split())
+PATTERN_ACCEPTS = frozenset("map transform unsupported function warp".split())
+
+WARP_ITEMS = [
+    "turbulence vector | Turbulence warp (or a black hole's jitter of its repeated centres).",
+    "octaves float | Turbulence octaves (default 6).",
+    "omega float | Turbulence amplitude factor per octave (default 0.5).",
+    "lambda float | Turbulence frequency factor per octave (default 2).",
+    "black_hole vector float | Black hole warp: centre and radius.",
+    "strength float | Black hole strength (default 1).",
+    "falloff float | Black hole falloff exponent (default 2).",
+    "inverse | Black hole pushes the pattern out instead of pulling it in.",
+    "type float | Black hole type (0).",
+    "repeat vector | Repeat warp along one axis with this width (or a black hole's spacing).",
+    "offset vector | Repeat warp: shift per repeat.",
+    "flip vector | Repeat warp: mirror every other repeat along these axes.",
+    "planar vector? float? | Planar warp: orientation and offset.",
+    "cylindrical | Cylindrical warp.",
+    "spherical | Spherical warp.",
+    "toroidal | Toroidal warp.",
+    "cubic | Cubic warp.",
+    "orientation vector | Orientation of a planar/cylindrical/spherical/toroidal warp.",
+    "dist_exp float | Distance exponent of a mapping warp.",
+    "major_radius float | Toroidal warp's major radius.",
+]
 
 COMPONENT_WORDS = ("red", "green", "blue", "filter", "transmit", "gray", "grey")
 
@@ -621,6 +644,14 @@ BLOCKS: dict[str, BlockSpec] = {
         ),
         frozenset(),
     ),
+    "warp": BlockSpec(
+        "warp",
+        "warp",
+        "A warp of the point a pattern is evaluated at (applied in order with transforms).",
+        (),
+        _items(WARP_ITEMS),
+        frozenset(),
+    ),
     "irid": BlockSpec(
         "irid",
         "irid",
@@ -654,7 +685,9 @@ BLOCKS: dict[str, BlockSpec] = {
         "A texture: pigment, normal and finish.",
         (),
         _items(TRANSFORM_ITEMS, PATTERN_ITEMS, ["uv_mapping | Map by uv coordinates."]),
-        frozenset({"texture", "pigment", "finish", "normal", "transform", "map", "unsupported"}),
+        frozenset(
+            {"texture", "pigment", "finish", "normal", "transform", "map", "unsupported", "warp"}
+        ),
     ),
     "material": BlockSpec(
         "material",
@@ -815,7 +848,7 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
-    """media photons warp density subsurface bump_map material_map interior_texture
+    """media photons density subsurface bump_map material_map interior_texture
     density_map pigment_pattern image_pattern function_image projected_through""".split()
 )
 

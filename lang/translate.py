@@ -37,7 +37,7 @@ from lang.parser import parse, strip_comments
 
 # Blocks strala parses and ignores: commenting them out changes no pixel of its render.
 IGNORED_BLOCKS = frozenset(
-    "media photons subsurface interior_texture projected_through warp bump_map".split()
+    "media photons subsurface interior_texture projected_through bump_map".split()
 )
 DATA_SUFFIXES = frozenset(
     ".png .jpg .jpeg .tga .gif .ppm .pgm .pbm .tif .tiff .exr .hdr .iff .sys .pot .ttf .ttc "
