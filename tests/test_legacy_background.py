@@ -35,3 +35,15 @@ def test_background_matches_povray(tmp_path, version, gamma) -> None:
     err, off = image_errors(ours, ref)
     assert err < 0.01 and off == 0.0, (err, off)
     assert abs(float(ours[1, 1, 0]) - float(ref[1, 1, 0])) < 1 / 255 + 1e-6
+
+
+@pytest.mark.parametrize("version", ["3.5", "3.6", "3.7"])
+def test_missed_ray_gets_the_background_once(version) -> None:
+    from lang.evaluate import compile_source
+    from runtime.render import render_scene
+
+    text = f"#version {version};\ncamera {{ location -5*z look_at 0 }}\n"
+    text += "background { rgb <0.3, 0.25, 0.2> }\n"
+    scene = compile_source(text, "bg.pov").scene
+    working = render_scene(scene, 8, 6)
+    assert working[3, 4] == pytest.approx([0.3, 0.25, 0.2], abs=1e-12)
