@@ -133,11 +133,224 @@ def _inverse(m: ir.Matrix) -> np.ndarray | None:
     return np.linalg.inv(a)
 
 
-def pattern_points(pigment: ir.Pigment | ir.Normal, points: np.ndarray) -> np.ndarray:
-    inv = _inverse(pigment.transform)
+def _untransform(m: ir.Matrix, points: np.ndarray) -> np.ndarray:
+    inv = _inverse(m)
     if inv is None:
         return points
     return points @ inv[:3, :3].T + inv[:3, 3]
+
+
+def pattern_points(pigment: ir.Pigment | ir.Normal, points: np.ndarray) -> np.ndarray:
+    """Pattern-space points: POV-Ray's Warp_EPoint. The pattern's transforms and warps form
+    one list applied from the last written to the first; `params["warps"]` holds each warp
+    with the transform written before it, `transform` what was written after the last."""
+    p = _untransform(pigment.transform, points)
+    warps = pigment.params.get("warps")
+    if warps:
+        for data, before in reversed(warps):
+            p = warp_points(data, p)
+            p = _untransform(before, p)
+        p = np.clip(p, -COORDINATE_LIMIT, COORDINATE_LIMIT)
+    return p
+
+
+def pattern_linear(pigment: ir.Pigment | ir.Normal) -> np.ndarray | None:
+    """The linear part of all the pattern's transforms (its warps left out, as POV-Ray's
+    Warp_Normal does), None for the identity."""
+    mats = [pigment.transform, *(before for _, before in pigment.params.get("warps", ()))]
+    out = None
+    for m in mats:
+        if _inverse(m) is None:
+            continue
+        lin = np.asarray(m, dtype=np.float64)[:3, :3]
+        out = lin if out is None else lin @ out
+    return out
+
+
+# POV-Ray clamps warped coordinates to this.
+COORDINATE_LIMIT: float = 1.0e17
+_WARP_EPSILON: float = 1.0e-10
+
+
+def _vec(v, default) -> np.ndarray:
+    return np.broadcast_to(np.asarray(default if v is None else v, dtype=np.float64), (3,))
+
+
+def warp_points(w: dict, p: np.ndarray) -> np.ndarray:
+    """One `warp { … }` applied to (N,3) points, as POV-Ray 3.7's warps do."""
+    kind = w.get("warp", "turbulence")
+    if kind == "turbulence":
+        vec = _vec(w.get("turbulence"), 0.0)
+        if not vec.any():
+            return p
+        octaves = int(w.get("octaves", 6))
+        omega = float(w.get("omega", 0.5))
+        lam = float(w.get("lambda", 2.0))
+        return p + dturbulence(p, octaves, omega, lam) * vec
+    if kind == "black_hole":
+        return _black_hole(w, p)
+    if kind == "repeat":
+        return _repeat(w, p)
+    if kind in ("planar", "cylindrical", "spherical", "toroidal"):
+        return _mapping_warp(kind, w, p)
+    if kind == "cubic":
+        return _cubic_warp(p)
+    _warn(f"warp `{kind}` is not supported yet: ignored")
+    return p
+
+
+def _black_hole(w: dict, p: np.ndarray) -> np.ndarray:
+    """Points within `radius` of the centre move toward it (away with `inverse`) by
+    ((radius - d) / radius)^falloff * strength of their offset, at most all of it; `repeat`
+    copies the hole every repeat vector, `turbulence` jitters each copy's centre."""
+    centre = np.broadcast_to(_vec(w.get("center"), 0.0), p.shape).copy()
+    radius = float(w.get("radius", 1.0))
+    if w.get("repeat") is not None:
+        rep = _vec(w.get("repeat"), 0.0)
+        block = np.zeros(p.shape, dtype=np.int64)
+        for i in range(3):
+            if rep[i] >= _WARP_EPSILON:
+                block[:, i] = np.floor(p[:, i] / rep[i]).astype(np.int64)
+        if w.get("turbulence") is not None:
+            jitter = _vec(w.get("turbulence"), 0.0)
+            seed = hash3d(block[:, 0], block[:, 1], block[:, 2])
+            for i in range(3):
+                centre[:, i] += PATTERN_RANDS[seed + i] * jitter[i]
+        centre += rep * block
+    if float(w.get("type", 0.0)) != 0.0:
+        return p
+    delta = p - centre
+    length = np.linalg.norm(delta, axis=1)
+    inside = length < radius
+    k = np.minimum(
+        np.power(np.clip((radius - length) / radius, 0.0, None), float(w.get("falloff", 2.0)))
+        * float(w.get("strength", 1.0)),
+        1.0,
+    )
+    if w.get("inverse"):
+        k = -k
+    return np.where(inside[:, None], p + delta * k[:, None], p)
+
+
+def _repeat(w: dict, p: np.ndarray) -> np.ndarray:
+    """Copies of the unit between 0 and the repeat width along its axis, each shifted by
+    `offset` times its number; odd copies mirrored along the axes `flip` names."""
+    rep = _vec(w.get("repeat"), 0.0)
+    axis = int(np.nonzero(rep)[0][0])
+    width = float(rep[axis])
+    flip = np.where(_vec(w.get("flip"), 0.0) != 0.0, -1.0, 1.0)
+    offset = _vec(w.get("offset"), 0.0)
+    q = p.copy()
+    block = np.floor(q[:, axis] / width).astype(np.float32).astype(np.float64)
+    q[:, axis] -= block * width
+    odd = (block.astype(np.int64) & 1) == 1
+    if (flip < 0).any():
+        q[odd] *= flip
+        if flip[axis] < 0:
+            q[odd, axis] += width
+    return q + block[:, None] * offset
+
+
+def _turn(theta: np.ndarray, x: np.ndarray, z: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """POV-Ray's angle of (x, z) from +x toward +z as a fraction of a turn, from acos."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = np.arccos(np.clip(x / np.where(length > 0, length, 1.0), -1.0, 1.0))
+    a = np.where(z == 0.0, np.where(x > 0, 0.0, math.pi), np.where(z < 0.0, 2 * math.pi - a, a))
+    return a
+
+
+def _orient(w: dict, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    o = _vec(w.get("orientation"), (0.0, 0.0, 1.0))
+    n = np.linalg.norm(o)
+    o = o / n if n > 0 else np.array([0.0, 0.0, 1.0])
+    if o[0] == 0.0 and o[1] == 0.0 and o[2] == 1.0:
+        return np.stack([x, y, z], axis=1)
+    return np.stack(
+        [
+            o[0] * z + o[1] * x + o[2] * x,
+            o[0] * y - o[1] * z + o[2] * y,
+            -o[0] * x + o[1] * y + o[2] * z,
+        ],
+        axis=1,
+    )
+
+
+def _mapping_warp(kind: str, w: dict, p: np.ndarray) -> np.ndarray:
+    """planar, cylindrical, spherical and toroidal warps: the point's surface coordinates
+    (angle as a fraction of a turn, height or latitude, distance) as the new point, scaled
+    by distance^dist_exp, in the frame of `orientation`. Points where the mapping has no
+    angle (on the axis) keep their place, as in POV-Ray."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    exp = float(w.get("dist_exp", 0.0))
+    if kind == "planar":
+        return _orient(w, x, y, np.full(len(p), float(w.get("offset", 0.0))))
+    if kind == "cylindrical":
+        length = np.hypot(x, z)
+        theta = _turn(None, x, z, length) / (2 * math.pi)
+        if exp != 0.0:
+            theta = theta * length**exp
+        out = _orient(w, theta, y, length)
+        return np.where((length == 0.0)[:, None], p, out)
+    if kind == "spherical":
+        dist = np.linalg.norm(p, axis=1)
+        safe = np.where(dist > 0, dist, 1.0)
+        ux, uy, uz = x / safe, y / safe, z / safe
+        phi = 0.5 + np.arcsin(np.clip(uy, -1.0, 1.0)) / math.pi
+        length = np.hypot(ux, uz)
+        theta = np.where(length == 0.0, 0.0, _turn(None, ux, uz, length) / (2 * math.pi))
+        if exp != 0.0:
+            scale = dist**exp
+            theta, phi = theta * scale, phi * scale
+        out = _orient(w, theta, phi, dist)
+        return np.where((dist == 0.0)[:, None], p, out)
+    # toroidal
+    r0 = float(w.get("major_radius", 1.0))
+    length = np.hypot(x, z)
+    theta = -_turn(None, x, z, length)
+    xr = length - r0
+    rl = np.hypot(xr, y)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        phi = np.arccos(np.clip(-xr / np.where(rl > 0, rl, 1.0), -1.0, 1.0))
+    phi = np.where(y > 0.0, 2 * math.pi - phi, phi)
+    theta = theta / (-2 * math.pi)
+    phi = phi / (2 * math.pi)
+    if exp != 0.0:
+        scale = rl**exp
+        theta, phi = theta * scale, phi * scale
+    out = _orient(w, theta, phi, rl)
+    return np.where((length == 0.0)[:, None], p, out)
+
+
+def _cubic_warp(p: np.ndarray) -> np.ndarray:
+    """The cubic warp: each point onto the face of the cube it looks through, unfolded as a
+    cross (POV-Ray's CubicWarp)."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    ax, ay, az = np.abs(x), np.abs(y), np.abs(z)
+    third = 1.0 / 3.0
+    out = np.empty_like(p)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        faces = [
+            ((x >= 0) & (x >= ay) & (x >= az), 0.75 - 0.25 * (z / x + 1) / 2,
+             third + third * (y / x + 1) / 2, x),
+            ((y >= 0) & (y >= ax) & (y >= az), 0.25 + 0.25 * (x / y + 1) / 2,
+             1.0 - third * (z / y + 1) / 2, y),
+            ((z >= 0) & (z >= ax) & (z >= ay), 0.25 + 0.25 * (x / z + 1) / 2,
+             third + third * (y / z + 1) / 2, z),
+            ((x < 0) & (x <= -ay) & (x <= -az), 0.25 * (z / -x + 1) / 2,
+             third + third * (y / -x + 1) / 2, -x),
+            ((y < 0) & (y <= -ax) & (y <= -az), 0.25 + 0.25 * (x / -y + 1) / 2,
+             third * (z / -y + 1) / 2, -y),
+        ]  # fmt: skip
+        done = np.zeros(len(p), dtype=bool)
+        for cond, u, v, d in faces:
+            sel = cond & ~done
+            out[sel] = np.stack([u, v, d], axis=1)[sel]
+            done |= sel
+        rest = ~done
+        out[rest] = np.stack(
+            [1.0 - 0.25 * (x / -z + 1) / 2, third + third * (y / -z + 1) / 2, -z], axis=1
+        )[rest]
+    return out
 
 
 def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0) -> np.ndarray:
@@ -890,9 +1103,8 @@ def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -
     """(N,3) unit normals after a `normal { … }` pattern at world points. The perturbation
     happens in pattern space (so scaling a bump pattern scales its bumps), then the normal
     goes back to world space."""
-    inv = _inverse(normal.transform)
     p = pattern_points(normal, points)
-    lin = None if inv is None else np.asarray(normal.transform, dtype=np.float64)[:3, :3]
+    lin = pattern_linear(normal)
     # Normals map with the inverse transpose: world -> pattern space is M^T n, normalised
     # there as POV-Ray does, so the bump strength does not depend on the pattern's scale.
     n = n_world if lin is None else n_world @ lin
