@@ -348,6 +348,8 @@ class _Builder(Transformer):
     def args(self, children):
         return [c for c in children if c is not None and not isinstance(c, Token)]
 
+    call_args = args
+
     def call(self, children):
         return syntax.Call(self._span(children), str(children[0]), children[2], builtin=False)
 

@@ -903,3 +903,19 @@ def test_macro_optional_parameters_may_be_left_out_and_others_may_not():
     bad = _cs("#macro M(A, B) sphere{A,B} #end\nM(1)\n", "m.pov")
     (err,) = [d for d in bad.diagnostics if d.severity.value == "error"]
     assert err.code == "E0232" and "`B` is missing" in err.message and err.span.line == 2
+
+
+def test_macro_argument_after_an_object_ends_at_the_object():
+    """POV-Ray ends a macro argument after an object and the comma is optional, so
+    `M(Obj -y, …)` passes the object and -y (the suite's incdemo/shapes.pov writes this)."""
+    r = ok(
+        "#macro Make() sphere { 0, 1 } #end\n"
+        "#macro Place(O, V, W) object { O translate V + W } #end\n"
+        "#declare S = sphere { 0, 2 }\n"
+        "Place(Make() -y, <0, 0, 1>)\n"
+        "Place(S +x - y, z)\n"
+        "Place(S, x, 2 - y)\n"
+    )
+    t = [o.transform for o in r.scene.objects]
+    moved = [tuple(round(v, 9) for v in transforms.apply_point(m, (0, 0, 0))) for m in t]
+    assert moved == [(0.0, -1.0, 1.0), (1.0, -1.0, 1.0), (3.0, 1.0, 2.0)]

@@ -493,3 +493,23 @@ def test_deprecated_declaration():
     (a, b) = ok('#declare deprecated once "gone" A = 1;\n#local deprecated "x\\n" B[2] = 2;')
     assert (a.name, a.deprecated, a.deprecated_once) == ("A", "gone", True)
     assert (b.name, b.deprecated, b.deprecated_once, len(b.indices)) == ("B", "x\n", False, 1)
+
+
+def test_array_rows_of_vectors_need_no_comma_between_them():
+    """POV-Ray reads array items without comparisons (a `<` there needs parentheses), so a
+    `<` after an item opens the next vector: rows written without a trailing comma."""
+    (decl,) = ok("#declare A = array[4] {\n  <1, 2>, <3, 4>\n  <5, 6>, <7, 8>\n}")
+    items = [n for n in decl.value.items if not isinstance(n, S.Comma)]
+    assert [type(n).__name__ for n in items] == ["Vector"] * 4
+    (decl,) = ok("#declare B = array[3] { 1, (2 < 3) 4 }")
+    assert len([n for n in decl.value.items if not isinstance(n, S.Comma)]) == 3
+
+
+def test_macro_arguments_need_no_comma_between_them():
+    """POV-Ray's macro call: the comma between arguments is optional and an argument has no
+    comparison outside parentheses, so `M(off <1, 2>, on)` passes three values."""
+    (call,) = ok("M(off <100, 100>, on (1 < 2) 3)")
+    assert isinstance(call, S.Call) and not call.builtin
+    assert [type(a).__name__ for a in call.args] == ["Const", "Vector", "Const", "Binary", "Number"]
+    (call,) = ok("M(<1, 2> <3, 4>)")
+    assert len(call.args) == 2

@@ -54,14 +54,16 @@ def test_a_clean_scene_is_only_laid_out(tmp_path):
 
 
 def test_missing_comma_between_vectors_is_added_where_it_was_missing(tmp_path):
-    text = CAMERA + "#declare P = array[3] {\n  <0, 1>, <1, 2>\n  <2, 3>\n}\n"
-    text += "sphere { <P[2].x, 0, 0>, 1 }\n"
+    # (array items and macro arguments need no comma in the grammar either, as in POV-Ray;
+    # a built-in function's arguments still do)
+    text = CAMERA + "#declare P = vcross(<0, 1, 0>\n  <1, 2, 0>);\n"
+    text += "sphere { <P.x, 0, 0>, 1 }\n"
     assert any(d.severity.value == "error" for d in parse(text)[1])
     t, out = translate(tmp_path, text)
     fixes = [c for c in t.changes if c.kind == "syntax"]
     assert len(fixes) == 1 and "comma" in fixes[0].message
-    assert (fixes[0].span.line, fixes[0].span.col) == (4, 17)  # after `<1, 2>`, in the original
-    assert "<1, 2>,\n" in out.read_text()
+    assert (fixes[0].span.line, fixes[0].span.col) == (3, 30)  # after `<0, 1, 0>`, as written
+    assert "<0, 1, 0>,\n" in out.read_text()
     assert errors(out) == []
 
 
@@ -117,7 +119,7 @@ def test_an_element_with_an_error_is_dropped_innermost_first(tmp_path):
 
 
 def test_stdlib_includes_stay_and_local_includes_are_translated_beside(tmp_path):
-    inc = "#declare Where = <0, 1, 0>\n#declare Pts = array[2] { <0, 1>\n <1, 2> }\n"
+    inc = "#declare Where = <0, 1, 0>\n#declare Pts = vcross(<0, 1, 0>\n <1, 2, 0>);\n"
     text = '#include "colors.inc"\n#include "parts/local.inc"\n' + CAMERA
     text += "sphere { Where, 1 pigment { Red } }\n"
     t, out = translate(tmp_path, text, **{"parts/local.inc": inc})
@@ -125,7 +127,7 @@ def test_stdlib_includes_stay_and_local_includes_are_translated_beside(tmp_path)
     assert kinds == [("include", 1), ("include", 2)]
     assert '#include "colors.inc"' in out.read_text()
     translated = tmp_path / "out" / "parts" / "local.inc"
-    assert translated.is_file() and "<0, 1>,\n" in translated.read_text()
+    assert translated.is_file() and "<0, 1, 0>,\n" in translated.read_text()
     assert errors(out) == []
 
 
