@@ -697,6 +697,7 @@ class Interpreter:
         self.background: ir.Color = ir.BLACK
         self.sky_sphere: tuple[ir.Pigment, ...] | None = None
         self.fog: ir.Fog | None = None
+        self.fogs: list[ir.Fog] = []  # every fog block, in order (POV-Ray applies them all)
         self.default_texture = ir.Texture()
         self.handles: dict[str, FileHandle] = {}
 
@@ -756,6 +757,7 @@ class Interpreter:
             background=self.background,
             sky_sphere=self.sky_sphere,
             fog=self.fog,
+            fogs=tuple(self.fogs),
             files=tuple(self.files),
         )
 
@@ -883,7 +885,9 @@ class Interpreter:
             elif v.kind == "sky_sphere":
                 self.sky_sphere = v.value
             elif v.kind == "fog":
-                self.fog = v.value
+                if self.fog is None:
+                    self.fog = v.value
+                self.fogs.append(v.value)
         elif isinstance(v, UnsupportedValue):
             self.unsupported(v.keyword, el.span)
         else:
@@ -2810,22 +2814,58 @@ def _b_sky_sphere(it: Interpreter, g: Grouped, node: syntax.Block) -> _Statement
 
 
 def _b_fog(it: Interpreter, g: Grouped, node: syntax.Block) -> _Statement:
+    """POV-Ray's Parse_Fog: constant (fog_type 1) or ground fog (2); `turbulence`, `octaves`,
+    `omega` or `lambda` give it turbulence (POV-Ray's defaults 6, 0.5, 2); transformations
+    turn only its `up` direction, which is normalised at the end."""
     color = g.positional.get("color")
-    distance, fog_type = 0.0, 1
+    fields: dict[str, Any] = {}
+    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    turb: list[Any] | None = None  # [vector, octaves, omega, lambda]
     for name, args, span in g.items:
         if name == "color":
             color = args[0]
         elif name == "distance":
-            distance = args[0]
+            fields["distance"] = float(args[0])
         elif name == "fog_type":
-            fog_type = int(args[0])
-        elif name in ("fog_offset", "fog_alt", "turbulence", "turb_depth", "up"):
-            if fog_type == 2 or name in ("turbulence", "turb_depth"):
-                it.unsupported(f"fog {name}", span)
+            fields["fog_type"] = int(args[0])
+            if fields["fog_type"] not in (1, 2):
+                it.sink.warning("W0303", "unknown fog type: 1 is constant, 2 ground fog", span)
+        elif name == "fog_offset":
+            fields["offset"] = float(args[0])
+        elif name == "fog_alt":
+            fields["alt"] = float(args[0])
+        elif name == "turb_depth":
+            fields["turb_depth"] = float(args[0])
+        elif name == "up":
+            up = _fog_vec(args[0])
+        elif name in ("turbulence", "octaves", "omega", "lambda"):
+            turb = turb or [(0.0, 0.0, 0.0), 6, 0.5, 2.0]
+            if name == "turbulence":
+                turb[0] = _fog_vec(args[0])
+            elif name == "octaves":
+                turb[1] = min(10, max(1, int(args[0])))
+            else:
+                turb[2 if name == "omega" else 3] = float(args[0])
+        elif name == "translate":
+            it.sink.warning("W0303", "a fog's up vector can't be translated", span)
+        elif name in _TRANSFORM_WORDS:
+            up = transforms.apply_direction(_item_matrix(name, args), up)
+    distance = fields.pop("distance", 0.0)
     if distance <= 0:
         it.sink.warning("W0303", "fog needs a positive `distance`", g.span)
+    norm = sum(c * c for c in up) ** 0.5
+    up = tuple(c / norm for c in up) if norm > 0 else (0.0, 1.0, 0.0)
+    if turb is not None:
+        fields.update(turbulence=turb[0], octaves=turb[1], omega=turb[2], lam=turb[3])
     c = color.rgbft if isinstance(color, ColorValue) else ir.BLACK
-    return _Statement("fog", ir.Fog(c, distance, fog_type))
+    return _Statement("fog", ir.Fog(c, distance, up=up, **fields))
+
+
+def _fog_vec(v: Any) -> tuple[float, float, float]:
+    if isinstance(v, tuple):
+        return (float(v[0]), float(v[1]), float(v[2]))
+    x, y, z = as_vec(v)[:3]
+    return (float(x), float(y), float(z))
 
 
 def _b_transform(it: Interpreter, g: Grouped, node: syntax.Block) -> TransformValue:

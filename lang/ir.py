@@ -649,7 +649,9 @@ class Radiosity:
 @dataclass(frozen=True)
 class Fog:
     """fog_type 1: constant fog; 2: ground fog, densest below `offset` along `up` and
-    thinning above it over `alt` (POV-Ray's fog_offset, fog_alt, up)."""
+    thinning above it over `alt` (POV-Ray's fog_offset, fog_alt, up). With `turbulence`
+    (a vector scaling the point where the noise is taken), POV-Ray's Turbulence() with
+    `octaves`, `omega`, `lam` thins the fog along each ray by up to `turb_depth`."""
 
     color: Color
     distance: float
@@ -657,6 +659,11 @@ class Fog:
     offset: float = 0.0
     alt: float = 1.0
     up: Vec3 = (0.0, 1.0, 0.0)
+    turbulence: Vec3 | None = None
+    turb_depth: float = 0.5
+    octaves: int = 6
+    omega: float = 0.5
+    lam: float = 2.0
 
 
 @dataclass(frozen=True)
@@ -687,5 +694,6 @@ class Scene:
     settings: Settings = field(default_factory=Settings)
     background: Color = BLACK
     sky_sphere: tuple[Pigment, ...] | None = None
-    fog: Fog | None = None
+    fog: Fog | None = None  # the first fog (the only one a scene usually has)
+    fogs: tuple[Fog, ...] = ()  # every fog, `fog` first; empty: just `fog`
     files: tuple[str, ...] = ()  # every source file read (for caches and dependency tracking)

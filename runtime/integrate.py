@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lang import ir
-from runtime import color, patterns, shading
+from runtime import color, noise, patterns, shading
 from runtime.shading import GREY, Surface
 
 # A shadow ray crosses at most this many transparent surfaces before it counts as blocked
@@ -391,8 +391,9 @@ def trace(
             hits.t[rows],
             prim,
         )
-    if ctx.scene.fog is not None:
-        col = apply_fog(ctx.scene.fog, hits.t, col, o, d)
+    fogs = ctx.scene.fogs or ((ctx.scene.fog,) if ctx.scene.fog is not None else ())
+    if fogs:
+        col = apply_fogs(fogs, hits.t, col, o, d)
     out[alive] = col
     return out
 
@@ -445,16 +446,39 @@ def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
 def apply_fog(
     fog: ir.Fog, depth: np.ndarray, col: np.ndarray, origins=None, dirs=None
 ) -> np.ndarray:
-    """POV-Ray's fog: exp(-depth * density / distance) of the surface shows, the rest is
-    fog colour (its filter tints what shows, its transmit is the least that shows).
-    Constant fog has density 1; ground fog integrates POV-Ray's density profile
-    (1 below `offset`, 1/(1 + h²) above it, h in units of `alt` along `up`)."""
-    if abs(fog.distance) <= shading.EPSILON:
-        return col
-    fc = np.asarray(fog.color, dtype=np.float64)
-    width = np.where(np.isfinite(depth), depth, MAX_FOG_DISTANCE)
+    """One fog over the colours `col` seen at `depth` along rays from `origins` in the
+    (unit) directions `dirs`: see apply_fogs."""
+    return apply_fogs((fog,), depth, col, origins, dirs)
+
+
+def apply_fogs(fogs, depth: np.ndarray, col: np.ndarray, origins=None, dirs=None) -> np.ndarray:
+    """POV-Ray's ComputeFog: each fog lets att = exp(-depth * density / distance) of what is
+    behind it through (at least its transmit), tinted by its filter, and adds (1 - att) of
+    its colour; several fogs multiply their attenuations and add their colours. Constant fog
+    has density 1; ground fog integrates POV-Ray's density profile (1 below `offset`,
+    1/(1 + h²) above it, h in units of `alt` along `up`). Turbulence thins a fog along each
+    ray: the width is scaled by 1 - exp(-width/distance) * min(1, Turbulence(mid) * turb_depth),
+    taken at the middle of the ray's path (scaled by the turbulence vector)."""
+    width0 = np.where(np.isfinite(depth), depth, MAX_FOG_DISTANCE)
+    sum_att = np.ones_like(col)
+    sum_col = np.zeros_like(col)
+    for fog in fogs:
+        if abs(fog.distance) <= shading.EPSILON:
+            continue
+        att = fog_attenuation(fog, width0, origins, dirs)
+        fc = np.asarray(fog.color, dtype=np.float64)
+        att = np.maximum(att, fc[4])
+        sum_att = sum_att * (att[:, None] * ((1.0 - fc[3]) + fc[3] * fc[:3]))
+        sum_col = sum_col + (1.0 - att)[:, None] * fc[:3]
+    return sum_col + sum_att * col
+
+
+def fog_attenuation(fog: ir.Fog, width: np.ndarray, origins=None, dirs=None) -> np.ndarray:
+    """The share of light one fog lets through over `width` along each ray (before its
+    transmit floor): POV-Ray's ComputeConstantFogDepth and ComputeGroundFogDepth."""
     density = 1.0
-    if fog.fog_type == 2 and origins is not None and dirs is not None and fog.alt != 0:
+    have_rays = origins is not None and dirs is not None
+    if fog.fog_type == 2 and have_rays and fog.alt != 0:
         up = np.asarray(fog.up, dtype=np.float64)
         up = up / np.linalg.norm(up)
         y1 = origins @ up
@@ -464,11 +488,14 @@ def apply_fog(
         density = ground_fog_density(a, b)
     elif fog.fog_type not in (1, 2):
         _warn(f"fog_type {fog.fog_type} is not supported: rendered as constant fog")
+    if fog.turbulence is not None and have_rays:
+        mid = (origins + dirs * (width / 2.0)[:, None]) * np.asarray(fog.turbulence)
+        turb = noise.turbulence(mid, fog.octaves, fog.omega, fog.lam)
+        with np.errstate(over="ignore"):
+            k = np.exp(-width / fog.distance)
+        width = width * (1.0 - k * np.minimum(1.0, turb * fog.turb_depth))
     with np.errstate(over="ignore"):
-        att = np.exp(-width * density / fog.distance)
-    att = np.maximum(att, fc[4])
-    through = att[:, None] * ((1.0 - fc[3]) + fc[3] * fc[:3])
-    return (1.0 - att)[:, None] * fc[:3] + through * col
+        return np.exp(-width * density / fog.distance)
 
 
 # Rays that hit nothing cross this much fog (POV-Ray's MAX_DISTANCE).
