@@ -27,6 +27,7 @@ from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.camera import CameraBuilder, CameraError
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
 from lang.keywords import ALL_WORDS
+from lang.queries import QueriesFactory, SceneQueries
 from lang.values import (
     ArrayValue,
     CameraValue,
@@ -115,6 +116,7 @@ def compile_file(
     image_height: int = 0,
     debug_to_stderr: bool = False,
     animation: Mapping[str, float] | None = None,
+    queries: QueriesFactory | None = None,
 ) -> Result:
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -132,6 +134,7 @@ def compile_file(
         image_height=image_height,
         debug_to_stderr=debug_to_stderr,
         animation=animation,
+        queries=queries,
     )
 
 
@@ -146,7 +149,9 @@ def compile_source(
     image_height: int = 0,
     debug_to_stderr: bool = False,
     animation: Mapping[str, float] | None = None,
+    queries: QueriesFactory | None = None,
 ) -> Result:
+    """`queries` answers trace() and inside() (see lang.queries); without it they miss."""
     interp = Interpreter(
         library_paths,
         clock=clock,
@@ -155,6 +160,7 @@ def compile_source(
         image_height=image_height,
         debug_to_stderr=debug_to_stderr,
         animation=animation,
+        queries=queries,
     )
     return interp.run(text, filename)
 
@@ -656,8 +662,13 @@ class Interpreter:
         image_height: int = 0,
         debug_to_stderr: bool = False,
         animation: Mapping[str, float] | None = None,
+        queries: QueriesFactory | None = None,
     ):
         self.sink = DiagnosticSink()
+        self._queries_factory = queries
+        self._queries: SceneQueries | None = None
+        # an object's IR for trace()/inside(), made once (the queries cache by object)
+        self._query_objects: dict[int, tuple[ObjectValue, ir.Object]] = {}
         # frame_number, initial_frame, final_frame, initial_clock, final_clock, clock_delta,
         # clock_on of an animation (see animation_values); absent ones are POV-Ray's 0
         self.animation = dict(animation or {})
@@ -1331,7 +1342,9 @@ class Interpreter:
             return
         h = self.handles.get(node.handle)
         if h is None:
-            if node.op == "read" or not self.allow_file_io:
+            # POV-Ray: a #read that reaches the end of the file closes it and undefines its
+            # name, so a later #fclose of it (or of any name not open) does nothing
+            if node.op in ("read", "fclose") or not self.allow_file_io:
                 return
             raise self.error("E0260", f"`{node.handle}` is not an open file", node.span)
         if node.op == "fclose":
@@ -1650,9 +1663,11 @@ class Interpreter:
                     self.unsupported(f"{node.name}() of a `{obj.keyword}`", node.span)
                     return Vec((0.0, 0.0, 0.0))
                 return Vec(box[0] if node.name == "min_extent" else box[1])
-            if node.name in ("inside", "trace", "prod", "sum"):
+            if node.name in ("inside", "trace"):
+                return self._geometry_call(node)
+            if node.name in ("prod", "sum"):
                 self.unsupported(f"{node.name}()", node.span)
-                return 0.0 if node.name in ("inside", "prod", "sum") else Vec((0.0, 0.0, 0.0))
+                return 0.0
             args = [self.eval(a) for a in node.args]
             try:
                 return builtins.call(node.name, args, self.state)
@@ -1677,6 +1692,50 @@ class Interpreter:
         raise self.error(
             "E0202", f"`{node.name}` is {describe(v)}, not a macro or function", node.span
         )
+
+    def _geometry_call(self, node: syntax.Call) -> Any:
+        """POV-Ray's trace(OBJ, A, B [, N]) (the first point where the ray from A along B
+        meets OBJ, <0,0,0> on a miss; N, when given, is set to the surface normal there, or
+        <0,0,0>) and inside(OBJ, P) (1 or 0)."""
+        name, args = node.name, node.args
+        counts = (3, 4) if name == "trace" else (2,)
+        if len(args) not in counts:
+            want = " or ".join(map(str, counts))
+            raise self.error("E0232", f"{name}() takes {want} arguments", node.span,
+                             "trace(OBJECT, START, DIRECTION [, NORMAL])" if name == "trace"
+                             else "inside(OBJECT, POINT)")  # fmt: skip
+        if len(args) == 4 and not isinstance(args[3], syntax.Ident):
+            raise self.error("E0202", "trace()'s fourth argument names a variable for the "
+                             "normal", args[3].span)  # fmt: skip
+        obj = self.eval(args[0])
+        if not isinstance(obj, ObjectValue):
+            raise self.error(
+                "E0202", f"{name}() needs an object first, not {describe(obj)}", args[0].span
+            )
+        try:
+            vecs = [as_vec(self.eval(a), 3, f"{name}()'s point").xyz for a in args[1:3]]
+        except EvalError as e:
+            raise self.error("E0203", e.message, node.span) from None
+        queries = self._scene_queries()
+        target = self._query_object(obj) if queries is not None else None
+        if name == "inside":
+            return 1.0 if queries is not None and queries.inside(target, vecs[0]) else 0.0
+        found = queries.trace(target, vecs[0], vecs[1]) if queries is not None else None
+        point, normal = found if found is not None else ((0.0,) * 3, (0.0,) * 3)
+        if len(args) == 4:
+            self.declare(args[3].name, Vec(normal), local=False)
+        return Vec(point)
+
+    def _scene_queries(self) -> SceneQueries | None:
+        if self._queries is None and self._queries_factory is not None:
+            self._queries = self._queries_factory()
+        return self._queries
+
+    def _query_object(self, obj: ObjectValue) -> ir.Object:
+        key = id(obj)
+        if key not in self._query_objects:
+            self._query_objects[key] = (obj, self.to_ir(obj))  # obj kept: its id stays unique
+        return self._query_objects[key][1]
 
     def _e_color(self, node: syntax.ColorCtor) -> ColorValue:
         if node.value is None:

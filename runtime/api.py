@@ -99,8 +99,15 @@ def compile_string(
         image_width=width,
         image_height=height,
         debug_to_stderr=debug_output,
+        queries=_queries,
     )
     return _finish(result, (width, height), clock)
+
+
+def _queries():
+    from runtime.queries import RuntimeQueries
+
+    return RuntimeQueries()
 
 
 def compile_file(
@@ -123,6 +130,7 @@ def compile_file(
         image_width=width,
         image_height=height,
         debug_to_stderr=debug_output,
+        queries=_queries,
     )
     return _finish(result, (width, height), clock)
 

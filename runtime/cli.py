@@ -500,11 +500,13 @@ def _compile(
     file_io: bool = True,
     debug_output: bool = False,
     animation: Mapping[str, float] | None = None,
+    geometry: bool = True,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
     `size` is the image size the scene sees as image_width/image_height (scenes commonly
-    write `right x*image_width/image_height`); debug_output shows `#debug` text on stderr."""
+    write `right x*image_width/image_height`); debug_output shows `#debug` text on stderr;
+    `geometry` lets trace() and inside() ask the renderer (check goes without: no numpy)."""
     missing = _missing(path)
     if missing is not None:
         return None, [missing]
@@ -519,8 +521,15 @@ def _compile(
         image_height=size[1],
         debug_to_stderr=debug_output,
         animation=animation,
+        queries=_runtime_queries if geometry else None,
     )
     return result.scene, list(result.diagnostics)
+
+
+def _runtime_queries():
+    from runtime.queries import RuntimeQueries
+
+    return RuntimeQueries()
 
 
 # ------------------------------------------------------------------ commands
@@ -529,8 +538,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     clock, animation = _frame_of(args)
     for file in args.files:
         diags += _compile(
-            file, args.library, image_size(args), clock=clock, file_io=False, animation=animation
-        )[1]
+            file, args.library, image_size(args), clock=clock, file_io=False,
+            animation=animation, geometry=False,
+        )[1]  # fmt: skip
     errors, warnings = _counts(diags)
     if args.format == "json":
         doc = {
@@ -573,7 +583,7 @@ def cmd_translate(args: argparse.Namespace) -> int:
             d
             for d in _compile(
                 str(target), args.library, (width, height), clock=clock, file_io=False,
-                animation=animation,
+                animation=animation, geometry=False,
             )[1]
             if d.severity is Severity.ERROR
         ]  # fmt: skip

@@ -263,13 +263,14 @@ class _Builder:
         )
 
 
-def prepare(scene: ir.Scene, width: int, height: int) -> Prepared:
-    """width/height are the image size (they set the automatic tessellation tolerance).
+def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prepared:
+    """width/height are the image size (they set the automatic tessellation tolerance);
+    `cull` off keeps surfaces the camera cannot see (trace() asks before there is one).
 
     A light's `looks_like` object is taken as modelled around the origin (as written in
     POV-Ray) and is moved to the light's position here, with `no_shadow`."""
     b = _Builder(scene.camera, width)
-    b.cull = _Culler(scene)
+    b.cull = _Culler(scene) if cull else None
     no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
         b.top(obj, no_flags)

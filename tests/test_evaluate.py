@@ -586,6 +586,20 @@ def test_file_io(tmp_path):
     assert not errors(r) and "A" not in r.symbols
 
 
+def test_reading_the_last_value_closes_the_file_and_fclose_then_does_nothing(tmp_path):
+    """POV-Ray: the #read that takes a file's last value closes it and undefines its name;
+    a later #fclose of that name, or of a name never opened, is no error."""
+    (tmp_path / "in.txt").write_text('"abc",5,<1,2,3>\n')
+    main = tmp_path / "io.pov"
+    main.write_text(
+        '#fopen F "in.txt" read\n#read (F, S, A, V)\n#declare Open = defined(F);\n'
+        "#fclose F\n#fclose Never\n"
+    )
+    r = compile_file(str(main))
+    assert not errors(r), [d.format() for d in errors(r)]
+    assert r.symbols["S"] == "abc" and r.symbols["A"] == 5 and r.symbols["Open"] == 0
+
+
 def test_image_size_constants():
     r = ok("#declare R = image_width / image_height;", image_width=640, image_height=480)
     assert math.isclose(r.symbols["R"], 4 / 3)

@@ -1,0 +1,107 @@
+"""trace() and inside(): the evaluator asks the renderer (lang.queries, runtime.queries)
+while it runs, as POV-Ray evaluates them at parse time."""
+
+from __future__ import annotations
+
+import math
+import re
+import subprocess
+import sys
+
+import pytest
+from conftest import ROOT, povray_debug
+
+from lang.evaluate import compile_source
+from runtime.queries import RuntimeQueries
+
+# Points and normals printed as `NAME x,y,z` lines, for strala and POV-Ray alike.
+PROBES = """#version 3.7;
+#declare S = sphere { 0, 1 scale <2, 1, 1> rotate 30*z translate x }
+#declare D = difference { box { -1, 1 } sphere { 0, 0.5 } rotate 20*y }
+#declare M = mesh { triangle { <-1, -1, 2>, <1, -1, 2>, <0, 1, 2> } }
+#declare N = <9, 9, 9>;
+#macro Show(Name, V) #debug concat(Name, " ", vstr(3, V, ",", 0, 5), "\\n") #end
+#declare P = trace(S, <1, 0.2, -5>, z, N); Show("out", P) Show("out_n", N)
+#declare P = trace(S, <1, 0, 0>, <0, 0, 3>, N); Show("in", P) Show("in_n", N)
+#declare P = trace(S, <5, 5, -5>, z, N); Show("miss", P) Show("miss_n", N)
+#declare P = trace(D, <0, 0, 0>, <1, 0.3, 0>, N); Show("hole", P) Show("hole_n", N)
+#declare P = trace(D, <0.2, 0.1, -5>, z); Show("box", P)
+#declare P = trace(M, <0.1, -0.2, -3>, <0, 0.1, 1>); Show("mesh", P)
+#debug concat("inside ", str(inside(D, <0.75, 0, 0>), 0, 0), str(inside(D, <0, 0, 0>), 0, 0),
+  str(inside(S, <2.2, 0.9, 0>), 0, 0), str(inside(S, <0, -0.8, 0>), 0, 0), "\\n")
+camera { location -5*z look_at 0 } sphere { 0, 1 pigment { rgb 1 } }
+"""
+
+
+def _probes(text: str) -> dict[str, list[float] | str]:
+    out: dict[str, list[float] | str] = {}
+    for line in text.splitlines():
+        m = re.match(r"^(\w+) ([-0-9.,]+)$", line.strip())
+        if m:
+            name, value = m.groups()
+            out[name] = value if name == "inside" else [float(v) for v in value.split(",")]
+    return out
+
+
+def _strala_probes(text: str, queries=RuntimeQueries) -> dict:
+    result = compile_source(text, "probes.pov", queries=queries)
+    assert not [d for d in result.diagnostics if d.severity == "error"], result.diagnostics
+    return _probes("\n".join(d.message for d in result.diagnostics if d.code == "N0100"))
+
+
+def test_trace_and_inside_answer_from_the_objects():
+    got = _strala_probes(PROBES)
+    assert got["miss"] == [0, 0, 0] and got["miss_n"] == [0, 0, 0]
+    # on the turned box's front face: back in the box's frame its z is -1
+    x, _, z = got["box"]
+    c, s = math.cos(math.radians(20)), math.sin(math.radians(20))
+    assert x * s + z * c == pytest.approx(-1.0, abs=1e-4)
+    # the ray from the hole's centre meets the subtracted sphere: radius 0.5, normal inward
+    hole = got["hole"]
+    assert sum(v * v for v in hole) == pytest.approx(0.25, abs=1e-4)
+    assert sum(a * b for a, b in zip(hole, got["hole_n"], strict=True)) < 0
+    assert got["mesh"][2] == pytest.approx(2.0, abs=1e-4)
+    assert got["inside"] == "1011"
+
+
+@pytest.mark.povray
+def test_trace_and_inside_agree_with_povray(tmp_path):
+    scene = tmp_path / "probes.pov"
+    scene.write_text(PROBES)
+    ref = _probes(povray_debug(scene))
+    # every probe printed (a mesh triangle's normal is left out: POV-Ray's sign for it
+    # changed with what else the scene declared)
+    assert len(ref) == 11, ref
+    got = _strala_probes(PROBES)
+    assert got.keys() == ref.keys()
+    for name, value in ref.items():
+        if name == "inside":
+            assert got[name] == value
+        else:
+            assert got[name] == pytest.approx(value, abs=2e-5), name
+
+
+def test_without_the_renderer_trace_misses_and_nothing_is_loaded():
+    """`strala check` evaluates trace() as a miss, inside() as outside, and loads no numpy."""
+    got = _strala_probes(PROBES, queries=None)
+    assert got["out"] == [0, 0, 0] and got["out_n"] == [0, 0, 0] and got["inside"] == "0000"
+    code = (
+        "import sys; from lang.evaluate import compile_source;"
+        f"r = compile_source({PROBES!r}, 'p.pov');"
+        "print([d.code for d in r.diagnostics if d.severity == 'error'], 'numpy' in sys.modules)"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)  # fmt: skip
+    assert proc.stdout.strip() == "[] False", proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize(
+    "call, code",
+    [("trace(S, 0)", "E0232"), ("trace(1, 0, z)", "E0202"), ("trace(S, 0, z, 3)", "E0202"),
+     ("inside(S)", "E0232")],
+)  # fmt: skip
+def test_bad_calls_are_diagnostics(call, code):
+    text = f"#declare S = sphere {{ 0, 1 }}\n#declare P = {call};\n"
+    errors = [d for d in compile_source(text, "b.pov", queries=RuntimeQueries).diagnostics
+              if d.severity == "error"]  # fmt: skip
+    assert [d.code for d in errors] == [code] and errors[0].span.line == 2
