@@ -3012,8 +3012,15 @@ def _b_normal(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Normal:
         elif name in ("bump_size", "float"):
             nrm = replace(nrm, depth=v)
         elif name == "map":
-            params[v.map_kind] = v.entries
-            it.unsupported(v.map_kind, span)
+            if v.map_kind == "slope_map":
+                params["slope_map"] = tuple((k, (float(s[0]), float(s[1]))) for k, s in v.entries)
+            elif v.map_kind == "normal_map":
+                params["normal_map"] = tuple(
+                    (k, n) for k, n in v.entries if isinstance(n, ir.Normal)
+                )
+            else:
+                params[v.map_kind] = v.entries
+                it.unsupported(v.map_kind, span)
         elif name == "warp":
             nrm = _add_warp(nrm, params, v)
         elif name in ("bump_map", "no_bump_scale"):

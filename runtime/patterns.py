@@ -1115,7 +1115,10 @@ def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -
         return n_world
     if kind not in BUILT_IN_TURBULENCE:
         p = turbulence_warp(p, normal.params)
-    if kind == "bumps":
+    nmap = normal.params.get("normal_map")
+    if nmap:
+        n = _normal_map(normal, nmap, p, n)
+    elif kind == "bumps":
         n = n + amount * dnoise(p)
     elif kind == "dents":
         k = noise(p) ** 3 * amount
@@ -1151,10 +1154,56 @@ def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -
     return np.where(length > 0, n / np.where(length > 0, length, 1.0), n_world)
 
 
+def _normal_map(normal: ir.Normal, entries, p: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """A normal_map (POV-Ray's Perturb_Normal): the normals of the two entries around the
+    pattern's value, each perturbing the normal at the pattern-space point, blended by
+    weight; with `average`, every entry's normal weighted by its value (Do_Average_Normals).
+    The entries live in this normal's pattern space (their transforms come on top)."""
+    keys = np.array([k for k, _ in entries], dtype=np.float64)
+    kind = normal.pattern
+    if kind == "average":
+        total = float(keys.sum()) or 1.0
+        out = np.zeros_like(n)
+        for k, sub in entries:
+            out += (k / total) * perturb_normal(sub, p, n)
+        return out
+    if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS:
+        _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
+        return n
+    value = _pattern_value(kind, p, normal.params)
+    lo, hi, frac = blend_indices(keys, value)
+    out = np.zeros_like(n)
+    for i, (_, sub) in enumerate(entries):
+        rows = np.nonzero((lo == i) | (hi == i))[0]
+        if not len(rows):
+            continue
+        f = frac[rows]
+        w = np.where(lo[rows] == i, 1.0 - f, 0.0) + np.where(hi[rows] == i, f, 0.0)
+        out[rows] += w[:, None] * perturb_normal(sub, p[rows], n[rows])
+    return out
+
+
+def slope_map(value: np.ndarray, entries) -> np.ndarray:
+    """POV-Ray's Do_Slope_Map: the height between the two entries around the value, a cubic
+    Hermite curve through their <height, slope> pairs (the slope per unit of the interval
+    between them); at or beyond an end, the end's height."""
+    keys = np.array([k for k, _ in entries], dtype=np.float64)
+    ps = np.array([s for _, s in entries], dtype=np.float64)
+    lo, hi, t = blend_indices(keys, value)
+    h1, s1 = ps[lo, 0], ps[lo, 1]
+    h2, s2 = ps[hi, 0], ps[hi, 1]
+    tt = t * t
+    rv = tt * t * (s1 + s2 + 2.0 * (h1 - h2)) - tt * (2.0 * s1 + s2 + 3.0 * (h1 - h2)) + t * s1 + h1
+    return np.where(lo == hi, h2, rv)
+
+
 def _pattern_value(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
     if kind in LIST_PATTERNS:
-        return LIST_PATTERNS[kind](p, params).astype(np.float64)
-    return apply_wave(CONTINUOUS_PATTERNS[kind](p, params), params, kind)
+        value = LIST_PATTERNS[kind](p, params).astype(np.float64)
+    else:
+        value = apply_wave(CONTINUOUS_PATTERNS[kind](p, params), params, kind)
+    slopes = params.get("slope_map")
+    return slope_map(value, slopes) if slopes else value
 
 
 # A regular tetrahedron of unit vectors: POV-Ray samples a pattern used as a normal at
