@@ -198,6 +198,14 @@ class _Irid:
 
 
 @dataclass(frozen=True)
+class _PigmentPattern:
+    """A `pigment_pattern { … }` block: its pigment, whose grey value is the pattern."""
+
+    pigment: ir.Pigment
+    kind: str = "pigment_pattern"
+
+
+@dataclass(frozen=True)
 class _Warp:
     """A `warp { … }` block: `data` is the warp as the runtime reads it (runtime.patterns)."""
 
@@ -2339,6 +2347,11 @@ class Interpreter:
     ) -> bool:
         """Pattern keywords and their modifiers, shared by pigment, normal and texture."""
         params = st["params"]
+        if name == "pigment_pattern" and args and isinstance(args[0], _PigmentPattern):
+            st["pattern"] = name
+            params["pigment"] = args[0].pigment
+            st["depth_arg"] = None
+            return True
         if name in schema.LIST_PATTERNS:
             st["pattern"] = name
             st["list"] = args[0]
@@ -3102,6 +3115,10 @@ def _b_reflection_block(it: Interpreter, g: Grouped, node: syntax.Block) -> Refl
     return ReflectionValue(r)
 
 
+def _b_pigment_pattern(it: Interpreter, g: Grouped, node: syntax.Block) -> _PigmentPattern:
+    return _PigmentPattern(_b_pigment(it, g, node))
+
+
 def _add_warp(pattern: Any, params: dict[str, Any], warp: _Warp) -> Any:
     """POV-Ray keeps a pattern's transforms and warps in one list, applied to the point from
     the last written to the first: the transform written before this warp is stored with it,
@@ -3780,6 +3797,7 @@ _BUILDERS: dict[str, Callable[[Interpreter, Grouped, syntax.Block], Any]] = {
     "reflection": _b_reflection_block,
     "irid": _b_irid,
     "warp": _b_warp,
+    "pigment_pattern": _b_pigment_pattern,
     "interior": _b_interior,
     "texture": _b_texture,
     "material": _b_material,

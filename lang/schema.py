@@ -178,7 +178,7 @@ PATTERN_ITEMS = [
     "quick_colour color | Preview colour (ignored).",
 ]
 MAP_WORDS = ("color_map", "colour_map", "pigment_map", "normal_map", "texture_map", "slope_map")
-PATTERN_ACCEPTS = frozenset("map transform unsupported function warp".split())
+PATTERN_ACCEPTS = frozenset("map transform unsupported function warp pigment_pattern".split())
 
 WARP_ITEMS = [
     "turbulence vector | Turbulence warp (or a black hole's jitter of its repeated centres).",
@@ -686,7 +686,17 @@ BLOCKS: dict[str, BlockSpec] = {
         (),
         _items(TRANSFORM_ITEMS, PATTERN_ITEMS, ["uv_mapping | Map by uv coordinates."]),
         frozenset(
-            {"texture", "pigment", "finish", "normal", "transform", "map", "unsupported", "warp"}
+            {
+                "texture",
+                "pigment",
+                "finish",
+                "normal",
+                "transform",
+                "map",
+                "unsupported",
+                "warp",
+                "pigment_pattern",
+            }
         ),
     ),
     "material": BlockSpec(
@@ -849,7 +859,18 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
     """media photons density subsurface bump_map material_map interior_texture
-    density_map pigment_pattern image_pattern function_image projected_through""".split()
+    density_map image_pattern function_image projected_through""".split()
+)
+
+
+# `pigment_pattern { PIGMENT }`: a pigment body whose grey value is the pattern.
+BLOCKS["pigment_pattern"] = BlockSpec(
+    "pigment_pattern",
+    "pigment_pattern",
+    "A pigment's grey value (0.297 red + 0.589 green + 0.114 blue) as a pattern.",
+    BLOCKS["pigment"].positional,
+    BLOCKS["pigment"].items,
+    BLOCKS["pigment"].accepts,
 )
 
 

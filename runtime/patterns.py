@@ -889,6 +889,15 @@ def function_pattern(p: np.ndarray, params: dict) -> np.ndarray:
 _FUNCTIONS: dict[int, tuple[ir.Function, object]] = {}
 
 
+def pigment_pattern(p: np.ndarray, params: dict) -> np.ndarray:
+    """`pigment_pattern { … }`: the grey value of the pigment at the pattern-space point
+    (POV-Ray's weights 0.297, 0.589, 0.114), the pigment's own transforms on top."""
+    pig = params.get("pigment")
+    if pig is None:
+        return np.zeros(len(p))
+    return evaluate(pig, p)[:, :3] @ np.array([0.297, 0.589, 0.114])
+
+
 def _compiled_function(fn: ir.Function):
     hit = _FUNCTIONS.get(id(fn))
     if hit is None:
@@ -976,6 +985,7 @@ CONTINUOUS_PATTERNS = {
     "julia": julia,
     "quilted": quilted,
     "function": function_pattern,
+    "pigment_pattern": pigment_pattern,
 }
 
 
