@@ -2342,6 +2342,23 @@ class Interpreter:
             return v
         return ir.Pigment(color=as_color(v, "a pigment").rgbft)
 
+    def _density_file(self, args: list[Any], span: Span) -> str:
+        """The resolved path of `density_file df3 "name"`."""
+        kind, name = args
+        if kind != "df3":
+            raise self.error(
+                "E0211", f"density_file reads df3 files, not `{kind}`", span, 'df3 "file.df3"'
+            )
+        path = self._resolve(name)
+        if path is None:
+            raise self.error(
+                "E0220",
+                f"density file `{name}` not found",
+                span,
+                "searched the scene's folder and the -L library paths",
+            )
+        return path
+
     def _apply_pattern_item(
         self, st: dict[str, Any], name: str, args: list[Any], span: Span
     ) -> bool:
@@ -2389,6 +2406,7 @@ class Interpreter:
             "solid",
             "pass_through",
             "use_alpha",
+            "interpolate",
         ):
             params[name] = (args[0] if len(args) == 1 else tuple(args)) if args else True
         elif name in ("quick_color", "quick_colour"):
@@ -2412,9 +2430,10 @@ class Interpreter:
                 params["complex"], params["iterations"] = args[0], args[1]
             elif name == "slope":
                 params["direction"] = args[0]
+            elif name == "density_file":
+                params["df3"] = self._density_file(args, span)
             if name in (
                 "object",
-                "density_file",
                 "image_pattern",
                 "pigment_pattern",
                 "aoi",

@@ -134,7 +134,9 @@ PATTERN_ITEMS = [
     "average | Average of the map's entries.",
     "slope vector | Slope relative to a direction.",
     "aoi | Angle of incidence.",
-    "density_file | A density file pattern.",
+    'density_file word string | A density file: `density_file df3 "file.df3"` (voxels over '
+    "the unit cube).",
+    "interpolate int | density_file: 0 none, 1 trilinear, 2 tricubic.",
     "image_pattern | An image as a pattern.",
     "pigment_pattern | A pigment's grey value as a pattern.",
     "object object_pattern | An object's inside/outside as a pattern: "

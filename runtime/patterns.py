@@ -37,6 +37,7 @@ from functools import lru_cache
 import numpy as np
 
 from lang import ir
+from runtime.density import density_file
 from runtime.noise import (
     DEFAULT_GENERATOR,
     PATTERN_RANDS,
@@ -985,6 +986,7 @@ CONTINUOUS_PATTERNS = {
     "julia": julia,
     "quilted": quilted,
     "function": function_pattern,
+    "density_file": density_file,
     "pigment_pattern": pigment_pattern,
 }
 
