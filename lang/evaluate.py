@@ -174,6 +174,8 @@ class El:
     kind: str
     value: Any
     span: Span
+    # for an object: the #default texture in effect where it was placed (see `expand`)
+    placed_default: ir.Texture | None = None
 
 
 @dataclass(frozen=True)
@@ -892,7 +894,7 @@ class Interpreter:
         if v is None:
             return
         if isinstance(v, ObjectValue):
-            self.objects.append(self.to_ir(v))
+            self.objects.append(self.to_ir(v, placed=el.placed_default))
             self.lights.extend(collect_lights(v))
         elif isinstance(v, ir.Light):
             self.lights.append(v)
@@ -954,7 +956,9 @@ class Interpreter:
                         base = replace(base, layers=base.layers + extra)
                         self.declare(node.name, base, node.local)
                         continue
+                start = len(out)
                 self._expand_node(node, out, spec)
+                self._stamp_default(out, start)
             except SceneError as e:
                 self.sink.items.append(e.diagnostic)
                 out.failed = True  # type: ignore[attr-defined]
@@ -979,6 +983,16 @@ class Interpreter:
                     "please report this as a strala bug",
                 )
         return out
+
+    def _stamp_default(self, out: list[El], start: int) -> None:
+        """Objects among out[start:] not stamped yet get the #default texture in effect now:
+        POV-Ray gives an untextured object the default current where the object statement
+        stands in the scene (its Post_Process), not where the object was declared, and an
+        include or loop that places objects may change the default in between."""
+        for k in range(start, len(out)):
+            el = out[k]
+            if el.placed_default is None and isinstance(el.value, ObjectValue):
+                el.placed_default = self.default_texture
 
     def _expand_node(self, node: syntax.Node, out: list[El], spec: schema.BlockSpec | None) -> None:
         t = type(node)
@@ -2228,14 +2242,17 @@ class Interpreter:
         inherited: ir.Texture | None = None,
         interior: ir.Interior | None = None,
         flags: dict[str, bool] | None = None,
+        placed: ir.Texture | None = None,
     ) -> ir.Object:
         """Resolve an object: `parent` is the enclosing CSGs' transform (children store theirs
-        relative to it); `inherited` is the nearest CSG texture, already in world space."""
+        relative to it); `inherited` is the nearest CSG texture, already in world space;
+        `placed` is the #default texture where the object stands in the scene (what its
+        untextured parts get), else the default when it was made."""
         has_parent = not transforms.is_identity(parent)
         own = obj.texture
         if own is not None and has_parent:
             own = transform_texture(own, parent)
-        tex = own or inherited or obj.default or self.default_texture
+        tex = own or inherited or placed or obj.default or self.default_texture
         inter = obj.interior or interior or ir.Interior()
         full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
         shape = obj.shape
@@ -2246,7 +2263,7 @@ class Interpreter:
                 merged[k] = True
         if obj.children:
             kids = tuple(
-                self.to_ir(c, full, own or inherited, obj.interior or interior, merged)
+                self.to_ir(c, full, own or inherited, obj.interior or interior, merged, placed)
                 for c in obj.children
             )
             shape = ir.CSG(obj.keyword, kids)
@@ -2276,7 +2293,7 @@ class Interpreter:
             hollow=f.get("hollow", False),
             inverse=f.get("inverse", False),
             double_illuminate=f.get("double_illuminate", False),
-            clipped_by=tuple(self.to_ir(c, parent, tex) for c in obj.clipped_by),
+            clipped_by=tuple(self.to_ir(c, parent, tex, placed=placed) for c in obj.clipped_by),
             span=obj.span,
         )
 
