@@ -1014,6 +1014,9 @@ class Interpreter:
             out.append(El("kw", node.name, node.span))
         elif t in _DIRECTIVES:
             _DIRECTIVES[t](self, node, out, spec)
+        elif t is syntax.Block and node.keyword == "default" and not node.params:
+            # `default { … }` without the `#`: POV-Ray's older spelling of #default
+            self._d_default(syntax.Default(node.span, node.body), out, spec)
         elif t is syntax.Block and node.keyword == "object" and _takes_object_pattern(spec):
             # `pigment { object { OBJ A, B } }`: the object pattern, not an object
             out.append(El("kw", "object", node.keyword_span or node.span))

@@ -61,3 +61,29 @@ def test_default_placement_matches_povray(tmp_path) -> None:
     ours, _ = strala_image(SCENE, tmp_path, 64, 48)
     err, off = image_errors(ours, ref)
     assert err < 0.01 and off < 0.005, (err, off)
+
+
+PLAIN_DEFAULT = """#version 3.7;
+global_settings { assumed_gamma 1.0 }
+camera { location -5*z look_at 0 }
+light_source { <5, 5, -5> rgb 1 }
+default { finish { phong 1 phong_size 100 ambient 0.15 diffuse 0.7 } }
+sphere { 0, 1 pigment { rgb <1, 0, 0> } }
+"""
+
+
+def test_default_block_without_hash_is_default() -> None:
+    """`default { … }`, the older spelling (incdemo/colors.pov), is `#default`."""
+    r = compile_source(PLAIN_DEFAULT, "d.pov")
+    assert not [d for d in r.diagnostics if "default" in d.message]
+    f = r.scene.objects[0].texture.finish
+    assert (f.phong, f.phong_size, f.diffuse) == (1.0, 100.0, 0.7)
+    assert tuple(f.ambient) == (0.15, 0.15, 0.15)
+
+
+@pytest.mark.povray
+def test_default_block_without_hash_matches_povray(tmp_path) -> None:
+    ref = povray_image(PLAIN_DEFAULT, tmp_path, 64, 48)
+    ours, _ = strala_image(PLAIN_DEFAULT, tmp_path, 64, 48)
+    err, off = image_errors(ours, ref)
+    assert err < 0.01 and off < 0.005, (err, off)
