@@ -56,9 +56,10 @@ def test_object_pattern_in_a_normal_a_texture_and_a_function():
     )
     assert not errors(r), errors(r)
     assert r.scene.objects[0].texture.normal.pattern == "object"
-    # a patterned texture is not rendered yet: a warning, the first (outside) texture used
-    assert r.scene.objects[1].texture.pigment.color[:3] == (1.0, 1.0, 1.0)
-    assert any("object texture pattern" in d.message for d in r.diagnostics)
+    # a patterned texture: the object pattern picks between the two textures
+    tex = r.scene.objects[1].texture
+    assert tex.pattern is not None and tex.pattern.pattern == "object"
+    assert isinstance(tex.pattern.params["object"].shape, ir.Sphere)
 
 
 def test_object_pattern_mistakes_are_reported_at_the_value():
