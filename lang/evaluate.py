@@ -24,7 +24,7 @@ from typing import Any
 import lang
 from lang import builtins, extents, functions, ir, pov_shapes, schema, syntax, transforms
 from lang.builtins import EvalError, as_color, as_float, as_vec
-from lang.camera import CameraBuilder, CameraError
+from lang.camera import CameraBuilder, CameraError, transform_camera
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
 from lang.keywords import ALL_WORDS
 from lang.queries import QueriesFactory, SceneQueries
@@ -2798,6 +2798,8 @@ def _b_looks_like(it: Interpreter, g: Grouped, node: syntax.Block) -> _LooksLike
 def _b_camera(it: Interpreter, g: Grouped, node: syntax.Block) -> CameraValue:
     b = CameraBuilder()
     base: CameraValue | None = g.positional.get("base")
+    if base is not None and it.version >= 3.5:
+        return _camera_copy(it, g, node, base)
     if base is not None:
         b.camera = base.camera
         b.look_at_point = base.look_at
@@ -2836,6 +2838,25 @@ def _b_camera(it: Interpreter, g: Grouped, node: syntax.Block) -> CameraValue:
     look = b.look_at_point
     if not transforms.is_identity(b.transform):
         look = transforms.apply_point(b.transform, look)
+    return CameraValue(cam, look)
+
+
+def _camera_copy(it: Interpreter, g: Grouped, node: syntax.Block, base) -> CameraValue:
+    """`camera { Declared … }` in POV-Ray 3.5+: the declared camera as it is, moved by the
+    transformations that follow; its rules (angle, look_at, the orthographic view size)
+    are not applied a second time, and nothing but transformations may follow."""
+    matrix = ir.IDENTITY
+    for name, args, span in g.items:
+        if name in _TRANSFORM_WORDS:
+            matrix = transforms.then(matrix, _item_matrix(name, args))
+        else:
+            it.sink.error("E0270", f"`{name}` cannot follow a declared camera", span,
+                          "after `camera { Name` only translate, rotate, scale, matrix and "
+                          "transform may follow (POV-Ray 3.5+); write the camera out instead")  # fmt: skip
+    cam, look = replace(base.camera, span=node.span), base.look_at
+    if not transforms.is_identity(matrix):
+        cam = transform_camera(cam, matrix)
+        look = transforms.apply_point(matrix, look)
     return CameraValue(cam, look)
 
 

@@ -3,6 +3,8 @@ spherical): the formulas on single rays, and whole images against POV-Ray 3.7.""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from conftest import image_errors, povray_image, strala_image
@@ -43,7 +45,11 @@ def test_fisheye_maps_the_radius_to_half_the_angle_and_traces_only_the_circle():
 
 def test_panoramic_spans_half_a_turn_across():
     cam = _camera("panoramic")
-    for sx, expect in ((-0.5, [-1, 0, 0]), (0.0, [0, 0, 1]), (0.25, [np.sqrt(0.5), 0, np.sqrt(0.5)])):
+    for sx, expect in (
+        (-0.5, [-1, 0, 0]),
+        (0.0, [0, 0, 1]),
+        (0.25, [np.sqrt(0.5), 0, np.sqrt(0.5)]),
+    ):
         assert np.allclose(_ray(cam, sx, 0)[1], expect, atol=1e-12)
     _, d, _ = _ray(cam, 0, 0.25)  # a quarter up is 45 degrees of latitude
     assert _deg(d, [0, 0, 1]) == pytest.approx(45.0)
@@ -101,7 +107,8 @@ plane {{ y, 0 pigment {{ checker rgb 0.9, rgb 0.2 }} }}
 sphere {{ <0, 1, 0>, 1 pigment {{ rgb <1, 0.2, 0.1> }} finish {{ phong 0.6 }} }}
 box {{ <1.5, 0, -1>, <2.5, 1.5, 1> pigment {{ rgb <0.2, 0.8, 0.3> }} }}
 cylinder {{ <-2, 0, 1>, <-2, 2, 1>, 0.4 pigment {{ rgb <0.2, 0.3, 1> }} }}
-sky_sphere {{ pigment {{ gradient y color_map {{ [0 rgb <0.6, 0.7, 1>] [1 rgb <0.1, 0.2, 0.6>] }} }} }}
+sky_sphere {{ pigment {{ gradient y
+  color_map {{ [0 rgb <0.6, 0.7, 1>] [1 rgb <0.1, 0.2, 0.6>] }} }} }}
 """
 
 
@@ -119,3 +126,25 @@ def test_projections_render_like_povray(tmp_path, camera):
     assert messages == []
     rmse, off = image_errors(ours, ref)
     assert rmse < 0.01 and off < 0.005, (camera, rmse, off)
+
+
+def test_a_declared_camera_is_used_as_it_is_then_moved():
+    """POV-Ray 3.5+: `camera { Declared }` does not apply the camera's rules again (an
+    orthographic camera's view size was scaled twice), and only transformations follow."""
+    decl = "camera { orthographic angle 15 location <20, 20, -20> right x*4/3 look_at y }"
+
+    def camera(text: str) -> ir.Camera:
+        r = compile_source(text, "d.pov")
+        assert not [d for d in r.diagnostics if d.severity == "error"], r.diagnostics
+        return r.scene.camera
+
+    direct = camera(decl)
+    copied = camera(f"#declare C = {decl}\ncamera {{ C }}")
+    assert replace(copied, span=None) == replace(direct, span=None)
+    turned = camera(f"#declare C = {decl}\ncamera {{ C rotate 90*y }}")
+    assert turned.location == pytest.approx((-20.0, 20.0, -20.0))
+    assert np.allclose(np.linalg.norm(turned.right), np.linalg.norm(direct.right))
+    bad = compile_source(f"#declare C = {decl}\ncamera {{ C angle 30 }}", "d.pov")
+    assert [(d.code, d.span.line) for d in bad.diagnostics if d.severity == "error"] == [
+        ("E0270", 2)
+    ]
