@@ -72,8 +72,46 @@ class FontMetrics:
         box = None
         if 0 <= index < self.num_glyphs and self._loca(index + 1) > self._loca(index):
             at = self._tables["glyf"] + self._loca(index)
-            box = tuple(self._i16(at + 2 + 2 * k) / em for k in range(4))
+            head = [self._i16(at + 2 + 2 * k) for k in range(4)]
+            if self._i16(at) > 0:
+                head = self._grow_to_points(at, self._i16(at), head)
+            box = tuple(v / em for v in head)
         return GlyphMetrics(index, advance / em, lsb / em, box)  # type: ignore[arg-type]
+
+    def _grow_to_points(self, at: int, nc: int, head: list[int]) -> list[int]:
+        """A simple glyph's header box grown to its outline points, as POV-Ray does (some
+        fonts' headers are wrong: timrom.ttf's and cyrvetic.ttf's xMax is the glyph's
+        width, so their points reach xMin further right than the header says)."""
+        data = self._data
+        n = self._u16(at + 10 + 2 * (nc - 1)) + 1
+        pos = at + 10 + 2 * nc
+        pos += 2 + self._u16(pos)  # skip the instructions
+        flags = bytearray()
+        while len(flags) < n:
+            f = data[pos]
+            pos += 1
+            flags.append(f)
+            if f & 0x08:  # repeat
+                flags.extend([f] * data[pos])
+                pos += 1
+        del flags[n:]
+        x0, y0, x1, y1 = head
+        for axis, (short, same) in enumerate(((0x02, 0x10), (0x04, 0x20))):
+            v = 0
+            lo, hi = (x0, x1) if axis == 0 else (y0, y1)
+            for f in flags:
+                if f & short:
+                    v += data[pos] if f & same else -data[pos]
+                    pos += 1
+                elif not f & same:
+                    v += self._i16(pos)
+                    pos += 2
+                lo, hi = min(lo, v), max(hi, v)
+            if axis == 0:
+                x0, x1 = lo, hi
+            else:
+                y0, y1 = lo, hi
+        return [x0, y0, x1, y1]
 
 
 @functools.lru_cache(maxsize=16)
@@ -88,8 +126,7 @@ def text_box(
     """The box of the glyph boxes of `text { ttf path string thickness, offset }`, laid out
     as the renderer does (runtime.prims.text: the first glyph's left edge at x = 0, the pen
     advancing by advance widths, kerning and the offset); None when nothing has an outline.
-    POV-Ray's own box is this for some fonts (crystal.ttf) and up to one left bearing wider
-    for others (timrom.ttf)."""
+    The glyph boxes are POV-Ray's: the glyph header's box grown to the outline's points."""
     font = load(path)
     em = font.units_per_em
     pen_x = pen_y = 0.0
@@ -98,7 +135,7 @@ def text_box(
     ys: list[float] = []
     for i, ch in enumerate(string):
         g = font.glyph(ch)
-        box = None if ch == " " else g.box
+        box = (0.0, 0.0, 0.0, 0.0) if ch == " " else g.box  # POV-Ray reads no header
         xmin = box[0] if box else 0.0
         if i == 0:
             x0 = -xmin
