@@ -200,6 +200,14 @@ def warp_points(w: dict, p: np.ndarray) -> np.ndarray:
     return p
 
 
+@lru_cache(maxsize=1)
+def _warp_rands() -> np.ndarray:
+    """POV-Ray's WarpRands: 32768 doubles in [0, 1) from a default-seeded (5489) 32-bit
+    Mersenne Twister, one draw each divided by 2^32 (boost's uniform_real)."""
+    raw = np.random.RandomState(5489).randint(0, 2**32, size=32768, dtype=np.uint32)
+    return raw.astype(np.float64) / 2.0**32
+
+
 def _black_hole(w: dict, p: np.ndarray) -> np.ndarray:
     """Points within `radius` of the centre move toward it (away with `inverse`) by
     ((radius - d) / radius)^falloff * strength of their offset, at most all of it; `repeat`
@@ -215,8 +223,9 @@ def _black_hole(w: dict, p: np.ndarray) -> np.ndarray:
         if w.get("turbulence") is not None:
             jitter = _vec(w.get("turbulence"), 0.0)
             seed = hash3d(block[:, 0], block[:, 1], block[:, 2])
+            rands = _warp_rands()
             for i in range(3):
-                centre[:, i] += PATTERN_RANDS[seed + i] * jitter[i]
+                centre[:, i] += rands[(seed + i) % len(rands)] * jitter[i]
         centre += rep * block
     if float(w.get("type", 0.0)) != 0.0:
         return p
@@ -372,9 +381,17 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
     if kind == "image_map":
         return image_map(pigment.params, p, gamma, pigment.span)
     if kind == "average" and pigment.pigment_map:
-        # The weighted mean of the map's pigments (their map values are the weights).
+        # The weighted mean of the map's pigments (their map values are the weights), at
+        # the point after the average's own warps (POV-Ray averages at the warped point; the
+        # entries already carry the average's transforms, so only the warps are added).
+        at = points
+        if pigment.params.get("warps") or _turb_params(pigment.params)[0] is not None:
+            full = np.asarray(pigment.transform, dtype=np.float64)
+            for _, before in pigment.params.get("warps", ()):
+                full = full @ np.asarray(before, dtype=np.float64)
+            at = p @ full[:3, :3].T + full[:3, 3]
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
-        return sum(w * evaluate(q, points, gamma) for w, q in pigment.pigment_map) / total
+        return sum(w * evaluate(q, at, gamma) for w, q in pigment.pigment_map) / total
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")

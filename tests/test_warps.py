@@ -88,3 +88,18 @@ def test_warps_render_like_povray(name, tmp_path):
     assert not any("not supported" in m for m in messages), messages
     err, off = image_errors(ours, ref)
     assert err < 0.01 and off < 0.005, (err, off)
+
+
+def test_average_pigment_averages_at_its_warped_point():
+    pig = pigment_of(
+        "plane { y, 0 pigment { average pigment_map { [1 gradient x] [1 gradient x scale 2] }"
+        " warp { repeat x } } }"
+    )
+    p = np.array([[2.25, 0.0, 0.0]])
+    # repeat x moves x = 2.25 to 0.25: (0.25 + 0.125) / 2
+    np.testing.assert_allclose(patterns.evaluate(pig, p)[0, :3], [0.1875] * 3)
+
+
+def test_warp_rands_are_povray_sequence():
+    r = patterns._warp_rands()
+    assert len(r) == 32768 and abs(r[0] - 3499211612 / 2**32) < 1e-15
