@@ -23,6 +23,7 @@ from typing import Any
 
 import lang
 from lang import builtins, extents, functions, ir, pov_shapes, schema, syntax, transforms
+from lang import media as media_blocks
 from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.camera import CameraBuilder, CameraError, transform_camera
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
@@ -398,6 +399,7 @@ def transform_object(obj: ObjectValue, m: ir.Matrix) -> ObjectValue:
         shape=shape,
         transform=transforms.compose(m, obj.transform),
         texture=transform_texture(obj.texture, m) if obj.texture is not None else None,
+        interior=media_blocks.transform_interior(obj.interior, m),
         children=list(obj.children),
         lights=list(obj.lights),
         clipped_by=[transform_object(c, m) for c in obj.clipped_by],
@@ -719,6 +721,7 @@ class Interpreter:
         self.sky_sphere: tuple[ir.Pigment, ...] | None = None
         self.fog: ir.Fog | None = None
         self.fogs: list[ir.Fog] = []  # every fog block, in order (POV-Ray applies them all)
+        self.media: list[ir.Media] = []  # atmospheric media blocks
         self.default_texture = ir.Texture()
         self.handles: dict[str, FileHandle] = {}
 
@@ -779,6 +782,7 @@ class Interpreter:
             sky_sphere=self.sky_sphere,
             fog=self.fog,
             fogs=tuple(self.fogs),
+            media=tuple(self.media),
             files=tuple(self.files),
         )
 
@@ -909,6 +913,8 @@ class Interpreter:
                 if self.fog is None:
                     self.fog = v.value
                 self.fogs.append(v.value)
+        elif isinstance(v, ir.Media):
+            self.media.append(v)
         elif isinstance(v, UnsupportedValue):
             self.unsupported(v.keyword, el.span)
         else:
@@ -2256,7 +2262,10 @@ class Interpreter:
         if own is not None and has_parent:
             own = transform_texture(own, parent)
         tex = own or inherited or placed or obj.default or self.default_texture
-        inter = obj.interior or interior or ir.Interior()
+        own_interior = obj.interior
+        if has_parent:
+            own_interior = media_blocks.transform_interior(own_interior, parent)
+        inter = own_interior or interior or ir.Interior()
         full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
         shape = obj.shape
         # no_shadow, hollow … on a CSG hold for every child (the runtime may flatten CSG)
@@ -2266,7 +2275,7 @@ class Interpreter:
                 merged[k] = True
         if obj.children:
             kids = tuple(
-                self.to_ir(c, full, own or inherited, obj.interior or interior, merged, placed)
+                self.to_ir(c, full, own or inherited, own_interior or interior, merged, placed)
                 for c in obj.children
             )
             shape = ir.CSG(obj.keyword, kids)
@@ -2756,6 +2765,8 @@ def _b_light(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Light:
             fields[name] = args[0]
         elif name == "shadowless":
             fields["shadowless"] = True
+        elif name in ("media_interaction", "media_attenuation"):
+            fields[name] = bool(args[0]) if args and args[0] is not None else True
         elif name == "area_light":
             area.update(axis1=args[0], axis2=args[1], size1=args[2], size2=args[3])
         elif name == "adaptive":
@@ -3243,6 +3254,8 @@ def _b_interior(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Interior:
             i = replace(i, **{name: v})
         elif name in ("fade_color", "fade_colour"):
             i = replace(i, fade_color=v)
+        elif name == "media":
+            i = replace(i, media=(*i.media, v))
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in interior")
     return i
@@ -3333,7 +3346,12 @@ def _b_material(it: Interpreter, g: Grouped, node: syntax.Block) -> MaterialValu
     return m
 
 
-_MAP_ELEMENT = {"pigment_map": "pigment", "normal_map": "normal", "texture_map": "texture"}
+_MAP_ELEMENT = {
+    "pigment_map": "pigment",
+    "normal_map": "normal",
+    "texture_map": "texture",
+    "density_map": "density",
+}
 
 
 def _b_map(it: Interpreter, g: Grouped, node: syntax.Block) -> MapValue:
@@ -3859,6 +3877,9 @@ _BUILDERS: dict[str, Callable[[Interpreter, Grouped, syntax.Block], Any]] = {
     "warp": _b_warp,
     "pigment_pattern": _b_pigment_pattern,
     "interior": _b_interior,
+    "media": media_blocks.build_media,
+    "scattering": media_blocks.build_scattering,
+    "density": media_blocks.build_density,
     "texture": _b_texture,
     "material": _b_material,
     "image_map": _b_image_map,

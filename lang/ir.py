@@ -110,6 +110,36 @@ class Normal:
 
 
 @dataclass(frozen=True)
+class Media:
+    """POV-Ray's participating medium (`media { }`), in an interior or the atmosphere.
+
+    Coefficients per unit length: `emission` adds light, `absorption` and `scattering`
+    (times `extinction`) take it away, `scattering` also sends the lights' light toward the
+    viewer with the phase function of `scattering_type` (1 isotropic, 2 Mie haze, 3 Mie
+    murky, 4 Rayleigh, 5 Henyey-Greenstein with `eccentricity`). Each `density` (a pigment
+    whose RGB is the density, in the media's space: the media's transforms are in each
+    density's transform) multiplies all three; none means a constant density of 1. The
+    sampling settings are POV-Ray's; the renderer aims at the same expected value."""
+
+    emission: Vec3 = (0.0, 0.0, 0.0)
+    absorption: Vec3 = (0.0, 0.0, 0.0)
+    scattering: Vec3 = (0.0, 0.0, 0.0)
+    scattering_type: int = 1
+    eccentricity: float = 0.0
+    extinction: float = 1.0
+    density: tuple[Pigment, ...] = ()
+    method: int = 3
+    intervals: int = 1
+    samples: tuple[int, int] = (1, 1)
+    ratio: float = 0.9
+    confidence: float = 0.9
+    variance: float = 1.0 / 128.0
+    aa_threshold: float = 0.1
+    aa_level: int = 3
+    jitter: float = 0.0
+
+
+@dataclass(frozen=True)
 class Interior:
     ior: float = 1.0
     fade_distance: float = 0.0
@@ -117,6 +147,7 @@ class Interior:
     fade_color: Vec3 = (0.0, 0.0, 0.0)
     caustics: float = 0.0
     dispersion: float = 1.0
+    media: tuple[Media, ...] = ()  # several media add up (seen only in hollow objects)
 
 
 @dataclass(frozen=True)
@@ -624,6 +655,8 @@ class Light:
     shadowless: bool = False
     fade_distance: float | None = None
     fade_power: float | None = None
+    media_interaction: bool = True  # the light scatters in media
+    media_attenuation: bool = False  # media on the way dims the light
     looks_like: Object | None = None
     span: Span | None = None
 
@@ -696,4 +729,5 @@ class Scene:
     sky_sphere: tuple[Pigment, ...] | None = None
     fog: Fog | None = None  # the first fog (the only one a scene usually has)
     fogs: tuple[Fog, ...] = ()  # every fog, `fog` first; empty: just `fog`
+    media: tuple[Media, ...] = ()  # atmospheric media (outside non-hollow objects)
     files: tuple[str, ...] = ()  # every source file read (for caches and dependency tracking)

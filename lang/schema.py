@@ -179,7 +179,15 @@ PATTERN_ITEMS = [
     "quick_color color | Preview colour (ignored).",
     "quick_colour color | Preview colour (ignored).",
 ]
-MAP_WORDS = ("color_map", "colour_map", "pigment_map", "normal_map", "texture_map", "slope_map")
+MAP_WORDS = (
+    "color_map",
+    "colour_map",
+    "pigment_map",
+    "normal_map",
+    "texture_map",
+    "slope_map",
+    "density_map",
+)
 PATTERN_ACCEPTS = frozenset("map transform unsupported function warp pigment_pattern".split())
 
 WARP_ITEMS = [
@@ -679,7 +687,56 @@ BLOCKS: dict[str, BlockSpec] = {
                 "fade_colour rgb | Colour of fading.",
             ]
         ),
-        frozenset({"interior", "unsupported"}),
+        frozenset({"interior", "media", "unsupported"}),
+    ),
+    "media": BlockSpec(
+        "media",
+        "media",
+        "Participating media: emitting, absorbing and scattering light inside a volume.",
+        _pos("media?:base"),
+        _items(
+            TRANSFORM_ITEMS,
+            [
+                "emission rgb | Light emitted per unit length.",
+                "absorption rgb | Light absorbed per unit length.",
+                "method int | Sampling method: 1, 2 or 3 (adaptive, the default).",
+                "intervals int | Number of intervals along each ray.",
+                "samples int int? | Minimum and maximum samples per interval.",
+                "ratio float | Share of intervals given to lit parts of the ray.",
+                "confidence float | Confidence of the sampling (methods 1 and 2).",
+                "variance float | Variance of the sampling (methods 1 and 2).",
+                "aa_threshold float | Adaptive sampling threshold (method 3).",
+                "aa_level int | Adaptive sampling depth (method 3).",
+                "jitter float | Jitter of the sample positions.",
+                "collect bool? | Collect photons (ignored).",
+            ],
+        ),
+        frozenset({"media", "scattering", "density", "transform"}),
+    ),
+    "scattering": BlockSpec(
+        "scattering",
+        "scattering",
+        "Light from the light sources scattered toward the viewer.",
+        _pos("int:type", "rgb:color"),
+        _items(
+            [
+                "eccentricity float | Henyey-Greenstein eccentricity (type 5).",
+                "extinction float | How much scattering dims light (default 1).",
+            ]
+        ),
+        frozenset(),
+    ),
+    "density": BlockSpec(
+        "density",
+        "density",
+        "A media density: a pattern whose colour map gives the density.",
+        (),
+        _items(
+            TRANSFORM_ITEMS,
+            PATTERN_ITEMS,
+            ["color color | A constant density."],
+        ),
+        PATTERN_ACCEPTS | {"density", "color"},
     ),
     "texture": BlockSpec(
         "texture",
@@ -860,8 +917,8 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
-    """media photons density subsurface bump_map material_map interior_texture
-    density_map image_pattern function_image projected_through""".split()
+    """photons subsurface bump_map material_map interior_texture
+    image_pattern function_image projected_through""".split()
 )
 
 

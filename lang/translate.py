@@ -7,8 +7,8 @@ and layout survive (the result is laid out by `strala fmt`). It runs in two phas
    does it (a missing comma between two vectors, a stray character); a top-level statement
    that still does not parse is commented out.
 2. Evaluation. The repaired files are evaluated as `strala check` would (file I/O off, at
-   the scene's frame). A block strala ignores anyway (`media`, `photons` …) is commented out,
-   so the translation says what the render shows; any other unsupported feature is kept and
+   the scene's frame). A block strala ignores anyway (`photons`, `subsurface` …) is commented
+   out, so the translation says what the render shows; any other unsupported feature is kept and
    noted. An element that gives an error is commented out, the innermost one first (the
    identifier, then its block, then its statement), until the scene checks clean.
 
@@ -36,9 +36,7 @@ from lang.format import format_source
 from lang.parser import parse, strip_comments
 
 # Blocks strala parses and ignores: commenting them out changes no pixel of its render.
-IGNORED_BLOCKS = frozenset(
-    "media photons subsurface interior_texture projected_through bump_map".split()
-)
+IGNORED_BLOCKS = frozenset("photons subsurface interior_texture projected_through bump_map".split())
 DATA_SUFFIXES = frozenset(
     ".png .jpg .jpeg .tga .gif .ppm .pgm .pbm .tif .tiff .exr .hdr .iff .sys .pot .ttf .ttc "
     ".otf .df3".split()

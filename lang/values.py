@@ -231,6 +231,8 @@ def kind_of(value: Any) -> str:
         return "texture"
     if isinstance(value, ir.Interior):
         return "interior"
+    if isinstance(value, ir.Media):
+        return "media"
     if isinstance(value, ir.Light):
         return "light"
     if isinstance(value, ir.Radiosity):

@@ -1,0 +1,163 @@
+"""POV-Ray's `media`, `scattering` and `density` blocks, evaluated into `ir.Media`.
+
+A density is a pigment whose RGB is the density (POV-Ray evaluates it with
+Compute_Pigment): a pattern with a `color_map` or a `density_map` (a map of densities,
+read as a pigment_map), a declared density, transforms. A density without a pattern is
+a constant 1; a pattern without a map uses a grey ramp from 0 to 1. The media's own
+transforms move its densities (POV-Ray's Transform_Density).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+from lang import ir
+from lang.values import MapValue
+
+# A pattern density without a map: black at 0 to white at 1.
+GREY_RAMP: tuple[tuple[float, ir.Color], ...] = (
+    (0.0, (0.0, 0.0, 0.0, 0.0, 0.0)),
+    (1.0, (1.0, 1.0, 1.0, 0.0, 0.0)),
+)
+WHITE: ir.Color = (1.0, 1.0, 1.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class DensityValue:
+    """A `density { … }` block: the pigment that gives the density."""
+
+    pigment: ir.Pigment
+    kind: str = "density"
+
+
+@dataclass(frozen=True)
+class ScatteringValue:
+    type: int
+    color: ir.Vec3
+    eccentricity: float = 0.0
+    extinction: float = 1.0
+    kind: str = "scattering"
+
+
+def as_density_pigment(v: Any) -> ir.Pigment:
+    return v.pigment if isinstance(v, DensityValue) else v
+
+
+def build_density(it, g, node) -> DensityValue:
+    """`density { … }`: the pigment builder over the same items, with a declared density as
+    the base and a density_map read as a pigment_map of the densities' pigments."""
+    from lang import evaluate
+
+    items = []
+    has_colour = False
+    for name, args, span in g.items:
+        if name == "density":
+            items.append(("pigment", [args[0].pigment], span))
+            has_colour = True
+            continue
+        if name == "map" and args and isinstance(args[0], MapValue):
+            m = args[0]
+            if m.map_kind == "density_map":
+                entries = tuple((k, _entry_pigment(e)) for k, e in m.entries)
+                args = [MapValue("pigment_map", entries)]
+            has_colour = True
+        if name in ("color",):
+            has_colour = True
+        items.append((name, args, span))
+    pig = evaluate._b_pigment(it, evaluate.Grouped(g.positional, items, g.span), node)
+    if pig.pattern == "solid" and not has_colour:
+        pig = replace(pig, color=WHITE)
+    elif pig.pattern not in ("solid", "checker", "hexagon", "brick", "object"):
+        if not pig.color_map and not pig.pigment_map:
+            pig = replace(pig, color_map=GREY_RAMP)
+    return DensityValue(pig)
+
+
+def _entry_pigment(e: Any) -> ir.Pigment:
+    if isinstance(e, DensityValue):
+        return e.pigment
+    if isinstance(e, ir.Pigment):
+        return e
+    c = getattr(e, "rgbft", None)
+    if c is not None:
+        return ir.Pigment(color=tuple(c))
+    return ir.Pigment(color=WHITE)
+
+
+def build_scattering(it, g, node) -> ScatteringValue:
+    p = g.positional
+    s = ScatteringValue(int(p["type"]), tuple(p["color"]))
+    for name, args, _span in g.items:
+        if name in ("eccentricity", "extinction"):
+            s = replace(s, **{name: float(args[0])})
+    return s
+
+
+def transform_media(m: ir.Media, mat: ir.Matrix) -> ir.Media:
+    from lang import evaluate
+
+    if not m.density:
+        return m
+    return replace(m, density=tuple(evaluate.transform_pigment(d, mat) for d in m.density))
+
+
+def transform_interior(i: ir.Interior | None, mat: ir.Matrix) -> ir.Interior | None:
+    if i is None or not i.media:
+        return i
+    return replace(i, media=tuple(transform_media(m, mat) for m in i.media))
+
+
+_INTS = {"method", "intervals", "aa_level"}
+_FLOATS = {"ratio", "confidence", "variance", "aa_threshold", "jitter"}
+
+
+def build_media(it, g, node) -> ir.Media:
+    from lang import evaluate
+
+    m: ir.Media = g.positional.get("base") or ir.Media()
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "media":
+            m = v
+        elif name in ("emission", "absorption"):
+            m = replace(m, **{name: tuple(v)})
+        elif name == "scattering":
+            m = replace(
+                m,
+                scattering=v.color,
+                scattering_type=v.type,
+                eccentricity=v.eccentricity,
+                extinction=v.extinction,
+            )
+            if v.type not in (1, 2, 3, 4, 5):
+                it.sink.warning(
+                    "W0300",
+                    f"scattering type {v.type} is not one of 1-5: rendered as isotropic",
+                    span,
+                )
+        elif name == "density":
+            m = replace(m, density=(*m.density, v.pigment))
+        elif name == "samples":
+            lo = max(1, int(v))
+            hi = int(args[1]) if len(args) > 1 and args[1] is not None else lo
+            m = replace(m, samples=(lo, max(lo, hi)))
+        elif name in _INTS:
+            m = replace(m, **{name: int(v)})
+        elif name in _FLOATS:
+            m = replace(m, **{name: float(v)})
+        elif name in evaluate._TRANSFORM_WORDS:
+            m = transform_media(m, evaluate._item_matrix(name, args))
+    return m
+
+
+__all__ = [
+    "DensityValue",
+    "ScatteringValue",
+    "as_density_pigment",
+    "build_density",
+    "build_media",
+    "build_scattering",
+    "transform_interior",
+    "transform_media",
+]
