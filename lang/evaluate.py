@@ -2471,8 +2471,6 @@ class Interpreter:
                 "pavement",
                 "tiling",
                 "magnet",
-                "julia",
-                "mandel",
                 "cubic",
                 "triangular",
                 "square",

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lang import ir
-from runtime import color, noise, patterns, shading
+from runtime import color, media, noise, patterns, shading
 from runtime.shading import GREY, Surface
 
 # A shadow ray crosses at most this many transparent surfaces before it counts as blocked
@@ -212,6 +212,7 @@ class Context:
     leaf_id: dict[int, int] = field(default_factory=dict)  # id(texture) -> texture index
     plain_colour: np.ndarray | None = None  # (n_tex,5) solid colour of plain textures
     finish_table: FinishTable | None = None
+    media: media.MediaScene | None = None  # participating media (None: the scene has none)
     stats: dict[str, int] = field(default_factory=dict)
 
     @property
@@ -316,6 +317,7 @@ def make_context(prepared) -> Context:
         legacy_opacity=version is not None and version < 3.7,
         gamma=color.working_gamma(scene.settings),
         background=np.asarray(scene.background[:3], dtype=np.float64),
+        media=media.build(prepared),
     )
 
 
@@ -391,6 +393,8 @@ def trace(
             hits.t[rows],
             prim,
         )
+    if ctx.media is not None:
+        col = media.apply(ctx, o, d, hits.t, hits.obj, hits.normal, col)
     fogs = ctx.scene.fogs or ((ctx.scene.fog,) if ctx.scene.fog is not None else ())
     if fogs:
         col = apply_fogs(fogs, hits.t, col, o, d)
@@ -671,6 +675,10 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
                 col[rows] *= shadow(
                     ctx, light, origins[rows], ls.direction[rows], ls.distance[rows]
                 )
+                if light.media_attenuation and ctx.media is not None:
+                    col[rows] *= media.transmittance(
+                        ctx, origins[rows], ls.direction[rows], ls.distance[rows]
+                    )
         dirs_out.append(ls.direction)
         cols_out.append(col)
     return LightColours(dirs_out, cols_out)

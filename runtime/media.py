@@ -1,0 +1,250 @@
+"""Participating media along ray segments: POV-Ray's ComputeMedia over numpy batches.
+
+Where a ray runs between its origin and its hit, each region it crosses adds its media:
+the inside of a hollow object whose interior holds media (found from the object's surface
+crossings along the ray and an inside test between them), and the atmosphere (the
+scene-wide `media`, everywhere but inside a non-hollow object). Every region is sampled at
+S stratified, jittered depths per piece; all samples of a ray are sorted by depth, so
+
+    colour = colour_behind * exp(-tau(0, T)) + sum_k source_k * ds_k * exp(-tau(0, t_k))
+
+with tau the optical depth (extinction = absorption + extinction * scattering, times the
+densities), and source = emission + scattering * sum over lights of the phase function
+times the light reaching the sample (shadow rays; `media_attenuation` dims that light by
+the media on its way; lights with `media_interaction off` are left out). The phase
+functions are POV-Ray's (isotropic 1, Mie haze and murky, Rayleigh, Henyey-Greenstein),
+not normalised, averaged over the media of the region. The samples are not POV-Ray's random
+sequence; their expected value is the same integral.
+"""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+
+from lang import ir
+from runtime import patterns, shading
+
+# Rays that hit nothing cross this much atmosphere (POV-Ray's MAX_DISTANCE).
+MAX_DISTANCE: float = 1.0e7
+# Samples per piece of a ray inside one region: at least MIN_SAMPLES, at most MAX_SAMPLES.
+MIN_SAMPLES: int = 16
+MAX_SAMPLES: int = 64
+# Samples per piece along shadow rays (extinction only; constant media need only one).
+SHADOW_SAMPLES: int = 4
+
+
+class Region:
+    """Media of one region: `node` (a tracer node whose inside holds them) or the atmosphere."""
+
+    def __init__(self, media: tuple[ir.Media, ...], node=None):
+        self.media = media
+        self.node = node
+        self.constant = all(not m.density for m in media)
+        self.scatters = any(max(m.scattering) != 0 for m in media)
+        self.samples = min(
+            MAX_SAMPLES, max(MIN_SAMPLES, max(m.intervals * m.samples[0] * 4 for m in media))
+        )
+
+
+class MediaScene:
+    def __init__(self, prepared):
+        objs = prepared.objects
+        self.regions: list[Region] = []
+        for node in prepared.tracer.nodes:
+            leaf = node.leaves[0]
+            o = objs[leaf]
+            if o.interior.media and o.hollow:
+                self.regions.append(Region(tuple(o.interior.media), node))
+        self.atmosphere = Region(tuple(prepared.scene.media)) if prepared.scene.media else None
+        self.nonhollow = np.array([not o.hollow for o in objs], dtype=bool)
+
+    @property
+    def active(self) -> bool:
+        return bool(self.regions) or self.atmosphere is not None
+
+
+def build(prepared) -> MediaScene | None:
+    m = MediaScene(prepared)
+    return m if m.active else None
+
+
+def phase(media: ir.Media, alpha: np.ndarray) -> np.ndarray:
+    """POV-Ray's phase functions at alpha = cos(angle between the ray and the light)."""
+    t = media.scattering_type
+    if t == 2:
+        return 0.576655375 * (1.0 + 9.0 * np.power(0.5 * (1.0 + alpha), 8.0))
+    if t == 3:
+        return 0.495714547 * (1.0 + 50.0 * np.power(0.5 * (1.0 + alpha), 32.0))
+    if t == 4:
+        return 0.799372013 * (1.0 + alpha * alpha)
+    if t == 5:
+        g = media.eccentricity
+        return (1.0 - g * g) / np.power(1.0 + g * g - 2.0 * g * alpha, 1.5)
+    return np.ones_like(alpha)
+
+
+def coefficients(region: Region, points: np.ndarray, gamma) -> tuple[np.ndarray, ...]:
+    """(extinction, emission, scattering), each (M,3), of the region's media at points."""
+    m_count = len(points)
+    ext = np.zeros((m_count, 3))
+    emis = np.zeros((m_count, 3))
+    scat = np.zeros((m_count, 3))
+    for m in region.media:
+        dens = np.ones((m_count, 3))
+        for pig in m.density:
+            dens = dens * patterns.evaluate(pig, points, gamma)[:, :3]
+        sc = np.asarray(m.scattering, dtype=np.float64)
+        ext += dens * (np.asarray(m.absorption, dtype=np.float64) + m.extinction * sc)
+        emis += dens * np.asarray(m.emission, dtype=np.float64)
+        scat += dens * sc
+    return ext, emis, scat
+
+
+def _pieces(region: Region, o, d, t_end, allowed):
+    """(N,J) starts, ends and a mask of the pieces of each ray inside the region."""
+    n = len(o)
+    if region.node is None:
+        t0 = np.zeros((n, 1))
+        t1 = t_end[:, None].copy()
+        return t0, t1, (allowed & (t_end > 0))[:, None]
+    c = region.node.crossings(o, d)
+    t = np.where((c.t > 1e-9) & (c.t < t_end[:, None]), c.t, t_end[:, None])
+    t = np.sort(t, axis=1)
+    bounds = np.concatenate([np.zeros((n, 1)), t, t_end[:, None]], axis=1)
+    t0, t1 = bounds[:, :-1], bounds[:, 1:]
+    mask = t1 > t0 + 1e-9
+    rows, cols = np.nonzero(mask)
+    if len(rows):
+        mid = 0.5 * (t0[rows, cols] + t1[rows, cols])
+        inside = region.node.inside(o[rows] + mid[:, None] * d[rows])
+        mask[rows[~inside], cols[~inside]] = False
+    return t0, t1, mask
+
+
+def _rng(d: np.ndarray) -> np.random.Generator:
+    return np.random.default_rng(zlib.crc32(np.ascontiguousarray(d[:8]).tobytes()))
+
+
+def _samples(region: Region, o, d, t_end, allowed, count: int, rng):
+    """Flat (ray, depth, ds) of `count` stratified jittered samples per piece."""
+    t0, t1, mask = _pieces(region, o, d, t_end, allowed)
+    rows, cols = np.nonzero(mask)
+    if not len(rows):
+        return None
+    a, b = t0[rows, cols], t1[rows, cols]
+    ds = (b - a) / count
+    u = (np.arange(count)[None, :] + rng.random((len(rows), count))) * ds[:, None]
+    t = (a[:, None] + u).ravel()
+    return np.repeat(rows, count), t, np.repeat(ds, count)
+
+
+def _count(region: Region, shadow: bool) -> int:
+    if shadow:
+        return 1 if region.constant else SHADOW_SAMPLES
+    return region.samples
+
+
+def transmittance(ctx, points, dirs, dist) -> np.ndarray:
+    """(N,3) share of light let through by the media between points and points + dist*dirs."""
+    ms: MediaScene = ctx.media
+    n = len(points)
+    tau = np.zeros((n, 3))
+    t_end = np.minimum(dist, MAX_DISTANCE)
+    rng = _rng(dirs)
+    allowed = np.ones(n, dtype=bool)
+    for region in _all_regions(ms):
+        s = _samples(region, points, dirs, t_end, allowed, _count(region, True), rng)
+        if s is None:
+            continue
+        r, t, ds = s
+        p = points[r] + t[:, None] * dirs[r]
+        ext, _, _ = coefficients(region, p, ctx.gamma)
+        for ch in range(3):
+            tau[:, ch] += np.bincount(r, ext[:, ch] * ds, minlength=n)
+    return np.exp(-tau)
+
+
+def _all_regions(ms: MediaScene) -> list[Region]:
+    return [*ms.regions, *([ms.atmosphere] if ms.atmosphere is not None else [])]
+
+
+def _in_scattered(ctx, region: Region, p, ray_dir, scat) -> np.ndarray:
+    """(M,3) light from the lights scattered toward the viewer at points p (per unit
+    scattering coefficient times scat)."""
+    from runtime.integrate import shadow
+
+    out = np.zeros((len(p), 3))
+    rows = np.nonzero(np.abs(scat).max(axis=1) > 0)[0]
+    if not len(rows):
+        return out
+    pts, rd = p[rows], ray_dir[rows]
+    acc = np.zeros((len(rows), 3))
+    for light in ctx.scene.lights:
+        if not light.media_interaction:
+            continue
+        ls = shading.sample_light(light, pts)
+        col = ls.colour
+        lit = np.nonzero(np.abs(col).max(axis=1) > shading.EPSILON)[0]
+        if not len(lit):
+            continue
+        col = col[lit]
+        if not light.shadowless:
+            col = col * shadow(ctx, light, pts[lit], ls.direction[lit], ls.distance[lit])
+            if light.media_attenuation:
+                col = col * transmittance(ctx, pts[lit], ls.direction[lit], ls.distance[lit])
+        alpha = np.einsum("ij,ij->i", ls.direction[lit], rd[lit])
+        k = sum(phase(m, alpha) for m in region.media) / len(region.media)
+        acc[lit] += k[:, None] * col
+    out[rows] = acc * scat[rows]
+    return out
+
+
+def apply(ctx, o, d, t_hit, hit_obj, normal, col) -> np.ndarray:
+    """The colours `col` seen along rays (origins o, unit directions d) at depth t_hit
+    (inf on a miss) with the media of the regions the rays cross in between."""
+    ms: MediaScene = ctx.media
+    n = len(o)
+    t_end = np.where(np.isfinite(t_hit), t_hit, MAX_DISTANCE)
+    hit = hit_obj >= 0
+    leaving = hit & (np.einsum("ij,ij->i", normal, d) > 0)
+    # Atmospheric media stop inside non-hollow objects (a ray leaving one was inside it).
+    in_solid = np.zeros(n, dtype=bool)
+    in_solid[leaving] = ms.nonhollow[hit_obj[leaving]]
+    rng = _rng(d)
+    parts = []
+    for region in _all_regions(ms):
+        allowed = ~in_solid if region.node is None else np.ones(n, dtype=bool)
+        s = _samples(region, o, d, t_end, allowed, _count(region, False), rng)
+        if s is None:
+            continue
+        r, t, ds = s
+        p = o[r] + t[:, None] * d[r]
+        ext, emis, scat = coefficients(region, p, ctx.gamma)
+        src = emis
+        if region.scatters:
+            src = src + _in_scattered(ctx, region, p, d[r], scat)
+        parts.append((r, t, ds, ext, src))
+    if not parts:
+        return col
+    r = np.concatenate([x[0] for x in parts])
+    t = np.concatenate([x[1] for x in parts])
+    ds = np.concatenate([x[2] for x in parts])
+    ext = np.concatenate([x[3] for x in parts])
+    src = np.concatenate([x[4] for x in parts])
+    order = np.lexsort((t, r))
+    r, ds, ext, src = r[order], ds[order], ext[order], src[order]
+    od = ext * ds[:, None]
+    cum = np.cumsum(od, axis=0)
+    start = np.searchsorted(r, np.arange(n))
+    first = np.concatenate([np.zeros((1, 3)), cum])[start]  # optical depth before each ray
+    before = cum - od * 0.5 - first[r]
+    light = src * ds[:, None] * np.exp(-before)
+    out = col.copy()
+    tau = np.zeros((n, 3))
+    added = np.zeros((n, 3))
+    for ch in range(3):
+        tau[:, ch] = np.bincount(r, od[:, ch], minlength=n)
+        added[:, ch] = np.bincount(r, light[:, ch], minlength=n)
+    return out * np.exp(-tau) + added
