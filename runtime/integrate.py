@@ -675,9 +675,13 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
                 col[rows] *= shadow(
                     ctx, light, origins[rows], ls.direction[rows], ls.distance[rows]
                 )
-                if light.media_attenuation and ctx.media is not None:
+                if ctx.media is not None:
                     col[rows] *= media.transmittance(
-                        ctx, origins[rows], ls.direction[rows], ls.distance[rows]
+                        ctx,
+                        origins[rows],
+                        ls.direction[rows],
+                        ls.distance[rows],
+                        light.media_attenuation,
                     )
         dirs_out.append(ls.direction)
         cols_out.append(col)

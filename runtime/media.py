@@ -146,15 +146,18 @@ def _count(region: Region, shadow: bool) -> int:
     return region.samples
 
 
-def transmittance(ctx, points, dirs, dist) -> np.ndarray:
-    """(N,3) share of light let through by the media between points and points + dist*dirs."""
+def transmittance(ctx, points, dirs, dist, atmosphere: bool = True) -> np.ndarray:
+    """(N,3) share of light let through by the media between points and points + dist*dirs:
+    the media of objects always (as POV-Ray's shadow rays), the atmosphere's only when
+    `atmosphere` (the light's media_attenuation)."""
     ms: MediaScene = ctx.media
     n = len(points)
     tau = np.zeros((n, 3))
     t_end = np.minimum(dist, MAX_DISTANCE)
     rng = _rng(dirs)
     allowed = np.ones(n, dtype=bool)
-    for region in _all_regions(ms):
+    regions = _all_regions(ms) if atmosphere else ms.regions
+    for region in regions:
         s = _samples(region, points, dirs, t_end, allowed, _count(region, True), rng)
         if s is None:
             continue
@@ -192,8 +195,9 @@ def _in_scattered(ctx, region: Region, p, ray_dir, scat) -> np.ndarray:
         col = col[lit]
         if not light.shadowless:
             col = col * shadow(ctx, light, pts[lit], ls.direction[lit], ls.distance[lit])
-            if light.media_attenuation:
-                col = col * transmittance(ctx, pts[lit], ls.direction[lit], ls.distance[lit])
+            col = col * transmittance(
+                ctx, pts[lit], ls.direction[lit], ls.distance[lit], light.media_attenuation
+            )
         alpha = np.einsum("ij,ij->i", ls.direction[lit], rd[lit])
         k = sum(phase(m, alpha) for m in region.media) / len(region.media)
         acc[lit] += k[:, None] * col
@@ -239,8 +243,12 @@ def apply(ctx, o, d, t_hit, hit_obj, normal, col) -> np.ndarray:
     cum = np.cumsum(od, axis=0)
     start = np.searchsorted(r, np.arange(n))
     first = np.concatenate([np.zeros((1, 3)), cum])[start]  # optical depth before each ray
-    before = cum - od * 0.5 - first[r]
-    light = src * ds[:, None] * np.exp(-before)
+    before = cum - od - first[r]
+    # Each sample stands for a slab of constant media ds long: its source, attenuated
+    # across the slab itself, gives src (1 - exp(-ext ds)) / ext (src ds where ext = 0).
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slab = np.where(od > 1e-12, -np.expm1(-od) / np.where(od > 1e-12, od, 1.0), 1.0)
+    light = src * (ds[:, None] * slab) * np.exp(-before)
     out = col.copy()
     tau = np.zeros((n, 3))
     added = np.zeros((n, 3))
