@@ -201,6 +201,20 @@ def _s(args: Sequence[Any], i: int, name: str) -> str:
     return as_string(args[i], f"argument {i + 1} of {name}()")
 
 
+MAX_STRING_LENGTH = 10_000_000
+
+
+def _capped(text: str) -> str:
+    """A string built by a scene, refused past MAX_STRING_LENGTH (a runaway loop doubling a
+    string would otherwise fill the memory)."""
+    if len(text) > MAX_STRING_LENGTH:
+        raise EvalError(
+            f"a string of {len(text):,} characters is too long",
+            f"strings hold at most {MAX_STRING_LENGTH:,} characters",
+        )
+    return text
+
+
 def _domain(ok: bool, msg: str) -> None:
     if not ok:
         raise EvalError(msg, "the argument is outside the function's domain")
@@ -501,7 +515,7 @@ FUNCTIONS: dict[str, tuple[Builtin, int, int | None]] = {
     "vturbulence": (_vturbulence, 4, 4),
     "str": (_str, 3, 3),
     "vstr": (_vstr, 5, 5),
-    "concat": (lambda a, s: "".join(_s(a, i, "concat") for i in range(len(a))), 1, None),
+    "concat": (lambda a, s: _capped("".join(_s(a, i, "concat") for i in range(len(a)))), 1, None),
     "strlen": (lambda a, s: float(len(_s(a, 0, "strlen"))), 1, 1),
     "substr": (_substr, 3, 3),
     "strupr": (lambda a, s: _s(a, 0, "strupr").upper(), 1, 1),

@@ -54,6 +54,7 @@ STDLIB = Path(lang.__file__).resolve().parent.parent / "stdlib"
 
 # Bounds that turn runaway scenes into diagnostics instead of hangs.
 MAX_LOOP_ITERATIONS = 1_000_000
+MAX_ARRAY_ELEMENTS = 10_000_000  # a larger array is a mistake (and would exhaust memory)
 MAX_MACRO_DEPTH = 200
 MAX_INCLUDE_DEPTH = 64
 # Errors reported per list (faces, edges) before the rest are only counted.
@@ -755,7 +756,7 @@ class Interpreter:
                 )
         scene = self._scene()
         symbols = {k: v for k, v in self.scopes[0].items()}
-        return Result(scene, self.sink.items, symbols, list(self.files))
+        return Result(scene, _once(self.sink.items), symbols, list(self.files))
 
     def _parse(self, text: str, filename: str) -> tuple[syntax.SourceFile, list[Diagnostic]]:
         from lang.parser import parse  # lark is loaded on first use, not at import
@@ -1258,9 +1259,15 @@ class Interpreter:
                         node.span,
                         "check that the loop's condition eventually becomes false",
                     )
+                mark = len(self.sink.items)
                 out.extend(self.expand(node.body, spec))
+                if self._errors_since(mark):
+                    break  # reported once: the next iterations would repeat it
         except _Break:
             pass
+
+    def _errors_since(self, mark: int) -> bool:
+        return any(d.severity is Severity.ERROR for d in self.sink.items[mark:])
 
     def _d_for(self, node: syntax.For, out, spec) -> None:
         start = as_float(self.eval(node.start), "#for start")
@@ -1277,7 +1284,10 @@ class Interpreter:
                         "E0230", f"#for ran past {MAX_LOOP_ITERATIONS} iterations", node.span
                     )
                 (self._scope_of(node.var) or self.scopes[-1])[node.var] = i
+                mark = len(self.sink.items)
                 out.extend(self.expand(node.body, spec))
+                if self._errors_since(mark):
+                    break  # reported once: the next iterations would repeat it
                 found, cur = self.lookup(node.var)
                 i = (as_float(cur) if found else i) + step
         except _Break:
@@ -1828,6 +1838,13 @@ class Interpreter:
         total = 1
         for d in dims:
             total *= d
+        if total > MAX_ARRAY_ELEMENTS:
+            raise self.error(
+                "E0250",
+                f"an array of {total:,} elements is too large",
+                node.span,
+                f"strala's arrays hold at most {MAX_ARRAY_ELEMENTS:,} elements",
+            )
         arr = ArrayValue(tuple(dims), [None] * total)
         if items is not None:
             flat: list[Any] = []
@@ -3584,6 +3601,20 @@ def _check_subdivision_edges(it, fl: ListValue, g: Grouped, faces, edge_use) -> 
                     it.sink.error(code, problem, _item_span(fl, i, g), hint)
     if found:
         raise _Quiet()
+
+
+def _once(diags: list[Diagnostic]) -> list[Diagnostic]:
+    """The same error or warning at the same place once (a macro called many times reports
+    its body's mistakes once); notes (#debug output) all stay, repeats included."""
+    seen: set[Diagnostic] = set()
+    out = []
+    for d in diags:
+        if d.severity is not Severity.NOTE:
+            if d in seen:
+                continue
+            seen.add(d)
+        out.append(d)
+    return out
 
 
 def _clamped_knots(n: int, p: int) -> tuple[float, ...]:

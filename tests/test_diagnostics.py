@@ -349,3 +349,27 @@ def test_a_value_that_failed_is_reported_once_not_again_as_missing():
         ("E0203", 4),
         ("E0212", 5),  # an extra value with nothing failed before it is still an error
     ]
+
+
+def test_a_mistake_in_a_loop_or_a_macro_is_reported_once():
+    for src in (
+        "#for (I, 0, 100) sphere { I*x, Foo } #end\n",
+        "#declare I = 0;\n#while (I < 5000) sphere { I*x, Foo } #declare I = I + 1; #end\n",
+        "#macro M() sphere { 0, Foo } #end\nM() M() M()\n",
+    ):
+        errs = [d for d in compile_source(src, "l.pov").diagnostics if d.severity is Severity.ERROR]
+        assert [d.message for d in errs] == ["unknown identifier `Foo`"], src
+
+
+@pytest.mark.parametrize(
+    "src, code",
+    [
+        ("#declare A = array[1e9];\n", "E0250"),
+        ("#declare A = array[100000][100000];\n", "E0250"),
+        ('#declare S = "ab";\n#while (1) #declare S = concat(S, S); #end\n', "E0203"),
+    ],
+)
+def test_runaway_sizes_are_errors_not_memory_exhaustion(src, code):
+    errs = [d for d in compile_source(src, "m.pov").diagnostics if d.severity is Severity.ERROR]
+    assert [d.code for d in errs] == [code]
+    assert "too" in errs[0].message
