@@ -983,6 +983,16 @@ class Interpreter:
             except _Break:
                 raise
             except Exception as e:  # a bug in strala: still a diagnostic, never a traceback
+                if isinstance(e, OverflowError) or (isinstance(e, ValueError) and "NaN" in str(e)):
+                    # an infinite or NaN number (1e400, 0 * 1e400) where an integer goes
+                    self.sink.error(
+                        "E0203",
+                        "a number here is infinite or not a number",
+                        node.span,
+                        "a count or an index must be a finite number",
+                    )
+                    out.failed = True  # type: ignore[attr-defined]
+                    continue
                 self.sink.error(
                     "E0200",
                     f"internal error while evaluating this: {type(e).__name__}: {e}",
