@@ -220,24 +220,20 @@ def _cylinder(camera, sx, sy, loc, d, r, u):
     """Types 1 and 3 wrap the angle around the up axis, 2 and 4 around right; 3 and 4
     shift the origin along the axis (parallel rays along it) instead of fanning out."""
     kind = camera.cylinder or 1
-    a = _angle(camera)
     lr, lu = np.linalg.norm(r), np.linalg.norm(u)
     r, u, d = _unit(r), _unit(u), _unit(d)
+    # 2 and 4 are 1 and 3 with right and up (and the screen's x and y) trading places
+    side, s_side, axis, s_axis, length = (
+        (r, sx, u, sy, lu) if kind in (1, 3) else (u, sy, r, sx, lr)
+    )
+    theta = s_side * _angle(camera)
+    dirs = np.sin(theta) * side + np.cos(theta) * d
+    offset = (s_axis * length) * axis
     origins = np.broadcast_to(loc, (len(sx), 3))
-    if kind in (1, 3):
-        x0, y0 = sx * a, sy * lu
-        dirs = np.sin(x0) * r + np.cos(x0) * d
-        if kind == 1:
-            dirs = dirs + y0 * u
-        else:
-            origins = loc + y0 * u
+    if kind in (1, 2):
+        dirs = dirs + offset
     else:
-        x0, y0 = sx * lr, sy * a
-        dirs = np.sin(y0) * u + np.cos(y0) * d
-        if kind == 2:
-            dirs = dirs + x0 * r
-        else:
-            origins = loc + x0 * r
+        origins = loc + offset
     return dirs, origins, None
 
 
