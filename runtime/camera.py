@@ -164,14 +164,18 @@ def _fisheye(camera, sx, sy, loc, d, r, u):
     # unit circle's diameter; nothing is traced outside it.
     x0, y0 = 2.0 * sx * np.linalg.norm(r), 2.0 * sy * np.linalg.norm(u)
     rad = np.hypot(x0, y0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        phi = np.where(rad == 0, 0.0, np.arcsin(np.clip(y0 / np.where(rad == 0, 1, rad), -1, 1)))
-    phi = np.where(x0 < 0, np.pi - phi, phi)
+    phi = _polar_angle(x0, y0, rad)
     theta = rad * _angle(camera) / 2.0
     r, u, d = _unit(r), _unit(u), _unit(d)
     dirs = (np.cos(phi) * np.sin(theta)) * r + (np.sin(phi) * np.sin(theta)) * u
     dirs = dirs + np.cos(theta) * d
     return dirs, np.broadcast_to(loc, dirs.shape), (rad <= 1.0).ravel()
+
+
+def _polar_angle(x0: np.ndarray, y0: np.ndarray, rad: np.ndarray) -> np.ndarray:
+    """The screen point's angle around the centre, as POV-Ray takes it (from asin)."""
+    phi = np.arcsin(np.clip(y0 / np.where(rad == 0, 1.0, rad), -1.0, 1.0))
+    return np.where(rad == 0, 0.0, np.where(x0 < 0, np.pi - phi, phi))
 
 
 def _omnimax(camera, sx, sy, loc, d, r, u):
@@ -186,9 +190,7 @@ def _omnimax(camera, sx, sy, loc, d, r, u):
     else:
         y0 = y0 / aspect
     rad = np.hypot(x0, y0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        phi = np.where(rad == 0, 0.0, np.arcsin(np.clip(y0 / np.where(rad == 0, 1, rad), -1, 1)))
-    phi = np.where(x0 < 0, np.pi - phi, phi)
+    phi = _polar_angle(x0, y0, rad)
     theta = 1.411269 * rad - 0.09439 * rad**3 + 0.25674 * rad**5  # the Omnimax lens
     sp, st, ct = np.sin(phi), np.sin(theta), np.cos(theta)
     r, u, d = _unit(r), _unit(u), _unit(d)
