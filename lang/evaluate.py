@@ -2886,9 +2886,9 @@ def _camera_copy(it: Interpreter, g: Grouped, node: syntax.Block, base) -> Camer
         if name in _TRANSFORM_WORDS:
             matrix = transforms.then(matrix, _item_matrix(name, args))
         else:
-            it.sink.error("E0270", f"`{name}` cannot follow a declared camera", span,
-                          "after `camera { Name` only translate, rotate, scale, matrix and "
-                          "transform may follow (POV-Ray 3.5+); write the camera out instead")  # fmt: skip
+            hint = ("after `camera { Name` only translate, rotate, scale, matrix and transform "
+                    "may follow (POV-Ray 3.5+); write the camera out instead")  # fmt: skip
+            it.sink.error("E0270", f"`{name}` cannot follow a declared camera", span, hint)
     cam, look = replace(base.camera, span=node.span), base.look_at
     if not transforms.is_identity(matrix):
         cam = transform_camera(cam, matrix)
