@@ -11,12 +11,14 @@ import pytest
 from conformance import corpus, report
 from conformance.suite import run_translated_suite, write_report
 
-# Measured on the subset (corpus.FAST_SUBSET, 42 scenes) when it was chosen: the scenes
-# that evaluate without errors, render, and match POV-Ray's image (RMSE < 0.05, < 3% of
-# pixels off by more than 0.1).
-FLOOR_PARSED = 35
-FLOOR_RENDERED = 35
-FLOOR_MATCHED = 31
+# Measured on the subset (corpus.FAST_SUBSET, 42 scenes): the scenes that evaluate without
+# errors, render, and match POV-Ray's image (RMSE < 0.05, < 3% of pixels off by more than
+# 0.1). When it was chosen: 35/35/31; on 2026-12-01: 42/42/39. Render and match keep one
+# scene of margin: a render slowed past the 30 s limit on a loaded machine is not a
+# regression.
+FLOOR_PARSED = 42
+FLOOR_RENDERED = 41
+FLOOR_MATCHED = 38
 
 pytestmark = [
     pytest.mark.povray,
