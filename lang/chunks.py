@@ -513,16 +513,8 @@ class ChunkParser:
         """Feed an earlier chunk's elements into the open construct, if the parser stands
         between two elements of a list there (the piece's first token, of type `ttype`, would
         start a new element)."""
-        table = self.table
-        states = table.states
-        stack = state.state_stack[:]
-        action = states[stack[-1]].get(ttype)
-        while action is not None and action[0] is not Shift:
-            rule = action[1]
-            if rule.expansion:
-                del stack[-len(rule.expansion) :]
-            stack.append(states[stack[-1]][rule.origin.name][1])
-            action = states[stack[-1]].get(ttype)
+        states = self.table.states
+        stack, action = _reduced_for(states, state.state_stack, ttype)
         if action is None or "element" not in states[stack[-1]]:
             return False
         _reduce(state, ttype)
@@ -702,7 +694,13 @@ class _MacroExtent:
 
 def _depth_after(table: _Table, stack: list[int], ttype: str) -> int | None:
     """The parser's stack depth once a token of type `ttype` is shifted (None: an error)."""
-    states = table.states
+    stack, action = _reduced_for(table.states, stack, ttype)
+    return None if action is None else len(stack) + 1
+
+
+def _reduced_for(states, stack: list[int], ttype: str):
+    """A copy of the state stack after the reductions a token of type `ttype` triggers, and
+    the action that token meets then (a shift, or None for an error)."""
     stack = stack[:]
     action = states[stack[-1]].get(ttype)
     while action is not None and action[0] is not Shift:
@@ -711,7 +709,7 @@ def _depth_after(table: _Table, stack: list[int], ttype: str) -> int | None:
             del stack[-len(rule.expansion) :]
         stack.append(states[stack[-1]][rule.origin.name][1])
         action = states[stack[-1]].get(ttype)
-    return None if action is None else len(stack) + 1
+    return stack, action
 
 
 def _close_until(table: _Table, state: ParserState, ttype: str, last: Token | None) -> str:
