@@ -1259,6 +1259,7 @@ class Interpreter:
 
     def _d_while(self, node: syntax.While, out, spec) -> None:
         n = 0
+        watched = _loop_watch(node)
         try:
             while builtins.truth(self.eval(node.cond)):
                 n += 1
@@ -1269,10 +1270,18 @@ class Interpreter:
                         node.span,
                         "check that the loop's condition eventually becomes false",
                     )
+                before = None if watched is None else [self.lookup(v) for v in watched]
                 mark = len(self.sink.items)
                 out.extend(self.expand(node.body, spec))
                 if self._errors_since(mark):
                     break  # reported once: the next iterations would repeat it
+                if before is not None and _same_values(before, [self.lookup(v) for v in watched]):
+                    raise self.error(
+                        "E0230",
+                        "this #while never ends: nothing its condition reads changed in a pass",
+                        node.span,
+                        "change a variable of the condition in the body, or leave with #break",
+                    )
         except _Break:
             pass
 
@@ -1285,6 +1294,14 @@ class Interpreter:
         step = as_float(self.eval(node.step), "#for step") if node.step is not None else 1.0
         if step == 0.0:
             raise self.error("E0230", "#for step is zero", node.span)
+        count = (end - start) / step + 1
+        if count > MAX_LOOP_ITERATIONS:  # said at once, not after a million passes
+            raise self.error(
+                "E0230",
+                f"#for would run {count:.4g} times, more than {MAX_LOOP_ITERATIONS}",
+                node.span,
+                "check the loop's bounds and step",
+            )
         i, n = start, 0
         try:
             while (i <= end + 1e-10) if step > 0 else (i >= end - 1e-10):
@@ -2875,6 +2892,31 @@ def _b_camera(it: Interpreter, g: Grouped, node: syntax.Block) -> CameraValue:
     if not transforms.is_identity(b.transform):
         look = transforms.apply_point(b.transform, look)
     return CameraValue(cam, look)
+
+
+def _loop_watch(node: syntax.While) -> list[str] | None:
+    """The names a #while's condition reads, when nothing else can end the loop: the
+    condition calls no function (a call may read a file, a random stream, `defined()`)
+    and the body has no #break. None: the loop cannot be judged by its names alone."""
+    cond = list(syntax.walk(node.cond))
+    if any(isinstance(n, syntax.Call) for n in cond):
+        return None
+    if any(isinstance(n, syntax.Break | syntax.FileOp) for n in syntax.walk(node.body)):
+        return None
+    return sorted({n.name for n in cond if isinstance(n, syntax.Ident)})
+
+
+def _same_values(a: list[tuple[bool, Any]], b: list[tuple[bool, Any]]) -> bool:
+    """Whether two snapshots of (found, value) pairs are the same (numbers, vectors,
+    strings compared by value; anything else by identity)."""
+    for (fa, va), (fb, vb) in zip(a, b, strict=True):
+        if fa != fb:
+            return False
+        if va is vb:
+            continue
+        if not isinstance(va, float | int | str | Vec) or type(va) is not type(vb) or va != vb:
+            return False
+    return True
 
 
 def _camera_copy(it: Interpreter, g: Grouped, node: syntax.Block, base) -> CameraValue:

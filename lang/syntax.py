@@ -7,7 +7,7 @@ takes which arguments is the schema's business, applied by the evaluator.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from lang.diagnostics import Span
 
@@ -283,3 +283,18 @@ class SourceFile(Node):
 @dataclass(slots=True)
 class Break(Node):
     """`#break`: ends a `#case` clause, or leaves a `#while`/`#for` loop."""
+
+
+def walk(node: Node | list):
+    """`node` and every node below it (lists of nodes included), depth first."""
+    stack = [node]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, list | tuple):
+            stack.extend(reversed(item))
+        elif isinstance(item, Node):
+            yield item
+            for f in fields(item):
+                value = getattr(item, f.name)
+                if isinstance(value, Node | list | tuple):
+                    stack.append(value)
