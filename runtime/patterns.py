@@ -448,24 +448,15 @@ def brick(p: np.ndarray, params: dict) -> np.ndarray:
     return np.where(bed | end_x | face_z, 0, 1).astype(np.int64)
 
 
-_INSIDE: dict[int, tuple[ir.Object, object]] = {}
-
-
 def object_pattern(p: np.ndarray, params: dict) -> np.ndarray:
     """1 where the point is inside `params["object"]`, else 0 (POV-Ray's object pattern; a
     shape without an inside, such as a mesh, is outside everywhere)."""
     obj = params.get("object")
     if obj is None:
         return np.zeros(len(p), dtype=np.int64)
-    hit = _INSIDE.get(id(obj))
-    if hit is None:
-        from runtime.prepare import inside_test
+    from runtime.prepare import inside_points
 
-        hit = _INSIDE[id(obj)] = (obj, inside_test(obj))  # obj kept alive: its id stays unique
-    test = hit[1]
-    if test is None:
-        return np.zeros(len(p), dtype=np.int64)
-    return np.asarray(test.inside(np.ascontiguousarray(p)), dtype=np.int64)
+    return inside_points(obj, p).astype(np.int64)
 
 
 LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick, "object": object_pattern}

@@ -57,6 +57,20 @@ def inside_test(obj: ir.Object):
     return _Builder(ir.Camera(), 1).clip_node(obj)
 
 
+_INSIDE_TESTS: dict[int, tuple[ir.Object, object]] = {}
+
+
+def inside_points(obj: ir.Object, points: np.ndarray) -> np.ndarray:
+    """(N,) bool: which points are inside obj (a shape without an inside, such as a mesh,
+    has none). The test is built once per object (the object pattern, inside())."""
+    hit = _INSIDE_TESTS.get(id(obj))
+    if hit is None:
+        hit = _INSIDE_TESTS[id(obj)] = (obj, inside_test(obj))  # obj kept: its id stays unique
+    if hit[1] is None:
+        return np.zeros(len(points), dtype=bool)
+    return np.asarray(hit[1].inside(np.ascontiguousarray(points, dtype=np.float64)), dtype=bool)
+
+
 class _Builder:
     def __init__(self, camera: ir.Camera, width: int) -> None:
         self.camera = camera

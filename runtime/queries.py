@@ -14,7 +14,6 @@ class RuntimeQueries:
 
     def __init__(self) -> None:
         self._tracers: dict[int, tuple[ir.Object, object]] = {}
-        self._inside: dict[int, tuple[ir.Object, object]] = {}
 
     def trace(self, obj: ir.Object, origin: ir.Vec3, direction: ir.Vec3):
         d = np.asarray(direction, dtype=np.float64)
@@ -30,15 +29,9 @@ class RuntimeQueries:
         return point, normal
 
     def inside(self, obj: ir.Object, point: ir.Vec3) -> bool:
-        from runtime.prepare import inside_test
+        from runtime.prepare import inside_points
 
-        key = id(obj)
-        if key not in self._inside:
-            self._inside[key] = (obj, inside_test(obj))  # obj kept alive: its id stays unique
-        node = self._inside[key][1]
-        if node is None:
-            return False
-        return bool(node.inside(np.asarray([point], dtype=np.float64))[0])
+        return bool(inside_points(obj, np.asarray([point], dtype=np.float64))[0])
 
     def _tracer(self, obj: ir.Object):
         from runtime.prepare import prepare
