@@ -115,17 +115,10 @@ def trace_pixels(
     xs: np.ndarray,
     ys: np.ndarray,
 ) -> np.ndarray:
-    """(N,3) colours of camera rays through continuous pixel coordinates; black where the
-    projection traces no ray (outside a fisheye's circle), as in POV-Ray."""
+    """(N,3) colours of camera rays through continuous pixel coordinates."""
     if has_focal_blur(camera):
         return _trace_blurred(ctx, camera, width, height, xs, ys)
-    origins, dirs, traced = camera_rays(camera, width, height, xs, ys)
-    if traced is not None:
-        out = np.zeros((len(origins), 3))
-        if traced.any():
-            out[traced] = _trace_primary(ctx, origins[traced], dirs[traced])
-        return out
-    return _trace_primary(ctx, origins, dirs)
+    return _trace_primary(ctx, *camera_rays(camera, width, height, xs, ys))
 
 
 def _trace_blurred(ctx, camera: ir.Camera, width: int, height: int, xs, ys) -> np.ndarray:
@@ -137,35 +130,40 @@ def _trace_blurred(ctx, camera: ir.Camera, width: int, height: int, xs, ys) -> n
     least = max(1, min(n, camera.blur_samples_min))
     thr = blur_thresholds(n, camera.blur_variance, camera.blur_confidence)
     s1, s2 = np.zeros((m, 3)), np.zeros((m, 3))
-    done = np.zeros(m, dtype=np.int64)
-    active = np.arange(m)
+    done = np.zeros(m, dtype=np.int64)  # samples each point took (stopped ones keep theirs)
+    active, taken = np.arange(m), 0  # the points still sampling all took `taken`
     for step in blur_rounds(n):
         if not active.size:
             break
-        take = np.minimum(step, n - done[active])
+        take = min(step, n - taken)
         rows = np.repeat(active, take)
-        k = done[rows] + (np.arange(len(rows)) - np.repeat(np.cumsum(take) - take, take))
+        k = np.tile(np.arange(taken, taken + take), len(active))
         col = np.zeros((len(rows), 3))
         for lo in range(0, len(rows), BLUR_BATCH):
             sl = slice(lo, lo + BLUR_BATCH)
-            origins, dirs, traced = lens.rays(rows[sl], k[sl])
-            part = np.zeros((len(origins), 3))
-            keep = slice(None) if traced is None else traced
-            if traced is None or traced.any():
-                part[keep] = _trace_primary(ctx, origins[keep], dirs[keep])
-            col[sl] = part
+            col[sl] = _trace_primary(ctx, *lens.rays(rows[sl], k[sl]))
         np.add.at(s1, rows, col)
         np.add.at(s2, rows, col * col)
-        done[active] += take
-        cnt = done[active][:, None].astype(np.float64)
-        var = (s2[active] / cnt - (s1[active] / cnt) ** 2) / cnt
-        ok = (done[active] >= least) & (np.abs(var) < thr[done[active] - 1][:, None]).all(1)
-        active = active[~ok & (done[active] < n)]
+        taken += take
+        done[active] = taken
+        mean1, mean2 = s1[active] / taken, s2[active] / taken
+        var = (mean2 - mean1**2) / taken
+        ok = (taken >= least) & (np.abs(var) < thr[taken - 1]).all(axis=1)
+        active = active[~ok] if taken < n else active[:0]
     return s1 / np.maximum(done, 1)[:, None]
 
 
-def _trace_primary(ctx: integrate.Context, origins: np.ndarray, dirs: np.ndarray):
-    return integrate.trace(ctx, origins, dirs, np.ones(len(origins)), 0, "no_image")
+def _trace_primary(
+    ctx: integrate.Context, origins: np.ndarray, dirs: np.ndarray, traced=None
+) -> np.ndarray:
+    """(N,3) colours of camera rays; black where `traced` (a mask, or None for all) says
+    the projection traces no ray (outside a fisheye's circle), as in POV-Ray."""
+    if traced is None:
+        return integrate.trace(ctx, origins, dirs, np.ones(len(origins)), 0, "no_image")
+    out = np.zeros((len(origins), 3))
+    if traced.any():
+        out[traced] = _trace_primary(ctx, origins[traced], dirs[traced])
+    return out
 
 
 def render_tile(

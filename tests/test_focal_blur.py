@@ -67,9 +67,9 @@ def test_a_flat_image_stops_at_the_first_round_and_a_busy_one_takes_more(monkeyp
     traced: list[int] = []
     real = render._trace_primary
 
-    def counting(ctx, origins, dirs):
-        traced.append(len(origins))
-        return real(ctx, origins, dirs)
+    def counting(ctx, origins, dirs, mask=None):
+        traced.append(len(origins) if mask is None else int(mask.sum()))
+        return real(ctx, origins, dirs, mask)
 
     monkeypatch.setattr(render, "_trace_primary", counting)
     flat = "background { rgb 0.5 }"
