@@ -143,7 +143,7 @@ def blur_thresholds(n: int, variance: float, confidence: float) -> np.ndarray:
     z = NormalDist().inv_cdf(1.0 - confidence)  # exceeded with probability `confidence`
     df = np.arange(1, n + 1, dtype=np.float64)
     chi = df * np.maximum(1.0 - 2.0 / (9.0 * df) + z * np.sqrt(2.0 / (9.0 * df)), 0.0) ** 3
-    last = (n - 1) * max(1.0 - 2.0 / (9.0 * (n - 1)) + z * np.sqrt(2.0 / (9.0 * (n - 1))), 0) ** 3
+    last = chi[n - 2]  # X(n - 1)
     return variance * chi / last if last > 0 else np.zeros(n)
 
 
