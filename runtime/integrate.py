@@ -213,6 +213,7 @@ class Context:
     plain_colour: np.ndarray | None = None  # (n_tex,5) solid colour of plain textures
     finish_table: FinishTable | None = None
     media: media.MediaScene | None = None  # participating media (None: the scene has none)
+    kernel: object | None = None  # runtime.whitted.Kernel: the compiled path covers the scene
     stats: dict[str, int] = field(default_factory=dict)
 
     @property

@@ -62,6 +62,10 @@ def render_scene(
         cache = None if radiosity_cache is None else Path(radiosity_cache)
         radiosity = radiosity_system.compute(prepared, cache_dir=cache)
     ctx.radiosity = radiosity
+    if radiosity is None:
+        from runtime import whitted
+
+        ctx.kernel = whitted.kernel_for(ctx, scene.camera, width, height)
     left, top, right, bottom = region if region is not None else (0, 0, width, height)
     left, top = max(0, left), max(0, top)
     right, bottom = min(width, right), min(height, bottom)
@@ -116,6 +120,8 @@ def trace_pixels(
     ys: np.ndarray,
 ) -> np.ndarray:
     """(N,3) colours of camera rays through continuous pixel coordinates."""
+    if ctx.kernel is not None:
+        return ctx.kernel.trace_pixels(xs, ys)
     if has_focal_blur(camera):
         return _trace_blurred(ctx, camera, width, height, xs, ys)
     return _trace_primary(ctx, *camera_rays(camera, width, height, xs, ys))

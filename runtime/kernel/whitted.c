@@ -1,0 +1,604 @@
+/* The compiled Whitted kernel: camera rays traced to colours, one ray at a time, for scenes
+ * whose every feature it knows (runtime/whitted.py decides which and packs the scene).
+ *
+ * It computes what runtime/integrate.py computes with numpy (the same POV-Ray 3.7 rules,
+ * the same formulas, in the same order, float64), but depth first per ray instead of in
+ * waves: a numpy wave makes dozens of passes over arrays of a million rays, which is where
+ * the time of a simple scene goes. tests/test_whitted_kernel.py holds the two to the same
+ * images.
+ *
+ * The scene arrives as one float64 array (layout constants below, mirrored in whitted.py
+ * and checked by `layout()`); the GIL is released while tracing so tiles run in parallel.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <string.h>
+
+/* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
+#define HDR 32
+#define OBJ 48
+#define TEX 48
+#define LIT 24
+
+enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
+       H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25 };
+enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
+       O_PRIM = 20, O_FADEPOW = 28, O_FADEDIST, O_FADECOL, O_LO = 33, O_HI = 36 };
+enum { T_KIND, T_COLA, T_COLB = 6, T_PINV = 11, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
+       T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
+       T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE };
+enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS,
+       L_TIGHT = 13, L_COSR, L_COSF };
+
+enum { K_SPHERE, K_PLANE, K_BOX };
+enum { SKIP_NONE = 0, SKIP_NO_IMAGE = 1, SKIP_NO_REFLECTION = 2, SKIP_NO_SHADOW = 4 };
+
+/* ---- tolerances: the same values as runtime/tolerances.py and runtime/shading.py ---- */
+#define ORIGIN_REL 1e-9
+#define OBJECT_REL 1e-7
+#define ABS_FLOOR 1e-12
+#define PARALLEL_EPS 1e-300
+#define EPSILON 1e-10
+#define SHADOW_TOLERANCE 1e-3
+#define MAX_SHADOW_CROSSINGS 32
+#define CHECKER_OFFSET 1e-6
+static const double GREY[3] = {0.297, 0.589, 0.114};
+
+typedef struct {
+    const double *h, *obj, *tex, *light;
+    int nobj, ntex, nlight, maxlevel, legacy, anytrans;
+    double bailout;
+    long long rays, shadow_rays;
+} Scene;
+
+typedef struct {
+    double t;
+    int obj, face, flip;
+} Hit;
+
+static inline double dot(const double *a, const double *b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static inline void affine(const double *m, const double *p, double *out) {
+    for (int i = 0; i < 3; i++)
+        out[i] = m[4 * i] * p[0] + m[4 * i + 1] * p[1] + m[4 * i + 2] * p[2] + m[4 * i + 3];
+}
+
+static inline void linear(const double *m, const double *v, double *out) {
+    for (int i = 0; i < 3; i++)
+        out[i] = m[4 * i] * v[0] + m[4 * i + 1] * v[1] + m[4 * i + 2] * v[2];
+}
+
+static inline void normalize3(double *v) {
+    double len = sqrt(dot(v, v));
+    if (len > 0) {
+        v[0] /= len, v[1] /= len, v[2] /= len;
+    } else {
+        v[0] = v[1] = v[2] = 0.0;
+    }
+}
+
+/* Roots of a t^2 + 2 b t + c = 0 without cancellation (shapes.stable_quadratic). */
+static void stable_quadratic(double a, double b, double c, double disc, double *lo, double *hi) {
+    if (!(disc >= 0)) {
+        *lo = *hi = INFINITY;
+        return;
+    }
+    double sq = sqrt(disc);
+    double q = -(b + copysign(sq, b));
+    double t1, t2;
+    if (a == 0) {
+        t1 = -c / (2 * b);
+        t2 = INFINITY;
+    } else {
+        t1 = q / a;
+        t2 = (q == 0) ? t1 : c / q;
+    }
+    if (!isfinite(t1)) t1 = INFINITY;
+    if (!isfinite(t2)) t2 = INFINITY;
+    *lo = t1 < t2 ? t1 : t2;
+    *hi = t1 < t2 ? t2 : t1;
+}
+
+/* All crossings of one primitive along o + t d (object space); returns how many. */
+static int crossings(const double *ob, const double *o, const double *d, double *t, int *face) {
+    const double *p = ob + O_PRIM;
+    switch ((int)ob[O_KIND]) {
+    case K_SPHERE: {
+        double oc[3] = {o[0] - p[0], o[1] - p[1], o[2] - p[2]};
+        double r = p[3];
+        double a = dot(d, d), b = dot(oc, d), c = dot(oc, oc) - r * r;
+        double k = b / a;
+        double lv[3] = {oc[0] - k * d[0], oc[1] - k * d[1], oc[2] - k * d[2]};
+        double ln = sqrt(dot(lv, lv));
+        stable_quadratic(a, b, c, a * (r - ln) * (r + ln), &t[0], &t[1]);
+        face[0] = face[1] = 0;
+        return 2;
+    }
+    case K_PLANE: {
+        double denom = dot(d, p);
+        t[0] = fabs(denom) > PARALLEL_EPS ? (p[3] - dot(o, p)) / denom : INFINITY;
+        face[0] = 0;
+        return 1;
+    }
+    default: { /* box */
+        const double *lo = p, *hi = p + 3;
+        double n_ax[3], f_ax[3];
+        for (int i = 0; i < 3; i++) {
+            if (d[i] == 0) {
+                int in = o[i] >= lo[i] && o[i] <= hi[i];
+                n_ax[i] = in ? -INFINITY : INFINITY;
+                f_ax[i] = in ? INFINITY : -INFINITY;
+            } else {
+                double t1 = (lo[i] - o[i]) / d[i], t2 = (hi[i] - o[i]) / d[i];
+                n_ax[i] = t1 < t2 ? t1 : t2;
+                f_ax[i] = t1 < t2 ? t2 : t1;
+            }
+        }
+        /* argmax / argmin keep the first of equal values, as numpy's do */
+        int an = 0, af = 0;
+        for (int i = 1; i < 3; i++) {
+            if (n_ax[i] > n_ax[an]) an = i;
+            if (f_ax[i] < f_ax[af]) af = i;
+        }
+        double tn = n_ax[an], tf = f_ax[af];
+        int hit = tn <= tf && isfinite(tn) && isfinite(tf);
+        t[0] = hit ? tn : INFINITY;
+        t[1] = hit ? tf : INFINITY;
+        face[0] = 2 * an + (d[an] < 0);
+        face[1] = 2 * af + (d[af] > 0);
+        return 2;
+    }
+    }
+}
+
+static void object_normal(const double *ob, const double *po, int face, double *n) {
+    const double *p = ob + O_PRIM;
+    switch ((int)ob[O_KIND]) {
+    case K_SPHERE:
+        for (int i = 0; i < 3; i++) n[i] = (po[i] - p[i]) / p[3];
+        break;
+    case K_PLANE:
+        n[0] = p[0], n[1] = p[1], n[2] = p[2];
+        break;
+    default:
+        n[0] = n[1] = n[2] = 0.0;
+        n[face / 2] = (face % 2 == 1) ? 1.0 : -1.0;
+    }
+}
+
+static inline double default_tmin(const double *o) {
+    return ORIGIN_REL * sqrt(dot(o, o)) + ABS_FLOOR;
+}
+
+/* Closest crossing in (floor, tmax) over all objects not flagged `skip`; 0 when none. */
+static int closest(Scene *s, const double *o, const double *d, double tmax, int skip, Hit *h) {
+    double tmin = default_tmin(o);
+    h->t = INFINITY;
+    h->obj = -1;
+    for (int i = 0; i < s->nobj; i++) {
+        const double *ob = s->obj + (size_t)i * OBJ;
+        if (skip & (int)ob[O_FLAGS]) continue;
+        double oo[3], dd[3], t[2];
+        int face[2];
+        const double *po = o, *pd = d;
+        if (!(int)ob[O_IDENT]) {
+            affine(ob + O_MINV, o, oo);
+            linear(ob + O_MINV, d, dd);
+            po = oo, pd = dd;
+        }
+        int k = crossings(ob, po, pd, t, face);
+        double floor = OBJECT_REL * ob[O_SIZE];
+        if (tmin > floor) floor = tmin;
+        double limit = h->t < tmax ? h->t : tmax;
+        for (int j = 0; j < k; j++) {
+            if (t[j] > floor && t[j] < limit) {
+                limit = t[j];
+                h->t = t[j], h->obj = i, h->face = face[j], h->flip = (int)ob[O_FLIP];
+            }
+        }
+    }
+    return h->obj >= 0;
+}
+
+static int occluded(Scene *s, const double *o, const double *d, double tmax) {
+    double tmin = default_tmin(o);
+    for (int i = 0; i < s->nobj; i++) {
+        const double *ob = s->obj + (size_t)i * OBJ;
+        if (SKIP_NO_SHADOW & (int)ob[O_FLAGS]) continue;
+        double oo[3], dd[3], t[2];
+        int face[2];
+        const double *po = o, *pd = d;
+        if (!(int)ob[O_IDENT]) {
+            affine(ob + O_MINV, o, oo);
+            linear(ob + O_MINV, d, dd);
+            po = oo, pd = dd;
+        }
+        int k = crossings(ob, po, pd, t, face);
+        double floor = OBJECT_REL * ob[O_SIZE];
+        if (tmin > floor) floor = tmin;
+        for (int j = 0; j < k; j++)
+            if (t[j] > floor && t[j] < tmax) return 1;
+    }
+    return 0;
+}
+
+/* Unit world normal at the hit (before the viewer turn), flipped for inverse objects. */
+static void hit_normal(Scene *s, const double *o, const double *d, const Hit *h, double *n) {
+    const double *ob = s->obj + (size_t)h->obj * OBJ;
+    double po[3], on[3];
+    if ((int)ob[O_IDENT]) {
+        for (int i = 0; i < 3; i++) po[i] = o[i] + h->t * d[i];
+        object_normal(ob, po, h->face, n);
+    } else {
+        double oo[3], dd[3];
+        const double *m = ob + O_MINV;
+        affine(m, o, oo);
+        linear(m, d, dd);
+        for (int i = 0; i < 3; i++) po[i] = oo[i] + h->t * dd[i];
+        object_normal(ob, po, h->face, on);
+        /* the inverse transpose: n @ m_inv[:3,:3] */
+        for (int i = 0; i < 3; i++) n[i] = on[0] * m[i] + on[1] * m[4 + i] + on[2] * m[8 + i];
+    }
+    normalize3(n);
+    if (h->flip) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
+}
+
+/* RGBFT colour of a texture's pigment at a world point. */
+static const double *pigment(const double *tx, const double *p) {
+    if ((int)tx[T_KIND] == 0) return tx + T_COLA;
+    double q[3];
+    affine(tx + T_PINV, p, q);
+    double sum = floor(q[0] + CHECKER_OFFSET) + floor(q[1] + CHECKER_OFFSET) +
+                 floor(q[2] + CHECKER_OFFSET);
+    return (((long long)sum) & 1) ? tx + T_COLB : tx + T_COLA;
+}
+
+static inline double opacity(const double *c, int legacy) {
+    if (legacy) {
+        double m = c[0] > c[1] ? c[0] : c[1];
+        m = m > c[2] ? m : c[2];
+        return 1.0 - (c[3] * m + c[4]);
+    }
+    return 1.0 - c[3] - c[4];
+}
+
+static inline double fresnel_metallic(double cos_angle) {
+    double c = cos_angle < -1.0 ? -1.0 : (cos_angle > 1.0 ? 1.0 : cos_angle);
+    double x = fabs(acos(c)) / (M_PI / 2.0);
+    double f = 0.014567225 / ((x - 1.12) * (x - 1.12)) - 0.011612903;
+    return f < 0.0 ? 0.0 : (f > 1.0 ? 1.0 : f);
+}
+
+static double interior_fade(const double *ob, double depth, int ch) {
+    double power = ob[O_FADEPOW], fd = ob[O_FADEDIST], fc = ob[O_FADECOL + ch];
+    if (power <= 0 || fabs(fd) <= EPSILON) return 1.0;
+    double x = depth / fd;
+    if (power >= 1000) return exp(-(1.0 - fc) * x);
+    return fc + (1.0 - fc) / (1.0 + pow(fabs(x), power));
+}
+
+static inline double cubic_spline(double low, double high, double pos) {
+    if (high == low) return pos >= high ? 1.0 : 0.0;
+    double t = (pos - low) / (high - low);
+    t = t < 0 ? 0 : (t > 1 ? 1 : t);
+    if (pos < low) return 0.0;
+    if (pos >= high) return 1.0;
+    return (3.0 - 2.0 * t) * t * t;
+}
+
+/* Light let through from p toward a light at distance `dist` (integrate.shadow_filter). */
+static void shadow_filter(Scene *s, const double *p, const double *ldir, double dist,
+                          double *mult) {
+    double tol = 1e-6 * dist;
+    double tmax = dist * (1.0 - 1e-9) - (SHADOW_TOLERANCE < tol ? SHADOW_TOLERANCE : tol);
+    s->shadow_rays++;
+    mult[0] = mult[1] = mult[2] = 1.0;
+    if (!s->anytrans) {
+        if (occluded(s, p, ldir, tmax)) mult[0] = mult[1] = mult[2] = 0.0;
+        return;
+    }
+    double o[3] = {p[0], p[1], p[2]}, remaining = tmax;
+    for (int k = 0; k < MAX_SHADOW_CROSSINGS; k++) {
+        Hit h;
+        if (!closest(s, o, ldir, remaining, SKIP_NO_SHADOW, &h)) return;
+        const double *ob = s->obj + (size_t)h.obj * OBJ;
+        const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
+        double pt[3], n[3];
+        for (int i = 0; i < 3; i++) pt[i] = o[i] + h.t * ldir[i];
+        if (!(int)tx[T_TRANS]) {
+            mult[0] = mult[1] = mult[2] = 0.0;
+            return;
+        }
+        const double *c = pigment(tx, pt);
+        hit_normal(s, o, ldir, &h, n);
+        int leaving = dot(n, ldir) > 0;
+        double big = 0.0;
+        for (int i = 0; i < 3; i++) {
+            double f = c[3] * c[i] + c[4];
+            if (leaving) f *= interior_fade(ob, h.t, i);
+            mult[i] *= f;
+            if (fabs(mult[i]) > big) big = fabs(mult[i]);
+        }
+        o[0] = pt[0], o[1] = pt[1], o[2] = pt[2];
+        remaining -= h.t;
+        if (!(big > EPSILON)) return;
+    }
+    mult[0] = mult[1] = mult[2] = 0.0;
+}
+
+static void trace(Scene *s, const double *o, const double *d, double weight, int level,
+                  int skip, int continued, double *out);
+
+/* The colour of a hit (integrate.shade for one plain, one-layer texture). */
+static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
+                  int level, int skip, double *out) {
+    const double *ob = s->obj + (size_t)h->obj * OBJ;
+    const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
+    const double *hd = s->h;
+    double p[3], n[3];
+    for (int i = 0; i < 3; i++) p[i] = o[i] + h->t * d[i];
+    hit_normal(s, o, d, h, n);
+    int leaving = dot(n, d) > 0;
+    if (leaving) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
+    const double *col = pigment(tx, p);
+    const double *pig = col;
+    double op = opacity(col, s->legacy);
+    int lit = (int)tx[T_LIT], dbl = (int)ob[O_DOUBLE];
+    double acc[3];
+    for (int i = 0; i < 3; i++)
+        acc[i] = pig[i] * (tx[T_AMB + i] * hd[H_AMB + i] + tx[T_EMIS + i]) * op;
+    for (int l = 0; l < s->nlight; l++) {
+        const double *lt = s->light + (size_t)l * LIT;
+        double ld[3] = {lt[L_POS] - p[0], lt[L_POS + 1] - p[1], lt[L_POS + 2] - p[2]};
+        double depth = sqrt(dot(ld, ld));
+        if (depth > 0) ld[0] /= depth, ld[1] /= depth, ld[2] /= depth;
+        double att = 1.0;
+        if ((int)lt[L_KIND] == 1) { /* spotlight */
+            double ct = dot(ld, lt + L_AXIS);
+            ct = depth > 0 ? -ct : ct;
+            att = ct > 0 ? pow(ct, lt[L_TIGHT]) : 0.0;
+            if (lt[L_COSR] > 0 && ct < lt[L_COSR]) att *= cubic_spline(lt[L_COSF], lt[L_COSR], ct);
+        }
+        double power = lt[L_FADEPOW];
+        if (power > 0) {
+            double fd = lt[L_FADEDIST];
+            double fade = fabs(fd) >= EPSILON ? 2.0 / (1.0 + pow(fabs(depth) / fd, power))
+                                              : pow(fabs(depth), -power);
+            if (att > 0) att *= fade;
+        }
+        double lc[3], big = 0.0;
+        for (int i = 0; i < 3; i++) {
+            lc[i] = att * lt[L_COL + i];
+            if (fabs(lc[i]) > big) big = fabs(lc[i]);
+        }
+        double cos_l = dot(n, ld);
+        int front = cos_l >= EPSILON;
+        if (!(lit && (front || dbl) && big > EPSILON)) continue;
+        if (!(int)lt[L_SHADOWLESS]) {
+            double f[3];
+            shadow_filter(s, p, ld, depth, f);
+            lc[0] *= f[0], lc[1] *= f[1], lc[2] *= f[2];
+        }
+        double diffuse = tx[T_DIFF];
+        if (diffuse > 0) {
+            double a = fabs(cos_l);
+            double in = (tx[T_BRIL] == 1.0 ? a : pow(a, tx[T_BRIL])) * diffuse * op;
+            for (int i = 0; i < 3; i++) acc[i] += in * pig[i] * lc[i];
+        }
+        double metal = tx[T_METAL];
+        double tint[3] = {1.0, 1.0, 1.0};
+        if (metal > 0 && (tx[T_PHONG] > 0 || tx[T_SPEC] > 0)) {
+            double f = fresnel_metallic(cos_l);
+            for (int i = 0; i < 3; i++) tint[i] = 1.0 + metal * (1.0 - f) * (pig[i] - 1.0);
+        }
+        if (tx[T_PHONG] > 0) {
+            double en = dot(d, n);
+            double r[3] = {d[0] - 2.0 * en * n[0], d[1] - 2.0 * en * n[1], d[2] - 2.0 * en * n[2]};
+            double c = dot(r, ld);
+            if (c > 0 && (tx[T_PHSIZE] < 60 || c > 0.0008)) {
+                double in = tx[T_PHONG] * pow(c, tx[T_PHSIZE]);
+                for (int i = 0; i < 3; i++) acc[i] += in * lc[i] * tint[i];
+            }
+        }
+        if (tx[T_SPEC] > 0) {
+            double half[3] = {0.5 * (-d[0] + ld[0]), 0.5 * (-d[1] + ld[1]), 0.5 * (-d[2] + ld[2])};
+            double len = sqrt(dot(half, half));
+            double c = dot(half, n) / (len > 0 ? len : 1.0);
+            if (len > 0 && c > 0) {
+                double rough = tx[T_ROUGH];
+                double in = tx[T_SPEC] * pow(c, rough != 0 ? 1.0 / rough : 0.0);
+                for (int i = 0; i < 3; i++) acc[i] += in * lc[i] * tint[i];
+            }
+        }
+    }
+    for (int i = 0; i < 3; i++) out[i] = acc[i];
+
+    /* reflection */
+    const double *rmin = tx + T_RMIN, *rmax = tx + T_RMAX;
+    double refl[3] = {0.0, 0.0, 0.0};
+    int reflects = 0;
+    for (int i = 0; i < 3; i++) reflects |= rmax[i] > 0 || rmin[i] > 0;
+    if (reflects) {
+        double cos_i = -dot(d, n);
+        double wfac = 0.0;
+        for (int i = 0; i < 3; i++) {
+            if (rmax[i] > wfac) wfac = rmax[i];
+            if (rmin[i] > wfac) wfac = rmin[i];
+        }
+        double frac = 1.0 - cos_i;
+        if (fabs(tx[T_FALLOFF] - 1.0) > EPSILON) frac = pow(frac < 0 ? 0 : frac, tx[T_FALLOFF]);
+        double big = 0.0;
+        double rm = tx[T_RMETAL], fm = rm != 0.0 ? fresnel_metallic(cos_i) : 0.0;
+        for (int i = 0; i < 3; i++) {
+            refl[i] = frac * rmax[i] + (1.0 - frac) * rmin[i];
+            if (rm != 0.0) refl[i] *= 1.0 + rm * (1.0 - fm) * (pig[i] - 1.0);
+            if (fabs(refl[i]) > big) big = fabs(refl[i]);
+        }
+        if (big > 0) {
+            double dn = dot(d, n);
+            double rd[3] = {d[0] - 2.0 * dn * n[0], d[1] - 2.0 * dn * n[1], d[2] - 2.0 * dn * n[2]};
+            /* shading.reflect's guard for bumpy normals never applies: raw = normal */
+            normalize3(rd);
+            double rc[3];
+            trace(s, p, rd, weight * wfac, level, SKIP_NO_REFLECTION, 0, rc);
+            double ex = tx[T_REXP];
+            if (ex != 0.0 && 1.0 / ex != 1.0) {
+                for (int i = 0; i < 3; i++) rc[i] = pow(rc[i] < 0 ? 0 : rc[i], 1.0 / ex);
+            }
+            for (int i = 0; i < 3; i++) out[i] += refl[i] * rc[i];
+        }
+    }
+
+    /* transmission */
+    if (!(int)tx[T_TRANS]) return;
+    double fil[3];
+    for (int i = 0; i < 3; i++) {
+        fil[i] = col[3] * col[i] + col[4];
+        if ((int)tx[T_CONSERVE] && reflects) fil[i] *= (1.0 - refl[i]) < 1.0 ? 1.0 - refl[i] : 1.0;
+    }
+    double trans = fabs(dot(fil, GREY));
+    if (trans > 1.0) trans = 1.0;
+    if (!(trans > s->bailout)) return;
+    double big = fabs(fil[0]);
+    if (fabs(fil[1]) > big) big = fabs(fil[1]);
+    if (fabs(fil[2]) > big) big = fabs(fil[2]);
+    double w = weight * big, ior = ob[O_IOR];
+    int straight = fabs(ior - 1.0) < EPSILON;
+    double td[3] = {d[0], d[1], d[2]}, mult[3] = {fil[0], fil[1], fil[2]};
+    if (!straight) {
+        double ratio = leaving ? ior : 1.0 / ior;
+        double n_cos = -dot(d, n);
+        double tt = 1.0 + ratio * ratio * (n_cos * n_cos - 1.0);
+        if (tt < 0) { /* total internal reflection: mirrored, not filtered */
+            double dn = dot(d, n);
+            for (int i = 0; i < 3; i++) td[i] = d[i] - 2.0 * dn * n[i];
+            normalize3(td);
+            mult[0] = mult[1] = mult[2] = 1.0;
+        } else {
+            double t2 = ratio * n_cos - sqrt(tt);
+            for (int i = 0; i < 3; i++) td[i] = ratio * d[i] + t2 * n[i];
+            double len = sqrt(dot(td, td));
+            len = len > 1e-300 ? len : 1e-300;
+            td[0] /= len, td[1] /= len, td[2] /= len;
+        }
+    }
+    if (leaving)
+        for (int i = 0; i < 3; i++) mult[i] *= interior_fade(ob, h->t, i);
+    double tc[3];
+    trace(s, p, td, w, level, skip, straight, tc);
+    for (int i = 0; i < 3; i++) out[i] += mult[i] * tc[i];
+}
+
+/* The colour of one ray (integrate.trace): `level` is the trace level of the surface that
+ * spawned it; a `continued` ray (straight through an ior-1 surface) keeps that level. */
+static void trace(Scene *s, const double *o, const double *d, double weight, int level,
+                  int skip, int continued, double *out) {
+    out[0] = out[1] = out[2] = 0.0;
+    if (level >= s->maxlevel || weight < s->bailout) return;
+    s->rays++;
+    Hit h;
+    if (!closest(s, o, d, INFINITY, skip, &h)) {
+        out[0] = s->h[H_BG], out[1] = s->h[H_BG + 1], out[2] = s->h[H_BG + 2];
+        return;
+    }
+    shade(s, o, d, &h, weight, level + (continued ? 0 : 1), skip, out);
+}
+
+static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t need, int writable,
+                      const char *name) {
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)))
+        return -1;
+    if (view->itemsize != 8 || view->len < need * 8) {
+        PyErr_Format(PyExc_ValueError, "%s: expected %zd float64 values", name, need);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *trace_pixels(PyObject *self, PyObject *args) {
+    PyObject *scene_o, *xs_o, *ys_o, *out_o;
+    if (!PyArg_ParseTuple(args, "OOOO", &scene_o, &xs_o, &ys_o, &out_o)) return NULL;
+    Py_buffer sb, xb, yb, ob;
+    if (get_buffer(scene_o, &sb, HDR, 0, "scene")) return NULL;
+    Py_ssize_t n = 0;
+    if (get_buffer(xs_o, &xb, 0, 0, "xs")) goto fail_s;
+    n = xb.len / 8;
+    if (get_buffer(ys_o, &yb, n, 0, "ys")) goto fail_x;
+    if (get_buffer(out_o, &ob, 3 * n, 1, "out")) goto fail_y;
+
+    const double *h = sb.buf;
+    Scene s = {.h = h, .nobj = (int)h[H_NOBJ], .ntex = (int)h[H_NTEX],
+               .nlight = (int)h[H_NLIGHT], .maxlevel = (int)h[H_MAXLEVEL],
+               .bailout = h[H_BAILOUT], .legacy = (int)h[H_LEGACY],
+               .anytrans = (int)h[H_ANYTRANS]};
+    Py_ssize_t need = HDR + (Py_ssize_t)s.nobj * OBJ + (Py_ssize_t)s.ntex * TEX +
+                      (Py_ssize_t)s.nlight * LIT;
+    if (sb.len < need * 8) {
+        PyErr_SetString(PyExc_ValueError, "scene: array shorter than its header says");
+        goto fail_o;
+    }
+    s.obj = h + HDR;
+    s.tex = s.obj + (size_t)s.nobj * OBJ;
+    s.light = s.tex + (size_t)s.ntex * TEX;
+    const double *xs = xb.buf, *ys = yb.buf;
+    double *out = ob.buf;
+    int ortho = (int)h[H_CAMKIND] == 1;
+    double width = h[H_WIDTH], height = h[H_HEIGHT];
+    const double *loc = h + H_LOC, *dir = h + H_DIR, *right = h + H_RIGHT, *up = h + H_UP;
+
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double sx = xs[i] / width - 0.5, sy = 0.5 - ys[i] / height;
+        double o[3], d[3];
+        for (int k = 0; k < 3; k++) {
+            if (ortho) {
+                o[k] = loc[k] + sx * right[k] + sy * up[k];
+                d[k] = dir[k];
+            } else {
+                o[k] = loc[k];
+                d[k] = dir[k] + sx * right[k] + sy * up[k];
+            }
+        }
+        double len = sqrt(dot(d, d));
+        d[0] /= len, d[1] /= len, d[2] /= len;
+        trace(&s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, out + 3 * i);
+    }
+    Py_END_ALLOW_THREADS
+
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&yb);
+    PyBuffer_Release(&xb);
+    PyBuffer_Release(&sb);
+    return Py_BuildValue("LL", s.rays, s.shadow_rays);
+fail_o:
+    PyBuffer_Release(&ob);
+fail_y:
+    PyBuffer_Release(&yb);
+fail_x:
+    PyBuffer_Release(&xb);
+fail_s:
+    PyBuffer_Release(&sb);
+    return NULL;
+}
+
+static PyObject *layout(PyObject *self, PyObject *noargs) {
+    return Py_BuildValue("{s:i,s:i,s:i,s:i}", "header", HDR, "object", OBJ, "texture", TEX,
+                         "light", LIT);
+}
+
+static PyMethodDef methods[] = {
+    {"trace_pixels", trace_pixels, METH_VARARGS,
+     "trace_pixels(scene, xs, ys, out) -> (rays, shadow_rays): colours of camera rays "
+     "through pixel coordinates xs, ys (float64) into out (N*3 float64)."},
+    {"layout", layout, METH_NOARGS, "The packed scene's strides."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_whitted",
+                                    "The compiled Whitted kernel (see runtime/whitted.py).", -1,
+                                    methods};
+
+PyMODINIT_FUNC PyInit__whitted(void) { return PyModule_Create(&module); }

@@ -1,0 +1,252 @@
+"""The compiled Whitted path: scenes it covers are traced by `runtime._whitted` (C).
+
+The numpy integrator (`runtime.integrate`) traces waves of rays: every step is a pass over
+arrays of up to a million rays, which costs more than the arithmetic in a scene of a few
+spheres and planes (the seed scene spent 1.7 s there at 1280x960). The C kernel traces the
+same rays depth first, one at a time, with the same formulas, and is used only when a
+scene has nothing it does not know; anything else renders through numpy, unchanged.
+
+What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
+without focal blur; spheres, planes and boxes, transformed or not, inverse or not, with no
+CSG, clipping or meshes; one-layer textures with a solid or checker pigment (solid
+entries), no normal, and finishes without irid, fresnel, crand, diffuse_back or negative
+metallic; point lights and spotlights (fade included, no area lights); interiors with ior
+and fade, no caustics or media; background colour only (no sky_sphere, fog, media or
+radiosity). The packed layout below is mirrored in kernel/whitted.c; `layout()` checks it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from lang import ir
+from runtime import patterns, shapes
+from runtime.trace import Leaf
+
+try:  # the extension is optional: without a compiler the numpy path renders everything
+    from runtime import _whitted
+except ImportError:  # pragma: no cover - depends on the build
+    _whitted = None
+
+# Packed layout: header, then one row per object, texture and light (float64).
+HDR, OBJ, TEX, LIT = 32, 48, 48, 24
+H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
+H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
+H_LOC, H_DIR, H_RIGHT, H_UP = 16, 19, 22, 25
+O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
+O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL = 8, 20, 28, 29, 30
+T_KIND, T_COLA, T_COLB, T_PINV, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 1, 6, 11, 23, 24, 25, 28
+T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
+T_RMIN, T_RMAX, T_FALLOFF, T_REXP, T_RMETAL, T_CONSERVE = 38, 41, 44, 45, 46, 47
+L_KIND, L_POS, L_COL, L_SHADOWLESS, L_FADEPOW, L_FADEDIST = 0, 1, 4, 7, 8, 9
+L_AXIS, L_TIGHT, L_COSR, L_COSF = 10, 13, 14, 15
+KINDS = {shapes.SpherePrim: 0, shapes.PlanePrim: 1, shapes.BoxPrim: 2}
+FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
+
+# Objects are tested one after another (no tree): beyond this many the numpy path's box
+# tree and Embree win, so bigger scenes stay there.
+MAX_OBJECTS: int = 64
+
+# STRALA_KERNEL=numpy turns the compiled path off (to compare the two, or to bisect).
+ENV = "STRALA_KERNEL"
+
+
+def available() -> bool:
+    return _whitted is not None and os.environ.get(ENV, "") != "numpy"
+
+
+def layout() -> dict[str, int]:
+    return {"header": HDR, "object": OBJ, "texture": TEX, "light": LIT}
+
+
+def _pigment_reasons(pig: ir.Pigment) -> list[str]:
+    if pig.pattern == "solid":
+        return []
+    if pig.pattern != "checker":
+        return [f"pigment pattern {pig.pattern}"]
+    if pig.params.get("warps") or patterns._turb_params(pig.params)[0] is not None:
+        return ["warped or turbulent checker"]
+    if any(sub.pattern != "solid" for sub in pig.list) or len(pig.list) == 1:
+        return ["checker of patterned pigments"]
+    return []
+
+
+def _texture_reasons(tex: ir.Texture) -> list[str]:
+    if tex.layers or (tex.pattern is not None and tex.map):
+        return ["layered or patterned texture"]
+    f = tex.finish
+    out = _pigment_reasons(tex.pigment)
+    if tex.normal is not None:
+        out.append("normal perturbation")
+    if f.irid is not None or f.reflection.fresnel or f.crand != 0 or f.diffuse_back != 0:
+        out.append("finish with irid, fresnel, crand or diffuse_back")
+    if f.metallic < 0:
+        out.append("negative metallic")
+    return out
+
+
+def reasons(prepared, camera: ir.Camera) -> list[str]:
+    """Why the compiled kernel cannot render this scene (empty: it can)."""
+    scene: ir.Scene = prepared.scene
+    out: list[str] = []
+    if _whitted is None:
+        out.append("the compiled kernel is not built")
+    if camera.kind not in ("perspective", "orthographic"):
+        out.append(f"{camera.kind} camera")
+    if camera.aperture != 0.0 and camera.blur_samples > 0:
+        out.append("focal blur")
+    if scene.settings.radiosity is not None:
+        out.append("radiosity")
+    if scene.sky_sphere or scene.fog is not None or scene.fogs or scene.media:
+        out.append("sky_sphere, fog or media")
+    tracer = prepared.tracer
+    if tracer.triangles is not None:
+        out.append("meshes")
+    if len(tracer.nodes) > MAX_OBJECTS:
+        out.append(f"more than {MAX_OBJECTS} objects")
+    for node in tracer.nodes:
+        if not isinstance(node, Leaf) or type(node.prim) not in KINDS:
+            out.append("CSG, clipping or another shape")
+            break
+    for obj in prepared.objects:
+        it = obj.interior
+        if it.caustics != 0 or it.media:
+            out.append("caustics or interior media")
+        out.extend(_texture_reasons(obj.texture))
+    for light in scene.lights:
+        if light.kind not in ("point", "spotlight"):
+            out.append(f"{light.kind} light")
+        if light.area is not None and light.area.size1 * light.area.size2 > 1:
+            out.append("area light")
+    return sorted(set(out))
+
+
+def _inv_rows(m) -> np.ndarray:
+    """The 3x4 rows of an affine matrix, for the kernel."""
+    return np.asarray(m, dtype=np.float64).reshape(4, 4)[:3, :].ravel()
+
+
+def _unit(v) -> np.ndarray:
+    v = np.asarray(v, dtype=np.float64)
+    n = np.linalg.norm(v)
+    return v / n if n > 0 else v
+
+
+def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
+    """The scene as the kernel reads it (see the layout above)."""
+    prepared = ctx.prepared
+    scene: ir.Scene = prepared.scene
+    tracer = prepared.tracer
+    objs = prepared.objects
+    s = scene.settings
+    leaves = sorted(tracer.nodes, key=lambda n: n.index)
+    n_obj, n_tex, n_light = len(leaves), len(ctx.textures), len(scene.lights)
+    buf = np.zeros(HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT)
+    h = buf[:HDR]
+    h[[H_NOBJ, H_NTEX, H_NLIGHT]] = n_obj, n_tex, n_light
+    h[H_MAXLEVEL], h[H_BAILOUT] = s.max_trace_level, s.adc_bailout
+    h[H_AMB : H_AMB + 3] = s.ambient_light
+    h[H_BG : H_BG + 3] = ctx.background
+    h[H_LEGACY] = ctx.legacy_opacity
+    h[H_ANYTRANS] = bool(ctx.transmits.any())
+    h[H_CAMKIND] = 1 if camera.kind == "orthographic" else 0
+    h[H_WIDTH], h[H_HEIGHT] = width, height
+    for at, v in ((H_LOC, camera.location), (H_DIR, camera.direction)):
+        h[at : at + 3] = v
+    h[H_RIGHT : H_RIGHT + 3] = camera.right
+    h[H_UP : H_UP + 3] = camera.up
+    rows = buf[HDR : HDR + n_obj * OBJ].reshape(n_obj, OBJ)
+    for leaf in leaves:
+        i = leaf.index
+        r = rows[i]
+        prim = leaf.prim
+        r[O_KIND] = KINDS[type(prim)]
+        r[O_IDENT] = leaf.identity
+        r[O_FLIP] = leaf.inverse
+        r[O_SIZE] = tracer.sizes[i]
+        r[O_TEX] = ctx.obj_tex[i]
+        r[O_FLAGS] = sum(
+            bit
+            for k, bit in FLAG_BITS.items()
+            if tracer.flags.get(k, None) is not None and tracer.flags[k][i]
+        )
+        r[O_DOUBLE] = ctx.double_illuminate[i]
+        r[O_IOR] = ctx.ior[i]
+        r[O_MINV : O_MINV + 12] = _inv_rows(leaf.m_inv)
+        if isinstance(prim, shapes.SpherePrim):
+            r[O_PRIM : O_PRIM + 4] = (*prim.c, prim.r)
+        elif isinstance(prim, shapes.PlanePrim):
+            r[O_PRIM : O_PRIM + 4] = (*prim.n, prim.dist)
+        else:
+            r[O_PRIM : O_PRIM + 6] = (*prim.lo, *prim.hi)
+        it = objs[i].interior
+        r[O_FADEPOW], r[O_FADEDIST] = it.fade_power, it.fade_distance
+        r[O_FADECOL : O_FADECOL + 3] = it.fade_color
+    start = HDR + n_obj * OBJ
+    trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
+    for t, layers in enumerate(ctx.textures):
+        tex, r = layers[0], trows[t]
+        pig, f = tex.pigment, tex.finish
+        if pig.pattern == "checker":
+            entries = pig.list or tuple(
+                ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS["checker"]
+            )
+            r[T_KIND] = 1
+            r[T_COLA : T_COLA + 5] = entries[0].color
+            r[T_COLB : T_COLB + 5] = entries[1].color
+            inv = patterns._inverse(pig.transform)
+            r[T_PINV : T_PINV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
+        else:
+            r[T_COLA : T_COLA + 5] = pig.color
+        r[T_TRANS], r[T_LIT] = ctx.transmits[t], ctx.lit[t]
+        r[T_AMB : T_AMB + 3] = f.ambient
+        r[T_EMIS : T_EMIS + 3] = f.emission
+        r[T_DIFF : T_METAL + 1] = (
+            f.diffuse, f.brilliance, f.specular, f.roughness, f.phong, f.phong_size, f.metallic
+        )  # fmt: skip
+        rf = f.reflection
+        r[T_RMIN : T_RMIN + 3] = rf.min
+        r[T_RMAX : T_RMAX + 3] = rf.max
+        r[T_FALLOFF], r[T_REXP], r[T_RMETAL] = rf.falloff, rf.exponent, rf.metallic
+        r[T_CONSERVE] = f.conserve_energy
+    start += n_tex * TEX
+    lrows = buf[start:].reshape(n_light, LIT)
+    for light, r in zip(scene.lights, lrows, strict=True):
+        r[L_KIND] = 1 if light.kind == "spotlight" else 0
+        r[L_POS : L_POS + 3] = light.position
+        r[L_COL : L_COL + 3] = light.color
+        r[L_SHADOWLESS] = light.shadowless
+        r[L_FADEPOW], r[L_FADEDIST] = light.fade_power or 0.0, light.fade_distance or 0.0
+        if light.kind == "spotlight":
+            r[L_AXIS : L_AXIS + 3] = _unit(np.subtract(light.point_at, light.position))
+            r[L_TIGHT] = light.tightness
+            r[L_COSR] = math.cos(math.radians(light.radius))
+            r[L_COSF] = math.cos(math.radians(light.falloff))
+    return buf
+
+
+class Kernel:
+    """A packed scene and the call that traces pixels through it."""
+
+    def __init__(self, ctx, camera: ir.Camera, width: int, height: int):
+        self.ctx = ctx
+        self.buf = pack(ctx, camera, width, height)
+
+    def trace_pixels(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        xs = np.ascontiguousarray(xs, dtype=np.float64).ravel()
+        ys = np.ascontiguousarray(ys, dtype=np.float64).ravel()
+        out = np.empty((len(xs), 3))
+        rays, shadow_rays = _whitted.trace_pixels(self.buf, xs, ys, out)
+        self.ctx.count("rays", rays)
+        self.ctx.count("shadow_rays", shadow_rays)
+        return out
+
+
+def kernel_for(ctx, camera: ir.Camera, width: int, height: int) -> Kernel | None:
+    """The compiled kernel for this scene, or None when the numpy path must render it."""
+    if not available() or reasons(ctx.prepared, camera):
+        return None
+    return Kernel(ctx, camera, width, height)
