@@ -62,23 +62,36 @@ def to_linear(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
 
 
 def to_display(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
-    """[0,1] values for an 8/16-bit file, clipped (POV-Ray 3.7's gamma rules)."""
-    w = np.asarray(working, dtype=np.float64)
+    """[0,1] values for an 8/16-bit file, clipped (POV-Ray 3.7's gamma rules).
+
+    In float32 (the file holds 8 or 16 bits) and with one power per value: the sRGB
+    encoding of w**g is 1.055 w**(g/2.4) - 0.055 above the linear toe (a 1280x960 image
+    took 0.3 s through `srgb_encode` in float64)."""
+    w = np.clip(np.asarray(working, dtype=np.float32), 0.0, 1.0)
     g = working_gamma(settings)
     if g is None:
-        return np.clip(w, 0.0, 1.0).astype(np.float32)
-    linear = np.clip(w, 0.0, None) if g == 1.0 else np.clip(w, 0.0, None) ** g
-    return np.clip(srgb_encode(linear), 0.0, 1.0).astype(np.float32)
+        return w
+    out = np.power(w, np.float32(g / 2.4))
+    out *= np.float32(1.055)
+    out -= np.float32(0.055)
+    toe = w <= np.float32(0.0031308 ** (1.0 / g))
+    if toe.any():
+        out[toe] = np.float32(12.92) * np.power(w[toe], np.float32(g))
+    return out
+
+
+def aa_metric_power(settings: ir.Settings) -> float:
+    """The one power that takes a (clipped) working value to the anti-aliasing metric
+    space: through the working gamma to linear, then encoded with 1/AA_GAMMA."""
+    g = working_gamma(settings)
+    return (1.0 if g is None else g) / AA_GAMMA
 
 
 def aa_metric_space(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
     """Colours as POV-Ray compares them for anti-aliasing: working → linear (through the
-    working gamma, skipped for legacy scenes) → encoded with 1/AA_GAMMA."""
+    working gamma, skipped for legacy scenes) → encoded with 1/AA_GAMMA, in one power."""
     w = np.clip(np.asarray(working, dtype=np.float64), 0.0, None)
-    g = working_gamma(settings)
-    if g is not None and g != 1.0:
-        w = w**g
-    return w ** (1.0 / AA_GAMMA)
+    return w ** aa_metric_power(settings)
 
 
 def colour_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -182,6 +182,8 @@ def render_tile(
     depth: int,
 ) -> tuple[np.ndarray, int]:
     """(h, w, 3) colours of one tile and the number of supersampled pixels."""
+    if ctx.kernel is not None:
+        return ctx.kernel.render_tile(tile, threshold, depth)
     x0, y0, x1, y1 = tile
 
     def shoot(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:

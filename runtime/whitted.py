@@ -23,7 +23,7 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import patterns, shapes
+from runtime import color, patterns, shapes
 from runtime.trace import Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
@@ -243,6 +243,23 @@ class Kernel:
         self.ctx.count("rays", rays)
         self.ctx.count("shadow_rays", shadow_rays)
         return out
+
+
+    def render_tile(
+        self, tile: tuple[int, int, int, int], threshold: float | None, depth: int
+    ) -> tuple[np.ndarray, int]:
+        """(h, w, 3) colours of one tile and its number of supersampled pixels, anti-aliased
+        as `runtime.antialias` does (threshold None: one ray per pixel)."""
+        x0, y0, x1, y1 = tile
+        out = np.empty((y1 - y0, x1 - x0, 3))
+        power = color.aa_metric_power(self.ctx.settings)
+        thr = -1.0 if threshold is None else float(threshold)
+        rays, shadow_rays, n = _whitted.render_tile(
+            self.buf, x0, y0, x1, y1, thr, power, max(1, int(depth)), out
+        )
+        self.ctx.count("rays", rays)
+        self.ctx.count("shadow_rays", shadow_rays)
+        return out, n
 
 
 def kernel_for(ctx, camera: ir.Camera, width: int, height: int) -> Kernel | None:

@@ -13,6 +13,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
@@ -519,6 +520,46 @@ static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t need, int writa
     return 0;
 }
 
+
+/* The Scene view of a packed array; -1 with an exception set when it is too short. */
+static int scene_from(const Py_buffer *sb, Scene *s) {
+    const double *h = sb->buf;
+    *s = (Scene){.h = h, .nobj = (int)h[H_NOBJ], .ntex = (int)h[H_NTEX],
+                 .nlight = (int)h[H_NLIGHT], .maxlevel = (int)h[H_MAXLEVEL],
+                 .bailout = h[H_BAILOUT], .legacy = (int)h[H_LEGACY],
+                 .anytrans = (int)h[H_ANYTRANS]};
+    Py_ssize_t need = HDR + (Py_ssize_t)s->nobj * OBJ + (Py_ssize_t)s->ntex * TEX +
+                      (Py_ssize_t)s->nlight * LIT;
+    if (sb->len < need * 8) {
+        PyErr_SetString(PyExc_ValueError, "scene: array shorter than its header says");
+        return -1;
+    }
+    s->obj = h + HDR;
+    s->tex = s->obj + (size_t)s->nobj * OBJ;
+    s->light = s->tex + (size_t)s->ntex * TEX;
+    return 0;
+}
+
+/* The colour of the camera ray through continuous pixel coordinates (x, y). */
+static void trace_pixel(Scene *s, double x, double y, double *out) {
+    const double *h = s->h;
+    double sx = x / h[H_WIDTH] - 0.5, sy = 0.5 - y / h[H_HEIGHT];
+    const double *loc = h + H_LOC, *dir = h + H_DIR, *right = h + H_RIGHT, *up = h + H_UP;
+    double o[3], d[3];
+    for (int k = 0; k < 3; k++) {
+        if ((int)h[H_CAMKIND] == 1) { /* orthographic */
+            o[k] = loc[k] + sx * right[k] + sy * up[k];
+            d[k] = dir[k];
+        } else {
+            o[k] = loc[k];
+            d[k] = dir[k] + sx * right[k] + sy * up[k];
+        }
+    }
+    double len = sqrt(dot(d, d));
+    d[0] /= len, d[1] /= len, d[2] /= len;
+    trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, out);
+}
+
 static PyObject *trace_pixels(PyObject *self, PyObject *args) {
     PyObject *scene_o, *xs_o, *ys_o, *out_o;
     if (!PyArg_ParseTuple(args, "OOOO", &scene_o, &xs_o, &ys_o, &out_o)) return NULL;
@@ -530,43 +571,13 @@ static PyObject *trace_pixels(PyObject *self, PyObject *args) {
     if (get_buffer(ys_o, &yb, n, 0, "ys")) goto fail_x;
     if (get_buffer(out_o, &ob, 3 * n, 1, "out")) goto fail_y;
 
-    const double *h = sb.buf;
-    Scene s = {.h = h, .nobj = (int)h[H_NOBJ], .ntex = (int)h[H_NTEX],
-               .nlight = (int)h[H_NLIGHT], .maxlevel = (int)h[H_MAXLEVEL],
-               .bailout = h[H_BAILOUT], .legacy = (int)h[H_LEGACY],
-               .anytrans = (int)h[H_ANYTRANS]};
-    Py_ssize_t need = HDR + (Py_ssize_t)s.nobj * OBJ + (Py_ssize_t)s.ntex * TEX +
-                      (Py_ssize_t)s.nlight * LIT;
-    if (sb.len < need * 8) {
-        PyErr_SetString(PyExc_ValueError, "scene: array shorter than its header says");
-        goto fail_o;
-    }
-    s.obj = h + HDR;
-    s.tex = s.obj + (size_t)s.nobj * OBJ;
-    s.light = s.tex + (size_t)s.ntex * TEX;
+    Scene s;
+    if (scene_from(&sb, &s)) goto fail_o;
     const double *xs = xb.buf, *ys = yb.buf;
     double *out = ob.buf;
-    int ortho = (int)h[H_CAMKIND] == 1;
-    double width = h[H_WIDTH], height = h[H_HEIGHT];
-    const double *loc = h + H_LOC, *dir = h + H_DIR, *right = h + H_RIGHT, *up = h + H_UP;
 
     Py_BEGIN_ALLOW_THREADS
-    for (Py_ssize_t i = 0; i < n; i++) {
-        double sx = xs[i] / width - 0.5, sy = 0.5 - ys[i] / height;
-        double o[3], d[3];
-        for (int k = 0; k < 3; k++) {
-            if (ortho) {
-                o[k] = loc[k] + sx * right[k] + sy * up[k];
-                d[k] = dir[k];
-            } else {
-                o[k] = loc[k];
-                d[k] = dir[k] + sx * right[k] + sy * up[k];
-            }
-        }
-        double len = sqrt(dot(d, d));
-        d[0] /= len, d[1] /= len, d[2] /= len;
-        trace(&s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, out + 3 * i);
-    }
+    for (Py_ssize_t i = 0; i < n; i++) trace_pixel(&s, xs[i], ys[i], out + 3 * i);
     Py_END_ALLOW_THREADS
 
     PyBuffer_Release(&ob);
@@ -585,6 +596,110 @@ fail_s:
     return NULL;
 }
 
+/* One tile with POV-Ray's anti-aliasing method 1, as runtime/antialias.py does it: first
+ * rays for the tile plus one row above and one column to the left (and one below / to the
+ * right where the image goes on), colours compared in the AA metric space (working value
+ * clipped at 0, to the power `metric_power`), both pixels of a differing pair supersampled
+ * with a depth x depth grid averaged with the first ray. threshold < 0: no anti-aliasing. */
+static PyObject *render_tile(PyObject *self, PyObject *args) {
+    PyObject *scene_o, *out_o;
+    int x0, y0, x1, y1, depth;
+    double threshold, metric_power;
+    if (!PyArg_ParseTuple(args, "OiiiiddiO", &scene_o, &x0, &y0, &x1, &y1, &threshold,
+                          &metric_power, &depth, &out_o))
+        return NULL;
+    int tw = x1 - x0, th = y1 - y0;
+    if (tw <= 0 || th <= 0 || depth < 1) {
+        PyErr_SetString(PyExc_ValueError, "render_tile: empty tile or depth < 1");
+        return NULL;
+    }
+    Py_buffer sb, ob;
+    if (get_buffer(scene_o, &sb, HDR, 0, "scene")) return NULL;
+    if (get_buffer(out_o, &ob, (Py_ssize_t)3 * tw * th, 1, "out")) {
+        PyBuffer_Release(&sb);
+        return NULL;
+    }
+    Scene s;
+    if (scene_from(&sb, &s)) {
+        PyBuffer_Release(&ob);
+        PyBuffer_Release(&sb);
+        return NULL;
+    }
+    double *out = ob.buf;
+    long long supersampled = 0;
+    int failed = 0;
+    Py_BEGIN_ALLOW_THREADS
+    if (threshold < 0) {
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++)
+                trace_pixel(&s, x + 0.5, y + 0.5, out + 3 * ((size_t)(y - y0) * tw + (x - x0)));
+    } else {
+        int width = (int)s.h[H_WIDTH], height = (int)s.h[H_HEIGHT];
+        int ex1 = x1 < width ? x1 + 1 : x1, ey1 = y1 < height ? y1 + 1 : y1;
+        int ew = ex1 - (x0 - 1), eh = ey1 - (y0 - 1);
+        size_t np_ = (size_t)ew * eh;
+        double *first = malloc(np_ * 3 * sizeof(double));
+        double *metric = malloc(np_ * 3 * sizeof(double));
+        unsigned char *mask = calloc(np_, 1);
+        if (!first || !metric || !mask) {
+            failed = 1;
+        } else {
+            for (int r = 0; r < eh; r++)
+                for (int c = 0; c < ew; c++) {
+                    size_t i = (size_t)r * ew + c;
+                    trace_pixel(&s, x0 - 1 + c + 0.5, y0 - 1 + r + 0.5, first + 3 * i);
+                    for (int k = 0; k < 3; k++) {
+                        double v = first[3 * i + k];
+                        metric[3 * i + k] = pow(v > 0 ? v : 0.0, metric_power);
+                    }
+                }
+            for (int r = 0; r < eh; r++)
+                for (int c = 0; c < ew; c++) {
+                    size_t i = (size_t)r * ew + c;
+                    const double *m = metric + 3 * i;
+                    if (c > 0) {
+                        const double *l = m - 3;
+                        if (fabs(m[0] - l[0]) + fabs(m[1] - l[1]) + fabs(m[2] - l[2]) >= threshold)
+                            mask[i] = mask[i - 1] = 1;
+                    }
+                    if (r > 0) {
+                        const double *t = m - 3 * ew;
+                        if (fabs(m[0] - t[0]) + fabs(m[1] - t[1]) + fabs(m[2] - t[2]) >= threshold)
+                            mask[i] = mask[i - ew] = 1;
+                    }
+                }
+            double step = 1.0 / depth, base = 0.5 - 0.5 * step;
+            for (int y = y0; y < y1; y++)
+                for (int x = x0; x < x1; x++) {
+                    size_t i = (size_t)(y - y0 + 1) * ew + (x - x0 + 1);
+                    double *dst = out + 3 * ((size_t)(y - y0) * tw + (x - x0));
+                    double acc[3] = {first[3 * i], first[3 * i + 1], first[3 * i + 2]};
+                    if (mask[i]) {
+                        double sum[3] = {0.0, 0.0, 0.0};
+                        for (int a = 0; a < depth; a++)
+                            for (int b = 0; b < depth; b++) {
+                                double col[3];
+                                trace_pixel(&s, x + 0.5 + (b * step - base),
+                                            y + 0.5 + (a * step - base), col);
+                                sum[0] += col[0], sum[1] += col[1], sum[2] += col[2];
+                            }
+                        for (int k = 0; k < 3; k++) acc[k] = (acc[k] + sum[k]) / (depth * depth + 1);
+                        supersampled++;
+                    }
+                    dst[0] = acc[0], dst[1] = acc[1], dst[2] = acc[2];
+                }
+        }
+        free(first);
+        free(metric);
+        free(mask);
+    }
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&sb);
+    if (failed) return PyErr_NoMemory();
+    return Py_BuildValue("LLL", s.rays, s.shadow_rays, supersampled);
+}
+
 static PyObject *layout(PyObject *self, PyObject *noargs) {
     return Py_BuildValue("{s:i,s:i,s:i,s:i}", "header", HDR, "object", OBJ, "texture", TEX,
                          "light", LIT);
@@ -594,6 +709,9 @@ static PyMethodDef methods[] = {
     {"trace_pixels", trace_pixels, METH_VARARGS,
      "trace_pixels(scene, xs, ys, out) -> (rays, shadow_rays): colours of camera rays "
      "through pixel coordinates xs, ys (float64) into out (N*3 float64)."},
+    {"render_tile", render_tile, METH_VARARGS,
+     "render_tile(scene, x0, y0, x1, y1, threshold, metric_power, depth, out) -> (rays, "
+     "shadow_rays, supersampled): one tile's colours, anti-aliased (threshold < 0: not)."},
     {"layout", layout, METH_NOARGS, "The packed scene's strides."},
     {NULL, NULL, 0, NULL}};
 
