@@ -23,7 +23,8 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, patterns, shapes
+from runtime import color, integrate, patterns, shading, shapes
+from runtime import tolerances as tol
 from runtime.trace import Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
@@ -32,10 +33,10 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT = 32, 48, 48, 24
+HDR, OBJ, TEX, LIT = 40, 48, 48, 24
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
-H_LOC, H_DIR, H_RIGHT, H_UP = 16, 19, 22, 25
+H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL = 16, 19, 22, 25, 28
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
 O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL = 8, 20, 28, 29, 30
 T_KIND, T_COLA, T_COLB, T_PINV, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 1, 6, 11, 23, 24, 25, 28
@@ -158,6 +159,17 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         h[at : at + 3] = v
     h[H_RIGHT : H_RIGHT + 3] = camera.right
     h[H_UP : H_UP + 3] = camera.up
+    # Read here, not compiled in: one source for every tolerance (and tests that vary one).
+    h[H_TOL : H_TOL + 8] = (
+        tol.ORIGIN_REL,
+        tol.OBJECT_REL,
+        tol.ABS_FLOOR,
+        tol.PARALLEL_EPS,
+        shading.EPSILON,
+        shading.SHADOW_TOLERANCE,
+        patterns.CHECKER_OFFSET,
+        integrate.MAX_SHADOW_CROSSINGS,
+    )
     rows = buf[HDR : HDR + n_obj * OBJ].reshape(n_obj, OBJ)
     for leaf in leaves:
         i = leaf.index
@@ -243,7 +255,6 @@ class Kernel:
         self.ctx.count("rays", rays)
         self.ctx.count("shadow_rays", shadow_rays)
         return out
-
 
     def render_tile(
         self, tile: tuple[int, int, int, int], threshold: float | None, depth: int

@@ -17,13 +17,14 @@
 #include <string.h>
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
-#define HDR 32
+#define HDR 40
 #define OBJ 48
 #define TEX 48
 #define LIT 24
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
-       H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25 };
+       H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
+       H_TOL = 28 };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 28, O_FADEDIST, O_FADECOL, O_LO = 33, O_HI = 36 };
 enum { T_KIND, T_COLA, T_COLB = 6, T_PINV = 11, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
@@ -35,19 +36,22 @@ enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS
 enum { K_SPHERE, K_PLANE, K_BOX };
 enum { SKIP_NONE = 0, SKIP_NO_IMAGE = 1, SKIP_NO_REFLECTION = 2, SKIP_NO_SHADOW = 4 };
 
-/* ---- tolerances: the same values as runtime/tolerances.py and runtime/shading.py ---- */
-#define ORIGIN_REL 1e-9
-#define OBJECT_REL 1e-7
-#define ABS_FLOOR 1e-12
-#define PARALLEL_EPS 1e-300
-#define EPSILON 1e-10
-#define SHADOW_TOLERANCE 1e-3
-#define MAX_SHADOW_CROSSINGS 32
-#define CHECKER_OFFSET 1e-6
+/* ---- tolerances: runtime/tolerances.py and runtime/shading.py send theirs in the header
+ * (H_TOL on), so a test that changes one there changes it here too ---- */
+enum { TOL_ORIGIN_REL, TOL_OBJECT_REL, TOL_ABS_FLOOR, TOL_PARALLEL, TOL_EPSILON, TOL_SHADOW,
+       TOL_CHECKER, TOL_CROSSINGS };
+#define ORIGIN_REL (s->tol[TOL_ORIGIN_REL])
+#define OBJECT_REL (s->tol[TOL_OBJECT_REL])
+#define ABS_FLOOR (s->tol[TOL_ABS_FLOOR])
+#define PARALLEL_EPS (s->tol[TOL_PARALLEL])
+#define EPSILON (s->tol[TOL_EPSILON])
+#define SHADOW_TOLERANCE (s->tol[TOL_SHADOW])
+#define CHECKER_OFFSET (s->tol[TOL_CHECKER])
+#define MAX_SHADOW_CROSSINGS ((int)s->tol[TOL_CROSSINGS])
 static const double GREY[3] = {0.297, 0.589, 0.114};
 
 typedef struct {
-    const double *h, *obj, *tex, *light;
+    const double *h, *obj, *tex, *light, *tol;
     int nobj, ntex, nlight, maxlevel, legacy, anytrans;
     double bailout;
     long long rays, shadow_rays;
@@ -104,7 +108,7 @@ static void stable_quadratic(double a, double b, double c, double disc, double *
 }
 
 /* All crossings of one primitive along o + t d (object space); returns how many. */
-static int crossings(const double *ob, const double *o, const double *d, double *t, int *face) {
+static int crossings(const Scene *s, const double *ob, const double *o, const double *d, double *t, int *face) {
     const double *p = ob + O_PRIM;
     switch ((int)ob[O_KIND]) {
     case K_SPHERE: {
@@ -170,13 +174,13 @@ static void object_normal(const double *ob, const double *po, int face, double *
     }
 }
 
-static inline double default_tmin(const double *o) {
+static inline double default_tmin(const Scene *s, const double *o) {
     return ORIGIN_REL * sqrt(dot(o, o)) + ABS_FLOOR;
 }
 
 /* Closest crossing in (floor, tmax) over all objects not flagged `skip`; 0 when none. */
 static int closest(Scene *s, const double *o, const double *d, double tmax, int skip, Hit *h) {
-    double tmin = default_tmin(o);
+    double tmin = default_tmin(s, o);
     h->t = INFINITY;
     h->obj = -1;
     for (int i = 0; i < s->nobj; i++) {
@@ -190,7 +194,7 @@ static int closest(Scene *s, const double *o, const double *d, double tmax, int 
             linear(ob + O_MINV, d, dd);
             po = oo, pd = dd;
         }
-        int k = crossings(ob, po, pd, t, face);
+        int k = crossings(s, ob, po, pd, t, face);
         double floor = OBJECT_REL * ob[O_SIZE];
         if (tmin > floor) floor = tmin;
         double limit = h->t < tmax ? h->t : tmax;
@@ -205,7 +209,7 @@ static int closest(Scene *s, const double *o, const double *d, double tmax, int 
 }
 
 static int occluded(Scene *s, const double *o, const double *d, double tmax) {
-    double tmin = default_tmin(o);
+    double tmin = default_tmin(s, o);
     for (int i = 0; i < s->nobj; i++) {
         const double *ob = s->obj + (size_t)i * OBJ;
         if (SKIP_NO_SHADOW & (int)ob[O_FLAGS]) continue;
@@ -217,7 +221,7 @@ static int occluded(Scene *s, const double *o, const double *d, double tmax) {
             linear(ob + O_MINV, d, dd);
             po = oo, pd = dd;
         }
-        int k = crossings(ob, po, pd, t, face);
+        int k = crossings(s, ob, po, pd, t, face);
         double floor = OBJECT_REL * ob[O_SIZE];
         if (tmin > floor) floor = tmin;
         for (int j = 0; j < k; j++)
@@ -248,7 +252,7 @@ static void hit_normal(Scene *s, const double *o, const double *d, const Hit *h,
 }
 
 /* RGBFT colour of a texture's pigment at a world point. */
-static const double *pigment(const double *tx, const double *p) {
+static const double *pigment(const Scene *s, const double *tx, const double *p) {
     if ((int)tx[T_KIND] == 0) return tx + T_COLA;
     double q[3];
     affine(tx + T_PINV, p, q);
@@ -273,7 +277,7 @@ static inline double fresnel_metallic(double cos_angle) {
     return f < 0.0 ? 0.0 : (f > 1.0 ? 1.0 : f);
 }
 
-static double interior_fade(const double *ob, double depth, int ch) {
+static double interior_fade(const Scene *s, const double *ob, double depth, int ch) {
     double power = ob[O_FADEPOW], fd = ob[O_FADEDIST], fc = ob[O_FADECOL + ch];
     if (power <= 0 || fabs(fd) <= EPSILON) return 1.0;
     double x = depth / fd;
@@ -313,13 +317,13 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
             mult[0] = mult[1] = mult[2] = 0.0;
             return;
         }
-        const double *c = pigment(tx, pt);
+        const double *c = pigment(s, tx, pt);
         hit_normal(s, o, ldir, &h, n);
         int leaving = dot(n, ldir) > 0;
         double big = 0.0;
         for (int i = 0; i < 3; i++) {
             double f = c[3] * c[i] + c[4];
-            if (leaving) f *= interior_fade(ob, h.t, i);
+            if (leaving) f *= interior_fade(s, ob, h.t, i);
             mult[i] *= f;
             if (fabs(mult[i]) > big) big = fabs(mult[i]);
         }
@@ -344,7 +348,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     hit_normal(s, o, d, h, n);
     int leaving = dot(n, d) > 0;
     if (leaving) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
-    const double *col = pigment(tx, p);
+    const double *col = pigment(s, tx, p);
     const double *pig = col;
     double op = opacity(col, s->legacy);
     int lit = (int)tx[T_LIT], dbl = (int)ob[O_DOUBLE];
@@ -487,7 +491,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
         }
     }
     if (leaving)
-        for (int i = 0; i < 3; i++) mult[i] *= interior_fade(ob, h->t, i);
+        for (int i = 0; i < 3; i++) mult[i] *= interior_fade(s, ob, h->t, i);
     double tc[3];
     trace(s, p, td, w, level, skip, straight, tc);
     for (int i = 0; i < 3; i++) out[i] += mult[i] * tc[i];
@@ -534,6 +538,7 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         PyErr_SetString(PyExc_ValueError, "scene: array shorter than its header says");
         return -1;
     }
+    s->tol = h + H_TOL;
     s->obj = h + HDR;
     s->tex = s->obj + (size_t)s->nobj * OBJ;
     s->light = s->tex + (size_t)s->ntex * TEX;

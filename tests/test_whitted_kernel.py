@@ -1,0 +1,182 @@
+"""The compiled Whitted kernel against the numpy integrator: the same scene through both
+must give the same working-space image (the numpy path is the reference: its formulas are
+the ones tested against POV-Ray elsewhere). Metric: the largest absolute channel difference
+over the image, and, for random scenes, the share of pixels that differ by more than 1e-6
+(a tie between two surfaces may go either way on a pixel or two)."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from runtime import api, whitted
+from runtime.prepare import prepare
+from runtime.render import render_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _both(scene, width, height, aa=None, monkeypatch=None):
+    assert whitted.reasons(prepare(scene, width, height), scene.camera) == []
+    fast = render_scene(scene, width, height, antialias=aa)
+    monkeypatch.setenv(whitted.ENV, "numpy")
+    slow = render_scene(scene, width, height, antialias=aa)
+    monkeypatch.delenv(whitted.ENV)
+    return fast, slow
+
+
+def _scene(text: str):
+    return api.compile_string(text).scene
+
+
+def test_layout_is_the_kernels():
+    assert whitted._whitted is not None
+    assert whitted._whitted.layout() == whitted.layout()
+
+
+@pytest.mark.skipif(not (shutil.which("cc") or shutil.which("gcc")), reason="no C compiler")
+def test_kernel_is_built_where_a_compiler_is():
+    # Without this the numpy path would silently render everything (and the speed is gone).
+    assert whitted.available()
+
+
+def test_seed_scene_matches_numpy_with_antialiasing(monkeypatch):
+    scene = api.compile_file(ROOT / "examples" / "ex3.scene").scene
+    fast, slow = _both(scene, 96, 72, aa=0.3, monkeypatch=monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
+FEATURES = """
+#version 3.7;
+global_settings { assumed_gamma 2.2 max_trace_level 6 adc_bailout 0.002 }
+camera { %s location <0.5, 2.5, -7> look_at <0, 0.5, 0> angle 50 }
+background { rgb <0.2, 0.3, 0.5> }
+light_source { <-5, 8, -6>, rgb 1 }
+light_source { <4, 6, -2>, rgb <0.4, 0.35, 0.3> shadowless }
+light_source { <0, 7, 0>, rgb 1.5 spotlight point_at <0, 0, 0> radius 12 falloff 20
+  tightness 5 fade_distance 4 fade_power 2 }
+plane { y, -1 pigment { checker rgb <0.9, 0.9, 0.85>, rgb <0.2, 0.25, 0.3> scale 0.75
+  rotate y * 20 } finish { diffuse 0.7 reflection { 0.05, 0.3 falloff 2 } } }
+plane { -z, -9 pigment { rgb <0.8, 0.7, 0.5> } finish { ambient 0.2 } double_illuminate }
+sphere { <-2, 0.2, 0>, 1 scale <1, 1.3, 1> rotate z * 15
+  pigment { rgb <0.9, 0.2, 0.1> } finish { phong 0.8 phong_size 80 specular 0.3
+  roughness 0.02 metallic 0.5 brilliance 1.6 } }
+sphere { <0.3, 0.3, -1>, 1 pigment { rgbf <0.95, 1, 0.95, 0.9> }
+  finish { reflection 0.1 conserve_energy specular 0.6 }
+  interior { ior 1.5 fade_distance 1.5 fade_power 1001 fade_color rgb <0.2, 0.6, 0.3> } }
+box { <-0.6, -1, -0.6>, <0.6, 0.2, 0.6> rotate <10, 35, 0> translate <2.2, 0, 0.5>
+  pigment { rgbt <0.3, 0.5, 0.9, 0.4> } finish { reflection { 0.4 metallic 0.7 exponent 0.8 } }
+  interior { fade_distance 2 fade_power 2 fade_color rgb 0.3 } }
+box { <1, -1, 2>, <3, -0.4, 3> pigment { rgb <0.2, 0.8, 0.3> } no_shadow }
+sphere { <-1, 2.5, 1.5>, 0.6 pigment { rgb <1, 0.9, 0.2> } no_reflection
+  finish { emission 0.3 diffuse 0.4 } }
+sphere { <1.5, 2.6, 2>, 0.5 pigment { rgb 1 } no_image finish { reflection 0.6 } }
+sphere { <3.5, 1.5, -2>, 0.5 pigment { rgbf <1, 1, 1, 1> } interior { ior 1 } }
+"""
+
+
+@pytest.mark.parametrize("camera", ["", "orthographic"])
+def test_features_match_numpy(camera, monkeypatch):
+    text = FEATURES % camera
+    if camera:  # an orthographic view needs a wider frame to see the scene
+        text = text.replace("angle 50", "right x * 12 up y * 9")
+    scene = _scene(text)
+    fast, slow = _both(scene, 80, 60, aa=0.2, monkeypatch=monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
+def test_legacy_opacity_matches_numpy(monkeypatch):
+    # No #version: POV-Ray's older transparency rule and no gamma handling.
+    scene = _scene(
+        "camera { location <0, 1, -5> look_at 0 } light_source { <3, 5, -4>, rgb 1 }"
+        "plane { y, -1 pigment { checker } }"
+        "sphere { 0, 1 pigment { rgbf <0.9, 0.4, 0.2, 0.6> } interior { ior 1.3 } }"
+    )
+    fast, slow = _both(scene, 64, 48, aa=0.3, monkeypatch=monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
+_coord = st.floats(-3, 3, allow_nan=False)
+_unit = st.floats(0, 1, allow_nan=False)
+
+
+@st.composite
+def _objects(draw):
+    lines = []
+    for _ in range(draw(st.integers(1, 6))):
+        x, y, z = draw(_coord), draw(_coord), draw(st.floats(-1, 4))
+        f, t = draw(st.sampled_from([0.0, 0.0, 0.5, 0.9])), draw(st.sampled_from([0.0, 0.3]))
+        pig = f"pigment {{ rgbft <{draw(_unit)}, {draw(_unit)}, {draw(_unit)}, {f}, {t}> }}"
+        fin = (
+            f"finish {{ diffuse {draw(_unit)} phong {draw(_unit)} specular {draw(_unit)}"
+            f" metallic {draw(_unit)} reflection {draw(st.sampled_from([0, 0, 0.3, 0.8]))} }}"
+        )
+        ior = draw(st.sampled_from([1.0, 1.33, 1.5, 2.4]))
+        if draw(st.booleans()):
+            r = draw(st.floats(0.2, 1.5))
+            shape = f"sphere {{ <{x}, {y}, {z}>, {r}"
+        else:
+            s = draw(st.floats(0.2, 1.2))
+            rot = f"rotate <{draw(_coord) * 30}, {draw(_coord) * 30}, 0>"
+            shape = f"box {{ <-{s}, -{s}, -{s}>, <{s}, {s}, {s}> {rot} translate <{x}, {y}, {z}>"
+        lines.append(f"{shape} {pig} {fin} interior {{ ior {ior} }} }}")
+    return "\n".join(lines)
+
+
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(objects=_objects(), lx=_coord, lz=_coord)
+def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
+    scene = _scene(
+        "#version 3.7; global_settings { assumed_gamma 1 }"
+        "camera { location <0, 2, -8> look_at <0, 0, 1> }"
+        f"light_source {{ <{lx * 3}, 8, {lz * 3 - 4}>, rgb 1 }}"
+        "plane { y, -3 pigment { checker rgb 1, rgb 0.3 } finish { reflection 0.2 } }" + objects
+    )
+    fast, slow = _both(scene, 32, 24, monkeypatch=monkeypatch)
+    diff = np.abs(fast - slow).max(axis=2)
+    assert (diff > 1e-6).mean() <= 0.01, f"max difference {diff.max()}"
+
+
+@pytest.mark.parametrize(
+    ("text", "reason"),
+    [
+        ("difference { sphere { 0, 1 } sphere { x, 1 } }", "CSG"),
+        ("sphere { 0, 1 } fog { distance 5 rgb 1 }", "fog"),
+        ("sphere { 0, 1 pigment { bozo } }", "bozo"),
+        ("sphere { 0, 1 normal { bumps 0.5 } }", "normal"),
+        ("mesh { triangle { 0, x, y } }", "meshes"),
+    ],
+)
+def test_scenes_beyond_the_kernel_say_why(text, reason):
+    scene = _scene("camera { location -5*z look_at 0 } light_source { <1, 5, -5>, rgb 1 }" + text)
+    found = whitted.reasons(prepare(scene, 32, 24), scene.camera)
+    assert any(reason in r for r in found), found
+
+
+def test_the_environment_switch_turns_it_off(monkeypatch):
+    monkeypatch.setenv(whitted.ENV, "numpy")
+    assert not whitted.available()
+    monkeypatch.delenv(whitted.ENV)
+    assert whitted.available() == (whitted._whitted is not None)
+
+
+def test_no_extension_falls_back(monkeypatch):
+    monkeypatch.setattr(whitted, "_whitted", None)
+    scene = api.compile_file(ROOT / "examples" / "ex3.scene").scene
+    assert "the compiled kernel is not built" in whitted.reasons(
+        prepare(scene, 16, 12), scene.camera
+    )
+    img = render_scene(scene, 16, 12)
+    assert img.shape == (12, 16, 3) and np.isfinite(img).all()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(pytest.main([__file__, "-q"]))
