@@ -33,17 +33,47 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT = 40, 48, 48, 24
+HDR, OBJ, TEX, LIT, PIG, MAX_MAP = 40, 48, 48, 24, 64, 7
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
-H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL = 16, 19, 22, 25, 28
+H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL, H_NPIG, H_NSKY = 16, 19, 22, 25, 28, 36, 37
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
 O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL = 8, 20, 28, 29, 30
-T_KIND, T_COLA, T_COLB, T_PINV, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 1, 6, 11, 23, 24, 25, 28
+T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
 T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
 T_RMIN, T_RMAX, T_FALLOFF, T_REXP, T_RMETAL, T_CONSERVE = 38, 41, 44, 45, 46, 47
 L_KIND, L_POS, L_COL, L_SHADOWLESS, L_FADEPOW, L_FADEDIST = 0, 1, 4, 7, 8, 9
 L_AXIS, L_TIGHT, L_COSR, L_COSF = 10, 13, 14, 15
+P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
+    0,
+    1,
+    13,
+    16,
+    17,
+    18,
+    19,
+    20,
+    21,
+)
+PIGMENT_KINDS = {
+    "solid": 0,
+    "checker": 1,
+    "gradient": 2,
+    "onion": 3,
+    "spherical": 4,
+    "cylindrical": 5,
+    "planar": 6,
+    "boxed": 7,
+    "radial": 8,
+}
+WAVES = {
+    "ramp_wave": 0,
+    "triangle_wave": 1,
+    "sine_wave": 2,
+    "scallop_wave": 3,
+    "cubic_wave": 4,
+    "poly_wave": 5,
+}
 KINDS = {shapes.SpherePrim: 0, shapes.PlanePrim: 1, shapes.BoxPrim: 2}
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
@@ -60,19 +90,39 @@ def available() -> bool:
 
 
 def layout() -> dict[str, int]:
-    return {"header": HDR, "object": OBJ, "texture": TEX, "light": LIT}
+    return {
+        "header": HDR,
+        "object": OBJ,
+        "texture": TEX,
+        "light": LIT,
+        "pigment": PIG,
+        "map_entries": MAX_MAP,
+    }
 
 
 def _pigment_reasons(pig: ir.Pigment) -> list[str]:
-    if pig.pattern == "solid":
+    kind = pig.pattern
+    if kind not in PIGMENT_KINDS:
+        return [f"pigment pattern {kind}"]
+    if kind == "solid":
         return []
-    if pig.pattern != "checker":
-        return [f"pigment pattern {pig.pattern}"]
     if pig.params.get("warps") or patterns._turb_params(pig.params)[0] is not None:
-        return ["warped or turbulent checker"]
-    if any(sub.pattern != "solid" for sub in pig.list) or len(pig.list) == 1:
-        return ["checker of patterned pigments"]
+        return [f"warped or turbulent {kind}"]
+    if kind == "checker":
+        if any(sub.pattern != "solid" for sub in pig.list) or len(pig.list) == 1:
+            return ["checker of patterned pigments"]
+        return []
+    if pig.pigment_map:
+        return ["pigment_map"]
+    if len(_colour_map(pig)) > MAX_MAP:
+        return [f"colour map of more than {MAX_MAP} entries"]
+    if pig.params.get("wave", "ramp_wave") not in WAVES:
+        return [f"wave {pig.params.get('wave')}"]
     return []
+
+
+def _colour_map(pig: ir.Pigment):
+    return pig.color_map or patterns.DEFAULT_MAPS.get(pig.pattern, patterns.DEFAULT_MAP)
 
 
 def _texture_reasons(tex: ir.Texture) -> list[str]:
@@ -101,8 +151,8 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
         out.append("focal blur")
     if scene.settings.radiosity is not None:
         out.append("radiosity")
-    if scene.sky_sphere or scene.fog is not None or scene.fogs or scene.media:
-        out.append("sky_sphere, fog or media")
+    if scene.fog is not None or scene.fogs or scene.media:
+        out.append("fog or media")
     tracer = prepared.tracer
     if tracer.triangles is not None:
         out.append("meshes")
@@ -117,12 +167,48 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
         if it.caustics != 0 or it.media:
             out.append("caustics or interior media")
         out.extend(_texture_reasons(obj.texture))
+    if scene.sky_sphere and ctx_legacy(scene):
+        out.append("sky_sphere in a pre-3.7 scene")
+    for pig in scene.sky_sphere or ():
+        out.extend(_pigment_reasons(pig))
     for light in scene.lights:
         if light.kind not in ("point", "spotlight"):
             out.append(f"{light.kind} light")
         if light.area is not None and light.area.size1 * light.area.size2 > 1:
             out.append("area light")
     return sorted(set(out))
+
+
+def ctx_legacy(scene: ir.Scene) -> bool:
+    """POV-Ray's pre-3.7 rules (integrate.Context.legacy_opacity)."""
+    v = scene.settings.version
+    return v is not None and v < 3.7
+
+
+def pack_pigment(pig: ir.Pigment, row: np.ndarray) -> None:
+    """One pigment row: kind, pattern-space transform, wave and colour map (solid: one
+    entry; checker: its two colours)."""
+    kind = pig.pattern
+    row[P_KIND] = PIGMENT_KINDS[kind]
+    if kind == "solid":
+        entries = [(0.0, pig.color)]
+    elif kind == "checker":
+        subs = pig.list or tuple(ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS["checker"])
+        entries = [(0.0, subs[0].color), (1.0, subs[1].color)]
+    else:
+        entries = list(_colour_map(pig))
+        prm = pig.params
+        row[P_ORIENT : P_ORIENT + 3] = prm.get("orientation", (1.0, 0.0, 0.0))
+        row[P_FREQ] = float(prm.get("frequency", 1.0))
+        row[P_PHASE] = float(prm.get("phase", 0.0))
+        row[P_WAVE] = WAVES[prm.get("wave", "ramp_wave")]
+        row[P_WEXP] = float(prm.get("wave_exponent", prm.get("exponent", 1.0)))
+    inv = patterns._inverse(pig.transform)
+    row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
+    row[P_N] = len(entries)
+    for k, (key, colour) in enumerate(entries):
+        row[P_MAP + 6 * k] = key
+        row[P_MAP + 6 * k + 1 : P_MAP + 6 * k + 6] = colour
 
 
 def _inv_rows(m) -> np.ndarray:
@@ -145,9 +231,11 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     s = scene.settings
     leaves = sorted(tracer.nodes, key=lambda n: n.index)
     n_obj, n_tex, n_light = len(leaves), len(ctx.textures), len(scene.lights)
-    buf = np.zeros(HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT)
+    sky = list(reversed(scene.sky_sphere or ()))  # evaluated innermost first, as integrate.sky
+    n_pig = n_tex + len(sky)
+    buf = np.zeros(HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT + n_pig * PIG)
     h = buf[:HDR]
-    h[[H_NOBJ, H_NTEX, H_NLIGHT]] = n_obj, n_tex, n_light
+    h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[H_MAXLEVEL], h[H_BAILOUT] = s.max_trace_level, s.adc_bailout
     h[H_AMB : H_AMB + 3] = s.ambient_light
     h[H_BG : H_BG + 3] = ctx.background
@@ -202,17 +290,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     for t, layers in enumerate(ctx.textures):
         tex, r = layers[0], trows[t]
         pig, f = tex.pigment, tex.finish
-        if pig.pattern == "checker":
-            entries = pig.list or tuple(
-                ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS["checker"]
-            )
-            r[T_KIND] = 1
-            r[T_COLA : T_COLA + 5] = entries[0].color
-            r[T_COLB : T_COLB + 5] = entries[1].color
-            inv = patterns._inverse(pig.transform)
-            r[T_PINV : T_PINV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
-        else:
-            r[T_COLA : T_COLA + 5] = pig.color
+        r[T_PIG] = t  # texture t's pigment is pigment row t; the sky's follow
         r[T_TRANS], r[T_LIT] = ctx.transmits[t], ctx.lit[t]
         r[T_AMB : T_AMB + 3] = f.ambient
         r[T_EMIS : T_EMIS + 3] = f.emission
@@ -225,7 +303,13 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         r[T_FALLOFF], r[T_REXP], r[T_RMETAL] = rf.falloff, rf.exponent, rf.metallic
         r[T_CONSERVE] = f.conserve_energy
     start += n_tex * TEX
-    lrows = buf[start:].reshape(n_light, LIT)
+    lrows = buf[start : start + n_light * LIT].reshape(n_light, LIT)
+    start += n_light * LIT
+    prows = buf[start:].reshape(n_pig, PIG)
+    for t, layers in enumerate(ctx.textures):
+        pack_pigment(layers[0].pigment, prows[t])
+    for k, pig in enumerate(sky):
+        pack_pigment(pig, prows[n_tex + k])
     for light, r in zip(scene.lights, lrows, strict=True):
         r[L_KIND] = 1 if light.kind == "spotlight" else 0
         r[L_POS : L_POS + 3] = light.position

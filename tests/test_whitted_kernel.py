@@ -91,6 +91,34 @@ def test_features_match_numpy(camera, monkeypatch):
     assert np.abs(fast - slow).max() < 1e-9
 
 
+PATTERNS = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 3, -9> look_at <0, 0.5, 0> angle 55 }
+light_source { <-4, 9, -6>, rgb 1 }
+sky_sphere {
+  pigment { gradient y color_map { [0 rgb <0.8, 0.9, 1>] [0.5 rgbt <0.3, 0.4, 0.9, 0.5>]
+    [1 rgb <0.1, 0.2, 0.7>] } }
+  pigment { spherical color_map { [0 rgbt 1] [1 rgbf <1, 0.5, 0.2, 0.3>] } scale 0.4 }
+}
+plane { y, -1 pigment { gradient x frequency 2 phase 0.25 sine_wave
+  color_map { [0 rgb 0.1] [0.3 rgb <0.9, 0.2, 0.1>] [0.3 rgb <0.1, 0.6, 0.2>] [1 rgb 1] } }
+  finish { reflection 0.2 } }
+sphere { <-3, 0.5, 0>, 1 pigment { onion triangle_wave scale 0.3 } }
+sphere { <-1, 0.5, 0>, 1 pigment { cylindrical cubic_wave color_map { [0 rgb <1, 0, 0>]
+  [1 rgb <0, 0, 1>] } rotate x * 40 } }
+sphere { <1, 0.5, 0>, 1 pigment { planar scallop_wave rotate z * 30 } }
+sphere { <3, 0.5, 0>, 1 pigment { boxed poly_wave 2.5 scale 0.8 } }
+box { <-4, -1, 2>, <4, 2, 2.5> pigment { radial frequency 8 } }
+"""
+
+
+def test_patterns_and_sky_match_numpy(monkeypatch):
+    scene = _scene(PATTERNS)
+    fast, slow = _both(scene, 96, 72, aa=0.3, monkeypatch=monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
 def test_legacy_opacity_matches_numpy(monkeypatch):
     # No #version: POV-Ray's older transparency rule and no gamma handling.
     scene = _scene(
@@ -150,6 +178,8 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
     [
         ("difference { sphere { 0, 1 } sphere { x, 1 } }", "CSG"),
         ("sphere { 0, 1 } fog { distance 5 rgb 1 }", "fog"),
+        ("sphere { 0, 1 } sky_sphere { pigment { bozo } }", "bozo"),
+        ("sphere { 0, 1 pigment { gradient y turbulence 0.5 } }", "turbulent"),
         ("sphere { 0, 1 pigment { bozo } }", "bozo"),
         ("sphere { 0, 1 normal { bumps 0.5 } }", "normal"),
         ("mesh { triangle { 0, x, y } }", "meshes"),

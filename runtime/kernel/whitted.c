@@ -21,17 +21,24 @@
 #define OBJ 48
 #define TEX 48
 #define LIT 24
+#define PIG 64
+#define MAX_MAP 7
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
-       H_TOL = 28 };
+       H_TOL = 28, H_NPIG = 36, H_NSKY };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 28, O_FADEDIST, O_FADECOL, O_LO = 33, O_HI = 36 };
-enum { T_KIND, T_COLA, T_COLB = 6, T_PINV = 11, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
+enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
        T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE };
 enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS,
        L_TIGHT = 13, L_COSR, L_COSF };
+
+enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP };
+enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
+       PK_BOXED, PK_RADIAL };
+enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 
 enum { K_SPHERE, K_PLANE, K_BOX };
 enum { SKIP_NONE = 0, SKIP_NO_IMAGE = 1, SKIP_NO_REFLECTION = 2, SKIP_NO_SHADOW = 4 };
@@ -51,8 +58,8 @@ enum { TOL_ORIGIN_REL, TOL_OBJECT_REL, TOL_ABS_FLOOR, TOL_PARALLEL, TOL_EPSILON,
 static const double GREY[3] = {0.297, 0.589, 0.114};
 
 typedef struct {
-    const double *h, *obj, *tex, *light, *tol;
-    int nobj, ntex, nlight, maxlevel, legacy, anytrans;
+    const double *h, *obj, *tex, *light, *tol, *pig;
+    int nobj, ntex, nlight, npig, nsky, maxlevel, legacy, anytrans;
     double bailout;
     long long rays, shadow_rays;
 } Scene;
@@ -251,14 +258,78 @@ static void hit_normal(Scene *s, const double *o, const double *d, const Hit *h,
     if (h->flip) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
 }
 
-/* RGBFT colour of a texture's pigment at a world point. */
-static const double *pigment(const Scene *s, const double *tx, const double *p) {
-    if ((int)tx[T_KIND] == 0) return tx + T_COLA;
+#define WAVE_MODULUS 1.00001
+
+/* POV-Ray's frequency/phase wrap, then the wave type (patterns.apply_wave). */
+static double apply_wave(const double *pg, double v) {
+    double freq = pg[P_FREQ];
+    if (freq != 0.0) v = fmod(v * freq + pg[P_PHASE], WAVE_MODULUS);
+    if (v < 0.0) v = v - floor(v);
+    switch ((int)pg[P_WAVE]) {
+    case W_TRIANGLE: {
+        double f = v - floor(v);
+        return f < 0.5 ? 2.0 * f : 2.0 - 2.0 * f;
+    }
+    case W_SINE: return (1.0 + sin(v * 2.0 * M_PI)) * 0.5;
+    case W_SCALLOP: return fabs(sin(v * M_PI));
+    case W_CUBIC: return v * v * (3.0 - 2.0 * v);
+    case W_POLY: return pow(v, pg[P_WEXP]);
+    default: return v;
+    }
+}
+
+static inline double clip01(double v) { return v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v); }
+
+/* RGBFT colour of a pigment at a point (patterns.evaluate for the kinds packed). */
+static void pigment(const Scene *s, const double *pg, const double *p, double *out) {
+    const double *map = pg + P_MAP;
+    int kind = (int)pg[P_KIND];
+    if (kind == PK_SOLID) {
+        memcpy(out, map + 1, 5 * sizeof(double));
+        return;
+    }
     double q[3];
-    affine(tx + T_PINV, p, q);
-    double sum = floor(q[0] + CHECKER_OFFSET) + floor(q[1] + CHECKER_OFFSET) +
-                 floor(q[2] + CHECKER_OFFSET);
-    return (((long long)sum) & 1) ? tx + T_COLB : tx + T_COLA;
+    affine(pg + P_INV, p, q);
+    if (kind == PK_CHECKER) {
+        double sum = floor(q[0] + CHECKER_OFFSET) + floor(q[1] + CHECKER_OFFSET) +
+                     floor(q[2] + CHECKER_OFFSET);
+        memcpy(out, map + ((((long long)sum) & 1) ? 7 : 1), 5 * sizeof(double));
+        return;
+    }
+    double v;
+    switch (kind) {
+    case PK_GRADIENT: v = dot(q, pg + P_ORIENT); break;
+    case PK_ONION: v = fmod(sqrt(dot(q, q)), 1.0); break;
+    case PK_SPHERICAL: v = clip01(1.0 - sqrt(dot(q, q))); break;
+    case PK_CYLINDRICAL: v = clip01(1.0 - hypot(q[0], q[2])); break;
+    case PK_PLANAR: v = clip01(1.0 - fabs(q[1])); break;
+    case PK_BOXED: {
+        double m = fabs(q[0]) > fabs(q[1]) ? fabs(q[0]) : fabs(q[1]);
+        m = m > fabs(q[2]) ? m : fabs(q[2]);
+        v = clip01(1.0 - m);
+        break;
+    }
+    default: /* radial */
+        v = (fabs(q[0]) < 0.001 && fabs(q[2]) < 0.001)
+                ? 0.25
+                : 0.25 + (atan2(q[0], q[2]) + M_PI) / (2.0 * M_PI);
+    }
+    v = apply_wave(pg, v);
+    /* POV-Ray's Search_Blend_Map (patterns.blend_indices) */
+    int n = (int)pg[P_N], hi = 0;
+    while (hi < n && map[6 * hi] < v) hi++;
+    if (hi > n - 1) hi = n - 1;
+    int lo = hi > 0 ? hi - 1 : 0;
+    if (v >= map[6 * (n - 1)]) hi = n - 1;
+    if (v >= map[6 * (n - 1)] || map[6 * hi] == v || v <= map[0]) lo = hi;
+    double span = map[6 * hi] - map[6 * lo];
+    double frac = span > 0 ? (v - map[6 * lo]) / span : 0.0;
+    for (int k = 0; k < 5; k++)
+        out[k] = map[6 * lo + 1 + k] * (1.0 - frac) + map[6 * hi + 1 + k] * frac;
+}
+
+static inline const double *texture_pigment(const Scene *s, const double *tx) {
+    return s->pig + (size_t)tx[T_PIG] * PIG;
 }
 
 static inline double opacity(const double *c, int legacy) {
@@ -317,7 +388,8 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
             mult[0] = mult[1] = mult[2] = 0.0;
             return;
         }
-        const double *c = pigment(s, tx, pt);
+        double c[5];
+        pigment(s, texture_pigment(s, tx), pt, c);
         hit_normal(s, o, ldir, &h, n);
         int leaving = dot(n, ldir) > 0;
         double big = 0.0;
@@ -348,7 +420,8 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     hit_normal(s, o, d, h, n);
     int leaving = dot(n, d) > 0;
     if (leaving) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
-    const double *col = pigment(s, tx, p);
+    double col[5];
+    pigment(s, texture_pigment(s, tx), p, col);
     const double *pig = col;
     double op = opacity(col, s->legacy);
     int lit = (int)tx[T_LIT], dbl = (int)ob[O_DOUBLE];
@@ -506,7 +579,18 @@ static void trace(Scene *s, const double *o, const double *d, double weight, int
     s->rays++;
     Hit h;
     if (!closest(s, o, d, INFINITY, skip, &h)) {
-        out[0] = s->h[H_BG], out[1] = s->h[H_BG + 1], out[2] = s->h[H_BG + 2];
+        /* sky_sphere layers over the background, each filtering those behind (integrate.sky) */
+        double fil[3] = {1.0, 1.0, 1.0};
+        for (int l = 0; l < s->nsky; l++) {
+            double c[5];
+            pigment(s, s->pig + (size_t)(s->npig - s->nsky + l) * PIG, d, c);
+            double op = 1.0 - c[3] - c[4];
+            for (int k = 0; k < 3; k++) {
+                out[k] += c[k] * op * fil[k];
+                fil[k] *= c[3] * c[k] + c[4];
+            }
+        }
+        for (int k = 0; k < 3; k++) out[k] += s->h[H_BG + k] * fil[k];
         return;
     }
     shade(s, o, d, &h, weight, level + (continued ? 0 : 1), skip, out);
@@ -531,10 +615,12 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     *s = (Scene){.h = h, .nobj = (int)h[H_NOBJ], .ntex = (int)h[H_NTEX],
                  .nlight = (int)h[H_NLIGHT], .maxlevel = (int)h[H_MAXLEVEL],
                  .bailout = h[H_BAILOUT], .legacy = (int)h[H_LEGACY],
-                 .anytrans = (int)h[H_ANYTRANS]};
+                 .anytrans = (int)h[H_ANYTRANS], .npig = (int)h[H_NPIG],
+                 .nsky = (int)h[H_NSKY]};
     Py_ssize_t need = HDR + (Py_ssize_t)s->nobj * OBJ + (Py_ssize_t)s->ntex * TEX +
-                      (Py_ssize_t)s->nlight * LIT;
-    if (sb->len < need * 8) {
+                      (Py_ssize_t)s->nlight * LIT + (Py_ssize_t)s->npig * PIG;
+    if (s->nobj < 0 || s->ntex < 0 || s->nlight < 0 || s->npig < 0 || s->nsky < 0 ||
+        s->nsky > s->npig || sb->len < need * 8) {
         PyErr_SetString(PyExc_ValueError, "scene: array shorter than its header says");
         return -1;
     }
@@ -542,7 +628,24 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     s->obj = h + HDR;
     s->tex = s->obj + (size_t)s->nobj * OBJ;
     s->light = s->tex + (size_t)s->ntex * TEX;
+    s->pig = s->light + (size_t)s->nlight * LIT;
+    /* indices between the tables are checked once here, so tracing never reads outside */
+    for (int i = 0; i < s->nobj; i++) {
+        double t = s->obj[(size_t)i * OBJ + O_TEX];
+        if (!(t >= 0 && t < s->ntex)) goto bad;
+    }
+    for (int i = 0; i < s->ntex; i++) {
+        double g = s->tex[(size_t)i * TEX + T_PIG];
+        if (!(g >= 0 && g < s->npig)) goto bad;
+    }
+    for (int i = 0; i < s->npig; i++) {
+        double n = s->pig[(size_t)i * PIG + P_N];
+        if (!(n >= 1 && n <= MAX_MAP)) goto bad;
+    }
     return 0;
+bad:
+    PyErr_SetString(PyExc_ValueError, "scene: an index between its tables is out of range");
+    return -1;
 }
 
 /* The colour of the camera ray through continuous pixel coordinates (x, y). */
@@ -706,8 +809,8 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 }
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
-    return Py_BuildValue("{s:i,s:i,s:i,s:i}", "header", HDR, "object", OBJ, "texture", TEX,
-                         "light", LIT);
+    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR, "object", OBJ, "texture",
+                         TEX, "light", LIT, "pigment", PIG, "map_entries", MAX_MAP);
 }
 
 static PyMethodDef methods[] = {
