@@ -25,7 +25,7 @@ import numpy as np
 from lang import ir
 from runtime import color, integrate, patterns, shading, shapes
 from runtime import tolerances as tol
-from runtime.trace import Leaf
+from runtime.trace import CsgNode, Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
     from runtime import _whitted
@@ -33,10 +33,13 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAX_MAP = 40, 48, 48, 24, 64, 7
+HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 48, 48, 48, 24, 64, 7, 16, 512
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
-H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL, H_NPIG, H_NSKY = 16, 19, 22, 25, 28, 36, 37
+H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL = 16, 19, 22, 25, 28
+H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD = 39, 40, 41, 42, 43
+N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
+OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
 O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL = 8, 20, 28, 29, 30
 T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
@@ -97,6 +100,8 @@ def layout() -> dict[str, int]:
         "light": LIT,
         "pigment": PIG,
         "map_entries": MAX_MAP,
+        "node": NODE,
+        "max_crossings": MAX_CROSS,
     }
 
 
@@ -159,9 +164,11 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
     if len(tracer.nodes) > MAX_OBJECTS:
         out.append(f"more than {MAX_OBJECTS} objects")
     for node in tracer.nodes:
-        if not isinstance(node, Leaf) or type(node.prim) not in KINDS:
-            out.append("CSG, clipping or another shape")
+        if not _covered(node):
+            out.append("clipped_by or another shape")
             break
+        if len(node.leaves) > MAX_CROSS // 2:
+            out.append(f"a CSG of more than {MAX_CROSS // 2} shapes")
     for obj in prepared.objects:
         it = obj.interior
         if it.caustics != 0 or it.media:
@@ -211,6 +218,32 @@ def pack_pigment(pig: ir.Pigment, row: np.ndarray) -> None:
         row[P_MAP + 6 * k + 1 : P_MAP + 6 * k + 6] = colour
 
 
+def _covered(node) -> bool:
+    if isinstance(node, Leaf):
+        return type(node.prim) in KINDS
+    return isinstance(node, CsgNode) and node.op in OPS and all(map(_covered, node.children))
+
+
+def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:
+    """Every node, roots first, each node's children after it (breadth first); the flat
+    list of child indices; where each CSG node's children start in it (by id)."""
+    order, index = list(roots), {id(n): i for i, n in enumerate(roots)}
+    children: list[int] = []
+    k = 0
+    while k < len(order):
+        node = order[k]
+        for c in () if isinstance(node, Leaf) else node.children:
+            index[id(c)] = len(order)
+            order.append(c)
+        k += 1
+    firsts = {}
+    for node in order:
+        if not isinstance(node, Leaf):
+            firsts[id(node)] = len(children)
+            children.extend(index[id(c)] for c in node.children)
+    return order, children, firsts
+
+
 def _inv_rows(m) -> np.ndarray:
     """The 3x4 rows of an affine matrix, for the kernel."""
     return np.asarray(m, dtype=np.float64).reshape(4, 4)[:3, :].ravel()
@@ -229,13 +262,18 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     tracer = prepared.tracer
     objs = prepared.objects
     s = scene.settings
-    leaves = sorted(tracer.nodes, key=lambda n: n.index)
+    nodes, children, firsts = _nodes(list(tracer.nodes))
+    leaves = sorted((n for n in nodes if isinstance(n, Leaf)), key=lambda n: n.index)
+    assert [n.index for n in leaves] == list(range(len(objs))), "one leaf per object"
     n_obj, n_tex, n_light = len(leaves), len(ctx.textures), len(scene.lights)
     sky = list(reversed(scene.sky_sphere or ()))  # evaluated innermost first, as integrate.sky
     n_pig = n_tex + len(sky)
-    buf = np.zeros(HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT + n_pig * PIG)
+    n_node = len(nodes)
+    size = HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT + n_pig * PIG + n_node * NODE
+    buf = np.zeros(size + len(children))
     h = buf[:HDR]
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
+    h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
     h[H_MAXLEVEL], h[H_BAILOUT] = s.max_trace_level, s.adc_bailout
     h[H_AMB : H_AMB + 3] = s.ambient_light
     h[H_BG : H_BG + 3] = ctx.background
@@ -248,7 +286,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     h[H_RIGHT : H_RIGHT + 3] = camera.right
     h[H_UP : H_UP + 3] = camera.up
     # Read here, not compiled in: one source for every tolerance (and tests that vary one).
-    h[H_TOL : H_TOL + 8] = (
+    h[H_TOL : H_TOL + 11] = (
         tol.ORIGIN_REL,
         tol.OBJECT_REL,
         tol.ABS_FLOOR,
@@ -257,6 +295,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         shading.SHADOW_TOLERANCE,
         patterns.CHECKER_OFFSET,
         integrate.MAX_SHADOW_CROSSINGS,
+        tol.INSIDE_EPS,
+        tol.BOX_PAD_REL,
+        tol.BOX_PAD_ABS,
     )
     rows = buf[HDR : HDR + n_obj * OBJ].reshape(n_obj, OBJ)
     for leaf in leaves:
@@ -305,7 +346,17 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     start += n_tex * TEX
     lrows = buf[start : start + n_light * LIT].reshape(n_light, LIT)
     start += n_light * LIT
-    prows = buf[start:].reshape(n_pig, PIG)
+    prows = buf[start : start + n_pig * PIG].reshape(n_pig, PIG)
+    start += n_pig * PIG
+    nrows = buf[start : start + n_node * NODE].reshape(n_node, NODE)
+    buf[start + n_node * NODE :] = children
+    for node, r in zip(nodes, nrows, strict=True):
+        r[N_LO : N_LO + 3], r[N_HI : N_HI + 3] = node.lo, node.hi
+        if isinstance(node, Leaf):
+            r[N_KIND], r[N_LEAF] = 0, node.index
+        else:
+            r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
+            r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(node.children)
     for t, layers in enumerate(ctx.textures):
         pack_pigment(layers[0].pigment, prows[t])
     for k, pig in enumerate(sky):

@@ -514,8 +514,9 @@ def test_interrupted_render_stops_at_once_and_leaves_no_file(tmp_path):
 
     out = tmp_path / "big.png"
     cmd = [sys.executable, "-m", "runtime.cli", "render", str(EX3), "-W", "3000", "-H", "3000"]
+    # Threshold 0 supersamples every pixel (37 rays each): minutes of work, even compiled.
     proc = subprocess.Popen(
-        [*cmd, "--aa", "-o", str(out)],
+        [*cmd, "--aa", "0", "--aa-depth", "6", "-o", str(out)],
         cwd=ROOT,
         stdin=subprocess.DEVNULL,
         stderr=subprocess.PIPE,

@@ -17,16 +17,19 @@
 #include <string.h>
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
-#define HDR 40
+#define HDR 48
 #define OBJ 48
 #define TEX 48
 #define LIT 24
 #define PIG 64
+#define NODE 16
+/* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
+#define MAX_CROSS 512
 #define MAX_MAP 7
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
-       H_TOL = 28, H_NPIG = 36, H_NSKY };
+       H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 28, O_FADEDIST, O_FADECOL, O_LO = 33, O_HI = 36 };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
@@ -41,12 +44,16 @@ enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 
 enum { K_SPHERE, K_PLANE, K_BOX };
+/* the node table: leaves (an object) and CSG operations over child nodes */
+enum { N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO = 8, N_HI = 11 };
+enum { NK_LEAF, NK_CSG };
+enum { OP_UNION, OP_INTERSECTION, OP_DIFFERENCE, OP_MERGE };
 enum { SKIP_NONE = 0, SKIP_NO_IMAGE = 1, SKIP_NO_REFLECTION = 2, SKIP_NO_SHADOW = 4 };
 
 /* ---- tolerances: runtime/tolerances.py and runtime/shading.py send theirs in the header
  * (H_TOL on), so a test that changes one there changes it here too ---- */
 enum { TOL_ORIGIN_REL, TOL_OBJECT_REL, TOL_ABS_FLOOR, TOL_PARALLEL, TOL_EPSILON, TOL_SHADOW,
-       TOL_CHECKER, TOL_CROSSINGS };
+       TOL_CHECKER, TOL_CROSSINGS, TOL_INSIDE, TOL_BOX_PAD_REL, TOL_BOX_PAD_ABS };
 #define ORIGIN_REL (s->tol[TOL_ORIGIN_REL])
 #define OBJECT_REL (s->tol[TOL_OBJECT_REL])
 #define ABS_FLOOR (s->tol[TOL_ABS_FLOOR])
@@ -55,11 +62,14 @@ enum { TOL_ORIGIN_REL, TOL_OBJECT_REL, TOL_ABS_FLOOR, TOL_PARALLEL, TOL_EPSILON,
 #define SHADOW_TOLERANCE (s->tol[TOL_SHADOW])
 #define CHECKER_OFFSET (s->tol[TOL_CHECKER])
 #define MAX_SHADOW_CROSSINGS ((int)s->tol[TOL_CROSSINGS])
+#define INSIDE_EPS (s->tol[TOL_INSIDE])
+#define BOX_PAD_REL (s->tol[TOL_BOX_PAD_REL])
+#define BOX_PAD_ABS (s->tol[TOL_BOX_PAD_ABS])
 static const double GREY[3] = {0.297, 0.589, 0.114};
 
 typedef struct {
-    const double *h, *obj, *tex, *light, *tol, *pig;
-    int nobj, ntex, nlight, npig, nsky, maxlevel, legacy, anytrans;
+    const double *h, *obj, *tex, *light, *tol, *pig, *node, *child;
+    int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, maxlevel, legacy, anytrans;
     double bailout;
     long long rays, shadow_rays;
 } Scene;
@@ -185,56 +195,177 @@ static inline double default_tmin(const Scene *s, const double *o) {
     return ORIGIN_REL * sqrt(dot(o, o)) + ABS_FLOOR;
 }
 
-/* Closest crossing in (floor, tmax) over all objects not flagged `skip`; 0 when none. */
-static int closest(Scene *s, const double *o, const double *d, double tmax, int skip, Hit *h) {
+typedef struct {
+    double t;
+    int obj, face, flip;
+} Cross;
+
+/* A leaf's crossings in (tlo, thi), world t. */
+static int leaf_crossings(const Scene *s, int obj, const double *o, const double *d, double tlo,
+                          double thi, Cross *out) {
+    const double *ob = s->obj + (size_t)obj * OBJ;
+    double oo[3], dd[3], t[2];
+    int face[2];
+    const double *po = o, *pd = d;
+    if (!(int)ob[O_IDENT]) {
+        affine(ob + O_MINV, o, oo);
+        linear(ob + O_MINV, d, dd);
+        po = oo, pd = dd;
+    }
+    int k = crossings(s, ob, po, pd, t, face), n = 0;
+    for (int j = 0; j < k; j++)
+        if (t[j] > tlo && t[j] < thi) out[n++] = (Cross){t[j], obj, face[j], (int)ob[O_FLIP]};
+    return n;
+}
+
+/* POV-Ray's inside test of a shape (outside: of its inverse; a surface point belongs to
+ * whichever side each shape says, as in shapes.py). */
+static int prim_inside(const Scene *s, const double *ob, const double *p, int outside) {
+    const double *q = ob + O_PRIM;
+    double po[3];
+    if (!(int)ob[O_IDENT]) {
+        affine(ob + O_MINV, p, po);
+        p = po;
+    }
+    switch ((int)ob[O_KIND]) {
+    case K_SPHERE: {
+        double v[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+        double r2 = q[3] * q[3], d2 = dot(v, v);
+        return outside ? d2 > r2 : d2 < r2;
+    }
+    case K_PLANE: {
+        double v = dot(p, q) - q[3];
+        return outside ? v > -INSIDE_EPS : v < INSIDE_EPS;
+    }
+    default: {
+        int in = p[0] >= q[0] && p[0] <= q[3] && p[1] >= q[1] && p[1] <= q[4] && p[2] >= q[2] &&
+                 p[2] <= q[5];
+        return outside ? !in : in;
+    }
+    }
+}
+
+/* trace.CsgNode.inside / Leaf.inside: inside the node, or (inverted) inside its inverse. */
+static int node_inside(const Scene *s, int node, const double *p, int inverted) {
+    const double *nd = s->node + (size_t)node * NODE;
+    if ((int)nd[N_KIND] == NK_LEAF) {
+        const double *ob = s->obj + (size_t)nd[N_LEAF] * OBJ;
+        return prim_inside(s, ob, p, (int)ob[O_FLIP] ^ inverted);
+    }
+    int op = (int)nd[N_OP], inv = (int)nd[N_INV] ^ inverted;
+    int all_of = op == OP_INTERSECTION || op == OP_DIFFERENCE;
+    if (inv) all_of = !all_of;
+    const double *kids = s->child + (size_t)nd[N_FIRST];
+    for (int j = 0; j < (int)nd[N_COUNT]; j++) {
+        int flag = op == OP_DIFFERENCE && j > 0;
+        int in = node_inside(s, (int)kids[j], p, flag ^ inv);
+        if (all_of && !in) return 0;
+        if (!all_of && in) return 1;
+    }
+    return all_of;
+}
+
+/* trace.CsgNode.crossings: a child's crossing counts where the point is inside the other
+ * children (outside them for merge; inside the inverses of the subtracted ones). Only
+ * crossings in (tlo, thi) are gathered: the caller would drop the others. -1: too many. */
+static int node_crossings(const Scene *s, int node, const double *o, const double *d, double tlo,
+                          double thi, Cross *out, int cap) {
+    const double *nd = s->node + (size_t)node * NODE;
+    if ((int)nd[N_KIND] == NK_LEAF) {
+        if (cap < 2) return -1;
+        return leaf_crossings(s, (int)nd[N_LEAF], o, d, tlo, thi, out);
+    }
+    int op = (int)nd[N_OP], count = (int)nd[N_COUNT], n = 0;
+    const double *kids = s->child + (size_t)nd[N_FIRST];
+    for (int i = 0; i < count; i++) {
+        int m = node_crossings(s, (int)kids[i], o, d, tlo, thi, out + n, cap - n);
+        if (m < 0) return -1;
+        if (op != OP_UNION) {
+            int w = 0;
+            for (int c = 0; c < m; c++) {
+                Cross x = out[n + c];
+                double p[3] = {o[0] + x.t * d[0], o[1] + x.t * d[1], o[2] + x.t * d[2]};
+                int ok = 1;
+                for (int j = 0; j < count && ok; j++) {
+                    if (j == i) continue;
+                    if (op == OP_MERGE)
+                        ok = !node_inside(s, (int)kids[j], p, 0);
+                    else
+                        ok = node_inside(s, (int)kids[j], p, op == OP_DIFFERENCE && j > 0);
+                }
+                if (!ok) continue;
+                if (op == OP_DIFFERENCE && i > 0) x.flip = !x.flip;
+                out[n + w++] = x;
+            }
+            m = w;
+        }
+        n += m;
+    }
+    if ((int)nd[N_INV])
+        for (int c = 0; c < n; c++) out[c].flip = !out[c].flip;
+    return n;
+}
+
+/* trace.slab_hits: may the segment (tmin, tmax) touch the node's box? (padded, so that a
+ * hit on the box surface is never culled; an infinite box never culls) */
+static int slab(const Scene *s, const double *nd, const double *o, const double *d, double tmin,
+                double tmax) {
+    const double *lo = nd + N_LO, *hi = nd + N_HI;
+    double tn = -INFINITY, tf = INFINITY;
+    for (int i = 0; i < 3; i++) {
+        if (!isfinite(lo[i]) || !isfinite(hi[i])) return 1;
+        double inv = 1.0 / d[i];
+        double t1 = (lo[i] - o[i]) * inv, t2 = (hi[i] - o[i]) * inv;
+        double near = fmin(t1, t2), far = fmax(t1, t2);
+        tn = i == 0 ? near : fmax(tn, near);
+        tf = i == 0 ? far : fmin(tf, far);
+    }
+    double pad = BOX_PAD_REL * (fabs(tn) + fabs(tf)) + BOX_PAD_ABS;
+    return tn - pad <= tf + pad && tf + pad >= tmin && tn - pad <= tmax;
+}
+
+/* Closest crossing in (floor, tmax) over all objects not flagged `skip`; 0 when none.
+ * any: stop at the first one (shadow rays). */
+static int find_hit(Scene *s, const double *o, const double *d, double tmax, int skip, int any,
+                    Hit *h) {
     double tmin = default_tmin(s, o);
     h->t = INFINITY;
     h->obj = -1;
-    for (int i = 0; i < s->nobj; i++) {
-        const double *ob = s->obj + (size_t)i * OBJ;
-        if (skip & (int)ob[O_FLAGS]) continue;
-        double oo[3], dd[3], t[2];
-        int face[2];
-        const double *po = o, *pd = d;
-        if (!(int)ob[O_IDENT]) {
-            affine(ob + O_MINV, o, oo);
-            linear(ob + O_MINV, d, dd);
-            po = oo, pd = dd;
-        }
-        int k = crossings(s, ob, po, pd, t, face);
-        double floor = OBJECT_REL * ob[O_SIZE];
-        if (tmin > floor) floor = tmin;
+    Cross buf[MAX_CROSS];
+    for (int r = 0; r < s->nroot; r++) {
+        const double *nd = s->node + (size_t)r * NODE;
         double limit = h->t < tmax ? h->t : tmax;
-        for (int j = 0; j < k; j++) {
-            if (t[j] > floor && t[j] < limit) {
-                limit = t[j];
-                h->t = t[j], h->obj = i, h->face = face[j], h->flip = (int)ob[O_FLIP];
+        int n;
+        if ((int)nd[N_KIND] == NK_LEAF) {
+            if (skip & (int)s->obj[(size_t)nd[N_LEAF] * OBJ + O_FLAGS]) continue;
+            n = leaf_crossings(s, (int)nd[N_LEAF], o, d, tmin, limit, buf);
+        } else {
+            if (!slab(s, nd, o, d, tmin, limit)) continue;
+            n = node_crossings(s, r, o, d, tmin, limit, buf, MAX_CROSS);
+        }
+        for (int c = 0; c < n; c++) {
+            const double *ob = s->obj + (size_t)buf[c].obj * OBJ;
+            if (skip & (int)ob[O_FLAGS]) continue;
+            double floor = OBJECT_REL * ob[O_SIZE];
+            if (tmin > floor) floor = tmin;
+            if (buf[c].t > floor && buf[c].t < limit) {
+                limit = buf[c].t;
+                h->t = buf[c].t, h->obj = buf[c].obj, h->face = buf[c].face, h->flip = buf[c].flip;
+                if (any) return 1;
             }
         }
     }
     return h->obj >= 0;
 }
 
-static int occluded(Scene *s, const double *o, const double *d, double tmax) {
-    double tmin = default_tmin(s, o);
-    for (int i = 0; i < s->nobj; i++) {
-        const double *ob = s->obj + (size_t)i * OBJ;
-        if (SKIP_NO_SHADOW & (int)ob[O_FLAGS]) continue;
-        double oo[3], dd[3], t[2];
-        int face[2];
-        const double *po = o, *pd = d;
-        if (!(int)ob[O_IDENT]) {
-            affine(ob + O_MINV, o, oo);
-            linear(ob + O_MINV, d, dd);
-            po = oo, pd = dd;
-        }
-        int k = crossings(s, ob, po, pd, t, face);
-        double floor = OBJECT_REL * ob[O_SIZE];
-        if (tmin > floor) floor = tmin;
-        for (int j = 0; j < k; j++)
-            if (t[j] > floor && t[j] < tmax) return 1;
-    }
-    return 0;
+static inline int closest(Scene *s, const double *o, const double *d, double tmax, int skip,
+                          Hit *h) {
+    return find_hit(s, o, d, tmax, skip, 0, h);
+}
+
+static inline int occluded(Scene *s, const double *o, const double *d, double tmax) {
+    Hit h;
+    return find_hit(s, o, d, tmax, SKIP_NO_SHADOW, 1, &h);
 }
 
 /* Unit world normal at the hit (before the viewer turn), flipped for inverse objects. */
@@ -616,10 +747,13 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                  .nlight = (int)h[H_NLIGHT], .maxlevel = (int)h[H_MAXLEVEL],
                  .bailout = h[H_BAILOUT], .legacy = (int)h[H_LEGACY],
                  .anytrans = (int)h[H_ANYTRANS], .npig = (int)h[H_NPIG],
-                 .nsky = (int)h[H_NSKY]};
+                 .nsky = (int)h[H_NSKY], .nnode = (int)h[H_NNODE],
+                 .nroot = (int)h[H_NROOT], .nchild = (int)h[H_NCHILD]};
     Py_ssize_t need = HDR + (Py_ssize_t)s->nobj * OBJ + (Py_ssize_t)s->ntex * TEX +
-                      (Py_ssize_t)s->nlight * LIT + (Py_ssize_t)s->npig * PIG;
+                      (Py_ssize_t)s->nlight * LIT + (Py_ssize_t)s->npig * PIG +
+                      (Py_ssize_t)s->nnode * NODE + s->nchild;
     if (s->nobj < 0 || s->ntex < 0 || s->nlight < 0 || s->npig < 0 || s->nsky < 0 ||
+        s->nnode < 0 || s->nroot < 0 || s->nchild < 0 || s->nroot > s->nnode ||
         s->nsky > s->npig || sb->len < need * 8) {
         PyErr_SetString(PyExc_ValueError, "scene: array shorter than its header says");
         return -1;
@@ -629,6 +763,22 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     s->tex = s->obj + (size_t)s->nobj * OBJ;
     s->light = s->tex + (size_t)s->ntex * TEX;
     s->pig = s->light + (size_t)s->nlight * LIT;
+    s->node = s->pig + (size_t)s->npig * PIG;
+    s->child = s->node + (size_t)s->nnode * NODE;
+    for (int i = 0; i < s->nnode; i++) {
+        const double *nd = s->node + (size_t)i * NODE;
+        if ((int)nd[N_KIND] == NK_LEAF) {
+            if (!(nd[N_LEAF] >= 0 && nd[N_LEAF] < s->nobj)) goto bad;
+        } else {
+            if (!(nd[N_FIRST] >= 0 && nd[N_COUNT] >= 1 && nd[N_FIRST] + nd[N_COUNT] <= s->nchild))
+                goto bad;
+            /* children come after their parent: the recursion always ends */
+            for (int j = 0; j < (int)nd[N_COUNT]; j++) {
+                double c = s->child[(size_t)nd[N_FIRST] + j];
+                if (!(c > i && c < s->nnode)) goto bad;
+            }
+        }
+    }
     /* indices between the tables are checked once here, so tracing never reads outside */
     for (int i = 0; i < s->nobj; i++) {
         double t = s->obj[(size_t)i * OBJ + O_TEX];
@@ -809,8 +959,9 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 }
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
-    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR, "object", OBJ, "texture",
-                         TEX, "light", LIT, "pigment", PIG, "map_entries", MAX_MAP);
+    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR, "object", OBJ,
+                         "texture", TEX, "light", LIT, "pigment", PIG, "map_entries", MAX_MAP,
+                         "node", NODE, "max_crossings", MAX_CROSS);
 }
 
 static PyMethodDef methods[] = {
