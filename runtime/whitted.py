@@ -33,11 +33,22 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 48, 48, 48, 24, 64, 7, 16, 512
+HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS, BVH, BVH_STACK = (
+    48,
+    48,
+    48,
+    24,
+    64,
+    7,
+    16,
+    512,
+    10,
+    128,
+)
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
 H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL = 16, 19, 22, 25, 28
-H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD = 39, 40, 41, 42, 43
+H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM = range(39, 47)
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
@@ -80,9 +91,9 @@ WAVES = {
 KINDS = {shapes.SpherePrim: 0, shapes.PlanePrim: 1, shapes.BoxPrim: 2}
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
-# Objects are tested one after another (no tree): beyond this many the numpy path's box
-# tree and Embree win, so bigger scenes stay there.
-MAX_OBJECTS: int = 64
+# The packed scene is ~400 bytes an object; past this many the numpy path (and its memory
+# per object) is no worse.
+MAX_OBJECTS: int = 1_000_000
 
 # STRALA_KERNEL=numpy turns the compiled path off (to compare the two, or to bisect).
 ENV = "STRALA_KERNEL"
@@ -102,6 +113,8 @@ def layout() -> dict[str, int]:
         "map_entries": MAX_MAP,
         "node": NODE,
         "max_crossings": MAX_CROSS,
+        "bvh": BVH,
+        "bvh_stack": BVH_STACK,
     }
 
 
@@ -163,6 +176,8 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
         out.append("meshes")
     if len(tracer.nodes) > MAX_OBJECTS:
         out.append(f"more than {MAX_OBJECTS} objects")
+    if _tree_depth(tracer) >= BVH_STACK - 2:
+        out.append("a box tree deeper than the kernel's stack")
     for node in tracer.nodes:
         if not _covered(node):
             out.append("clipped_by or another shape")
@@ -218,6 +233,44 @@ def pack_pigment(pig: ir.Pigment, row: np.ndarray) -> None:
         row[P_MAP + 6 * k + 1 : P_MAP + 6 * k + 6] = colour
 
 
+def _tree_depth(tracer) -> int:
+    tree = tracer.tree
+    if tree is None:
+        return 1
+    depth, stack = 0, [(0, 1)]
+    while stack:
+        k, level = stack.pop()
+        depth = max(depth, level)
+        if tree.kids[k] is not None:
+            stack.extend((c, level + 1) for c in tree.kids[k])
+    return depth
+
+
+def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
+    """(rows, items): the tracer's box tree over its bounded roots (one leaf holding them
+    all when it has none), as BVH rows and the flat list of root indices of its leaves."""
+    bounded = tracer.bounded
+    if not bounded:
+        return np.zeros((0, BVH)), []
+    tree = tracer.tree
+    if tree is None:
+        lo = np.min([tracer.nodes[i].lo for i in bounded], axis=0)
+        hi = np.max([tracer.nodes[i].hi for i in bounded], axis=0)
+        row = np.concatenate([lo, hi, [-1, -1, 0, len(bounded)]])
+        return row[None, :], list(bounded)
+    rows, items = np.zeros((len(tree.lo), BVH)), []
+    for k in range(len(tree.lo)):
+        r = rows[k]
+        r[0:3], r[3:6] = tree.lo[k], tree.hi[k]
+        if tree.kids[k] is None:
+            r[6:8] = -1
+            r[8], r[9] = len(items), len(tree.items[k])
+            items.extend(bounded[int(i)] for i in tree.items[k])
+        else:
+            r[6:8] = tree.kids[k]
+    return rows, items
+
+
 def _covered(node) -> bool:
     if isinstance(node, Leaf):
         return type(node.prim) in KINDS
@@ -269,11 +322,15 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     sky = list(reversed(scene.sky_sphere or ()))  # evaluated innermost first, as integrate.sky
     n_pig = n_tex + len(sky)
     n_node = len(nodes)
+    bvh, items = _box_tree(tracer)
+    unbounded = list(tracer.unbounded)
     size = HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT + n_pig * PIG + n_node * NODE
-    buf = np.zeros(size + len(children))
+    tail = np.concatenate([children, unbounded, bvh.ravel(), items]).astype(np.float64)
+    buf = np.zeros(size + len(tail))
     h = buf[:HDR]
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
+    h[[H_NUNB, H_NBVH, H_NITEM]] = len(unbounded), len(bvh), len(items)
     h[H_MAXLEVEL], h[H_BAILOUT] = s.max_trace_level, s.adc_bailout
     h[H_AMB : H_AMB + 3] = s.ambient_light
     h[H_BG : H_BG + 3] = ctx.background
@@ -349,7 +406,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     prows = buf[start : start + n_pig * PIG].reshape(n_pig, PIG)
     start += n_pig * PIG
     nrows = buf[start : start + n_node * NODE].reshape(n_node, NODE)
-    buf[start + n_node * NODE :] = children
+    buf[start + n_node * NODE :] = tail
     for node, r in zip(nodes, nrows, strict=True):
         r[N_LO : N_LO + 3], r[N_HI : N_HI + 3] = node.lo, node.hi
         if isinstance(node, Leaf):

@@ -194,6 +194,34 @@ def test_random_csg_matches_numpy(shape, ior, filt, monkeypatch):
     assert (diff > 1e-6).mean() <= 0.01, f"max difference {diff.max()}"
 
 
+def test_many_objects_through_the_box_tree_match_numpy(monkeypatch):
+    # 300 spheres and boxes (a box tree of many levels) and a CSG among them.
+    rng = np.random.default_rng(7)
+    parts = []
+    for i, (x, y, z) in enumerate(rng.uniform([-6, -1, -2], [6, 4, 10], (300, 3))):
+        r = rng.uniform(0.1, 0.5)
+        c = rng.uniform(0, 1, 3)
+        shape = (
+            f"sphere {{ <{x}, {y}, {z}>, {r}"
+            if i % 3
+            else f"box {{ <{x - r}, {y - r}, {z - r}>, <{x + r}, {y + r}, {z + r}> rotate y * {i}"
+        )
+        parts.append(
+            f"{shape} pigment {{ rgb <{c[0]}, {c[1]}, {c[2]}> }} finish {{ reflection 0.2 }} }}"
+        )
+    scene = _scene(
+        "#version 3.7; global_settings { assumed_gamma 1 }"
+        "camera { location <0, 3, -9> look_at <0, 1, 2> }"
+        "light_source { <-4, 10, -6>, rgb 1 } plane { y, -1 pigment { checker } }"
+        "difference { sphere { <0, 1, -3>, 1 } box { <0, 0, -5>, <2, 3, -2> } pigment { rgb 1 } }"
+        + "\n".join(parts)
+    )
+    prepared = prepare(scene, 64, 48)
+    assert prepared.tracer.tree is not None
+    fast, slow = _both(scene, 64, 48, aa=0.3, monkeypatch=monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
 def test_legacy_opacity_matches_numpy(monkeypatch):
     # No #version: POV-Ray's older transparency rule and no gamma handling.
     scene = _scene(

@@ -23,13 +23,15 @@
 #define LIT 24
 #define PIG 64
 #define NODE 16
+#define BVH 10
+#define BVH_STACK 128
 /* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
 #define MAX_CROSS 512
 #define MAX_MAP 7
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
-       H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD };
+       H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 28, O_FADEDIST, O_FADECOL, O_LO = 33, O_HI = 36 };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
@@ -47,6 +49,8 @@ enum { K_SPHERE, K_PLANE, K_BOX };
 /* the node table: leaves (an object) and CSG operations over child nodes */
 enum { N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO = 8, N_HI = 11 };
 enum { NK_LEAF, NK_CSG };
+/* the box tree over the bounded roots (trace.BoxTree): a row per tree node */
+enum { B_LO, B_HI = 3, B_LEFT = 6, B_RIGHT, B_FIRST, B_COUNT };
 enum { OP_UNION, OP_INTERSECTION, OP_DIFFERENCE, OP_MERGE };
 enum { SKIP_NONE = 0, SKIP_NO_IMAGE = 1, SKIP_NO_REFLECTION = 2, SKIP_NO_SHADOW = 4 };
 
@@ -68,8 +72,8 @@ enum { TOL_ORIGIN_REL, TOL_OBJECT_REL, TOL_ABS_FLOOR, TOL_PARALLEL, TOL_EPSILON,
 static const double GREY[3] = {0.297, 0.589, 0.114};
 
 typedef struct {
-    const double *h, *obj, *tex, *light, *tol, *pig, *node, *child;
-    int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, maxlevel, legacy, anytrans;
+    const double *h, *obj, *tex, *light, *tol, *pig, *node, *child, *unb, *bvh, *item;
+    int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nbvh, nitem, maxlevel, legacy, anytrans;
     double bailout;
     long long rays, shadow_rays;
 } Scene;
@@ -324,35 +328,72 @@ static int slab(const Scene *s, const double *nd, const double *o, const double 
     return tn - pad <= tf + pad && tf + pad >= tmin && tn - pad <= tmax;
 }
 
+/* Test root node r; 1 when `any` and a hit was found (the caller stops). */
+static int test_root(Scene *s, int r, const double *o, const double *d, double tmin, int skip,
+                     int any, Hit *h, Cross *buf) {
+    const double *nd = s->node + (size_t)r * NODE;
+    double limit = h->t;
+    int n;
+    if ((int)nd[N_KIND] == NK_LEAF) {
+        if (skip & (int)s->obj[(size_t)nd[N_LEAF] * OBJ + O_FLAGS]) return 0;
+        n = leaf_crossings(s, (int)nd[N_LEAF], o, d, tmin, limit, buf);
+    } else {
+        if (!slab(s, nd, o, d, tmin, limit)) return 0;
+        n = node_crossings(s, r, o, d, tmin, limit, buf, MAX_CROSS);
+    }
+    for (int c = 0; c < n; c++) {
+        const double *ob = s->obj + (size_t)buf[c].obj * OBJ;
+        if (skip & (int)ob[O_FLAGS]) continue;
+        double floor = OBJECT_REL * ob[O_SIZE];
+        if (tmin > floor) floor = tmin;
+        if (buf[c].t > floor && buf[c].t < limit) {
+            limit = buf[c].t;
+            h->t = buf[c].t, h->obj = buf[c].obj, h->face = buf[c].face, h->flip = buf[c].flip;
+            if (any) return 1;
+        }
+    }
+    return 0;
+}
+
 /* Closest crossing in (floor, tmax) over all objects not flagged `skip`; 0 when none.
- * any: stop at the first one (shadow rays). */
+ * any: stop at the first one (shadow rays). Unbounded roots (planes) first: their hits
+ * shorten the ray before the box tree is walked, as in trace.Tracer. */
 static int find_hit(Scene *s, const double *o, const double *d, double tmax, int skip, int any,
                     Hit *h) {
     double tmin = default_tmin(s, o);
-    h->t = INFINITY;
+    h->t = tmax;
     h->obj = -1;
     Cross buf[MAX_CROSS];
-    for (int r = 0; r < s->nroot; r++) {
-        const double *nd = s->node + (size_t)r * NODE;
-        double limit = h->t < tmax ? h->t : tmax;
-        int n;
-        if ((int)nd[N_KIND] == NK_LEAF) {
-            if (skip & (int)s->obj[(size_t)nd[N_LEAF] * OBJ + O_FLAGS]) continue;
-            n = leaf_crossings(s, (int)nd[N_LEAF], o, d, tmin, limit, buf);
-        } else {
-            if (!slab(s, nd, o, d, tmin, limit)) continue;
-            n = node_crossings(s, r, o, d, tmin, limit, buf, MAX_CROSS);
-        }
-        for (int c = 0; c < n; c++) {
-            const double *ob = s->obj + (size_t)buf[c].obj * OBJ;
-            if (skip & (int)ob[O_FLAGS]) continue;
-            double floor = OBJECT_REL * ob[O_SIZE];
-            if (tmin > floor) floor = tmin;
-            if (buf[c].t > floor && buf[c].t < limit) {
-                limit = buf[c].t;
-                h->t = buf[c].t, h->obj = buf[c].obj, h->face = buf[c].face, h->flip = buf[c].flip;
-                if (any) return 1;
+    for (int u = 0; u < s->nunb; u++)
+        if (test_root(s, (int)s->unb[u], o, d, tmin, skip, any, h, buf)) return 1;
+    int stack[BVH_STACK], top = 0;
+    if (s->nbvh > 0) stack[top++] = 0;
+    while (top > 0) {
+        const double *b = s->bvh + (size_t)stack[--top] * BVH;
+        double lo_hi[14];
+        memcpy(lo_hi + N_LO, b + B_LO, 3 * sizeof(double));
+        memcpy(lo_hi + N_HI, b + B_HI, 3 * sizeof(double));
+        if (!slab(s, lo_hi, o, d, tmin, h->t)) continue;
+        if (b[B_LEFT] < 0) {
+            for (int k = 0; k < (int)b[B_COUNT]; k++) {
+                int r = (int)s->item[(size_t)b[B_FIRST] + k];
+                const double *nd = s->node + (size_t)r * NODE;
+                if ((int)nd[N_KIND] == NK_LEAF && !slab(s, nd, o, d, tmin, h->t)) continue;
+                if (test_root(s, r, o, d, tmin, skip, any, h, buf)) return 1;
             }
+        } else {
+            /* the far child first, so the near one is popped (and shortens the ray) first */
+            int axis_near_left = 1;
+            double mid_l = 0, mid_r = 0;
+            const double *l = s->bvh + (size_t)b[B_LEFT] * BVH, *r = s->bvh + (size_t)b[B_RIGHT] * BVH;
+            for (int i = 0; i < 3; i++) {
+                mid_l += (l[B_LO + i] + l[B_HI + i]) * d[i];
+                mid_r += (r[B_LO + i] + r[B_HI + i]) * d[i];
+            }
+            axis_near_left = mid_l <= mid_r;
+            if (top + 2 > BVH_STACK) continue; /* deeper than any tree whitted.py packs */
+            stack[top++] = (int)(axis_near_left ? b[B_RIGHT] : b[B_LEFT]);
+            stack[top++] = (int)(axis_near_left ? b[B_LEFT] : b[B_RIGHT]);
         }
     }
     return h->obj >= 0;
@@ -748,12 +789,15 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                  .bailout = h[H_BAILOUT], .legacy = (int)h[H_LEGACY],
                  .anytrans = (int)h[H_ANYTRANS], .npig = (int)h[H_NPIG],
                  .nsky = (int)h[H_NSKY], .nnode = (int)h[H_NNODE],
-                 .nroot = (int)h[H_NROOT], .nchild = (int)h[H_NCHILD]};
+                 .nroot = (int)h[H_NROOT], .nchild = (int)h[H_NCHILD],
+                 .nunb = (int)h[H_NUNB], .nbvh = (int)h[H_NBVH], .nitem = (int)h[H_NITEM]};
     Py_ssize_t need = HDR + (Py_ssize_t)s->nobj * OBJ + (Py_ssize_t)s->ntex * TEX +
                       (Py_ssize_t)s->nlight * LIT + (Py_ssize_t)s->npig * PIG +
-                      (Py_ssize_t)s->nnode * NODE + s->nchild;
+                      (Py_ssize_t)s->nnode * NODE + s->nchild + s->nunb +
+                      (Py_ssize_t)s->nbvh * BVH + s->nitem;
     if (s->nobj < 0 || s->ntex < 0 || s->nlight < 0 || s->npig < 0 || s->nsky < 0 ||
         s->nnode < 0 || s->nroot < 0 || s->nchild < 0 || s->nroot > s->nnode ||
+        s->nunb < 0 || s->nbvh < 0 || s->nitem < 0 ||
         s->nsky > s->npig || sb->len < need * 8) {
         PyErr_SetString(PyExc_ValueError, "scene: array shorter than its header says");
         return -1;
@@ -765,6 +809,23 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     s->pig = s->light + (size_t)s->nlight * LIT;
     s->node = s->pig + (size_t)s->npig * PIG;
     s->child = s->node + (size_t)s->nnode * NODE;
+    s->unb = s->child + s->nchild;
+    s->bvh = s->unb + s->nunb;
+    s->item = s->bvh + (size_t)s->nbvh * BVH;
+    for (int i = 0; i < s->nunb; i++)
+        if (!(s->unb[i] >= 0 && s->unb[i] < s->nroot)) goto bad;
+    for (int i = 0; i < s->nitem; i++)
+        if (!(s->item[i] >= 0 && s->item[i] < s->nroot)) goto bad;
+    for (int i = 0; i < s->nbvh; i++) {
+        const double *b = s->bvh + (size_t)i * BVH;
+        if (b[B_LEFT] < 0) {
+            if (!(b[B_FIRST] >= 0 && b[B_COUNT] >= 0 && b[B_FIRST] + b[B_COUNT] <= s->nitem))
+                goto bad;
+        } else if (!(b[B_LEFT] > i && b[B_LEFT] < s->nbvh && b[B_RIGHT] > i &&
+                     b[B_RIGHT] < s->nbvh)) {
+            goto bad;
+        }
+    }
     for (int i = 0; i < s->nnode; i++) {
         const double *nd = s->node + (size_t)i * NODE;
         if ((int)nd[N_KIND] == NK_LEAF) {
@@ -959,9 +1020,10 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 }
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
-    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR, "object", OBJ,
-                         "texture", TEX, "light", LIT, "pigment", PIG, "map_entries", MAX_MAP,
-                         "node", NODE, "max_crossings", MAX_CROSS);
+    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR, "object",
+                         OBJ, "texture", TEX, "light", LIT, "pigment", PIG, "map_entries",
+                         MAX_MAP, "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
+                         "bvh_stack", BVH_STACK);
 }
 
 static PyMethodDef methods[] = {
