@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import math
 import struct
+from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -67,11 +69,26 @@ def _value_table() -> np.ndarray:
     return np.array(out)
 
 
-HASH = _hash_table()
-RTABLE = _value_table()
-# Per table entry: half the value (the constant term) and the three gradient components are
-# the next three entries, as POV-Ray's interleaved table reads them.
-_HALF = 0.5 * RTABLE
+@dataclass(frozen=True)
+class _Tables:
+    """POV-Ray's noise tables, built on first use (about 20 ms: a render that needs no
+    noise does not pay for them)."""
+
+    hash: np.ndarray
+    rtable: np.ndarray
+    # Per table entry: half the value (the constant term) and the three gradient components
+    # are the next three entries, as POV-Ray's interleaved table reads them.
+    half: np.ndarray
+    pattern_rands: np.ndarray
+    solid_perm: np.ndarray
+    solid_grads: np.ndarray
+
+
+@cache
+def tables() -> _Tables:
+    rtable = _value_table()
+    perm, grads = _solid_tables()
+    return _Tables(_hash_table(), rtable, 0.5 * rtable, _pattern_rands(), perm, grads)
 
 
 def _lattice(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -96,6 +113,7 @@ def _corners(p: np.ndarray):
     dx = (fx, fx - 1.0)
     dy = (fy, fy - 1.0)
     dz = (fz, fz - 1.0)
+    HASH = tables().hash
     for cx in (0, 1):
         hx = HASH[ix + cx]
         for cy in (0, 1):
@@ -107,6 +125,8 @@ def _corners(p: np.ndarray):
 
 
 def _raw(p: np.ndarray) -> np.ndarray:
+    t = tables()
+    _HALF, RTABLE = t.half, t.rtable
     total = np.zeros(len(p))
     for k, w, dx, dy, dz in _corners(p):
         total += w * (_HALF[k] + RTABLE[k + 1] * dx + RTABLE[k + 2] * dy + RTABLE[k + 3] * dz)
@@ -130,6 +150,8 @@ def dnoise(p: np.ndarray) -> np.ndarray:
     """(N,3) POV-Ray's DNoise(): three noise sums read from successive table entries
     (the same for every generator)."""
     p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    t = tables()
+    _HALF, RTABLE = t.half, t.rtable
     out = np.zeros((len(p), 3))
     for k, w, dx, dy, dz in _corners(p):
         for axis in range(3):
@@ -149,11 +171,9 @@ def _pattern_rands(count: int = 32768) -> np.ndarray:
     return bits.random_raw(count).astype(np.float64) / 4294967296.0
 
 
-PATTERN_RANDS = _pattern_rands()
-
-
 def hash3d(ix: np.ndarray, iy: np.ndarray, iz: np.ndarray) -> np.ndarray:
     """POV-Ray's Hash3d of integer cells (each coordinate taken modulo 4096)."""
+    HASH = tables().hash
     return HASH[HASH[HASH[ix & 0xFFF] ^ (iy & 0xFFF)] ^ (iz & 0xFFF)]
 
 
@@ -185,12 +205,10 @@ def _solid_tables() -> tuple[np.ndarray, np.ndarray]:
     return np.array(perm, dtype=np.int64), grads
 
 
-_SOLID_PERM, _SOLID_GRADS = _solid_tables()
-
-
 def solid_noise(p: np.ndarray) -> np.ndarray:
     """(N,) Perlin's gradient noise in about [-1, 1] (POV-Ray's SolidNoise)."""
     mask = _SOLID_ENTRIES - 1
+    _SOLID_PERM, _SOLID_GRADS = tables().solid_perm, tables().solid_grads
     b0, r0 = [], []
     for axis in range(3):
         t = p[:, axis] + _ROLLOVER

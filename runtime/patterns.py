@@ -40,13 +40,13 @@ from lang import ir
 from runtime.density import density_file
 from runtime.noise import (
     DEFAULT_GENERATOR,
-    PATTERN_RANDS,
     dnoise,
     dturbulence,
     hash3d,
     noise,
     turbulence,
 )
+from runtime.noise import tables as noise_tables
 
 # POV-Ray adds a tiny epsilon to every coordinate before flooring, so a plane at an integer
 # coordinate (y = 0, the classic floor) does not flicker between cells. 1e-6 matches POV-Ray
@@ -785,7 +785,7 @@ def agate(p: np.ndarray, params: dict) -> np.ndarray:
 def cells(p: np.ndarray, params: dict) -> np.ndarray:
     """One random value per unit cube (POV-Ray's table entry for the cube's hash)."""
     c = np.floor(p + CHECKER_OFFSET).astype(np.int64)
-    return PATTERN_RANDS[hash3d(c[:, 0], c[:, 1], c[:, 2])]
+    return noise_tables().pattern_rands[hash3d(c[:, 0], c[:, 1], c[:, 2])]
 
 
 # The cubes whose random points can be nearest: the 3x3x3 block around the point's cube and
@@ -812,13 +812,14 @@ def crackle(p: np.ndarray, params: dict) -> np.ndarray:
     metric = float(params.get("metric", 2.0))
     offset = float(params.get("offset", 0.0))
     base = np.floor(p - 1.0e-10).astype(np.int64)
+    rands = noise_tables().pattern_rands
     n = len(p)
     sums = np.empty((n, len(_CRACKLE_CUBES)))
     points = np.empty((n, len(_CRACKLE_CUBES), 3))
     for j, d in enumerate(_CRACKLE_CUBES):
         c = base + d
         seed = hash3d(c[:, 0], c[:, 1], c[:, 2])
-        pt = c + np.stack([PATTERN_RANDS[seed + k] for k in range(3)], axis=1)
+        pt = c + np.stack([rands[seed + k] for k in range(3)], axis=1)
         points[:, j] = pt
         diff = np.abs(pt - p)
         if metric == 2.0:
