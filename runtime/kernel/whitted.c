@@ -310,6 +310,11 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
     return n;
 }
 
+/* numpy's fmin/fmax: a NaN (0 * inf, a ray in a slab's plane) loses to the other value.
+ * Written out so they inline (the libm calls do not without -ffast-math). */
+static inline double fmin_nan(double a, double b) { return (a < b || b != b) ? a : b; }
+static inline double fmax_nan(double a, double b) { return (a > b || b != b) ? a : b; }
+
 /* trace.slab_hits: may the segment (tmin, tmax) touch the node's box? (padded, so that a
  * hit on the box surface is never culled; an infinite box never culls) */
 static int slab(const Scene *s, const double *nd, const double *o, const double *d, double tmin,
@@ -320,9 +325,9 @@ static int slab(const Scene *s, const double *nd, const double *o, const double 
         if (!isfinite(lo[i]) || !isfinite(hi[i])) return 1;
         double inv = 1.0 / d[i];
         double t1 = (lo[i] - o[i]) * inv, t2 = (hi[i] - o[i]) * inv;
-        double near = fmin(t1, t2), far = fmax(t1, t2);
-        tn = i == 0 ? near : fmax(tn, near);
-        tf = i == 0 ? far : fmin(tf, far);
+        double near = fmin_nan(t1, t2), far = fmax_nan(t1, t2);
+        tn = i == 0 ? near : fmax_nan(tn, near);
+        tf = i == 0 ? far : fmin_nan(tf, far);
     }
     double pad = BOX_PAD_REL * (fabs(tn) + fabs(tf)) + BOX_PAD_ABS;
     return tn - pad <= tf + pad && tf + pad >= tmin && tn - pad <= tmax;
@@ -376,9 +381,9 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
         if (!slab(s, lo_hi, o, d, tmin, h->t)) continue;
         if (b[B_LEFT] < 0) {
             for (int k = 0; k < (int)b[B_COUNT]; k++) {
+                /* a leaf's own box is not tested: it costs about what a sphere does, and a
+                 * tree leaf holds only a few roots */
                 int r = (int)s->item[(size_t)b[B_FIRST] + k];
-                const double *nd = s->node + (size_t)r * NODE;
-                if ((int)nd[N_KIND] == NK_LEAF && !slab(s, nd, o, d, tmin, h->t)) continue;
                 if (test_root(s, r, o, d, tmin, skip, any, h, buf)) return 1;
             }
         } else {
