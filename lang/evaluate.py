@@ -731,7 +731,7 @@ class Interpreter:
         self.main_file = filename
         self.state.folder = str(Path(filename).resolve().parent)
         self.files.append(filename)
-        tree, diags = self._parse(text, filename)
+        tree, diags = self._parse_stored(text, filename)
         self.sink.items.extend(diags)
         self.file_stack.append(filename)
         # Scenes recurse through macros (trees, fractals); each macro level costs a few dozen
@@ -762,6 +762,20 @@ class Interpreter:
         from lang.parser import parse  # lark is loaded on first use, not at import
 
         return parse(text, filename)
+
+    def _parse_stored(self, text: str, filename: str) -> tuple[syntax.SourceFile, list[Diagnostic]]:
+        """A file's parse, from `lang.parse_store` when it holds it. Subclasses that parse
+        in their own way (the language server, translate) keep theirs; text without a file
+        name is parsed."""
+        if type(self)._parse is not Interpreter._parse or filename.startswith("<"):
+            return self._parse(text, filename)
+        from lang import parse_store
+
+        got = parse_store.load(text, filename)
+        if got is None:
+            got = self._parse(text, filename)
+            parse_store.save(text, filename, *got)
+        return got
 
     def _scene(self) -> ir.Scene:
         s = self.settings
@@ -1108,7 +1122,7 @@ class Interpreter:
                 raise self.error(
                     "E0220", f"cannot read `{name}`: {e.strerror}", node.span
                 ) from None
-            tree, diags = self._parse(text, path)
+            tree, diags = self._parse_stored(text, path)
             self.sink.items.extend(self._defer_macro_errors(tree.body, diags))
             self.parse_cache[path] = tree
         if path not in self.files:

@@ -6,12 +6,17 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
 
 ROOT = Path(__file__).resolve().parent.parent
+
+# Parsed files are stored between runs (lang.parse_store): the tests, and the commands they
+# start, use a store of their own rather than the user's.
+os.environ.setdefault("STRALA_CACHE", tempfile.mkdtemp(prefix="strala-test-store-"))
 EXAMPLES = ROOT / "examples"
 SEED = ROOT.parent / "shared" / "seed" / "000_5c225423005c2bbd.txt"
 
