@@ -138,7 +138,15 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
         double a = dot(d, d), b = dot(oc, d), c = dot(oc, oc) - r * r;
         double k = b / a;
         double lv[3] = {oc[0] - k * d[0], oc[1] - k * d[1], oc[2] - k * d[2]};
-        double ln = sqrt(dot(lv, lv));
+        double l2 = dot(lv, lv);
+        face[0] = face[1] = 0;
+        /* Most rays pass by: when |l|^2 exceeds r^2 by more than rounding could undo, the
+         * square root below is certain to exceed r, so skip it (the result is the same). */
+        if (l2 > r * r * (1.0 + 1e-12)) {
+            t[0] = t[1] = INFINITY;
+            return 2;
+        }
+        double ln = sqrt(l2);
         stable_quadratic(a, b, c, a * (r - ln) * (r + ln), &t[0], &t[1]);
         face[0] = face[1] = 0;
         return 2;
@@ -340,8 +348,29 @@ static int test_root(Scene *s, int r, const double *o, const double *d, double t
     double limit = h->t;
     int n;
     if ((int)nd[N_KIND] == NK_LEAF) {
-        if (skip & (int)s->obj[(size_t)nd[N_LEAF] * OBJ + O_FLAGS]) return 0;
-        n = leaf_crossings(s, (int)nd[N_LEAF], o, d, tmin, limit, buf);
+        /* a plain shape: its crossings straight from the primitive, no gathering */
+        int obj = (int)nd[N_LEAF];
+        const double *ob = s->obj + (size_t)obj * OBJ;
+        if (skip & (int)ob[O_FLAGS]) return 0;
+        double oo[3], dd[3], t[2];
+        int face[2];
+        const double *po = o, *pd = d;
+        if (!(int)ob[O_IDENT]) {
+            affine(ob + O_MINV, o, oo);
+            linear(ob + O_MINV, d, dd);
+            po = oo, pd = dd;
+        }
+        int k = crossings(s, ob, po, pd, t, face);
+        double floor = OBJECT_REL * ob[O_SIZE];
+        if (tmin > floor) floor = tmin;
+        for (int j = 0; j < k; j++) {
+            if (t[j] > floor && t[j] < limit) {
+                limit = t[j];
+                h->t = t[j], h->obj = obj, h->face = face[j], h->flip = (int)ob[O_FLIP];
+                if (any) return 1;
+            }
+        }
+        return 0;
     } else {
         if (!slab(s, nd, o, d, tmin, limit)) return 0;
         n = node_crossings(s, r, o, d, tmin, limit, buf, MAX_CROSS);
@@ -974,7 +1003,7 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
                     trace_pixel(&s, x0 - 1 + c + 0.5, y0 - 1 + r + 0.5, first + 3 * i);
                     for (int k = 0; k < 3; k++) {
                         double v = first[3 * i + k];
-                        metric[3 * i + k] = pow(v > 0 ? v : 0.0, metric_power);
+                        metric[3 * i + k] = v > 0 ? pow(v, metric_power) : 0.0;
                     }
                 }
             for (int r = 0; r < eh; r++)
