@@ -1,7 +1,7 @@
-"""Only the compiled kernel lives here; everything else is in pyproject.toml.
+"""Only the compiled kernels live here; everything else is in pyproject.toml.
 
-The extension is optional: where no C compiler is found the install still succeeds and
-the numpy integrator renders every scene (runtime/whitted.py checks for the module)."""
+The extensions are optional: where no C compiler is found the install still succeeds and
+numpy does their work (runtime/whitted.py and runtime/color.py check for the modules)."""
 
 from setuptools import Extension, setup
 
@@ -12,6 +12,12 @@ setup(
             ["runtime/kernel/whitted.c"],
             extra_compile_args=["-O3", "-fno-math-errno"],
             optional=True,
-        )
+        ),
+        Extension(
+            "runtime._pixels",
+            ["runtime/kernel/pixels.c"],
+            extra_compile_args=["-O3"],
+            optional=True,
+        ),
     ]
 )

@@ -84,6 +84,32 @@ def to_display(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
     return out
 
 
+def display_thresholds(settings: ir.Settings, levels: int = 256) -> np.ndarray:
+    """(levels - 1,) working values at which an integer file value steps up: level k holds
+    the working values whose display value rounds to k / (levels - 1), so these are the
+    display values (k + 1/2) / (levels - 1) taken back through sRGB and the working gamma."""
+    d = (np.arange(levels - 1, dtype=np.float64) + 0.5) / (levels - 1)
+    g = working_gamma(settings)
+    if g is None:
+        return d
+    return srgb_decode(d) ** (1.0 / g)
+
+
+def to_display8(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
+    """uint8 file values of a working-space image: `to_display` rounded to 8 bits, in one
+    compiled pass when the pixel kernel is built (see kernel/pixels.c)."""
+    try:
+        from runtime import _pixels
+    except ImportError:  # pragma: no cover - depends on the build
+        _pixels = None
+    if _pixels is None:
+        return np.rint(to_display(working, settings) * 255.0).astype(np.uint8)
+    src = np.ascontiguousarray(working, dtype=np.float32)
+    out = np.empty(src.shape, dtype=np.uint8)
+    _pixels.quantise8(src, display_thresholds(settings), out)
+    return out
+
+
 def aa_metric_power(settings: ir.Settings) -> float:
     """The one power that takes a (clipped) working value to the anti-aliasing metric
     space: through the working gamma to linear, then encoded with 1/AA_GAMMA."""

@@ -64,6 +64,9 @@ def save_render(
     from runtime import color  # the colour pipeline belongs to runtime.color
 
     fmt, depth = output_format(path, bits)
+    if not fmt.linear and depth == 8:
+        write_pixels(path, color.to_display8(working, settings), 8)
+        return
     pixels = (
         color.to_linear(working, settings) if fmt.linear else color.to_display(working, settings)
     )
@@ -72,7 +75,8 @@ def save_render(
 
 def write_pixels(path: str | os.PathLike, pixels: np.ndarray, bits: int | None = None) -> None:
     """Write (H, W, C) float pixels: display values in [0, 1] for PNG/TIFF/JPEG (quantised
-    with rounding, as POV-Ray does), linear floats for EXR (half when bits == 16)."""
+    with rounding, as POV-Ray does), linear floats for EXR (half when bits == 16); uint8
+    pixels are file values already (8-bit formats)."""
     fmt, depth = output_format(path, bits)
     pixels = np.asarray(pixels)
     if pixels.ndim != 3 or pixels.shape[2] not in (1, 3, 4):
@@ -81,6 +85,8 @@ def write_pixels(path: str | os.PathLike, pixels: np.ndarray, bits: int | None =
     if fmt.linear:
         dtype = oiio.HALF if depth == 16 else oiio.FLOAT
         data = np.ascontiguousarray(pixels, dtype=np.float32)
+    elif pixels.dtype == np.uint8 and depth == 8:  # already file values (to_display8)
+        dtype, data = oiio.UINT8, np.ascontiguousarray(pixels)
     else:
         scale = 255.0 if depth == 8 else 65535.0
         dtype = oiio.UINT8 if depth == 8 else oiio.UINT16

@@ -13,7 +13,7 @@ from hypothesis.extra import numpy as hnp
 
 import runtime
 from lang import ir
-from runtime import image
+from runtime import color, image
 
 
 def _ramp(h=6, w=5, c=3) -> np.ndarray:
@@ -119,13 +119,45 @@ def test_save_render_uses_display_values_for_png_and_linear_for_exr(tmp_path, mo
     calls = []
     stub = types.ModuleType("runtime.color")
     stub.to_display = lambda w, s: calls.append("display") or np.clip(w * 0.5, 0, 1)
+    stub.to_display8 = lambda w, s: (
+        calls.append("display8") or np.rint(np.clip(w * 0.5, 0, 1) * 255).astype(np.uint8)
+    )
     stub.to_linear = lambda w, s: calls.append("linear") or w * 2.0
     monkeypatch.setitem(sys.modules, "runtime.color", stub)
     monkeypatch.setattr(runtime, "color", stub, raising=False)
     working = np.full((2, 3, 3), 0.8, dtype=np.float32)
 
     image.save_render(tmp_path / "a.png", working, ir.Settings())
+    image.save_render(tmp_path / "b.png", working, ir.Settings(), bits=16)
     image.save_render(tmp_path / "a.exr", working, ir.Settings())
-    assert calls == ["display", "linear"]
+    assert calls == ["display8", "display", "linear"]
     assert image.read_image(tmp_path / "a.png") == pytest.approx(0.4, abs=1 / 255)
+    assert image.read_image(tmp_path / "b.png") == pytest.approx(0.4, abs=1 / 65535)
     assert image.read_image(tmp_path / "a.exr") == pytest.approx(1.6)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("gamma", [None, 1.0, 2.2])
+def test_8_bit_file_values_are_the_rounded_exact_encoding(gamma, compiled, monkeypatch):
+    # Every level boundary and its neighbours, plus random values, NaN, infinities and
+    # values outside [0, 1]: to_display8 must give rint(255 * display value) computed in
+    # float64 (the compiled pass and the numpy fallback alike).
+    if not compiled:
+        monkeypatch.setitem(sys.modules, "runtime._pixels", None)  # the import fails
+    settings = ir.Settings(assumed_gamma=gamma) if gamma else ir.Settings(version=3.6)
+    edges = color.display_thresholds(settings).astype(np.float32)
+    near = np.concatenate([np.nextafter(edges, -1), np.nextafter(edges, 2)])
+    rng = np.random.default_rng(5)
+    values = np.concatenate(
+        [near, rng.uniform(-0.5, 1.5, 20000), [np.nan, np.inf, -np.inf, 0, 1]]
+    ).astype(np.float32)
+    got = color.to_display8(values, settings)
+    x = np.nan_to_num(values.astype(np.float64), nan=0.0)
+    g = color.working_gamma(settings)
+    d = np.clip(x, 0, 1) if g is None else color.srgb_encode(np.clip(x, 0, 1) ** g)
+    want = np.rint(np.clip(d, 0, 1) * 255).astype(np.uint8)
+    if compiled:
+        assert (got == want).all()
+    else:  # float32 arithmetic: a value a float32 step from a boundary may round across it
+        assert np.abs(got.astype(int) - want).max() <= 1
+        assert (got != want).mean() < 0.01
