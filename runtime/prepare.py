@@ -392,6 +392,8 @@ class _Culler:
 
 def _singular(obj: ir.Object) -> str | None:
     """A transform that flattens the object (scale 0) cannot be inverted: say so."""
+    if obj.transform == ir.IDENTITY:  # most objects; no numpy for them (1000s of spheres)
+        return None
     m = tf.as_matrix(obj.transform)
     if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) == 0:
         return "its transform is singular (a zero scale?)"

@@ -96,11 +96,19 @@ class Leaf:
         self.inverse = inverse
         self.identity = tf.is_identity(matrix)
         self.m = matrix
-        self.m_inv = tf.inverse(matrix)
         lo, hi = prim.bounds()
         if inverse:
             lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
-        self.lo, self.hi = tf.aabb_transform(matrix, np.asarray(lo, float), np.asarray(hi, float))
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        if self.identity:  # the common case, without the inverse and the corner transform
+            self.m_inv = matrix
+            if np.isfinite(lo).all() and np.isfinite(hi).all():
+                self.lo, self.hi = lo.copy(), hi.copy()
+            else:
+                self.lo, self.hi = np.full(3, -np.inf), np.full(3, np.inf)
+        else:
+            self.m_inv = tf.inverse(matrix)
+            self.lo, self.hi = tf.aabb_transform(matrix, lo, hi)
         self.leaves = [index]
         if np.all(np.isfinite(self.lo)):
             self.size = float(np.linalg.norm(self.hi - self.lo))

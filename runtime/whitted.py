@@ -33,18 +33,8 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS, BVH, BVH_STACK = (
-    48,
-    48,
-    48,
-    24,
-    64,
-    7,
-    16,
-    512,
-    10,
-    128,
-)
+HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 48, 48, 48, 24, 64, 7, 16, 512
+BVH, BVH_STACK = 11, 128
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
 H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL = 16, 19, 22, 25, 28
@@ -256,7 +246,7 @@ def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
     if tree is None:
         lo = np.min([tracer.nodes[i].lo for i in bounded], axis=0)
         hi = np.max([tracer.nodes[i].hi for i in bounded], axis=0)
-        row = np.concatenate([lo, hi, [-1, -1, 0, len(bounded)]])
+        row = np.concatenate([lo, hi, [-1, -1, 0, len(bounded), 0]])
         return row[None, :], list(bounded)
     rows, items = np.zeros((len(tree.lo), BVH)), []
     for k in range(len(tree.lo)):
@@ -267,7 +257,14 @@ def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
             r[8], r[9] = len(items), len(tree.items[k])
             items.extend(bounded[int(i)] for i in tree.items[k])
         else:
-            r[6:8] = tree.kids[k]
+            left, right = tree.kids[k]
+            # the axis along which the children's centres lie furthest apart, ordered so
+            # that the left one is lower (the kernel visits the near child first)
+            gap = (tree.lo[right] + tree.hi[right]) - (tree.lo[left] + tree.hi[left])
+            axis = int(np.argmax(np.abs(gap)))
+            if gap[axis] < 0:
+                left, right = right, left
+            r[6:8], r[10] = (left, right), axis
     return rows, items
 
 
@@ -295,6 +292,16 @@ def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:
             firsts[id(node)] = len(children)
             children.extend(index[id(c)] for c in node.children)
     return order, children, firsts
+
+
+def _prim_row(prim) -> tuple[float, ...]:
+    """A primitive's six parameters: sphere centre and radius, plane normal and distance,
+    box corners."""
+    if isinstance(prim, shapes.SpherePrim):
+        return (*prim.c, prim.r, 0.0, 0.0)
+    if isinstance(prim, shapes.PlanePrim):
+        return (*prim.n, prim.dist, 0.0, 0.0)
+    return (*prim.lo, *prim.hi)
 
 
 def _inv_rows(m) -> np.ndarray:
@@ -356,33 +363,24 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         tol.BOX_PAD_REL,
         tol.BOX_PAD_ABS,
     )
+    # Whole columns at once: a scene may have thousands of objects, and a numpy assignment
+    # per field and object cost more than tracing the hidden ones.
     rows = buf[HDR : HDR + n_obj * OBJ].reshape(n_obj, OBJ)
-    for leaf in leaves:
-        i = leaf.index
-        r = rows[i]
-        prim = leaf.prim
-        r[O_KIND] = KINDS[type(prim)]
-        r[O_IDENT] = leaf.identity
-        r[O_FLIP] = leaf.inverse
-        r[O_SIZE] = tracer.sizes[i]
-        r[O_TEX] = ctx.obj_tex[i]
-        r[O_FLAGS] = sum(
-            bit
-            for k, bit in FLAG_BITS.items()
-            if tracer.flags.get(k, None) is not None and tracer.flags[k][i]
-        )
-        r[O_DOUBLE] = ctx.double_illuminate[i]
-        r[O_IOR] = ctx.ior[i]
-        r[O_MINV : O_MINV + 12] = _inv_rows(leaf.m_inv)
-        if isinstance(prim, shapes.SpherePrim):
-            r[O_PRIM : O_PRIM + 4] = (*prim.c, prim.r)
-        elif isinstance(prim, shapes.PlanePrim):
-            r[O_PRIM : O_PRIM + 4] = (*prim.n, prim.dist)
-        else:
-            r[O_PRIM : O_PRIM + 6] = (*prim.lo, *prim.hi)
-        it = objs[i].interior
-        r[O_FADEPOW], r[O_FADEDIST] = it.fade_power, it.fade_distance
-        r[O_FADECOL : O_FADECOL + 3] = it.fade_color
+    rows[:, O_KIND] = [KINDS[type(leaf.prim)] for leaf in leaves]
+    rows[:, O_IDENT] = [leaf.identity for leaf in leaves]
+    rows[:, O_FLIP] = [leaf.inverse for leaf in leaves]
+    rows[:, O_SIZE] = tracer.sizes[:n_obj]
+    rows[:, O_TEX] = ctx.obj_tex
+    for k, bit in FLAG_BITS.items():
+        if tracer.flags.get(k) is not None:
+            rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[k], dtype=bool)
+    rows[:, O_DOUBLE] = ctx.double_illuminate
+    rows[:, O_IOR] = ctx.ior
+    rows[:, O_MINV : O_MINV + 12] = np.array([leaf.m_inv[:3].ravel() for leaf in leaves])
+    rows[:, O_PRIM : O_PRIM + 6] = [_prim_row(leaf.prim) for leaf in leaves]
+    rows[:, O_FADEPOW : O_FADECOL + 3] = [
+        (it.fade_power, it.fade_distance, *it.fade_color) for it in (o.interior for o in objs)
+    ]
     start = HDR + n_obj * OBJ
     trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
     for t, layers in enumerate(ctx.textures):
@@ -407,10 +405,11 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     start += n_pig * PIG
     nrows = buf[start : start + n_node * NODE].reshape(n_node, NODE)
     buf[start + n_node * NODE :] = tail
+    nrows[:, N_LO : N_LO + 3] = [node.lo for node in nodes]
+    nrows[:, N_HI : N_HI + 3] = [node.hi for node in nodes]
     for node, r in zip(nodes, nrows, strict=True):
-        r[N_LO : N_LO + 3], r[N_HI : N_HI + 3] = node.lo, node.hi
         if isinstance(node, Leaf):
-            r[N_KIND], r[N_LEAF] = 0, node.index
+            r[N_LEAF] = node.index  # N_KIND 0
         else:
             r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
             r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(node.children)

@@ -23,7 +23,7 @@
 #define LIT 24
 #define PIG 64
 #define NODE 16
-#define BVH 10
+#define BVH 11
 #define BVH_STACK 128
 /* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
 #define MAX_CROSS 512
@@ -50,7 +50,7 @@ enum { K_SPHERE, K_PLANE, K_BOX };
 enum { N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO = 8, N_HI = 11 };
 enum { NK_LEAF, NK_CSG };
 /* the box tree over the bounded roots (trace.BoxTree): a row per tree node */
-enum { B_LO, B_HI = 3, B_LEFT = 6, B_RIGHT, B_FIRST, B_COUNT };
+enum { B_LO, B_HI = 3, B_LEFT = 6, B_RIGHT, B_FIRST, B_COUNT, B_AXIS };
 enum { OP_UNION, OP_INTERSECTION, OP_DIFFERENCE, OP_MERGE };
 enum { SKIP_NONE = 0, SKIP_NO_IMAGE = 1, SKIP_NO_REFLECTION = 2, SKIP_NO_SHADOW = 4 };
 
@@ -323,16 +323,15 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
 static inline double fmin_nan(double a, double b) { return (a < b || b != b) ? a : b; }
 static inline double fmax_nan(double a, double b) { return (a > b || b != b) ? a : b; }
 
-/* trace.slab_hits: may the segment (tmin, tmax) touch the node's box? (padded, so that a
- * hit on the box surface is never culled; an infinite box never culls) */
-static int slab(const Scene *s, const double *nd, const double *o, const double *d, double tmin,
-                double tmax) {
-    const double *lo = nd + N_LO, *hi = nd + N_HI;
+/* trace.slab_hits: may the segment (tmin, tmax) touch the box [lo, hi]? (padded, so that a
+ * hit on the box surface is never culled; an infinite box never culls). inv = 1/d, taken
+ * once per ray: the divisions were most of a box test. */
+static inline int slab(const Scene *s, const double *lo, const double *hi, const double *o,
+                       const double *inv, double tmin, double tmax) {
     double tn = -INFINITY, tf = INFINITY;
     for (int i = 0; i < 3; i++) {
         if (!isfinite(lo[i]) || !isfinite(hi[i])) return 1;
-        double inv = 1.0 / d[i];
-        double t1 = (lo[i] - o[i]) * inv, t2 = (hi[i] - o[i]) * inv;
+        double t1 = (lo[i] - o[i]) * inv[i], t2 = (hi[i] - o[i]) * inv[i];
         double near = fmin_nan(t1, t2), far = fmax_nan(t1, t2);
         tn = i == 0 ? near : fmax_nan(tn, near);
         tf = i == 0 ? far : fmin_nan(tf, far);
@@ -342,8 +341,8 @@ static int slab(const Scene *s, const double *nd, const double *o, const double 
 }
 
 /* Test root node r; 1 when `any` and a hit was found (the caller stops). */
-static int test_root(Scene *s, int r, const double *o, const double *d, double tmin, int skip,
-                     int any, Hit *h, Cross *buf) {
+static int test_root(Scene *s, int r, const double *o, const double *d, const double *inv,
+                     double tmin, int skip, int any, Hit *h, Cross *buf) {
     const double *nd = s->node + (size_t)r * NODE;
     double limit = h->t;
     int n;
@@ -372,7 +371,7 @@ static int test_root(Scene *s, int r, const double *o, const double *d, double t
         }
         return 0;
     } else {
-        if (!slab(s, nd, o, d, tmin, limit)) return 0;
+        if (!slab(s, nd + N_LO, nd + N_HI, o, inv, tmin, limit)) return 0;
         n = node_crossings(s, r, o, d, tmin, limit, buf, MAX_CROSS);
     }
     for (int c = 0; c < n; c++) {
@@ -398,33 +397,29 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
     h->t = tmax;
     h->obj = -1;
     Cross buf[MAX_CROSS];
+    double inv[3] = {1.0 / d[0], 1.0 / d[1], 1.0 / d[2]}; /* inf for 0, as numpy's */
     for (int u = 0; u < s->nunb; u++)
-        if (test_root(s, (int)s->unb[u], o, d, tmin, skip, any, h, buf)) return 1;
+        if (test_root(s, (int)s->unb[u], o, d, inv, tmin, skip, any, h, buf)) return 1;
     int stack[BVH_STACK], top = 0;
     if (s->nbvh > 0) stack[top++] = 0;
     while (top > 0) {
-        const double *b = s->bvh + (size_t)stack[--top] * BVH;
-        double lo_hi[14];
-        memcpy(lo_hi + N_LO, b + B_LO, 3 * sizeof(double));
-        memcpy(lo_hi + N_HI, b + B_HI, 3 * sizeof(double));
-        if (!slab(s, lo_hi, o, d, tmin, h->t)) continue;
+        int at = stack[--top];
+        const double *b = s->bvh + (size_t)at * BVH;
+        /* The root's box holds the whole scene, which nearly every ray crosses: an inner
+         * root is not tested, its children are (one box test fewer per ray). */
+        if ((at != 0 || b[B_LEFT] < 0) && !slab(s, b + B_LO, b + B_HI, o, inv, tmin, h->t))
+            continue;
         if (b[B_LEFT] < 0) {
             for (int k = 0; k < (int)b[B_COUNT]; k++) {
                 /* a leaf's own box is not tested: it costs about what a sphere does, and a
                  * tree leaf holds only a few roots */
                 int r = (int)s->item[(size_t)b[B_FIRST] + k];
-                if (test_root(s, r, o, d, tmin, skip, any, h, buf)) return 1;
+                if (test_root(s, r, o, d, inv, tmin, skip, any, h, buf)) return 1;
             }
         } else {
-            /* the far child first, so the near one is popped (and shortens the ray) first */
-            int axis_near_left = 1;
-            double mid_l = 0, mid_r = 0;
-            const double *l = s->bvh + (size_t)b[B_LEFT] * BVH, *r = s->bvh + (size_t)b[B_RIGHT] * BVH;
-            for (int i = 0; i < 3; i++) {
-                mid_l += (l[B_LO + i] + l[B_HI + i]) * d[i];
-                mid_r += (r[B_LO + i] + r[B_HI + i]) * d[i];
-            }
-            axis_near_left = mid_l <= mid_r;
+            /* the far child first, so the near one is popped (and shortens the ray) first;
+             * the left child lies lower along the split axis */
+            int axis_near_left = d[(int)b[B_AXIS]] >= 0;
             if (top + 2 > BVH_STACK) continue; /* deeper than any tree whitted.py packs */
             stack[top++] = (int)(axis_near_left ? b[B_RIGHT] : b[B_LEFT]);
             stack[top++] = (int)(axis_near_left ? b[B_LEFT] : b[B_RIGHT]);
@@ -856,7 +851,7 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
             if (!(b[B_FIRST] >= 0 && b[B_COUNT] >= 0 && b[B_FIRST] + b[B_COUNT] <= s->nitem))
                 goto bad;
         } else if (!(b[B_LEFT] > i && b[B_LEFT] < s->nbvh && b[B_RIGHT] > i &&
-                     b[B_RIGHT] < s->nbvh)) {
+                     b[B_RIGHT] < s->nbvh && b[B_AXIS] >= 0 && b[B_AXIS] < 3)) {
             goto bad;
         }
     }
