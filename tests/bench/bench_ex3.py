@@ -30,6 +30,9 @@ CHECK_BUDGET = 0.3  # seconds, wall, for `strala check examples/ex3.scene`
 
 def _env() -> dict[str, str]:
     env = dict(os.environ)
+    # as an installed program runs: with its bytecode cache (a fresh compile of every module
+    # would be timed otherwise)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     return env
 
