@@ -21,7 +21,7 @@ media or radiosity.
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists and the box tree. The layout below is mirrored in
 kernel/whitted.c; `layout()` checks it, and the kernel checks every index between tables.
-""""""
+"""
 
 from __future__ import annotations
 
