@@ -212,19 +212,24 @@ typedef struct {
     int obj, face, flip;
 } Cross;
 
+/* An object's crossings along a world ray: the ray taken to object space (t stays the
+ * world parameter: the direction is not normalised there). */
+static inline int object_crossings(const Scene *s, const double *ob, const double *o,
+                                   const double *d, double *t, int *face) {
+    if ((int)ob[O_IDENT]) return crossings(s, ob, o, d, t, face);
+    double oo[3], dd[3];
+    affine(ob + O_MINV, o, oo);
+    linear(ob + O_MINV, d, dd);
+    return crossings(s, ob, oo, dd, t, face);
+}
+
 /* A leaf's crossings in (tlo, thi), world t. */
 static int leaf_crossings(const Scene *s, int obj, const double *o, const double *d, double tlo,
                           double thi, Cross *out) {
     const double *ob = s->obj + (size_t)obj * OBJ;
-    double oo[3], dd[3], t[2];
+    double t[2];
     int face[2];
-    const double *po = o, *pd = d;
-    if (!(int)ob[O_IDENT]) {
-        affine(ob + O_MINV, o, oo);
-        linear(ob + O_MINV, d, dd);
-        po = oo, pd = dd;
-    }
-    int k = crossings(s, ob, po, pd, t, face), n = 0;
+    int k = object_crossings(s, ob, o, d, t, face), n = 0;
     for (int j = 0; j < k; j++)
         if (t[j] > tlo && t[j] < thi) out[n++] = (Cross){t[j], obj, face[j], (int)ob[O_FLIP]};
     return n;
@@ -351,15 +356,9 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
         int obj = (int)nd[N_LEAF];
         const double *ob = s->obj + (size_t)obj * OBJ;
         if (skip & (int)ob[O_FLAGS]) return 0;
-        double oo[3], dd[3], t[2];
+        double t[2];
         int face[2];
-        const double *po = o, *pd = d;
-        if (!(int)ob[O_IDENT]) {
-            affine(ob + O_MINV, o, oo);
-            linear(ob + O_MINV, d, dd);
-            po = oo, pd = dd;
-        }
-        int k = crossings(s, ob, po, pd, t, face);
+        int k = object_crossings(s, ob, o, d, t, face);
         double floor = OBJECT_REL * ob[O_SIZE];
         if (tmin > floor) floor = tmin;
         for (int j = 0; j < k; j++) {
