@@ -2909,15 +2909,29 @@ def _b_camera(it: Interpreter, g: Grouped, node: syntax.Block) -> CameraValue:
 
 
 def _loop_watch(node: syntax.While) -> list[str] | None:
-    """The names a #while's condition reads, when nothing else can end the loop: the
-    condition calls no function (a call may read a file, a random stream, `defined()`)
-    and the body has no #break. None: the loop cannot be judged by its names alone."""
+    """The names a #while's condition reads, when nothing but them can end the loop and the
+    body cannot change them: the condition calls no function (a call may read a file, a
+    random stream, `defined()`), the body has no #break, and it neither assigns nor
+    #undefs those names, calls no macro (a macro may #declare them) and includes no file.
+    After one pass with the same values the loop cannot end. None: it cannot be judged
+    (a body that sets `Continue = 0`, then back to 1 while a counter runs down, is a loop
+    that ends: tracevines.pov)."""
     cond = list(syntax.walk(node.cond))
     if any(isinstance(n, syntax.Call) for n in cond):
         return None
-    if any(isinstance(n, syntax.Break | syntax.FileOp) for n in syntax.walk(node.body)):
+    body = list(syntax.walk(node.body))
+    if any(isinstance(n, syntax.Break | syntax.FileOp) for n in body):
         return None
-    return sorted({n.name for n in cond if isinstance(n, syntax.Ident)})
+    names = sorted({n.name for n in cond if isinstance(n, syntax.Ident)})
+    for n in body if names else ():
+        if (
+            (isinstance(n, syntax.Declare | syntax.Undef) and n.name in names)
+            or (isinstance(n, syntax.For) and n.var in names)
+            or isinstance(n, syntax.Include)
+            or (isinstance(n, syntax.Call) and not n.builtin)
+        ):
+            return None
+    return names
 
 
 def _same_values(a: list[tuple[bool, Any]], b: list[tuple[bool, Any]]) -> bool:

@@ -302,6 +302,11 @@ def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:
     return order, children, firsts
 
 
+def _table(rows: list, width: int) -> np.ndarray:
+    """(len(rows), width) float64, also for no rows (a scene with no objects)."""
+    return np.array(rows, dtype=np.float64).reshape(len(rows), width)
+
+
 def _prim_row(prim) -> tuple[float, ...]:
     """A primitive's six parameters: sphere centre and radius, plane normal and distance,
     box corners."""
@@ -384,11 +389,12 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[k], dtype=bool)
     rows[:, O_DOUBLE] = ctx.double_illuminate
     rows[:, O_IOR] = ctx.ior
-    rows[:, O_MINV : O_MINV + 12] = np.array([leaf.m_inv[:3].ravel() for leaf in leaves])
-    rows[:, O_PRIM : O_PRIM + 6] = [_prim_row(leaf.prim) for leaf in leaves]
-    rows[:, O_FADEPOW : O_FADECOL + 3] = [
-        (it.fade_power, it.fade_distance, *it.fade_color) for it in (o.interior for o in objs)
-    ]
+    rows[:, O_MINV : O_MINV + 12] = _table([leaf.m_inv[:3].ravel() for leaf in leaves], 12)
+    rows[:, O_PRIM : O_PRIM + 6] = _table([_prim_row(leaf.prim) for leaf in leaves], 6)
+    rows[:, O_FADEPOW : O_FADECOL + 3] = _table(
+        [(it.fade_power, it.fade_distance, *it.fade_color) for it in (o.interior for o in objs)],
+        5,
+    )
     start = HDR + n_obj * OBJ
     trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
     for t, layers in enumerate(ctx.textures):
@@ -413,8 +419,8 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     start += n_pig * PIG
     nrows = buf[start : start + n_node * NODE].reshape(n_node, NODE)
     buf[start + n_node * NODE :] = tail
-    nrows[:, N_LO : N_LO + 3] = [node.lo for node in nodes]
-    nrows[:, N_HI : N_HI + 3] = [node.hi for node in nodes]
+    nrows[:, N_LO : N_LO + 3] = _table([node.lo for node in nodes], 3)
+    nrows[:, N_HI : N_HI + 3] = _table([node.hi for node in nodes], 3)
     for node, r in zip(nodes, nrows, strict=True):
         if isinstance(node, Leaf):
             r[N_LEAF] = node.index  # N_KIND 0

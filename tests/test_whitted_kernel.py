@@ -295,6 +295,16 @@ def test_scenes_beyond_the_kernel_say_why(text, reason):
     assert any(reason in r for r in found), found
 
 
+def test_a_scene_with_no_objects(monkeypatch):
+    # only a background and a sky: every ray misses (POV-Ray's template scenes start so)
+    scene = _scene(
+        "camera { location -5*z look_at 0 } light_source { <1, 5, -5>, rgb 1 }"
+        "background { rgb <0.2, 0.3, 0.4> } sky_sphere { pigment { gradient y } }"
+    )
+    fast, slow = _both(scene, 16, 12, aa=0.3, monkeypatch=monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
 def test_the_environment_switch_turns_it_off(monkeypatch):
     monkeypatch.setenv(whitted.ENV, "numpy")
     assert not whitted.available()
