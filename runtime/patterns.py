@@ -32,7 +32,7 @@ wood, agate, turbulence and the bump normals give POV-Ray's values, not just its
 from __future__ import annotations
 
 import math
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 
@@ -752,20 +752,22 @@ def spiral2(p: np.ndarray, params: dict) -> np.ndarray:
 def ripples(p: np.ndarray, params: dict) -> np.ndarray:
     """Concentric sine waves from POV-Ray's ten wave sources, averaged to [0, 1]."""
     total = np.zeros(len(p))
-    for src in _WAVE_SOURCES:
+    sources, _ = _wave_tables()
+    for src in sources:
         length = np.linalg.norm(p - src, axis=1)
         total += _cycloidal(length)
-    return 0.5 + total / (2.0 * len(_WAVE_SOURCES))
+    return 0.5 + total / (2.0 * len(sources))
 
 
 def waves(p: np.ndarray, params: dict) -> np.ndarray:
     """Cosine waves of varied frequencies from POV-Ray's ten wave sources."""
     total = np.zeros(len(p))
-    for src, f in zip(_WAVE_SOURCES, _WAVE_FREQS, strict=True):
+    sources, freqs = _wave_tables()
+    for src, f in zip(sources, freqs, strict=True):
         length = np.linalg.norm(p - src, axis=1)
         length = np.where(length == 0.0, 1.0, length)
         total += _cycloidal(length * f) / f
-    return 0.2 * (2.5 + total / len(_WAVE_SOURCES))
+    return 0.2 * (2.5 + total / len(sources))
 
 
 def dents(p: np.ndarray, params: dict) -> np.ndarray:
@@ -1104,6 +1106,7 @@ def may_transmit(pigment: ir.Pigment) -> bool:
 NORMAL_DELTA: float = 0.02
 
 
+@cache
 def _wave_tables(count: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """POV-Ray's ripple/wave sources and frequencies: source i is DNoise(<i, 0, 0>)
     normalised, frequency i a draw of POV-Ray's LCG (seeded -560851967) in [0.01, 1.01]."""
@@ -1115,9 +1118,6 @@ def _wave_tables(count: int = 10) -> tuple[np.ndarray, np.ndarray]:
         x = (x * 1812433253 + 12345) & 0xFFFFFFFF
         freqs.append(((x >> 16) & 0x7FFF) / 32767.0 + 0.01)
     return sources, np.array(freqs)
-
-
-_WAVE_SOURCES, _WAVE_FREQS = _wave_tables()
 
 
 def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -> np.ndarray:
@@ -1154,7 +1154,7 @@ def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -
     elif kind in ("ripples", "waves"):
         freq = float(normal.params.get("frequency", 1.0))
         phase = float(normal.params.get("phase", 0.0))
-        for src, f in zip(_WAVE_SOURCES, _WAVE_FREQS, strict=True):
+        for src, f in zip(*_wave_tables(), strict=True):
             d = p - src
             length = np.linalg.norm(d, axis=1)
             length = np.where(length > 0, length, 1.0)
