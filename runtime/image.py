@@ -1,4 +1,5 @@
-"""Image files through OpenImageIO: PNG, EXR, TIFF and JPEG, written atomically.
+"""Image files: PNG (runtime.png), and EXR, TIFF and JPEG through OpenImageIO, written
+atomically. OpenImageIO is loaded only for the files that need it (and for reading).
 
 The renderer produces a working-space image; `runtime.color` turns it into display values
 (8/16-bit files, sRGB-encoded or legacy as POV-Ray would write them) or linear values (EXR).
@@ -14,7 +15,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import OpenImageIO as oiio
 
 from lang import ir
 
@@ -81,46 +81,62 @@ def write_pixels(path: str | os.PathLike, pixels: np.ndarray, bits: int | None =
     pixels = np.asarray(pixels)
     if pixels.ndim != 3 or pixels.shape[2] not in (1, 3, 4):
         raise ValueError(f"expected an (H, W, 1|3|4) image, got shape {pixels.shape}")
-    height, width, channels = pixels.shape
     if fmt.linear:
-        dtype = oiio.HALF if depth == 16 else oiio.FLOAT
         data = np.ascontiguousarray(pixels, dtype=np.float32)
     elif pixels.dtype == np.uint8 and depth == 8:  # already file values (to_display8)
-        dtype, data = oiio.UINT8, np.ascontiguousarray(pixels)
+        data = np.ascontiguousarray(pixels)
     else:
         scale = 255.0 if depth == 8 else 65535.0
-        dtype = oiio.UINT8 if depth == 8 else oiio.UINT16
         quantised = np.rint(np.clip(pixels, 0.0, 1.0) * scale)
         data = np.ascontiguousarray(quantised, dtype=np.uint8 if depth == 8 else np.uint16)
-    spec = oiio.ImageSpec(width, height, channels, dtype)
-    spec.attribute("Software", "strala")
-    if fmt.name == "jpeg":
-        spec.attribute("Compression", "jpeg:95")
-    elif fmt.name == "exr":
-        spec.attribute("compression", "zip")
 
     target = Path(path)
     # same folder, so os.replace is an atomic rename; same extension, so OIIO picks the format
     tmp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}{target.suffix}")
     try:
-        out = oiio.ImageOutput.create(str(tmp))
-        if out is None:
-            raise OSError(f"cannot write {target}: {oiio.geterror()}")
-        if not out.open(str(tmp), spec):
-            raise OSError(f"cannot write {target}: {out.geterror()}")
-        ok = out.write_image(data)
-        err = out.geterror() if not ok else ""
-        out.close()
-        if not ok:
-            raise OSError(f"cannot write {target}: {err}")
+        if fmt.name == "png" and data.shape[2] in (1, 3):
+            # (RGBA stays with OpenImageIO, which stores it unassociated from premultiplied)
+            from runtime import png
+
+            tmp.write_bytes(png.encode(data))
+        else:
+            _write_oiio(tmp, target, fmt, depth, data)
         os.replace(tmp, target)
     finally:
         if tmp.exists():
             tmp.unlink()
 
 
+def _write_oiio(tmp: Path, target: Path, fmt: Format, depth: int, data: np.ndarray) -> None:
+    import OpenImageIO as oiio
+
+    if fmt.linear:
+        dtype = oiio.HALF if depth == 16 else oiio.FLOAT
+    else:
+        dtype = oiio.UINT8 if depth == 8 else oiio.UINT16
+    height, width, channels = data.shape
+    spec = oiio.ImageSpec(width, height, channels, dtype)
+    spec.attribute("Software", "strala")
+    if fmt.name == "jpeg":
+        spec.attribute("Compression", "jpeg:95")
+    elif fmt.name == "exr":
+        spec.attribute("compression", "zip")
+    out = oiio.ImageOutput.create(str(tmp))
+    if out is None:
+        raise OSError(f"cannot write {target}: {oiio.geterror()}")
+    if not out.open(str(tmp), spec):
+        raise OSError(f"cannot write {target}: {out.geterror()}")
+    ok = out.write_image(data)
+    err = out.geterror() if not ok else ""
+    out.close()
+    if not ok:
+        raise OSError(f"cannot write {target}: {err}")
+
+
 def read_image(path: str | os.PathLike) -> np.ndarray:
     """Read any image OpenImageIO knows as float32 (H, W, C); integer files scale to [0, 1]."""
+    import OpenImageIO as oiio
+
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         raise OSError(f"cannot read {path}: {oiio.geterror()}")

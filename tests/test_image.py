@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -81,8 +82,11 @@ def test_extension_is_case_insensitive():
     assert image.output_format("x.exr")[1] == 32
 
 
-def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path, monkeypatch):
-    target = tmp_path / "keep.png"
+@pytest.mark.parametrize("suffix", [".png", ".tif"])
+def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(suffix, tmp_path, monkeypatch):
+    import OpenImageIO as oiio
+
+    target = tmp_path / f"keep{suffix}"
     image.write_pixels(target, _ramp())
     before = target.read_bytes()
 
@@ -96,11 +100,30 @@ def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path, monke
         def close(self):
             pass
 
-    monkeypatch.setattr(image.oiio.ImageOutput, "create", staticmethod(lambda name: Exploding()))
+    def half_then_interrupt(self, data):  # PNG: half the bytes reach the disk, then ^C
+        with open(self, "wb") as f:
+            f.write(data[: len(data) // 2])
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(oiio.ImageOutput, "create", staticmethod(lambda name: Exploding()))
+    monkeypatch.setattr(Path, "write_bytes", half_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
         image.write_pixels(target, np.zeros((6, 5, 3)))
     assert target.read_bytes() == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [target.name]
+
+
+@pytest.mark.parametrize("channels", [1, 3])
+@pytest.mark.parametrize("bits", [8, 16])
+def test_png_files_read_back_exactly(channels, bits, tmp_path):
+    # runtime.png writes them; OpenImageIO (an independent decoder) reads them back
+    rng = np.random.default_rng(channels * bits)
+    scale = 255 if bits == 8 else 65535
+    values = rng.integers(0, scale + 1, (7, 11, channels))
+    image.write_pixels(tmp_path / "x.png", values / scale, bits)
+    got = image.read_image(tmp_path / "x.png")
+    assert got.shape == (7, 11, channels)
+    assert np.rint(got * scale).astype(int).tolist() == values.tolist()
 
 
 def test_successful_write_leaves_only_the_target(tmp_path):
