@@ -991,13 +991,20 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
         if (!first || !metric || !mask) {
             failed = 1;
         } else {
+            /* the last value and its power per channel: a background or a flat colour
+             * repeats along a row, and the power was a tenth of the render */
+            double last_v[3] = {0.0, 0.0, 0.0}, last_m[3] = {0.0, 0.0, 0.0};
             for (int r = 0; r < eh; r++)
                 for (int c = 0; c < ew; c++) {
                     size_t i = (size_t)r * ew + c;
                     trace_pixel(&s, x0 - 1 + c + 0.5, y0 - 1 + r + 0.5, first + 3 * i);
                     for (int k = 0; k < 3; k++) {
                         double v = first[3 * i + k];
-                        metric[3 * i + k] = v > 0 ? pow(v, metric_power) : 0.0;
+                        if (v != last_v[k]) {
+                            last_v[k] = v;
+                            last_m[k] = v > 0 ? pow(v, metric_power) : 0.0;
+                        }
+                        metric[3 * i + k] = last_m[k];
                     }
                 }
             for (int r = 0; r < eh; r++)
