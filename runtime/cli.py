@@ -288,6 +288,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="write coarse passes (1/8, 1/4, 1/2 size) to the output before the final image",
     )
+    r.add_argument(
+        "--stats",
+        action="store_true",
+        help="say how the image was traced: rays, shadow rays, supersampled pixels, the time "
+        "preparing and tracing, and why the numpy path traced it if the compiled one did not",
+    )
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     r.set_defaults(func=cmd_render)
 
@@ -779,6 +785,19 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def render_stats(stats: dict) -> str:
+    """`strala render --stats`: how the image was traced, from render_scene's stats."""
+    why = stats.get("numpy_because") or []
+    path = "the compiled kernel" if stats.get("kernel") else f"numpy ({', '.join(why)})"
+    return (
+        f"traced by {path}: {int(stats.get('rays', 0)):,} rays, "
+        f"{int(stats.get('shadow_rays', 0)):,} shadow rays, "
+        f"{int(stats.get('supersampled', 0)):,} of {int(stats.get('pixels', 0)):,} pixels "
+        f"supersampled; prepare {stats.get('prepare_s', 0.0):.2f} s, "
+        f"trace {stats.get('trace_s', 0.0):.2f} s"
+    )
+
+
 def radiosity_summary(stats: dict) -> str:
     """One line of radiosity figures from render_scene's stats."""
     if stats.get("radiosity_cache_hit"):
@@ -900,6 +919,8 @@ def _render_one(
     except OSError as exc:
         print(f"strala: error: {exc}", file=sys.stderr)
         return 1
+    if getattr(args, "stats", False):
+        print(render_stats(stats), file=sys.stderr)
     if not args.quiet:
         if "radiosity_patches" in stats:
             print(radiosity_summary(stats), file=sys.stderr)

@@ -64,10 +64,13 @@ def render_scene(
         cache = None if radiosity_cache is None else Path(radiosity_cache)
         radiosity = radiosity_system.compute(prepared, cache_dir=cache)
     ctx.radiosity = radiosity
-    if radiosity is None:
-        from runtime import whitted
+    from runtime import whitted
 
-        ctx.kernel = whitted.kernel_for(ctx, scene.camera, width, height)
+    numpy_because = (
+        ["radiosity"] if radiosity is not None else whitted.why_not(prepared, scene.camera)
+    )
+    if not numpy_because:
+        ctx.kernel = whitted.Kernel(ctx, scene.camera, width, height)
     traced = time.perf_counter()
     left, top, right, bottom = region if region is not None else (0, 0, width, height)
     left, top = max(0, left), max(0, top)
@@ -116,6 +119,7 @@ def render_scene(
         stats["prepare_s"] = traced - started
         stats["trace_s"] = time.perf_counter() - traced
         stats["kernel"] = ctx.kernel is not None
+        stats["numpy_because"] = numpy_because
     return image
 
 

@@ -478,8 +478,15 @@ class Kernel:
         return out, n
 
 
+def why_not(prepared, camera: ir.Camera) -> list[str]:
+    """Why the numpy path renders this scene (empty: the compiled kernel does)."""
+    if _whitted is not None and os.environ.get(ENV, "") == "numpy":
+        return [f"{ENV}=numpy"]
+    return reasons(prepared, camera)
+
+
 def kernel_for(ctx, camera: ir.Camera, width: int, height: int) -> Kernel | None:
     """The compiled kernel for this scene, or None when the numpy path must render it."""
-    if not available() or reasons(ctx.prepared, camera):
+    if why_not(ctx.prepared, camera):
         return None
     return Kernel(ctx, camera, width, height)

@@ -638,3 +638,24 @@ def test_preview_writes_coarse_passes_then_the_same_final_image(tmp_path):
     pa = oiio.ImageBuf(str(a)).get_pixels(oiio.FLOAT)
     pb = oiio.ImageBuf(str(b)).get_pixels(oiio.FLOAT)
     assert (pa == pb).all()  # the final pass replaces the previews entirely
+
+
+@needs_renderer
+def test_stats_say_how_the_image_was_traced(tmp_path, capsys):
+    from runtime import cli
+
+    out = tmp_path / "a.png"
+    assert cli.main(["render", str(EXAMPLES / "ex3.scene"), "-W", "16", "-H", "12",
+                     "--aa", "-o", str(out), "--stats", "-q"]) == 0  # fmt: skip
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith("traced by the compiled kernel: ")
+    rays = int(line.split(": ")[1].split(" rays")[0].replace(",", ""))
+    assert rays >= 16 * 12  # a camera ray a pixel at least
+    scene = tmp_path / "soft.scene"
+    scene.write_text(
+        "camera { location -5*z look_at 0 } sphere { 0, 1 pigment { rgb 1 } }\n"
+        "light_source { <2, 4, -3>, rgb 1 area_light x, y, 3, 3 }\n"
+    )
+    assert cli.main(["render", str(scene), "-W", "8", "-H", "6", "-o", str(out),
+                     "--stats", "-q"]) == 0  # fmt: skip
+    assert "traced by numpy (area light)" in capsys.readouterr().err
