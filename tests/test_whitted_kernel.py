@@ -324,3 +324,29 @@ def test_no_extension_falls_back(monkeypatch):
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(pytest.main([__file__, "-q"]))
+
+
+def test_a_damaged_scene_array_is_refused_not_traced():
+    # The kernel checks the packed scene before tracing: a bad count or index between its
+    # tables is a ValueError, never a read outside the array.
+    from runtime import integrate
+
+    scene = api.compile_file(ROOT / "examples" / "ex3.scene").scene
+    prepared = prepare(scene, 8, 6)
+    good = whitted.pack(integrate.make_context(prepared), scene.camera, 8, 6)
+    xs = ys = np.array([4.0])
+    out = np.empty(3)
+    whitted._whitted.trace_pixels(good, xs, ys, out)
+    assert np.isfinite(out).all()
+    o_tex = whitted.HDR + whitted.O_TEX
+    for where, value in ((whitted.H_NOBJ, 1e6), (o_tex, 99.0), (o_tex, -1.0),
+                         (whitted.H_NSKY, 1e3), (whitted.H_NBVH, -1.0),
+                         (whitted.H_NNODE, np.nan), (whitted.H_MAXLEVEL, 1e300)):  # fmt: skip
+        bad = good.copy()
+        bad[where] = value
+        with pytest.raises(ValueError, match="scene"):
+            whitted._whitted.trace_pixels(bad, xs, ys, out)
+    with pytest.raises(ValueError):
+        whitted._whitted.trace_pixels(good[:10], xs, ys, out)
+    with pytest.raises(ValueError):
+        whitted._whitted.render_tile(good, 0, 0, 0, 0, -1.0, 0.4, 3, out)

@@ -812,6 +812,15 @@ static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t need, int writa
 /* The Scene view of a packed array; -1 with an exception set when it is too short. */
 static int scene_from(const Py_buffer *sb, Scene *s) {
     const double *h = sb->buf;
+    /* counts are checked as doubles first: casting a NaN or a huge value to int is
+     * undefined behaviour */
+    static const int counts[] = {H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_NPIG, H_NSKY, H_NNODE,
+                                 H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM};
+    for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++)
+        if (!(h[counts[i]] >= 0 && h[counts[i]] <= 1e9)) {
+            PyErr_SetString(PyExc_ValueError, "scene: a count in its header is not a count");
+            return -1;
+        }
     *s = (Scene){.h = h, .nobj = (int)h[H_NOBJ], .ntex = (int)h[H_NTEX],
                  .nlight = (int)h[H_NLIGHT], .maxlevel = (int)h[H_MAXLEVEL],
                  .bailout = h[H_BAILOUT], .legacy = (int)h[H_LEGACY],
