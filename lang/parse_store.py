@@ -63,8 +63,14 @@ def folder() -> Path | None:
         base = Path(env)
     else:
         xdg = os.environ.get("XDG_CACHE_HOME")
-        base = (Path(xdg) if xdg else Path.home() / ".cache") / "strala"
-    return base / f"parse-{_fingerprint()}"
+        try:
+            base = (Path(xdg) if xdg else Path.home() / ".cache") / "strala"
+        except (RuntimeError, KeyError):  # no home folder (a bare container user): no store
+            return None
+    try:
+        return base / f"parse-{_fingerprint()}"
+    except OSError:  # the parser's own files cannot be read: better parse than guess
+        return None
 
 
 def _key(text: str, filename: str) -> str:
