@@ -8,15 +8,15 @@ is used only when a scene has nothing it does not know; anything else renders th
 numpy, unchanged. tests/test_whitted_kernel.py holds the two to the same images.
 
 What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
-without focal blur; spheres, planes and boxes, transformed or not, inverse or not, and
-their CSG (union, intersection, difference, merge, nested), any number of them through the
-tracer's box tree; no clipped_by, meshes or other shapes. One-layer textures whose pigment
-is solid, checker (of solid colours) or gradient, onion, spherical, cylindrical, planar,
-boxed or radial with a colour map and a wave (no turbulence or warps); no normal; finishes
-without irid, fresnel, crand, diffuse_back or negative metallic. Point lights and
-spotlights (fade included, no area lights); interiors with ior and fade, no caustics or
-media; a background colour and sky_sphere layers of those pigments (3.7 rules); no fog,
-media or radiosity.
+without focal blur; spheres, planes, boxes, discs, cylinders and cones, transformed or not,
+inverse or not, and their CSG (union, intersection, difference, merge, nested), any number
+of them through the tracer's box tree; no clipped_by, meshes or other shapes. One-layer
+textures whose pigment is solid, checker (of solid colours) or gradient, onion, spherical,
+cylindrical, planar, boxed or radial with a colour map and a wave (no turbulence or
+warps); no normal; finishes without irid, fresnel, crand, diffuse_back or negative
+metallic. Point lights and spotlights (fade included, no area lights); interiors with
+ior and fade, no caustics or media; a background colour and sky_sphere layers of those
+pigments (3.7 rules); no fog, media or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists and the box tree. The layout below is mirrored in
@@ -41,7 +41,7 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 48, 48, 48, 24, 64, 7, 16, 512
+HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 48, 64, 48, 24, 64, 7, 16, 1024
 BVH, BVH_STACK = 11, 128
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
@@ -50,7 +50,8 @@ H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM = range(39, 
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
-O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL = 8, 20, 28, 29, 30
+O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL = 8, 20, 44, 45, 46
+PRIM_SLOTS = 24
 T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
 T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
 T_RMIN, T_RMAX, T_FALLOFF, T_REXP, T_RMETAL, T_CONSERVE = 38, 41, 44, 45, 46, 47
@@ -86,7 +87,13 @@ WAVES = {
     "cubic_wave": 4,
     "poly_wave": 5,
 }
-KINDS = {shapes.SpherePrim: 0, shapes.PlanePrim: 1, shapes.BoxPrim: 2}
+KINDS = {
+    shapes.SpherePrim: 0,
+    shapes.PlanePrim: 1,
+    shapes.BoxPrim: 2,
+    shapes.DiscPrim: 3,
+    shapes.ConePrim: 4,
+}
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
 # The packed scene is ~400 bytes an object; past this many the numpy path (and its memory
@@ -180,8 +187,8 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
         if not _covered(node):
             out.append("clipped_by or another shape")
             break
-        if len(node.leaves) > MAX_CROSS // 2:
-            out.append(f"a CSG of more than {MAX_CROSS // 2} shapes")
+        if len(node.leaves) > MAX_CROSS // 4:
+            out.append(f"a CSG of more than {MAX_CROSS // 4} shapes")
     for obj in prepared.objects:
         it = obj.interior
         if it.caustics != 0 or it.media:
@@ -307,14 +314,21 @@ def _table(rows: list, width: int) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(len(rows), width)
 
 
-def _prim_row(prim) -> tuple[float, ...]:
-    """A primitive's six parameters: sphere centre and radius, plane normal and distance,
-    box corners."""
+def _prim_row(prim) -> list[float]:
+    """A primitive's parameters (PRIM_SLOTS of them): sphere centre and radius, plane normal
+    and distance, box corners, disc centre, normal, radius^2 and hole^2, cone/cylinder
+    canonical frame (object to canonical rows), radii and openness."""
     if isinstance(prim, shapes.SpherePrim):
-        return (*prim.c, prim.r, 0.0, 0.0)
-    if isinstance(prim, shapes.PlanePrim):
-        return (*prim.n, prim.dist, 0.0, 0.0)
-    return (*prim.lo, *prim.hi)
+        row = [*prim.c, prim.r]
+    elif isinstance(prim, shapes.PlanePrim):
+        row = [*prim.n, prim.dist]
+    elif isinstance(prim, shapes.BoxPrim):
+        row = [*prim.lo, *prim.hi]
+    elif isinstance(prim, shapes.DiscPrim):
+        row = [*prim.c, *prim.n, prim.r2, prim.h2]
+    else:
+        row = [*prim.frame_inv[:3].ravel(), prim.r0, prim.r1, float(prim.open)]
+    return row + [0.0] * (PRIM_SLOTS - len(row))
 
 
 def _inv_rows(m) -> np.ndarray:
@@ -390,7 +404,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     rows[:, O_DOUBLE] = ctx.double_illuminate
     rows[:, O_IOR] = ctx.ior
     rows[:, O_MINV : O_MINV + 12] = _table([leaf.m_inv[:3].ravel() for leaf in leaves], 12)
-    rows[:, O_PRIM : O_PRIM + 6] = _table([_prim_row(leaf.prim) for leaf in leaves], 6)
+    rows[:, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
+        [_prim_row(leaf.prim) for leaf in leaves], PRIM_SLOTS
+    )
     rows[:, O_FADEPOW : O_FADECOL + 3] = _table(
         [(it.fade_power, it.fade_distance, *it.fade_color) for it in (o.interior for o in objs)],
         5,

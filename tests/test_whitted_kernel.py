@@ -144,6 +144,37 @@ intersection { sphere { 0, 1 } plane { x, 0.3 } inverse translate <0, 0.2, 3>
 """
 
 
+ROUND = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 3, -9> look_at <0, 0.5, 0> angle 55 }
+light_source { <-5, 8, -6>, rgb 1 }
+plane { y, -1 pigment { checker rgb 0.9, rgb 0.4 } }
+cylinder { <-4, -1, 0>, <-4, 1.5, 0>, 0.6 pigment { rgb <0.9, 0.3, 0.2> } finish { phong 0.6 } }
+cylinder { <-2, -0.5, 0>, <-1, 1.5, 1>, 0.5 open pigment { rgb <0.2, 0.7, 0.3> } }
+cone { <0, -1, 0>, 0.9, <0, 1.5, 0>, 0.2 pigment { rgbf <0.9, 0.9, 1, 0.8> }
+  interior { ior 1.3 } }
+cone { <2, 1.5, 0>, 0, <2, -1, 0>, 0.8 scale <1, 1, 0.6> rotate y * 30
+  pigment { rgb <0.3, 0.4, 0.9> } finish { reflection 0.3 } }
+disc { <4, 0.5, 0>, <-0.5, 0.3, -1>, 1, 0.4 pigment { rgb <1, 0.8, 0.2> } }
+difference { cylinder { <0, 2.2, -1>, <0, 2.2, 1>, 0.6 }
+  cone { <0, 2.2, -2>, 0.1, <0, 2.2, 2>, 0.8 } pigment { rgb 1 } }
+"""
+
+
+def test_cylinders_cones_and_discs_match_numpy(monkeypatch):
+    scene = _scene(ROUND)
+    fast, slow = _both(scene, 96, 72, aa=0.3, monkeypatch=monkeypatch)
+    # numpy takes a cone's frame through matrix products whose last place may round
+    # otherwise (BLAS), and rays refracted inside the glass cone can amplify that at a
+    # grazing pixel or two; with the cone made opaque the images match exactly
+    diff = np.abs(fast - slow).max(axis=2)
+    assert (diff > 1e-6).mean() <= 0.005, f"{(diff > 1e-6).sum()} pixels, max {diff.max()}"
+    opaque = _scene(ROUND.replace("rgbf <0.9, 0.9, 1, 0.8>", "rgb 0.5"))
+    fast, slow = _both(opaque, 96, 72, aa=0.3, monkeypatch=monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
 def test_csg_matches_numpy(monkeypatch):
     scene = _scene(CSG)
     fast, slow = _both(scene, 96, 72, aa=0.3, monkeypatch=monkeypatch)
@@ -158,6 +189,11 @@ _PARTS = st.sampled_from(
         "box { <-1.2, -0.2, -0.4>, <1.2, 0.2, 0.4> }",
         "plane { y, 0.3 }",
         "sphere { <0, -0.5, -0.5>, 0.6 inverse }",
+        "cylinder { <-1, 0, 0>, <1, 0.3, 0>, 0.4 }",
+        "cylinder { <0, -1, 0>, <0, 1, 0>, 0.5 open }",
+        "cone { <0, -0.8, 0>, 0.7, <0, 0.8, 0.2>, 0.1 }",
+        "cone { <0.2, -0.5, 0>, 0, <0, 0.9, 0>, 0.6 open }",
+        "disc { <0, 0.2, 0>, <0.2, 1, 0>, 1.1, 0.3 }",
     ]
 )
 
@@ -280,7 +316,7 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
     ("text", "reason"),
     [
         ("sphere { 0, 1 clipped_by { plane { y, 0 } } }", "clipped_by"),
-        ("difference { sphere { 0, 1 } cylinder { -x, x, 0.5 } }", "another shape"),
+        ("difference { sphere { 0, 1 } torus { 1, 0.2 } }", "another shape"),
         ("sphere { 0, 1 } fog { distance 5 rgb 1 }", "fog"),
         ("sphere { 0, 1 } sky_sphere { pigment { bozo } }", "bozo"),
         ("sphere { 0, 1 pigment { gradient y turbulence 0.5 } }", "turbulent"),

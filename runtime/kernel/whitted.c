@@ -18,7 +18,7 @@
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
 #define HDR 48
-#define OBJ 48
+#define OBJ 64
 #define TEX 48
 #define LIT 24
 #define PIG 64
@@ -26,14 +26,14 @@
 #define BVH 11
 #define BVH_STACK 128
 /* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
-#define MAX_CROSS 512
+#define MAX_CROSS 1024 /* 4 a leaf at most (a capped cone) */
 #define MAX_MAP 7
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
-       O_PRIM = 20, O_FADEPOW = 28, O_FADEDIST, O_FADECOL, O_LO = 33, O_HI = 36 };
+       O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
        T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE };
@@ -45,7 +45,11 @@ enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL
        PK_BOXED, PK_RADIAL };
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 
-enum { K_SPHERE, K_PLANE, K_BOX };
+enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE };
+/* a disc's parameters: centre, unit normal, radius^2, hole radius^2; a cone's (shapes.ConePrim,
+ * canonical frame: axis +z from 0 to 1): the object-to-canonical rows, r0, r1, open */
+enum { D_C, D_N = 3, D_R2 = 6, D_H2 };
+enum { C_FRAME_INV, C_R0 = 12, C_R1, C_OPEN };
 /* the node table: leaves (an object) and CSG operations over child nodes */
 enum { N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO = 8, N_HI = 11 };
 enum { NK_LEAF, NK_CSG };
@@ -128,6 +132,54 @@ static void stable_quadratic(double a, double b, double c, double disc, double *
     *hi = t1 < t2 ? t2 : t1;
 }
 
+/* shapes.ConePrim.crossings: the lateral surface (recentred at the axis midpoint; for a
+ * cylinder the discriminant recentred in 2D, as for the sphere) and the two caps. */
+static int cone_crossings(const Scene *s, const double *p, const double *o, const double *d,
+                          double *t, int *face) {
+    double oq[3], dq[3];
+    affine(p + C_FRAME_INV, o, oq);
+    linear(p + C_FRAME_INV, d, dq);
+    double dd = dot(dq, dq), t0 = 0.0;
+    if (dd > 0) {
+        double to_c[3] = {-oq[0], -oq[1], 0.5 - oq[2]};
+        t0 = dot(to_c, dq) / dd;
+    }
+    double oc[3] = {oq[0] + t0 * dq[0], oq[1] + t0 * dq[1], oq[2] + t0 * dq[2]};
+    double r0 = p[C_R0], r1 = p[C_R1], k = r1 - r0;
+    double rho = r0 + k * oc[2];
+    double a = dq[0] * dq[0] + dq[1] * dq[1] - (k * dq[2]) * (k * dq[2]);
+    double b = oc[0] * dq[0] + oc[1] * dq[1] - k * dq[2] * rho;
+    double c = oc[0] * oc[0] + oc[1] * oc[1] - rho * rho;
+    double disc;
+    if (k == 0) {
+        double lx = oc[0] - b / a * dq[0], ly = oc[1] - b / a * dq[1];
+        double ln = hypot(lx, ly);
+        disc = a * (fabs(r0) - ln) * (fabs(r0) + ln);
+    } else {
+        disc = b * b - a * c;
+    }
+    double ts[2];
+    stable_quadratic(a, b, c, disc, &ts[0], &ts[1]);
+    for (int j = 0; j < 2; j++) {
+        double z = oc[2] + (isfinite(ts[j]) ? ts[j] : 0.0) * dq[2];
+        int ok = isfinite(ts[j]) && z >= 0 && z <= 1;
+        if (k != 0) ok = ok && (r0 + k * z) >= 0; /* not the mirror nappe */
+        t[j] = ok ? ts[j] + t0 : INFINITY;
+        face[j] = j;
+    }
+    for (int j = 0; j < 2; j++) {
+        double zc = j, rc = j ? r1 : r0;
+        t[2 + j] = INFINITY;
+        face[2 + j] = 2 + j;
+        if ((int)p[C_OPEN] || rc == 0) continue;
+        double tc = (zc - oq[2]) / dq[2];
+        if (!(isfinite(tc) && fabs(dq[2]) > PARALLEL_EPS)) continue;
+        double x = oq[0] + tc * dq[0], y = oq[1] + tc * dq[1];
+        if (x * x + y * y <= rc * rc) t[2 + j] = tc;
+    }
+    return 4;
+}
+
 /* All crossings of one primitive along o + t d (object space); returns how many. */
 static int crossings(const Scene *s, const double *ob, const double *o, const double *d, double *t, int *face) {
     const double *p = ob + O_PRIM;
@@ -157,6 +209,22 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
         face[0] = 0;
         return 1;
     }
+    case K_DISC: {
+        double denom = dot(d, p + D_N);
+        double co[3] = {p[0] - o[0], p[1] - o[1], p[2] - o[2]};
+        double t0 = fabs(denom) > PARALLEL_EPS ? dot(co, p + D_N) / denom : INFINITY;
+        face[0] = 0;
+        t[0] = INFINITY;
+        if (isfinite(t0)) {
+            double q[3] = {o[0] + t0 * d[0] - p[0], o[1] + t0 * d[1] - p[1],
+                           o[2] + t0 * d[2] - p[2]};
+            double r2 = dot(q, q);
+            if (r2 <= p[D_R2] && r2 >= p[D_H2]) t[0] = t0;
+        }
+        return 1;
+    }
+    case K_CONE:
+        return cone_crossings(s, p, o, d, t, face);
     default: { /* box */
         const double *lo = p, *hi = p + 3;
         double n_ax[3], f_ax[3];
@@ -197,6 +265,21 @@ static void object_normal(const double *ob, const double *po, int face, double *
     case K_PLANE:
         n[0] = p[0], n[1] = p[1], n[2] = p[2];
         break;
+    case K_DISC:
+        n[0] = p[D_N], n[1] = p[D_N + 1], n[2] = p[D_N + 2];
+        break;
+    case K_CONE: {
+        const double *m = p + C_FRAME_INV;
+        double q[3], cn[3];
+        affine(m, po, q);
+        double rho = p[C_R0] + (p[C_R1] - p[C_R0]) * q[2];
+        cn[0] = q[0], cn[1] = q[1], cn[2] = -(p[C_R1] - p[C_R0]) * rho;
+        if (face == 2) cn[0] = 0.0, cn[1] = 0.0, cn[2] = -1.0;
+        if (face == 3) cn[0] = 0.0, cn[1] = 0.0, cn[2] = 1.0;
+        /* canonical to object space: n @ frame_inv[:3,:3] */
+        for (int i = 0; i < 3; i++) n[i] = cn[0] * m[i] + cn[1] * m[4 + i] + cn[2] * m[8 + i];
+        break;
+    }
     default:
         n[0] = n[1] = n[2] = 0.0;
         n[face / 2] = (face % 2 == 1) ? 1.0 : -1.0;
@@ -227,8 +310,8 @@ static inline int object_crossings(const Scene *s, const double *ob, const doubl
 static int leaf_crossings(const Scene *s, int obj, const double *o, const double *d, double tlo,
                           double thi, Cross *out) {
     const double *ob = s->obj + (size_t)obj * OBJ;
-    double t[2];
-    int face[2];
+    double t[4];
+    int face[4];
     int k = object_crossings(s, ob, o, d, t, face), n = 0;
     for (int j = 0; j < k; j++)
         if (t[j] > tlo && t[j] < thi) out[n++] = (Cross){t[j], obj, face[j], (int)ob[O_FLIP]};
@@ -253,6 +336,20 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
     case K_PLANE: {
         double v = dot(p, q) - q[3];
         return outside ? v > -INSIDE_EPS : v < INSIDE_EPS;
+    }
+    case K_DISC: {
+        double v[3] = {p[0] - q[D_C], p[1] - q[D_C + 1], p[2] - q[D_C + 2]};
+        int in = dot(v, q + D_N) < 0;
+        return outside ? !in : in;
+    }
+    case K_CONE: {
+        double c[3];
+        affine(q + C_FRAME_INV, p, c);
+        double rho = q[C_R0] + (q[C_R1] - q[C_R0]) * c[2];
+        double e = (int)q[C_OPEN] ? INSIDE_EPS : -INSIDE_EPS;
+        double w2 = c[0] * c[0] + c[1] * c[1];
+        int in = c[2] >= -e && c[2] <= 1 + e && w2 <= rho * rho + e;
+        return outside ? !in : in;
     }
     default: {
         int in = p[0] >= q[0] && p[0] <= q[3] && p[1] >= q[1] && p[1] <= q[4] && p[2] >= q[2] &&
@@ -289,7 +386,7 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
                           double thi, Cross *out, int cap) {
     const double *nd = s->node + (size_t)node * NODE;
     if ((int)nd[N_KIND] == NK_LEAF) {
-        if (cap < 2) return -1;
+        if (cap < 4) return -1;
         return leaf_crossings(s, (int)nd[N_LEAF], o, d, tlo, thi, out);
     }
     int op = (int)nd[N_OP], count = (int)nd[N_COUNT], n = 0;
@@ -356,8 +453,8 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
         int obj = (int)nd[N_LEAF];
         const double *ob = s->obj + (size_t)obj * OBJ;
         if (skip & (int)ob[O_FLAGS]) return 0;
-        double t[2];
-        int face[2];
+        double t[4];
+        int face[4];
         int k = object_crossings(s, ob, o, d, t, face);
         double floor = OBJECT_REL * ob[O_SIZE];
         if (tmin > floor) floor = tmin;
