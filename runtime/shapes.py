@@ -464,9 +464,10 @@ class ConePrim:
                 tc = (zc - o[:, 2]) / d[:, 2]
             fin = np.isfinite(tc) & (np.abs(d[:, 2]) > tol.PARALLEL_EPS)
             tcz = np.where(fin, tc, 0.0)
-            x = o[:, 0] + tcz * d[:, 0]
-            y = o[:, 1] + tcz * d[:, 1]
-            ok = fin & (x * x + y * y <= rc * rc)
+            with np.errstate(over="ignore", invalid="ignore"):  # far cap planes: inf, no hit
+                x = o[:, 0] + tcz * d[:, 0]
+                y = o[:, 1] + tcz * d[:, 1]
+                ok = fin & (x * x + y * y <= rc * rc)
             out.append(np.where(ok, tc, INF))
         t = np.stack(out, axis=1)
         face = np.broadcast_to(np.array([0, 1, 2, 3], dtype=np.int8), t.shape).copy()
