@@ -184,9 +184,7 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
     if _tree_depth(tracer) >= BVH_STACK - 2:
         out.append("a box tree deeper than the kernel's stack")
     for node in tracer.nodes:
-        if not _covered(node):
-            out.append("clipped_by or another shape")
-            break
+        out.extend(_uncovered(node))
         if len(node.leaves) > MAX_CROSS // 4:
             out.append(f"a CSG of more than {MAX_CROSS // 4} shapes")
     for obj in prepared.objects:
@@ -283,10 +281,18 @@ def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
     return rows, items
 
 
-def _covered(node) -> bool:
+def _uncovered(node) -> set[str]:
+    """What in a node the kernel cannot trace (empty: all of it)."""
     if isinstance(node, Leaf):
-        return type(node.prim) in KINDS
-    return isinstance(node, CsgNode) and node.op in OPS and all(map(_covered, node.children))
+        if type(node.prim) in KINDS:
+            return set()
+        return {f"shape {type(node.prim).__name__.removesuffix('Prim').lower()}"}
+    if not isinstance(node, CsgNode):
+        return {"clipped_by"}
+    out = set() if node.op in OPS else {f"CSG {node.op}"}
+    for child in node.children:
+        out |= _uncovered(child)
+    return out
 
 
 def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:

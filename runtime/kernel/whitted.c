@@ -379,11 +379,33 @@ static int node_inside(const Scene *s, int node, const double *p, int inverted) 
     return all_of;
 }
 
+/* numpy's fmin/fmax: a NaN (0 * inf, a ray in a slab's plane) loses to the other value.
+ * Written out so they inline (the libm calls do not without -ffast-math). */
+static inline double fmin_nan(double a, double b) { return (a < b || b != b) ? a : b; }
+static inline double fmax_nan(double a, double b) { return (a > b || b != b) ? a : b; }
+
+/* trace.slab_hits: may the segment (tmin, tmax) touch the box [lo, hi]? (padded, so that a
+ * hit on the box surface is never culled; an infinite box never culls). inv = 1/d, taken
+ * once per ray: the divisions were most of a box test. */
+static inline int slab(const Scene *s, const double *lo, const double *hi, const double *o,
+                       const double *inv, double tmin, double tmax) {
+    double tn = -INFINITY, tf = INFINITY;
+    for (int i = 0; i < 3; i++) {
+        if (!isfinite(lo[i]) || !isfinite(hi[i])) return 1;
+        double t1 = (lo[i] - o[i]) * inv[i], t2 = (hi[i] - o[i]) * inv[i];
+        double near = fmin_nan(t1, t2), far = fmax_nan(t1, t2);
+        tn = i == 0 ? near : fmax_nan(tn, near);
+        tf = i == 0 ? far : fmin_nan(tf, far);
+    }
+    double pad = BOX_PAD_REL * (fabs(tn) + fabs(tf)) + BOX_PAD_ABS;
+    return tn - pad <= tf + pad && tf + pad >= tmin && tn - pad <= tmax;
+}
+
 /* trace.CsgNode.crossings: a child's crossing counts where the point is inside the other
  * children (outside them for merge; inside the inverses of the subtracted ones). Only
  * crossings in (tlo, thi) are gathered: the caller would drop the others. -1: too many. */
-static int node_crossings(const Scene *s, int node, const double *o, const double *d, double tlo,
-                          double thi, Cross *out, int cap) {
+static int node_crossings(const Scene *s, int node, const double *o, const double *d,
+                          const double *inv, double tlo, double thi, Cross *out, int cap) {
     const double *nd = s->node + (size_t)node * NODE;
     if ((int)nd[N_KIND] == NK_LEAF) {
         if (cap < 4) return -1;
@@ -392,7 +414,14 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
     int op = (int)nd[N_OP], count = (int)nd[N_COUNT], n = 0;
     const double *kids = s->child + (size_t)nd[N_FIRST];
     for (int i = 0; i < count; i++) {
-        int m = node_crossings(s, (int)kids[i], o, d, tlo, thi, out + n, cap - n);
+        /* A shape whose box the segment misses has no crossings there: skipping it changes
+         * nothing (the others' inside tests are point tests), and a CSG of many parts no
+         * longer tests every part. Only shapes: an inner intersection's box (the overlap of
+         * its children's) can miss its crossings, when a disc's half space is inside it. */
+        const double *kd = s->node + (size_t)kids[i] * NODE;
+        if ((int)kd[N_KIND] == NK_LEAF && !slab(s, kd + N_LO, kd + N_HI, o, inv, tlo, thi))
+            continue;
+        int m = node_crossings(s, (int)kids[i], o, d, inv, tlo, thi, out + n, cap - n);
         if (m < 0) return -1;
         if (op != OP_UNION) {
             int w = 0;
@@ -418,28 +447,6 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
     if ((int)nd[N_INV])
         for (int c = 0; c < n; c++) out[c].flip = !out[c].flip;
     return n;
-}
-
-/* numpy's fmin/fmax: a NaN (0 * inf, a ray in a slab's plane) loses to the other value.
- * Written out so they inline (the libm calls do not without -ffast-math). */
-static inline double fmin_nan(double a, double b) { return (a < b || b != b) ? a : b; }
-static inline double fmax_nan(double a, double b) { return (a > b || b != b) ? a : b; }
-
-/* trace.slab_hits: may the segment (tmin, tmax) touch the box [lo, hi]? (padded, so that a
- * hit on the box surface is never culled; an infinite box never culls). inv = 1/d, taken
- * once per ray: the divisions were most of a box test. */
-static inline int slab(const Scene *s, const double *lo, const double *hi, const double *o,
-                       const double *inv, double tmin, double tmax) {
-    double tn = -INFINITY, tf = INFINITY;
-    for (int i = 0; i < 3; i++) {
-        if (!isfinite(lo[i]) || !isfinite(hi[i])) return 1;
-        double t1 = (lo[i] - o[i]) * inv[i], t2 = (hi[i] - o[i]) * inv[i];
-        double near = fmin_nan(t1, t2), far = fmax_nan(t1, t2);
-        tn = i == 0 ? near : fmax_nan(tn, near);
-        tf = i == 0 ? far : fmin_nan(tf, far);
-    }
-    double pad = BOX_PAD_REL * (fabs(tn) + fabs(tf)) + BOX_PAD_ABS;
-    return tn - pad <= tf + pad && tf + pad >= tmin && tn - pad <= tmax;
 }
 
 /* Test root node r; 1 when `any` and a hit was found (the caller stops). */
@@ -468,7 +475,7 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
         return 0;
     } else {
         if (!slab(s, nd + N_LO, nd + N_HI, o, inv, tmin, limit)) return 0;
-        n = node_crossings(s, r, o, d, tmin, limit, buf, MAX_CROSS);
+        n = node_crossings(s, r, o, d, inv, tmin, limit, buf, MAX_CROSS);
     }
     for (int c = 0; c < n; c++) {
         const double *ob = s->obj + (size_t)buf[c].obj * OBJ;
