@@ -141,6 +141,11 @@ difference {
   translate <4, 0.2, 0> pigment { rgb <0.3, 0.4, 0.9> } }
 intersection { sphere { 0, 1 } plane { x, 0.3 } inverse translate <0, 0.2, 3>
   pigment { rgb 1 } finish { reflection 0.5 } }
+// a CSG of many parts: the kernel skips the parts whose boxes a ray misses
+difference { box { <-3, -1, 4>, <3, 0.5, 4.5> }
+  #for (I, 0, 7) sphere { <-2.6 + I * 0.75, -0.2, 4>, 0.3 } #end
+  cylinder { <-3.5, 0.42, 4.17>, <3.5, 0.42, 4.17>, 0.15 }
+  pigment { rgb <0.8, 0.6, 0.3> } finish { phong 0.4 } }
 """
 
 

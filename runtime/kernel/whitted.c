@@ -416,10 +416,12 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
     for (int i = 0; i < count; i++) {
         /* A shape whose box the segment misses has no crossings there: skipping it changes
          * nothing (the others' inside tests are point tests), and a CSG of many parts no
-         * longer tests every part. Only shapes: an inner intersection's box (the overlap of
-         * its children's) can miss its crossings, when a disc's half space is inside it. */
+         * longer tests every part (a few parts: their node's box was just tested). Only
+         * shapes: an inner intersection's box (the overlap of its children's) can miss its
+         * crossings, when a disc's half space is inside it. */
         const double *kd = s->node + (size_t)kids[i] * NODE;
-        if ((int)kd[N_KIND] == NK_LEAF && !slab(s, kd + N_LO, kd + N_HI, o, inv, tlo, thi))
+        if (count > 4 && (int)kd[N_KIND] == NK_LEAF &&
+            !slab(s, kd + N_LO, kd + N_HI, o, inv, tlo, thi))
             continue;
         int m = node_crossings(s, (int)kids[i], o, d, inv, tlo, thi, out + n, cap - n);
         if (m < 0) return -1;
