@@ -131,9 +131,8 @@ def trace_pixels(
     xs: np.ndarray,
     ys: np.ndarray,
 ) -> np.ndarray:
-    """(N,3) colours of camera rays through continuous pixel coordinates."""
-    if ctx.kernel is not None:
-        return ctx.kernel.trace_pixels(xs, ys)
+    """(N,3) colours of camera rays through continuous pixel coordinates (the numpy path;
+    the compiled kernel traces whole tiles, `render_tile`)."""
     if has_focal_blur(camera):
         return _trace_blurred(ctx, camera, width, height, xs, ys)
     return _trace_primary(ctx, *camera_rays(camera, width, height, xs, ys))

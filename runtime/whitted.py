@@ -474,15 +474,6 @@ class Kernel:
         self.ctx = ctx
         self.buf = pack(ctx, camera, width, height)
 
-    def trace_pixels(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-        xs = np.ascontiguousarray(xs, dtype=np.float64).ravel()
-        ys = np.ascontiguousarray(ys, dtype=np.float64).ravel()
-        out = np.empty((len(xs), 3))
-        rays, shadow_rays = _whitted.trace_pixels(self.buf, xs, ys, out)
-        self.ctx.count("rays", rays)
-        self.ctx.count("shadow_rays", shadow_rays)
-        return out
-
     def render_tile(
         self, tile: tuple[int, int, int, int], threshold: float | None, depth: int
     ) -> tuple[np.ndarray, int]:
@@ -505,10 +496,3 @@ def why_not(prepared, camera: ir.Camera) -> list[str]:
     if _whitted is not None and os.environ.get(ENV, "") == "numpy":
         return [f"{ENV}=numpy"]
     return reasons(prepared, camera)
-
-
-def kernel_for(ctx, camera: ir.Camera, width: int, height: int) -> Kernel | None:
-    """The compiled kernel for this scene, or None when the numpy path must render it."""
-    if why_not(ctx.prepared, camera):
-        return None
-    return Kernel(ctx, camera, width, height)

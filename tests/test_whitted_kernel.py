@@ -385,9 +385,12 @@ def test_a_damaged_scene_array_is_refused_not_traced():
     scene = api.compile_file(ROOT / "examples" / "ex3.scene").scene
     prepared = prepare(scene, 8, 6)
     good = whitted.pack(integrate.make_context(prepared), scene.camera, 8, 6)
-    xs = ys = np.array([4.0])
-    out = np.empty(3)
-    whitted._whitted.trace_pixels(good, xs, ys, out)
+    out = np.empty((6, 8, 3))
+
+    def tile(buf):
+        return whitted._whitted.render_tile(buf, 0, 0, 8, 6, -1.0, 0.4, 3, out)
+
+    tile(good)
     assert np.isfinite(out).all()
     o_tex = whitted.HDR + whitted.O_TEX
     for where, value in ((whitted.H_NOBJ, 1e6), (o_tex, 99.0), (o_tex, -1.0),
@@ -396,8 +399,8 @@ def test_a_damaged_scene_array_is_refused_not_traced():
         bad = good.copy()
         bad[where] = value
         with pytest.raises(ValueError, match="scene"):
-            whitted._whitted.trace_pixels(bad, xs, ys, out)
+            tile(bad)
     with pytest.raises(ValueError):
-        whitted._whitted.trace_pixels(good[:10], xs, ys, out)
+        tile(good[:10])
     with pytest.raises(ValueError):
         whitted._whitted.render_tile(good, 0, 0, 0, 0, -1.0, 0.4, 3, out)

@@ -1022,42 +1022,6 @@ static void trace_pixel(Scene *s, double x, double y, double *out) {
     trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, out);
 }
 
-static PyObject *trace_pixels(PyObject *self, PyObject *args) {
-    PyObject *scene_o, *xs_o, *ys_o, *out_o;
-    if (!PyArg_ParseTuple(args, "OOOO", &scene_o, &xs_o, &ys_o, &out_o)) return NULL;
-    Py_buffer sb, xb, yb, ob;
-    if (get_buffer(scene_o, &sb, HDR, 0, "scene")) return NULL;
-    Py_ssize_t n = 0;
-    if (get_buffer(xs_o, &xb, 0, 0, "xs")) goto fail_s;
-    n = xb.len / 8;
-    if (get_buffer(ys_o, &yb, n, 0, "ys")) goto fail_x;
-    if (get_buffer(out_o, &ob, 3 * n, 1, "out")) goto fail_y;
-
-    Scene s;
-    if (scene_from(&sb, &s)) goto fail_o;
-    const double *xs = xb.buf, *ys = yb.buf;
-    double *out = ob.buf;
-
-    Py_BEGIN_ALLOW_THREADS
-    for (Py_ssize_t i = 0; i < n; i++) trace_pixel(&s, xs[i], ys[i], out + 3 * i);
-    Py_END_ALLOW_THREADS
-
-    PyBuffer_Release(&ob);
-    PyBuffer_Release(&yb);
-    PyBuffer_Release(&xb);
-    PyBuffer_Release(&sb);
-    return Py_BuildValue("LL", s.rays, s.shadow_rays);
-fail_o:
-    PyBuffer_Release(&ob);
-fail_y:
-    PyBuffer_Release(&yb);
-fail_x:
-    PyBuffer_Release(&xb);
-fail_s:
-    PyBuffer_Release(&sb);
-    return NULL;
-}
-
 /* One tile with POV-Ray's anti-aliasing method 1, as runtime/antialias.py does it: first
  * rays for the tile plus one row above and one column to the left (and one below / to the
  * right where the image goes on), colours compared in the AA metric space (working value
@@ -1177,9 +1141,6 @@ static PyObject *layout(PyObject *self, PyObject *noargs) {
 }
 
 static PyMethodDef methods[] = {
-    {"trace_pixels", trace_pixels, METH_VARARGS,
-     "trace_pixels(scene, xs, ys, out) -> (rays, shadow_rays): colours of camera rays "
-     "through pixel coordinates xs, ys (float64) into out (N*3 float64)."},
     {"render_tile", render_tile, METH_VARARGS,
      "render_tile(scene, x0, y0, x1, y1, threshold, metric_power, depth, out) -> (rays, "
      "shadow_rays, supersampled): one tile's colours, anti-aliased (threshold < 0: not)."},
