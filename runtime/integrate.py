@@ -239,6 +239,11 @@ class Context:
         return tex
 
 
+def legacy_rules(settings: ir.Settings) -> bool:
+    """A scene before 3.7: POV-Ray's older transparency and sky_sphere rules."""
+    return settings.version is not None and settings.version < 3.7
+
+
 def make_context(prepared) -> Context:
     scene: ir.Scene = prepared.scene
     objs: list[ir.Object] = prepared.objects
@@ -279,7 +284,6 @@ def make_context(prepared) -> Context:
     def any_layer(pred) -> np.ndarray:
         return np.array([any(pred(t) for t in ls) for ls in textures], dtype=bool)
 
-    version = scene.settings.version
     patterned = np.array([i in tree for i in range(len(textures))], dtype=bool)
     plain = np.array([_plain(ls) for ls in textures], dtype=bool) & ~patterned
     plain_colour = np.array(
@@ -315,7 +319,7 @@ def make_context(prepared) -> Context:
         double_illuminate=np.array([o.double_illuminate for o in objs], dtype=bool),
         ior=np.array([o.interior.ior for o in objs], dtype=np.float64),
         interiors=[o.interior for o in objs],
-        legacy_opacity=version is not None and version < 3.7,
+        legacy_opacity=legacy_rules(scene.settings),
         gamma=color.working_gamma(scene.settings),
         background=np.asarray(scene.background[:3], dtype=np.float64),
         media=media.build(prepared),

@@ -192,7 +192,7 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
         if it.caustics != 0 or it.media:
             out.append("caustics or interior media")
         out.extend(_texture_reasons(obj.texture))
-    if scene.sky_sphere and ctx_legacy(scene):
+    if scene.sky_sphere and integrate.legacy_rules(scene.settings):
         out.append("sky_sphere in a pre-3.7 scene")
     for pig in scene.sky_sphere or ():
         out.extend(_pigment_reasons(pig))
@@ -202,12 +202,6 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
         if light.area is not None and light.area.size1 * light.area.size2 > 1:
             out.append("area light")
     return sorted(set(out))
-
-
-def ctx_legacy(scene: ir.Scene) -> bool:
-    """POV-Ray's pre-3.7 rules (integrate.Context.legacy_opacity)."""
-    v = scene.settings.version
-    return v is not None and v < 3.7
 
 
 def pack_pigment(pig: ir.Pigment, row: np.ndarray) -> None:
@@ -342,12 +336,6 @@ def _inv_rows(m) -> np.ndarray:
     return np.asarray(m, dtype=np.float64).reshape(4, 4)[:3, :].ravel()
 
 
-def _unit(v) -> np.ndarray:
-    v = np.asarray(v, dtype=np.float64)
-    n = np.linalg.norm(v)
-    return v / n if n > 0 else v
-
-
 def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     """The scene as the kernel reads it (see the layout above)."""
     prepared = ctx.prepared
@@ -409,7 +397,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[k], dtype=bool)
     rows[:, O_DOUBLE] = ctx.double_illuminate
     rows[:, O_IOR] = ctx.ior
-    rows[:, O_MINV : O_MINV + 12] = _table([leaf.m_inv[:3].ravel() for leaf in leaves], 12)
+    rows[:, O_MINV : O_MINV + 12] = _table([_inv_rows(leaf.m_inv) for leaf in leaves], 12)
     rows[:, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
         [_prim_row(leaf.prim) for leaf in leaves], PRIM_SLOTS
     )
@@ -419,10 +407,18 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     )
     start = HDR + n_obj * OBJ
     trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
+    start += n_tex * TEX
+    lrows = buf[start : start + n_light * LIT].reshape(n_light, LIT)
+    start += n_light * LIT
+    prows = buf[start : start + n_pig * PIG].reshape(n_pig, PIG)
+    start += n_pig * PIG
+    nrows = buf[start : start + n_node * NODE].reshape(n_node, NODE)
+    buf[start + n_node * NODE :] = tail
     for t, layers in enumerate(ctx.textures):
         tex, r = layers[0], trows[t]
         pig, f = tex.pigment, tex.finish
         r[T_PIG] = t  # texture t's pigment is pigment row t; the sky's follow
+        pack_pigment(pig, prows[t])
         r[T_TRANS], r[T_LIT] = ctx.transmits[t], ctx.lit[t]
         r[T_AMB : T_AMB + 3] = f.ambient
         r[T_EMIS : T_EMIS + 3] = f.emission
@@ -434,13 +430,6 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         r[T_RMAX : T_RMAX + 3] = rf.max
         r[T_FALLOFF], r[T_REXP], r[T_RMETAL] = rf.falloff, rf.exponent, rf.metallic
         r[T_CONSERVE] = f.conserve_energy
-    start += n_tex * TEX
-    lrows = buf[start : start + n_light * LIT].reshape(n_light, LIT)
-    start += n_light * LIT
-    prows = buf[start : start + n_pig * PIG].reshape(n_pig, PIG)
-    start += n_pig * PIG
-    nrows = buf[start : start + n_node * NODE].reshape(n_node, NODE)
-    buf[start + n_node * NODE :] = tail
     nrows[:, N_LO : N_LO + 3] = _table([node.lo for node in nodes], 3)
     nrows[:, N_HI : N_HI + 3] = _table([node.hi for node in nodes], 3)
     for node, r in zip(nodes, nrows, strict=True):
@@ -449,8 +438,6 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         else:
             r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
             r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(node.children)
-    for t, layers in enumerate(ctx.textures):
-        pack_pigment(layers[0].pigment, prows[t])
     for k, pig in enumerate(sky):
         pack_pigment(pig, prows[n_tex + k])
     for light, r in zip(scene.lights, lrows, strict=True):
@@ -460,7 +447,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         r[L_SHADOWLESS] = light.shadowless
         r[L_FADEPOW], r[L_FADEDIST] = light.fade_power or 0.0, light.fade_distance or 0.0
         if light.kind == "spotlight":
-            r[L_AXIS : L_AXIS + 3] = _unit(np.subtract(light.point_at, light.position))
+            r[L_AXIS : L_AXIS + 3] = shading._unit(np.subtract(light.point_at, light.position))
             r[L_TIGHT] = light.tightness
             r[L_COSR] = math.cos(math.radians(light.radius))
             r[L_COSF] = math.cos(math.radians(light.falloff))

@@ -110,6 +110,12 @@ static inline void normalize3(double *v) {
     }
 }
 
+/* d mirrored about n: d - 2 (d.n) n (not normalised; shading.reflect's formula). */
+static inline void mirror(const double *d, const double *n, double *out) {
+    double dn = dot(d, n);
+    for (int i = 0; i < 3; i++) out[i] = d[i] - 2.0 * dn * n[i];
+}
+
 /* Roots of a t^2 + 2 b t + c = 0 without cancellation (shapes.stable_quadratic). */
 static void stable_quadratic(double a, double b, double c, double disc, double *lo, double *hi) {
     if (!(disc >= 0)) {
@@ -779,8 +785,8 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
             for (int i = 0; i < 3; i++) tint[i] = 1.0 + metal * (1.0 - f) * (pig[i] - 1.0);
         }
         if (tx[T_PHONG] > 0) {
-            double en = dot(d, n);
-            double r[3] = {d[0] - 2.0 * en * n[0], d[1] - 2.0 * en * n[1], d[2] - 2.0 * en * n[2]};
+            double r[3];
+            mirror(d, n, r);
             double c = dot(r, ld);
             if (c > 0 && (tx[T_PHSIZE] < 60 || c > 0.0008)) {
                 double in = tx[T_PHONG] * pow(c, tx[T_PHSIZE]);
@@ -822,8 +828,8 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
             if (fabs(refl[i]) > big) big = fabs(refl[i]);
         }
         if (big > 0) {
-            double dn = dot(d, n);
-            double rd[3] = {d[0] - 2.0 * dn * n[0], d[1] - 2.0 * dn * n[1], d[2] - 2.0 * dn * n[2]};
+            double rd[3];
+            mirror(d, n, rd);
             /* shading.reflect's guard for bumpy normals never applies: raw = normal */
             normalize3(rd);
             double rc[3];
@@ -857,8 +863,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
         double n_cos = -dot(d, n);
         double tt = 1.0 + ratio * ratio * (n_cos * n_cos - 1.0);
         if (tt < 0) { /* total internal reflection: mirrored, not filtered */
-            double dn = dot(d, n);
-            for (int i = 0; i < 3; i++) td[i] = d[i] - 2.0 * dn * n[i];
+            mirror(d, n, td);
             normalize3(td);
             mult[0] = mult[1] = mult[2] = 1.0;
         } else {
