@@ -97,13 +97,12 @@ def main() -> None:
 def commands(seed: str, hidden: str, width: int, height: int, repeat: int = 5) -> None:
     """The same two scenes as commands, `strala render` and `povray`, in fresh processes,
     alternately, best of `repeat`: what a user waits for, reading the file included."""
-    import os
     import shutil
-    import subprocess
     import tempfile
 
-    env = dict(os.environ)
-    env.pop("PYTHONDONTWRITEBYTECODE", None)  # as an installed program runs
+    from bench_ex3 import _timed
+    from bench_whitted import povray_cmd, strala_cmd
+
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         for name, text in (("seed", seed), ("hidden", hidden)):
@@ -112,18 +111,13 @@ def commands(seed: str, hidden: str, width: int, height: int, repeat: int = 5) -
         tools = ["strala"] + (["povray"] if shutil.which("povray") else [])
         for _ in range(repeat):
             for name in ("seed", "hidden"):
+                pov = work / f"{name}.pov"
                 for tool in tools:
                     if tool == "strala":
-                        cmd = [sys.executable, "-m", "runtime.cli", "render", f"{name}.pov",
-                               "-q", "-o", "s.png", "-W", str(width), "-H", str(height),
-                               "--aa", "0.3"]  # fmt: skip
+                        cmd = strala_cmd(pov, width, height, 0.3, work / "s.png")
                     else:
-                        cmd = ["povray", f"+I{name}.pov", "+Op.png", f"+W{width}",
-                               f"+H{height}", "-D", "-V", "+A0.3"]  # fmt: skip
-                    t = time.perf_counter()
-                    subprocess.run(cmd, cwd=work, env={**env, "PYTHONPATH": str(ROOT)},
-                                   check=True, capture_output=True)  # fmt: skip
-                    took = time.perf_counter() - t
+                        cmd = povray_cmd(pov, width, height, 0.3)
+                    took = _timed(cmd, work)[0]
                     runs[tool, name] = min(runs.get((tool, name), float("inf")), took)
     print(f"as commands at {width}x{height} (best of {repeat}):")
     for tool in tools:

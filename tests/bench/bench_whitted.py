@@ -20,14 +20,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
+
+from bench_ex3 import _timed  # fresh processes, bytecode cache allowed: the same here
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = (
@@ -37,26 +36,6 @@ SCENES = (
 )
 SIZES = ((320, 240), (1280, 960))
 AA_SETTINGS = (None, 0.3)
-
-
-def _env() -> dict[str, str]:
-    env = dict(os.environ)
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    return env
-
-
-def _timed(cmd: list[str], cwd: Path) -> tuple[float, float]:
-    def cpu() -> float:
-        u = resource.getrusage(resource.RUSAGE_CHILDREN)
-        return u.ru_utime + u.ru_stime
-
-    c0, t0 = cpu(), time.perf_counter()
-    proc = subprocess.run(cmd, cwd=cwd, env=_env(), capture_output=True, text=True)
-    took, used = time.perf_counter() - t0, cpu() - c0
-    if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
-    return took, used
 
 
 def strala_cmd(scene: Path, w: int, h: int, aa: float | None, out: Path) -> list[str]:
