@@ -239,6 +239,30 @@ class Context:
         return tex
 
 
+def _solid_key(tex: ir.Texture) -> tuple | None:
+    """What a one-layer texture with a solid pigment shades by (None for other textures,
+    which are told apart by identity)."""
+    pig = tex.pigment
+    if (
+        pig.pattern != "solid"
+        or pig.params
+        or pig.list
+        or pig.color_map
+        or pig.pigment_map
+        or tex.layers
+        or tex.normal is not None
+        or tex.pattern is not None
+        or tex.map
+    ):
+        return None
+    key = (pig.color, pig.transform, tex.finish)
+    try:
+        hash(key)
+    except TypeError:  # a finish holding something unhashable: compare by identity
+        return None
+    return key
+
+
 def legacy_rules(settings: ir.Settings) -> bool:
     """A scene before 3.7: POV-Ray's older transparency and sky_sphere rules."""
     return settings.version is not None and settings.version < 3.7
@@ -252,12 +276,21 @@ def make_context(prepared) -> Context:
 
     tree: dict[int, ir.Texture] = {}
 
+    by_value: dict[tuple, int] = {}
+
     def intern(tex: ir.Texture) -> int:
-        # Identity, not equality: textures hold dicts (unhashable) and a declared texture
-        # reused by many objects is one Python object.
+        # By identity (textures hold dicts, unhashable, and a declared texture reused by
+        # many objects is one Python object), and plain colours also by value: a thousand
+        # objects that each say `pigment { rgb 1 }` shade as one texture.
         key = id(tex)
         if key not in index:
+            value = _solid_key(tex)
+            if value is not None and value in by_value:
+                index[key] = by_value[value]
+                return index[key]
             index[key] = tid = len(textures)
+            if value is not None:
+                by_value[value] = tid
             if is_patterned(tex):
                 # A patterned texture's stack lists the layers of all its textures (for the
                 # flags below); its hits are resolved to those textures before shading.

@@ -186,7 +186,7 @@ class _Builder:
             self.warn_once(f"shape {type(shape).__name__} is not supported by the tracer", obj.span)
             return None
         index = self.add_leaf_object(obj, flags)
-        leaf = Leaf(prim, tf.as_matrix(obj.transform), index, inverse=obj.inverse)
+        leaf = Leaf(prim, _matrix(obj), index, inverse=obj.inverse)
         self.sizes[index] = leaf.size
         return self.clipped(obj, leaf)
 
@@ -221,7 +221,7 @@ class _Builder:
         if prim is None or isinstance(shape, ir.Triangle | ir.Polygon):
             self.warn_once(f"clipped_by {type(shape).__name__} has no inside: ignored", obj.span)
             return None
-        return Leaf(prim, tf.as_matrix(obj.transform), -1, inverse=obj.inverse)
+        return Leaf(prim, _matrix(obj), -1, inverse=obj.inverse)
 
     def tessellate(self, obj: ir.Object) -> ir.Mesh | None:
         """NURBS and subdivision shapes become indexed triangle meshes (their own modules do
@@ -388,6 +388,11 @@ class _Culler:
             a2 = np.asarray(light.area.axis2, float) / 2
             corners = [pos + s1 * a1 + s2 * a2 for s1 in (-1, 1) for s2 in (-1, 1)]
         return all(n @ (c - p0) <= 0 for c in corners)
+
+
+def _matrix(obj: ir.Object) -> np.ndarray | None:
+    """The object's transform as a matrix, None for the identity (a Leaf's fast path)."""
+    return None if obj.transform == ir.IDENTITY else tf.as_matrix(obj.transform)
 
 
 def _singular(obj: ir.Object) -> str | None:

@@ -14,6 +14,7 @@ Python loop runs over tree nodes and object kinds, never over rays.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,10 @@ import numpy as np
 from runtime import shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
+
+# The matrix of every untransformed leaf: shared, so it must not be written to.
+_IDENTITY = np.eye(4)
+_IDENTITY.flags.writeable = False
 
 # ----------------------------------------------------------------------------- hits
 
@@ -79,10 +84,11 @@ class Cands:
 
 
 class Leaf:
-    """One analytic primitive (object space) placed in the world by `matrix`."""
+    """One analytic primitive (object space) placed in the world by `matrix` (None: left
+    where it is, the common case of a scene's thousands of plain spheres and boxes)."""
 
-    def __init__(self, prim, matrix: np.ndarray, index: int, inverse: bool = False):
-        if isinstance(prim, shapes.BoxPrim) and _axis_aligned(matrix):
+    def __init__(self, prim, matrix: np.ndarray | None, index: int, inverse: bool = False):
+        if matrix is not None and isinstance(prim, shapes.BoxPrim) and _axis_aligned(matrix):
             # POV-Ray moves and scales an untransformed box's corners instead of keeping a
             # matrix: world points are then classified against the corners without a round
             # trip through the inverse, so faces shared by CSG children stay coincident
@@ -90,27 +96,37 @@ class Leaf:
             lo = matrix[:3, :3].diagonal() * prim.lo + matrix[:3, 3]
             hi = matrix[:3, :3].diagonal() * prim.hi + matrix[:3, 3]
             prim = shapes.BoxPrim(lo, hi)
-            matrix = np.eye(4)
+            matrix = None
         self.prim = prim
         self.index = index
         self.inverse = inverse
-        self.identity = tf.is_identity(matrix)
-        self.m = matrix
+        self.identity = matrix is None or tf.is_identity(matrix)
         lo, hi = prim.bounds()
         if inverse:
             lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
-        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-        if self.identity:  # the common case, without the inverse and the corner transform
-            self.m_inv = matrix
-            if np.isfinite(lo).all() and np.isfinite(hi).all():
-                self.lo, self.hi = lo.copy(), hi.copy()
+        if self.identity:
+            # Without the inverse and the corner transform, and in plain floats: numpy calls
+            # on 3-vectors were most of preparing a scene of many objects.
+            self.m = self.m_inv = _IDENTITY
+            lv = [float(v) for v in lo]
+            hv = [float(v) for v in hi]
+            if all(map(math.isfinite, lv + hv)):
+                self.lo, self.hi = np.array(lv), np.array(hv)
+                self.bounded = True
             else:
                 self.lo, self.hi = np.full(3, -np.inf), np.full(3, np.inf)
+                self.bounded = False
         else:
+            self.m = matrix
             self.m_inv = tf.inverse(matrix)
-            self.lo, self.hi = tf.aabb_transform(matrix, lo, hi)
+            self.lo, self.hi = tf.aabb_transform(
+                matrix, np.asarray(lo, float), np.asarray(hi, float)
+            )
+            self.bounded = _finite_box(self.lo, self.hi)
         self.leaves = [index]
-        if np.all(np.isfinite(self.lo)):
+        if self.identity:
+            self.size = math.dist(lv, hv) if self.bounded else prim.size
+        elif np.all(np.isfinite(self.lo)):
             self.size = float(np.linalg.norm(self.hi - self.lo))
         else:
             stretch = float(np.linalg.svd(matrix[:3, :3], compute_uv=False).max())
@@ -149,6 +165,10 @@ class Leaf:
         return tf.apply_normals(self.m_inv, n)
 
 
+def _finite_box(lo: np.ndarray, hi: np.ndarray) -> bool:
+    return bool(np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)))
+
+
 def _axis_aligned(m: np.ndarray) -> bool:
     """Only scaling (non-zero) and translation: an axis-aligned box stays one."""
     lin = m[:3, :3]
@@ -181,6 +201,7 @@ class CsgNode:
         else:
             self.lo, self.hi = los.min(axis=0), his.max(axis=0)
         self.size = max(c.size for c in children)
+        self.bounded = _finite_box(self.lo, self.hi)
 
     def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
         parts = []
@@ -246,6 +267,7 @@ class ClipNode:
             self.lo = np.maximum(self.lo, c.lo)
             self.hi = np.minimum(self.hi, c.hi)
         self.size = inner.size
+        self.bounded = _finite_box(self.lo, self.hi)
 
     def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
         c = self.inner.crossings(o, d)
@@ -307,7 +329,9 @@ class BoxTree:
         self.hi: list[np.ndarray] = []
         self.kids: list[tuple[int, int] | None] = []
         self.items: list[np.ndarray] = []
+        self._centre = (lo + hi) / 2
         self._build(np.arange(len(lo)), lo, hi)
+        del self._centre
 
     def _build(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
         k = len(self.lo)
@@ -316,13 +340,15 @@ class BoxTree:
         self.kids.append(None)
         self.items.append(ids)
         if len(ids) > self.LEAF_SIZE:
-            centre = (lo[ids] + hi[ids]) / 2
-            axis = int(np.argmax(np.ptp(centre, axis=0)))
-            order = ids[np.argsort(centre[:, axis], kind="stable")]
+            centre = self._centre[ids]
+            axis = int(np.argmax(centre.max(axis=0) - centre.min(axis=0)))
+            along = centre[:, axis]
+            sort = np.argsort(along, kind="stable")
+            order = ids[sort]
             # Split at the middle of the centres' span, not at the median: a few objects far
             # from the crowd (the visible ones, next to a heap of hidden ones) get a box of
             # their own near the root, so rays stop meeting the crowd's boxes early.
-            c = np.sort(centre[:, axis])
+            c = along[sort]
             half = int(np.searchsorted(c, (c[0] + c[-1]) / 2, side="right"))
             if not 0 < half < len(order):
                 half = len(order) // 2
@@ -371,11 +397,7 @@ class Tracer:
         self.leaf_by_index: dict[int, Leaf] = {}
         for n in nodes:
             self._register(n)
-        finite = [
-            i
-            for i, n in enumerate(nodes)
-            if np.all(np.isfinite(n.lo)) and np.all(np.isfinite(n.hi))
-        ]
+        finite = [i for i, n in enumerate(nodes) if n.bounded]
         finite_set = set(finite)
         self.unbounded = [i for i in range(len(nodes)) if i not in finite_set]
         self.bounded = finite

@@ -333,6 +333,32 @@ def test_objects_sharing_a_texture_are_shaded_as_one_group():
     assert len(ctx.textures) == 1 and list(ctx.obj_tex) == [0] * 5
 
 
+def test_equal_plain_textures_are_one_group_and_different_ones_are_not():
+    # Separate but equal texture objects (each object said `pigment { rgb ... }`) share a
+    # texture entry; a different colour, finish or pattern gets its own.
+    def tex(rgb, **finish):
+        return ir.Texture(pigment=ir.Pigment(color=(*rgb, 0, 0)), finish=ir.Finish(**finish))
+
+    checker = ir.Texture(pigment=ir.Pigment(pattern="checker"))
+    textures = [
+        tex((1, 1, 1)),
+        tex((1, 1, 1)),
+        tex((1, 1, 0.5)),
+        tex((1, 1, 1), phong=0.5),
+        tex((1, 1, 1)),
+        checker,
+        ir.Texture(pigment=ir.Pigment(pattern="checker")),
+    ]
+    objs = tuple(
+        ir.Object(ir.Sphere((3.0 * i, 0, 0), 1.0), texture=t) for i, t in enumerate(textures)
+    )
+    scene = ir.Scene(camera=ir.Camera(location=(0, 0, -5)), objects=objs)
+    ctx = integrate.make_context(prepare(scene, 8, 8))
+    assert list(ctx.obj_tex) == [0, 0, 1, 2, 0, 3, 4]
+    assert len(ctx.textures) == 5
+    assert all(ctx.leaf_id[id(t)] == k for t, k in zip(textures, ctx.obj_tex, strict=True))
+
+
 def test_area_light_penumbra_is_between_lit_and_shadowed():
     # A blocker between points and a 5x5 area light: the shadow's edge sees part of it.
     # Along a line across the penumbra the light fraction rises from 0 to 1 smoothly.
