@@ -17,6 +17,12 @@ setup(
             optional=True,
         ),
         Extension(
+            "runtime._boxtree",
+            ["runtime/kernel/boxtree.c"],
+            extra_compile_args=["-O3"],
+            optional=True,
+        ),
+        Extension(
             "runtime._pixels",
             ["runtime/kernel/pixels.c"],
             extra_compile_args=["-O3"],

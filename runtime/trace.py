@@ -23,6 +23,13 @@ from runtime import shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
 
+try:  # the compiled box-tree build; without a C compiler, BoxTree._build does it
+    from runtime import _boxtree
+except ImportError:  # pragma: no cover - an install without the extension
+    _boxtree = None
+# Tests set this to compare the two builds.
+_PYTHON_TREE = False
+
 # The matrix of every untransformed leaf: shared, so it must not be written to.
 _IDENTITY = np.eye(4)
 _IDENTITY.flags.writeable = False
@@ -329,9 +336,27 @@ class BoxTree:
         self.hi: list[np.ndarray] = []
         self.kids: list[tuple[int, int] | None] = []
         self.items: list[np.ndarray] = []
+        if _boxtree is not None and len(lo) > 0 and not _PYTHON_TREE:
+            self._compiled(lo, hi)
+            return
         self._centre = (lo + hi) / 2
         self._build(np.arange(len(lo)), lo, hi)
         del self._centre
+
+    def _compiled(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """The same tree as `_build`, built in C (`runtime._boxtree`)."""
+        n = len(lo)
+        node_lo, node_hi = np.empty((2 * n, 3)), np.empty((2 * n, 3))
+        kids = np.empty((2 * n, 2), dtype=np.int64)
+        first, count = np.empty(2 * n, dtype=np.int64), np.empty(2 * n, dtype=np.int64)
+        order = np.empty(n, dtype=np.intp)
+        lo = np.ascontiguousarray(lo, dtype=np.float64)
+        hi = np.ascontiguousarray(hi, dtype=np.float64)
+        m = _boxtree.build(n, self.LEAF_SIZE, lo, hi, node_lo, node_hi, kids, first, count, order)
+        self.lo, self.hi = list(node_lo[:m]), list(node_hi[:m])
+        self.kids = [None if a < 0 else (a, b) for a, b in kids[:m].tolist()]
+        runs = zip(first[:m].tolist(), count[:m].tolist(), strict=True)
+        self.items = [order[f : f + c] for f, c in runs]
 
     def _build(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
         k = len(self.lo)

@@ -240,6 +240,49 @@ def test_nurbs_and_subdivision_become_meshes(monkeypatch):
     assert h.obj[0] == 0 and 3.9 < h.t[0] <= 4.0
 
 
+def _tree_of(lo, hi, python: bool, monkeypatch):
+    from runtime import trace
+
+    monkeypatch.setattr(trace, "_PYTHON_TREE", python)
+    return trace.BoxTree(lo, hi)
+
+
+@given(
+    st.integers(1, 60),
+    st.integers(0, 2**32 - 1),
+    st.sampled_from(["spread", "crowd", "ties", "line"]),
+)
+def test_the_compiled_box_tree_is_the_python_one(n, seed, layout):
+    """runtime._boxtree builds the tree BoxTree._build would: the same boxes, children and
+    leaf items node for node (ties in the sort and lopsided splits included)."""
+    from runtime import trace
+
+    if trace._boxtree is None:
+        pytest.skip("the compiled box tree is not built (no C compiler)")
+    rng = np.random.default_rng(seed)
+    c = rng.normal(size=(n, 3)) * 10
+    if layout == "crowd":  # a heap far away and a few near the origin
+        c[: max(1, n // 10)] *= 0.001
+        c[max(1, n // 10) :] += 500
+    elif layout == "ties":  # centres repeat: the stable sort decides
+        c = np.round(c / 10) * 10
+    elif layout == "line":  # all on one axis, spread exponentially
+        c = np.zeros((n, 3))
+        c[:, 1] = 2.0 ** np.arange(n)
+    half = rng.uniform(0.0, 2.0, (n, 3))
+    lo, hi = c - half, c + half
+    mp = pytest.MonkeyPatch()
+    try:
+        a, b = _tree_of(lo, hi, True, mp), _tree_of(lo, hi, False, mp)
+    finally:
+        mp.undo()
+    assert a.kids == b.kids
+    assert all(np.array_equal(x, y) for x, y in zip(a.lo, b.lo, strict=True))
+    assert all(np.array_equal(x, y) for x, y in zip(a.hi, b.hi, strict=True))
+    leaves = [k for k, kid in enumerate(a.kids) if kid is None]
+    assert all(np.array_equal(a.items[k], b.items[k]) for k in leaves)
+
+
 def test_box_tree_agrees_with_brute_force():
     """With many objects the tracer walks a box tree; it must find exactly the hits the
     plain per-object loop finds (closest and shadow queries)."""

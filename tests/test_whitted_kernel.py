@@ -57,6 +57,9 @@ def test_layout_is_the_kernels():
 def test_kernel_is_built_where_a_compiler_is():
     # Without this the numpy path would silently render everything (and the speed is gone).
     assert whitted.available()
+    from runtime import trace
+
+    assert trace._boxtree is not None  # the box tree's build, likewise
 
 
 def test_seed_scene_matches_numpy_with_antialiasing(monkeypatch):
