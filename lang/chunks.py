@@ -114,28 +114,10 @@ class Chunk:
         return out
 
 
-def _span_mover():
-    """A fast `Span` with lines moved: the fields are set through their slot descriptors,
-    which skips the frozen dataclass's checked `__init__` (half the cost, and a large file
-    moves tens of thousands of spans after a line is inserted near its top)."""
-    new = object.__new__
-    f, ln, c, el, ec = (
-        getattr(Span, n).__set__ for n in ("file", "line", "col", "end_line", "end_col")
-    )
+def _moved(s: Span, lines: int) -> Span:
+    """`s` moved down by `lines` lines."""
+    return Span(s.file, s.line + lines, s.col, s.end_line + lines, s.end_col)
 
-    def moved(s: Span, lines: int) -> Span:
-        o = new(Span)
-        f(o, s.file)
-        ln(o, s.line + lines)
-        c(o, s.col)
-        el(o, s.end_line + lines)
-        ec(o, s.end_col)
-        return o
-
-    return moved
-
-
-_moved = _span_mover()
 
 _SKIP_FIELDS = {"str", "bool", "float", "int", "str | None", "list[str]", "list[str] | None"}
 

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import NamedTuple
 
 
-@dataclass(frozen=True, slots=True)
-class Span:
-    """A source range; lines and columns are 1-based, the end is exclusive."""
+class Span(NamedTuple):
+    """A source range; lines and columns are 1-based, the end is exclusive.
+
+    A named tuple, not a dataclass: a syntax tree holds one per node, and a stored parse
+    (lang.parse_store) builds tens of thousands of them; a tuple's constructor is about
+    three times faster."""
 
     file: str
     line: int
@@ -18,11 +22,6 @@ class Span:
 
     def __str__(self) -> str:
         return f"{self.file}:{self.line}:{self.col}"
-
-    def __reduce__(self):
-        # A stored parse holds a span per node: rebuilding each through __init__ is about
-        # five times faster than the frozen-slots default (lang.parse_store).
-        return (Span, (self.file, self.line, self.col, self.end_line, self.end_col))
 
     def to_json(self) -> dict:
         return {

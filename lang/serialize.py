@@ -49,6 +49,8 @@ def to_data(value: Any) -> Any:
         return value
     if isinstance(value, float):
         return value
+    if isinstance(value, Span):  # a named tuple, written as a typed object like the IR's
+        return {TYPE_KEY: "Span", **value._asdict()}
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         name = type(value).__name__
         if _CLASSES.get(name) is not type(value):
@@ -98,7 +100,7 @@ def from_data(data: Any, where: str = "scene") -> Any:
         cls = _CLASSES.get(name) if isinstance(name, str) else None
         if cls is None:
             raise IRFormatError(f"{where}: unknown IR type {name!r}")
-        known = {f.name for f in dataclasses.fields(cls)}
+        known = set(Span._fields) if cls is Span else {f.name for f in dataclasses.fields(cls)}
         kwargs = {}
         for key, v in data.items():
             if key == TYPE_KEY:

@@ -8,6 +8,7 @@ triangle geometry goes into one Embree-backed TriangleSet, built only when there
 from __future__ import annotations
 
 import dataclasses
+import functools
 import sys
 from dataclasses import dataclass, field
 
@@ -30,13 +31,22 @@ class Prepared:
     scene: ir.Scene
     objects: list[ir.Object]  # renderable leaves; a hit's `obj` indexes this list
     tracer: Tracer
-    has_reflection: bool  # any finish with reflection max > 0
-    has_refraction: bool  # any filter/transmit > 0 in a pigment colour
     warnings: list[str] = field(default_factory=list)  # one line each, already printed
     culled: list[str] = field(default_factory=list)  # shapes not tessellated: never seen
     # (n_objects,) bool: a mesh tessellated from a curved surface (nurbs, subdivision), whose
     # shadow rays start from the curved surface its normals describe (see integrate)
     curved: np.ndarray | None = None
+
+    # Asked for, not computed for every render: a walk over thousands of objects.
+    @functools.cached_property
+    def has_reflection(self) -> bool:
+        """Some finish reflects (reflection max or min > 0)."""
+        return any(_reflects(t) for o in self.objects for t in _textures(o))
+
+    @functools.cached_property
+    def has_refraction(self) -> bool:
+        """Some pigment colour lets light through (filter or transmit > 0)."""
+        return any(_texture_transparent(t) for o in self.objects for t in _textures(o))
 
 
 # Shapes prepare turns into meshes before tracing (absent from older IR versions).
@@ -93,12 +103,13 @@ class _Builder:
             where = f"{span}" if span is not None else "strala"
             print(f"{where}: warning: {msg}", file=sys.stderr)
 
-    def add_leaf_object(self, obj: ir.Object, inherited: dict[str, bool]) -> int:
+    def add_leaf_object(self, obj: ir.Object, flags: dict[str, bool]) -> int:
+        """obj's index among the leaves; `flags` are its own and inherited ones, merged."""
         index = len(self.objects)
         self.objects.append(obj)
         self.curved.append(id(obj.shape) in self.curved_ids)
         for k in FLAG_NAMES:
-            self.flags[k].append(bool(getattr(obj, k)) or inherited[k])
+            self.flags[k].append(flags[k])
         self.sizes.append(0.0)
         return index
 
@@ -312,8 +323,6 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
         scene=scene,
         objects=b.objects,
         tracer=tracer,
-        has_reflection=any(_reflects(t) for o in b.objects for t in _textures(o)),
-        has_refraction=any(_texture_transparent(t) for o in b.objects for t in _textures(o)),
         warnings=b.warnings,
         culled=b.culled,
         curved=np.array(b.curved, dtype=bool),
@@ -331,7 +340,15 @@ class _Culler:
     neither be seen nor shadow anything seen."""
 
     def __init__(self, scene: ir.Scene):
-        self.enabled = (
+        self.scene = scene
+        self.lights = [lt for lt in scene.lights if not lt.shadowless]
+
+    @functools.cached_property
+    def enabled(self) -> bool:
+        # Decided on the first surface asked about: a scene without one never walks its
+        # objects' textures for it.
+        scene = self.scene
+        return (
             scene.camera.kind in ("perspective", "orthographic")
             and scene.settings.radiosity is None
             and not any(
@@ -340,8 +357,10 @@ class _Culler:
                 for t in _textures(o)
             )
         )
-        self.planes = view_planes(scene.camera) if self.enabled else []
-        self.lights = [lt for lt in scene.lights if not lt.shadowless]
+
+    @functools.cached_property
+    def planes(self) -> list:
+        return view_planes(self.scene.camera) if self.enabled else []
 
     def invisible(self, obj: ir.Object, no_shadow: bool) -> bool:
         if not self.enabled:

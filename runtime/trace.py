@@ -115,8 +115,8 @@ class Leaf:
             # Without the inverse and the corner transform, and in plain floats: numpy calls
             # on 3-vectors were most of preparing a scene of many objects.
             self.m = self.m_inv = _IDENTITY
-            lv = [float(v) for v in lo]
-            hv = [float(v) for v in hi]
+            lv = np.asarray(lo, dtype=np.float64).tolist()
+            hv = np.asarray(hi, dtype=np.float64).tolist()
             if all(map(math.isfinite, lv + hv)):
                 self.lo, self.hi = np.array(lv), np.array(hv)
                 self.bounded = True
