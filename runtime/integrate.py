@@ -239,7 +239,7 @@ class Context:
         return tex
 
 
-def _solid_key(tex: ir.Texture) -> tuple | None:
+def _solid_key(tex: ir.Texture, finishes: _Finishes) -> tuple | None:
     """What a one-layer texture with a solid pigment shades by (None for other textures,
     which are told apart by identity)."""
     pig = tex.pigment
@@ -255,12 +255,29 @@ def _solid_key(tex: ir.Texture) -> tuple | None:
         or tex.map
     ):
         return None
-    key = (pig.color, pig.transform, tex.finish)
-    try:
-        hash(key)
-    except TypeError:  # a finish holding something unhashable: compare by identity
-        return None
-    return key
+    number = finishes.number(tex.finish)
+    return None if number is None else (pig.color, pig.transform, number)
+
+
+class _Finishes:
+    """Numbers finishes by value, each finish object looked up by identity first: hashing
+    a finish for every texture cost more than the rest of its key."""
+
+    def __init__(self) -> None:
+        self.by_id: dict[int, int] = {}
+        self.by_value: dict[ir.Finish, int] = {}
+
+    def number(self, fin: ir.Finish) -> int | None:
+        """The same number for equal finishes; None for one holding something unhashable
+        (its texture is then told apart by identity)."""
+        n = self.by_id.get(id(fin))
+        if n is None:
+            try:
+                n = self.by_value.setdefault(fin, len(self.by_value))
+            except TypeError:
+                n = -1
+            self.by_id[id(fin)] = n
+        return None if n < 0 else n
 
 
 def legacy_rules(settings: ir.Settings) -> bool:
@@ -277,6 +294,7 @@ def make_context(prepared) -> Context:
     tree: dict[int, ir.Texture] = {}
 
     by_value: dict[tuple, int] = {}
+    finishes = _Finishes()
 
     def intern(tex: ir.Texture) -> int:
         # By identity (textures hold dicts, unhashable, and a declared texture reused by
@@ -284,7 +302,7 @@ def make_context(prepared) -> Context:
         # objects that each say `pigment { rgb 1 }` shade as one texture.
         key = id(tex)
         if key not in index:
-            value = _solid_key(tex)
+            value = _solid_key(tex, finishes)
             if value is not None and value in by_value:
                 index[key] = by_value[value]
                 return index[key]

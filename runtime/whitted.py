@@ -319,21 +319,24 @@ def _prim_row(prim) -> list[float]:
     and distance, box corners, disc centre, normal, radius^2 and hole^2, cone/cylinder
     canonical frame (object to canonical rows), radii and openness."""
     if isinstance(prim, shapes.SpherePrim):
-        row = [*prim.c, prim.r]
+        row = [*prim.c.tolist(), prim.r]
     elif isinstance(prim, shapes.PlanePrim):
-        row = [*prim.n, prim.dist]
+        row = [*prim.n.tolist(), prim.dist]
     elif isinstance(prim, shapes.BoxPrim):
-        row = [*prim.lo, *prim.hi]
+        row = [*prim.lo.tolist(), *prim.hi.tolist()]
     elif isinstance(prim, shapes.DiscPrim):
-        row = [*prim.c, *prim.n, prim.r2, prim.h2]
+        row = [*prim.c.tolist(), *prim.n.tolist(), prim.r2, prim.h2]
     else:
-        row = [*prim.frame_inv[:3].ravel(), prim.r0, prim.r1, float(prim.open)]
+        row = [*prim.frame_inv[:3].ravel().tolist(), prim.r0, prim.r1, float(prim.open)]
     return row + [0.0] * (PRIM_SLOTS - len(row))
 
 
 def _inv_rows(m) -> np.ndarray:
     """The 3x4 rows of an affine matrix, for the kernel."""
     return np.asarray(m, dtype=np.float64).reshape(4, 4)[:3, :].ravel()
+
+
+_IDENTITY_ROWS = _inv_rows(np.eye(4))
 
 
 def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
@@ -397,14 +400,21 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[k], dtype=bool)
     rows[:, O_DOUBLE] = ctx.double_illuminate
     rows[:, O_IOR] = ctx.ior
-    rows[:, O_MINV : O_MINV + 12] = _table([_inv_rows(leaf.m_inv) for leaf in leaves], 12)
+    # Untransformed leaves (most of a big scene) share one matrix row: only the others are
+    # written one by one.
+    rows[:, O_MINV : O_MINV + 12] = _IDENTITY_ROWS
+    for k, leaf in enumerate(leaves):
+        if not leaf.identity:
+            rows[k, O_MINV : O_MINV + 12] = _inv_rows(leaf.m_inv)
     rows[:, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
         [_prim_row(leaf.prim) for leaf in leaves], PRIM_SLOTS
     )
-    rows[:, O_FADEPOW : O_FADECOL + 3] = _table(
-        [(it.fade_power, it.fade_distance, *it.fade_color) for it in (o.interior for o in objs)],
-        5,
-    )
+    fades: dict[int, tuple] = {}  # by interior: objects share their default one
+    for k, it in enumerate(o.interior for o in objs):
+        fade = fades.get(id(it))
+        if fade is None:
+            fade = fades[id(it)] = (it.fade_power, it.fade_distance, *it.fade_color)
+        rows[k, O_FADEPOW : O_FADECOL + 3] = fade
     start = HDR + n_obj * OBJ
     trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
     start += n_tex * TEX

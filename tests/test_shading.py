@@ -357,6 +357,13 @@ def test_equal_plain_textures_are_one_group_and_different_ones_are_not():
     assert list(ctx.obj_tex) == [0, 0, 1, 2, 0, 3, 4]
     assert len(ctx.textures) == 5
     assert all(ctx.leaf_id[id(t)] == k for t, k in zip(textures, ctx.obj_tex, strict=True))
+    # A finish holding something unhashable cannot be compared by value: by identity then.
+    odd = ir.Finish(ambient=[0.1, 0.1, 0.1])
+    objs = tuple(
+        ir.Object(ir.Sphere((3.0 * i, 0, 0), 1.0), texture=ir.Texture(finish=odd)) for i in range(3)
+    )
+    ctx = integrate.make_context(prepare(ir.Scene(camera=ir.Camera(), objects=objs), 8, 8))
+    assert list(ctx.obj_tex) == [0, 1, 2]
 
 
 def test_area_light_penumbra_is_between_lit_and_shadowed():
