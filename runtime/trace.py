@@ -118,7 +118,7 @@ class Leaf:
             lv = np.asarray(lo, dtype=np.float64).tolist()
             hv = np.asarray(hi, dtype=np.float64).tolist()
             if all(map(math.isfinite, lv + hv)):
-                self.lo, self.hi = np.array(lv), np.array(hv)
+                self.lo, self.hi = np.array((lv, hv))  # one array, two row views
                 self.bounded = True
             else:
                 self.lo, self.hi = np.full(3, -np.inf), np.full(3, np.inf)

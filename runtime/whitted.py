@@ -255,23 +255,28 @@ def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
         hi = np.max([tracer.nodes[i].hi for i in bounded], axis=0)
         row = np.concatenate([lo, hi, [-1, -1, 0, len(bounded), 0]])
         return row[None, :], list(bounded)
-    rows, items = np.zeros((len(tree.lo), BVH)), []
-    for k in range(len(tree.lo)):
-        r = rows[k]
-        r[0:3], r[3:6] = tree.lo[k], tree.hi[k]
-        if tree.kids[k] is None:
-            r[6:8] = -1
-            r[8], r[9] = len(items), len(tree.items[k])
-            items.extend(bounded[int(i)] for i in tree.items[k])
-        else:
-            left, right = tree.kids[k]
-            # the axis along which the children's centres lie furthest apart, ordered so
-            # that the left one is lower (the kernel visits the near child first)
-            gap = (tree.lo[right] + tree.hi[right]) - (tree.lo[left] + tree.hi[left])
-            axis = int(np.argmax(np.abs(gap)))
-            if gap[axis] < 0:
-                left, right = right, left
-            r[6:8], r[10] = (left, right), axis
+    m = len(tree.lo)
+    rows = np.zeros((m, BVH))
+    lo, hi = np.array(tree.lo).reshape(m, 3), np.array(tree.hi).reshape(m, 3)
+    rows[:, 0:3], rows[:, 3:6] = lo, hi
+    inner = np.array([k for k in range(m) if tree.kids[k] is not None], dtype=np.int64)
+    leaves = [k for k in range(m) if tree.kids[k] is None]
+    items: list[int] = []
+    for k in leaves:
+        rows[k, 6:8] = -1
+        rows[k, 8], rows[k, 9] = len(items), len(tree.items[k])
+        items.extend(bounded[int(i)] for i in tree.items[k])
+    if len(inner):
+        kids = np.array([tree.kids[k] for k in inner], dtype=np.int64).reshape(-1, 2)
+        left, right = kids[:, 0], kids[:, 1]
+        # the axis along which the children's centres lie furthest apart, ordered so that the
+        # left one is lower (the kernel visits the near child first)
+        gap = (lo[right] + hi[right]) - (lo[left] + hi[left])
+        axis = np.argmax(np.abs(gap), axis=1)
+        swap = gap[np.arange(len(inner)), axis] < 0
+        rows[inner, 6] = np.where(swap, right, left)
+        rows[inner, 7] = np.where(swap, left, right)
+        rows[inner, 10] = axis
     return rows, items
 
 
