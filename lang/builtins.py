@@ -174,6 +174,7 @@ class BuiltinState:
 
     streams: list[int] = field(default_factory=list)
     folder: str = "."
+    looked_outside: bool = False  # file_exists() asked (see Interpreter.outside)
 
     def seed(self, n: float) -> float:
         self.streams.append(int(n) & 0xFFFFFFFF)
@@ -376,6 +377,7 @@ def _dimensions(args, state):
 
 def _file_exists(args, state):
     name = _s(args, 0, "file_exists")
+    state.looked_outside = True
     return 1.0 if os.path.exists(os.path.join(state.folder, name)) else 0.0
 
 

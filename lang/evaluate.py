@@ -22,7 +22,17 @@ from pathlib import Path
 from typing import Any
 
 import lang
-from lang import builtins, extents, functions, ir, pov_shapes, schema, syntax, transforms
+from lang import (
+    builtins,
+    extents,
+    functions,
+    ir,
+    pov_shapes,
+    scene_store,
+    schema,
+    syntax,
+    transforms,
+)
 from lang import media as media_blocks
 from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.camera import CameraBuilder, CameraError, transform_camera
@@ -119,6 +129,7 @@ def compile_file(
     debug_to_stderr: bool = False,
     animation: Mapping[str, float] | None = None,
     queries: QueriesFactory | None = None,
+    store: bool = False,
 ) -> Result:
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -137,6 +148,7 @@ def compile_file(
         debug_to_stderr=debug_to_stderr,
         animation=animation,
         queries=queries,
+        store=store,
     )
 
 
@@ -152,8 +164,30 @@ def compile_source(
     debug_to_stderr: bool = False,
     animation: Mapping[str, float] | None = None,
     queries: QueriesFactory | None = None,
+    store: bool = False,
 ) -> Result:
-    """`queries` answers trace() and inside() (see lang.queries); without it they miss."""
+    """`queries` answers trace() and inside() (see lang.queries); without it they miss.
+
+    store: keep the result in `lang.scene_store` and take it from there while nothing it
+    read has changed (the command line does; `symbols` is then empty)."""
+    name = ""
+    if store:
+        options = (
+            tuple(map(str, library_paths)),
+            clock,
+            allow_file_io,
+            image_width,
+            image_height,
+            debug_to_stderr,
+            tuple(sorted((animation or {}).items())),
+            queries is not None,
+        )
+        name = scene_store.key(text, filename, options)
+        entry = scene_store.load(name)
+        if entry is not None:
+            for printed in entry.printed:
+                sys.stderr.write(printed)
+            return Result(entry.scene, list(entry.diagnostics), {}, list(entry.read))
     interp = Interpreter(
         library_paths,
         clock=clock,
@@ -164,7 +198,19 @@ def compile_source(
         animation=animation,
         queries=queries,
     )
-    return interp.run(text, filename)
+    result = interp.run(text, filename)
+    if store and interp.standalone(result):
+        scene_store.save(
+            name,
+            scene_store.Entry(
+                files=tuple(interp.probed.items()),
+                scene=result.scene,
+                diagnostics=tuple(result.diagnostics),
+                read=tuple(result.files),
+                printed=tuple(interp.printed),
+            ),
+        )
+    return result
 
 
 # ------------------------------------------------------------------ elements
@@ -725,6 +771,14 @@ class Interpreter:
         self.media: list[ir.Media] = []  # atmospheric media blocks
         self.default_texture = ir.Texture()
         self.handles: dict[str, FileHandle] = {}
+        # What the result depends on beyond the text of its files and its options (file
+        # I/O, `now`, an image …): a result that does is not stored (lang.scene_store).
+        self.outside: list[str] = []
+        # every path an #include probed: the digest of the text read there, None for a miss
+        self.probed: dict[str, str | None] = {}
+        self._digests: dict[str, str] = {}  # resolved include path -> digest of its text
+        self._found = ""  # the probed path the last include was found at
+        self.printed: list[str] = []  # `#debug` text written to stderr
 
     # ------------------------------------------------------------ running
     def run(self, text: str, filename: str) -> Result:
@@ -1097,7 +1151,7 @@ class Interpreter:
         name = self.eval(node.path)
         if not isinstance(name, str):
             raise self.error("E0202", "#include needs a file name string", node.span)
-        path = self._resolve(name)
+        path = self._resolve(name, include=True)
         if path is None:
             raise self.error(
                 "E0220",
@@ -1125,6 +1179,8 @@ class Interpreter:
             tree, diags = self._parse_stored(text, path)
             self.sink.items.extend(self._defer_macro_errors(tree.body, diags))
             self.parse_cache[path] = tree
+            self._digests[path] = scene_store.digest(text)
+        self.probed[self._found] = self._digests.get(path)
         if path not in self.files:
             self.files.append(path)
         self.file_stack.append(path)
@@ -1160,7 +1216,12 @@ class Interpreter:
                 self.broken_macros.setdefault(home.span, []).append(d)
         return kept
 
-    def _resolve(self, name: str) -> str | None:
+    def _resolve(self, name: str, include: bool = False) -> str | None:
+        """The file `name` names: in the current file's folder, the library paths, the
+        stdlib. An include's probes are kept (lang.scene_store); looking for any other
+        file (found or not) makes the result depend on one whose text is not followed."""
+        if not include:
+            self.depends_outside(f"the file {name}")
         here = Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()
         candidates = [here, *map(Path, self.library_paths), STDLIB]
         if os.path.isabs(name):
@@ -1168,8 +1229,27 @@ class Interpreter:
         for folder in candidates:
             p = folder / name
             if p.is_file():
+                if include:
+                    self._found = str(p)
                 return str(p.resolve())
+            if include:
+                self.probed.setdefault(str(p), None)
         return None
+
+    def standalone(self, result: Result) -> bool:
+        """The result depends only on its files' text and the options, and has no errors:
+        it may be stored (lang.scene_store)."""
+        return (
+            result.scene is not None
+            and not self.outside
+            and not self.state.looked_outside
+            and not any(d.severity is Severity.ERROR for d in result.diagnostics)
+        )
+
+    def depends_outside(self, why: str) -> None:
+        """The result depends on `why`, something besides the files' text and the options."""
+        if why not in self.outside:
+            self.outside.append(why)
 
     def _d_declare(self, node: syntax.Declare, out: list[El], spec) -> None:
         value = self._eval_value(node.value)
@@ -1355,6 +1435,7 @@ class Interpreter:
         if node.kind == "debug":
             if self.debug_to_stderr:
                 sys.stderr.write(text)
+                self.printed.append(text)
             self.sink.note("N0100", text.rstrip("\n"), node.span)
         elif node.kind == "warning":
             self.sink.warning("W0301", text.rstrip("\n"), node.span)
@@ -1386,6 +1467,7 @@ class Interpreter:
 
     # ---- file I/O (inside the scene's folder only, and never while checking)
     def _d_fileop(self, node: syntax.FileOp, out, spec) -> None:
+        self.depends_outside("file I/O")
         if node.op == "fopen":
             name = self.eval(node.args[0])
             if not isinstance(name, str):
@@ -1643,6 +1725,8 @@ class Interpreter:
                 return b[node.name]
         if node.name in self.animation:
             return float(self.animation[node.name])
+        if node.name == "now":
+            self.depends_outside("now")
         return builtins.constant(
             node.name,
             clock=self.clock,
@@ -1809,6 +1893,7 @@ class Interpreter:
         return Vec(point)
 
     def _scene_queries(self) -> SceneQueries | None:
+        self.depends_outside("trace() or inside()")
         if self._queries is None and self._queries_factory is not None:
             self._queries = self._queries_factory()
         return self._queries

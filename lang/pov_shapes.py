@@ -279,6 +279,7 @@ def _text(cur: Cursor) -> ir.Text:
         else (0, 0, 0)
     )
     path = None
+    cur.it.depends_outside("a font file")  # its metrics decide the text's extent
     for name in (font, font + ".ttf"):  # POV-Ray adds the extension when it is missing
         path = path or cur.it._resolve(name) or _font_fallback(name)
     if path is None:

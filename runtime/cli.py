@@ -534,6 +534,7 @@ def _compile(
         debug_to_stderr=debug_output,
         animation=animation,
         queries=_runtime_queries if geometry else None,
+        store=True,
     )
     return result.scene, list(result.diagnostics)
 
