@@ -46,7 +46,7 @@ BVH, BVH_STACK = 11, 128
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
 H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL = 16, 19, 22, 25, 28
-H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM = range(39, 47)
+H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM, H_MASK = range(39, 48)
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
@@ -280,6 +280,104 @@ def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
     return rows, items
 
 
+# How far beyond the image the view's half spaces reach, in pixels: anti-aliasing compares
+# with (and so traces) a row and a column just outside the tile, also at the image's edge.
+VIEW_GROW_PIXELS = 2.0
+# A box counts as outside a half space only beyond this share of its distance from the
+# plane's point, so that rounding along a ray near the border cannot reach it.
+VIEW_MARGIN_REL = 1e-9
+
+
+def view_masks(bvh: np.ndarray, camera: ir.Camera, width: int, height: int, lights) -> np.ndarray:
+    """(len(bvh), 1 + len(lights)) 0/1: may a camera ray (column 0), or a shadow ray from a
+    camera ray's hit toward light l (column 1 + l), meet box-tree node k's box?
+
+    Camera rays stay inside the view's half spaces (see `_view_half_spaces`), so a box wholly
+    outside one of them is never met by one. A shadow ray runs from such a hit, inside every
+    half space, to its light: when the light lies inside the half space the box is outside
+    of, so does the whole segment. 1 everywhere when the view cannot be bounded."""
+    masks = np.ones((len(bvh), 1 + len(lights)))
+    planes = _view_half_spaces(camera, width, height)
+    if not planes or not len(bvh):
+        return masks
+    lo, hi = bvh[:, 0:3], bvh[:, 3:6]
+    pad = tol.BOX_PAD_REL * (np.abs(lo) + np.abs(hi)) + tol.BOX_PAD_ABS
+    lo, hi = lo - pad, hi + pad
+    pick = np.array([[i >> k & 1 for k in range(3)] for i in range(8)], dtype=bool)
+    corners = np.where(pick[None, :, :], hi[:, None, :], lo[:, None, :])  # (m, 8, 3)
+    for n, p0 in planes:
+        rel = corners - p0
+        side = rel @ n
+        margin = VIEW_MARGIN_REL * np.sqrt((rel * rel).sum(axis=2)).max(axis=1) + tol.ABS_FLOOR
+        outside = side.min(axis=1) > margin
+        masks[outside, 0] = 0.0
+        for i, light in enumerate(lights):
+            if float(n @ (np.asarray(light.position, dtype=np.float64) - p0)) <= 0.0:
+                masks[outside, 1 + i] = 0.0
+    return masks
+
+
+def _walk_starts(bvh: np.ndarray, masks: np.ndarray) -> np.ndarray:
+    """Per ray class (a column of `masks`), the box-tree node its walk can start at: below
+    the root, past every node of which the class can meet one child only (a crowd of
+    objects outside the view then costs camera rays nothing, not even a box test); -1 when
+    it can meet none."""
+    starts = np.zeros(masks.shape[1])
+    for c in range(masks.shape[1]):
+        k = 0 if len(bvh) else -1
+        while k >= 0 and bvh[k, 6] >= 0:
+            left, right = int(bvh[k, 6]), int(bvh[k, 7])
+            ml, mr = masks[left, c] > 0, masks[right, c] > 0
+            if ml == mr:
+                k = k if ml else -1
+                break
+            k = left if ml else right
+        if k >= 0 and masks[k, c] == 0:
+            k = -1
+        starts[c] = k
+    return starts
+
+
+def _view_half_spaces(camera: ir.Camera, width: int, height: int) -> list:
+    """Half spaces (unit n, p0), n . (x - p0) <= 0, holding every point of every camera ray
+    the kernel traces (trace_pixel: the image grown by VIEW_GROW_PIXELS on each side), or
+    [] when a degenerate camera leaves none to trust."""
+    loc = np.asarray(camera.location, dtype=np.float64)
+    fwd = np.asarray(camera.direction, dtype=np.float64)
+    right = np.asarray(camera.right, dtype=np.float64)
+    up = np.asarray(camera.up, dtype=np.float64)
+    gx = 0.5 + VIEW_GROW_PIXELS / max(width, 1)
+    gy = 0.5 + VIEW_GROW_PIXELS / max(height, 1)
+    out = []
+    if camera.kind == "orthographic":
+        # origins loc + sx right + sy up (|sx| <= gx, |sy| <= gy), all going along fwd
+        for n, reach, centre in (
+            (np.cross(fwd, up), gx * right, right),
+            (np.cross(fwd, right), gy * up, up),
+        ):
+            if not n @ centre:
+                return []
+            n = n if n @ centre > 0 else -n
+            out += [(n, loc + reach), (-n, loc - reach)]
+        back = np.cross(right, up)
+        if not back @ fwd:
+            return []
+        out.append((-back if back @ fwd > 0 else back, loc))
+    else:
+        # rays from loc along fwd + sx right + sy up: the pyramid over the grown image
+        corners = [
+            fwd + a * gx * right + b * gy * up for a, b in ((1, 1), (-1, 1), (-1, -1), (1, -1))
+        ]
+        for k in range(4):
+            n = np.cross(corners[k], corners[(k + 1) % 4])
+            if not n @ fwd:
+                return []
+            out.append((-n if n @ fwd > 0 else n, loc))
+        if all(c @ fwd > 0 for c in corners):  # every ray goes forward: nothing behind the eye
+            out.append((-fwd, loc))
+    return [(n / np.linalg.norm(n), p0) for n, p0 in out]
+
+
 def _uncovered(node) -> set[str]:
     """What in a node the kernel cannot trace (empty: all of it)."""
     if isinstance(node, Leaf):
@@ -361,12 +459,16 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     bvh, items = _box_tree(tracer)
     unbounded = list(tracer.unbounded)
     size = HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT + n_pig * PIG + n_node * NODE
-    tail = np.concatenate([children, unbounded, bvh.ravel(), items]).astype(np.float64)
+    masks = view_masks(bvh, camera, width, height, scene.lights)
+    starts = _walk_starts(bvh, masks)
+    tail = np.concatenate([children, unbounded, bvh.ravel(), items, masks.ravel(), starts])
+    tail = tail.astype(np.float64)
     buf = np.zeros(size + len(tail))
     h = buf[:HDR]
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
     h[[H_NUNB, H_NBVH, H_NITEM]] = len(unbounded), len(bvh), len(items)
+    h[H_MASK] = 1.0
     h[H_MAXLEVEL], h[H_BAILOUT] = s.max_trace_level, s.adc_bailout
     h[H_AMB : H_AMB + 3] = s.ambient_light
     h[H_BG : H_BG + 3] = ctx.background

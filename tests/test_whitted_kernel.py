@@ -409,3 +409,109 @@ def test_a_damaged_scene_array_is_refused_not_traced():
         tile(good[:10])
     with pytest.raises(ValueError):
         whitted._whitted.render_tile(good, 0, 0, 0, 0, -1.0, 0.4, 3, out)
+
+
+# ------------------------------------------------------------------ view masks
+def _slab_meets(o, d, lo, hi, tmax=np.inf) -> bool:
+    """Does the segment o + t d, 0 <= t <= tmax, touch the box [lo, hi]? (exact enough for
+    points well away from the box's faces; the masks keep a margin)."""
+    tn, tf = 0.0, tmax
+    for i in range(3):
+        if d[i] == 0:
+            if not lo[i] <= o[i] <= hi[i]:
+                return False
+            continue
+        a, b = (lo[i] - o[i]) / d[i], (hi[i] - o[i]) / d[i]
+        tn, tf = max(tn, min(a, b)), min(tf, max(a, b))
+    return tn <= tf
+
+
+_vec = st.tuples(*[st.floats(-3, 3)] * 3)
+
+
+@settings(max_examples=60, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.sampled_from(["perspective", "orthographic"]),
+    _vec,
+    _vec,
+    st.floats(0.2, 3),
+    st.floats(-0.6, 0.6),
+    st.integers(0, 2**32 - 1),
+)
+def test_a_box_the_masks_skip_is_met_by_no_camera_or_shadow_ray(kind, loc, aim, zoom, shear, seed):
+    """The claim the masks rest on, checked ray by ray: a box masked for camera rays is met by
+    no ray through the image (grown by the anti-aliasing border), and one masked for a light
+    by no segment from a point on such a ray to that light. Sheared and orthographic
+    cameras included."""
+    from lang import ir
+
+    rng = np.random.default_rng(seed)
+    loc = np.array(loc)
+    fwd = np.array(aim) - loc
+    if np.linalg.norm(fwd) < 0.1:
+        fwd = np.array([0.0, 0.0, 1.0])
+    fwd = fwd / np.linalg.norm(fwd) * zoom
+    helper = np.array([0.0, 1.0, 0.0]) if abs(fwd[1]) < 0.9 * zoom else np.array([1.0, 0, 0])
+    right = np.cross(helper, fwd)
+    right = right / np.linalg.norm(right) * 1.33
+    up = np.cross(fwd, right)
+    up = up / np.linalg.norm(up) + shear * fwd / zoom  # not perpendicular to the view
+    cam = ir.Camera(kind=kind, location=tuple(loc), direction=tuple(fwd), right=tuple(right),
+                    up=tuple(up))  # fmt: skip
+    w, h = 16, 12
+    centres = rng.uniform(-12, 12, (40, 3))
+    half = rng.uniform(0.05, 2.0, (40, 3))
+    bvh = np.zeros((40, whitted.BVH))
+    bvh[:, 0:3], bvh[:, 3:6] = centres - half, centres + half
+    lights = [ir.Light(position=tuple(rng.uniform(-15, 15, 3))) for _ in range(2)]
+    masks = whitted.view_masks(bvh, cam, w, h, lights)
+    # rays through the grown image: pixels -1 .. w, sub-pixel positions anywhere in them
+    xs = rng.uniform(-1.5, w + 1.5, 400)
+    ys = rng.uniform(-1.5, h + 1.5, 400)
+    for x, y in zip(xs, ys, strict=True):
+        sx, sy = x / w - 0.5, 0.5 - y / h
+        if kind == "orthographic":
+            o, d = loc + sx * right + sy * up, fwd
+        else:
+            o, d = loc, fwd + sx * right + sy * up
+        t_hit = rng.uniform(0, 30)
+        p = o + t_hit * d
+        for k in range(len(bvh)):
+            lo, hi = bvh[k, 0:3], bvh[k, 3:6]
+            if masks[k, 0] == 0:
+                assert not _slab_meets(o, d, lo, hi), (k, x, y)
+            for i, light in enumerate(lights):
+                if masks[k, 1 + i] == 0:
+                    seg = np.asarray(light.position) - p
+                    assert not _slab_meets(p, seg, lo, hi, 1.0), (k, i, x, y)
+
+
+def test_objects_outside_the_view_are_skipped_and_the_image_is_the_same(monkeypatch):
+    """Spheres left of the view and under the floor: camera rays (and their shadow rays) start
+    their box-tree walk past them; a mirror still shows what it reflects, traced in full."""
+    rows = "\n".join(
+        f"sphere {{ <{-40 - 3 * (i % 10)}, {-8 - 3 * (i // 10)}, {3 * i % 7}>, 1 }}"
+        for i in range(60)
+    )
+    text = f"""
+    camera {{ location <0, 2, -8> look_at <0, 1, 0> }}
+    light_source {{ <6, 12, -6>, rgb 1 }}
+    plane {{ y, -1 pigment {{ checker rgb 1, rgb 0.2 }} }}
+    sphere {{ <0, 1, 0>, 1 pigment {{ rgb 0.8 }} finish {{ reflection 0.8 }} }}
+    sphere {{ <-1.8, 0.5, 1>, 0.5 pigment {{ rgb <1, 0.3, 0.2> }} }}
+    sphere {{ <0, 2, -20>, 6 pigment {{ rgb <0.2, 1, 0.3> }} }}
+    {rows}
+    """
+    scene = _scene(text)
+    prepared = prepare(scene, 64, 48)
+    bvh, _ = whitted._box_tree(prepared.tracer)
+    masks = whitted.view_masks(bvh, scene.camera, 64, 48, scene.lights)
+    starts = whitted._walk_starts(bvh, masks)
+    assert masks[:, 0].sum() < len(bvh) / 4  # most of the tree is outside the view
+    assert starts[0] > 0 and starts[1] > 0  # camera and shadow rays skip the crowd
+    _assert_identical(scene, 64, 48, 0.3, monkeypatch)
+    # the green sphere behind the camera is outside the view but in the mirror: it shows
+    scene_without = _scene(text.replace("<0, 2, -20>, 6", "<0, -40, -20>, 6"))
+    a = render_scene(scene, 64, 48, antialias=None)
+    b = render_scene(scene_without, 64, 48, antialias=None)
+    assert np.abs(a - b).max() > 0.05

@@ -31,7 +31,8 @@
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
-       H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM };
+       H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
+       H_MASK };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
@@ -77,6 +78,10 @@ static const double GREY[3] = {0.297, 0.589, 0.114};
 
 typedef struct {
     const double *h, *obj, *tex, *light, *tol, *pig, *node, *child, *unb, *bvh, *item;
+    /* per box-tree node: may camera rays (column 0), or shadow rays from their hits toward
+     * light l (column 1 + l), meet it (whitted.py view masks); NULL: not packed */
+    const double *mask, *start; /* start: per class, the node its walk begins at (-1: none) */
+    int mwidth;
     int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nbvh, nitem, maxlevel, legacy, anytrans;
     double bailout;
     long long rays, shadow_rays;
@@ -503,7 +508,7 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
  * any: stop at the first one (shadow rays). Unbounded roots (planes) first: their hits
  * shorten the ray before the box tree is walked, as in trace.Tracer. */
 static int find_hit(Scene *s, const double *o, const double *d, double tmax, int skip, int any,
-                    Hit *h) {
+                    int cls, Hit *h) {
     double tmin = default_tmin(s, o);
     h->t = tmax;
     h->obj = -1;
@@ -512,9 +517,13 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
     for (int u = 0; u < s->nunb; u++)
         if (test_root(s, (int)s->unb[u], o, d, inv, tmin, skip, any, h, buf)) return 1;
     int stack[BVH_STACK], top = 0;
-    if (s->nbvh > 0) stack[top++] = 0;
+    /* a class's walk starts below the nodes only one of whose children it can meet */
+    int first = cls >= 0 && s->mask ? (int)s->start[cls] : 0;
+    if (s->nbvh > 0 && first >= 0) stack[top++] = first;
     while (top > 0) {
         int at = stack[--top];
+        /* a ray of a class that cannot meet this node's box: not even its box is tested */
+        if (cls >= 0 && s->mask && s->mask[(size_t)at * s->mwidth + cls] == 0.0) continue;
         const double *b = s->bvh + (size_t)at * BVH;
         /* The root's box holds the whole scene, which nearly every ray crosses: an inner
          * root is not tested, its children are (one box test fewer per ray). */
@@ -540,13 +549,13 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
 }
 
 static inline int closest(Scene *s, const double *o, const double *d, double tmax, int skip,
-                          Hit *h) {
-    return find_hit(s, o, d, tmax, skip, 0, h);
+                          int cls, Hit *h) {
+    return find_hit(s, o, d, tmax, skip, 0, cls, h);
 }
 
-static inline int occluded(Scene *s, const double *o, const double *d, double tmax) {
+static inline int occluded(Scene *s, const double *o, const double *d, double tmax, int cls) {
     Hit h;
-    return find_hit(s, o, d, tmax, SKIP_NO_SHADOW, 1, &h);
+    return find_hit(s, o, d, tmax, SKIP_NO_SHADOW, 1, cls, &h);
 }
 
 /* Unit world normal at the hit (before the viewer turn), flipped for inverse objects. */
@@ -677,21 +686,22 @@ static inline double cubic_spline(double low, double high, double pos) {
     return (3.0 - 2.0 * t) * t * t;
 }
 
-/* Light let through from p toward a light at distance `dist` (integrate.shadow_filter). */
+/* Light let through from p toward a light at distance `dist` (integrate.shadow_filter); cls:
+ * the shadow ray's class for the view masks (-1: none). */
 static void shadow_filter(Scene *s, const double *p, const double *ldir, double dist,
-                          double *mult) {
+                          int cls, double *mult) {
     double tol = 1e-6 * dist;
     double tmax = dist * (1.0 - 1e-9) - (SHADOW_TOLERANCE < tol ? SHADOW_TOLERANCE : tol);
     s->shadow_rays++;
     mult[0] = mult[1] = mult[2] = 1.0;
     if (!s->anytrans) {
-        if (occluded(s, p, ldir, tmax)) mult[0] = mult[1] = mult[2] = 0.0;
+        if (occluded(s, p, ldir, tmax, cls)) mult[0] = mult[1] = mult[2] = 0.0;
         return;
     }
     double o[3] = {p[0], p[1], p[2]}, remaining = tmax;
     for (int k = 0; k < MAX_SHADOW_CROSSINGS; k++) {
         Hit h;
-        if (!closest(s, o, ldir, remaining, SKIP_NO_SHADOW, &h)) return;
+        if (!closest(s, o, ldir, remaining, SKIP_NO_SHADOW, cls, &h)) return;
         const double *ob = s->obj + (size_t)h.obj * OBJ;
         const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
         double pt[3], n[3];
@@ -719,11 +729,11 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
 }
 
 static void trace(Scene *s, const double *o, const double *d, double weight, int level,
-                  int skip, int continued, double *out);
+                  int skip, int continued, int cls, double *out);
 
 /* The colour of a hit (integrate.shade for one plain, one-layer texture). */
 static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
-                  int level, int skip, double *out) {
+                  int level, int skip, int cls, double *out) {
     const double *ob = s->obj + (size_t)h->obj * OBJ;
     const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
     const double *hd = s->h;
@@ -769,7 +779,9 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
         if (!(lit && (front || dbl) && big > EPSILON)) continue;
         if (!(int)lt[L_SHADOWLESS]) {
             double f[3];
-            shadow_filter(s, p, ld, depth, f);
+            /* from a camera ray's hit, the shadow ray stays inside the view's half spaces
+             * that hold the light: its own class */
+            shadow_filter(s, p, ld, depth, cls == 0 ? 1 + l : -1, f);
             lc[0] *= f[0], lc[1] *= f[1], lc[2] *= f[2];
         }
         double diffuse = tx[T_DIFF];
@@ -833,7 +845,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
             /* shading.reflect's guard for bumpy normals never applies: raw = normal */
             normalize3(rd);
             double rc[3];
-            trace(s, p, rd, weight * wfac, level, SKIP_NO_REFLECTION, 0, rc);
+            trace(s, p, rd, weight * wfac, level, SKIP_NO_REFLECTION, 0, -1, rc);
             double ex = tx[T_REXP];
             if (ex != 0.0 && 1.0 / ex != 1.0) {
                 for (int i = 0; i < 3; i++) rc[i] = pow(rc[i] < 0 ? 0 : rc[i], 1.0 / ex);
@@ -877,19 +889,20 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     if (leaving)
         for (int i = 0; i < 3; i++) mult[i] *= interior_fade(s, ob, h->t, i);
     double tc[3];
-    trace(s, p, td, w, level, skip, straight, tc);
+    trace(s, p, td, w, level, skip, straight, straight ? cls : -1, tc);
     for (int i = 0; i < 3; i++) out[i] += mult[i] * tc[i];
 }
 
 /* The colour of one ray (integrate.trace): `level` is the trace level of the surface that
- * spawned it; a `continued` ray (straight through an ior-1 surface) keeps that level. */
+ * spawned it; a `continued` ray (straight through an ior-1 surface) keeps that level. cls is
+ * 0 for a camera ray (also continued: the same line), -1 for others. */
 static void trace(Scene *s, const double *o, const double *d, double weight, int level,
-                  int skip, int continued, double *out) {
+                  int skip, int continued, int cls, double *out) {
     out[0] = out[1] = out[2] = 0.0;
     if (level >= s->maxlevel || weight < s->bailout) return;
     s->rays++;
     Hit h;
-    if (!closest(s, o, d, INFINITY, skip, &h)) {
+    if (!closest(s, o, d, INFINITY, skip, cls, &h)) {
         /* sky_sphere layers over the background, each filtering those behind (integrate.sky) */
         double fil[3] = {1.0, 1.0, 1.0};
         for (int l = 0; l < s->nsky; l++) {
@@ -904,7 +917,7 @@ static void trace(Scene *s, const double *o, const double *d, double weight, int
         for (int k = 0; k < 3; k++) out[k] += s->h[H_BG + k] * fil[k];
         return;
     }
-    shade(s, o, d, &h, weight, level + (continued ? 0 : 1), skip, out);
+    shade(s, o, d, &h, weight, level + (continued ? 0 : 1), skip, cls, out);
 }
 
 static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t need, int writable,
@@ -943,6 +956,12 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                       (Py_ssize_t)s->nlight * LIT + (Py_ssize_t)s->npig * PIG +
                       (Py_ssize_t)s->nnode * NODE + s->nchild + s->nunb +
                       (Py_ssize_t)s->nbvh * BVH + s->nitem;
+    if (!(h[H_MASK] == 0.0 || h[H_MASK] == 1.0)) {
+        PyErr_SetString(PyExc_ValueError, "scene: the header's mask flag is not 0 or 1");
+        return -1;
+    }
+    int masked = h[H_MASK] == 1.0;
+    if (masked) need += (Py_ssize_t)(s->nbvh + 1) * (1 + s->nlight);
     if (s->nobj < 0 || s->ntex < 0 || s->nlight < 0 || s->npig < 0 || s->nsky < 0 ||
         s->nnode < 0 || s->nroot < 0 || s->nchild < 0 || s->nroot > s->nnode ||
         s->nunb < 0 || s->nbvh < 0 || s->nitem < 0 ||
@@ -960,6 +979,12 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     s->unb = s->child + s->nchild;
     s->bvh = s->unb + s->nunb;
     s->item = s->bvh + (size_t)s->nbvh * BVH;
+    s->mwidth = 1 + s->nlight;
+    s->mask = masked ? s->item + s->nitem : NULL;
+    s->start = masked ? s->mask + (size_t)s->nbvh * s->mwidth : NULL;
+    if (masked)
+        for (int c = 0; c < s->mwidth; c++)
+            if (!(s->start[c] >= -1 && s->start[c] < s->nbvh)) goto bad;
     for (int i = 0; i < s->nunb; i++)
         if (!(s->unb[i] >= 0 && s->unb[i] < s->nroot)) goto bad;
     for (int i = 0; i < s->nitem; i++)
@@ -1024,7 +1049,7 @@ static void trace_pixel(Scene *s, double x, double y, double *out) {
     }
     double len = sqrt(dot(d, d));
     d[0] /= len, d[1] /= len, d[2] /= len;
-    trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, out);
+    trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, 0, out);
 }
 
 /* One tile with POV-Ray's anti-aliasing method 1, as runtime/antialias.py does it: first
