@@ -149,14 +149,17 @@ class _Builder:
             if obj.inverse:
                 self.warn_once("inverse has no effect on triangle geometry", obj.span)
             return
-        node = self.node(obj, flags)
+        node = self.node(obj, flags, merged=True)
         if node is not None:
             self.nodes.append(node)
 
-    def node(self, obj: ir.Object, inherited: dict[str, bool]):
-        """An analytic node (Leaf or CsgNode) for obj, or None when nothing renders."""
+    def node(self, obj: ir.Object, inherited: dict[str, bool], merged: bool = False):
+        """An analytic node (Leaf or CsgNode) for obj, or None when nothing renders.
+        `merged`: `inherited` already holds obj's own flags too."""
         shape = obj.shape
-        flags = {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
+        flags = (
+            inherited if merged else {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
+        )
         if isinstance(shape, ir.Unsupported):
             return None
         if isinstance(shape, ir.SphereSweep):

@@ -74,6 +74,11 @@ class SpherePrim:
     def bounds(self):
         return self.c - self.r, self.c + self.r
 
+    def bounds_lists(self) -> tuple[list[float], list[float]]:
+        """bounds() as plain floats (the same numbers): a scene's thousands of spheres."""
+        c, r = self.c.tolist(), self.r
+        return [v - r for v in c], [v + r for v in c]
+
     def crossings(self, o, d):
         # The seed's A t^2 + 2B t + C with A = d.d, B = (o-M).d, C = |o-M|^2 - r^2.
         oc = o - self.c

@@ -108,15 +108,18 @@ class Leaf:
         self.index = index
         self.inverse = inverse
         self.identity = matrix is None or tf.is_identity(matrix)
-        lo, hi = prim.bounds()
         if inverse:
             lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+        elif self.identity and hasattr(prim, "bounds_lists"):
+            lo, hi = prim.bounds_lists()
+        else:
+            lo, hi = prim.bounds()
         if self.identity:
             # Without the inverse and the corner transform, and in plain floats: numpy calls
             # on 3-vectors were most of preparing a scene of many objects.
             self.m = self.m_inv = _IDENTITY
-            lv = np.asarray(lo, dtype=np.float64).tolist()
-            hv = np.asarray(hi, dtype=np.float64).tolist()
+            lv = lo if isinstance(lo, list) else np.asarray(lo, dtype=np.float64).tolist()
+            hv = hi if isinstance(hi, list) else np.asarray(hi, dtype=np.float64).tolist()
             if all(map(math.isfinite, lv + hv)):
                 self.lo, self.hi = np.array((lv, hv))  # one array, two row views
                 self.bounded = True
