@@ -48,13 +48,7 @@ def _fingerprint() -> str:
 
 def folder() -> Path | None:
     """The store's folder for this parser, or None when the store is off."""
-    base = store.base()
-    if base is None:
-        return None
-    try:
-        return base / f"parse-{_fingerprint()}"
-    except OSError:  # the parser's own files cannot be read: better parse than guess
-        return None
+    return store.folder("parse", _fingerprint)
 
 
 def _key(text: str, filename: str) -> str:

@@ -50,13 +50,8 @@ def _fingerprint() -> str:
 
 
 def folder() -> Path | None:
-    base = store.base()
-    if base is None:
-        return None
-    try:
-        return base / f"scene-{_fingerprint()}"
-    except OSError:
-        return None
+    """The store's folder for this evaluator, or None when the store is off."""
+    return store.folder("scene", _fingerprint)
 
 
 def digest(text: str) -> str:

@@ -15,7 +15,7 @@ import hashlib
 import os
 import pickle
 import secrets
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +33,19 @@ def base() -> Path | None:
     try:
         return (Path(xdg) if xdg else Path.home() / ".cache") / "strala"
     except (RuntimeError, KeyError):  # no home folder (a bare container user): no store
+        return None
+
+
+def folder(name: str, code: Callable[[], str]) -> Path | None:
+    """A store's folder, `name-<code()>` in the base (code: the fingerprint of the code whose
+    results it keeps); None when the stores are off or that code's files cannot be read
+    (better to work again than to guess)."""
+    where = base()
+    if where is None:
+        return None
+    try:
+        return where / f"{name}-{code()}"
+    except OSError:
         return None
 
 
