@@ -524,6 +524,9 @@ def _compile(
         return None, [missing]
     from lang.evaluate import compile_file
 
+    # -L folders first, then $STRALA_LIBRARY_PATH's (as the Python API and the server do)
+    env = os.environ.get("STRALA_LIBRARY_PATH", "")
+    libraries = (*libraries, *(p for p in env.split(os.pathsep) if p))
     result = compile_file(
         path,
         tuple(libraries),

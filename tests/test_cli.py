@@ -659,3 +659,27 @@ def test_stats_say_how_the_image_was_traced(tmp_path, capsys):
     assert cli.main(["render", str(scene), "-W", "8", "-H", "6", "-o", str(out),
                      "--stats", "-q"]) == 0  # fmt: skip
     assert "traced by numpy (area light)" in capsys.readouterr().err
+
+
+@needs_evaluator
+def test_the_library_path_from_the_environment_is_searched(tmp_path, monkeypatch):
+    # README: STRALA_LIBRARY_PATH adds include folders, for the command line as for the API;
+    # -L folders come first.
+    first, second = tmp_path / "a", tmp_path / "b"
+    for folder, colour in ((first, "<1, 0, 0>"), (second, "<0, 0, 1>")):
+        folder.mkdir()
+        (folder / "mine.inc").write_text(f"#declare Col = rgb {colour};\n")
+    scene = tmp_path / "s.pov"
+    scene.write_text('#include "mine.inc"\nsphere { 0, 1 pigment { Col } }\n')
+    monkeypatch.setenv("STRALA_LIBRARY_PATH", str(second))
+    done = run_cli("check", str(scene))
+    assert done.returncode == 0, done.stdout + done.stderr
+    out = tmp_path / "s.json"
+
+    def colour(*extra: str) -> list[float]:
+        done = run_cli("compile", str(scene), *extra, "-o", str(out))
+        assert done.returncode == 0, done.stderr
+        return json.loads(out.read_text())["scene"]["objects"][0]["texture"]["pigment"]["color"]
+
+    assert colour()[:3] == [0.0, 0.0, 1.0]
+    assert colour("-L", str(first))[:3] == [1.0, 0.0, 0.0]
