@@ -275,6 +275,11 @@ class _Break(Exception):
     pass
 
 
+# The interior of every object that names none: one (frozen) value, not one each (a stored
+# scene of thousands of objects loads it once).
+_DEFAULT_INTERIOR = ir.Interior()
+
+
 class _Quiet(Exception):
     """Abandon a construct whose cause has already been reported."""
 
@@ -2408,7 +2413,7 @@ class Interpreter:
         own_interior = obj.interior
         if has_parent:
             own_interior = media_blocks.transform_interior(own_interior, parent)
-        inter = own_interior or interior or ir.Interior()
+        inter = own_interior or interior or _DEFAULT_INTERIOR
         full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
         shape = obj.shape
         # no_shadow, hollow … on a CSG hold for every child (the runtime may flatten CSG)

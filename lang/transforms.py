@@ -25,6 +25,10 @@ def _m(rows: Sequence[Sequence[float]]) -> Matrix:
 def compose(a: Matrix, b: Matrix) -> Matrix:
     """a @ b: apply b first, then a. Both affine (last row 0 0 0 1), unrolled for speed:
     scenes with big CSG trees compose thousands of these."""
+    if a is IDENTITY and b is IDENTITY:
+        # exactly the product, and shared: a scene's untransformed objects then hold one
+        # matrix, not one each (a stored scene loads them once)
+        return IDENTITY
     a0, a1, a2 = a[0], a[1], a[2]
     b0, b1, b2 = b[0], b[1], b[2]
     rows = []

@@ -67,7 +67,7 @@ def render_scene(
     from runtime import whitted
 
     numpy_because = (
-        ["radiosity"] if radiosity is not None else whitted.why_not(prepared, scene.camera)
+        ["radiosity"] if radiosity is not None else whitted.why_not(prepared, scene.camera, ctx)
     )
     if not numpy_because:
         ctx.kernel = whitted.Kernel(ctx, scene.camera, width, height)

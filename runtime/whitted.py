@@ -162,8 +162,9 @@ def _texture_reasons(tex: ir.Texture) -> list[str]:
     return out
 
 
-def reasons(prepared, camera: ir.Camera) -> list[str]:
-    """Why the compiled kernel cannot render this scene (empty: it can)."""
+def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
+    """Why the compiled kernel cannot render this scene (empty: it can). With the render's
+    context (integrate.make_context), textures it made one entry are looked at once."""
     scene: ir.Scene = prepared.scene
     out: list[str] = []
     if _whitted is None:
@@ -187,11 +188,19 @@ def reasons(prepared, camera: ir.Camera) -> list[str]:
         out.extend(_uncovered(node))
         if len(node.leaves) > MAX_CROSS // 4:
             out.append(f"a CSG of more than {MAX_CROSS // 4} shapes")
+    # each interior and texture once: a large scene's objects share them, or (textures)
+    # ones equal to them, which make_context made one entry (ctx.leaf_id)
+    interiors = {id(o.interior): o.interior for o in prepared.objects}
+    if any(it.caustics != 0 or it.media for it in interiors.values()):
+        out.append("caustics or interior media")
+    seen: set[tuple[str, int]] = set()
     for obj in prepared.objects:
-        it = obj.interior
-        if it.caustics != 0 or it.media:
-            out.append("caustics or interior media")
-        out.extend(_texture_reasons(obj.texture))
+        tex = obj.texture
+        entry = None if ctx is None else ctx.leaf_id.get(id(tex))
+        key = ("entry", entry) if entry is not None else ("object", id(tex))
+        if key not in seen:
+            seen.add(key)
+            out.extend(_texture_reasons(tex))
     if scene.sky_sphere and integrate.legacy_rules(scene.settings):
         out.append("sky_sphere in a pre-3.7 scene")
     for pig in scene.sky_sphere or ():
@@ -513,15 +522,21 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     for k, leaf in enumerate(leaves):
         if not leaf.identity:
             rows[k, O_MINV : O_MINV + 12] = _inv_rows(leaf.m_inv)
-    rows[:, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
-        [_prim_row(leaf.prim) for leaf in leaves], PRIM_SLOTS
-    )
+    # spheres, the bulk of a large scene, in one gather; the other shapes row by row
+    spheres = [k for k, leaf in enumerate(leaves) if type(leaf.prim) is shapes.SpherePrim]
+    if spheres:
+        rows[spheres, O_PRIM : O_PRIM + 3] = [leaves[k].prim.c for k in spheres]
+        rows[spheres, O_PRIM + 3] = [leaves[k].prim.r for k in spheres]
+    others = [k for k, leaf in enumerate(leaves) if type(leaf.prim) is not shapes.SpherePrim]
+    if others:
+        rows[others, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
+            [_prim_row(leaves[k].prim) for k in others], PRIM_SLOTS
+        )
     fades: dict[int, tuple] = {}  # by interior: objects share their default one
-    for k, it in enumerate(o.interior for o in objs):
-        fade = fades.get(id(it))
-        if fade is None:
-            fade = fades[id(it)] = (it.fade_power, it.fade_distance, *it.fade_color)
-        rows[k, O_FADEPOW : O_FADECOL + 3] = fade
+    for it in (o.interior for o in objs):
+        if id(it) not in fades:
+            fades[id(it)] = (it.fade_power, it.fade_distance, *it.fade_color)
+    rows[:, O_FADEPOW : O_FADECOL + 3] = _table([fades[id(o.interior)] for o in objs], 5)
     start = HDR + n_obj * OBJ
     trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
     start += n_tex * TEX
@@ -549,12 +564,14 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         r[T_CONSERVE] = f.conserve_energy
     nrows[:, N_LO : N_LO + 3] = _table([node.lo for node in nodes], 3)
     nrows[:, N_HI : N_HI + 3] = _table([node.hi for node in nodes], 3)
-    for node, r in zip(nodes, nrows, strict=True):
-        if isinstance(node, Leaf):
-            r[N_LEAF] = node.index  # N_KIND 0
-        else:
-            r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
-            r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(node.children)
+    is_leaf = [isinstance(node, Leaf) for node in nodes]
+    nrows[:, N_LEAF] = [
+        node.index if leaf else 0 for node, leaf in zip(nodes, is_leaf, strict=True)
+    ]
+    for k in (k for k, leaf in enumerate(is_leaf) if not leaf):  # N_KIND 0 for leaves
+        node, r = nodes[k], nrows[k]
+        r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
+        r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(node.children)
     for k, pig in enumerate(sky):
         pack_pigment(pig, prows[n_tex + k])
     for light, r in zip(scene.lights, lrows, strict=True):
@@ -595,8 +612,8 @@ class Kernel:
         return out, n
 
 
-def why_not(prepared, camera: ir.Camera) -> list[str]:
+def why_not(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     """Why the numpy path renders this scene (empty: the compiled kernel does)."""
     if _whitted is not None and os.environ.get(ENV, "") == "numpy":
         return [f"{ENV}=numpy"]
-    return reasons(prepared, camera)
+    return reasons(prepared, camera, ctx)

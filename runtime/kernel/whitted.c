@@ -395,14 +395,14 @@ static int node_inside(const Scene *s, int node, const double *p, int inverted) 
 static inline double fmin_nan(double a, double b) { return (a < b || b != b) ? a : b; }
 static inline double fmax_nan(double a, double b) { return (a > b || b != b) ? a : b; }
 
-/* trace.slab_hits: may the segment (tmin, tmax) touch the box [lo, hi]? (padded, so that a
- * hit on the box surface is never culled; an infinite box never culls). inv = 1/d, taken
- * once per ray: the divisions were most of a box test. */
-static inline int slab(const Scene *s, const double *lo, const double *hi, const double *o,
-                       const double *inv, double tmin, double tmax) {
+/* trace.slab_hits for a finite box: may the segment (tmin, tmax) touch the box [lo, hi]?
+ * (padded, so that a hit on the box surface is never culled). inv = 1/d, taken once per ray:
+ * the divisions were most of a box test. Box-tree nodes come here directly (their boxes are
+ * finite, scene_from checks): the finiteness tests were a tenth of a box test. */
+static inline int slab_finite(const Scene *s, const double *lo, const double *hi,
+                              const double *o, const double *inv, double tmin, double tmax) {
     double tn = -INFINITY, tf = INFINITY;
     for (int i = 0; i < 3; i++) {
-        if (!isfinite(lo[i]) || !isfinite(hi[i])) return 1;
         double t1 = (lo[i] - o[i]) * inv[i], t2 = (hi[i] - o[i]) * inv[i];
         double near = fmin_nan(t1, t2), far = fmax_nan(t1, t2);
         tn = i == 0 ? near : fmax_nan(tn, near);
@@ -410,6 +410,14 @@ static inline int slab(const Scene *s, const double *lo, const double *hi, const
     }
     double pad = BOX_PAD_REL * (fabs(tn) + fabs(tf)) + BOX_PAD_ABS;
     return tn - pad <= tf + pad && tf + pad >= tmin && tn - pad <= tmax;
+}
+
+/* The same for any box: an infinite one never culls. */
+static inline int slab(const Scene *s, const double *lo, const double *hi, const double *o,
+                       const double *inv, double tmin, double tmax) {
+    for (int i = 0; i < 3; i++)
+        if (!isfinite(lo[i]) || !isfinite(hi[i])) return 1;
+    return slab_finite(s, lo, hi, o, inv, tmin, tmax);
 }
 
 /* trace.CsgNode.crossings: a child's crossing counts where the point is inside the other
@@ -527,7 +535,7 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
         const double *b = s->bvh + (size_t)at * BVH;
         /* The root's box holds the whole scene, which nearly every ray crosses: an inner
          * root is not tested, its children are (one box test fewer per ray). */
-        if ((at != 0 || b[B_LEFT] < 0) && !slab(s, b + B_LO, b + B_HI, o, inv, tmin, h->t))
+        if ((at != 0 || b[B_LEFT] < 0) && !slab_finite(s, b + B_LO, b + B_HI, o, inv, tmin, h->t))
             continue;
         if (b[B_LEFT] < 0) {
             for (int k = 0; k < (int)b[B_COUNT]; k++) {
@@ -991,6 +999,8 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if (!(s->item[i] >= 0 && s->item[i] < s->nroot)) goto bad;
     for (int i = 0; i < s->nbvh; i++) {
         const double *b = s->bvh + (size_t)i * BVH;
+        for (int k = 0; k < 6; k++)
+            if (!isfinite(b[B_LO + k])) goto bad;
         if (b[B_LEFT] < 0) {
             if (!(b[B_FIRST] >= 0 && b[B_COUNT] >= 0 && b[B_FIRST] + b[B_COUNT] <= s->nitem))
                 goto bad;
