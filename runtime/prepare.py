@@ -61,6 +61,10 @@ _TESSELLATED = tuple(
 )
 
 
+# Shapes whose untransformed leaves take the short way (Leaf.untransformed).
+_PLAIN = (ir.Sphere, ir.Box)
+
+
 def inside_test(obj: ir.Object):
     """A node whose `inside(points)` is POV-Ray's inside test of obj (for the object
     pattern), or None when the shape has no inside."""
@@ -117,6 +121,19 @@ class _Builder:
         """A top-level object or a child of a flattened union."""
         shape = obj.shape
         flags = {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
+        if (
+            type(shape) in _PLAIN
+            and not (obj.inverse or obj.clipped_by)
+            and obj.transform == ir.IDENTITY
+            and (type(shape) is ir.Box or shape.radius != 0)  # shapes.degenerate's cases
+        ):
+            # what node() makes of it, without the checks that cannot apply: most of a
+            # large scene is spheres and boxes where they were written
+            index = self.add_leaf_object(obj, flags)
+            leaf = Leaf.untransformed(shapes.primitive_for(shape), index)
+            self.sizes[index] = leaf.size
+            self.nodes.append(leaf)
+            return
         if (
             isinstance(shape, ir.CSG)
             and shape.op == "union"

@@ -161,6 +161,10 @@ class BoxPrim:
     def bounds(self):
         return self.lo, self.hi
 
+    def bounds_lists(self) -> tuple[list[float], list[float]]:
+        """bounds() as plain floats (see SpherePrim.bounds_lists)."""
+        return self.lo.tolist(), self.hi.tolist()
+
     def crossings(self, o, d):
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t1 = (self.lo - o) / d

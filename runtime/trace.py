@@ -108,39 +108,52 @@ class Leaf:
         self.index = index
         self.inverse = inverse
         self.identity = matrix is None or tf.is_identity(matrix)
-        if inverse:
-            lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
-        elif self.identity and hasattr(prim, "bounds_lists"):
-            lo, hi = prim.bounds_lists()
-        else:
-            lo, hi = prim.bounds()
+        self.leaves = [index]
         if self.identity:
             # Without the inverse and the corner transform, and in plain floats: numpy calls
             # on 3-vectors were most of preparing a scene of many objects.
             self.m = self.m_inv = _IDENTITY
-            lv = lo if isinstance(lo, list) else np.asarray(lo, dtype=np.float64).tolist()
-            hv = hi if isinstance(hi, list) else np.asarray(hi, dtype=np.float64).tolist()
-            if all(map(math.isfinite, lv + hv)):
-                self.lo, self.hi = np.array((lv, hv))  # one array, two row views
-                self.bounded = True
+            if inverse:
+                self._place([-math.inf] * 3, [math.inf] * 3)
+            elif hasattr(prim, "bounds_lists"):
+                self._place(*prim.bounds_lists())
             else:
-                self.lo, self.hi = np.full(3, -np.inf), np.full(3, np.inf)
-                self.bounded = False
-        else:
-            self.m = matrix
-            self.m_inv = tf.inverse(matrix)
-            self.lo, self.hi = tf.aabb_transform(
-                matrix, np.asarray(lo, float), np.asarray(hi, float)
-            )
-            self.bounded = _finite_box(self.lo, self.hi)
-        self.leaves = [index]
-        if self.identity:
-            self.size = math.dist(lv, hv) if self.bounded else prim.size
-        elif np.all(np.isfinite(self.lo)):
+                self._place(*(np.asarray(b, dtype=np.float64).tolist() for b in prim.bounds()))
+            return
+        lo, hi = prim.bounds()
+        if inverse:
+            lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+        self.m = matrix
+        self.m_inv = tf.inverse(matrix)
+        self.lo, self.hi = tf.aabb_transform(matrix, np.asarray(lo, float), np.asarray(hi, float))
+        self.bounded = _finite_box(self.lo, self.hi)
+        if np.all(np.isfinite(self.lo)):
             self.size = float(np.linalg.norm(self.hi - self.lo))
         else:
             stretch = float(np.linalg.svd(matrix[:3, :3], compute_uv=False).max())
             self.size = prim.size * stretch
+
+    @classmethod
+    def untransformed(cls, prim, index: int) -> Leaf:
+        """Leaf(prim, None, index) for a primitive with `bounds_lists`, without the checks
+        that cannot apply (the common leaf of a large scene)."""
+        leaf = cls.__new__(cls)
+        leaf.prim, leaf.index, leaf.inverse, leaf.identity = prim, index, False, True
+        leaf.m = leaf.m_inv = _IDENTITY
+        leaf.leaves = [index]
+        leaf._place(*prim.bounds_lists())
+        return leaf
+
+    def _place(self, lv: list[float], hv: list[float]) -> None:
+        """Box, boundedness and size of an untransformed leaf from its bounds."""
+        if all(map(math.isfinite, lv + hv)):
+            self.lo, self.hi = np.array((lv, hv))  # one array, two row views
+            self.bounded = True
+            self.size = math.dist(lv, hv)
+        else:
+            self.lo, self.hi = np.full(3, -np.inf), np.full(3, np.inf)
+            self.bounded = False
+            self.size = self.prim.size
 
     def to_object(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.identity:
