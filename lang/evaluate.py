@@ -275,6 +275,22 @@ class _Break(Exception):
     pass
 
 
+# Solid colours seen so far, each kept as one tuple: a thousand `pigment { rgb 1 }` then
+# hold one colour (a stored scene loads it once). Bounded: past the limit colours are kept
+# as they come.
+_COLOURS: dict[tuple, tuple] = {}
+_MAX_COLOURS = 4096
+
+
+def _shared_colour(c: tuple) -> tuple:
+    got = _COLOURS.get(c)
+    if got is not None:
+        return got
+    if len(_COLOURS) < _MAX_COLOURS:
+        _COLOURS[c] = c
+    return c
+
+
 # The interior of every object that names none: one (frozen) value, not one each (a stored
 # scene of thousands of objects loads it once).
 _DEFAULT_INTERIOR = ir.Interior()
@@ -3218,12 +3234,12 @@ def _b_pigment(it: Interpreter, g: Grouped, node: syntax.Block) -> ir.Pigment:
             pig = replace(v, span=node.span)
             params = dict(v.params)
         elif name == "color":
-            pig = replace(pig, pattern="solid", color=as_color(v).rgbft)
+            pig = replace(pig, pattern="solid", color=_shared_colour(as_color(v).rgbft))
         elif name in schema.COMPONENT_WORDS:
             c = list(pig.color)
             for k in range(3) if name in ("gray", "grey") else [_COMPONENT_INDEX[name]]:
                 c[k] = v
-            pig = replace(pig, pattern="solid", color=tuple(c))
+            pig = replace(pig, pattern="solid", color=_shared_colour(tuple(c)))
         elif name in _TRANSFORM_WORDS:
             pig = transform_pigment(pig, _item_matrix(name, args))
         elif name == "map":
