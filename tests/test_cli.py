@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -683,3 +684,28 @@ def test_the_library_path_from_the_environment_is_searched(tmp_path, monkeypatch
 
     assert colour()[:3] == [0.0, 0.0, 1.0]
     assert colour("-L", str(first))[:3] == [1.0, 0.0, 0.0]
+
+
+@needs_evaluator
+def test_the_command_exits_without_teardown_but_not_under_a_profiler(tmp_path):
+    # run() skips Python's teardown (atexit handlers, freeing every object) once the command
+    # is done, with main()'s exit code and all output flushed; under a profiler it exits
+    # normally so that the profile is written.
+    scene = tmp_path / "bad.pov"
+    scene.write_text("sphere { 0, }\n")
+    script = (
+        "import atexit, sys\n"
+        "from runtime import cli\n"
+        "atexit.register(lambda: print('teardown ran'))\n"
+        "if sys.argv[1] == 'profiled':\n"
+        "    sys.setprofile(lambda *a: None)\n"
+        f"sys.argv = ['strala', 'check', {str(scene)!r}]\n"
+        "cli.run()\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    for mode, teardown in (("plain", False), ("profiled", True)):
+        done = subprocess.run([sys.executable, "-c", script, mode], capture_output=True,
+                              text=True, env=env, cwd=tmp_path)  # fmt: skip
+        assert done.returncode == 1, done.stderr  # check's code for an error
+        assert "bad.pov:1:" in done.stdout + done.stderr  # the diagnostic got out
+        assert ("teardown ran" in done.stdout) is teardown
