@@ -270,11 +270,13 @@ def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
     rows[:, 0:3], rows[:, 3:6] = lo, hi
     inner = np.array([k for k in range(m) if tree.kids[k] is not None], dtype=np.int64)
     leaves = [k for k in range(m) if tree.kids[k] is None]
-    items: list[int] = []
-    for k in leaves:
-        rows[k, 6:8] = -1
-        rows[k, 8], rows[k, 9] = len(items), len(tree.items[k])
-        items.extend(bounded[int(i)] for i in tree.items[k])
+    # each tree leaf's roots, one run after another in `items` (in whole columns)
+    runs = [tree.items[k] for k in leaves]
+    counts = np.array([len(r) for r in runs], dtype=np.int64)
+    rows[leaves, 6:8] = -1
+    rows[leaves, 8] = np.cumsum(counts) - counts
+    rows[leaves, 9] = counts
+    items = np.asarray(bounded, dtype=np.int64)[np.concatenate(runs)].tolist()
     if len(inner):
         kids = np.array([tree.kids[k] for k in inner], dtype=np.int64).reshape(-1, 2)
         left, right = kids[:, 0], kids[:, 1]
@@ -404,6 +406,8 @@ def _uncovered(node) -> set[str]:
 def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:
     """Every node, roots first, each node's children after it (breadth first); the flat
     list of child indices; where each CSG node's children start in it (by id)."""
+    if all(type(n) is Leaf for n in roots):  # a scene without CSG: nothing to walk
+        return list(roots), [], {}
     order, index = list(roots), {id(n): i for i, n in enumerate(roots)}
     children: list[int] = []
     k = 0
