@@ -61,7 +61,7 @@ _TESSELLATED = tuple(
 )
 
 
-# Shapes whose untransformed leaves take the short way (Leaf.untransformed).
+# Shapes whose untransformed leaves node() makes first, without its other checks.
 _PLAIN = (ir.Sphere, ir.Box)
 
 
@@ -122,19 +122,6 @@ class _Builder:
         shape = obj.shape
         flags = {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
         if (
-            type(shape) in _PLAIN
-            and not (obj.inverse or obj.clipped_by)
-            and obj.transform == ir.IDENTITY
-            and (type(shape) is ir.Box or shape.radius != 0)  # shapes.degenerate's cases
-        ):
-            # what node() makes of it, without the checks that cannot apply: most of a
-            # large scene is spheres and boxes where they were written
-            index = self.add_leaf_object(obj, flags)
-            leaf = Leaf.untransformed(shapes.primitive_for(shape), index)
-            self.sizes[index] = leaf.size
-            self.nodes.append(leaf)
-            return
-        if (
             isinstance(shape, ir.CSG)
             and shape.op == "union"
             and not (obj.inverse or obj.clipped_by)
@@ -177,6 +164,18 @@ class _Builder:
         flags = (
             inherited if merged else {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
         )
+        if (
+            type(shape) in _PLAIN
+            and not (obj.inverse or obj.clipped_by)
+            and obj.transform == ir.IDENTITY
+            and not shapes.degenerate(shape)
+        ):
+            # a sphere or box where it was written, most of a large scene: its leaf at once,
+            # past the checks below that cannot apply to it
+            index = self.add_leaf_object(obj, flags)
+            leaf = Leaf(shapes.primitive_for(shape), None, index)
+            self.sizes[index] = leaf.size
+            return leaf
         if isinstance(shape, ir.Unsupported):
             return None
         if isinstance(shape, ir.SphereSweep):

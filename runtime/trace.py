@@ -133,17 +133,6 @@ class Leaf:
             stretch = float(np.linalg.svd(matrix[:3, :3], compute_uv=False).max())
             self.size = prim.size * stretch
 
-    @classmethod
-    def untransformed(cls, prim, index: int) -> Leaf:
-        """Leaf(prim, None, index) for a primitive with `bounds_lists`, without the checks
-        that cannot apply (the common leaf of a large scene)."""
-        leaf = cls.__new__(cls)
-        leaf.prim, leaf.index, leaf.inverse, leaf.identity = prim, index, False, True
-        leaf.m = leaf.m_inv = _IDENTITY
-        leaf.leaves = [index]
-        leaf._place(*prim.bounds_lists())
-        return leaf
-
     def _place(self, lv: list[float], hv: list[float]) -> None:
         """Box, boundedness and size of an untransformed leaf from its bounds."""
         if all(map(math.isfinite, lv + hv)):
@@ -355,9 +344,7 @@ class BoxTree:
         if _boxtree is not None and len(lo) > 0 and not _PYTHON_TREE:
             self._compiled(lo, hi)
             return
-        self._centre = (lo + hi) / 2
-        self._build(np.arange(len(lo)), lo, hi)
-        del self._centre
+        self._build(np.arange(len(lo)), lo, hi, (lo + hi) / 2)
 
     def _compiled(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """The same tree as `_build`, built in C (`runtime._boxtree`)."""
@@ -374,16 +361,17 @@ class BoxTree:
         runs = zip(first[:m].tolist(), count[:m].tolist(), strict=True)
         self.items = [order[f : f + c] for f, c in runs]
 
-    def _build(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
+    def _build(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray, centre: np.ndarray) -> int:
+        """Node for the boxes `ids` (centre: every box's centre, computed once)."""
         k = len(self.lo)
         self.lo.append(lo[ids].min(axis=0))
         self.hi.append(hi[ids].max(axis=0))
         self.kids.append(None)
         self.items.append(ids)
         if len(ids) > self.LEAF_SIZE:
-            centre = self._centre[ids]
-            axis = int(np.argmax(centre.max(axis=0) - centre.min(axis=0)))
-            along = centre[:, axis]
+            mine = centre[ids]
+            axis = int(np.argmax(mine.max(axis=0) - mine.min(axis=0)))
+            along = mine[:, axis]
             sort = np.argsort(along, kind="stable")
             order = ids[sort]
             # Split at the middle of the centres' span, not at the median: a few objects far
@@ -393,8 +381,8 @@ class BoxTree:
             half = int(np.searchsorted(c, (c[0] + c[-1]) / 2, side="right"))
             if not 0 < half < len(order):
                 half = len(order) // 2
-            left = self._build(order[:half], lo, hi)
-            right = self._build(order[half:], lo, hi)
+            left = self._build(order[:half], lo, hi, centre)
+            right = self._build(order[half:], lo, hi, centre)
             self.kids[k] = (left, right)
         return k
 
