@@ -431,19 +431,20 @@ def _table(rows: list, width: int) -> np.ndarray:
 
 
 def _prim_row(prim) -> list[float]:
-    """A primitive's parameters (PRIM_SLOTS of them): sphere centre and radius, plane normal
-    and distance, box corners, disc centre, normal, radius^2 and hole^2, cone/cylinder
-    canonical frame (object to canonical rows), radii and openness."""
-    if isinstance(prim, shapes.SpherePrim):
-        row = [*prim.c.tolist(), prim.r]
-    elif isinstance(prim, shapes.PlanePrim):
+    """A primitive's parameters (PRIM_SLOTS of them): plane normal and distance, box
+    corners, disc centre, normal, radius^2 and hole^2, cone/cylinder canonical frame (object
+    to canonical rows), radii and openness. A sphere's (centre and radius) are written by
+    pack, all spheres at once."""
+    if isinstance(prim, shapes.PlanePrim):
         row = [*prim.n.tolist(), prim.dist]
     elif isinstance(prim, shapes.BoxPrim):
         row = [*prim.lo.tolist(), *prim.hi.tolist()]
     elif isinstance(prim, shapes.DiscPrim):
         row = [*prim.c.tolist(), *prim.n.tolist(), prim.r2, prim.h2]
-    else:
+    elif isinstance(prim, shapes.ConePrim):
         row = [*prim.frame_inv[:3].ravel().tolist(), prim.r0, prim.r1, float(prim.open)]
+    else:
+        raise TypeError(f"no kernel row for {type(prim).__name__}")
     return row + [0.0] * (PRIM_SLOTS - len(row))
 
 
@@ -526,7 +527,8 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     for k, leaf in enumerate(leaves):
         if not leaf.identity:
             rows[k, O_MINV : O_MINV + 12] = _inv_rows(leaf.m_inv)
-    # spheres, the bulk of a large scene, in one gather; the other shapes row by row
+    # spheres, the bulk of a large scene, in one gather (centre, radius); the other shapes
+    # row by row
     spheres = [k for k, leaf in enumerate(leaves) if type(leaf.prim) is shapes.SpherePrim]
     if spheres:
         rows[spheres, O_PRIM : O_PRIM + 3] = [leaves[k].prim.c for k in spheres]
