@@ -798,7 +798,6 @@ class Interpreter:
         # every path an #include probed: the digest of the text read there, None for a miss
         self.probed: dict[str, str | None] = {}
         self._digests: dict[str, str] = {}  # resolved include path -> digest of its text
-        self._found = ""  # the probed path the last include was found at
         self.printed: list[str] = []  # `#debug` text written to stderr
 
     # ------------------------------------------------------------ running
@@ -1172,14 +1171,15 @@ class Interpreter:
         name = self.eval(node.path)
         if not isinstance(name, str):
             raise self.error("E0202", "#include needs a file name string", node.span)
-        path = self._resolve(name, include=True)
-        if path is None:
+        found = self._find(name)
+        if found is None:
             raise self.error(
                 "E0220",
                 f"include file `{name}` not found",
                 node.span,
                 "searched the scene's folder, the -L library paths and strala's stdlib",
             )
+        probed_at, path = found
         if path in self.file_stack:
             raise self.error(
                 "E0221",
@@ -1201,7 +1201,7 @@ class Interpreter:
             self.sink.items.extend(self._defer_macro_errors(tree.body, diags))
             self.parse_cache[path] = tree
             self._digests[path] = scene_store.digest(text)
-        self.probed[self._found] = self._digests.get(path)
+        self.probed[probed_at] = self._digests.get(path)
         if path not in self.files:
             self.files.append(path)
         self.file_stack.append(path)
@@ -1237,12 +1237,17 @@ class Interpreter:
                 self.broken_macros.setdefault(home.span, []).append(d)
         return kept
 
-    def _resolve(self, name: str, include: bool = False) -> str | None:
-        """The file `name` names: in the current file's folder, the library paths, the
-        stdlib. An include's probes are kept (lang.scene_store); looking for any other
-        file (found or not) makes the result depend on one whose text is not followed."""
-        if not include:
-            self.depends_outside(f"the file {name}")
+    def _resolve(self, name: str) -> str | None:
+        """The file `name` names (not an include's: see _find). Looking for it, found or
+        not, makes the result depend on a file whose text is not followed."""
+        self.depends_outside(f"the file {name}")
+        found = self._find(name)
+        return None if found is None else found[1]
+
+    def _find(self, name: str) -> tuple[str, str] | None:
+        """(the path probed, the resolved path) of the file `name` names: in the current
+        file's folder, the library paths, the stdlib. The misses are kept in `probed`
+        (lang.scene_store follows them)."""
         here = Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()
         candidates = [here, *map(Path, self.library_paths), STDLIB]
         if os.path.isabs(name):
@@ -1250,11 +1255,8 @@ class Interpreter:
         for folder in candidates:
             p = folder / name
             if p.is_file():
-                if include:
-                    self._found = str(p)
-                return str(p.resolve())
-            if include:
-                self.probed.setdefault(str(p), None)
+                return str(p), str(p.resolve())
+            self.probed.setdefault(str(p), None)
         return None
 
     def standalone(self, result: Result) -> bool:

@@ -182,7 +182,7 @@ FILE_ACCESS = {
     ("evaluate", "compile_file"): "the main file: its text is part of the key",
     ("evaluate", "_find_declaring_include"): "a hint for an error: errors are not stored",
     ("evaluate", "_d_include"): "an include: its text's digest is kept",
-    ("evaluate", "_resolve"): "include probes are kept; other files call depends_outside",
+    ("evaluate", "_find"): "include probes are kept; _resolve (other files) depends_outside",
     ("evaluate", "_d_fileop"): "file I/O: depends_outside",
     ("evaluate", "_unreadable_image"): "after _resolve found the image: depends_outside",
     ("builtins", "_file_exists"): "sets BuiltinState.looked_outside",
