@@ -64,10 +64,19 @@ def read(path: Path) -> Any | None:
         with open(path, "rb") as f:
             value = pickle.load(f)
             os.utime(f.fileno())  # least recently used first, when pruning
-    except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ValueError, TypeError):
-        return None
-    except (ImportError, IndexError, KeyError, RecursionError):  # written by other code
-        return None
+    except (
+        OSError,
+        EOFError,
+        pickle.UnpicklingError,
+        AttributeError,
+        ValueError,
+        TypeError,
+        ImportError,
+        IndexError,
+        KeyError,
+        RecursionError,
+    ):
+        return None  # damaged, or written by other code
     return value
 
 

@@ -198,25 +198,12 @@ def instructions(seed: str, hidden: str, width: int, height: int) -> None:
     )
 
 
-class _store:
+def _store(folder: Path):
     """STRALA_CACHE set to `folder` for the commands started inside (they inherit it)."""
+    import os
+    from unittest import mock
 
-    def __init__(self, folder: Path):
-        self.folder = folder
-
-    def __enter__(self):
-        import os
-
-        self.old = os.environ.get("STRALA_CACHE")
-        os.environ["STRALA_CACHE"] = str(self.folder)
-
-    def __exit__(self, *exc):
-        import os
-
-        if self.old is None:
-            del os.environ["STRALA_CACHE"]
-        else:
-            os.environ["STRALA_CACHE"] = self.old
+    return mock.patch.dict(os.environ, {"STRALA_CACHE": str(folder)})
 
 
 if __name__ == "__main__":
