@@ -10,6 +10,7 @@ setup(
         Extension(
             "runtime._whitted",
             ["runtime/kernel/whitted.c"],
+            depends=["runtime/kernel/buffer.h"],
             extra_compile_args=["-O3", "-fno-math-errno"],
             # linked to libm, not left to bind at load time: an unversioned `pow` bound to
             # glibc's oldest version, a wrapper around the fast one (a fifth slower)
@@ -19,6 +20,7 @@ setup(
         Extension(
             "runtime._boxtree",
             ["runtime/kernel/boxtree.c"],
+            depends=["runtime/kernel/buffer.h"],
             extra_compile_args=["-O3"],
             optional=True,
         ),

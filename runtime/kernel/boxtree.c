@@ -8,6 +8,7 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include "buffer.h"
 #include <stdlib.h>
 
 typedef struct {
@@ -80,18 +81,6 @@ static Py_ssize_t build(Build *b, Py_ssize_t offset, Py_ssize_t n) {
     return k;
 }
 
-static int view(PyObject *obj, Py_buffer *v, Py_ssize_t items, Py_ssize_t size, int writable,
-                const char *name) {
-    if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)))
-        return -1;
-    if (v->itemsize != size || v->len < items * size) {
-        PyErr_Format(PyExc_ValueError, "%s: expected %zd items of %zd bytes", name, items, size);
-        PyBuffer_Release(v);
-        return -1;
-    }
-    return 0;
-}
-
 static PyObject *py_build(PyObject *self, PyObject *args) {
     PyObject *lo_o, *hi_o, *nlo_o, *nhi_o, *kids_o, *first_o, *count_o, *order_o;
     Py_ssize_t n, leaf;
@@ -111,7 +100,8 @@ static PyObject *py_build(PyObject *self, PyObject *args) {
     const char *names[8] = {"lo", "hi", "node_lo", "node_hi", "kids", "first", "count", "order"};
     PyObject *result = NULL;
     for (; got < 8; got++)
-        if (view(objs[got], &v[got], items[got], sizes[got], got >= 2, names[got])) goto done;
+        if (checked_buffer(objs[got], &v[got], items[got], sizes[got], got >= 2, names[got]))
+            goto done;
     double *centre = malloc((size_t)n * 3 * sizeof(double));
     Entry *scratch = malloc((size_t)n * sizeof(Entry));
     if (!centre || !scratch) {

@@ -12,6 +12,7 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include "buffer.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -928,19 +929,6 @@ static void trace(Scene *s, const double *o, const double *d, double weight, int
     shade(s, o, d, &h, weight, level + (continued ? 0 : 1), skip, cls, out);
 }
 
-static int get_buffer(PyObject *obj, Py_buffer *view, Py_ssize_t need, int writable,
-                      const char *name) {
-    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)))
-        return -1;
-    if (view->itemsize != 8 || view->len < need * 8) {
-        PyErr_Format(PyExc_ValueError, "%s: expected %zd float64 values", name, need);
-        PyBuffer_Release(view);
-        return -1;
-    }
-    return 0;
-}
-
-
 /* The Scene view of a packed array; -1 with an exception set when it is too short. */
 static int scene_from(const Py_buffer *sb, Scene *s) {
     const double *h = sb->buf;
@@ -1080,8 +1068,8 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
         return NULL;
     }
     Py_buffer sb, ob;
-    if (get_buffer(scene_o, &sb, HDR, 0, "scene")) return NULL;
-    if (get_buffer(out_o, &ob, (Py_ssize_t)3 * tw * th, 1, "out")) {
+    if (checked_buffer(scene_o, &sb, HDR, 8, 0, "scene")) return NULL;
+    if (checked_buffer(out_o, &ob, (Py_ssize_t)3 * tw * th, 8, 1, "out")) {
         PyBuffer_Release(&sb);
         return NULL;
     }
