@@ -791,6 +791,8 @@ class Interpreter:
         self.fogs: list[ir.Fog] = []  # every fog block, in order (POV-Ray applies them all)
         self.media: list[ir.Media] = []  # atmospheric media blocks
         self.default_texture = ir.Texture()
+        # plain textures by value (see _shared_texture), each with the finish its key names
+        self._textures: dict[tuple, tuple[ir.Finish, ir.Texture]] = {}
         self.handles: dict[str, FileHandle] = {}
         # What the result depends on beyond the text of its files and its options (file
         # I/O, `now`, an image …): a result that does is not stored (lang.scene_store).
@@ -2410,6 +2412,33 @@ class Interpreter:
         return args, i
 
     # ------------------------------------------------------------ objects
+    def _shared_texture(self, tex: ir.Texture) -> ir.Texture:
+        """One texture object for the objects whose textures are the same plain colour and
+        finish: a thousand `sphere { … pigment { rgb 1 } }` then share one (a stored scene
+        loads it once, the renderer numbers it once). A solid pigment's span is dropped:
+        only an image_map's is ever read."""
+        pig = tex.pigment
+        if (
+            pig.pattern != "solid"
+            or pig.params
+            or pig.list
+            or pig.color_map
+            or pig.pigment_map
+            or tex.layers
+            or tex.normal is not None
+            or tex.pattern is not None
+            or tex.map
+        ):
+            return tex
+        # the finish by identity (hashing one per object cost more than sharing saves): a
+        # declared or default finish is one object; the pair keeps it alive, its id unique
+        key = (pig.color, pig.transform, id(tex.finish), tex.span)
+        hit = self._textures.get(key)
+        if hit is None:
+            shared = tex if pig.span is None else replace(tex, pigment=replace(pig, span=None))
+            hit = self._textures[key] = (tex.finish, shared)
+        return hit[1]
+
     def to_ir(
         self,
         obj: ObjectValue,
@@ -2427,7 +2456,9 @@ class Interpreter:
         own = obj.texture
         if own is not None and has_parent:
             own = transform_texture(own, parent)
-        tex = own or inherited or placed or obj.default or self.default_texture
+        tex = self._shared_texture(
+            own or inherited or placed or obj.default or self.default_texture
+        )
         own_interior = obj.interior
         if has_parent:
             own_interior = media_blocks.transform_interior(own_interior, parent)

@@ -99,6 +99,8 @@ class _Builder:
         self.curved: list[bool] = []
         self.curved_ids: set[int] = set()  # id() of the meshes tessellated from curved shapes
         self.cull: _Culler | None = None
+        # plain spheres waiting for their leaves: (node slot, object index, centre, radius)
+        self.spheres: list[tuple[int, int, tuple, float]] = []
 
     def warn_once(self, msg: str, span=None) -> None:
         """One line per distinct problem, on stderr, blaming the object's source when known."""
@@ -116,6 +118,42 @@ class _Builder:
             self.flags[k].append(flags[k])
         self.sizes.append(0.0)
         return index
+
+    def plain_sphere(self, obj: ir.Object) -> bool:
+        """Take obj if it is a sphere where it was written, with no flags, inverse or
+        clipping (most objects of a large scene): its leaf is made later with the others
+        (`place_spheres`). False: obj is not one, `top` has to see it."""
+        shape = obj.shape
+        if (
+            type(shape) is not ir.Sphere
+            or not shape.radius
+            or obj.no_image
+            or obj.no_reflection
+            or obj.no_shadow
+            or obj.inverse
+            or obj.clipped_by
+            or not (obj.transform is ir.IDENTITY or obj.transform == ir.IDENTITY)
+        ):
+            return False
+        index = len(self.objects)
+        self.objects.append(obj)
+        self.curved.append(False)
+        for k in FLAG_NAMES:
+            self.flags[k].append(False)
+        self.sizes.append(0.0)
+        self.spheres.append((len(self.nodes), index, shape.center, shape.radius))
+        self.nodes.append(None)  # its slot: the scene's order stays the nodes' order
+        return True
+
+    def place_spheres(self) -> None:
+        """The leaves of the spheres `plain_sphere` took, in their node slots."""
+        if not self.spheres:
+            return
+        slots, indices, centres, radii = zip(*self.spheres, strict=True)
+        for slot, leaf in zip(slots, Leaf.spheres(centres, radii, indices), strict=True):
+            self.nodes[slot] = leaf
+            self.sizes[leaf.index] = leaf.size
+        self.spheres = []
 
     def top(self, obj: ir.Object, inherited: dict[str, bool]) -> None:
         """A top-level object or a child of a flattened union."""
@@ -317,7 +355,9 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     b.cull = _Culler(scene) if cull else None
     no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
-        b.top(obj, no_flags)
+        if not b.plain_sphere(obj):
+            b.top(obj, no_flags)
+    b.place_spheres()
     for light in scene.lights:
         if light.looks_like is not None:
             # POV-Ray moves a looks_like object (modelled around the origin) to the light and

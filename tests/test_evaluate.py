@@ -410,6 +410,26 @@ sphere { 0, 1 translate x*2 pigment { checker } }""")
     assert b.texture.pigment.transform == ir.IDENTITY  # given after the move
 
 
+def test_equal_plain_textures_are_one_object():
+    """Objects with the same solid colour and finish share one texture (what a stored scene
+    loads once and the renderer numbers once); any difference keeps them apart."""
+    r = ok("""#declare F = finish { phong 1 }
+sphere { 0, 1 pigment { rgb 1 } }
+sphere { x, 1 pigment { rgb 1 } }
+sphere { y, 1 pigment { rgb <1,1,1> } finish { F } }
+sphere { z, 1 pigment { rgb 1 } finish { F } }
+sphere { -x, 1 pigment { rgb 0.5 } }
+sphere { -y, 1 pigment { rgb 1 translate x } }
+sphere { -z, 1 pigment { checker } }
+sphere { 2*x, 1 pigment { checker } }""")
+    t = [o.texture for o in r.scene.objects]
+    assert t[0] is t[1] and t[2] is t[3]
+    assert len({id(x) for x in t[:6]}) == 4  # rgb 1; rgb 1 + F; rgb 0.5; rgb 1 moved
+    assert t[0].pigment.color[:3] == (1.0, 1.0, 1.0) and t[2].finish.phong == 1.0
+    assert t[0].pigment.span is None  # a solid pigment's span is never read
+    assert t[6] is not t[7] and t[6].pigment.span is not None  # patterns stay apart
+
+
 def test_csg_children_inherit_texture_and_compose_transforms():
     r = ok("""union {
   sphere { 0, 1 translate x }

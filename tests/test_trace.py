@@ -357,6 +357,64 @@ def test_batched_leaves_match_one_by_one():
     assert (h.obj == 7).any()  # the inverse box (everything outside it) is seen
 
 
+_COORD = st.one_of(
+    st.floats(-1e7, 1e7, allow_nan=False), st.sampled_from([np.inf, -np.inf, np.nan, 0.0])
+)
+
+
+@given(
+    spheres=st.lists(
+        st.tuples(st.tuples(_COORD, _COORD, _COORD), st.one_of(_COORD, st.floats(-5, 5))),
+        min_size=1,
+        max_size=12,
+    )
+)
+def test_sphere_leaves_made_together_are_the_ones_made_alone(spheres):
+    """Leaf.spheres (prepare's way for a scene's plain spheres) gives the leaves the Leaf
+    constructor gives, number for number, also for infinite and NaN centres and radii."""
+    from runtime.shapes import SpherePrim
+    from runtime.trace import Leaf
+
+    centres, radii = [c for c, _ in spheres], [r for _, r in spheres]
+    indices = [3 * k + 1 for k in range(len(spheres))]
+    together = Leaf.spheres(centres, radii, indices)
+    for c, r, index, leaf in zip(centres, radii, indices, together, strict=True):
+        alone = Leaf(SpherePrim(c, r), None, index)
+        assert type(leaf.prim) is SpherePrim
+        np.testing.assert_array_equal(leaf.prim.c, alone.prim.c)
+        assert (leaf.prim.r, leaf.prim.size) == (alone.prim.r, alone.prim.size) or np.isnan(
+            alone.prim.r
+        )
+        np.testing.assert_array_equal(leaf.lo, alone.lo)
+        np.testing.assert_array_equal(leaf.hi, alone.hi)
+        assert leaf.bounded == alone.bounded
+        assert leaf.size == alone.size or (np.isnan(leaf.size) and np.isnan(alone.size))
+        assert (leaf.index, leaf.leaves, leaf.inverse, leaf.identity) == (
+            alone.index, alone.leaves, alone.inverse, alone.identity
+        )  # fmt: skip
+        assert leaf.m is alone.m and leaf.m_inv is alone.m_inv
+
+
+def test_plain_spheres_keep_the_scene_order():
+    """prepare makes plain spheres' leaves after the other objects' and puts them back in
+    their places: objects, leaves and nodes stay in scene order."""
+    objs = [
+        ir.Object(ir.Sphere((0, 0, 0), 1)),
+        ir.Object(ir.Box((0, 0, 0), (1, 1, 1))),
+        ir.Object(ir.Sphere((3, 0, 0), 1), no_shadow=True),  # flagged: the usual way
+        ir.Object(ir.Sphere((6, 0, 0), 2)),
+        ir.Object(ir.Plane((0, 1, 0), -1)),
+        ir.Object(ir.Sphere((9, 0, 0), 0.5)),
+    ]
+    prep = prep_of(*objs)
+    assert prep.objects == objs
+    assert [n.index for n in prep.tracer.nodes] == list(range(len(objs)))
+    assert prep.tracer.flags["no_shadow"].tolist() == [False, False, True, False, False, False]
+    spheres = [0, 2, 3, 5]
+    assert [float(prep.tracer.nodes[k].prim.r) for k in spheres] == [1, 1, 2, 0.5]
+    assert prep.tracer.sizes[3] == pytest.approx(4 * np.sqrt(3))
+
+
 def test_looks_like_object_moves_to_the_light_and_casts_no_shadow():
     bulb = ir.Object(ir.Sphere((0, 0, 0), 0.5))
     light = ir.Light(position=(0, 10, 0), looks_like=bulb)
