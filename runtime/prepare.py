@@ -19,6 +19,7 @@ from runtime import shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
+from runtime.occlusion import Occluders
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
 FLAG_NAMES = ("no_image", "no_reflection", "no_shadow")
@@ -99,6 +100,7 @@ class _Builder:
         self.curved: list[bool] = []
         self.curved_ids: set[int] = set()  # id() of the meshes tessellated from curved shapes
         self.cull: _Culler | None = None
+        self.occluders: Occluders | None = None  # planes walling objects off (culling on)
         # plain spheres waiting for their leaves: (node slot, object index, centre, radius)
         self.spheres: list[tuple[int, int, tuple, float]] = []
 
@@ -135,6 +137,9 @@ class _Builder:
             or not (obj.transform is ir.IDENTITY or obj.transform == ir.IDENTITY)
         ):
             return False
+        if self.occluders and self.occluders.hides_sphere(shape.center, shape.radius):
+            self.culled.append("sphere")
+            return True
         index = len(self.objects)
         self.objects.append(obj)
         self.curved.append(False)
@@ -155,6 +160,21 @@ class _Builder:
             self.sizes[leaf.index] = leaf.size
         self.spheres = []
 
+    def walled_off(self, obj: ir.Object) -> bool:
+        """Does an occluding plane hide obj (runtime.occlusion)? Asked of the shapes whose
+        bounds come cheaply: untransformed boxes, and surfaces held by their control points
+        (tessellating them is what culling saves most)."""
+        shape = obj.shape
+        if type(shape) is ir.Box and obj.transform == ir.IDENTITY and not obj.inverse:
+            pts = np.array([shape.corner1, shape.corner2], dtype=np.float64)
+            lo, hi = pts.min(axis=0), pts.max(axis=0)
+            corners = np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)])
+            return self.occluders.hides_points(corners)
+        if _TESSELLATED and isinstance(shape, _TESSELLATED) and not obj.inverse:
+            pts = _Culler.hull(obj)
+            return pts is not None and self.occluders.hides_points(pts)
+        return False
+
     def top(self, obj: ir.Object, inherited: dict[str, bool]) -> None:
         """A top-level object or a child of a flattened union."""
         shape = obj.shape
@@ -166,6 +186,9 @@ class _Builder:
         ):
             for child in shape.children:
                 self.top(child, flags)
+            return
+        if self.occluders and self.walled_off(obj):
+            self.culled.append(type(shape).__name__.lower())
             return
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
             if self.cull is not None and self.cull.invisible(obj, flags["no_shadow"]):
@@ -353,6 +376,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     POV-Ray) and is moved to the light's position here, with `no_shadow`."""
     b = _Builder(scene.camera, width)
     b.cull = _Culler(scene) if cull else None
+    b.occluders = Occluders(scene, width, height) if cull else None
     no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
         if not b.plain_sphere(obj):
@@ -424,7 +448,7 @@ class _Culler:
     def invisible(self, obj: ir.Object, no_shadow: bool) -> bool:
         if not self.enabled:
             return False
-        pts = self._hull(obj)
+        pts = self.hull(obj)
         if pts is None:
             return False
         for n, p0 in self.planes:
@@ -435,7 +459,7 @@ class _Culler:
         return False
 
     @staticmethod
-    def _hull(obj: ir.Object) -> np.ndarray | None:
+    def hull(obj: ir.Object) -> np.ndarray | None:
         """World points whose convex hull holds the surface, or None when there are none."""
         shape = obj.shape
         if type(shape).__name__ == "HeightField":  # inside the unit cube

@@ -51,6 +51,13 @@ PARALLEL_EPS: float = 1e-300
 BOX_PAD_REL: float = 1e-9
 BOX_PAD_ABS: float = 1e-12
 
+# An object counts as walled off by a plane (runtime.occlusion) only when it lies beyond the
+# plane by more than this fraction of the coordinates involved, and the camera and lights
+# count as on the near side only as far inside: rounding of the plane's offset and of a
+# hit's distance to it (~1e-16 relative) can never decide it. Objects resting on the plane
+# are kept.
+OCCLUDED_MARGIN_REL: float = 1e-9
+
 # Automatic tessellation tolerance never goes below this fraction of the surface's extent
 # (a camera placed on the surface would otherwise ask for infinitely many triangles).
 TESSELLATION_REL: float = 1e-6

@@ -487,11 +487,11 @@ def test_a_box_the_masks_skip_is_met_by_no_camera_or_shadow_ray(kind, loc, aim, 
 
 
 def test_objects_outside_the_view_are_skipped_and_the_image_is_the_same(monkeypatch):
-    """Spheres left of the view and under the floor: camera rays (and their shadow rays) start
-    their box-tree walk past them; a mirror still shows what it reflects, traced in full."""
+    """Spheres left of the view (above the floor, which would wall off ones under it):
+    camera rays (and their shadow rays) start their box-tree walk past them; a mirror still
+    shows what it reflects, traced in full."""
     rows = "\n".join(
-        f"sphere {{ <{-40 - 3 * (i % 10)}, {-8 - 3 * (i // 10)}, {3 * i % 7}>, 1 }}"
-        for i in range(60)
+        f"sphere {{ <{-40 - 3 * (i % 10)}, {3 * (i // 10)}, {3 * i % 7}>, 1 }}" for i in range(60)
     )
     text = f"""
     camera {{ location <0, 2, -8> look_at <0, 1, 0> }}
