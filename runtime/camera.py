@@ -276,26 +276,50 @@ def _warn_kind(kind: str) -> None:
         print(f"strala: camera type {kind!r} not supported, rendering as perspective")
 
 
-def view_planes(camera: ir.Camera) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Half-spaces (n, p0) with n . (x - p0) <= 0 holding every point the camera can see:
-    the four sides of the view pyramid (or box, orthographic) and the plane through the
-    eye facing forward. Used to skip work for what lies outside (see prepare)."""
+# How far beyond the image the view's half spaces reach, in pixels: anti-aliasing compares
+# with (and so traces) a row and a column just outside the tile, also at the image's edge.
+VIEW_GROW_PIXELS = 2.0
+
+
+def view_planes(camera: ir.Camera, width: int, height: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Half spaces (unit n, p0), n . (x - p0) <= 0, holding every point of every camera ray
+    a render traces (the image grown by VIEW_GROW_PIXELS on each side), or [] when a
+    degenerate camera leaves none to trust. Used to skip work for what lies outside (see
+    prepare and whitted.view_masks)."""
     loc = np.asarray(camera.location, dtype=np.float64)
     fwd = np.asarray(camera.direction, dtype=np.float64)
     right = np.asarray(camera.right, dtype=np.float64)
     up = np.asarray(camera.up, dtype=np.float64)
-    planes = [(-fwd / np.linalg.norm(fwd), loc)]
-    for side, across in ((right, up), (-right, up), (up, right), (-up, right)):
-        if camera.kind == "orthographic":
-            n = side - (side @ _unit(fwd)) * _unit(fwd)
-            planes.append((_unit(n), loc + side / 2))
-        else:
-            # The side face holds the eye and the two frame corners fwd + side/2 +- across/2.
-            n = np.cross(fwd + side / 2 - across / 2, fwd + side / 2 + across / 2)
-            if n @ fwd > 0:
-                n = -n
-            planes.append((_unit(n), loc))
-    return planes
+    gx = 0.5 + VIEW_GROW_PIXELS / max(width, 1)
+    gy = 0.5 + VIEW_GROW_PIXELS / max(height, 1)
+    out = []
+    if camera.kind == "orthographic":
+        # origins loc + sx right + sy up (|sx| <= gx, |sy| <= gy), all going along fwd
+        for n, reach, centre in (
+            (np.cross(fwd, up), gx * right, right),
+            (np.cross(fwd, right), gy * up, up),
+        ):
+            if not n @ centre:
+                return []
+            n = n if n @ centre > 0 else -n
+            out += [(n, loc + reach), (-n, loc - reach)]
+        back = np.cross(right, up)
+        if not back @ fwd:
+            return []
+        out.append((-back if back @ fwd > 0 else back, loc))
+    else:
+        # rays from loc along fwd + sx right + sy up: the pyramid over the grown image
+        corners = [
+            fwd + a * gx * right + b * gy * up for a, b in ((1, 1), (-1, 1), (-1, -1), (1, -1))
+        ]
+        for k in range(4):
+            n = np.cross(corners[k], corners[(k + 1) % 4])
+            if not n @ fwd:
+                return []
+            out.append((-n if n @ fwd > 0 else n, loc))
+        if all(c @ fwd > 0 for c in corners):  # every ray goes forward: nothing behind the eye
+            out.append((-fwd, loc))
+    return [(n / np.linalg.norm(n), p0) for n, p0 in out]
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

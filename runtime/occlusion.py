@@ -34,13 +34,14 @@ from lang import ir
 from runtime import patterns
 from runtime import tolerances as tol
 from runtime import transform as tf
+from runtime.camera import VIEW_GROW_PIXELS
 
 # The projections whose camera rays all start at `location` (perspective) or on the image
 # rectangle around it (orthographic).
 _CAMERAS = ("perspective", "orthographic")
 # Pixels beyond the image's edge whose rays are traced (anti-aliasing compares with them):
-# whitted.VIEW_GROW_PIXELS, with a margin.
-_GROW_PIXELS = 4.0
+# camera.VIEW_GROW_PIXELS, with a margin.
+_GROW_PIXELS = 2 * VIEW_GROW_PIXELS
 
 
 class Occluders:
@@ -96,7 +97,7 @@ class Occluders:
 def _camera_origins(cam: ir.Camera, width: int, height: int) -> list[np.ndarray]:
     """Points whose convex hull holds every camera ray's origin: the location, or for an
     orthographic camera the corners of the image rectangle, grown by the pixels beyond its
-    edge that anti-aliasing traces (whitted.VIEW_GROW_PIXELS)."""
+    edge that anti-aliasing traces (camera.VIEW_GROW_PIXELS)."""
     loc = np.asarray(cam.location, dtype=np.float64)
     if cam.kind != "orthographic":
         return [loc]
@@ -118,7 +119,7 @@ def _plane_of(obj: ir.Object) -> tuple[np.ndarray, float] | None:
         or obj.clipped_by
         or obj.no_image
         or obj.no_reflection
-        or _lets_light_through(obj.texture)
+        or lets_light_through(obj.texture)
     ):
         return None
     n = np.asarray(shape.normal, dtype=np.float64)
@@ -137,11 +138,12 @@ def _plane_of(obj: ir.Object) -> tuple[np.ndarray, float] | None:
     return n, float(np.dot(n, point))
 
 
-def _lets_light_through(tex: ir.Texture) -> bool:
+def lets_light_through(tex: ir.Texture) -> bool:
+    """May some layer of the texture filter or transmit light (patterns.may_transmit)?"""
     if tex.pattern is None and patterns.may_transmit(tex.pigment):
         return True
-    return any(_lets_light_through(t) for t in tex.layers) or any(
-        _lets_light_through(t) for _, t in tex.map
+    return any(lets_light_through(t) for t in tex.layers) or any(
+        lets_light_through(t) for _, t in tex.map
     )
 
 

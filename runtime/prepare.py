@@ -19,7 +19,7 @@ from runtime import shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
-from runtime.occlusion import Occluders
+from runtime.occlusion import Occluders, lets_light_through
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
 FLAG_NAMES = ("no_image", "no_reflection", "no_shadow")
@@ -137,7 +137,9 @@ class _Builder:
             or not (obj.transform is ir.IDENTITY or obj.transform == ir.IDENTITY)
         ):
             return False
-        if self.occluders and self.occluders.hides_sphere(shape.center, shape.radius):
+        if (self.occluders and self.occluders.hides_sphere(shape.center, shape.radius)) or (
+            self.cull is not None and self.cull.hides_sphere(shape.center, shape.radius)
+        ):
             self.culled.append("sphere")
             return True
         index = len(self.objects)
@@ -160,20 +162,19 @@ class _Builder:
             self.sizes[leaf.index] = leaf.size
         self.spheres = []
 
-    def walled_off(self, obj: ir.Object) -> bool:
-        """Does an occluding plane hide obj (runtime.occlusion)? Asked of the shapes whose
-        bounds come cheaply: untransformed boxes, and surfaces held by their control points
-        (tessellating them is what culling saves most)."""
-        shape = obj.shape
-        if type(shape) is ir.Box and obj.transform == ir.IDENTITY and not obj.inverse:
-            pts = np.array([shape.corner1, shape.corner2], dtype=np.float64)
-            lo, hi = pts.min(axis=0), pts.max(axis=0)
-            corners = np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)])
-            return self.occluders.hides_points(corners)
-        if _TESSELLATED and isinstance(shape, _TESSELLATED) and not obj.inverse:
-            pts = _Culler.hull(obj)
-            return pts is not None and self.occluders.hides_points(pts)
-        return False
+    def hidden(self, obj: ir.Object, no_shadow: bool) -> bool:
+        """Is obj walled off by a plane (runtime.occlusion), or outside the view where
+        nothing can show or shadow it (_Culler)? Asked of the shapes whose bounds come
+        cheaply: untransformed boxes, and surfaces held by their control points (whose
+        tessellation culling saves most)."""
+        if not (self.occluders or (self.cull is not None and self.cull.enabled)):
+            return False
+        pts = _bounding_points(obj)
+        if pts is None:
+            return False
+        if self.occluders and self.occluders.hides_points(pts):
+            return True
+        return self.cull is not None and self.cull.invisible_points(pts, no_shadow)
 
     def top(self, obj: ir.Object, inherited: dict[str, bool]) -> None:
         """A top-level object or a child of a flattened union."""
@@ -187,13 +188,10 @@ class _Builder:
             for child in shape.children:
                 self.top(child, flags)
             return
-        if self.occluders and self.walled_off(obj):
+        if self.hidden(obj, flags["no_shadow"]):
             self.culled.append(type(shape).__name__.lower())
             return
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
-            if self.cull is not None and self.cull.invisible(obj, flags["no_shadow"]):
-                self.culled.append(type(shape).__name__.lower())
-                return
             mesh = self.tessellate(obj)
             if mesh is None:
                 return
@@ -375,7 +373,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     A light's `looks_like` object is taken as modelled around the origin (as written in
     POV-Ray) and is moved to the light's position here, with `no_shadow`."""
     b = _Builder(scene.camera, width)
-    b.cull = _Culler(scene) if cull else None
+    b.cull = _Culler(scene, width, height) if cull else None
     b.occluders = Occluders(scene, width, height) if cull else None
     no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
@@ -416,46 +414,68 @@ class _Culler:
     """Decides that a surface needs no tessellation because it cannot show in the image.
 
     Only where that is provable: nothing in the scene reflects or refracts, there is no
-    radiosity, the surface's control points (which bound it: NURBS with positive weights,
-    approximating subdivision) lie wholly outside one face of the view pyramid, and, unless
-    the surface casts no shadows, every shadow-casting light lies inside that face: then
-    every segment from a visible point to a light stays inside too, so the surface can
-    neither be seen nor shadow anything seen."""
+    radiosity or focal blur, the surface's bounding points (a sphere's centre and radius, a
+    box's corners, the control points of NURBS with positive weights and of approximating
+    subdivision) lie wholly outside one face of the view pyramid (grown by the pixels
+    anti-aliasing traces beyond the image), and, unless the surface casts no shadows, every
+    shadow-casting light lies inside that face: then every segment from a visible point to
+    a light stays inside too, so the surface can neither be seen nor shadow anything seen."""
 
-    def __init__(self, scene: ir.Scene):
+    def __init__(self, scene: ir.Scene, width: int = 1, height: int = 1):
         self.scene = scene
+        self.width, self.height = width, height
         self.lights = [lt for lt in scene.lights if not lt.shadowless]
 
     @functools.cached_property
     def enabled(self) -> bool:
         # Decided on the first surface asked about: a scene without one never walks its
-        # objects' textures for it.
-        scene = self.scene
-        return (
-            scene.camera.kind in ("perspective", "orthographic")
-            and scene.settings.radiosity is None
-            and not any(
-                _reflects(t) or _texture_transparent(t)
-                for o in _walk(scene.objects + tuple(lt.looks_like for lt in scene.lights))
-                for t in _textures(o)
-            )
-        )
+        # objects' textures for it (each texture once: a large scene's objects share them).
+        scene, cam = self.scene, self.scene.camera
+        if (
+            cam.kind not in ("perspective", "orthographic")
+            or (cam.aperture != 0.0 and cam.blur_samples > 0)
+            or scene.settings.radiosity is not None
+        ):
+            return False
+        seen: set[int] = set()
+        for o in _walk(scene.objects + tuple(lt.looks_like for lt in scene.lights)):
+            for t in _textures(o):
+                if id(t) not in seen:
+                    seen.add(id(t))
+                    if _reflects(t) or _texture_transparent(t) or lets_light_through(t):
+                        return False
+        return True
 
     @functools.cached_property
-    def planes(self) -> list:
-        return view_planes(self.scene.camera) if self.enabled else []
-
-    def invisible(self, obj: ir.Object, no_shadow: bool) -> bool:
+    def faces(self) -> list[tuple[np.ndarray, np.ndarray, bool]]:
+        """The view's faces (n, p0; n . (x - p0) > 0 outside) and whether every
+        shadow-casting light lies inside each."""
         if not self.enabled:
-            return False
-        pts = self.hull(obj)
-        if pts is None:
-            return False
-        for n, p0 in self.planes:
+            return []
+        planes = view_planes(self.scene.camera, self.width, self.height)
+        return [(n, p0, all(self._inside(lt, n, p0) for lt in self.lights)) for n, p0 in planes]
+
+    def invisible_points(self, pts: np.ndarray, no_shadow: bool) -> bool:
+        """Can nothing show the convex hull of these world points, nor its shadow?"""
+        for n, p0, lit in self.faces:
             if np.min((pts - p0) @ n) <= 0:
                 continue  # part of the surface is inside this face
-            if no_shadow or all(self._inside(lt, n, p0) for lt in self.lights):
+            if no_shadow or lit:
                 return True
+        return False
+
+    def hides_sphere(self, centre, radius: float) -> bool:
+        """invisible_points for a sphere that casts shadows, in plain floats (a scene's
+        thousands of spheres)."""
+        x, y, z = centre
+        r = abs(radius)
+        for n, p0, lit in self.faces:
+            if lit:
+                a, b, c = n.tolist()
+                px, py, pz = p0.tolist()
+                reach = tol.OCCLUDED_MARGIN_REL * (abs(x) + abs(y) + abs(z) + r)
+                if a * (x - px) + b * (y - py) + c * (z - pz) - r > reach:
+                    return True
         return False
 
     @staticmethod
@@ -490,6 +510,19 @@ class _Culler:
             a2 = np.asarray(light.area.axis2, float) / 2
             corners = [pos + s1 * a1 + s2 * a2 for s1 in (-1, 1) for s2 in (-1, 1)]
         return all(n @ (c - p0) <= 0 for c in corners)
+
+
+def _bounding_points(obj: ir.Object) -> np.ndarray | None:
+    """World points whose convex hull holds obj, for the shapes that have them cheaply
+    (untransformed boxes, surfaces held by their control points), else None."""
+    shape = obj.shape
+    if type(shape) is ir.Box and obj.transform == ir.IDENTITY and not obj.inverse:
+        pts = np.array([shape.corner1, shape.corner2], dtype=np.float64)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        return np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)])
+    if _TESSELLATED and isinstance(shape, _TESSELLATED):
+        return _Culler.hull(obj)
+    return None
 
 
 def _matrix(obj: ir.Object) -> np.ndarray | None:

@@ -33,6 +33,7 @@ import numpy as np
 from lang import ir
 from runtime import color, integrate, patterns, shading, shapes
 from runtime import tolerances as tol
+from runtime.camera import view_planes
 from runtime.trace import CsgNode, Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
@@ -291,9 +292,6 @@ def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
     return rows, items
 
 
-# How far beyond the image the view's half spaces reach, in pixels: anti-aliasing compares
-# with (and so traces) a row and a column just outside the tile, also at the image's edge.
-VIEW_GROW_PIXELS = 2.0
 # A box counts as outside a half space only beyond this share of its distance from the
 # plane's point, so that rounding along a ray near the border cannot reach it.
 VIEW_MARGIN_REL = 1e-9
@@ -303,12 +301,12 @@ def view_masks(bvh: np.ndarray, camera: ir.Camera, width: int, height: int, ligh
     """(len(bvh), 1 + len(lights)) 0/1: may a camera ray (column 0), or a shadow ray from a
     camera ray's hit toward light l (column 1 + l), meet box-tree node k's box?
 
-    Camera rays stay inside the view's half spaces (see `_view_half_spaces`), so a box wholly
+    Camera rays stay inside the view's half spaces (see `camera.view_planes`), so a box wholly
     outside one of them is never met by one. A shadow ray runs from such a hit, inside every
     half space, to its light: when the light lies inside the half space the box is outside
     of, so does the whole segment. 1 everywhere when the view cannot be bounded."""
     masks = np.ones((len(bvh), 1 + len(lights)))
-    planes = _view_half_spaces(camera, width, height)
+    planes = view_planes(camera, width, height)
     if not planes or not len(bvh):
         return masks
     lo, hi = bvh[:, 0:3], bvh[:, 3:6]
@@ -347,46 +345,6 @@ def _walk_starts(bvh: np.ndarray, masks: np.ndarray) -> np.ndarray:
             k = -1
         starts[c] = k
     return starts
-
-
-def _view_half_spaces(camera: ir.Camera, width: int, height: int) -> list:
-    """Half spaces (unit n, p0), n . (x - p0) <= 0, holding every point of every camera ray
-    the kernel traces (trace_pixel: the image grown by VIEW_GROW_PIXELS on each side), or
-    [] when a degenerate camera leaves none to trust."""
-    loc = np.asarray(camera.location, dtype=np.float64)
-    fwd = np.asarray(camera.direction, dtype=np.float64)
-    right = np.asarray(camera.right, dtype=np.float64)
-    up = np.asarray(camera.up, dtype=np.float64)
-    gx = 0.5 + VIEW_GROW_PIXELS / max(width, 1)
-    gy = 0.5 + VIEW_GROW_PIXELS / max(height, 1)
-    out = []
-    if camera.kind == "orthographic":
-        # origins loc + sx right + sy up (|sx| <= gx, |sy| <= gy), all going along fwd
-        for n, reach, centre in (
-            (np.cross(fwd, up), gx * right, right),
-            (np.cross(fwd, right), gy * up, up),
-        ):
-            if not n @ centre:
-                return []
-            n = n if n @ centre > 0 else -n
-            out += [(n, loc + reach), (-n, loc - reach)]
-        back = np.cross(right, up)
-        if not back @ fwd:
-            return []
-        out.append((-back if back @ fwd > 0 else back, loc))
-    else:
-        # rays from loc along fwd + sx right + sy up: the pyramid over the grown image
-        corners = [
-            fwd + a * gx * right + b * gy * up for a, b in ((1, 1), (-1, 1), (-1, -1), (1, -1))
-        ]
-        for k in range(4):
-            n = np.cross(corners[k], corners[(k + 1) % 4])
-            if not n @ fwd:
-                return []
-            out.append((-n if n @ fwd > 0 else n, loc))
-        if all(c @ fwd > 0 for c in corners):  # every ray goes forward: nothing behind the eye
-            out.append((-fwd, loc))
-    return [(n / np.linalg.norm(n), p0) for n, p0 in out]
 
 
 def _uncovered(node) -> set[str]:

@@ -1,5 +1,7 @@
-"""Objects walled off by an opaque plane (runtime.occlusion): found only where the proof
-holds, and leaving them out changes no pixel."""
+"""Objects no ray can reach, left out of the render: walled off by an opaque plane
+(runtime.occlusion), or outside the view of a scene where nothing reflects and their shadows
+cannot fall into it (prepare._Culler). Found only where the proof holds; leaving them out
+changes no pixel."""
 
 from __future__ import annotations
 
@@ -17,16 +19,24 @@ SCENE = """
 camera {{ {camera} location <1, 1, -7> look_at <0, 0, 0> {angle} {blur} }}
 light_source {{ {light} }}
 plane {{ <0, 1, 0>, -1.5 {floor} }}
-sphere {{ <2, 0, 0>, 1 pigment {{ rgb <1, .8, .2> }} finish {{ reflection .75 }} }}
+sphere {{ <2, 0, 0>, 1 pigment {{ rgb <1, .8, .2> }} finish {{ reflection {mirror} }} }}
 {more}
 """
 FLOOR = "pigment { checker rgb <0,1,0>, rgb 1 }"
 
 
 def scene(
-    floor=FLOOR, light="<1000, 1000, -1000> rgb 1", camera="", blur="", more="", angle="angle 56"
+    floor=FLOOR,
+    light="<1000, 1000, -1000> rgb 1",
+    camera="",
+    blur="",
+    more="",
+    angle="angle 56",
+    mirror=0.75,
 ):
-    text = SCENE.format(floor=floor, light=light, camera=camera, blur=blur, more=more, angle=angle)
+    text = SCENE.format(
+        floor=floor, light=light, camera=camera, blur=blur, more=more, angle=angle, mirror=mirror
+    )
     return compile_string(text, width=64, height=48).scene
 
 
@@ -99,11 +109,31 @@ def test_walled_off_objects_are_neither_prepared_nor_tessellated():
     assert len(kept.objects) == 6
 
 
-def _render(s, monkeypatch, walls_on: bool, kernel: str) -> np.ndarray:
+def test_outside_a_matte_view_only_what_casts_no_shadow_into_it_is_left_out():
+    left = "sphere { <-30, 0, 5>, 1 } box { <-40, 0, 0>, <-38, 2, 2> }\n"
+    assert sorted(prepare_module.prepare(scene(more=left, mirror=0), 64, 48).culled) == [
+        "box", "sphere"
+    ]  # fmt: skip
+    # a mirror could show them; a light left of the view puts their shadows into it
+    assert prepare_module.prepare(scene(more=left), 64, 48).culled == []
+    lit_left = "<-1000, 1000, -1000> rgb 1"
+    assert prepare_module.prepare(scene(more=left, mirror=0, light=lit_left), 64, 48).culled == []
+
+    # the image's left edge meets z = 0 at x = -4.15, the 2 pixels anti-aliasing traces
+    # beyond it reach x = -4.44: a sphere there is kept, one past it is not
+    def culled(x):
+        edge = f"sphere {{ <{x}, 0, 0>, 0.01 }}\n"
+        return prepare_module.prepare(scene(more=edge, mirror=0), 64, 48).culled
+
+    assert culled(-4.3) == [] and culled(-4.4) == [] and culled(-4.5) == ["sphere"]
+
+
+def _render(s, monkeypatch, left_out: bool, kernel: str) -> np.ndarray:
     with monkeypatch.context() as m:
         m.setenv("STRALA_KERNEL", kernel)
-        if not walls_on:
+        if not left_out:
             m.setattr(prepare_module, "Occluders", lambda *args: None)
+            m.setattr(prepare_module._Culler, "enabled", False)
         return render_scene(s, 48, 36, antialias=0.3)
 
 
@@ -113,22 +143,29 @@ coordinate = st.floats(-6, 6, allow_nan=False)
 @settings(max_examples=12, deadline=None)
 @given(
     spheres=st.lists(
-        st.tuples(coordinate, st.floats(-12, 3), coordinate, st.floats(0.1, 3)),
+        st.tuples(st.floats(-12, 12), st.floats(-12, 3), coordinate, st.floats(0.1, 3)),
         min_size=1,
         max_size=8,
     ),
     kernel=st.sampled_from(["", "numpy"]),
+    mirror=st.booleans(),
 )
-@example(spheres=[(0.0, -4.0, 0.0, 1.0), (1.0, -2.0, 1.0, 1.0), (-1.0, 0.5, 0.0, 0.5)], kernel="")
-def test_leaving_walled_off_objects_out_changes_no_pixel(spheres, kernel):
-    """A mirror scene with random spheres above, under and through the floor renders the
-    same with the walled-off ones left out as with every one of them traced."""
+@example(
+    spheres=[(0.0, -4.0, 0.0, 1.0), (1.0, -2.0, 1.0, 1.0), (-1.0, 0.5, 0.0, 0.5)],
+    kernel="",
+    mirror=True,
+)
+@example(spheres=[(-6.0, 2.0, -5.0, 0.5), (6.0, -1.0, 1.0, 1.0)], kernel="", mirror=False)
+def test_leaving_unreachable_objects_out_changes_no_pixel(spheres, kernel, mirror):
+    """Scenes with random spheres above, under and through the floor, in and out of the
+    view, with mirrors or matte, render the same with the unreachable ones left out as with
+    every one of them traced."""
     more = "".join(
         f"sphere {{ <{x}, {y}, {z}>, {r} pigment {{ rgb <{i % 3 / 2}, .5, 1> }}"
-        f" finish {{ reflection {0.5 * (i % 2)} }} }}\n"
+        f" finish {{ reflection {0.5 * (i % 2) * mirror} }} }}\n"
         for i, (x, y, z, r) in enumerate(spheres)
     )
-    s = scene(more=more)
+    s = scene(more=more, mirror=0.75 * mirror)
     mp = pytest.MonkeyPatch()
     try:
         left_out = _render(s, mp, True, kernel)

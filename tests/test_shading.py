@@ -329,7 +329,8 @@ def test_objects_sharing_a_texture_are_shaded_as_one_group():
     tex = ir.Texture(pigment=ir.Pigment(color=(0.2, 0.4, 0.6, 0, 0)))
     objs = tuple(ir.Object(ir.Sphere((3.0 * i, 0, 0), 1.0), texture=tex) for i in range(5))
     scene = ir.Scene(camera=ir.Camera(location=(0, 0, -5)), objects=objs)
-    ctx = integrate.make_context(prepare(scene, 8, 8))
+    # cull off: the spheres right of the view would be left out
+    ctx = integrate.make_context(prepare(scene, 8, 8, cull=False))
     assert len(ctx.textures) == 1 and list(ctx.obj_tex) == [0] * 5
 
 
@@ -353,7 +354,7 @@ def test_equal_plain_textures_are_one_group_and_different_ones_are_not():
         ir.Object(ir.Sphere((3.0 * i, 0, 0), 1.0), texture=t) for i, t in enumerate(textures)
     )
     scene = ir.Scene(camera=ir.Camera(location=(0, 0, -5)), objects=objs)
-    ctx = integrate.make_context(prepare(scene, 8, 8))
+    ctx = integrate.make_context(prepare(scene, 8, 8, cull=False))
     assert list(ctx.obj_tex) == [0, 0, 1, 2, 0, 3, 4]
     assert len(ctx.textures) == 5
     assert all(ctx.leaf_id[id(t)] == k for t, k in zip(textures, ctx.obj_tex, strict=True))
@@ -362,7 +363,9 @@ def test_equal_plain_textures_are_one_group_and_different_ones_are_not():
     objs = tuple(
         ir.Object(ir.Sphere((3.0 * i, 0, 0), 1.0), texture=ir.Texture(finish=odd)) for i in range(3)
     )
-    ctx = integrate.make_context(prepare(ir.Scene(camera=ir.Camera(), objects=objs), 8, 8))
+    ctx = integrate.make_context(
+        prepare(ir.Scene(camera=ir.Camera(), objects=objs), 8, 8, cull=False)
+    )
     assert list(ctx.obj_tex) == [0, 1, 2]
 
 

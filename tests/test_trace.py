@@ -16,7 +16,8 @@ from runtime.prepare import prepare
 
 
 def prep_of(*objects):
-    return prepare(ir.Scene(camera=ir.Camera(), objects=tuple(objects)), 8, 8)
+    # cull off: these tests query the tracer with their own rays, not the camera's
+    return prepare(ir.Scene(camera=ir.Camera(), objects=tuple(objects)), 8, 8, cull=False)
 
 
 def uv_sphere(center, r, n_lat=48, n_lon=96):
