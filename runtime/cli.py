@@ -793,8 +793,11 @@ def render_stats(stats: dict) -> str:
     """`strala render --stats`: how the image was traced, from render_scene's stats."""
     why = stats.get("numpy_because") or []
     path = "the compiled kernel" if stats.get("kernel") else f"numpy ({', '.join(why)})"
+    left = int(stats.get("left_out", 0))
+    # walled off by an opaque plane, or outside a view where nothing reflects them
+    skipped = f"{left:,} objects no ray can reach left out; " if left else ""
     return (
-        f"traced by {path}: {int(stats.get('rays', 0)):,} rays, "
+        f"traced by {path}: {skipped}{int(stats.get('rays', 0)):,} rays, "
         f"{int(stats.get('shadow_rays', 0)):,} shadow rays, "
         f"{int(stats.get('supersampled', 0)):,} of {int(stats.get('pixels', 0)):,} pixels "
         f"supersampled; prepare {stats.get('prepare_s', 0.0):.2f} s, "

@@ -119,6 +119,7 @@ def render_scene(
         stats["prepare_s"] = traced - started
         stats["trace_s"] = time.perf_counter() - traced
         stats["kernel"] = ctx.kernel is not None
+        stats["left_out"] = len(prepared.culled)  # objects no ray of this render can reach
         stats["numpy_because"] = numpy_because
     return image
 

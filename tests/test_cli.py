@@ -660,6 +660,15 @@ def test_stats_say_how_the_image_was_traced(tmp_path, capsys):
     assert cli.main(["render", str(scene), "-W", "8", "-H", "6", "-o", str(out),
                      "--stats", "-q"]) == 0  # fmt: skip
     assert "traced by numpy (area light)" in capsys.readouterr().err
+    # spheres under an opaque floor are left out, and the stats say how many
+    scene.write_text(
+        "camera { location <0, 1, -5> look_at 0 } light_source { <2, 4, -3>, rgb 1 }\n"
+        "plane { y, -1 pigment { rgb 1 } } sphere { 0, 1 pigment { rgb 1 } }\n"
+        + "".join(f"sphere {{ <{k}, -9, 0>, 1 }}\n" for k in range(3))
+    )
+    assert cli.main(["render", str(scene), "-W", "8", "-H", "6", "-o", str(out),
+                     "--stats", "-q"]) == 0  # fmt: skip
+    assert ": 3 objects no ray can reach left out; " in capsys.readouterr().err
 
 
 @needs_evaluator
