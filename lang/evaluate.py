@@ -2417,19 +2417,9 @@ class Interpreter:
         finish: a thousand `sphere { … pigment { rgb 1 } }` then share one (a stored scene
         loads it once, the renderer numbers it once). A solid pigment's span is dropped:
         only an image_map's is ever read."""
-        pig = tex.pigment
-        if (
-            pig.pattern != "solid"
-            or pig.params
-            or pig.list
-            or pig.color_map
-            or pig.pigment_map
-            or tex.layers
-            or tex.normal is not None
-            or tex.pattern is not None
-            or tex.map
-        ):
+        if not ir.plain_solid(tex):
             return tex
+        pig = tex.pigment
         # the finish by identity (hashing one per object cost more than sharing saves): a
         # declared or default finish is one object; the pair keeps it alive, its id unique
         key = (pig.color, pig.transform, id(tex.finish), tex.span)

@@ -170,6 +170,23 @@ class Texture:
     map: tuple[tuple[float, Texture], ...] = ()
 
 
+def plain_solid(tex: Texture) -> bool:
+    """One layer of one solid colour, no normal: a texture that shades by its colour, its
+    pigment's transform and its finish alone (equal ones may be shared or numbered once)."""
+    pig = tex.pigment
+    return not (
+        pig.pattern != "solid"
+        or pig.params
+        or pig.list
+        or pig.color_map
+        or pig.pigment_map
+        or tex.layers
+        or tex.normal is not None
+        or tex.pattern is not None
+        or tex.map
+    )
+
+
 # ------------------------------------------------------------ user functions
 # A `function { … }` body as an expression tree, built by the evaluator with every declared
 # constant it names already folded in (POV-Ray binds them when the function is declared).

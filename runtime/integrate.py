@@ -242,21 +242,10 @@ class Context:
 def _solid_key(tex: ir.Texture, finishes: _Finishes) -> tuple | None:
     """What a one-layer texture with a solid pigment shades by (None for other textures,
     which are told apart by identity)."""
-    pig = tex.pigment
-    if (
-        pig.pattern != "solid"
-        or pig.params
-        or pig.list
-        or pig.color_map
-        or pig.pigment_map
-        or tex.layers
-        or tex.normal is not None
-        or tex.pattern is not None
-        or tex.map
-    ):
+    if not ir.plain_solid(tex):
         return None
     number = finishes.number(tex.finish)
-    return None if number is None else (pig.color, pig.transform, number)
+    return None if number is None else (tex.pigment.color, tex.pigment.transform, number)
 
 
 class _Finishes:

@@ -23,6 +23,7 @@ from runtime.occlusion import Occluders, lets_light_through
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
 FLAG_NAMES = ("no_image", "no_reflection", "no_shadow")
+_NO_FLAGS = dict.fromkeys(FLAG_NAMES, False)
 # Deepest level `adaptive` subdivision picks on its own (each level has 4x the faces).
 MAX_ADAPTIVE_LEVELS = 6
 
@@ -142,12 +143,7 @@ class _Builder:
         ):
             self.culled.append("sphere")
             return True
-        index = len(self.objects)
-        self.objects.append(obj)
-        self.curved.append(False)
-        for k in FLAG_NAMES:
-            self.flags[k].append(False)
-        self.sizes.append(0.0)
+        index = self.add_leaf_object(obj, _NO_FLAGS)
         self.spheres.append((len(self.nodes), index, shape.center, shape.radius))
         self.nodes.append(None)  # its slot: the scene's order stays the nodes' order
         return True
@@ -375,10 +371,9 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     b = _Builder(scene.camera, width)
     b.cull = _Culler(scene, width, height) if cull else None
     b.occluders = Occluders(scene, width, height) if cull else None
-    no_flags = {k: False for k in FLAG_NAMES}
     for obj in scene.objects:
         if not b.plain_sphere(obj):
-            b.top(obj, no_flags)
+            b.top(obj, _NO_FLAGS)
     b.place_spheres()
     for light in scene.lights:
         if light.looks_like is not None:
@@ -387,7 +382,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
             shape_obj = light.looks_like
             moved = tf.translation(light.position) @ tf.as_matrix(shape_obj.transform)
             matrix = tuple(tuple(float(x) for x in row) for row in moved)
-            b.top(dataclasses.replace(shape_obj, transform=matrix, no_shadow=True), no_flags)
+            b.top(dataclasses.replace(shape_obj, transform=matrix, no_shadow=True), _NO_FLAGS)
     triangles = None
     if b.triangle_leaves:
         # Imported lazily so scenes without triangles never load Embree.
@@ -469,14 +464,16 @@ class _Culler:
         thousands of spheres)."""
         x, y, z = centre
         r = abs(radius)
-        for n, p0, lit in self.faces:
-            if lit:
-                a, b, c = n.tolist()
-                px, py, pz = p0.tolist()
-                reach = tol.OCCLUDED_MARGIN_REL * (abs(x) + abs(y) + abs(z) + r)
-                if a * (x - px) + b * (y - py) + c * (z - pz) - r > reach:
-                    return True
+        for a, b, c, px, py, pz in self.lit_faces:
+            reach = tol.OCCLUDED_MARGIN_REL * (abs(x) + abs(y) + abs(z) + r)
+            if a * (x - px) + b * (y - py) + c * (z - pz) - r > reach:
+                return True
         return False
+
+    @functools.cached_property
+    def lit_faces(self) -> list[tuple[float, ...]]:
+        """The faces with every light inside, as plain floats (n, p0) for hides_sphere."""
+        return [(*n.tolist(), *p0.tolist()) for n, p0, lit in self.faces if lit]
 
     @staticmethod
     def hull(obj: ir.Object) -> np.ndarray | None:
