@@ -1,7 +1,9 @@
-"""Object-space boxes of the shapes whose extent takes more than their parameters' corners
-(min_extent/max_extent): lathe, sor, prism, superellipsoid, blob, text and the polynomial
-shapes, computed as POV-Ray computes its bounding boxes. Pure Python: the evaluator runs
-without numpy.
+"""The boxes POV-Ray's min_extent/max_extent report: an object's world-space box from its
+shapes' object-space boxes, computed as POV-Ray computes its bounding boxes (the eight
+transformed corners, CSG by union, intersection or the first child of a difference,
+clipped_by narrowing). The data shapes whose extent takes more than their parameters'
+corners (lathe, sor, prism, superellipsoid, blob, text and the polynomial shapes) are
+bounded as POV-Ray bounds them. Pure Python: the evaluator runs without numpy.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ import math
 from collections.abc import Sequence
 
 from lang import font_metrics, ir, transforms
+from lang.values import ObjectValue
 
 Box3 = tuple[tuple[float, float, float], tuple[float, float, float]]
 INFINITE = 1e10  # POV-Ray's BOUND_HUGE / 2: an unbounded shape's box
@@ -31,8 +34,8 @@ _WIDTH = {"linear_spline": 2, "quadratic_spline": 3, "cubic_spline": 4}
 _CLOSE_EPS = 1e-10
 
 
-def shape_box(shape: object) -> Box3 | None:
-    """The object-space box of one of the shapes above; None for others."""
+def _data_shape_box(shape: object) -> Box3 | None:
+    """The object-space box of one of the data shapes (see the module's docstring)."""
     if isinstance(shape, ir.Superellipsoid):
         e = 1.0 + SUPERELLIPSOID_PAD
         return (-e, -e, -e), (e, e, e)
@@ -114,18 +117,6 @@ def _blob_box(shape: ir.Blob) -> Box3 | None:
 
 def _cube(c: Sequence[float], r: float) -> Box3:
     return (c[0] - r, c[1] - r, c[2] - r), (c[0] + r, c[1] + r, c[2] + r)
-
-
-def _transform_box(box: Box3, m: ir.Matrix) -> Box3:
-    lo, hi = box
-    pts = [
-        transforms.apply_point(m, (x, y, z))
-        for x in (lo[0], hi[0])
-        for y in (lo[1], hi[1])
-        for z in (lo[2], hi[2])
-    ]
-    xs, ys, zs = zip(*pts, strict=True)
-    return (min(xs), min(ys), min(zs)), (max(xs), max(ys), max(zs))
 
 
 # --------------------------------------------------------------------- splines
@@ -241,3 +232,111 @@ def _prism_box(shape: ir.Prism) -> Box3 | None:
         zs = [z * h for z in (z0, z1) for h in (h1, h2)]
         x0, x1, z0, z1 = min(xs), max(xs), min(zs), max(zs)
     return (x0, h1, z0), (x1, h2, z1)
+
+
+# --------------------------------------------------------------------- objects
+def _box_of_points(pts) -> Box3:
+    xs, ys, zs = zip(*pts, strict=True)
+    return (min(xs), min(ys), min(zs)), (max(xs), max(ys), max(zs))
+
+
+def _transform_box(box: Box3, m: ir.Matrix) -> Box3:
+    """POV-Ray's Recompute_BBox: the box of the eight transformed corners."""
+    if transforms.is_identity(m):
+        return box
+    lo, hi = box
+    if any(abs(v) >= INFINITE for v in (*lo, *hi)):
+        return box
+    corners = [
+        transforms.apply_point(m, (x, y, z))
+        for x in (lo[0], hi[0])
+        for y in (lo[1], hi[1])
+        for z in (lo[2], hi[2])
+    ]
+    return _box_of_points(corners)
+
+
+def _disc_extent(axis: tuple[float, float, float], r: float) -> tuple[float, float, float]:
+    n = math.sqrt(sum(a * a for a in axis)) or 1.0
+    return tuple(r * math.sqrt(max(0.0, 1.0 - (a / n) ** 2)) for a in axis)  # type: ignore[return-value]
+
+
+def shape_box(shape: object) -> Box3 | None:
+    """The object-space box of a shape; None where POV-Ray cannot bound it."""
+    big = INFINITE
+    if isinstance(shape, ir.Sphere):
+        c, r = shape.center, shape.radius
+        return (c[0] - r, c[1] - r, c[2] - r), (c[0] + r, c[1] + r, c[2] + r)
+    if isinstance(shape, ir.Box):
+        return _box_of_points([shape.corner1, shape.corner2])
+    if isinstance(shape, ir.Cylinder | ir.Cone):
+        if isinstance(shape, ir.Cylinder):
+            ends = ((shape.base, shape.radius), (shape.cap, shape.radius))
+        else:
+            ends = ((shape.base, shape.base_radius), (shape.cap, shape.cap_radius))
+        axis = tuple(b - a for a, b in zip(ends[0][0], ends[1][0], strict=True))
+        pts = []
+        for c, r in ends:
+            e = _disc_extent(axis, r)  # type: ignore[arg-type]
+            pts += [
+                tuple(ci - ei for ci, ei in zip(c, e, strict=True)),
+                tuple(ci + ei for ci, ei in zip(c, e, strict=True)),
+            ]
+        return _box_of_points(pts)
+    if isinstance(shape, ir.Torus):
+        r = shape.major + shape.minor
+        return (-r, -shape.minor, -r), (r, shape.minor, r)
+    if isinstance(shape, ir.Disc):
+        e = _disc_extent(shape.normal, shape.radius)
+        c = shape.center
+        return _box_of_points(
+            [
+                tuple(ci - ei for ci, ei in zip(c, e, strict=True)),
+                tuple(ci + ei for ci, ei in zip(c, e, strict=True)),
+            ]
+        )
+    if isinstance(shape, ir.Triangle):
+        return _box_of_points([shape.p1, shape.p2, shape.p3])
+    if isinstance(shape, ir.Polygon):
+        return _box_of_points(shape.points)
+    if isinstance(shape, ir.Mesh) and len(shape.vertices):
+        return _box_of_points(shape.vertices)
+    if isinstance(shape, ir.Nurbs | ir.Subdivision) and shape.points:
+        box = _box_of_points(shape.points)  # the convex hull property bounds the surface
+        r = getattr(shape, "radius", 0.0)
+        return (tuple(v - r for v in box[0]), tuple(v + r for v in box[1]))  # type: ignore[return-value]
+    if isinstance(shape, ir.Plane):
+        return (-big, -big, -big), (big, big, big)
+    return _data_shape_box(shape)
+
+
+def bounding_box(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> Box3 | None:
+    """The axis-aligned box POV-Ray's min_extent/max_extent report (world space)."""
+    full = transforms.compose(parent, obj.transform)
+    if obj.children:
+        boxes = [bounding_box(c, full) for c in obj.children]
+        if any(b is None for b in boxes):
+            return None
+        if obj.keyword == "difference":
+            box = boxes[0]
+        elif obj.keyword == "intersection":
+            lo = tuple(max(b[0][i] for b in boxes) for i in range(3))
+            hi = tuple(min(b[1][i] for b in boxes) for i in range(3))
+            box = (lo, hi)  # type: ignore[assignment]
+        else:
+            lo = tuple(min(b[0][i] for b in boxes) for i in range(3))
+            hi = tuple(max(b[1][i] for b in boxes) for i in range(3))
+            box = (lo, hi)  # type: ignore[assignment]
+    else:
+        local = shape_box(obj.shape)
+        if local is None:
+            return None
+        box = _transform_box(local, full)
+    for clip in obj.clipped_by:
+        cb = bounding_box(clip, parent)
+        if cb is not None:
+            box = (
+                tuple(max(a, b) for a, b in zip(box[0], cb[0], strict=True)),
+                tuple(min(a, b) for a, b in zip(box[1], cb[1], strict=True)),
+            )  # type: ignore[assignment]
+    return box

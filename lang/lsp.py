@@ -114,12 +114,12 @@ def parse_include(text: str, path: str) -> tuple[SourceFile, list[Diagnostic]]:
 def analyse(text: str, path: str) -> list[Diagnostic]:
     """Parse and evaluate without touching the file system beyond reading includes. The
     document's own text is re-parsed incrementally; includes are parsed once per text."""
-    from lang.evaluate import Interpreter
+    from lang.eval.interpreter import Interpreter
 
     doc = document(path)
 
     class Analysis(Interpreter):
-        def _parse(self, text_: str, filename: str) -> tuple[SourceFile, list[Diagnostic]]:
+        def parse_source(self, text_: str, filename: str) -> tuple[SourceFile, list[Diagnostic]]:
             if filename == path and text_ is text:
                 return doc.parse(text_)
             return parse_include(text_, filename)

@@ -31,9 +31,10 @@ from pathlib import Path
 
 from lang import syntax
 from lang.diagnostics import Diagnostic, Severity, Span
-from lang.evaluate import STDLIB, Interpreter
+from lang.eval.interpreter import Interpreter
 from lang.format import format_source
 from lang.parser import parse, strip_comments
+from lang.paths import STDLIB
 
 # Blocks strala parses and ignores: commenting them out changes no pixel of its render.
 IGNORED_BLOCKS = frozenset("photons subsurface interior_texture projected_through bump_map".split())
@@ -371,15 +372,15 @@ class _Probe(Interpreter):
         self.unsupported_at: list[tuple[str, Span]] = []
         self.sink.items = _Recorder(self)
 
-    def _parse(self, text: str, filename: str):
-        return super()._parse(self.texts.get(filename, text), filename)
+    def parse_source(self, text: str, filename: str):
+        return super().parse_source(self.texts.get(filename, text), filename)
 
-    def _expand_node(self, node, out, spec) -> None:
+    def expand_node(self, node, out, spec) -> None:
         mine = node.span.file in self.texts
         if mine:
             self.stack.append(node)
         try:
-            super()._expand_node(node, out, spec)
+            super().expand_node(node, out, spec)
         finally:
             if mine:
                 self.stack.pop()

@@ -14,6 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from lang import evaluate, ir, transforms
+from lang.eval import interpreter
 from lang.evaluate import compile_file, compile_source
 
 POV_INCLUDE = "/usr/share/povray-3.7/include"
@@ -310,7 +311,7 @@ def test_array_errors():
 
 
 def test_while_bound(monkeypatch):
-    monkeypatch.setattr(evaluate, "MAX_LOOP_ITERATIONS", 50)
+    monkeypatch.setattr(interpreter, "MAX_LOOP_ITERATIONS", 50)
     # the condition reads I, which every pass changes: only the iteration limit ends it
     r = run("#declare I = 0;\n#while (I > -1) #declare I = I + 1; #end\nsphere { 0, 1 }")
     (e,) = errors(r)

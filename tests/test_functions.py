@@ -17,8 +17,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from lang import ir
+from lang.eval.functions import INTERNALS
 from lang.evaluate import compile_source
-from lang.functions import INTERNALS
 from runtime import fn_internal, patterns
 from runtime.functions import compile_function, compile_xyz
 

@@ -50,17 +50,8 @@ KNOWN_CROSSINGS: set[str] = {
     "lang/chunks.py: imports lang.parser._hint_for",
     "lang/chunks.py: imports lang.parser._line_col",
     "lang/chunks.py: imports lang.parser._tok_span",
-    "lang/evaluate.py: lang.schema._items",
-    "lang/functions.py: ._unknown_ident",
-    "lang/lsp.py: Analysis overrides _parse",
-    "lang/media.py: lang.evaluate._TRANSFORM_WORDS",
-    "lang/media.py: lang.evaluate._b_pigment",
-    "lang/media.py: lang.evaluate._item_matrix",
-    "lang/pov_shapes.py: ._apply_object_items",
-    "lang/pov_shapes.py: ._resolve",
-    "lang/pov_shapes.py: lang.schema._items",
-    "lang/translate.py: _Probe overrides _expand_node",
-    "lang/translate.py: _Probe overrides _parse",
+    "lang/eval/data_shapes.py: lang.schema._items",
+    "lang/eval/surfaces.py: lang.schema._items",
     "runtime/bench.py: imports runtime.prepare._reflects",
     "runtime/bench.py: imports runtime.prepare._texture_transparent",
     "runtime/bezier.py: imports runtime.tessellate._assemble",
@@ -110,14 +101,6 @@ KNOWN_CIRCLES: list[frozenset[str]] = [
     ),
     frozenset(
         {
-            "lang/evaluate.py",
-            "lang/functions.py",
-            "lang/media.py",
-            "lang/pov_shapes.py",
-        }
-    ),
-    frozenset(
-        {
             "runtime/curves.py",
             "runtime/subdivide.py",
         }
@@ -148,7 +131,7 @@ KNOWN_CIRCLES: list[frozenset[str]] = [
         }
     ),
 ]
-KNOWN_LONG: set[str] = {"lang/evaluate.py"}
+KNOWN_LONG: set[str] = set()
 
 
 def _sources(*roots: str) -> Iterator[Path]:

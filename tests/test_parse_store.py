@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from lang import evaluate, parse_store, parser
+from lang.eval.interpreter import Interpreter
 from lang.serialize import dumps
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,10 +97,10 @@ def test_the_store_stays_bounded(store, monkeypatch):
 def test_interpreters_that_parse_their_own_way_keep_it(store):
     seen = []
 
-    class Own(evaluate.Interpreter):
-        def _parse(self, text, filename):
+    class Own(Interpreter):
+        def parse_source(self, text, filename):
             seen.append(filename)
-            return super()._parse(text, filename)
+            return super().parse_source(text, filename)
 
     main = _scene(store, "#declare R = 1;\n#declare Col = rgb 1;\n")
     for _ in range(2):

@@ -11,8 +11,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from lang import ir
+from lang.eval.data_shapes import poly_size, poly_terms
 from lang.evaluate import compile_source
-from lang.pov_shapes import poly_size, poly_terms
 
 FONTS = Path("/usr/share/povray-3.7/include")
 

@@ -11,8 +11,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from lang import ir
+from lang.eval.data_shapes import poly_size, poly_terms
 from lang.evaluate import compile_source
-from lang.pov_shapes import poly_size, poly_terms
 from runtime import shapes
 from runtime.prepare import prepare
 from runtime.prims import roots

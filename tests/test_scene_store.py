@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from lang import evaluate, scene_store
+from lang.eval.interpreter import Interpreter
 from lang.serialize import dumps
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -20,13 +21,13 @@ STDLIB = str(ROOT / "stdlib")
 def store(tmp_path, monkeypatch):
     monkeypatch.setenv("STRALA_CACHE", str(tmp_path / "store"))
     runs = []
-    real = evaluate.Interpreter.run
+    real = Interpreter.run
 
     def counted(self, text, filename):
         runs.append(filename)
         return real(self, text, filename)
 
-    monkeypatch.setattr(evaluate.Interpreter, "run", counted)
+    monkeypatch.setattr(Interpreter, "run", counted)
     return tmp_path, runs
 
 
@@ -180,13 +181,13 @@ def test_the_command_line_uses_the_store(tmp_path, monkeypatch):
 # (as includes are) or one that makes a result unstorable (Interpreter.depends_outside).
 FILE_ACCESS = {
     ("evaluate", "compile_file"): "the main file: its text is part of the key",
-    ("evaluate", "_find_declaring_include"): "a hint for an error: errors are not stored",
-    ("evaluate", "_d_include"): "an include: its text's digest is kept",
-    ("evaluate", "_find"): "include probes are kept; _resolve (other files) depends_outside",
-    ("evaluate", "_d_fileop"): "file I/O: depends_outside",
-    ("evaluate", "_unreadable_image"): "after _resolve found the image: depends_outside",
+    ("eval.interpreter", "_find_declaring_include"): "a hint for an error: errors are not stored",
+    ("eval.interpreter", "_d_include"): "an include: its text's digest is kept",
+    ("paths", "find"): "include probes are kept; resolve (other files) depends_outside",
+    ("eval.interpreter", "_d_fileop"): "file I/O: depends_outside",
+    ("eval.textures", "_unreadable_image"): "after resolve found the image: depends_outside",
     ("builtins", "_file_exists"): "sets BuiltinState.looked_outside",
-    ("pov_shapes", "_font_fallback"): "text objects call depends_outside",
+    ("eval.data_shapes", "_font_fallback"): "text objects call depends_outside",
     ("font_metrics", "load"): "text objects call depends_outside",
     ("scene_store", "file_digest"): "the store's own check",
     ("scene_store", "_fingerprint"): "the store's own files",
@@ -204,8 +205,9 @@ _NOT_EVALUATION = {"lsp", "translate", "chunks"}
 
 def test_every_file_the_evaluator_looks_at_is_accounted_for():
     found = set()
-    for path in sorted((ROOT / "lang").glob("*.py")):
-        if path.stem in _NOT_EVALUATION:
+    for path in sorted((ROOT / "lang").rglob("*.py")):
+        module = ".".join(path.relative_to(ROOT / "lang").with_suffix("").parts)
+        if module in _NOT_EVALUATION:
             continue
         tree = ast.parse(path.read_text())
         for fn in ast.walk(tree):
@@ -216,7 +218,7 @@ def test_every_file_the_evaluator_looks_at_is_accounted_for():
                     f = node.func
                     name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
                     if name in _LOOKS:
-                        found.add((path.stem, fn.name))
+                        found.add((module, fn.name))
     unknown = sorted(found - set(FILE_ACCESS))
     assert not unknown, f"file access not accounted for by the scene store: {unknown}"
     stale = sorted(set(FILE_ACCESS) - found)

@@ -16,10 +16,12 @@ from typing import TYPE_CHECKING, Any
 from lang import ir, schema, syntax
 from lang.builtins import as_vec
 from lang.diagnostics import Span
+from lang.eval import grouping, surfaces
 from lang.values import FunctionValue, ObjectValue, Vec
 
-if TYPE_CHECKING:  # the interpreter imports this module
-    from lang.evaluate import El, Interpreter
+if TYPE_CHECKING:
+    from lang.eval.context import BuildContext
+    from lang.eval.elements import El
 
 SPLINES_2D = ("linear_spline", "quadratic_spline", "cubic_spline", "bezier_spline")
 SWEEP_SPLINES = ("linear_spline", "b_spline", "cubic_spline")
@@ -35,7 +37,7 @@ INTERNAL_FONTS = {0: "povlogo.ttf", 1: "timrom.ttf", 2: "cyrvetic.ttf", 3: "crys
 class Cursor:
     """Reads shape data from expanded elements, skipping commas."""
 
-    def __init__(self, it: Interpreter, els: list[El], span: Span, keyword: str):
+    def __init__(self, it: BuildContext, els: list[El], span: Span, keyword: str):
         self.it, self.els, self.i, self.span, self.keyword = it, els, 0, span, keyword
 
     def _skip(self) -> None:
@@ -281,7 +283,7 @@ def _text(cur: Cursor) -> ir.Text:
     path = None
     cur.it.depends_outside("a font file")  # its metrics decide the text's extent
     for name in (font, font + ".ttf"):  # POV-Ray adds the extension when it is missing
-        path = path or cur.it._resolve(name) or _font_fallback(name)
+        path = path or cur.it.resolve(name) or _font_fallback(name)
     if path is None:
         raise cur.it.error(
             "E0220",
@@ -317,7 +319,7 @@ def _height_field(cur: Cursor) -> ir.HeightField:
         raise _Skip()
     else:
         name = cur.string("the image file")
-        found = cur.it._resolve(name)
+        found = cur.it.resolve(name)
         if found is None:
             raise cur.it.error(
                 "E0220", f"height_field image `{name}` not found", e.span if e else cur.span,
@@ -383,7 +385,7 @@ def object_spec(keyword: str, extra: list[str] | None = None) -> schema.BlockSpe
     )  # fmt: skip
 
 
-def build(it: Interpreter, node: syntax.Block) -> ObjectValue:
+def build(it: BuildContext, node: syntax.Block) -> ObjectValue:
     """The object for one of these shapes' blocks."""
     kw = node.keyword
     spec = object_spec(kw)
@@ -402,9 +404,9 @@ def build(it: Interpreter, node: syntax.Block) -> ObjectValue:
     except _Skip:
         shape = ir.Unsupported(kw)
         _skip_data(cur, spec)
-    g = it.group(spec, els[cur.i :], node, loose=True)
+    g = grouping.group(it, spec, els[cur.i :], node, loose=True)
     obj = ObjectValue(shape, kw, span=node.span, default=it.default_texture)
-    return it._apply_object_items(obj, g)
+    return surfaces.apply_object_items(it, obj, g)
 
 
 def _skip_data(cur: Cursor, spec: schema.BlockSpec) -> None:
@@ -423,7 +425,7 @@ class BlobPart:
         self.component = component
 
 
-def component(it: Interpreter, node: syntax.Block) -> BlobPart:
+def component(it: BuildContext, node: syntax.Block) -> BlobPart:
     """`sphere { <c>, r, [strength] s  modifiers }` or `cylinder { <a>, <b>, r, [strength]
     s  modifiers }` inside a blob."""
     kw = node.keyword
@@ -435,14 +437,14 @@ def component(it: Interpreter, node: syntax.Block) -> BlobPart:
     radius = cur.number("the radius")
     cur.word("strength")
     strength = cur.number("the strength")
-    g = it.group(spec, els[cur.i :], node, loose=True)
-    obj = it._apply_object_items(ObjectValue(None, kw, span=node.span), g)
+    g = grouping.group(it, spec, els[cur.i :], node, loose=True)
+    obj = surfaces.apply_object_items(it, ObjectValue(None, kw, span=node.span), g)
     return BlobPart(
         ir.BlobComponent(kw, a, b, radius, strength, obj.transform, obj.texture)  # type: ignore[arg-type]
     )
 
 
-def _blob(it: Interpreter, node: syntax.Block, spec: schema.BlockSpec) -> ObjectValue:
+def _blob(it: BuildContext, node: syntax.Block, spec: schema.BlockSpec) -> ObjectValue:
     it.blob_depth += 1
     try:
         els = it.expand(node.body, spec)
@@ -472,17 +474,17 @@ def _blob(it: Interpreter, node: syntax.Block, spec: schema.BlockSpec) -> Object
             cur.i += 1
     if not parts:
         it.sink.warning("W0304", "`blob` has no components", node.keyword_span or node.span)
-    g = it.group(spec, rest, node, loose=True)
+    g = grouping.group(it, spec, rest, node, loose=True)
     shape = ir.Blob(threshold, tuple(parts), sturm) if parts else ir.Unsupported("blob")
     obj = ObjectValue(shape, "blob", span=node.span, default=it.default_texture)
-    return it._apply_object_items(obj, g)
+    return surfaces.apply_object_items(it, obj, g)
 
 
 # ------------------------------------------------------------------ isosurface
 ISO_NUMBERS = ("threshold", "accuracy", "max_gradient", "max_trace")
 
 
-def _isosurface(it: Interpreter, node: syntax.Block, spec: schema.BlockSpec) -> ObjectValue:
+def _isosurface(it: BuildContext, node: syntax.Block, spec: schema.BlockSpec) -> ObjectValue:
     """`isosurface { function { … } contained_by { box | sphere } threshold accuracy
     max_gradient evaluate open max_trace all_intersections … modifiers }`."""
     where = node.keyword_span or node.span
@@ -519,7 +521,7 @@ def _isosurface(it: Interpreter, node: syntax.Block, spec: schema.BlockSpec) -> 
         else:
             rest.append(e)
             cur.i += 1
-    g = it.group(spec, rest, node, loose=True)
+    g = grouping.group(it, spec, rest, node, loose=True)
     if fn is None:
         raise it.error("E0202", "`isosurface` needs a function { … }", where, USAGE["isosurface"])
     if fn.kind != "float":
@@ -533,10 +535,10 @@ def _isosurface(it: Interpreter, node: syntax.Block, spec: schema.BlockSpec) -> 
         opts["container"] = container
     shape = ir.Isosurface(fn, **opts)
     obj = ObjectValue(shape, "isosurface", span=node.span, default=it.default_texture)
-    return it._apply_object_items(obj, g)
+    return surfaces.apply_object_items(it, obj, g)
 
 
-def _container(it: Interpreter, node: syntax.Block) -> ir.Box | ir.Sphere | None:
+def _container(it: BuildContext, node: syntax.Block) -> ir.Box | ir.Sphere | None:
     """The box or sphere of `contained_by { … }`, its own transform applied (a rotated box
     becomes its bounding box, as the container only bounds the search)."""
     objs = [e.value for e in it.expand(node.body, None) if e.kind == "val"]

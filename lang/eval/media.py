@@ -12,7 +12,11 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any
 
-from lang import ir
+from lang import ir, syntax
+from lang.eval.context import BuildContext, Builder
+from lang.eval.elements import TRANSFORM_WORDS, Grouped, item_matrix
+from lang.eval.textures import build_pigment
+from lang.ir_ops import transform_media
 from lang.values import MapValue
 
 # A pattern density without a map: black at 0 to white at 1.
@@ -44,11 +48,9 @@ def as_density_pigment(v: Any) -> ir.Pigment:
     return v.pigment if isinstance(v, DensityValue) else v
 
 
-def build_density(it, g, node) -> DensityValue:
+def build_density(it: BuildContext, g: Grouped, node: syntax.Block) -> DensityValue:
     """`density { … }`: the pigment builder over the same items, with a declared density as
     the base and a density_map read as a pigment_map of the densities' pigments."""
-    from lang import evaluate
-
     items = []
     has_colour = False
     for name, args, span in g.items:
@@ -65,7 +67,7 @@ def build_density(it, g, node) -> DensityValue:
         if name in ("color",):
             has_colour = True
         items.append((name, args, span))
-    pig = evaluate._b_pigment(it, evaluate.Grouped(g.positional, items, g.span), node)
+    pig = build_pigment(it, Grouped(g.positional, items, g.span), node)
     if pig.pattern == "solid" and not has_colour:
         pig = replace(pig, color=WHITE)
     elif pig.pattern not in ("solid", "checker", "hexagon", "brick", "object"):
@@ -85,7 +87,7 @@ def _entry_pigment(e: Any) -> ir.Pigment:
     return ir.Pigment(color=WHITE)
 
 
-def build_scattering(it, g, node) -> ScatteringValue:
+def build_scattering(it: BuildContext, g: Grouped, node: syntax.Block) -> ScatteringValue:
     p = g.positional
     s = ScatteringValue(int(p["type"]), tuple(p["color"]))
     for name, args, _span in g.items:
@@ -94,27 +96,11 @@ def build_scattering(it, g, node) -> ScatteringValue:
     return s
 
 
-def transform_media(m: ir.Media, mat: ir.Matrix) -> ir.Media:
-    from lang import evaluate
-
-    if not m.density:
-        return m
-    return replace(m, density=tuple(evaluate.transform_pigment(d, mat) for d in m.density))
-
-
-def transform_interior(i: ir.Interior | None, mat: ir.Matrix) -> ir.Interior | None:
-    if i is None or not i.media:
-        return i
-    return replace(i, media=tuple(transform_media(m, mat) for m in i.media))
-
-
 _INTS = {"method", "intervals", "aa_level"}
 _FLOATS = {"ratio", "confidence", "variance", "aa_threshold", "jitter"}
 
 
-def build_media(it, g, node) -> ir.Media:
-    from lang import evaluate
-
+def build_media(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Media:
     m: ir.Media = g.positional.get("base") or ir.Media()
     for name, args, span in g.items:
         v = args[0] if args else None
@@ -146,18 +132,13 @@ def build_media(it, g, node) -> ir.Media:
             m = replace(m, **{name: int(v)})
         elif name in _FLOATS:
             m = replace(m, **{name: float(v)})
-        elif name in evaluate._TRANSFORM_WORDS:
-            m = transform_media(m, evaluate._item_matrix(name, args))
+        elif name in TRANSFORM_WORDS:
+            m = transform_media(m, item_matrix(name, args))
     return m
 
 
-__all__ = [
-    "DensityValue",
-    "ScatteringValue",
-    "as_density_pigment",
-    "build_density",
-    "build_media",
-    "build_scattering",
-    "transform_interior",
-    "transform_media",
-]
+BUILDERS: dict[str, Builder] = {
+    "media": build_media,
+    "scattering": build_scattering,
+    "density": build_density,
+}

@@ -19,8 +19,8 @@ from lang.builtins import EvalError
 from lang.diagnostics import Span
 from lang.values import ArrayValue, FunctionValue, MacroValue, Vec, describe
 
-if TYPE_CHECKING:  # the interpreter imports this module
-    from lang.evaluate import Interpreter
+if TYPE_CHECKING:
+    from lang.eval.context import BuildContext
 
 # Built-in float functions a function body may call: name -> (min args, max args or None).
 FN_BUILTINS: dict[str, tuple[int, int | None]] = {
@@ -71,7 +71,7 @@ _COMPONENTS = {
 }  # fmt: skip
 
 
-def build(it: Interpreter, node: syntax.Block) -> FunctionValue:
+def build(it: BuildContext, node: syntax.Block) -> FunctionValue:
     """The FunctionValue of a `function [(params)] { body }` block, or of a `function W, H
     { body }` image (height_field, image_map …): the sizes lead its body."""
     params = tuple(node.params) if node.params is not None else ("x", "y", "z")
@@ -91,7 +91,7 @@ def build(it: Interpreter, node: syntax.Block) -> FunctionValue:
     return FunctionValue(fn.params, tuple(node.body), node.span, compiled=fn, size=size)
 
 
-def _image_size(it: Interpreter, node: syntax.Node) -> int:
+def _image_size(it: BuildContext, node: syntax.Node) -> int:
     """A size of a function image in pixels: a float rounded as POV-Ray rounds it (at least 2)."""
     v = it.eval(node)
     if not isinstance(v, bool | int | float):
@@ -104,7 +104,7 @@ def _image_size(it: Interpreter, node: syntax.Node) -> int:
 
 
 class _Builder:
-    def __init__(self, it: Interpreter, params: tuple[str, ...]):
+    def __init__(self, it: BuildContext, params: tuple[str, ...]):
         self.it = it
         self.params = params
 
@@ -177,7 +177,7 @@ class _Builder:
         if isinstance(node, syntax.Ident):
             found, v = self.it.lookup(node.name)
             if not found:
-                raise self.it._unknown_ident(node.name, node.span)
+                raise self.it.unknown_ident(node.name, node.span)
             if isinstance(v, FunctionValue | MacroValue):
                 raise self.error(f"`{node.name}` needs arguments here", node.span)
         v = self.it.eval(node)
@@ -205,7 +205,7 @@ class _Builder:
             return _fold(ir.FnBuiltin(node.name, args))
         found, v = self.it.lookup(node.name)
         if not found:
-            raise self.it._unknown_ident(node.name, node.span)
+            raise self.it.unknown_ident(node.name, node.span)
         if isinstance(v, FunctionValue):
             fn = v.compiled
             if fn is None:

@@ -1,0 +1,377 @@
+"""Expressions: numbers, strings, identifiers, vectors, operators, member and index access,
+calls of built-in functions, macros, user functions and splines, colour and array literals,
+trace()/inside() and min_extent()/max_extent(). One function per syntax node kind,
+dispatched by EXPRESSIONS."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from lang import (
+    builtins,
+    syntax,
+)
+from lang.builtins import EvalError, as_color, as_float, as_vec
+from lang.diagnostics import Span
+from lang.eval.context import BuildContext
+from lang.eval.splines import evaluate_spline
+from lang.extents import bounding_box
+from lang.values import (
+    ArrayValue,
+    ColorValue,
+    FunctionValue,
+    MacroValue,
+    ObjectValue,
+    SplineValue,
+    UnsupportedValue,
+    Vec,
+    describe,
+)
+
+MAX_ARRAY_ELEMENTS = 10_000_000  # a larger array is a mistake (and would exhaust memory)
+
+
+def _e_number(it: BuildContext, node: syntax.Number) -> float:
+    return node.value
+
+
+def _e_string(it: BuildContext, node: syntax.String) -> str:
+    return node.value
+
+
+def _e_ident(it: BuildContext, node: syntax.Ident) -> Any:
+    found, v = it.lookup(node.name)
+    if not found:
+        raise it.unknown_ident(node.name, node.span)
+    if it.deprecated and node.name in it.deprecated:
+        _warn_deprecated(it, node)
+    if isinstance(v, MacroValue):
+        if not v.params:
+            return it.single(
+                it.call_macro(syntax.Call(node.span, node.name, [], False)),
+                node.span,
+                f"macro `{node.name}`",
+            )
+        raise it.error(
+            "E0232",
+            f"macro `{node.name}` needs arguments",
+            node.span,
+            f"{node.name}({', '.join(v.params)})",
+        )
+    return v
+
+
+def _warn_deprecated(it: BuildContext, node: syntax.Ident) -> None:
+    note = it.deprecated[node.name]
+    message, once, warned = note
+    if once and warned:
+        return
+    note[2] = True
+    it.sink.warning("W0402", message, node.span, f"`{node.name}` is deprecated")
+
+
+def _e_const(it: BuildContext, node: syntax.Const) -> Any:
+    for b in reversed(it.fn_bindings):
+        if node.name in b:
+            return b[node.name]
+    if node.name in it.animation:
+        return float(it.animation[node.name])
+    if node.name == "now":
+        it.depends_outside("now")
+    return builtins.constant(
+        node.name,
+        clock=it.clock,
+        version=it.version,
+        image_width=it.image_width,
+        image_height=it.image_height,
+        input_file=Path(it.main_file).name,
+    )
+
+
+def _e_vector(it: BuildContext, node: syntax.Vector) -> Vec:
+    comps = []
+    for item in node.items:
+        v = it.eval(item)
+        if not isinstance(v, float | int):
+            raise it.error(
+                "E0202", f"a vector component must be a float, not {describe(v)}", item.span
+            )
+        comps.append(v)
+    if len(comps) < 2:
+        raise it.error("E0202", "a vector needs 2 to 5 components", node.span)
+    return Vec(comps)
+
+
+def _e_unary(it: BuildContext, node: syntax.Unary) -> Any:
+    return builtins.unary(node.op, it.eval(node.operand))
+
+
+def _e_binary(it: BuildContext, node: syntax.Binary) -> Any:
+    a = it.eval(node.left)
+    if node.op == "&" and not builtins.truth(a):
+        return 0.0
+    if node.op == "|" and builtins.truth(a):
+        return 1.0
+    b = it.eval(node.right)
+    try:
+        return builtins.binary(node.op, a, b)
+    except EvalError as e:
+        raise it.error("E0203", e.message, node.span, e.hint) from None
+
+
+def _e_ternary(it: BuildContext, node: syntax.Ternary) -> Any:
+    return it.eval(node.then if builtins.truth(it.eval(node.cond)) else node.other)
+
+
+def _e_member(it: BuildContext, node: syntax.Member) -> Any:
+    return builtins.member(it.eval(node.target), node.name)
+
+
+def _e_index(it: BuildContext, node: syntax.Index) -> Any:
+    chain: list[syntax.Node] = []
+    base: syntax.Node = node
+    while isinstance(base, syntax.Index):
+        chain.append(base.index)
+        base = base.target
+    chain.reverse()
+    arr = it.eval(base)
+    if not isinstance(arr, ArrayValue):
+        raise it.error("E0250", f"{describe(arr)} cannot be indexed", node.span)
+    idx = array_index(it, arr, [it.eval(i) for i in chain], node.span)
+    v = arr.data[arr.flat_index(tuple(idx))]
+    if v is None:
+        raise it.error(
+            "E0250",
+            "array element " + "".join(f"[{i}]" for i in idx) + " is not initialised",
+            node.span,
+        )
+    return v
+
+
+def array_index(it: BuildContext, arr: ArrayValue, raw: list[Any], span: Span) -> list[int]:
+    if len(raw) != len(arr.dims):
+        raise it.error(
+            "E0250",
+            f"the array has {len(arr.dims)} dimension(s); {len(raw)} index(es) given",
+            span,
+        )
+    idx = []
+    for r, d in zip(raw, arr.dims, strict=True):
+        i = int(as_float(r, "an array index"))
+        if not 0 <= i < d:
+            raise it.error(
+                "E0250",
+                f"array index {i} is out of range 0..{d - 1}",
+                span,
+                f"this dimension has {d} element(s); indices start at 0",
+            )
+        idx.append(i)
+    return idx
+
+
+def _e_call(it: BuildContext, node: syntax.Call) -> Any:
+    if node.builtin:
+        if node.name == "defined":
+            if len(node.args) == 1 and isinstance(node.args[0], syntax.Ident):
+                return 1.0 if it.lookup(node.args[0].name)[0] else 0.0
+            return 1.0
+        if node.name in ("min_extent", "max_extent"):
+            if len(node.args) != 1:
+                raise it.error("E0203", f"{node.name}() takes one object", node.span)
+            obj = it.eval(node.args[0])
+            if not isinstance(obj, ObjectValue):
+                raise it.error(
+                    "E0202", f"{node.name}() needs an object, not {describe(obj)}", node.span
+                )
+            box = bounding_box(obj)
+            if box is None:
+                it.unsupported(f"{node.name}() of a `{obj.keyword}`", node.span)
+                return Vec((0.0, 0.0, 0.0))
+            return Vec(box[0] if node.name == "min_extent" else box[1])
+        if node.name in ("inside", "trace"):
+            return _geometry_call(it, node)
+        if node.name in ("prod", "sum"):
+            it.unsupported(f"{node.name}()", node.span)
+            return 0.0
+        args = [it.eval(a) for a in node.args]
+        try:
+            return builtins.call(node.name, args, it.state)
+        except EvalError as e:
+            raise it.error("E0203", e.message, node.span, e.hint) from None
+    found, v = it.lookup(node.name)
+    if not found:
+        raise it.unknown_ident(node.name, node.span)
+    if isinstance(v, MacroValue):
+        since = len(it.sink.items)
+        els = it.call_macro(node)
+        return it.single(els, node.span, f"macro `{node.name}`", since)
+    if isinstance(v, FunctionValue):
+        return it.call_function(v, [it.eval(a) for a in node.args], node.span)
+    if isinstance(v, SplineValue):
+        if not 1 <= len(node.args) <= 2:
+            raise it.error("E0232", "a spline takes one parameter", node.span)
+        return evaluate_spline(v, as_float(it.eval(node.args[0]), "a spline parameter"))
+    if isinstance(v, UnsupportedValue):
+        it.unsupported(v.keyword, node.span)
+        return 0.0
+    raise it.error("E0202", f"`{node.name}` is {describe(v)}, not a macro or function", node.span)
+
+
+def _geometry_call(it: BuildContext, node: syntax.Call) -> Any:
+    """POV-Ray's trace(OBJ, A, B [, N]) (the first point where the ray from A along B
+    meets OBJ, <0,0,0> on a miss; N, when given, is set to the surface normal there, or
+    <0,0,0>) and inside(OBJ, P) (1 or 0)."""
+    name, args = node.name, node.args
+    counts = (3, 4) if name == "trace" else (2,)
+    if len(args) not in counts:
+        want = " or ".join(map(str, counts))
+        raise it.error("E0232", f"{name}() takes {want} arguments", node.span,
+                         "trace(OBJECT, START, DIRECTION [, NORMAL])" if name == "trace"
+                         else "inside(OBJECT, POINT)")  # fmt: skip
+    if len(args) == 4 and not isinstance(args[3], syntax.Ident):
+        raise it.error("E0202", "trace()'s fourth argument names a variable for the "
+                         "normal", args[3].span)  # fmt: skip
+    obj = it.eval(args[0])
+    if not isinstance(obj, ObjectValue):
+        raise it.error(
+            "E0202", f"{name}() needs an object first, not {describe(obj)}", args[0].span
+        )
+    try:
+        vecs = [as_vec(it.eval(a), 3, f"{name}()'s point").xyz for a in args[1:3]]
+    except EvalError as e:
+        raise it.error("E0203", e.message, node.span) from None
+    queries = it.scene_queries()
+    target = it.query_object(obj) if queries is not None else None
+    if name == "inside":
+        return 1.0 if queries is not None and queries.inside(target, vecs[0]) else 0.0
+    found = queries.trace(target, vecs[0], vecs[1]) if queries is not None else None
+    point, normal = found if found is not None else ((0.0,) * 3, (0.0,) * 3)
+    if len(args) == 4:
+        it.declare(args[3].name, Vec(normal), local=False)
+    return Vec(point)
+
+
+def _e_color(it: BuildContext, node: syntax.ColorCtor) -> ColorValue:
+    if node.value is None:
+        c = [0.0] * 5
+    else:
+        v = it.eval(node.value)
+        kind = node.kind or ""
+        base = kind.removeprefix("s")
+        if kind == "":
+            c = list(as_color(v, "a colour").rgbft)
+        else:
+            if isinstance(v, ColorValue):
+                v = Vec(v.rgbft)
+            n = {"rgb": 3, "rgbf": 4, "rgbt": 4, "rgbft": 5}[base]
+            if isinstance(v, float | int):
+                p = [float(v)] * n
+            elif isinstance(v, Vec):
+                if len(v) < n and len(v) != 3:
+                    raise it.error("E0202", f"`{kind}` needs a {n}-component vector", node.span)
+                p = list(v.padded(n))
+            else:
+                raise it.error("E0202", f"`{kind}` needs a vector, not {describe(v)}", node.span)
+            c = p[:3] + [0.0, 0.0]
+            if base == "rgbf":
+                c[3] = p[3]
+            elif base == "rgbt":
+                c[4] = p[3]
+            elif base == "rgbft":
+                c[3], c[4] = p[3], p[4]
+            if kind.startswith("s"):
+                c[:3] = [_from_srgb(it, x) for x in c[:3]]
+    idx = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}
+    for comp, expr in node.parts:
+        val = as_float(it.eval(expr), f"`{comp}`")
+        if comp in ("gray", "grey"):
+            c[0] = c[1] = c[2] = val
+        else:
+            c[idx[comp]] = val
+    return ColorValue(tuple(c))  # type: ignore[arg-type]
+
+
+def _from_srgb(it: BuildContext, v: float) -> float:
+    """sRGB-encoded → linear → the working gamma (assumed_gamma, 1.0 if unset)."""
+    lin = v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
+    g = it.settings.get("assumed_gamma") or 1.0
+    return lin ** (1.0 / g) if lin > 0 else lin
+
+
+def _e_array(it: BuildContext, node: syntax.ArrayLit) -> ArrayValue:
+    items = node.items
+    dims = [int(as_float(it.eval(d), "an array size")) for d in node.dims]
+    if not dims:
+        # `array { … }`: the size comes from the initialiser (POV-Ray 3.8 style)
+        dims = [len(items or [])]
+    if any(d <= 0 for d in dims):
+        raise it.error("E0250", "array sizes must be positive", node.span)
+    total = 1
+    for d in dims:
+        total *= d
+    if total > MAX_ARRAY_ELEMENTS:
+        raise it.error(
+            "E0250",
+            f"an array of {total:,} elements is too large",
+            node.span,
+            f"strala's arrays hold at most {MAX_ARRAY_ELEMENTS:,} elements",
+        )
+    arr = ArrayValue(tuple(dims), [None] * total)
+    if items is not None:
+        flat: list[Any] = []
+
+        def walk(level: list, depth: int) -> None:
+            want = dims[depth] if depth < len(dims) else 0
+            if len(level) != want:
+                raise it.error(
+                    "E0250",
+                    f"the array initialiser has {len(level)} item(s) at depth {depth + 1}, "
+                    f"the array declares {want}",
+                    node.span,
+                )
+            for item in level:
+                if isinstance(item, list):
+                    walk(item, depth + 1)
+                else:
+                    if depth != len(dims) - 1:
+                        raise it.error("E0250", "the array initialiser is too shallow", node.span)
+                    flat.append(it.eval_value(item))
+
+        walk(list(items), 0)
+        arr.data = flat
+    return arr
+
+
+def _e_block(it: BuildContext, node: syntax.Block) -> Any:
+    return it.eval_block(node)
+
+
+def _e_cut_block(it: BuildContext, node: syntax.CutBlock) -> Any:
+    """`#if (c) merge { #else union { #end body }`: the block the first true head names."""
+    for head in node.heads:
+        if head.cond is None or builtins.truth(it.eval(head.cond)):
+            block = syntax.Block(node.span, head.keyword, node.body, keyword_span=head.span)
+            return it.eval_block(block)
+    raise AssertionError("a cut block ends with #else")  # the grammar requires it
+
+
+# How each kind of expression node evaluates.
+EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
+    syntax.Number: _e_number,
+    syntax.String: _e_string,
+    syntax.Ident: _e_ident,
+    syntax.Const: _e_const,
+    syntax.Vector: _e_vector,
+    syntax.Unary: _e_unary,
+    syntax.Binary: _e_binary,
+    syntax.Ternary: _e_ternary,
+    syntax.Member: _e_member,
+    syntax.Index: _e_index,
+    syntax.Call: _e_call,
+    syntax.ColorCtor: _e_color,
+    syntax.ArrayLit: _e_array,
+    syntax.Block: _e_block,
+    syntax.CutBlock: _e_cut_block,
+}

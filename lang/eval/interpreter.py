@@ -1,0 +1,1365 @@
+"""The interpreter: syntax tree → IR.
+
+Two phases per block body. *Expand* walks the elements, runs directives in place (`#if`
+picks a branch, `#while`/`#for` loop, `#declare` binds, `#include` splices a file, a macro
+call splices what its body yields) and evaluates expressions and nested blocks to values.
+*Group* then reads the expanded stream with the block's schema (lang.eval.grouping). A
+builder per block (lang.eval.builders) turns the groups into a value. Errors become
+Diagnostics at the element's span and evaluation goes on. The interpreter owns the state:
+scopes, macros, includes, file handles, the scene being built, and `to_ir`, which resolves
+an object value into its IR. It implements the build context (lang.eval.context) the
+builders see."""
+
+from __future__ import annotations
+
+import difflib
+import os
+import re
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from lang import (
+    builtins,
+    ir,
+    paths,
+    scene_store,
+    schema,
+    syntax,
+    transforms,
+)
+from lang.builtins import EvalError, as_float
+from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
+from lang.eval import data_shapes, expressions, functions, grouping, splines, surfaces
+from lang.eval.builders import BUILDERS
+from lang.eval.camera import CameraError
+from lang.eval.elements import (
+    LIST_KINDS,
+    El,
+    Grouped,
+    Quiet,
+    Statement,
+)
+from lang.ir_ops import (
+    collect_lights,
+    transform_interior,
+    transform_texture,
+)
+from lang.keywords import ALL_WORDS
+from lang.paths import STDLIB
+from lang.queries import QueriesFactory, SceneQueries
+from lang.values import (
+    ArrayValue,
+    CameraValue,
+    ColorValue,
+    FileHandle,
+    FunctionValue,
+    ListValue,
+    MacroValue,
+    ObjectPattern,
+    ObjectValue,
+    UnsupportedValue,
+    Vec,
+    describe,
+    kind_of,
+)
+
+# Bounds that turn runaway scenes into diagnostics instead of hangs.
+MAX_LOOP_ITERATIONS = 1_000_000
+MAX_MACRO_DEPTH = 200
+MAX_INCLUDE_DEPTH = 64
+RECURSION_LIMIT = 30_000
+
+
+@dataclass
+class Result:
+    scene: ir.Scene | None  # None only when errors made a scene impossible
+    diagnostics: list[Diagnostic]
+    symbols: dict[str, object]  # global identifiers at the end (#declare'd values)
+    files: list[str]  # every file read
+
+
+class _Break(Exception):
+    pass
+
+
+class _Els(list):
+    """A block's expanded elements; `failed` when one of them could not be evaluated (its
+    error is reported), so the block's "missing value" complaints would only repeat it."""
+
+    failed = False
+
+
+# What a block says when one of its values is missing: after a value failed to evaluate
+# (reported already), these only echo that error and are left out.
+_CASCADE_CODES = frozenset({"E0211", "E0212"})
+
+
+class _Halt(Exception):
+    """`#error`: POV-Ray stops parsing."""
+
+
+class _Scope(dict):
+    """One symbol table; `kind` is global, include, macro or function."""
+
+    def __init__(self, kind: str):
+        super().__init__()
+        self.kind = kind
+
+
+# The interior of every object that names none: one (frozen) value, not one each (a stored
+# scene of thousands of objects loads it once).
+_DEFAULT_INTERIOR = ir.Interior()
+_INHERITED_FLAGS = ("no_shadow", "no_reflection", "no_image", "hollow", "double_illuminate")
+
+
+_READ_TOKEN = re.compile(
+    r'\s*(?:"((?:[^"\\]|\\.)*)"|<([^>]*)>|([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?))\s*,?'
+)
+
+
+class Interpreter:
+    def __init__(
+        self,
+        library_paths: Sequence[str] = (),
+        *,
+        clock: float = 0.0,
+        allow_file_io: bool = True,
+        image_width: int = 0,
+        image_height: int = 0,
+        debug_to_stderr: bool = False,
+        animation: Mapping[str, float] | None = None,
+        queries: QueriesFactory | None = None,
+    ):
+        self.sink = DiagnosticSink()
+        self._queries_factory = queries
+        self._queries: SceneQueries | None = None
+        # an object's IR for trace()/inside(), made once (the queries cache by object)
+        self._query_objects: dict[int, tuple[ObjectValue, ir.Object]] = {}
+        # frame_number, initial_frame, final_frame, initial_clock, final_clock, clock_delta,
+        # clock_on of an animation (see animation_values); absent ones are POV-Ray's 0
+        self.animation = dict(animation or {})
+        self.library_paths = [str(p) for p in library_paths]
+        self.clock = clock
+        self.allow_file_io = allow_file_io
+        self.image_width = image_width
+        self.image_height = image_height
+        self.debug_to_stderr = debug_to_stderr
+        self.scopes: list[_Scope] = [_Scope("global")]
+        self.file_stack: list[str] = []
+        self.files: list[str] = []
+        self.parse_cache: dict[str, syntax.SourceFile] = {}
+        # Syntax errors inside an included file's macros, reported when the macro is called
+        # (as POV-Ray does): keyed by the macro's span.
+        self.broken_macros: dict[Span, list[Diagnostic]] = {}
+        # `#declare deprecated [once] "message" NAME`: NAME → [message, once, warned yet]
+        self.deprecated: dict[str, list] = {}
+        self.macro_depth = 0
+        self.loose_depth = 0
+        self.blob_depth = 0  # inside a blob body, `sphere`/`cylinder` are components
+        self.state = builtins.BuiltinState()
+        self.fn_bindings: list[dict[str, float]] = []
+        self.version = 3.7
+        self.version_set = False
+        self.main_file = ""
+        self.warned: set[str] = set()
+        # Names the main file #declares (first place) and every name ever read, for the
+        # "declared but never used" warning.
+        self.main_declares: dict[str, Span] = {}
+        self.used: set[str] = set()
+        # scene state
+        self.camera: ir.Camera | None = None
+        self.lights: list[ir.Light] = []
+        self.objects: list[ir.Object] = []
+        self.settings: dict[str, Any] = {}
+        self.background: ir.Color = ir.BLACK
+        self.sky_sphere: tuple[ir.Pigment, ...] | None = None
+        self.fog: ir.Fog | None = None
+        self.fogs: list[ir.Fog] = []  # every fog block, in order (POV-Ray applies them all)
+        self.media: list[ir.Media] = []  # atmospheric media blocks
+        self.default_texture = ir.Texture()
+        # plain textures by value (see _shared_texture), each with the finish its key names
+        self._textures: dict[tuple, tuple[ir.Finish, ir.Texture]] = {}
+        self.handles: dict[str, FileHandle] = {}
+        # What the result depends on beyond the text of its files and its options (file
+        # I/O, `now`, an image …): a result that does is not stored (lang.scene_store).
+        self.outside: list[str] = []
+        # every path an #include probed: the digest of the text read there, None for a miss
+        self.probed: dict[str, str | None] = {}
+        self._digests: dict[str, str] = {}  # resolved include path -> digest of its text
+        self.printed: list[str] = []  # `#debug` text written to stderr
+
+    # ------------------------------------------------------------ running
+    def run(self, text: str, filename: str) -> Result:
+        self.main_file = filename
+        self.state.folder = str(Path(filename).resolve().parent)
+        self.files.append(filename)
+        tree, diags = self._parse_stored(text, filename)
+        self.sink.items.extend(diags)
+        self.file_stack.append(filename)
+        # Scenes recurse through macros (trees, fractals); each macro level costs a few dozen
+        # Python frames, so give the interpreter room (MAX_MACRO_DEPTH still bounds it).
+        old_limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(old_limit, RECURSION_LIMIT))
+        try:
+            for el in self.expand(tree.body, None, top=True):
+                self._top_level(el)
+        finally:
+            sys.setrecursionlimit(old_limit)
+            self.file_stack.pop()
+        for h in list(self.handles.values()):
+            self._flush(h)
+        for name, span in self.main_declares.items():
+            if name not in self.used:
+                self.sink.warning(
+                    "W0400",
+                    f"`{name}` is declared but never used",
+                    span,
+                    "remove the declaration, or use the name",
+                )
+        scene = self._scene()
+        symbols = {k: v for k, v in self.scopes[0].items()}
+        return Result(scene, _once(self.sink.items), symbols, list(self.files))
+
+    def parse_source(self, text: str, filename: str) -> tuple[syntax.SourceFile, list[Diagnostic]]:
+        """The syntax tree of one file's text. An extension point: the language server parses
+        its open document incrementally, translate parses the text it is rewriting."""
+        from lang.parser import parse  # lark is loaded on first use, not at import
+
+        return parse(text, filename)
+
+    def _parse_stored(self, text: str, filename: str) -> tuple[syntax.SourceFile, list[Diagnostic]]:
+        """A file's parse, from `lang.parse_store` when it holds it. Subclasses that parse
+        in their own way (the language server, translate) keep theirs; text without a file
+        name is parsed."""
+        if type(self).parse_source is not Interpreter.parse_source or filename.startswith("<"):
+            return self.parse_source(text, filename)
+        from lang import parse_store
+
+        got = parse_store.load(text, filename)
+        if got is None:
+            got = self.parse_source(text, filename)
+            parse_store.save(text, filename, *got)
+        return got
+
+    def _scene(self) -> ir.Scene:
+        s = self.settings
+        settings = ir.Settings(
+            assumed_gamma=s.get("assumed_gamma"),
+            version=self.version if self.version_set else None,
+            max_trace_level=s.get("max_trace_level", 5),
+            adc_bailout=s.get("adc_bailout", 1.0 / 255.0),
+            ambient_light=s.get("ambient_light", (1.0, 1.0, 1.0)),
+            radiosity=s.get("radiosity"),
+            charset=s.get("charset", "ascii"),
+        )
+        return ir.Scene(
+            camera=self.camera if self.camera is not None else ir.Camera(),
+            lights=tuple(self.lights),
+            objects=tuple(self.objects),
+            settings=settings,
+            background=self.background,
+            sky_sphere=self.sky_sphere,
+            fog=self.fog,
+            fogs=tuple(self.fogs),
+            media=tuple(self.media),
+            files=tuple(self.files),
+        )
+
+    # ------------------------------------------------------------ diagnostics
+    def error(self, code: str, message: str, span: Span, hint: str | None = None) -> SceneError:
+        return SceneError(Diagnostic(Severity.ERROR, code, message, span, hint))
+
+    def warn_once(
+        self, key: str, message: str, span: Span, hint: str | None = None, code: str = "W0300"
+    ) -> None:
+        if key in self.warned:
+            return
+        self.warned.add(key)
+        self.sink.warning(code, message, span, hint)
+
+    def ignored(self, block: str, keyword: str, args: list[Any], span: Span) -> None:
+        """Warn once per keyword that strala accepts but ignores (schema.IGNORED_ITEMS); an
+        explicit 0 or `off` asks for nothing and is not warned about."""
+        reason = schema.ignored_reason(block, keyword)
+        if reason is None:
+            return
+        given = [a for a in args if a is not None]
+        if given and all(isinstance(a, int | float) and not a for a in given):
+            return
+        self.warn_once(
+            f"ignored:{reason}",  # one warning per missing feature (focal blur's four words)
+            f"`{keyword}` is accepted but ignored",
+            span,
+            reason,
+            code="W0308",
+        )
+
+    def unsupported(self, feature: str, span: Span, what: str = "") -> None:
+        self.warn_once(
+            f"unsupported:{feature}",
+            f"`{feature}` is not supported yet{what}",
+            span,
+            "strala parses it and renders the rest of the scene",
+        )
+
+    # ------------------------------------------------------------ scopes
+    def lookup(self, name: str) -> tuple[bool, Any]:
+        for scope in reversed(self.scopes):
+            if name in scope:
+                self.used.add(name)
+                return True, scope[name]
+        return False, None
+
+    def _scope_of(self, name: str) -> _Scope | None:
+        for scope in reversed(self.scopes):
+            if name in scope:
+                return scope
+        return None
+
+    def declare(self, name: str, value: Any, local: bool) -> None:
+        """POV-Ray: #local binds in the innermost table; #declare updates the most local
+        visible binding (so a macro can assign its by-reference parameters), else global."""
+        if local:
+            self.scopes[-1][name] = value
+            return
+        scope = self._scope_of(name)
+        (scope if scope is not None else self.scopes[0])[name] = value
+
+    def unknown_ident(self, name: str, span: Span) -> SceneError:
+        visible: set[str] = set()
+        for scope in self.scopes:
+            visible |= set(scope)
+        close = difflib.get_close_matches(name, sorted(visible), n=1, cutoff=0.75)
+        hint = f"did you mean `{close[0]}`?" if close else None
+        if hint is None:
+            found = self._find_declaring_include(name)
+            if found:
+                hint = f'`{name}` is declared in {found}: add `#include "{found}"`'
+        if hint is None:
+            kw = difflib.get_close_matches(name, sorted(ALL_WORDS), n=1, cutoff=0.8)
+            if kw:
+                hint = f"did you mean the keyword `{kw[0]}`?"
+        return self.error("E0201", f"unknown identifier `{name}`", span, hint)
+
+    def _find_declaring_include(self, name: str) -> str | None:
+        pat = re.compile(rf"#\s*declare\s+{re.escape(name)}\s*=")
+        for folder in [*self.library_paths, str(STDLIB)]:
+            try:
+                entries = sorted(os.listdir(folder))
+            except OSError:
+                continue
+            for f in entries:
+                if not f.endswith(".inc"):
+                    continue
+                try:
+                    if pat.search(Path(folder, f).read_text(errors="replace")):
+                        return f
+                except OSError:
+                    continue
+        return None
+
+    # ------------------------------------------------------------ top level
+    def _top_level(self, el: El) -> None:
+        if el.kind == "comma":
+            return
+        if el.kind == "kw":
+            self.sink.error(
+                "E0210",
+                f"`{el.value}` cannot stand at the top level",
+                el.span,
+                self.where_keyword(el.value),
+            )
+            return
+        if el.kind == "entry":
+            self.sink.error("E0212", "a `[ … ]` map entry outside a map", el.span)
+            return
+        v = el.value
+        if v is None:
+            return
+        if isinstance(v, ObjectValue):
+            self.objects.append(self.to_ir(v, placed=el.placed_default))
+            self.lights.extend(collect_lights(v))
+        elif isinstance(v, ir.Light):
+            self.lights.append(v)
+        elif isinstance(v, CameraValue):
+            self.camera = v.camera
+        elif isinstance(v, Statement):
+            if v.kind == "background":
+                self.background = v.value
+            elif v.kind == "sky_sphere":
+                self.sky_sphere = v.value
+            elif v.kind == "fog":
+                if self.fog is None:
+                    self.fog = v.value
+                self.fogs.append(v.value)
+        elif isinstance(v, ir.Media):
+            self.media.append(v)
+        elif isinstance(v, UnsupportedValue):
+            self.unsupported(v.keyword, el.span)
+        else:
+            self.sink.error(
+                "E0212",
+                f"{describe(v)} cannot stand alone at the top level",
+                el.span,
+                "only objects, lights, camera and settings make a scene; "
+                "use #declare to name a value",
+            )
+
+    def where_keyword(self, name: str) -> str | None:
+        homes = [b.name for b in schema.BLOCKS.values() if name in b.items]
+        if homes:
+            return f"`{name}` belongs inside " + ", ".join(f"`{h}`" for h in homes[:4])
+        return None
+
+    # ------------------------------------------------------------ expansion
+    def expand(
+        self, body: Sequence[syntax.Node], spec: schema.BlockSpec | None, top: bool = False
+    ) -> list[El]:
+        """Run directives, evaluate values; `top` keeps what came before an #error."""
+        out: list[El] = _Els()
+        i, n = 0, len(body)
+        while i < n:
+            node = body[i]
+            i += 1
+            try:
+                if (
+                    isinstance(node, syntax.Declare)
+                    and isinstance(node.value, syntax.Block)
+                    and node.value.keyword == "texture"
+                    and not node.indices
+                ):
+                    # `#declare T = texture {…} texture {…}`: POV-Ray's layered texture.
+                    layers = []
+                    while (
+                        i < n and isinstance(body[i], syntax.Block) and body[i].keyword == "texture"
+                    ):
+                        layers.append(body[i])
+                        i += 1
+                    if layers:
+                        base = self.eval(node.value)
+                        extra = tuple(self.eval(b) for b in layers)
+                        base = replace(base, layers=base.layers + extra)
+                        self.declare(node.name, base, node.local)
+                        continue
+                start = len(out)
+                self.expand_node(node, out, spec)
+                self._stamp_default(out, start)
+            except SceneError as e:
+                self.sink.items.append(e.diagnostic)
+                out.failed = True  # type: ignore[attr-defined]
+            except EvalError as e:
+                self.sink.error("E0203", e.message, node.span, e.hint)
+                out.failed = True  # type: ignore[attr-defined]
+            except RecursionError:
+                self.sink.error("E0231", "recursion too deep", node.span)
+            except Quiet:
+                pass
+            except _Halt:
+                if top:
+                    return out
+                raise
+            except _Break:
+                raise
+            except Exception as e:  # a bug in strala: still a diagnostic, never a traceback
+                if isinstance(e, OverflowError) or (isinstance(e, ValueError) and "NaN" in str(e)):
+                    # an infinite or NaN number (1e400, 0 * 1e400) where an integer goes
+                    self.sink.error(
+                        "E0203",
+                        "a number here is infinite or not a number",
+                        node.span,
+                        "a count or an index must be a finite number",
+                    )
+                    out.failed = True  # type: ignore[attr-defined]
+                    continue
+                self.sink.error(
+                    "E0200",
+                    f"internal error while evaluating this: {type(e).__name__}: {e}",
+                    node.span,
+                    "please report this as a strala bug",
+                )
+        return out
+
+    def _stamp_default(self, out: list[El], start: int) -> None:
+        """Objects among out[start:] not stamped yet get the #default texture in effect now:
+        POV-Ray gives an untextured object the default current where the object statement
+        stands in the scene (its Post_Process), not where the object was declared, and an
+        include or loop that places objects may change the default in between."""
+        for k in range(start, len(out)):
+            el = out[k]
+            if el.placed_default is None and isinstance(el.value, ObjectValue):
+                el.placed_default = self.default_texture
+
+    def expand_node(self, node: syntax.Node, out: list[El], spec: schema.BlockSpec | None) -> None:
+        """Expand one node into `out`. An extension point: translate watches which of its
+        files' nodes are being evaluated when an error is reported."""
+        t = type(node)
+        if t is syntax.Keyword:
+            out.append(El("kw", node.name, node.span))
+        elif t is syntax.Comma:
+            out.append(El("comma", None, node.span))
+        elif t is syntax.MapEntry:
+            out.append(El("entry", self.expand(node.body, None), node.span))
+        elif t is syntax.Call and not node.builtin and self._is_macro(node.name):
+            out.extend(self.call_macro(node))
+        elif t is syntax.Ident and spec is not None and node.name in spec.soft:
+            # strala's soft words are keywords inside the blocks that list them (and plain
+            # names everywhere else), as lang/keywords.py documents
+            out.append(El("kw", node.name, node.span))
+        elif t is syntax.Ident and self._word_slot(out, spec) and not self.lookup(node.name)[0]:
+            # an unknown word where an item takes a word (`scheme sqrt3`): the item's own
+            # check names the choices, which says more than "unknown identifier"
+            out.append(El("kw", node.name, node.span))
+        elif t in _DIRECTIVES:
+            _DIRECTIVES[t](self, node, out, spec)
+        elif t is syntax.Block and node.keyword == "default" and not node.params:
+            # `default { … }` without the `#`: POV-Ray's older spelling of #default
+            self._d_default(syntax.Default(node.span, node.body), out, spec)
+        elif t is syntax.Block and node.keyword == "object" and _takes_object_pattern(spec):
+            # `pigment { object { OBJ A, B } }`: the object pattern, not an object
+            out.append(El("kw", "object", node.keyword_span or node.span))
+            out.append(El("val", self._object_pattern(node), node.span))
+        else:
+            out.append(El("val", self.eval(node), node.span))
+
+    def _object_pattern(self, node: syntax.Block) -> ObjectPattern:
+        """`object { OBJECT item_outside, item_inside }` inside a pigment, normal or texture:
+        the object (a declared one or a shape block) and up to two list items."""
+        els = [e for e in self.expand(node.body, None) if e.kind != "comma"]
+        span = node.keyword_span or node.span
+        if not els or els[0].kind != "val" or not isinstance(els[0].value, ObjectValue):
+            raise self.error(
+                "E0211",
+                "the object pattern needs an object first",
+                els[0].span if els else span,
+                "object { MyObject color rgb 0, color rgb 1 }",
+            )
+        items = []
+        for e in els[1:]:
+            if e.kind != "val" or kind_of(e.value) not in LIST_KINDS:
+                what = f"`{e.value}`" if e.kind == "kw" else describe(e.value)
+                raise self.error(
+                    "E0211",
+                    f"an object pattern lists colours, pigments, normals or textures, not {what}",
+                    e.span,
+                )
+            items.append(e.value)
+        if len(items) > 2:
+            raise self.error("E0211", "an object pattern has two list items", els[3].span)
+        return ObjectPattern(self.to_ir(els[0].value), tuple(items))
+
+    @staticmethod
+    def _word_slot(out: list[El], spec: schema.BlockSpec | None) -> bool:
+        if spec is None or not out or out[-1].kind != "kw":
+            return False
+        item = spec.items.get(out[-1].value)
+        return item is not None and item.args[:1] == ("word",)
+
+    def _is_macro(self, name: str) -> bool:
+        found, v = self.lookup(name)
+        return found and isinstance(v, MacroValue)
+
+    # ------------------------------------------------------------ directives
+    def _d_include(self, node: syntax.Include, out: list[El], spec) -> None:
+        name = self.eval(node.path)
+        if not isinstance(name, str):
+            raise self.error("E0202", "#include needs a file name string", node.span)
+        found = self._find(name)
+        if found is None:
+            raise self.error(
+                "E0220",
+                f"include file `{name}` not found",
+                node.span,
+                "searched the scene's folder, the -L library paths and strala's stdlib",
+            )
+        probed_at, path = found
+        if path in self.file_stack:
+            raise self.error(
+                "E0221",
+                f"include cycle: `{name}` is already being included",
+                node.span,
+                " → ".join(Path(f).name for f in [*self.file_stack, path]),
+            )
+        if len(self.file_stack) > MAX_INCLUDE_DEPTH:
+            raise self.error("E0221", "includes nested too deeply", node.span)
+        tree = self.parse_cache.get(path)
+        if tree is None:
+            try:
+                text = Path(path).read_text(encoding="utf-8", errors="replace")
+            except OSError as e:
+                raise self.error(
+                    "E0220", f"cannot read `{name}`: {e.strerror}", node.span
+                ) from None
+            tree, diags = self._parse_stored(text, path)
+            self.sink.items.extend(self._defer_macro_errors(tree.body, diags))
+            self.parse_cache[path] = tree
+            self._digests[path] = scene_store.digest(text)
+        self.probed[probed_at] = self._digests.get(path)
+        if path not in self.files:
+            self.files.append(path)
+        self.file_stack.append(path)
+        self.scopes.append(_Scope("include"))
+        try:
+            out.extend(self.expand(tree.body, spec))
+        finally:
+            self.scopes.pop()
+            self.file_stack.pop()
+
+    def _defer_macro_errors(
+        self, body: Sequence[syntax.Node], diags: list[Diagnostic]
+    ) -> list[Diagnostic]:
+        """An include file's syntax errors inside a macro's body wait for a call of the macro:
+        POV-Ray's own files have macros that only its textual parser reads (`#write` of half
+        a mesh in one #if branch), and a scene that never calls them must not fail."""
+        macros: list[syntax.MacroDef] = []
+        stack = list(body)
+        while stack:
+            n = stack.pop()
+            if isinstance(n, syntax.MacroDef):
+                macros.append(n)
+            elif isinstance(n, syntax.If):
+                stack.extend(x for _, b in n.branches for x in b)
+            elif isinstance(n, syntax.IfDef):
+                stack.extend(n.then + (n.other or []))
+        kept = []
+        for d in diags:
+            home = next((m for m in macros if _inside(d.span, m.span)), None)
+            if home is None or d.severity is not Severity.ERROR:
+                kept.append(d)
+            else:
+                self.broken_macros.setdefault(home.span, []).append(d)
+        return kept
+
+    def resolve(self, name: str) -> str | None:
+        """The file `name` names (not an include's: see _find). Looking for it, found or
+        not, makes the result depend on a file whose text is not followed."""
+        self.depends_outside(f"the file {name}")
+        found = self._find(name)
+        return None if found is None else found[1]
+
+    def _find(self, name: str) -> tuple[str, str] | None:
+        """(the path probed, the resolved path) of the file `name` names: in the current
+        file's folder, the library paths, the stdlib (lang.paths). The misses are kept in
+        `probed` (lang.scene_store follows them)."""
+        here = Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()
+        found = paths.find(name, here, self.library_paths, self.probed)
+        return None if found is None else (found.probed, found.path)
+
+    def standalone(self, result: Result) -> bool:
+        """The result depends only on its files' text and the options, and has no errors:
+        it may be stored (lang.scene_store)."""
+        return (
+            result.scene is not None
+            and not self.outside
+            and not self.state.looked_outside
+            and not any(d.severity is Severity.ERROR for d in result.diagnostics)
+        )
+
+    def depends_outside(self, why: str) -> None:
+        """The result depends on `why`, something besides the files' text and the options."""
+        if why not in self.outside:
+            self.outside.append(why)
+
+    def _d_declare(self, node: syntax.Declare, out: list[El], spec) -> None:
+        value = self.eval_value(node.value)
+        if node.indices:
+            found, arr = self.lookup(node.name)
+            if not found or not isinstance(arr, ArrayValue):
+                raise self.error(
+                    "E0250", f"`{node.name}` is not an array", node.name_span or node.span
+                )
+            idx = tuple(
+                expressions.array_index(self, arr, [self.eval(i) for i in node.indices], node.span)
+            )
+            arr.data[arr.flat_index(idx)] = value
+            return
+        if isinstance(value, ArrayValue) and isinstance(node.value, syntax.Ident):
+            value = ArrayValue(value.dims, list(value.data))  # POV-Ray copies arrays
+        span = node.name_span or node.span
+        if node.local and len(self.scopes) > 1 and node.name in self.scopes[0]:
+            if node.name not in self.scopes[-1]:
+                self.sink.warning(
+                    "W0401",
+                    f"`#local {node.name}` hides the global `{node.name}` inside this macro",
+                    span,
+                    "rename one of them if the global was meant",
+                )
+        elif not node.local and self.file_stack and self.file_stack[-1] == self.main_file:
+            self.main_declares.setdefault(node.name, span)
+        if node.deprecated is not None:
+            self.deprecated[node.name] = [node.deprecated, node.deprecated_once, False]
+        elif self.deprecated:
+            self.deprecated.pop(node.name, None)
+        self.declare(node.name, value, node.local)
+
+    def eval_value(self, node: syntax.Node) -> Any:
+        """A declared value: an expression, or a directive that yields one value."""
+        if type(node) in _DIRECTIVES or (
+            isinstance(node, syntax.Call) and not node.builtin and self._is_macro(node.name)
+        ):
+            since = len(self.sink.items)
+            els = self.expand([node], None)
+            return self.single(els, node.span, "this declaration", since)
+        return self.eval(node)
+
+    def single(self, els: list[El], span: Span, what: str, since: int | None = None) -> Any:
+        vals = [e for e in els if e.kind != "comma"]
+        if len(vals) == 1 and vals[0].kind == "val":
+            return vals[0].value
+        if since is not None and any(d.severity is Severity.ERROR for d in self.sink.items[since:]):
+            raise Quiet()  # the cause is already reported; do not add a cascade
+        if not vals:
+            raise self.error("E0202", f"{what} yields no value", span)
+        raise self.error(
+            "E0202",
+            f"{what} yields {len(vals)} elements where one value is needed",
+            span,
+            "macros are functions: an expression takes exactly one value from them",
+        )
+
+    def _d_undef(self, node: syntax.Undef, out, spec) -> None:
+        scope = self._scope_of(node.name)
+        if scope is not None:
+            del scope[node.name]
+
+    def _d_if(self, node: syntax.If, out, spec) -> None:
+        for cond, body in node.branches:
+            if cond is None or builtins.truth(self.eval(cond)):
+                out.extend(self.expand(body, spec))
+                return
+
+    def _d_ifdef(self, node: syntax.IfDef, out, spec) -> None:
+        found, v = self.lookup(node.name)
+        if found and node.indices and isinstance(v, ArrayValue):
+            try:
+                idx = tuple(
+                    expressions.array_index(
+                        self, v, [self.eval(i) for i in node.indices], node.span
+                    )
+                )
+                found = v.data[v.flat_index(idx)] is not None
+            except SceneError:
+                found = False
+        if found != node.negate:
+            out.extend(self.expand(node.then, spec))
+        elif node.other is not None:
+            out.extend(self.expand(node.other, spec))
+
+    def _d_switch(self, node: syntax.Switch, out, spec) -> None:
+        value = as_float(self.eval(node.value), "#switch value")
+        running = False
+        try:
+            for case in node.cases:
+                if not running:
+                    if case.values is None:
+                        running = True
+                    elif case.is_range:
+                        lo, hi = (as_float(self.eval(v), "#range bound") for v in case.values)
+                        running = lo <= value <= hi
+                    else:
+                        c = as_float(self.eval(case.values[0]), "#case value")
+                        running = abs(c - value) < builtins.EQUALITY_EPSILON
+                if running:
+                    out.extend(self.expand(case.body, spec))
+                    if case.breaks:
+                        return
+        except _Break:
+            return
+
+    def _d_while(self, node: syntax.While, out, spec) -> None:
+        n = 0
+        watched = _loop_watch(node)
+        try:
+            while builtins.truth(self.eval(node.cond)):
+                n += 1
+                if n > MAX_LOOP_ITERATIONS:
+                    raise self.error(
+                        "E0230",
+                        f"#while ran past {MAX_LOOP_ITERATIONS} iterations",
+                        node.span,
+                        "check that the loop's condition eventually becomes false",
+                    )
+                before = None if watched is None else [self.lookup(v) for v in watched]
+                mark = len(self.sink.items)
+                out.extend(self.expand(node.body, spec))
+                if self._errors_since(mark):
+                    break  # reported once: the next iterations would repeat it
+                if before is not None and _same_values(before, [self.lookup(v) for v in watched]):
+                    raise self.error(
+                        "E0230",
+                        "this #while never ends: nothing its condition reads changed in a pass",
+                        node.span,
+                        "change a variable of the condition in the body, or leave with #break",
+                    )
+        except _Break:
+            pass
+
+    def _errors_since(self, mark: int) -> bool:
+        return any(d.severity is Severity.ERROR for d in self.sink.items[mark:])
+
+    def _d_for(self, node: syntax.For, out, spec) -> None:
+        start = as_float(self.eval(node.start), "#for start")
+        end = as_float(self.eval(node.end), "#for end")
+        step = as_float(self.eval(node.step), "#for step") if node.step is not None else 1.0
+        if step == 0.0:
+            raise self.error("E0230", "#for step is zero", node.span)
+        count = (end - start) / step + 1
+        if count > MAX_LOOP_ITERATIONS:  # said at once, not after a million passes
+            raise self.error(
+                "E0230",
+                f"#for would run {count:.4g} times, more than {MAX_LOOP_ITERATIONS}",
+                node.span,
+                "check the loop's bounds and step",
+            )
+        i, n = start, 0
+        try:
+            while (i <= end + 1e-10) if step > 0 else (i >= end - 1e-10):
+                n += 1
+                if n > MAX_LOOP_ITERATIONS:
+                    raise self.error(
+                        "E0230", f"#for ran past {MAX_LOOP_ITERATIONS} iterations", node.span
+                    )
+                (self._scope_of(node.var) or self.scopes[-1])[node.var] = i
+                mark = len(self.sink.items)
+                out.extend(self.expand(node.body, spec))
+                if self._errors_since(mark):
+                    break  # reported once: the next iterations would repeat it
+                found, cur = self.lookup(node.var)
+                i = (as_float(cur) if found else i) + step
+        except _Break:
+            pass
+
+    def _d_macro(self, node: syntax.MacroDef, out, spec) -> None:
+        self.scopes[0][node.name] = MacroValue(
+            node.name,
+            tuple(node.params),
+            tuple(node.body),
+            self.file_stack[-1],
+            node.span,
+            optional=frozenset(node.optional),
+        )
+
+    def _d_version(self, node: syntax.Version, out, spec) -> None:
+        self.version = as_float(self.eval(node.value), "#version")
+        if self.file_stack and self.file_stack[-1] == self.main_file:
+            self.version_set = True
+
+    def _d_message(self, node: syntax.Message, out, spec) -> None:
+        v = self.eval(node.value)
+        text = v if isinstance(v, str) else str(v)
+        if node.kind == "debug":
+            if self.debug_to_stderr:
+                sys.stderr.write(text)
+                self.printed.append(text)
+            self.sink.note("N0100", text.rstrip("\n"), node.span)
+        elif node.kind == "warning":
+            self.sink.warning("W0301", text.rstrip("\n"), node.span)
+        elif node.kind == "error":
+            self.sink.error("E0240", text.rstrip("\n"), node.span, "raised by #error")
+            raise _Halt()
+
+    def _d_default(self, node: syntax.Default, out, spec) -> None:
+        for el in self.expand(node.body, None):
+            v = el.value
+            t = self.default_texture
+            if isinstance(v, ir.Texture):
+                self.default_texture = v
+            elif isinstance(v, ir.Pigment):
+                self.default_texture = replace(t, pigment=v)
+            elif isinstance(v, ir.Finish):
+                self.default_texture = replace(t, finish=v)
+            elif isinstance(v, ir.Normal):
+                self.default_texture = replace(t, normal=v)
+            elif el.kind != "comma":
+                self.sink.error(
+                    "E0212",
+                    "#default takes texture, pigment, finish or normal blocks",
+                    el.span,
+                )
+
+    def _d_break(self, node: syntax.Break, out, spec) -> None:
+        raise _Break()
+
+    # ---- file I/O (inside the scene's folder only, and never while checking)
+    def _d_fileop(self, node: syntax.FileOp, out, spec) -> None:
+        self.depends_outside("file I/O")
+        if node.op == "fopen":
+            name = self.eval(node.args[0])
+            if not isinstance(name, str):
+                raise self.error("E0260", "#fopen needs a file name string", node.span)
+            if not self.allow_file_io:
+                self.warn_once(
+                    "fileio", "file I/O is off while checking; #fopen ignored", node.span
+                )
+                if node.mode == "read":
+                    return  # the handle stays undefined, as at the end of a file
+                self.handles[node.handle] = FileHandle("", "discard")
+                self.declare(node.handle, self.handles[node.handle], False)
+                return
+            folder = Path(self.state.folder)
+            path = (folder / name).resolve()
+            if not path.is_relative_to(folder):
+                raise self.error(
+                    "E0260",
+                    f"`{name}` is outside the scene's folder",
+                    node.span,
+                    "scenes may only read and write files beside them",
+                )
+            h = FileHandle(str(path), node.mode or "read")
+            if h.mode == "read":
+                try:
+                    text = path.read_text(errors="replace")
+                except OSError as e:
+                    raise self.error(
+                        "E0260", f"cannot open `{name}`: {e.strerror}", node.span
+                    ) from None
+                h.lines = [m.group(0) for m in _READ_TOKEN.finditer(text)]
+            elif h.mode == "append" and path.exists():
+                h.lines = [path.read_text(errors="replace")]
+            self.handles[node.handle] = h
+            self.declare(node.handle, h, False)
+            return
+        h = self.handles.get(node.handle)
+        if h is None:
+            # POV-Ray: a #read that reaches the end of the file closes it and undefines its
+            # name, so a later #fclose of it (or of any name not open) does nothing
+            if node.op in ("read", "fclose") or not self.allow_file_io:
+                return
+            raise self.error("E0260", f"`{node.handle}` is not an open file", node.span)
+        if node.op == "fclose":
+            self._flush(h)
+            self.handles.pop(node.handle, None)
+            scope = self._scope_of(node.handle)
+            if scope is not None:
+                del scope[node.handle]
+        elif node.op == "write":
+            for a in node.args:
+                h.lines.append(self._format_write(self.eval(a)))
+        elif node.op == "read":
+            for a in node.args:
+                if not isinstance(a, syntax.Ident):
+                    raise self.error("E0260", "#read stores into names", a.span)
+                if h.pos >= len(h.lines):
+                    scope = self._scope_of(node.handle)
+                    if scope is not None:
+                        del scope[node.handle]
+                    self.handles.pop(node.handle, None)
+                    return
+                m = _READ_TOKEN.match(h.lines[h.pos])
+                h.pos += 1
+                if m.group(1) is not None:
+                    value: Any = m.group(1)
+                elif m.group(2) is not None:
+                    value = Vec(float(c) for c in m.group(2).split(","))
+                else:
+                    value = float(m.group(3))
+                self.declare(a.name, value, False)
+            if h.pos >= len(h.lines):
+                scope = self._scope_of(node.handle)
+                if scope is not None:
+                    del scope[node.handle]
+                self.handles.pop(node.handle, None)
+
+    def _format_write(self, v: Any) -> str:
+        if isinstance(v, str):
+            return v
+        if isinstance(v, float):
+            return f"{v:g}"
+        if isinstance(v, Vec):
+            return "<" + ",".join(f"{c:g}" for c in v) + ">"
+        if isinstance(v, ColorValue):
+            return "<" + ",".join(f"{c:g}" for c in v.rgbft) + ">"
+        raise EvalError(f"#write cannot write {describe(v)}")
+
+    def _flush(self, h: FileHandle) -> None:
+        if h.mode in ("write", "append") and h.path:
+            Path(h.path).write_text("".join(h.lines))
+            h.mode = "closed"
+
+    # ------------------------------------------------------------ macros
+    def _object_then_value(self, node: syntax.Node) -> tuple[Any, syntax.Node] | None:
+        """`M(Make_Thing() -y)`: POV-Ray ends an argument after an object (a comma between
+        arguments is optional), so `-y` is the next argument, not a subtraction. For a
+        `+`/`-` chain whose first operand is an object (a declared one or a macro's), that
+        object and the rest of the chain as its own expression; None otherwise."""
+        chain: list[syntax.Binary] = []
+        leaf = node
+        while isinstance(leaf, syntax.Binary) and leaf.op in ("+", "-"):
+            chain.append(leaf)
+            leaf = leaf.left
+        if not chain:
+            return None
+        if isinstance(leaf, syntax.Ident):
+            found, v = self.lookup(leaf.name)
+            if not (found and isinstance(v, ObjectValue)):
+                return None
+        elif not (isinstance(leaf, syntax.Call) and not leaf.builtin and self._is_macro(leaf.name)):
+            return None
+        first = chain.pop()
+        rest: syntax.Node = syntax.Unary(first.span, first.op, first.right)
+        for b in reversed(chain):
+            rest = syntax.Binary(b.span, b.op, rest, b.right)
+        return leaf, rest
+
+    def _split_object_args(self, args: list[syntax.Node], want: int) -> list[syntax.Node]:
+        """The arguments with `OBJECT -y` read as two (see _object_then_value), while
+        there are fewer arguments than parameters."""
+        out: list[syntax.Node] = []
+        count = len(args)
+        for a in args:
+            split = self._object_then_value(a) if count < want else None
+            if split is not None:
+                out.extend(split)
+                count += 1
+            else:
+                out.append(a)
+        return out
+
+    def call_macro(self, node: syntax.Call) -> list[El]:
+        _, macro = self.lookup(node.name)
+        required = len([p for p in macro.params if p not in macro.optional])
+        if len(node.args) < required:
+            args = self._split_object_args(node.args, len(macro.params))
+            if len(args) != len(node.args):
+                node = syntax.Call(node.span, node.name, args, node.builtin)
+        if len(node.args) > len(macro.params):
+            raise self.error(
+                "E0232",
+                f"macro `{macro.name}` takes {len(macro.params)} argument(s), got {len(node.args)}",
+                node.span,
+                f"#macro {macro.name}({', '.join(macro.params)})",
+            )
+        missing = [p for p in macro.params[len(node.args) :] if p not in macro.optional]
+        if missing:
+            raise self.error(
+                "E0232",
+                f"macro `{macro.name}` takes {len(macro.params)} argument(s), got "
+                f"{len(node.args)}: `{missing[0]}` is missing",
+                node.span,
+                f"#macro {macro.name}({', '.join(macro.params)})",
+            )
+        if self.macro_depth >= MAX_MACRO_DEPTH:
+            raise self.error("E0231", f"macro `{macro.name}` recursed too deeply", node.span)
+        if macro.span is not None and macro.span in self.broken_macros:
+            self.sink.items.extend(self.broken_macros[macro.span])
+            self.broken_macros[macro.span] = []  # its own errors are shown once
+            where = f"{Path(macro.file).name}:{macro.span.line}"
+            raise self.error(
+                "E0233",
+                f"macro `{macro.name}` ({where}) does not parse",
+                node.span,
+                "its syntax errors are listed with it",
+            )
+        args = [self.eval_value(a) for a in node.args]
+        scope = _Scope("macro")
+        refs: dict[str, tuple[_Scope, str, Any]] = {}
+        for name, node_arg, value in zip(macro.params, node.args, args, strict=False):
+            scope[name] = value
+            if isinstance(node_arg, syntax.Ident):
+                owner = self._scope_of(node_arg.name)
+                if owner is not None:
+                    refs[name] = (owner, node_arg.name, value)
+        self.scopes.append(scope)
+        self.file_stack.append(macro.file)
+        self.macro_depth += 1
+        try:
+            els = self.expand(macro.body, None)
+        finally:
+            self.macro_depth -= 1
+            self.file_stack.pop()
+            self.scopes.pop()
+        # By-reference parameters: an assignment to a parameter reaches the caller's name.
+        for name, (owner, target, old) in refs.items():
+            if name in scope and scope[name] is not old:
+                owner[target] = scope[name]
+        return els
+
+    def call_function(self, fn: FunctionValue, args: list[Any], span: Span) -> float:
+        if len(args) != len(fn.params):
+            raise self.error(
+                "E0232", f"this function takes {len(fn.params)} argument(s), got {len(args)}", span
+            )
+        values = tuple(as_float(a, "function argument") for a in args)
+        if fn.compiled is None:
+            return 0.0
+        try:
+            return functions.call(fn.compiled, values)
+        except functions.Unevaluable as e:
+            self.unsupported(f"{e.what} called from the scene language", span)
+            return 0.0
+
+    # ------------------------------------------------------------ expressions
+    def eval(self, node: syntax.Node) -> Any:
+        try:
+            return expressions.EXPRESSIONS[type(node)](self, node)
+        except KeyError:
+            if type(node) in _DIRECTIVES:
+                return self.eval_value(node)
+            raise self.error("E0202", "this is not a value", node.span) from None
+        except EvalError as e:
+            raise self.error("E0203", e.message, node.span, e.hint) from None
+
+    def scene_queries(self) -> SceneQueries | None:
+        self.depends_outside("trace() or inside()")
+        if self._queries is None and self._queries_factory is not None:
+            self._queries = self._queries_factory()
+        return self._queries
+
+    def query_object(self, obj: ObjectValue) -> ir.Object:
+        key = id(obj)
+        if key not in self._query_objects:
+            self._query_objects[key] = (obj, self.to_ir(obj))  # obj kept: its id stays unique
+        return self._query_objects[key][1]
+
+    # ------------------------------------------------------------ blocks
+    def eval_block(self, node: syntax.Block) -> Any:
+        kw = node.keyword
+        span = node.keyword_span or node.span
+        if kw == "function":
+            return functions.build(self, node)
+        if kw in schema.LIST_BLOCKS:
+            els = [e for e in self.expand(node.body, None) if e.kind != "comma"]
+            items = [e.value for e in els]
+            spans = [e.span for e in els]
+            count = None
+            if kw not in schema.UNCOUNTED_LISTS and items and isinstance(items[0], float):
+                count = int(items[0])
+                items, spans = items[1:], spans[1:]
+            if count is not None and count != len(items) and kw != "face_indices":
+                self.sink.warning(
+                    "W0302",
+                    f"`{kw}` declares {count} item(s) but lists {len(items)}",
+                    span,
+                )
+            return ListValue(kw, tuple(items), count, node.span, item_spans=tuple(spans))
+        if kw == "spline":
+            return splines.build_spline(self, node)
+        if kw == "bicubic_patch":
+            return surfaces.bicubic_patch(self, node)
+        if self.blob_depth and kw in ("sphere", "cylinder"):
+            self.blob_depth, depth = 0, self.blob_depth  # nested blocks are ordinary again
+            try:
+                return data_shapes.component(self, node)
+            finally:
+                self.blob_depth = depth
+        if kw in schema.DATA_SHAPES:
+            return data_shapes.build(self, node)
+        if kw in schema.UNSUPPORTED_SHAPES:
+            self.unsupported(kw, span)
+            return surfaces.unsupported_object(self, node)
+        spec = schema.BLOCKS.get(kw)
+        if spec is None:
+            self.loose_depth += 1
+            try:
+                self.expand(node.body, None)
+            finally:
+                self.loose_depth -= 1
+            return UnsupportedValue(kw, span)
+        els = self.expand(node.body, spec)
+        if getattr(els, "failed", False):
+            return self._build_after_failure(spec, els, node)
+        g = grouping.group(self, spec, els, node)
+        try:
+            return self.build(kw, g, node)
+        except EvalError as e:
+            raise self.error("E0203", e.message, span, e.hint) from None
+        except CameraError as e:
+            raise self.error("E0270", str(e), span) from None
+
+    def build(self, keyword: str, g: Grouped, node: syntax.Block) -> Any:
+        """The value of block `keyword` from its grouped items (lang.eval.builders)."""
+        return BUILDERS[keyword](self, g, node)
+
+    def _build_after_failure(self, spec: schema.BlockSpec, els: list[El], node: syntax.Block):
+        """Build a block one of whose values failed (and was reported): its complaints about a
+        missing or extra value would repeat that error, so they are dropped, and a block that
+        cannot be built without the value is dropped quietly."""
+        mark = len(self.sink.items)
+        try:
+            g = grouping.group(self, spec, els, node)
+        except SceneError as e:
+            if e.diagnostic.code in _CASCADE_CODES:
+                raise Quiet() from None
+            raise
+        finally:
+            self.sink.items[mark:] = [
+                d for d in self.sink.items[mark:] if d.code not in _CASCADE_CODES
+            ]
+        try:
+            return self.build(node.keyword, g, node)
+        except SceneError as e:
+            if e.diagnostic.code in _CASCADE_CODES:
+                raise Quiet() from None
+            raise
+        except EvalError as e:
+            raise self.error("E0203", e.message, node.keyword_span or node.span, e.hint) from None
+        except CameraError as e:
+            raise self.error("E0270", str(e), node.keyword_span or node.span) from None
+
+    # ------------------------------------------------------------ objects
+    def _shared_texture(self, tex: ir.Texture) -> ir.Texture:
+        """One texture object for the objects whose textures are the same plain colour and
+        finish: a thousand `sphere { … pigment { rgb 1 } }` then share one (a stored scene
+        loads it once, the renderer numbers it once). A solid pigment's span is dropped:
+        only an image_map's is ever read."""
+        if not ir.plain_solid(tex):
+            return tex
+        pig = tex.pigment
+        # the finish by identity (hashing one per object cost more than sharing saves): a
+        # declared or default finish is one object; the pair keeps it alive, its id unique
+        key = (pig.color, pig.transform, id(tex.finish), tex.span)
+        hit = self._textures.get(key)
+        if hit is None:
+            shared = tex if pig.span is None else replace(tex, pigment=replace(pig, span=None))
+            hit = self._textures[key] = (tex.finish, shared)
+        return hit[1]
+
+    def to_ir(
+        self,
+        obj: ObjectValue,
+        parent: ir.Matrix = ir.IDENTITY,
+        inherited: ir.Texture | None = None,
+        interior: ir.Interior | None = None,
+        flags: dict[str, bool] | None = None,
+        placed: ir.Texture | None = None,
+    ) -> ir.Object:
+        """Resolve an object: `parent` is the enclosing CSGs' transform (children store theirs
+        relative to it); `inherited` is the nearest CSG texture, already in world space;
+        `placed` is the #default texture where the object stands in the scene (what its
+        untextured parts get), else the default when it was made."""
+        has_parent = not transforms.is_identity(parent)
+        own = obj.texture
+        if own is not None and has_parent:
+            own = transform_texture(own, parent)
+        tex = self._shared_texture(
+            own or inherited or placed or obj.default or self.default_texture
+        )
+        own_interior = obj.interior
+        if has_parent:
+            own_interior = transform_interior(own_interior, parent)
+        inter = own_interior or interior or _DEFAULT_INTERIOR
+        full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
+        shape = obj.shape
+        # no_shadow, hollow … on a CSG hold for every child (the runtime may flatten CSG)
+        merged = dict(flags or {})
+        for k in _INHERITED_FLAGS:
+            if obj.flags.get(k):
+                merged[k] = True
+        if obj.children:
+            kids = tuple(
+                self.to_ir(c, full, own or inherited, own_interior or interior, merged, placed)
+                for c in obj.children
+            )
+            shape = ir.CSG(obj.keyword, kids)
+            full = ir.IDENTITY  # the children carry the whole transform
+        elif isinstance(shape, ir.Mesh):
+            if has_parent and shape.textures:
+                shape = replace(
+                    shape, textures=tuple(transform_texture(t, parent) for t in shape.textures)
+                )
+            if shape.face_textures is not None:
+                textures = list(shape.textures)
+                faces = list(shape.face_textures)
+                if any(f < 0 for f in faces):
+                    textures.append(tex)
+                    mine = len(textures) - 1
+                    faces = [mine if f < 0 else f for f in faces]
+                shape = replace(shape, textures=tuple(textures), face_textures=tuple(faces))
+        f = {**obj.flags, **merged}
+        return ir.Object(
+            shape=shape,
+            transform=full,
+            texture=tex,
+            interior=inter,
+            no_shadow=f.get("no_shadow", False),
+            no_reflection=f.get("no_reflection", False),
+            no_image=f.get("no_image", False),
+            hollow=f.get("hollow", False),
+            inverse=f.get("inverse", False),
+            double_illuminate=f.get("double_illuminate", False),
+            clipped_by=tuple(self.to_ir(c, parent, tex, placed=placed) for c in obj.clipped_by),
+            span=obj.span,
+        )
+
+
+def _takes_object_pattern(spec: schema.BlockSpec | None) -> bool:
+    """Whether `object { … }` in this block is the object pattern (pigment, normal …)."""
+    item = spec.items.get("object") if spec is not None else None
+    return item is not None and item.args == ("object_pattern",)
+
+
+def _loop_watch(node: syntax.While) -> list[str] | None:
+    """The names a #while's condition reads, when nothing but them can end the loop and the
+    body cannot change them: the condition calls no function (a call may read a file, a
+    random stream, `defined()`), the body has no #break, and it neither assigns nor
+    #undefs those names, calls no macro (a macro may #declare them) and includes no file.
+    After one pass with the same values the loop cannot end. None: it cannot be judged
+    (a body that sets `Continue = 0`, then back to 1 while a counter runs down, is a loop
+    that ends: tracevines.pov)."""
+    cond = list(syntax.walk(node.cond))
+    if any(isinstance(n, syntax.Call) for n in cond):
+        return None
+    body = list(syntax.walk(node.body))
+    if any(isinstance(n, syntax.Break | syntax.FileOp) for n in body):
+        return None
+    names = sorted({n.name for n in cond if isinstance(n, syntax.Ident)})
+    for n in body if names else ():
+        if (
+            (isinstance(n, syntax.Declare | syntax.Undef) and n.name in names)
+            or (isinstance(n, syntax.For) and n.var in names)
+            or isinstance(n, syntax.Include)
+            or (isinstance(n, syntax.Call) and not n.builtin)
+        ):
+            return None
+    return names
+
+
+def _same_values(a: list[tuple[bool, Any]], b: list[tuple[bool, Any]]) -> bool:
+    """Whether two snapshots of (found, value) pairs are the same (numbers, vectors,
+    strings compared by value; anything else by identity)."""
+    for (fa, va), (fb, vb) in zip(a, b, strict=True):
+        if fa != fb:
+            return False
+        if va is vb:
+            continue
+        if not isinstance(va, float | int | str | Vec) or type(va) is not type(vb) or va != vb:
+            return False
+    return True
+
+
+def _once(diags: list[Diagnostic]) -> list[Diagnostic]:
+    """The same error or warning at the same place once (a macro called many times reports
+    its body's mistakes once); notes (#debug output) all stay, repeats included."""
+    seen: set[Diagnostic] = set()
+    out = []
+    for d in diags:
+        if d.severity is not Severity.NOTE:
+            if d in seen:
+                continue
+            seen.add(d)
+        out.append(d)
+    return out
+
+
+def _inside(inner: Span, outer: Span) -> bool:
+    return inner.file == outer.file and outer.line <= inner.line <= outer.end_line
+
+
+_DIRECTIVES: dict[type, Callable[..., None]] = {
+    syntax.Include: Interpreter._d_include,
+    syntax.Declare: Interpreter._d_declare,
+    syntax.Undef: Interpreter._d_undef,
+    syntax.If: Interpreter._d_if,
+    syntax.IfDef: Interpreter._d_ifdef,
+    syntax.Switch: Interpreter._d_switch,
+    syntax.While: Interpreter._d_while,
+    syntax.For: Interpreter._d_for,
+    syntax.MacroDef: Interpreter._d_macro,
+    syntax.Version: Interpreter._d_version,
+    syntax.Message: Interpreter._d_message,
+    syntax.Default: Interpreter._d_default,
+    syntax.FileOp: Interpreter._d_fileop,
+    syntax.Break: Interpreter._d_break,
+}

@@ -1,0 +1,350 @@
+"""Builders of what a scene holds besides objects: light_source (and looks_like), camera,
+global_settings and radiosity, background, sky_sphere, fog, and `transform { … }`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+from lang import (
+    ir,
+    syntax,
+    transforms,
+)
+from lang.builtins import as_vec
+from lang.eval.camera import CameraBuilder, transform_camera
+from lang.eval.context import BuildContext, Builder
+from lang.eval.elements import (
+    TRANSFORM_WORDS,
+    Grouped,
+    Statement,
+    item_matrix,
+)
+from lang.ir_ops import (
+    transform_light,
+    transform_object,
+    transform_pigment,
+)
+from lang.values import (
+    CameraValue,
+    ColorValue,
+    ObjectValue,
+    TransformValue,
+)
+
+
+@dataclass(frozen=True)
+class _LooksLike:
+    obj: ObjectValue
+    kind: str = "looks_like"
+
+
+_CAMERA_KINDS = frozenset(
+    "perspective orthographic fisheye ultra_wide_angle omnimax panoramic spherical "
+    "cylinder mesh_camera".split()
+)
+
+
+def _b_light(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Light:
+    p = g.positional
+    base: ir.Light | None = p.get("base")
+    fields: dict[str, Any] = {}
+    area: dict[str, Any] = {}
+    kind = "point"
+    if base is not None:  # `light_source { Declared … }`
+        light = base
+        kind = base.kind
+        if base.area is not None:
+            area = {k: getattr(base.area, k) for k in base.area.__dataclass_fields__}
+    else:
+        if "position" not in p or "color" not in p:
+            missing = "position" if "position" not in p else "colour"
+            raise it.error(
+                "E0211",
+                f"`light_source` needs its {missing}",
+                g.span,
+                "`light_source { <x, y, z>, color … }`",
+            )
+        light = ir.Light(position=p["position"], color=p["color"].rgb, span=node.span)
+    moves: list[ir.Matrix] = []
+    looks: ObjectValue | None = None
+    for name, args, span in g.items:
+        if name in ("spotlight", "parallel", "cylinder"):
+            kind = name
+            if name == "cylinder":
+                fields.setdefault("radius", 0.75)
+                fields.setdefault("falloff", 1.0)
+        elif name in ("point_at", "radius", "falloff", "tightness", "fade_distance", "fade_power"):
+            fields[name] = args[0]
+        elif name == "shadowless":
+            fields["shadowless"] = True
+        elif name in ("media_interaction", "media_attenuation"):
+            fields[name] = bool(args[0]) if args and args[0] is not None else True
+        elif name == "area_light":
+            area.update(axis1=args[0], axis2=args[1], size1=args[2], size2=args[3])
+        elif name == "adaptive":
+            area["adaptive"] = int(args[0])
+        elif name == "jitter":
+            area["jitter"] = bool(args[0]) if args[0] is not None else True
+        elif name in ("circular", "orient"):
+            area[name] = True
+        elif name in TRANSFORM_WORDS:
+            moves.append(item_matrix(name, args))
+        elif name == "looks_like":
+            looks = args[0].obj
+        elif name == "projected_through":
+            it.unsupported("projected_through", span)
+        elif name in ("transform",):
+            moves.append(args[0])
+    if kind == "parallel" and "point_at" not in fields:
+        fields["point_at"] = (0.0, 0.0, 0.0)
+    light = replace(light, kind=kind, **fields)
+    if area:
+        if "axis1" not in area:
+            it.sink.warning("W0305", "area-light modifiers without `area_light`", g.span)
+        else:
+            light = replace(light, area=ir.AreaLight(**area))
+    if looks is not None:
+        looks = transform_object(looks, transforms.translate(light.position))
+        light = replace(light, looks_like=it.to_ir(looks))
+    for m in moves:
+        light = transform_light(light, m)
+    return light
+
+
+def _b_looks_like(it: BuildContext, g: Grouped, node: syntax.Block) -> _LooksLike:
+    objs = [args[0] for name, args, _ in g.items if name == "object"]
+    if len(objs) != 1:
+        raise it.error("E0211", "`looks_like` takes one object", g.span)
+    return _LooksLike(objs[0])
+
+
+def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
+    b = CameraBuilder()
+    base: CameraValue | None = g.positional.get("base")
+    if base is not None and it.version >= 3.5:
+        return _camera_copy(it, g, node, base)
+    if base is not None:
+        b.camera = base.camera
+        b.look_at_point = base.look_at
+    b.camera = replace(b.camera, span=node.span)
+    for name, args, span in g.items:
+        if name in TRANSFORM_WORDS:
+            b.add_transform(item_matrix(name, args))
+        elif name in _CAMERA_KINDS:
+            b.set(name, args[0] if name == "cylinder" and args else None)
+            if name == "mesh_camera":
+                it.unsupported(f"{name} camera", span)
+        elif name in (
+            "location",
+            "look_at",
+            "direction",
+            "right",
+            "up",
+            "sky",
+            "focal_point",
+            "aperture",
+            "confidence",
+            "variance",
+        ):
+            b.set(name, args[0])
+        elif name == "blur_samples":  # `blur_samples [min,] max`
+            given = tuple(a for a in args if a is not None)
+            b.set(name, given if len(given) > 1 else given[0])
+        elif name == "angle":
+            given = tuple(a for a in args if a is not None)  # spherical: horizontal, vertical
+            b.set("angle", given if len(given) > 1 else given[0])
+        elif name in ("normal", "unsupported"):
+            it.unsupported("camera normal" if name == "normal" else args[0].keyword, span)
+    cam = b.build()
+    for w in b.warnings:
+        it.sink.warning("W0306", w, g.span)
+    look = b.look_at_point
+    if not transforms.is_identity(b.transform):
+        look = transforms.apply_point(b.transform, look)
+    return CameraValue(cam, look)
+
+
+def _camera_copy(it: BuildContext, g: Grouped, node: syntax.Block, base) -> CameraValue:
+    """`camera { Declared … }` in POV-Ray 3.5+: the declared camera as it is, moved by the
+    transformations that follow; its rules (angle, look_at, the orthographic view size)
+    are not applied a second time, and nothing but transformations may follow."""
+    matrix = ir.IDENTITY
+    for name, args, span in g.items:
+        if name in TRANSFORM_WORDS:
+            matrix = transforms.then(matrix, item_matrix(name, args))
+        else:
+            hint = ("after `camera { Name` only translate, rotate, scale, matrix and transform "
+                    "may follow (POV-Ray 3.5+); write the camera out instead")  # fmt: skip
+            it.sink.error("E0270", f"`{name}` cannot follow a declared camera", span, hint)
+    cam, look = replace(base.camera, span=node.span), base.look_at
+    if not transforms.is_identity(matrix):
+        cam = transform_camera(cam, matrix)
+        look = transforms.apply_point(matrix, look)
+    return CameraValue(cam, look)
+
+
+def _b_global_settings(it: BuildContext, g: Grouped, node: syntax.Block) -> None:
+    s = it.settings
+    for name, args, span in g.items:
+        if name == "assumed_gamma":
+            if args[0] <= 0:
+                raise it.error("E0202", "assumed_gamma must be positive", span)
+            s["assumed_gamma"] = args[0]
+        elif name == "max_trace_level":
+            s["max_trace_level"] = max(1, args[0])
+        elif name == "adc_bailout":
+            s["adc_bailout"] = args[0]
+        elif name == "ambient_light":
+            s["ambient_light"] = args[0]
+        elif name == "charset":
+            s["charset"] = args[0]
+        elif name == "radiosity":
+            s["radiosity"] = args[0]
+        elif name == "unsupported":
+            it.unsupported(args[0].keyword, span, " in global_settings")
+    return None
+
+
+def _b_radiosity(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Radiosity:
+    fields: dict[str, Any] = {"span": node.span}
+    for name, args, span in g.items:
+        if name in ("count", "recursion_limit", "max_patches"):
+            fields[name] = int(args[0])
+        elif name in ("error_bound", "brightness", "gray_threshold", "patch_size", "tolerance"):
+            fields[name] = args[0]
+        elif name == "method":
+            if args[0] not in ("gauss_seidel", "progressive", "direct"):
+                it.sink.error(
+                    "E0202",
+                    f"unknown radiosity method `{args[0]}`",
+                    span,
+                    "gauss_seidel, progressive or direct",
+                )
+            else:
+                fields["method"] = args[0]
+        elif name == "display":
+            if args[0] not in ("gouraud", "flat"):
+                it.sink.error(
+                    "E0202", f"unknown radiosity display `{args[0]}`", span, "gouraud or flat"
+                )
+            else:
+                fields["display"] = args[0]
+        elif name in (
+            "pretrace_start",
+            "pretrace_end",
+            "nearest_count",
+            "low_error_factor",
+            "minimum_reuse",
+            "maximum_reuse",
+            "adc_bailout",
+            "always_sample",
+            "save_file",
+            "load_file",
+            "max_sample",
+        ):
+            it.warn_once(
+                f"radiosity:{name}",
+                f"radiosity `{name}` has no meaning for strala's radiosity solver; ignored",
+                span,
+            )
+    return ir.Radiosity(**fields)
+
+
+def _b_background(it: BuildContext, g: Grouped, node: syntax.Block) -> Statement:
+    return Statement("background", g.positional["color"].rgbft)
+
+
+def _b_sky_sphere(it: BuildContext, g: Grouped, node: syntax.Block) -> Statement:
+    base = g.positional.get("base")
+    pigments: list[ir.Pigment] = list(base.value) if base is not None else []
+    for name, args, span in g.items:
+        if name == "pigment":
+            pigments.append(args[0])
+        elif name in TRANSFORM_WORDS:
+            m = item_matrix(name, args)
+            pigments = [transform_pigment(p, m) for p in pigments]
+        elif name == "emission":
+            it.unsupported("sky_sphere emission", span)
+    return Statement("sky_sphere", tuple(pigments))
+
+
+def _b_fog(it: BuildContext, g: Grouped, node: syntax.Block) -> Statement:
+    """POV-Ray's Parse_Fog: constant (fog_type 1) or ground fog (2); `turbulence`, `octaves`,
+    `omega` or `lambda` give it turbulence (POV-Ray's defaults 6, 0.5, 2); transformations
+    turn only its `up` direction, which is normalised at the end."""
+    color = g.positional.get("color")
+    fields: dict[str, Any] = {}
+    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    turb: list[Any] | None = None  # [vector, octaves, omega, lambda]
+    for name, args, span in g.items:
+        if name == "color":
+            color = args[0]
+        elif name == "distance":
+            fields["distance"] = float(args[0])
+        elif name == "fog_type":
+            fields["fog_type"] = int(args[0])
+            if fields["fog_type"] not in (1, 2):
+                it.sink.warning("W0303", "unknown fog type: 1 is constant, 2 ground fog", span)
+        elif name == "fog_offset":
+            fields["offset"] = float(args[0])
+        elif name == "fog_alt":
+            fields["alt"] = float(args[0])
+        elif name == "turb_depth":
+            fields["turb_depth"] = float(args[0])
+        elif name == "up":
+            up = _fog_vec(args[0])
+        elif name in ("turbulence", "octaves", "omega", "lambda"):
+            turb = turb or [(0.0, 0.0, 0.0), 6, 0.5, 2.0]
+            if name == "turbulence":
+                turb[0] = _fog_vec(args[0])
+            elif name == "octaves":
+                turb[1] = min(10, max(1, int(args[0])))
+            else:
+                turb[2 if name == "omega" else 3] = float(args[0])
+        elif name == "translate":
+            it.sink.warning("W0303", "a fog's up vector can't be translated", span)
+        elif name in TRANSFORM_WORDS:
+            up = transforms.apply_direction(item_matrix(name, args), up)
+    distance = fields.pop("distance", 0.0)
+    if distance <= 0:
+        it.sink.warning("W0303", "fog needs a positive `distance`", g.span)
+    norm = sum(c * c for c in up) ** 0.5
+    up = tuple(c / norm for c in up) if norm > 0 else (0.0, 1.0, 0.0)
+    if turb is not None:
+        fields.update(turbulence=turb[0], octaves=turb[1], omega=turb[2], lam=turb[3])
+    c = color.rgbft if isinstance(color, ColorValue) else ir.BLACK
+    return Statement("fog", ir.Fog(c, distance, up=up, **fields))
+
+
+def _fog_vec(v: Any) -> tuple[float, float, float]:
+    if isinstance(v, tuple):
+        return (float(v[0]), float(v[1]), float(v[2]))
+    x, y, z = as_vec(v)[:3]
+    return (float(x), float(y), float(z))
+
+
+def _b_transform(it: BuildContext, g: Grouped, node: syntax.Block) -> TransformValue:
+    m: ir.Matrix = g.positional["base"] if g.positional.get("base") is not None else ir.IDENTITY
+    for name, args, span in g.items:
+        if name in TRANSFORM_WORDS:
+            m = transforms.then(m, item_matrix(name, args))
+        elif name == "inverse":
+            try:
+                m = transforms.inverse(m)
+            except ZeroDivisionError:
+                raise it.error("E0203", "this transform cannot be inverted", span) from None
+    return TransformValue(m)
+
+
+BUILDERS: dict[str, Builder] = {
+    "light_source": _b_light,
+    "looks_like": _b_looks_like,
+    "camera": _b_camera,
+    "global_settings": _b_global_settings,
+    "radiosity": _b_radiosity,
+    "background": _b_background,
+    "sky_sphere": _b_sky_sphere,
+    "fog": _b_fog,
+    "transform": _b_transform,
+}

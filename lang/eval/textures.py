@@ -1,0 +1,732 @@
+"""Builders of surface appearance: pigment, normal, finish, reflection, irid, warp,
+pigment_pattern, interior, texture, material, the maps (colour, pigment, normal, slope,
+texture, density) and image_map; the pattern keywords and modifiers pigments, normals and
+textures share."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from lang import (
+    ir,
+    schema,
+    syntax,
+    transforms,
+)
+from lang.builtins import EvalError, as_color, as_float, as_vec
+from lang.diagnostics import Span
+from lang.eval import grouping
+from lang.eval.context import BuildContext, Builder
+from lang.eval.elements import (
+    COMPONENT_INDEX,
+    TRANSFORM_WORDS,
+    Grouped,
+    component_slots,
+    item_matrix,
+)
+from lang.ir_ops import (
+    transform_pigment,
+    transform_texture,
+)
+from lang.values import (
+    ColorValue,
+    FunctionValue,
+    MapValue,
+    MaterialValue,
+    ObjectPattern,
+    ReflectionValue,
+)
+
+
+@dataclass(frozen=True)
+class _Irid:
+    amount: float
+    thickness: float
+    turbulence: float
+    kind: str = "irid"
+
+
+@dataclass(frozen=True)
+class _PigmentPattern:
+    """A `pigment_pattern { … }` block: its pigment, whose grey value is the pattern."""
+
+    pigment: ir.Pigment
+    kind: str = "pigment_pattern"
+
+
+@dataclass(frozen=True)
+class _Warp:
+    """A `warp { … }` block: `data` is the warp as the runtime reads it (runtime.patterns)."""
+
+    data: dict[str, Any]
+    kind: str = "warp"
+
+
+# Solid colours seen so far, each kept as one tuple: a thousand `pigment { rgb 1 }` then
+# hold one colour (a stored scene loads it once). Bounded: past the limit colours are kept
+# as they come.
+_COLOURS: dict[tuple, tuple] = {}
+_MAX_COLOURS = 4096
+
+
+def _shared_colour(c: tuple) -> tuple:
+    got = _COLOURS.get(c)
+    if got is not None:
+        return got
+    if len(_COLOURS) < _MAX_COLOURS:
+        _COLOURS[c] = c
+    return c
+
+
+def _sorted_entries(entries: list[tuple[float, Any]]) -> tuple[tuple[float, Any], ...]:
+    return tuple(sorted(entries, key=lambda e: e[0]))
+
+
+# Pattern default colours when a list pattern is given fewer than it takes (POV-Ray's, read
+# back from its renders).
+_LIST_DEFAULTS = {
+    "checker": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0)],
+    "hexagon": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)],
+    "brick": [(0.5, 0.5, 0.5), (0.6, 0.15, 0.15)],  # mortar, brick (rendered by POV-Ray)
+}
+_OBJECT_DEFAULTS = [(0.0, 0.0, 0.0), (1.0, 1.0, 1.0)]  # outside, inside
+
+
+_WAVES = frozenset("ramp_wave sine_wave triangle_wave scallop_wave cubic_wave poly_wave".split())
+
+
+def _unit_or_same(v: Any) -> Any:
+    """POV-Ray normalises a gradient's vector (`gradient <1, 1, 0>` repeats every 1/√2 along
+    the diagonal, not every 1/2); a zero vector stays as given."""
+    if isinstance(v, tuple) and len(v) == 3:
+        n = math.hypot(*v)
+        if n > 0:
+            return tuple(c / n for c in v)
+    return v
+
+
+# Pattern keywords (the modifiers such as turbulence are handled before these).
+_PATTERN_KEYWORDS = frozenset(
+    line.split()[0]
+    for line in schema.PATTERN_ITEMS[
+        : schema.PATTERN_ITEMS.index(
+            "turbulence vector | Turbulence amount (a float for all axes)."
+        )
+    ]
+) - frozenset(schema.LIST_PATTERNS)
+
+
+# ------------------------------------------------------------ pigments
+def as_pigment(v: Any) -> ir.Pigment:
+    if isinstance(v, ir.Pigment):
+        return v
+    return ir.Pigment(color=as_color(v, "a pigment").rgbft)
+
+
+def _density_file(it: BuildContext, args: list[Any], span: Span) -> str:
+    """The resolved path of `density_file df3 "name"`."""
+    kind, name = args
+    if kind != "df3":
+        raise it.error(
+            "E0211", f"density_file reads df3 files, not `{kind}`", span, 'df3 "file.df3"'
+        )
+    path = it.resolve(name)
+    if path is None:
+        raise it.error(
+            "E0220",
+            f"density file `{name}` not found",
+            span,
+            "searched the scene's folder and the -L library paths",
+        )
+    return path
+
+
+def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span: Span) -> bool:
+    """Pattern keywords and their modifiers, shared by pigment, normal and texture."""
+    params = st["params"]
+    if name == "pigment_pattern" and args and isinstance(args[0], _PigmentPattern):
+        st["pattern"] = name
+        params["pigment"] = args[0].pigment
+        st["depth_arg"] = None
+        return True
+    if name in schema.LIST_PATTERNS:
+        st["pattern"] = name
+        st["list"] = args[0]
+    elif name in _WAVES:
+        params["wave"] = name
+        if args and args[0] is not None:
+            params["wave_exponent"] = args[0]
+    elif name in (
+        "turbulence",
+        "octaves",
+        "omega",
+        "lambda",
+        "frequency",
+        "phase",
+        "mortar",
+        "brick_size",
+        "noise_generator",
+        "agate_turb",
+        "form",
+        "metric",
+        "offset",
+        "control0",
+        "control1",
+        "coords",
+        "max_iteration",
+        "exterior",
+        "interior",
+        "exponent",
+        "accuracy",
+        "orientation",
+        "dist_exp",
+        "arc_angle",
+        "number_of_waves",
+        "uv_mapping",
+        "solid",
+        "pass_through",
+        "use_alpha",
+        "interpolate",
+    ):
+        params[name] = (args[0] if len(args) == 1 else tuple(args)) if args else True
+    elif name in ("quick_color", "quick_colour"):
+        pass
+    elif name == "function":
+        st["pattern"] = "function"
+        fn = args[0] if args else None
+        if isinstance(fn, FunctionValue) and fn.compiled is not None:
+            params["function"] = fn.compiled
+        else:
+            it.unsupported("function pattern", span)
+    elif name in _PATTERN_KEYWORDS:
+        st["pattern"] = name
+        if name == "gradient":
+            params["orientation"] = _unit_or_same(args[0])
+        elif name in ("spiral1", "spiral2"):
+            params["arms"] = args[0]
+        elif name in ("mandel", "magnet", "tiling"):
+            params["value"] = args[0]
+        elif name == "julia":
+            params["complex"], params["iterations"] = args[0], args[1]
+        elif name == "slope":
+            params["direction"] = args[0]
+        elif name == "density_file":
+            params["df3"] = _density_file(it, args, span)
+        if name in (
+            "object",
+            "image_pattern",
+            "pigment_pattern",
+            "aoi",
+            "slope",
+            "facets",
+            "pavement",
+            "tiling",
+            "magnet",
+            "cubic",
+            "triangular",
+            "square",
+        ):
+            it.unsupported(f"{name} pattern", span)
+        st["depth_arg"] = args[-1] if args and name not in ("gradient",) else None
+        if name == "gradient" and len(args) > 1:
+            st["depth_arg"] = args[1]
+    else:
+        return False
+    return True
+
+
+def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment:
+    pig = ir.Pigment(span=node.span)
+    params: dict[str, Any] = {}
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "pigment":
+            pig = replace(v, span=node.span)
+            params = dict(v.params)
+        elif name == "color":
+            pig = replace(pig, pattern="solid", color=_shared_colour(as_color(v).rgbft))
+        elif name in schema.COMPONENT_WORDS:
+            c = list(pig.color)
+            for k in range(3) if name in ("gray", "grey") else [COMPONENT_INDEX[name]]:
+                c[k] = v
+            pig = replace(pig, pattern="solid", color=_shared_colour(tuple(c)))
+        elif name in TRANSFORM_WORDS:
+            pig = transform_pigment(pig, item_matrix(name, args))
+        elif name == "map":
+            pig = _with_map(it, pig, v, span)
+        elif name == "warp":
+            pig = _add_warp(pig, params, v)
+        elif name == "object" and isinstance(v, ObjectPattern):
+            given = [as_pigment(x) for x in v.items]
+            while len(given) < 2:
+                given.append(ir.Pigment(color=(*_OBJECT_DEFAULTS[len(given)], 0.0, 0.0)))
+            pig = replace(pig, pattern="object", list=tuple(given))
+            params["object"] = v.object
+        elif name in schema.LIST_PATTERNS:
+            defaults = _LIST_DEFAULTS.get(name, [])
+            given = [as_pigment(x) for x in v]
+            while len(given) < len(defaults):
+                given.append(ir.Pigment(color=(*defaults[len(given)], 0.0, 0.0)))
+            pig = replace(pig, pattern=name, list=tuple(given))
+            if name not in ("checker", "hexagon", "brick"):
+                it.unsupported(f"{name} pattern", span)
+        else:
+            st = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            if name == "unsupported":
+                it.unsupported(v.keyword, span)
+            elif apply_pattern_item(it, st, name, args, span) and st["pattern"]:
+                pig = replace(pig, pattern=st["pattern"])
+    if params:
+        pig = replace(pig, params=params)
+    return pig
+
+
+def _with_map(it: BuildContext, pig: ir.Pigment, m: MapValue, span: Span) -> ir.Pigment:
+    if m.map_kind in ("color_map", "colour_map"):
+        return replace(pig, color_map=tuple((k, c.rgbft) for k, c in m.entries))
+    if m.map_kind == "pigment_map":
+        return replace(pig, pigment_map=tuple((k, as_pigment(p)) for k, p in m.entries))
+    it.sink.error("E0212", f"a {m.map_kind} in a pigment", span, "use color_map or pigment_map")
+    return pig
+
+
+def _b_normal(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Normal:
+    # a normal block starts from the `#default` normal where there is one
+    base = it.default_texture.normal
+    nrm = ir.Normal("none", span=node.span) if base is None else replace(base, span=node.span)
+    params: dict[str, Any] = {} if base is None else dict(base.params)
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "normal":
+            nrm = replace(v, span=node.span)
+            params = dict(v.params)
+        elif name in TRANSFORM_WORDS:
+            nrm = replace(nrm, transform=transforms.compose(item_matrix(name, args), nrm.transform))
+        elif name in ("bump_size", "float"):
+            nrm = replace(nrm, depth=v)
+        elif name == "map":
+            if v.map_kind == "slope_map":
+                params["slope_map"] = tuple((k, (float(s[0]), float(s[1]))) for k, s in v.entries)
+            elif v.map_kind == "normal_map":
+                params["normal_map"] = tuple(
+                    (k, n) for k, n in v.entries if isinstance(n, ir.Normal)
+                )
+            else:
+                params[v.map_kind] = v.entries
+                it.unsupported(v.map_kind, span)
+        elif name == "warp":
+            nrm = _add_warp(nrm, params, v)
+        elif name in ("bump_map", "no_bump_scale"):
+            if name == "bump_map":
+                it.unsupported("bump_map", span)
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span)
+        elif name == "object" and isinstance(v, ObjectPattern):
+            nrm = replace(nrm, pattern="object")
+            params["list"] = v.items
+            params["object"] = v.object
+        elif name in schema.LIST_PATTERNS:
+            nrm = replace(nrm, pattern=name)
+            params["list"] = tuple(v)
+        else:
+            st = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
+                nrm = replace(nrm, pattern=st["pattern"])
+                depth = st.get("depth_arg")
+                if isinstance(depth, float):
+                    nrm = replace(nrm, depth=depth)
+    return replace(nrm, params=params)
+
+
+def _b_finish(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Finish:
+    # POV-Ray starts every finish block from a copy of the `#default` finish
+    f = it.default_texture.finish
+    refl: dict[str, Any] = {}
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "finish":
+            f = v
+        elif name in ("ambient", "emission"):
+            f = replace(f, **{name: v})
+        elif name == "diffuse":
+            f = replace(f, diffuse=v)
+            if args[1] is not None:
+                f = replace(f, diffuse_back=args[1])
+        elif name in ("brilliance", "specular", "roughness", "phong", "phong_size", "crand"):
+            if name == "roughness" and v <= 0:
+                raise it.error("E0202", "roughness must be positive", span)
+            f = replace(f, **{name: v})
+        elif name == "metallic":
+            f = replace(f, metallic=1.0 if v is None else v)
+        elif name == "reflection":
+            if isinstance(v, ReflectionValue):
+                f = replace(f, reflection=v.reflection)
+            else:
+                f = replace(f, reflection=replace(f.reflection, min=v, max=v))
+        elif name == "reflection_exponent":
+            refl["exponent"] = v
+        elif name == "fresnel":
+            refl["fresnel"] = True if v is None else bool(v)
+        elif name == "conserve_energy":
+            f = replace(f, conserve_energy=True if v is None else bool(v))
+        elif name == "irid":
+            f = replace(f, irid=(v.amount, v.thickness, v.turbulence))
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span, " in finish")
+        elif name == "albedo":
+            pass
+    if refl:
+        f = replace(f, reflection=replace(f.reflection, **refl))
+    return f
+
+
+def _b_reflection_block(it: BuildContext, g: Grouped, node: syntax.Block) -> ReflectionValue:
+    lo: ColorValue = g.positional["min"]
+    hi: ColorValue | None = g.positional.get("max")
+    r = ir.Reflection(min=lo.rgb, max=(hi or lo).rgb)
+    for name, args, _span in g.items:
+        v = args[0] if args else None
+        if name == "fresnel":
+            r = replace(r, fresnel=True if v is None else bool(v))
+        elif name in ("falloff", "exponent"):
+            r = replace(r, **{name: v})
+        elif name == "metallic":
+            r = replace(r, metallic=1.0 if v is None else v)
+    return ReflectionValue(r)
+
+
+def _b_pigment_pattern(it: BuildContext, g: Grouped, node: syntax.Block) -> _PigmentPattern:
+    return _PigmentPattern(build_pigment(it, g, node))
+
+
+def _add_warp(pattern: Any, params: dict[str, Any], warp: _Warp) -> Any:
+    """POV-Ray keeps a pattern's transforms and warps in one list, applied to the point from
+    the last written to the first: the transform written before this warp is stored with it,
+    and the pattern's own transform starts again from the identity."""
+    params["warps"] = (*params.get("warps", ()), (warp.data, pattern.transform))
+    return replace(pattern, transform=ir.IDENTITY)
+
+
+_WARP_VALUES = frozenset(
+    "turbulence octaves omega lambda strength falloff type repeat offset flip orientation "
+    "dist_exp major_radius".split()
+)
+
+
+def _b_warp(it: BuildContext, g: Grouped, node: syntax.Block) -> _Warp:
+    w: dict[str, Any] = {}
+    kind = None
+    for name, args, _span in g.items:
+        v = args[0] if args else None
+        if name == "black_hole":
+            kind = "black_hole"
+            w["center"], w["radius"] = v, args[1]
+        elif name == "planar":
+            kind = "planar"
+            if v is not None:
+                w["orientation"] = v
+            if len(args) > 1 and args[1] is not None:
+                w["offset"] = args[1]
+        elif name in ("cylindrical", "spherical", "toroidal", "cubic"):
+            kind = name
+        elif name == "inverse":
+            w["inverse"] = True
+        elif name in _WARP_VALUES:
+            w[name] = v
+    if kind is None:
+        kind = "repeat" if "repeat" in w else "turbulence"
+    if kind == "repeat":
+        axes = [i for i, c in enumerate(w["repeat"]) if c != 0.0]
+        if len(axes) != 1:
+            raise it.error("E0202", "a repeat warp repeats along one axis", g.span, "`repeat x*2`")
+    w["warp"] = kind
+    return _Warp(w)
+
+
+def _b_irid(it: BuildContext, g: Grouped, node: syntax.Block) -> _Irid:
+    thickness = turbulence = 0.0
+    for name, args, _ in g.items:
+        if name == "thickness":
+            thickness = args[0]
+        elif name == "turbulence":
+            turbulence = args[0]
+    return _Irid(g.positional["amount"], thickness, turbulence)
+
+
+def _b_interior(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Interior:
+    i = ir.Interior()
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "interior":
+            i = v
+        elif name in ("ior", "caustics", "dispersion", "fade_distance", "fade_power"):
+            i = replace(i, **{name: v})
+        elif name in ("fade_color", "fade_colour"):
+            i = replace(i, fade_color=v)
+        elif name == "media":
+            i = replace(i, media=(*i.media, v))
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span, " in interior")
+    return i
+
+
+def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
+    # a texture block starts from a copy of the `#default` texture (its pigment, finish, normal)
+    t = replace(it.default_texture, layers=(), span=node.span)
+    # A patterned texture: the pattern keyword and its modifiers build `t.pattern` (a
+    # pigment holding only the pattern), the texture list or texture_map its `map`.
+    params: dict[str, Any] = {}
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "texture":
+            t = replace(v, span=node.span)
+            if v.pattern is not None:
+                params = dict(v.pattern.params)
+        elif name == "pigment":
+            t = replace(t, pigment=v)
+        elif name == "finish":
+            t = replace(t, finish=v)
+        elif name == "normal":
+            t = replace(t, normal=v)
+        elif name in TRANSFORM_WORDS:
+            t = transform_texture(t, item_matrix(name, args))
+        elif name == "map":
+            if v.map_kind == "texture_map" and v.entries:
+                entries = tuple((float(k), _as_texture(it, x)) for k, x in v.entries)
+                pattern = t.pattern or ir.Pigment(pattern="solid", span=node.span)
+                t = replace(t, pattern=pattern, map=entries)
+            else:
+                it.sink.error("E0212", f"a {v.map_kind} in a texture", span)
+        elif name in schema.LIST_PATTERNS or (name == "object" and isinstance(v, ObjectPattern)):
+            items = v.items if isinstance(v, ObjectPattern) else v
+            entries = tuple((float(i), _as_texture(it, x)) for i, x in enumerate(items))
+            if isinstance(v, ObjectPattern):
+                params["object"] = v.object
+            if name not in ("checker", "hexagon", "brick", "object"):
+                it.unsupported(f"{name} texture pattern", span, "; the first texture is used")
+                if entries:
+                    t = replace(entries[0][1], span=node.span)
+                continue
+            t = replace(t, pattern=ir.Pigment(pattern=name, span=span), map=entries)
+        elif name == "uv_mapping":
+            pass
+        elif name == "warp":
+            if t.pattern is None:
+                it.unsupported("warp of a plain texture", span, " (warp its pigment instead)")
+            else:
+                t = replace(t, pattern=_add_warp(t.pattern, params, v))
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span, " in texture")
+        else:
+            st = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
+                old = t.pattern or ir.Pigment(span=span)
+                t = replace(t, pattern=replace(old, pattern=st["pattern"]))
+    if t.pattern is not None:
+        t = replace(t, pattern=replace(t.pattern, params=params))
+    return t
+
+
+def _as_texture(it: BuildContext, v: Any) -> ir.Texture:
+    """An entry of a texture list or texture_map (a texture; a colour or pigment is taken
+    as a texture of that pigment)."""
+    if isinstance(v, ir.Texture):
+        return v
+    return replace(it.default_texture, layers=(), pigment=as_pigment(v))
+
+
+def _b_material(it: BuildContext, g: Grouped, node: syntax.Block) -> MaterialValue:
+    m = MaterialValue()
+    for name, args, span in g.items:
+        v = args[0] if args else None
+        if name == "material":
+            m = v
+        elif name == "texture":
+            if m.texture is None:
+                m = replace(m, texture=v)
+            else:
+                m = replace(m, texture=replace(m.texture, layers=m.texture.layers + (v,)))
+        elif name == "interior":
+            m = replace(m, interior=v)
+        elif name in TRANSFORM_WORDS and m.texture is not None:
+            m = replace(m, texture=transform_texture(m.texture, item_matrix(name, args)))
+        elif name == "unsupported":
+            it.unsupported(v.keyword, span, " in material")
+    return m
+
+
+_MAP_ELEMENT = {
+    "pigment_map": "pigment",
+    "normal_map": "normal",
+    "texture_map": "texture",
+    "density_map": "density",
+}
+
+
+def _b_map(it: BuildContext, g: Grouped, node: syntax.Block) -> MapValue:
+    kind = node.keyword
+    entries: list[tuple[float, Any]] = []
+    for name, args, span in g.items:
+        if name == "map":
+            entries.extend(args[0].entries)
+            continue
+        vals = [e.value for e in args if e.kind == "val"]
+        element = _MAP_ELEMENT.get(kind)
+        try:
+            if element is not None and (
+                len(vals) != 2
+                or any(e.kind == "kw" for e in args)
+                or not isinstance(vals[0], float)
+            ):
+                # `[0.5 bozo color_map {…}]`: the entry's rest is the body of a pigment/…;
+                # `average` maps may leave out the value (a weight of 1)
+                rest = [e for e in args if e.kind != "comma"]
+                if not rest:
+                    raise EvalError(f"an empty {kind} entry")
+                weight = 1.0
+                if rest[0].kind == "val" and isinstance(rest[0].value, float):
+                    weight = rest[0].value
+                    rest = rest[1:]
+                fake = syntax.Block(span, element, [], keyword_span=span)
+                body = grouping.group(it, schema.BLOCKS[element], rest, fake)
+                entries.append((weight, it.build(element, body, fake)))
+                continue
+            if any(e.kind == "kw" for e in args):
+                # the old colour form inside a map: `[0.5 red 1 green 0.4]`
+                rest = [e for e in args if e.kind != "comma"]
+                c = [0.0] * 5
+                k = 1
+                while k + 1 < len(rest) and rest[k].kind == "kw":
+                    if rest[k].value not in schema.COMPONENT_WORDS:
+                        raise EvalError(f"`{rest[k].value}` inside a color_map entry")
+                    for slot in component_slots(rest[k].value):
+                        c[slot] = as_float(rest[k + 1].value, f"`{rest[k].value}`")
+                    k += 2
+                if k != len(rest) or rest[0].kind != "val":
+                    raise EvalError("a keyword inside a color_map entry", "`[value colour]`")
+                entries.append((as_float(rest[0].value, "a map value"), ColorValue(tuple(c))))
+                continue
+            if kind in ("color_map", "colour_map"):
+                if len(vals) == 2:
+                    entries.append((as_float(vals[0], "a map value"), as_color(vals[1])))
+                elif len(vals) == 4:  # old form: [lo hi color A color B]
+                    entries.append((as_float(vals[0]), as_color(vals[2])))
+                    entries.append((as_float(vals[1]), as_color(vals[3])))
+                else:
+                    raise EvalError("a color_map entry is `[value colour]`")
+            elif kind == "slope_map":
+                entries.append((as_float(vals[0]), as_vec(vals[1], 2)))
+            else:
+                if len(vals) != 2:
+                    raise EvalError(f"a {kind} entry is `[value {kind.split('_')[0]}]`")
+                entries.append((as_float(vals[0], "a map value"), vals[1]))
+        except (EvalError, IndexError) as e:
+            msg = e.message if isinstance(e, EvalError) else "incomplete map entry"
+            it.sink.error("E0202", msg, span)
+    return MapValue(kind if kind != "colour_map" else "color_map", _sorted_entries(entries))
+
+
+def _b_image_map(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment:
+    params: dict[str, Any] = {"map_type": 0, "interpolate": 0, "once": False}
+    fmt = None
+    for name, args, _span in g.items:
+        v = args[0] if args else None
+        if name == "string":
+            params["file"] = v
+        elif name in (
+            "png",
+            "jpeg",
+            "tiff",
+            "exr",
+            "hdr",
+            "gif",
+            "tga",
+            "iff",
+            "ppm",
+            "pgm",
+            "sys",
+        ):
+            fmt = name
+            if v is not None:
+                params["file"] = v
+        elif name == "once":
+            params["once"] = True
+        elif name in ("map_type", "interpolate"):
+            params[name] = int(v)
+        elif name in ("filter", "transmit"):
+            params[name] = v if args[1] is None else (v, args[1])
+        elif name in ("use_alpha", "premultiplied"):
+            params[name] = True
+        elif name == "gamma":
+            params["gamma"] = v
+    if "file" not in params:
+        raise it.error(
+            "E0211", "`image_map` needs a file name", g.span, 'image_map { png "file.png" }'
+        )
+    params["format"] = fmt or Path(params["file"]).suffix.lstrip(".").lower()
+    path = it.resolve(params["file"])
+    if path is None:
+        it.sink.warning("W0307", f"image `{params['file']}` not found", g.span)
+    else:
+        params["path"] = path
+        problem = _unreadable_image(path)
+        if problem:
+            it.sink.warning(
+                "W0307",
+                f"image `{params['file']}` cannot be read: {problem}",
+                g.span,
+                "the image renders black; check the file",
+            )
+    return ir.Pigment(pattern="image_map", params=params, span=node.span)
+
+
+# How image files start, for formats that have a signature (TGA and IFF files are not checked).
+_IMAGE_SIGNATURES = (
+    b"\x89PNG\r\n\x1a\n",
+    b"\xff\xd8\xff",
+    b"GIF87a",
+    b"GIF89a",
+    b"II*\x00",
+    b"MM\x00*",
+    b"v/1\x01",
+    b"#?RADIANCE",
+    b"#?RGBE",
+    *(b"P%d" % i for i in range(1, 7)),
+)
+_SIGNED_FORMATS = frozenset("png jpeg jpg gif tiff tif exr hdr ppm pgm".split())
+
+
+def _unreadable_image(path: str) -> str | None:
+    """Why an image file cannot be decoded, from its first bytes (None: it looks fine). Reads
+    a few bytes only, so `check` finds a broken image_map without loading an image library."""
+    if Path(path).suffix.lstrip(".").lower() not in _SIGNED_FORMATS:
+        return None
+    try:
+        with open(path, "rb") as f:
+            head = f.read(16)
+    except OSError as e:
+        return e.strerror or str(e)
+    if not head:
+        return "the file is empty"
+    if not head.startswith(_IMAGE_SIGNATURES):
+        return "it is not an image file of a known format"
+    return None
+
+
+BUILDERS: dict[str, Builder] = {
+    "pigment": build_pigment,
+    "normal": _b_normal,
+    "finish": _b_finish,
+    "reflection": _b_reflection_block,
+    "irid": _b_irid,
+    "warp": _b_warp,
+    "pigment_pattern": _b_pigment_pattern,
+    "interior": _b_interior,
+    "texture": _b_texture,
+    "material": _b_material,
+    "image_map": _b_image_map,
+    **{k: _b_map for k in schema.MAP_WORDS},
+}

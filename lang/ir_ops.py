@@ -1,0 +1,117 @@
+"""Transformations of evaluated values: moving a pigment, normal, texture, media, interior,
+light or object by a matrix as POV-Ray's Transform_* functions do, and collecting the
+lights a CSG carries. Pure functions of lang.ir and lang.values; used by the evaluator and
+nothing it depends on."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from lang import ir, transforms
+from lang.values import ObjectValue
+
+
+def transform_pigment(p: ir.Pigment, m: ir.Matrix) -> ir.Pigment:
+    """Move a pigment and (fully composed, like CSG children) its sub-pigments."""
+    return replace(
+        p,
+        transform=transforms.compose(m, p.transform),
+        list=tuple(transform_pigment(q, m) for q in p.list),
+        pigment_map=tuple((v, transform_pigment(q, m)) for v, q in p.pigment_map),
+    )
+
+
+def transform_normal(n: ir.Normal | None, m: ir.Matrix) -> ir.Normal | None:
+    if n is None:
+        return None
+    return replace(n, transform=transforms.compose(m, n.transform))
+
+
+def transform_texture(t: ir.Texture, m: ir.Matrix) -> ir.Texture:
+    """Move a texture: its pigment and normal, its layers and, for a patterned texture, its
+    pattern and every texture of its map (POV-Ray's Transform_Textures)."""
+    return replace(
+        t,
+        pigment=transform_pigment(t.pigment, m),
+        normal=transform_normal(t.normal, m),
+        layers=tuple(transform_texture(layer, m) for layer in t.layers),
+        pattern=None if t.pattern is None else transform_pigment(t.pattern, m),
+        map=tuple((k, transform_texture(sub, m)) for k, sub in t.map),
+    )
+
+
+def transform_light(light: ir.Light, m: ir.Matrix) -> ir.Light:
+    area = light.area
+    if area is not None:
+        area = replace(
+            area,
+            axis1=transforms.apply_direction(m, area.axis1),
+            axis2=transforms.apply_direction(m, area.axis2),
+        )
+    looks = light.looks_like
+    if looks is not None:
+        looks = _transform_ir_object(looks, m)
+    return replace(
+        light,
+        position=transforms.apply_point(m, light.position),
+        point_at=transforms.apply_point(m, light.point_at),
+        area=area,
+        looks_like=looks,
+    )
+
+
+def _transform_ir_object(o: ir.Object, m: ir.Matrix) -> ir.Object:
+    shape = o.shape
+    if isinstance(shape, ir.CSG):
+        shape = replace(shape, children=tuple(_transform_ir_object(c, m) for c in shape.children))
+        tr = o.transform
+    else:
+        tr = transforms.compose(m, o.transform)
+    return replace(
+        o,
+        shape=shape,
+        transform=tr,
+        texture=transform_texture(o.texture, m),
+        clipped_by=tuple(_transform_ir_object(c, m) for c in o.clipped_by),
+    )
+
+
+def transform_object(obj: ObjectValue, m: ir.Matrix) -> ObjectValue:
+    """Apply a transform after everything so far. CSG children and lights stay in the CSG's
+    own space (composed once, in `to_ir`), so a transform costs O(1) however big the tree."""
+    shape = obj.shape
+    if isinstance(shape, ir.Mesh) and shape.textures:
+        shape = replace(shape, textures=tuple(transform_texture(t, m) for t in shape.textures))
+    return replace(
+        obj,
+        shape=shape,
+        transform=transforms.compose(m, obj.transform),
+        texture=transform_texture(obj.texture, m) if obj.texture is not None else None,
+        interior=transform_interior(obj.interior, m),
+        children=list(obj.children),
+        lights=list(obj.lights),
+        clipped_by=[transform_object(c, m) for c in obj.clipped_by],
+        bounded_by=[transform_object(c, m) for c in obj.bounded_by],
+        flags=dict(obj.flags),
+    )
+
+
+def collect_lights(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> list[ir.Light]:
+    """Lights inside CSG (POV-Ray moves them with the CSG), in world space."""
+    full = transforms.compose(parent, obj.transform)
+    out = [transform_light(light, full) for light in obj.lights]
+    for c in obj.children:
+        out.extend(collect_lights(c, full))
+    return out
+
+
+def transform_media(m: ir.Media, mat: ir.Matrix) -> ir.Media:
+    if not m.density:
+        return m
+    return replace(m, density=tuple(transform_pigment(d, mat) for d in m.density))
+
+
+def transform_interior(i: ir.Interior | None, mat: ir.Matrix) -> ir.Interior | None:
+    if i is None or not i.media:
+        return i
+    return replace(i, media=tuple(transform_media(m, mat) for m in i.media))
