@@ -37,10 +37,6 @@ def as_float(v: Any, what: str = "value") -> float:
     raise EvalError(f"{what} must be a float, not {describe(v)}")
 
 
-def as_int(v: Any, what: str = "value") -> int:
-    return int(as_float(v, what))
-
-
 def as_vec(v: Any, n: int = 3, what: str = "value") -> Vec:
     """A float promotes to every component; a vector is padded/truncated to n."""
     if isinstance(v, bool | float | int):

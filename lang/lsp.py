@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import asyncio
 import gc
-import os
 import re
 from pathlib import Path
 from urllib.parse import unquote, urlparse
@@ -23,7 +22,7 @@ from urllib.parse import unquote, urlparse
 from lsprotocol import types as T
 from pygls.lsp.server import LanguageServer
 
-from lang import keywords, outline
+from lang import keywords, outline, paths
 from lang.diagnostics import Diagnostic, Severity, Span
 from lang.format import format_source
 from lang.incremental import IncrementalParser
@@ -124,16 +123,11 @@ def analyse(text: str, path: str) -> list[Diagnostic]:
                 return doc.parse(text_)
             return parse_include(text_, filename)
 
-    result = Analysis(_library_paths(), allow_file_io=False).run(text, path)
+    result = Analysis(paths.library_paths(), allow_file_io=False).run(text, path)
     doc.values = result.symbols
     return [d for d in result.diagnostics if d.span.file == path] or [
         d for d in result.diagnostics if d.severity is Severity.ERROR
     ]
-
-
-def _library_paths() -> list[str]:
-    env = os.environ.get("STRALA_LIBRARY_PATH", "")
-    return [p for p in env.split(os.pathsep) if p]
 
 
 def _keyword_docs() -> dict[str, str]:
@@ -269,13 +263,9 @@ def _included_definitions(path: str, tree, depth: int = 0) -> dict[str, list[Spa
 
 
 def resolve_include(name: str, including: str) -> str | None:
-    here = Path(including).parent
-    stdlib = Path(__file__).resolve().parent.parent / "stdlib"
-    for folder in [here, *map(Path, _library_paths()), stdlib]:
-        candidate = folder / name
-        if candidate.is_file():
-            return str(candidate)
-    return None
+    """The file an `#include "name"` in `including` reads, as the evaluator finds it."""
+    found = paths.find(name, Path(including).parent, paths.library_paths())
+    return None if found is None else found.probed
 
 
 @server.feature(T.TEXT_DOCUMENT_COMPLETION, T.CompletionOptions(trigger_characters=["#", ".", '"']))
@@ -346,16 +336,15 @@ _WORD_TAIL = re.compile(r"[A-Za-z0-9_]*$")
 def _include_files(path: str) -> list[tuple[str, str]]:
     """(file name, folder) of the .inc files in the scene's folder, the library paths and
     strala's stdlib, first folder first (as the evaluator searches them)."""
-    stdlib = Path(__file__).resolve().parent.parent / "stdlib"
     seen: dict[str, str] = {}
-    for folder in [Path(path).parent, *map(Path, _library_paths()), stdlib]:
+    for kind, folder in paths.search_folders(Path(path).parent, paths.library_paths()):
         try:
             entries = sorted(folder.iterdir())
         except OSError:
             continue
         for f in entries:
             if f.suffix.lower() == ".inc" and f.name not in seen:
-                seen[f.name] = "stdlib" if folder == stdlib else str(folder)
+                seen[f.name] = "stdlib" if kind == "stdlib" else str(folder)
     return list(seen.items())
 
 

@@ -29,7 +29,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-from lang import syntax
+from lang import paths, syntax
 from lang.diagnostics import Diagnostic, Severity, Span
 from lang.eval.interpreter import Interpreter
 from lang.format import format_source
@@ -563,17 +563,8 @@ def _drop_ignored(p: _Probe, by_name: Mapping[str, SourceFile]) -> bool:
 # ------------------------------------------------------------------ includes and data
 def _resolve(name: str, folder: Path, libraries: Sequence[str]) -> tuple[str, Path] | None:
     """Where an include or data file resolves, as the evaluator searches: (kind, path)."""
-    if os.path.isabs(name):
-        p = Path(name)
-        return ("absolute", p.resolve()) if p.is_file() else None
-    if (folder / name).is_file():
-        return "local", (folder / name).resolve()
-    for lib in libraries:
-        if (Path(lib) / name).is_file():
-            return "library", (Path(lib) / name).resolve()
-    if (STDLIB / name).is_file():
-        return "stdlib", (STDLIB / name).resolve()
-    return None
+    found = paths.find(name, folder, libraries)
+    return None if found is None else (found.kind, Path(found.path))
 
 
 def _string_literal(value: str) -> str:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lang import ir
+from lang import ir, paths
 from lang.diagnostics import Diagnostic, SceneError, Severity
 
 DEFAULT_SIZE = (320, 240)  # POV-Ray's image size, as on the command line
@@ -64,12 +64,6 @@ def _source_lines(file: str) -> list[str] | None:
         return None
 
 
-def _libraries(library_paths: Sequence[PathLike]) -> tuple[str, ...]:
-    """The given folders, then $STRALA_LIBRARY_PATH (the stdlib is always searched last)."""
-    env = os.environ.get("STRALA_LIBRARY_PATH", "")
-    return tuple(str(p) for p in library_paths) + tuple(p for p in env.split(os.pathsep) if p)
-
-
 def _finish(result, size: tuple[int, int], clock: float) -> Compiled:
     diagnostics = tuple(result.diagnostics)
     if result.scene is None or any(d.severity is Severity.ERROR for d in diagnostics):
@@ -94,7 +88,7 @@ def compile_string(
     result = compile_source(
         text,
         str(filename),
-        _libraries(library_paths),
+        paths.library_paths(library_paths),
         clock=clock,
         image_width=width,
         image_height=height,
@@ -125,7 +119,7 @@ def compile_file(
 
     result = _compile_file(
         str(path),
-        _libraries(library_paths),
+        paths.library_paths(library_paths),
         clock=clock,
         image_width=width,
         image_height=height,

@@ -28,6 +28,7 @@ from contextlib import contextmanager, redirect_stdout
 from pathlib import Path
 from typing import TextIO
 
+from lang import paths
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 
 COMMANDS = ("render", "check", "compile", "fmt", "lsp", "translate")
@@ -525,8 +526,7 @@ def _compile(
     from lang.evaluate import compile_file
 
     # -L folders first, then $STRALA_LIBRARY_PATH's (as the Python API and the server do)
-    env = os.environ.get("STRALA_LIBRARY_PATH", "")
-    libraries = (*libraries, *(p for p in env.split(os.pathsep) if p))
+    libraries = paths.library_paths(libraries)
     result = compile_file(
         path,
         tuple(libraries),

@@ -20,15 +20,6 @@ os.environ.setdefault("STRALA_CACHE", tempfile.mkdtemp(prefix="strala-test-store
 EXAMPLES = ROOT / "examples"
 SEED = ROOT.parent / "shared" / "seed" / "000_5c225423005c2bbd.txt"
 
-# The evaluator and the renderer are written alongside these tests; until a module exists the
-# tests that need it are skipped (a module that exists but fails to import is an error).
-needs_evaluator = pytest.mark.skipif(
-    not (ROOT / "lang" / "evaluate.py").exists(), reason="lang.evaluate has not landed yet"
-)
-needs_renderer = pytest.mark.skipif(
-    not (ROOT / "runtime" / "render.py").exists(), reason="runtime.render has not landed yet"
-)
-
 # Two cores and a ray tracer under test: keep property tests small and free of deadlines
 # (the first call into numpy-heavy code is slow and would trip hypothesis' 200 ms deadline).
 settings.register_profile(

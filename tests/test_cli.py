@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import EXAMPLES, ROOT, needs_evaluator, needs_renderer, run_cli
+from conftest import EXAMPLES, ROOT, run_cli
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -275,7 +275,6 @@ def test_example_is_formatted():
 
 
 # ------------------------------------------------------------ check (needs lang)
-@needs_evaluator
 def test_check_into_a_closed_pipe_is_quiet(tmp_path):
     bad = tmp_path / "bad.pov"
     bad.write_text("sphere { 0, 1 }\n" + "}\n" * 60)
@@ -291,7 +290,6 @@ def test_check_into_a_closed_pipe_is_quiet(tmp_path):
     assert "Traceback" not in err and "internal error" not in err
 
 
-@needs_evaluator
 def test_check_loads_no_numpy_embree_or_openimageio(tmp_path):
     """`check` of a scene with every kind of diagnostic stays in pure Python (it starts fast)."""
     bad = tmp_path / "bad.pov"
@@ -314,7 +312,6 @@ def test_check_loads_no_numpy_embree_or_openimageio(tmp_path):
     assert "E0201" in proc.stdout and "E0281" in proc.stdout and "E0101" in proc.stdout
 
 
-@needs_evaluator
 def test_check_json_and_sarif(tmp_path):
     bad = tmp_path / "bad.pov"
     bad.write_text("sphere { <0,0,0>, 1 }\n}\n")
@@ -331,7 +328,6 @@ def test_check_json_and_sarif(tmp_path):
     assert result["locations"][0]["physicalLocation"]["region"]["startLine"] == 2
 
 
-@needs_evaluator
 def test_compile_writes_ir_that_loads(tmp_path):
     from lang import ir, serialize
 
@@ -343,8 +339,6 @@ def test_compile_writes_ir_that_loads(tmp_path):
     assert len(scene.objects) == 4 and len(scene.lights) == 1
 
 
-@needs_evaluator
-@needs_renderer
 def test_render_end_to_end_writes_png(tmp_path):
     from runtime.image import read_image
 
@@ -357,8 +351,6 @@ def test_render_end_to_end_writes_png(tmp_path):
     assert f"wrote {out}" in proc.stderr
 
 
-@needs_evaluator
-@needs_renderer
 def test_render_povray_style_default_size_and_name(tmp_path):
     from runtime.image import read_image
 
@@ -370,7 +362,6 @@ def test_render_povray_style_default_size_and_name(tmp_path):
     assert proc.stderr == ""  # --quiet, and no TTY: no bar, no summary
 
 
-@needs_evaluator
 def test_scenes_see_the_image_size(tmp_path):
     scene = tmp_path / "size.pov"
     scene.write_text(
@@ -387,8 +378,6 @@ def test_scenes_see_the_image_size(tmp_path):
     assert right[0] == pytest.approx(40 / 30)
 
 
-@needs_evaluator
-@needs_renderer
 def test_formats_agree_png_is_srgb_of_exr_and_16_bit_refines_8(tmp_path):
     import numpy as np
 
@@ -405,8 +394,6 @@ def test_formats_agree_png_is_srgb_of_exr_and_16_bit_refines_8(tmp_path):
     assert np.abs(images["b.png"] - images["a.png"]).max() <= 0.5 / 255 + 1e-4
 
 
-@needs_evaluator
-@needs_renderer
 def test_animation_frames_see_the_clock(tmp_path):
     from runtime.image import read_image
 
@@ -423,8 +410,6 @@ def test_animation_frames_see_the_clock(tmp_path):
     assert xs[0] < xs[1] < xs[2]
 
 
-@needs_evaluator
-@needs_renderer
 def test_image_to_standard_output(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "runtime.cli", "render", str(EX3), "+W16", "+H12", "+O-"],
@@ -443,8 +428,6 @@ def test_image_to_standard_output(tmp_path):
     assert not (EXAMPLES / "-.png").exists()
 
 
-@needs_evaluator
-@needs_renderer
 def test_runtime_prints_never_mix_into_an_image_on_stdout(monkeypatch, capsysbinary):
     import numpy as np
 
@@ -470,8 +453,6 @@ plane { y, 0 pigment { rgb 1 } }
 """
 
 
-@needs_evaluator
-@needs_renderer
 def test_radiosity_cache_is_reused(tmp_path):
     from runtime.image import read_image
 
@@ -492,8 +473,6 @@ def test_radiosity_cache_is_reused(tmp_path):
     assert cli.main([*argv, "--radiosity-cache", str(not_a_folder)]) == 2
 
 
-@needs_evaluator
-@needs_renderer
 def test_partial_render_leaves_the_rest_black(tmp_path):
     from runtime.image import read_image
 
@@ -506,8 +485,6 @@ def test_partial_render_leaves_the_rest_black(tmp_path):
     assert img[10:, 20:].max() > 0
 
 
-@needs_evaluator
-@needs_renderer
 def test_interrupted_render_stops_at_once_and_leaves_no_file(tmp_path):
     import os
     import signal
@@ -535,8 +512,6 @@ def test_interrupted_render_stops_at_once_and_leaves_no_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@needs_evaluator
-@needs_renderer
 def test_render_from_compiled_ir_matches_render_from_source(tmp_path):
     from runtime.image import read_image
 
@@ -641,7 +616,6 @@ def test_preview_writes_coarse_passes_then_the_same_final_image(tmp_path):
     assert (pa == pb).all()  # the final pass replaces the previews entirely
 
 
-@needs_renderer
 def test_stats_say_how_the_image_was_traced(tmp_path, capsys):
     from runtime import cli
 
@@ -671,7 +645,6 @@ def test_stats_say_how_the_image_was_traced(tmp_path, capsys):
     assert ": 3 objects no ray can reach left out; " in capsys.readouterr().err
 
 
-@needs_evaluator
 def test_the_library_path_from_the_environment_is_searched(tmp_path, monkeypatch):
     # README: STRALA_LIBRARY_PATH adds include folders, for the command line as for the API;
     # -L folders come first.
@@ -695,7 +668,6 @@ def test_the_library_path_from_the_environment_is_searched(tmp_path, monkeypatch
     assert colour("-L", str(first))[:3] == [1.0, 0.0, 0.0]
 
 
-@needs_evaluator
 def test_the_command_exits_without_teardown_but_not_under_a_profiler(tmp_path):
     # run() skips Python's teardown (atexit handlers, freeing every object) once the command
     # is done, with main()'s exit code and all output flushed; under a profiler it exits

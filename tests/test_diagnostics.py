@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import needs_renderer, run_cli
+from conftest import run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -387,7 +387,6 @@ plane { z, 1
 """
 
 
-@needs_renderer
 def test_runtime_failures_name_the_object_that_caused_them(tmp_path):
     """What only the renderer finds (here: in an IR document edited after `compile`, so the
     evaluator's checks never saw it) is reported at the source of the object."""

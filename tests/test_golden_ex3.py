@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES, ROOT, SEED, needs_evaluator, needs_renderer, run_cli
+from conftest import EXAMPLES, ROOT, SEED, run_cli
 
 from runtime import cli
 
@@ -78,8 +78,6 @@ def _save_diff(ours: np.ndarray, theirs: np.ndarray, path: Path) -> None:
 
 
 @pytest.mark.povray
-@needs_evaluator
-@needs_renderer
 @pytest.mark.parametrize("aa", [None, 0.3], ids=["no-aa", "aa0.3"])
 @pytest.mark.parametrize("size", [(256, 256), (320, 240)], ids=["256x256", "320x240"])
 def test_ex3_matches_povray(tmp_path, size, aa):
@@ -116,7 +114,6 @@ def seed_listing() -> str:
     return "\n".join(lines[start:end]) + "\n"
 
 
-@needs_evaluator
 def test_check_reports_the_seeds_stray_brace(tmp_path):
     listing = seed_listing()
     assert listing.splitlines()[37] == "}"  # its line 38: one brace too many
@@ -129,7 +126,6 @@ def test_check_reports_the_seeds_stray_brace(tmp_path):
     assert "Traceback" not in proc.stdout + proc.stderr
 
 
-@needs_evaluator
 def test_seed_listing_without_the_stray_brace_is_clean(tmp_path):
     pov = tmp_path / "Ex3.pov"
     pov.write_text("\n".join(seed_listing().splitlines()[:37]) + "\n", encoding="utf-8")
@@ -137,7 +133,6 @@ def test_seed_listing_without_the_stray_brace_is_clean(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
-@needs_evaluator
 def test_check_does_not_import_numpy_embree_or_oiio():
     # the checker must start in well under 0.3 s (timed in tests/bench): no heavy imports
     code = (

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import needs_evaluator
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -226,7 +225,6 @@ sphere { 0, 0.5 pigment { rgbf <1,1,1,0.9> } interior { ior 1.5 } }
 """
 
 
-@needs_evaluator
 @pytest.mark.parametrize("source", ["ex3", "rich"])
 def test_evaluated_scenes_round_trip(source):
     from lang.evaluate import compile_file, compile_source

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import ROOT, needs_evaluator
+from conftest import ROOT
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -137,7 +137,6 @@ def test_stdlib_file_has_its_own_include_guard(name):
     assert text.rstrip().endswith(f"#end // {guard.group(1)}")
 
 
-@needs_evaluator
 @pytest.mark.parametrize("name", STDLIB_FILES)
 def test_stdlib_file_evaluates_without_errors(name):
     result = compile_file(STDLIB / name)
@@ -145,7 +144,6 @@ def test_stdlib_file_evaluates_without_errors(name):
     assert len(result.symbols) > 1
 
 
-@needs_evaluator
 def test_scene_including_everything_evaluates(tmp_path):
     includes = "".join(f'#include "{n}"\n' for n in STDLIB_FILES)
     result = compile_text(tmp_path, includes + "sphere { 0, 1 texture { T_Gold_1A } }\n")
@@ -164,7 +162,6 @@ def test_scene_including_everything_evaluates(tmp_path):
         assert name in result.symbols, name
 
 
-@needs_evaluator
 def test_include_guard_keeps_later_changes(tmp_path):
     result = compile_text(
         tmp_path,
@@ -174,7 +171,6 @@ def test_include_guard_keeps_later_changes(tmp_path):
     assert result.symbols["Red"].rgbft == (0.5, 0.0, 0.0, 0.0, 0.0)
 
 
-@needs_evaluator
 def test_metals_leave_their_own_finishes_over_the_gold_ones(tmp_path):
     # metals.inc includes golds.inc and then redefines F_MetalA..E; T_Gold_* keep gold.
     result = compile_text(tmp_path, '#include "metals.inc"\n')
@@ -229,7 +225,6 @@ def evaluated():
     return get
 
 
-@needs_evaluator
 @needs_pov_includes
 @pytest.mark.parametrize(("ours", "theirs", "scope", "at_least"), _oracle_pairs())
 def test_stdlib_matches_povray_include(evaluated, ours, theirs, scope, at_least):
@@ -250,7 +245,6 @@ def test_stdlib_matches_povray_include(evaluated, ours, theirs, scope, at_least)
     assert wrong == []
 
 
-@needs_evaluator
 @needs_pov_includes
 def test_every_povray_colour_is_in_colors_inc(evaluated):
     pov = evaluated(POV_INCLUDE / "colors.inc").symbols
@@ -274,7 +268,6 @@ def test_every_povray_colour_is_in_colors_inc(evaluated):
     assert mine["MediumSlateBlue"].rgbft == pytest.approx((0.498039, 0.0, 1.0, 0.0, 0.0))
 
 
-@needs_evaluator
 @needs_pov_includes
 @pytest.mark.parametrize("name", ["finish.inc", "metals.inc"])
 def test_every_povray_finish_is_equal(evaluated, name):
@@ -625,7 +618,6 @@ def _as_numbers(kind: str, value: Any) -> list[float]:
     return [float(value)]
 
 
-@needs_evaluator
 @pytest.mark.povray
 @pytest.mark.parametrize("index", range(len(PROBES)), ids=[e for _, e in PROBES])
 def test_macro_agrees_with_povray(index, povray_results, strala_results):
@@ -660,7 +652,6 @@ def _unsupported(result, what: str) -> bool:
 
 
 # ------------------------------------------------------- properties of the stdlib macros
-@needs_evaluator
 @given(st.tuples(*[st.floats(0, 1, allow_nan=False)] * 5))
 def test_hsv_and_hsl_round_trip(tmp_path_factory, rgbft):
     colour = "rgbft <" + ", ".join(repr(v) for v in rgbft) + ">"
@@ -679,7 +670,6 @@ def test_hsv_and_hsl_round_trip(tmp_path_factory, rgbft):
 _axis = st.tuples(*[st.floats(-5, 5, allow_nan=False)] * 3).filter(lambda v: math.hypot(*v) > 1e-3)
 
 
-@needs_evaluator
 @given(_axis, _axis)
 def test_reorient_trans_turns_one_direction_into_the_other(tmp_path_factory, a, b):
     va, vb = (f"<{v[0]!r}, {v[1]!r}, {v[2]!r}>" for v in (a, b))
@@ -701,7 +691,6 @@ def test_reorient_trans_turns_one_direction_into_the_other(tmp_path_factory, a, 
     assert [m[r][3] for r in range(3)] == pytest.approx([0, 0, 0], abs=1e-12)
 
 
-@needs_evaluator
 @given(_axis, st.floats(-720, 720, allow_nan=False), _axis)
 def test_axis_rotate_trans_agrees_with_vaxis_rotate(tmp_path_factory, axis, angle, point):
     va, vp = (f"<{v[0]!r}, {v[1]!r}, {v[2]!r}>" for v in (axis, point))
@@ -800,7 +789,6 @@ def test_povray_renders_stdlib_shapes_exactly_like_its_own(tmp_path):
     assert changed.max() == 0, [_SHAPES[c] for c in sorted(cells) if c < len(_SHAPES)]
 
 
-@needs_evaluator
 def test_strala_builds_every_shape_of_the_gallery(tmp_path):
     result = compile_text(tmp_path, _shape_gallery(_SHAPES))
     assert errors(result) == []
@@ -846,7 +834,6 @@ def test_povray_renders_stdlib_skies_exactly_like_its_own(tmp_path):
         assert abs(images[0] - images[1]).max() == 0, body
 
 
-@needs_evaluator
 @pytest.mark.parametrize("body", _SKY_SCENES, ids=[*(f"S_Cloud{i}" for i in range(1, 6)), "rest"])
 def test_strala_evaluates_every_sky(tmp_path, body):
     result = compile_text(tmp_path, _sky_scene(body))
@@ -941,7 +928,6 @@ def test_povray_renders_the_stdcam_stage_exactly_like_its_own(tmp_path):
     assert abs(images[0] - images[1]).max() == 0
 
 
-@needs_evaluator
 def test_stdinc_brings_the_everyday_names(tmp_path):
     result = compile_text(tmp_path, '#include "stdinc.inc"\n#include "stdcam.inc"\n')
     assert errors(result) == []
