@@ -81,7 +81,8 @@ def _combine(a: Any, b: Any, fn: Callable[[float, float], float]) -> Any:
         )
     if isinstance(a, ColorValue) or isinstance(b, ColorValue):
         ca, cb = as_color(a), as_color(b)
-        return ColorValue(tuple(fn(p, q) for p, q in zip(ca.rgbft, cb.rgbft, strict=True)))
+        c = [fn(p, q) for p, q in zip(ca.rgbft, cb.rgbft, strict=True)]
+        return ColorValue((c[0], c[1], c[2], c[3], c[4]))
     if isinstance(a, Vec) or isinstance(b, Vec):
         n = max(len(a) if isinstance(a, Vec) else 0, len(b) if isinstance(b, Vec) else 0)
         va, vb = as_vec(a, n), as_vec(b, n)

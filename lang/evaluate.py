@@ -135,7 +135,7 @@ def compile_source(
         queries=queries,
     )
     result = interp.run(text, filename)
-    if store and interp.standalone(result):
+    if store and result.scene is not None and interp.standalone(result):
         scene_store.save(
             name,
             scene_store.Entry(

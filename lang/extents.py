@@ -98,14 +98,17 @@ def _blob_box(shape: ir.Blob) -> Box3 | None:
         if comp.kind == "cylinder":
             half = math.dist(comp.a, comp.b) / 2
             mid = tuple((p + q) / 2 for p, q in zip(comp.a, comp.b, strict=True))
-            spheres = [(comp.a, comp.radius), (comp.b, comp.radius)]
+            spheres: list[tuple[Sequence[float], float]] = [
+                (comp.a, comp.radius),
+                (comp.b, comp.radius),
+            ]
             spheres.append((mid, math.sqrt(comp.radius**2 + half**2)))
         else:
             spheres = [(comp.a, comp.radius)]
         for c, r in spheres:
             if not transforms.is_identity(comp.transform):
                 box = _transform_box(_cube(c, r), comp.transform)
-                c = tuple((a + b) / 2 for a, b in zip(*box, strict=True))  # type: ignore[assignment]
+                c = tuple((a + b) / 2 for a, b in zip(*box, strict=True))
                 r = max((b - a) / 2 for a, b in zip(*box, strict=True))
             for a in range(3):
                 lo[a] = min(lo[a], c[a] - r)
@@ -136,16 +139,16 @@ def _cubic_range(c: Sequence[float]) -> tuple[float, float]:
     return min(vals), max(vals)
 
 
-def _segments(kind: str, points: Sequence[Sequence[float]], closed: bool) -> list[list[float]]:
+def _segments(kind: str, points: Sequence[Sequence[float]], closed: bool) -> list[list[int]]:
     """Each segment's point list, as POV-Ray splits the spline (a prism's curves close
     when a point repeats the sub-shape's first on-curve point)."""
     n = len(points)
     if kind == "bezier_spline":
-        return [list(range(i, i + 4)) for i in range(0, n - 3, 4)]  # type: ignore[misc]
+        return [list(range(i, i + 4)) for i in range(0, n - 3, 4)]
     width = _WIDTH[kind]
     if not closed:
-        return [list(range(i, i + width)) for i in range(n - width + 1)]  # type: ignore[misc]
-    segs = []
+        return [list(range(i, i + width)) for i in range(n - width + 1)]
+    segs: list[list[int]] = []
     first = points[0] if kind == "linear_spline" else points[1]
     skip = width - 1
     i = 0
@@ -158,7 +161,7 @@ def _segments(kind: str, points: Sequence[Sequence[float]], closed: bool) -> lis
             if nxt < n:
                 first = points[nxt]
         i += 1
-    return segs  # type: ignore[return-value]
+    return segs
 
 
 def _spline_extent(
@@ -310,23 +313,30 @@ def shape_box(shape: object) -> Box3 | None:
     return _data_shape_box(shape)
 
 
+def _box3(lo: Sequence[float], hi: Sequence[float]) -> Box3:
+    return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
+
+
 def bounding_box(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> Box3 | None:
     """The axis-aligned box POV-Ray's min_extent/max_extent report (world space)."""
     full = transforms.compose(parent, obj.transform)
     if obj.children:
-        boxes = [bounding_box(c, full) for c in obj.children]
-        if any(b is None for b in boxes):
+        found = [bounding_box(c, full) for c in obj.children]
+        boxes = [b for b in found if b is not None]
+        if len(boxes) != len(found):
             return None
         if obj.keyword == "difference":
             box = boxes[0]
         elif obj.keyword == "intersection":
-            lo = tuple(max(b[0][i] for b in boxes) for i in range(3))
-            hi = tuple(min(b[1][i] for b in boxes) for i in range(3))
-            box = (lo, hi)  # type: ignore[assignment]
+            box = _box3(
+                [max(b[0][i] for b in boxes) for i in range(3)],
+                [min(b[1][i] for b in boxes) for i in range(3)],
+            )
         else:
-            lo = tuple(min(b[0][i] for b in boxes) for i in range(3))
-            hi = tuple(max(b[1][i] for b in boxes) for i in range(3))
-            box = (lo, hi)  # type: ignore[assignment]
+            box = _box3(
+                [min(b[0][i] for b in boxes) for i in range(3)],
+                [max(b[1][i] for b in boxes) for i in range(3)],
+            )
     else:
         local = shape_box(obj.shape)
         if local is None:
@@ -335,8 +345,8 @@ def bounding_box(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> Box3 | No
     for clip in obj.clipped_by:
         cb = bounding_box(clip, parent)
         if cb is not None:
-            box = (
-                tuple(max(a, b) for a, b in zip(box[0], cb[0], strict=True)),
-                tuple(min(a, b) for a, b in zip(box[1], cb[1], strict=True)),
-            )  # type: ignore[assignment]
+            box = _box3(
+                [max(a, b) for a, b in zip(box[0], cb[0], strict=True)],
+                [min(a, b) for a, b in zip(box[1], cb[1], strict=True)],
+            )
     return box

@@ -284,7 +284,8 @@ def completion(ls: StralaServer, params: T.CompletionParams) -> T.CompletionList
                 for name, folder in _include_files(path)
             ],
         )
-    word_start = len(before) - len(_WORD_TAIL.search(before)[0])
+    tail = _WORD_TAIL.search(before)  # always matches, perhaps empty
+    word_start = len(before) - (len(tail[0]) if tail else 0)
     if before[:word_start].endswith("#"):  # a directive
         return T.CompletionList(
             is_incomplete=False,

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 from lang import transforms
 from lang.ir import IDENTITY, Camera, Matrix, Vec3
@@ -65,28 +66,28 @@ class CameraBuilder:
     transform: Matrix = IDENTITY
     warnings: list[str] = field(default_factory=list)
 
-    def set(self, name: str, value: object) -> None:
+    def set(self, name: str, value: Any) -> None:
         c = self.camera
         if name in ("location", "direction", "right", "up", "sky", "focal_point"):
             self.camera = replace(c, **{name: value})
             self.had_right |= name == "right"
             self.had_up |= name == "up"
         elif name == "look_at":
-            self.look_at_point = value  # type: ignore[assignment]
+            self.look_at_point = value
             self.had_look_at = True
         elif name == "angle":
             # a float, or (horizontal, vertical) for the spherical camera
             both = value if isinstance(value, tuple) else (value,)
-            a = float(both[0])  # type: ignore[arg-type]
-            if a < 0 or (len(both) > 1 and float(both[1]) < 0):  # type: ignore[arg-type]
+            a = float(both[0])
+            if a < 0 or (len(both) > 1 and float(both[1]) < 0):
                 raise CameraError("negative viewing angle")
             if c.kind == "perspective" and a >= 180.0:
                 raise CameraError("a perspective camera's angle must be below 180 degrees")
-            v = float(both[1]) if len(both) > 1 else None  # type: ignore[arg-type]
+            v = float(both[1]) if len(both) > 1 else None
             self.camera = replace(c, angle=a, v_angle=v)
             self.had_angle = True
         elif name == "cylinder":
-            kind = int(value)  # type: ignore[call-overload]
+            kind = int(value)
             if kind not in (1, 2, 3, 4):
                 raise CameraError(f"cylinder camera type {kind}: it is 1, 2, 3 or 4")
             self.camera = replace(c, kind="cylinder", cylinder=kind)
@@ -102,19 +103,19 @@ class CameraBuilder:
         ):
             self.camera = replace(c, kind=name)
         elif name == "aperture":
-            self.camera = replace(c, aperture=float(value))  # type: ignore[arg-type]
+            self.camera = replace(c, aperture=float(value))
         elif name == "blur_samples":  # max, or (min, max)
             both = value if isinstance(value, tuple) else (0, value)
-            lo, hi = int(both[0]), int(both[1])  # type: ignore[call-overload]
+            lo, hi = int(both[0]), int(both[1])
             if lo < 0 or hi < 0:
                 raise CameraError("blur_samples must not be negative")
             self.camera = replace(c, blur_samples=hi, blur_samples_min=lo)
         elif name == "confidence":
-            if not 0.0 < float(value) < 1.0:  # type: ignore[arg-type]
+            if not 0.0 < float(value) < 1.0:
                 raise CameraError("confidence must be between 0 and 1")
-            self.camera = replace(c, blur_confidence=float(value))  # type: ignore[arg-type]
+            self.camera = replace(c, blur_confidence=float(value))
         elif name == "variance":
-            self.camera = replace(c, blur_variance=float(value))  # type: ignore[arg-type]
+            self.camera = replace(c, blur_variance=float(value))
         else:
             raise CameraError(f"unknown camera item `{name}`")
 

@@ -66,6 +66,12 @@ class Cursor:
             return bool(e.value)
         return True
 
+    def here(self) -> Span:
+        """Where the next element stands (the block, past its last): what an error about
+        the value about to be read points at."""
+        e = self.peek()
+        return e.span if e is not None else self.span
+
     def value(self, what: str) -> Any:
         e = self.peek()
         if e is None or e.kind != "val":
@@ -75,39 +81,39 @@ class Cursor:
         return e.value
 
     def number(self, what: str) -> float:
-        e = self.peek()
+        where = self.here()
         v = self.value(what)
         if isinstance(v, Vec) and len(v) == 1:
             v = v[0]
         if not isinstance(v, float | int | bool):
-            raise self.it.error("E0202", f"`{self.keyword}` needs {what}, not a vector", e.span)
+            raise self.it.error("E0202", f"`{self.keyword}` needs {what}, not a vector", where)
         return float(v)
 
     def vector(self, n: int, what: str) -> tuple[float, ...]:
-        e = self.peek()
+        where = self.here()
         v = self.value(what)
         if isinstance(v, float | int | bool):
             return (float(v),) * n  # POV-Ray promotes a float to a vector
         if not isinstance(v, Vec):
-            raise self.it.error("E0202", f"`{self.keyword}` needs {what}", e.span)
+            raise self.it.error("E0202", f"`{self.keyword}` needs {what}", where)
         return tuple(as_vec(v, n))
 
     def string(self, what: str) -> str:
-        e = self.peek()
+        where = self.here()
         v = self.value(what)
         if not isinstance(v, str):
-            raise self.it.error("E0202", f"`{self.keyword}` needs {what} (a string)", e.span)
+            raise self.it.error("E0202", f"`{self.keyword}` needs {what} (a string)", where)
         return v
 
     def usage(self) -> str:
         return USAGE.get(self.keyword, "")
 
     def count(self, minimum: int, what: str) -> int:
-        e = self.peek()
+        where = self.here()
         n = int(self.number(f"the number of {what}"))
         if n < minimum:
             raise self.it.error(
-                "E0202", f"`{self.keyword}` needs at least {minimum} {what}, not {n}", e.span
+                "E0202", f"`{self.keyword}` needs at least {minimum} {what}, not {n}", where
             )
         return n
 
@@ -162,16 +168,16 @@ def poly_size(order: int) -> int:
 
 
 def _poly_of(cur: Cursor, order: int) -> ir.Poly:
-    e = cur.peek()
+    where = cur.here()
     coeffs = cur.value("the coefficient vector")
     if not isinstance(coeffs, Vec):
-        raise cur.it.error("E0202", "the coefficients are one vector <…>", e.span, cur.usage())
+        raise cur.it.error("E0202", "the coefficients are one vector <…>", where, cur.usage())
     want = poly_size(order)
     if len(coeffs) != want:
         raise cur.it.error(
             "E0202",
             f"a polynomial of order {order} has {want} coefficients, not {len(coeffs)}",
-            e.span,
+            where,
             cur.usage(),
         )
     sturm = cur.flag("sturm")
@@ -191,18 +197,18 @@ def _quadric(cur: Cursor) -> ir.Poly:
 
 
 def _poly(cur: Cursor) -> ir.Poly:
-    e = cur.peek()
+    where = cur.here()
     order = int(cur.number("the order"))
     if not 2 <= order <= 15:
-        raise cur.it.error("E0202", f"poly's order is 2 to 15, not {order}", e.span)
+        raise cur.it.error("E0202", f"poly's order is 2 to 15, not {order}", where)
     return _poly_of(cur, order)
 
 
 def _superellipsoid(cur: Cursor) -> ir.Superellipsoid:
-    e = cur.peek()
+    where = cur.here()
     en = cur.vector(2, "<e, n>")
     if not (en[0] > 0 and en[1] > 0):
-        raise cur.it.error("E0202", "superellipsoid exponents must be positive", e.span)
+        raise cur.it.error("E0202", "superellipsoid exponents must be positive", where)
     return ir.Superellipsoid(float(en[0]), float(en[1]))
 
 
@@ -255,9 +261,9 @@ def _prism(cur: Cursor) -> ir.Prism:
         sweep or "linear_sweep",
         h1,
         h2,
-        pts,
+        tuple((x, y) for x, y in pts),
         open_,
-        sturm,  # type: ignore[arg-type]
+        sturm,
     )
 
 
@@ -277,7 +283,7 @@ def _text(cur: Cursor) -> ir.Text:
     thickness = cur.number("the thickness")
     offset = (
         cur.vector(3, "the offset")
-        if cur.peek() is not None and cur.peek().kind == "val"
+        if (nxt := cur.peek()) is not None and nxt.kind == "val"
         else (0, 0, 0)
     )
     path = None
@@ -308,10 +314,11 @@ def _height_field(cur: Cursor) -> ir.HeightField:
     fn, size, path = None, (0, 0), ""
     if e is not None and e.kind == "val" and isinstance(e.value, FunctionValue):
         cur.i += 1
-        fn, size = e.value.compiled, e.value.size
-        if fn is None or size is None:
+        fn, fn_size = e.value.compiled, e.value.size
+        if fn is None or fn_size is None:
             cur.it.unsupported("height_field function without a size", e.span)
             raise _Skip()
+        size = fn_size
     elif cur.word("function") is not None or (
         e is not None and e.kind == "val" and not isinstance(e.value, str)
     ):

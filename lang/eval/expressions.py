@@ -248,8 +248,8 @@ def _geometry_call(it: BuildContext, node: syntax.Call) -> Any:
         return 1.0 if queries is not None and queries.inside(target, vecs[0]) else 0.0
     found = queries.trace(target, vecs[0], vecs[1]) if queries is not None else None
     point, normal = found if found is not None else ((0.0,) * 3, (0.0,) * 3)
-    if len(args) == 4:
-        it.declare(args[3].name, Vec(normal), local=False)
+    if len(args) == 4 and isinstance(normal_name := args[3], syntax.Ident):  # checked above
+        it.declare(normal_name.name, Vec(normal), local=False)
     return Vec(point)
 
 

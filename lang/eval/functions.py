@@ -125,7 +125,7 @@ class _Builder:
             return ir.Function(params, ir.FnInternal(name, args), "float", node.span)
         if len(body) == 1 and isinstance(body[0], syntax.Block):
             inner = body[0]
-            xyz = tuple(ir.FnArg(i, p) for i, p in enumerate(("x", "y", "z")))
+            xyz = (ir.FnArg(0, "x"), ir.FnArg(1, "y"), ir.FnArg(2, "z"))
             if inner.keyword in ("pattern", "pigment"):
                 as_pigment = syntax.Block(
                     inner.span, "pigment", inner.body, None, inner.keyword_span
@@ -147,30 +147,29 @@ class _Builder:
     # ---------------------------------------------------------------- expressions
     def expr(self, node: syntax.Node) -> Any:
         t = type(node)
+        n: Any = node  # dispatched on its exact type, which mypy cannot follow
         if t is syntax.Number:
-            return ir.FnNum(float(node.value))
+            return ir.FnNum(float(n.value))
         if t is syntax.Const or t is syntax.Ident:
-            if node.name in self.params:
-                return ir.FnArg(self.params.index(node.name), node.name)
-            return self.constant(node)
+            if n.name in self.params:
+                return ir.FnArg(self.params.index(n.name), n.name)
+            return self.constant(n)
         if t is syntax.Unary:
-            a = self.expr(node.operand)
-            return _fold(ir.FnUnary(node.op, a))
+            a = self.expr(n.operand)
+            return _fold(ir.FnUnary(n.op, a))
         if t is syntax.Binary:
-            return _fold(ir.FnBinary(node.op, self.expr(node.left), self.expr(node.right)))
+            return _fold(ir.FnBinary(n.op, self.expr(n.left), self.expr(n.right)))
         if t is syntax.Ternary:
-            return _fold(
-                ir.FnCond(self.expr(node.cond), self.expr(node.then), self.expr(node.other))
-            )
+            return _fold(ir.FnCond(self.expr(n.cond), self.expr(n.then), self.expr(n.other)))
         if t is syntax.Call:
-            return self.call(node)
+            return self.call(n)
         if t is syntax.Member:
-            return self.member(node)
+            return self.member(n)
         if t is syntax.Index:
-            return self.constant(node)
+            return self.constant(n)
         if t is syntax.Vector:
-            raise self.error("a function's value is a float, not a vector", node.span)
-        raise self.error("this cannot be used in a function", node.span)
+            raise self.error("a function's value is a float, not a vector", n.span)
+        raise self.error("this cannot be used in a function", n.span)
 
     def constant(self, node: syntax.Node) -> ir.FnNum:
         """A name or value outside the parameters: its value now, which must be a float."""

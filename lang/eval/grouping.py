@@ -54,8 +54,8 @@ def group(
         if i < n and els[i].kind == "val" and fits(p.kind, els[i].value):
             try:
                 pos[p.name] = convert(p.kind, els[i].value)
-            except EvalError as e:
-                raise it.error("E0202", e.message, els[i].span) from None
+            except EvalError as err:
+                raise it.error("E0202", err.message, els[i].span) from None
             i += 1
         elif not p.optional:
             got = (
@@ -204,8 +204,8 @@ def _parse_args(
         if j < n and els[j].kind == "val" and fits(k, els[j].value):
             try:
                 args.append(convert(k, els[j].value))
-            except EvalError as e:
-                raise it.error("E0202", e.message, els[j].span) from None
+            except EvalError as err:
+                raise it.error("E0202", err.message, els[j].span) from None
             i = j + 1
         elif opt:
             args.append(None)

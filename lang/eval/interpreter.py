@@ -434,7 +434,9 @@ class Interpreter:
                     # `#declare T = texture {…} texture {…}`: POV-Ray's layered texture.
                     layers = []
                     while (
-                        i < n and isinstance(body[i], syntax.Block) and body[i].keyword == "texture"
+                        i < n
+                        and isinstance(layer := body[i], syntax.Block)
+                        and layer.keyword == "texture"
                     ):
                         layers.append(body[i])
                         i += 1
@@ -496,33 +498,34 @@ class Interpreter:
         """Expand one node into `out`. An extension point: translate watches which of its
         files' nodes are being evaluated when an error is reported."""
         t = type(node)
+        n: Any = node  # dispatched on its exact type, which mypy cannot follow
         if t is syntax.Keyword:
-            out.append(El("kw", node.name, node.span))
+            out.append(El("kw", n.name, n.span))
         elif t is syntax.Comma:
-            out.append(El("comma", None, node.span))
+            out.append(El("comma", None, n.span))
         elif t is syntax.MapEntry:
-            out.append(El("entry", self.expand(node.body, None), node.span))
-        elif t is syntax.Call and not node.builtin and self._is_macro(node.name):
-            out.extend(self.call_macro(node))
-        elif t is syntax.Ident and spec is not None and node.name in spec.soft:
+            out.append(El("entry", self.expand(n.body, None), n.span))
+        elif t is syntax.Call and not n.builtin and self._is_macro(n.name):
+            out.extend(self.call_macro(n))
+        elif t is syntax.Ident and spec is not None and n.name in spec.soft:
             # strala's soft words are keywords inside the blocks that list them (and plain
             # names everywhere else), as lang/keywords.py documents
-            out.append(El("kw", node.name, node.span))
-        elif t is syntax.Ident and self._word_slot(out, spec) and not self.lookup(node.name)[0]:
+            out.append(El("kw", n.name, n.span))
+        elif t is syntax.Ident and self._word_slot(out, spec) and not self.lookup(n.name)[0]:
             # an unknown word where an item takes a word (`scheme sqrt3`): the item's own
             # check names the choices, which says more than "unknown identifier"
-            out.append(El("kw", node.name, node.span))
+            out.append(El("kw", n.name, n.span))
         elif t in _DIRECTIVES:
-            _DIRECTIVES[t](self, node, out, spec)
-        elif t is syntax.Block and node.keyword == "default" and not node.params:
+            _DIRECTIVES[t](self, n, out, spec)
+        elif t is syntax.Block and n.keyword == "default" and not n.params:
             # `default { … }` without the `#`: POV-Ray's older spelling of #default
-            self._d_default(syntax.Default(node.span, node.body), out, spec)
-        elif t is syntax.Block and node.keyword == "object" and _takes_object_pattern(spec):
+            self._d_default(syntax.Default(n.span, n.body), out, spec)
+        elif t is syntax.Block and n.keyword == "object" and _takes_object_pattern(spec):
             # `pigment { object { OBJ A, B } }`: the object pattern, not an object
-            out.append(El("kw", "object", node.keyword_span or node.span))
-            out.append(El("val", self._object_pattern(node), node.span))
+            out.append(El("kw", "object", n.keyword_span or n.span))
+            out.append(El("val", self._object_pattern(n), n.span))
         else:
-            out.append(El("val", self.eval(node), node.span))
+            out.append(El("val", self.eval(n), n.span))
 
     def _object_pattern(self, node: syntax.Block) -> ObjectPattern:
         """`object { OBJECT item_outside, item_inside }` inside a pigment, normal or texture:
@@ -786,7 +789,11 @@ class Interpreter:
                 out.extend(self.expand(node.body, spec))
                 if self._errors_since(mark):
                     break  # reported once: the next iterations would repeat it
-                if before is not None and _same_values(before, [self.lookup(v) for v in watched]):
+                if (
+                    before is not None
+                    and watched is not None
+                    and _same_values(before, [self.lookup(v) for v in watched])
+                ):
                     raise self.error(
                         "E0230",
                         "this #while never ends: nothing its condition reads changed in a pass",
@@ -921,13 +928,14 @@ class Interpreter:
             self.handles[node.handle] = h
             self.declare(node.handle, h, False)
             return
-        h = self.handles.get(node.handle)
-        if h is None:
+        got = self.handles.get(node.handle)
+        if got is None:
             # POV-Ray: a #read that reaches the end of the file closes it and undefines its
             # name, so a later #fclose of it (or of any name not open) does nothing
             if node.op in ("read", "fclose") or not self.allow_file_io:
                 return
             raise self.error("E0260", f"`{node.handle}` is not an open file", node.span)
+        h = got
         if node.op == "fclose":
             self._flush(h)
             self.handles.pop(node.handle, None)
@@ -949,6 +957,13 @@ class Interpreter:
                     return
                 m = _READ_TOKEN.match(h.lines[h.pos])
                 h.pos += 1
+                if m is None:
+                    raise self.error(
+                        "E0260",
+                        f"`{node.handle}` holds no string, vector or number to #read here",
+                        a.span,
+                        "#read reads what #write wrote: strings, vectors, numbers",
+                    )
                 if m.group(1) is not None:
                     value: Any = m.group(1)
                 elif m.group(2) is not None:

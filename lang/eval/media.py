@@ -44,6 +44,11 @@ class ScatteringValue:
     kind: str = "scattering"
 
 
+def _with_field(value: Any, name: str, new: Any) -> Any:
+    """`value` with its field `name` (a keyword of the block, known at run time) set."""
+    return replace(value, **{name: new})
+
+
 def as_density_pigment(v: Any) -> ir.Pigment:
     return v.pigment if isinstance(v, DensityValue) else v
 
@@ -92,7 +97,7 @@ def build_scattering(it: BuildContext, g: Grouped, node: syntax.Block) -> Scatte
     s = ScatteringValue(int(p["type"]), tuple(p["color"]))
     for name, args, _span in g.items:
         if name in ("eccentricity", "extinction"):
-            s = replace(s, **{name: float(args[0])})
+            s = _with_field(s, name, float(args[0]))
     return s
 
 
@@ -103,11 +108,11 @@ _FLOATS = {"ratio", "confidence", "variance", "aa_threshold", "jitter"}
 def build_media(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Media:
     m: ir.Media = g.positional.get("base") or ir.Media()
     for name, args, span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "media":
             m = v
         elif name in ("emission", "absorption"):
-            m = replace(m, **{name: tuple(v)})
+            m = _with_field(m, name, tuple(v))
         elif name == "scattering":
             m = replace(
                 m,
@@ -129,9 +134,9 @@ def build_media(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Media:
             hi = int(args[1]) if len(args) > 1 and args[1] is not None else lo
             m = replace(m, samples=(lo, max(lo, hi)))
         elif name in _INTS:
-            m = replace(m, **{name: int(v)})
+            m = _with_field(m, name, int(v))
         elif name in _FLOATS:
-            m = replace(m, **{name: float(v)})
+            m = _with_field(m, name, float(v))
         elif name in TRANSFORM_WORDS:
             m = transform_media(m, item_matrix(name, args))
     return m

@@ -374,7 +374,9 @@ def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
             nidx = [tuple(int(c) for c in v.padded(3)) for v in lists["normal_indices"].items]
             if len(nidx) != len(faces):
                 raise it.error("E0202", "normal_indices needs one entry per face", g.span)
-            new_v, new_n, new_f = [], [], []
+            new_v: list[Any] = []
+            new_n: list[Any] = []
+            new_f: list[Any] = []
             for f, nf in zip(faces, nidx, strict=True):
                 base = len(new_v)
                 new_v.extend(verts[c] for c in f)
@@ -528,7 +530,7 @@ def _b_nurbs(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
         )
     cspan = _list_span(cp, g)
     items = list(cp.items)
-    counts = []
+    counts: list[int] = []
     while items and isinstance(items[0], float) and len(counts) < 2:
         counts.append(int(items.pop(0)))
     if not counts:

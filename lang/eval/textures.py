@@ -196,7 +196,7 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
         pass
     elif name == "function":
         st["pattern"] = "function"
-        fn = args[0] if args else None
+        fn: Any = args[0] if args else None
         if isinstance(fn, FunctionValue) and fn.compiled is not None:
             params["function"] = fn.compiled
         else:
@@ -242,7 +242,7 @@ def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigmen
     pig = ir.Pigment(span=node.span)
     params: dict[str, Any] = {}
     for name, args, span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "pigment":
             pig = replace(v, span=node.span)
             params = dict(v.params)
@@ -274,7 +274,7 @@ def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigmen
             if name not in ("checker", "hexagon", "brick"):
                 it.unsupported(f"{name} pattern", span)
         else:
-            st = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
             if name == "unsupported":
                 it.unsupported(v.keyword, span)
             elif apply_pattern_item(it, st, name, args, span) and st["pattern"]:
@@ -299,7 +299,7 @@ def _b_normal(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Normal:
     nrm = ir.Normal("none", span=node.span) if base is None else replace(base, span=node.span)
     params: dict[str, Any] = {} if base is None else dict(base.params)
     for name, args, span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "normal":
             nrm = replace(v, span=node.span)
             params = dict(v.params)
@@ -332,7 +332,7 @@ def _b_normal(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Normal:
             nrm = replace(nrm, pattern=name)
             params["list"] = tuple(v)
         else:
-            st = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
             if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
                 nrm = replace(nrm, pattern=st["pattern"])
                 depth = st.get("depth_arg")
@@ -346,7 +346,7 @@ def _b_finish(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Finish:
     f = it.default_texture.finish
     refl: dict[str, Any] = {}
     for name, args, span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "finish":
             f = v
         elif name in ("ambient", "emission"):
@@ -388,7 +388,7 @@ def _b_reflection_block(it: BuildContext, g: Grouped, node: syntax.Block) -> Ref
     hi: ColorValue | None = g.positional.get("max")
     r = ir.Reflection(min=lo.rgb, max=(hi or lo).rgb)
     for name, args, _span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "fresnel":
             r = replace(r, fresnel=True if v is None else bool(v))
         elif name in ("falloff", "exponent"):
@@ -420,7 +420,7 @@ def _b_warp(it: BuildContext, g: Grouped, node: syntax.Block) -> _Warp:
     w: dict[str, Any] = {}
     kind = None
     for name, args, _span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "black_hole":
             kind = "black_hole"
             w["center"], w["radius"] = v, args[1]
@@ -459,7 +459,7 @@ def _b_irid(it: BuildContext, g: Grouped, node: syntax.Block) -> _Irid:
 def _b_interior(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Interior:
     i = ir.Interior()
     for name, args, span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "interior":
             i = v
         elif name in ("ior", "caustics", "dispersion", "fade_distance", "fade_power"):
@@ -480,7 +480,7 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
     # pigment holding only the pattern), the texture list or texture_map its `map`.
     params: dict[str, Any] = {}
     for name, args, span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "texture":
             t = replace(v, span=node.span)
             if v.pattern is not None:
@@ -521,7 +521,7 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in texture")
         else:
-            st = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
             if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
                 old = t.pattern or ir.Pigment(span=span)
                 t = replace(t, pattern=replace(old, pattern=st["pattern"]))
@@ -541,7 +541,7 @@ def _as_texture(it: BuildContext, v: Any) -> ir.Texture:
 def _b_material(it: BuildContext, g: Grouped, node: syntax.Block) -> MaterialValue:
     m = MaterialValue()
     for name, args, span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "material":
             m = v
         elif name == "texture":
@@ -607,7 +607,12 @@ def _b_map(it: BuildContext, g: Grouped, node: syntax.Block) -> MapValue:
                     k += 2
                 if k != len(rest) or rest[0].kind != "val":
                     raise EvalError("a keyword inside a color_map entry", "`[value colour]`")
-                entries.append((as_float(rest[0].value, "a map value"), ColorValue(tuple(c))))
+                entries.append(
+                    (
+                        as_float(rest[0].value, "a map value"),
+                        ColorValue((c[0], c[1], c[2], c[3], c[4])),
+                    )
+                )
                 continue
             if kind in ("color_map", "colour_map"):
                 if len(vals) == 2:
@@ -633,7 +638,7 @@ def _b_image_map(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment
     params: dict[str, Any] = {"map_type": 0, "interpolate": 0, "once": False}
     fmt = None
     for name, args, _span in g.items:
-        v = args[0] if args else None
+        v: Any = args[0] if args else None
         if name == "string":
             params["file"] = v
         elif name in (
