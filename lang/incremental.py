@@ -16,7 +16,7 @@ from __future__ import annotations
 from lang import syntax
 from lang.chunks import Chunk, ChunkParser, assemble
 from lang.diagnostics import Diagnostic, DiagnosticSink
-from lang.parser import strip_comments
+from lang.lexical import strip_comments
 
 
 def common_prefix(a: str, b: str) -> int:
