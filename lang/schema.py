@@ -935,13 +935,3 @@ BLOCKS["pigment_pattern"] = BlockSpec(
 
 def spec(name: str) -> BlockSpec | None:
     return BLOCKS.get(name)
-
-
-def all_item_names() -> frozenset[str]:
-    """Every keyword the schema knows (for did-you-mean hints)."""
-    names: set[str] = (
-        set(BLOCKS) | set(LIST_BLOCKS) | DATA_SHAPES | UNSUPPORTED_SHAPES | UNSUPPORTED_BLOCKS
-    )
-    for b in BLOCKS.values():
-        names |= set(b.items)
-    return frozenset(names)
