@@ -30,10 +30,11 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from lang import syntax
-from lang.diagnostics import Diagnostic, Severity, Span
+from lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
 from lang.evaluate import STDLIB, Interpreter
 from lang.format import format_source
-from lang.parser import parse, strip_comments
+from lang.lexical import comment_ranges, line_col, strip_comments
+from lang.parser import parse
 
 # Blocks strala parses and ignores: commenting them out changes no pixel of its render.
 IGNORED_BLOCKS = frozenset("photons subsurface interior_texture projected_through bump_map".split())
@@ -164,9 +165,7 @@ def _count(items: Iterator[str]) -> dict[str, int]:
 
 # ------------------------------------------------------------------ positions
 def _line_col(text: str, pos: int) -> tuple[int, int]:
-    pos = max(0, min(pos, len(text)))
-    line = text.count("\n", 0, pos) + 1
-    return line, pos - (text.rfind("\n", 0, pos) + 1) + 1
+    return line_col(text, max(0, min(pos, len(text))))
 
 
 def _line_starts(text: str) -> list[int]:
@@ -244,41 +243,16 @@ def _holds(outer: Span, inner: Span) -> bool:
 
 
 # ------------------------------------------------------------------ commenting out
-_COMMENT = re.compile(r'"(?:[^"\\\n]|\\.)*"|//[^\n]*|/\*|\*/')
-
-
-def _comment_ranges(text: str) -> list[tuple[int, int]]:
-    """(start, end) of every comment (block comments nest)."""
-    out: list[tuple[int, int]] = []
-    depth, start = 0, 0
-    for m in _COMMENT.finditer(text):
-        tok = m.group()
-        if depth == 0:
-            if tok.startswith("//"):
-                out.append((m.start(), m.end()))
-            elif tok == "/*":
-                depth, start = 1, m.start()
-        elif tok == "/*":
-            depth += 1
-        elif tok == "*/":
-            depth -= 1
-            if depth == 0:
-                out.append((start, m.end()))
-    if depth:
-        out.append((start, len(text)))
-    return out
-
-
 def comment_out(text: str, start: int, end: int, reason: str) -> _Edit:
     """An edit turning text[start:end] into `//` comment lines headed by the reason."""
-    for a, b in _comment_ranges(text):  # never cut a comment in two
+    for a, b in comment_ranges(text):  # never cut a comment in two
         if a < end < b:
             end = b
         if a < start < b:
             start = b
     region = text[start:end]
     if "/*" in region or "*/" in region:
-        region = strip_comments(region, "", _NullSink())  # its block comments go with it
+        region = strip_comments(region, "", DiagnosticSink())  # its block comments go with it
     line_start = text.rfind("\n", 0, start) + 1
     line_end = text.find("\n", end)
     line_end = len(text) if line_end < 0 else line_end
@@ -286,11 +260,6 @@ def comment_out(text: str, start: int, end: int, reason: str) -> _Edit:
     tail = "" if not text[end:line_end].strip() else "\n"
     body = "\n".join(("// " + ln.rstrip()).rstrip() for ln in region.split("\n"))
     return _Edit(start, end, f"{lead}// {TAG} {reason}\n{body}{tail}")
-
-
-class _NullSink:
-    def error(self, *args, **kwargs) -> None:
-        pass
 
 
 # ------------------------------------------------------------------ phase 1: syntax
@@ -342,7 +311,7 @@ def _drop_chunk(f: SourceFile, d: Diagnostic) -> None:
     """Comment out the top-level statement (parser chunk) that holds a syntax error."""
     from lang.chunks import ChunkParser
 
-    clean = strip_comments(f.text, str(f.source), _NullSink())
+    clean = strip_comments(f.text, str(f.source), DiagnosticSink())
     chunks, _, _ = ChunkParser(clean, str(f.source)).run()
     pos, _ = _offsets(f.text, d.span)
     chunk = next((c for c in chunks if c.start <= pos < c.end), chunks[-1])
