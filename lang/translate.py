@@ -26,7 +26,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from lang import syntax
@@ -184,21 +184,6 @@ def _offsets(text: str, span: Span, starts: list[int] | None = None) -> tuple[in
 
 
 # ------------------------------------------------------------------ tree walks
-def walk(node: object) -> Iterator[syntax.Node]:
-    """Every syntax node under `node` (itself included), parents before children."""
-    stack: list[object] = [node]
-    while stack:
-        v = stack.pop()
-        if isinstance(v, (list, tuple)):
-            stack.extend(reversed(v))
-        elif isinstance(v, syntax.Node):
-            yield v
-            for f in reversed(fields(v)):
-                x = getattr(v, f.name)
-                if isinstance(x, (syntax.Node, list, tuple)):
-                    stack.append(x)
-
-
 def _bodies(node: syntax.Node) -> list[list[syntax.Node]]:
     """The element lists directly inside a node (a block's body, a directive's branches)."""
     if isinstance(node, syntax.If):
@@ -406,7 +391,7 @@ def _read_names(files: Mapping[Path, SourceFile]) -> set[str]:
     names: set[str] = set()
     for f in files.values():
         tree, _ = parse(f.text, str(f.source))
-        for n in walk(tree):
+        for n in syntax.walk(tree):
             if isinstance(n, syntax.FileOp) and n.op == "read":
                 names |= {a.name for a in n.args if isinstance(a, syntax.Ident)}
     return names
@@ -557,7 +542,7 @@ def plan_includes(
     folder = f.source.parent
     local: list[Path] = []
     edits: list[_Edit] = []
-    for n in walk(tree):
+    for n in syntax.walk(tree):
         if not isinstance(n, syntax.Include):
             continue
         a, b = _offsets(f.text, n.span)
@@ -596,7 +581,7 @@ def rewrite_data_paths(f: SourceFile, libraries: Sequence[str]) -> None:
         return
     tree, _ = parse(f.text, str(f.source))
     edits: list[_Edit] = []
-    for n in walk(tree):
+    for n in syntax.walk(tree):
         if isinstance(n, syntax.Include):
             continue
         if not isinstance(n, syntax.String) or Path(n.value).suffix.lower() not in DATA_SUFFIXES:
@@ -655,7 +640,7 @@ class Translator:
         """The translated includes a file reads, transitively."""
         seen = seen if seen is not None else {f.source}
         tree, _ = parse(f.text, str(f.source))
-        for n in walk(tree):
+        for n in syntax.walk(tree):
             if isinstance(n, syntax.Include) and isinstance(n.path, syntax.String):
                 found = _resolve(n.path.value, f.source.parent, self.opts.library_paths)
                 if found and found[1] in self.files and found[1] not in seen:
