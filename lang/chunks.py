@@ -18,6 +18,7 @@ import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import cast
 
 from lark import Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
@@ -82,6 +83,9 @@ class Chunk:
         self.follow_end += chars
         t = self.last
         if t is not None:
+            # a lexed token: it has every position
+            assert t.start_pos is not None and t.end_pos is not None
+            assert t.line is not None and t.end_line is not None
             self.last = Token(
                 t.type,
                 t.value,
@@ -273,6 +277,7 @@ class _ChunkErrors:
         """An unexpected token: report it (unless it belongs to the last error's cascade) and
         drop it, except a reserved word where a name belongs, which is read as the name."""
         pos = tok.start_pos
+        assert pos is not None  # a lexed token
         if state is not None and "IDENT" in expected and tok.type in RESERVED_TYPES:
             self.report(
                 "E0102",
@@ -406,12 +411,14 @@ class ChunkParser:
         self.reusable = reusable or {}
         self.table = _get_table()
         self.thread = get_parser().parse_interactive(clean).lexer_thread
-        self.thread.state = LexerState(TextSlice(clean, 0, len(clean)), LineCounter("\n"))
+        # the lexer's position, kept here too: the thread's attribute is typed optional
+        self.lexer_state = LexerState(TextSlice(clean, 0, len(clean)), LineCounter("\n"))
+        self.thread.state = self.lexer_state
         self._pieces: list[Chunk] = []
         self._last: Token | None = None
 
     def _seek(self, pos: int, line: int) -> None:
-        counter = self.thread.state.line_ctr
+        counter = self.lexer_state.line_ctr
         counter.char_pos = counter.line_start_pos = pos
         counter.line, counter.column = line, 1
 
@@ -441,6 +448,7 @@ class ChunkParser:
             chunks.append(chunk)
             if first is None:
                 return chunks, None, line
+            assert first.line is not None  # a lexed token
             pos, line = chunk.end, first.line
             while pos not in stop_at and pos in self.reusable:
                 piece = self._take(self.reusable[pos], pos, line)
@@ -471,6 +479,8 @@ class ChunkParser:
                 "E0000", f"internal parser error: {e}", Span(self.file, line, 1, line, 1)
             )
         if follow is not None:
+            assert follow.start_pos is not None and follow.column is not None  # lexed
+            assert follow.end_pos is not None
             end = follow.start_pos - (follow.column - 1)  # the start of the follower's line
             follow_end = follow.end_pos
         else:
@@ -512,7 +522,7 @@ class ChunkParser:
         the chunk's tree (None if it could not be completed) and that line's first token."""
         table = self.table
         state = ParserState(table.conf, self.thread)
-        counter = self.thread.state.line_ctr
+        counter = self.lexer_state.line_ctr
         last = first  # the last token read in this chunk
         cur_line = first.line if first is not None else -1
         follow: Token | None = None
@@ -578,7 +588,9 @@ class ChunkParser:
                     break
             except UnexpectedCharacters as e:
                 pending = []
-                pos = e.pos_in_stream
+                # lark declares `pos_in_stream = None` on the base class of its errors; a
+                # lexer error always sets it to the offset of the bad character
+                pos = cast(int, e.pos_in_stream)
                 errors.bad_character(pos)
                 if counter.char_pos == pos:
                     counter.feed(self.clean[pos : pos + 1])
@@ -637,6 +649,7 @@ class _MacroExtent:
     def at(
         cls, table: _Table, clean: str, tok: Token, state: ParserState, errors: int
     ) -> _MacroExtent | None:
+        assert tok.start_pos is not None  # a lexed token
         end = macro_end(clean, tok.start_pos)
         if end is None:
             return None
@@ -647,11 +660,13 @@ class _MacroExtent:
         self, table: _Table, state: ParserState, tok: Token, errors: int, last: Token | None
     ) -> bool:
         """Before `tok` is fed: False when it must be dropped."""
+        start = tok.start_pos
+        assert start is not None  # a lexed token
         if errors == self.errors:  # the body parses so far: the grammar's own #end counts
-            if tok.start_pos >= self.end:
+            if start >= self.end:
                 self.done = True
             return True
-        if tok.start_pos < self.end:
+        if start < self.end:
             return not self.closed(table, state)  # what a macro closed too early leaves over
         self.done = True
         for _ in range(64):

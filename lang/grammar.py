@@ -11,6 +11,7 @@ The chunk parser (lang/chunks.py) drives it and words its errors with `describe_
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +25,10 @@ GRAMMAR_PATH = Path(__file__).with_name("grammar.lark")
 
 # ------------------------------------------------------------------ builder
 def tok_span(file: str, tok: Token) -> Span:
-    return Span(file, tok.line, tok.column, tok.end_line, tok.end_column)
+    """Where a lexed token stands. Lark types a token's positions optional (a token made by
+    hand may have none); every token that reaches here was lexed or borrowed a lexed one's
+    position, and this runs once per token, so no check narrows them."""
+    return Span(file, tok.line, tok.column, tok.end_line, tok.end_column)  # type: ignore[arg-type]
 
 
 @dataclass
@@ -115,6 +119,15 @@ def _unescape(body: str) -> str:
     return _ESCAPE_RE.sub(repl, body)
 
 
+def _binop(op: str) -> Callable[[_Builder, list], syntax.Binary]:
+    """The builder's callback for a binary operator the grammar spells out (`<`, `&` …)."""
+
+    def method(self: _Builder, children: list) -> syntax.Binary:
+        return syntax.Binary(self._span(children), op, children[0], children[2])
+
+    return method
+
+
 class _Builder(Transformer):
     """Builds syntax nodes while the parser reduces (the parser's callbacks: no parse tree is
     built). Every token is kept (`keep_all_tokens`), so a node's span runs from its first
@@ -148,16 +161,18 @@ class _Builder(Transformer):
         return span
 
     def _span(self, children) -> Span:
-        first = last = None
+        first = None
         for c in children:
             first = self._extent(c)
             if first is not None:
                 break
         else:
             return Span(self.file, 1, 1, 1, 1)
+        last: Span = first  # some child has an extent, so the last one found is not None
         for c in reversed(children):
-            last = self._extent(c)
-            if last is not None:
+            found = self._extent(c)
+            if found is not None:
+                last = found
                 break
         return Span(self.file, first.line, first.col, last.end_line, last.end_col)
 
@@ -219,18 +234,11 @@ class _Builder(Transformer):
         left, op, right = children
         return syntax.Binary(self._span(children), str(op), left, right)
 
-    def _binop(op):  # noqa: N805 - a method factory used in the class body
-        def method(self, children):
-            return syntax.Binary(self._span(children), op, children[0], children[2])
-
-        return method
-
     lt = _binop("<")
     gt = _binop(">")
     eq = _binop("=")
     and_ = _binop("&")
     or_ = _binop("|")
-    del _binop
 
     def unary(self, children):
         op, operand = children
@@ -510,12 +518,12 @@ def _word_types() -> dict[str, str]:
     return table
 
 
-_WORD_TYPES = _word_types()
-RESERVED_TYPES = frozenset(_WORD_TYPES.values())
+WORD_TYPES = _word_types()
+RESERVED_TYPES = frozenset(WORD_TYPES.values())
 
 
 def _classify(tok: Token) -> Token:
-    kind = _WORD_TYPES.get(tok)
+    kind = WORD_TYPES.get(tok)
     if kind is not None:
         tok.type = kind
     return tok
