@@ -35,6 +35,7 @@ _PARSER_FILES = (
     "syntax.py",
     "diagnostics.py",
     "keywords.py",
+    "schema.py",
 )
 
 

@@ -163,6 +163,31 @@ async def test_completion_is_driven_by_the_schema_and_hover_shows_docs(
     assert hov is not None and "phong <float>" in hov.contents.value
 
 
+async def test_completion_and_hover_inside_a_data_shape_come_from_its_schema(
+    client: LanguageClient, tmp_path
+):
+    """`lathe`, `blob`, `isosurface` … read free-form data, but the schema still describes
+    them: inside `lathe {` completion offers lathe's items, and hover shows their docs."""
+    text = "lathe {\n  bezier_spline 4, <0, 0>, <1, 1>, <1, 2>, <0, 3>\n  \n}\n"
+    uri = _open(client, tmp_path / "l.pov", text)
+    doc = T.TextDocumentIdentifier(uri=uri)
+    result = await client.text_document_completion_async(
+        T.CompletionParams(text_document=doc, position=T.Position(line=2, character=2))
+    )
+    keywords = {i.label for i in result.items if i.kind == T.CompletionItemKind.Keyword}
+    assert {"linear_spline", "quadratic_spline", "cubic_spline", "bezier_spline"} <= keywords
+    assert {"sturm", "translate", "pigment", "texture"} <= keywords
+    assert "look_at" not in keywords and "phong" not in keywords and "lathe" not in keywords
+    hov = await client.text_document_hover_async(
+        T.HoverParams(text_document=doc, position=T.Position(line=1, character=5))
+    )
+    assert hov is not None and "Cubic Bézier segments of four points each" in hov.contents.value
+    hov = await client.text_document_hover_async(
+        T.HoverParams(text_document=doc, position=T.Position(line=0, character=2))
+    )
+    assert hov is not None and "surface of revolution" in hov.contents.value
+
+
 def _scene(n: int) -> str:
     out = ['#include "colors.inc"', "camera { location <0, 2, -9> look_at 0 }"]
     for i in range(n):
