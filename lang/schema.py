@@ -233,7 +233,9 @@ UV_ITEM = "uv_vectors vector2 vector2 vector2 | uv coordinates of the corners (i
 
 
 # ------------------------------------------------------------------ the blocks
-def _shape(name: str, doc: str, *positional: str, extra: Iterable[str] = ()) -> BlockSpec:
+def _shape(
+    name: str, doc: str, *positional: str, extra: Iterable[str] = (), free_form: bool = False
+) -> BlockSpec:
     return BlockSpec(
         name,
         "object",
@@ -241,6 +243,7 @@ def _shape(name: str, doc: str, *positional: str, extra: Iterable[str] = ()) -> 
         _pos(*positional),
         items(OBJECT_ITEMS, extra),
         OBJECT_ACCEPTS,
+        free_form=free_form,
     )
 
 
@@ -861,15 +864,7 @@ BLOCKS["subdivision"] = BlockSpec(
 # coefficient vector; blob components): lang/pov_shapes.py reads them, then the object
 # modifiers after the data. Their specs say what the data is, for the language server.
 def _data_shape(name: str, doc: str, *positional: str, extra: Iterable[str] = ()) -> BlockSpec:
-    return BlockSpec(
-        name,
-        "object",
-        doc,
-        _pos(*positional),
-        items(OBJECT_ITEMS, extra),
-        OBJECT_ACCEPTS,
-        free_form=True,
-    )
+    return _shape(name, doc, *positional, extra=extra, free_form=True)
 
 
 SPLINE_2D_ITEMS = [
