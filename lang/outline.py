@@ -1,7 +1,8 @@
 """What an editor shows of a file's structure: symbols, folds, definitions, the node at a point.
 
 Works on the syntax tree alone (no evaluation), so it is cheap enough to run on every
-keystroke and still useful when the file has errors.
+keystroke and still useful when the file has errors; the blocks open at the cursor are read
+from the text with lang/lexical.py's scanner, as the user is typing them.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The syntax tree: small node classes, each with the Span it came from.
+"""The syntax tree: small node classes, each with the Span it came from, and `walk`, the one
+walk over a tree.
 
 The grammar is about shape, not meaning: a block body is a flat sequence of elements
 (keywords, expressions, commas, map entries, nested blocks and directives). Which keyword
