@@ -18,6 +18,7 @@ import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import cast
 
 from lark import Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
@@ -26,22 +27,21 @@ from lark.parsers.lalr_analysis import Shift
 from lark.parsers.lalr_parser_state import ParseConf, ParserState
 from lark.utils import TextSlice
 
-from lang import syntax
+from lang import lexical, syntax
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
-from lang.parser import (
-    _BUILDER,
-    _RESERVED_TYPES,
-    MAX_SYNTAX_ERRORS,
-    BraceReport,
-    _block_head,
-    _describe_token,
-    _expected,
-    _get_parser,
-    _hint_for,
-    _line_col,
-    _tok_span,
-    scan_braces,
+from lang.grammar import (
+    BUILDER,
+    RESERVED_TYPES,
+    describe_token,
+    expected_words,
+    get_parser,
+    hint_for,
+    tok_span,
 )
+from lang.lexical import BraceReport, block_head, line_col, scan_braces
+
+# A runaway error cascade in a badly broken file stops being reported after this many.
+MAX_SYNTAX_ERRORS = 50
 
 _NEW, _CONTINUES, _ERROR = "new", "continues", "error"
 
@@ -83,6 +83,9 @@ class Chunk:
         self.follow_end += chars
         t = self.last
         if t is not None:
+            # a lexed token: it has every position
+            assert t.start_pos is not None and t.end_pos is not None
+            assert t.line is not None and t.end_line is not None
             self.last = Token(
                 t.type,
                 t.value,
@@ -184,7 +187,7 @@ _table: _Table | None = None
 def _get_table() -> _Table:
     global _table
     if _table is None:
-        conf = _get_parser().parse_interactive("").parser_state.parse_conf
+        conf = get_parser().parse_interactive("").parser_state.parse_conf
         s0 = conf.start_state
         star = conf.states[s0]["__start_star_0"][1]  # `start: element*`, one element read
         starters = frozenset(t for t in conf.states[s0] if t.isupper() and t != "$END")
@@ -237,7 +240,7 @@ class _ChunkErrors:
         return self._braces
 
     def span_at(self, pos: int, length: int = 1) -> Span:
-        line, col = _line_col(self.clean, pos)
+        line, col = line_col(self.clean, pos)
         return Span(self.file, line, col, line, col + length)
 
     def quiet_since_last(self, pos: int) -> bool:
@@ -274,11 +277,12 @@ class _ChunkErrors:
         """An unexpected token: report it (unless it belongs to the last error's cascade) and
         drop it, except a reserved word where a name belongs, which is read as the name."""
         pos = tok.start_pos
-        if state is not None and "IDENT" in expected and tok.type in _RESERVED_TYPES:
+        assert pos is not None  # a lexed token
+        if state is not None and "IDENT" in expected and tok.type in RESERVED_TYPES:
             self.report(
                 "E0102",
                 f"`{tok}` is a reserved word and cannot be used as a name",
-                _tok_span(self.file, tok),
+                tok_span(self.file, tok),
                 "choose another name; POV-Ray's convention is a capital first letter",
             )
             try:
@@ -302,12 +306,12 @@ class _ChunkErrors:
                 if shown:
                     self.strays.append(rel)
             else:
-                words = _expected(expected)
+                words = expected_words(expected)
                 self.report(
                     "E0002",
-                    f"unexpected {_describe_token(tok)}" + (f"; {words}" if words else ""),
-                    _tok_span(self.file, tok),
-                    _hint_for(tok, expected),
+                    f"unexpected {describe_token(tok)}" + (f"; {words}" if words else ""),
+                    tok_span(self.file, tok),
+                    hint_for(tok, expected),
                 )
         self.last_error_end = tok.end_pos if tok.end_pos is not None else pos + len(tok)
 
@@ -357,7 +361,7 @@ class _ChunkErrors:
                 "E0001", "unexpected end of file", end, f"`{_CLOSER_TEXT[closer]}` is missing"
             )
         else:
-            self.report("E0001", "unexpected end of file", end, _expected(expected))
+            self.report("E0001", "unexpected end of file", end, expected_words(expected))
 
 
 _CLOSER_TEXT = {"RPAR": ")", "RSQB": "]", "MORETHAN": ">"}
@@ -377,9 +381,9 @@ def _stray_hint(clean: str, base: int, last: tuple[int, int] | None) -> str:
     """The hint for an unmatched `}`: which block was closed last before it."""
     if last is None:
         return "unmatched `}`: no block is open here; delete this brace"
-    head, head_pos = _block_head(clean, base + last[0])
-    o_line, o_col = _line_col(clean, head_pos)
-    c_line, c_col = _line_col(clean, base + last[1])
+    head, head_pos = block_head(clean, base + last[0])
+    o_line, o_col = line_col(clean, head_pos)
+    c_line, c_col = line_col(clean, base + last[1])
     return (
         f"unmatched `}}`: the {head}block opened at {o_line}:{o_col} was "
         f"already closed at {c_line}:{c_col}; delete this brace"
@@ -406,13 +410,15 @@ class ChunkParser:
         self.split = split
         self.reusable = reusable or {}
         self.table = _get_table()
-        self.thread = _get_parser().parse_interactive(clean).lexer_thread
-        self.thread.state = LexerState(TextSlice(clean, 0, len(clean)), LineCounter("\n"))
+        self.thread = get_parser().parse_interactive(clean).lexer_thread
+        # the lexer's position, kept here too: the thread's attribute is typed optional
+        self.lexer_state = LexerState(TextSlice(clean, 0, len(clean)), LineCounter("\n"))
+        self.thread.state = self.lexer_state
         self._pieces: list[Chunk] = []
         self._last: Token | None = None
 
     def _seek(self, pos: int, line: int) -> None:
-        counter = self.thread.state.line_ctr
+        counter = self.lexer_state.line_ctr
         counter.char_pos = counter.line_start_pos = pos
         counter.line, counter.column = line, 1
 
@@ -442,6 +448,7 @@ class ChunkParser:
             chunks.append(chunk)
             if first is None:
                 return chunks, None, line
+            assert first.line is not None  # a lexed token
             pos, line = chunk.end, first.line
             while pos not in stop_at and pos in self.reusable:
                 piece = self._take(self.reusable[pos], pos, line)
@@ -454,7 +461,7 @@ class ChunkParser:
 
     def _chunk(self, start: int, line: int, first: Token | None) -> tuple[Chunk, Token | None]:
         errors = _ChunkErrors(self.clean, self.file, start)
-        _BUILDER.reset(self.file, errors.sink)
+        BUILDER.reset(self.file, errors.sink)
         self._pieces = []
         self._last = None
         nodes: list = []
@@ -464,7 +471,7 @@ class ChunkParser:
             result, follow = self._read(errors, start, line, first)
             if result is not None:
                 nodes = result.body
-                span = None if _BUILDER.empty else result.span
+                span = None if BUILDER.empty else result.span
         except SceneError as e:
             errors.sink.items.append(e.diagnostic)
         except Exception as e:  # a builder failure is a bug, but the user gets a diagnostic
@@ -472,6 +479,8 @@ class ChunkParser:
                 "E0000", f"internal parser error: {e}", Span(self.file, line, 1, line, 1)
             )
         if follow is not None:
+            assert follow.start_pos is not None and follow.column is not None  # lexed
+            assert follow.end_pos is not None
             end = follow.start_pos - (follow.column - 1)  # the start of the follower's line
             follow_end = follow.end_pos
         else:
@@ -513,7 +522,7 @@ class ChunkParser:
         the chunk's tree (None if it could not be completed) and that line's first token."""
         table = self.table
         state = ParserState(table.conf, self.thread)
-        counter = self.thread.state.line_ctr
+        counter = self.lexer_state.line_ctr
         last = first  # the last token read in this chunk
         cur_line = first.line if first is not None else -1
         follow: Token | None = None
@@ -579,7 +588,9 @@ class ChunkParser:
                     break
             except UnexpectedCharacters as e:
                 pending = []
-                pos = e.pos_in_stream
+                # lark declares `pos_in_stream = None` on the base class of its errors; a
+                # lexer error always sets it to the offset of the bad character
+                pos = cast(int, e.pos_in_stream)
                 errors.bad_character(pos)
                 if counter.char_pos == pos:
                     counter.feed(self.clean[pos : pos + 1])
@@ -594,14 +605,14 @@ class ChunkParser:
         except UnexpectedInput:
             result = None
         if result is None and not errors.sink.has_errors:
-            errors.sink.error("E0001", "syntax error", _tok_span(self.file, end_tok), None)
+            errors.sink.error("E0001", "syntax error", tok_span(self.file, end_tok), None)
         return result, follow
 
 
 # POV-Ray's directives that a `#end` closes: a macro's body ends at the `#end` matching its
 # `#macro` by this count alone (its parser reads a macro as text, braces unmatched or not).
 _OPENERS = frozenset({"if", "ifdef", "ifndef", "while", "for", "switch", "macro"})
-_DIRECTIVE_OR_STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"?|#[ \t]*([A-Za-z_][A-Za-z0-9_]*)')
+_DIRECTIVE_OR_STRING = re.compile(lexical.STRING + r"?|#[ \t]*([A-Za-z_][A-Za-z0-9_]*)")
 
 
 def macro_end(clean: str, pos: int) -> int | None:
@@ -638,6 +649,7 @@ class _MacroExtent:
     def at(
         cls, table: _Table, clean: str, tok: Token, state: ParserState, errors: int
     ) -> _MacroExtent | None:
+        assert tok.start_pos is not None  # a lexed token
         end = macro_end(clean, tok.start_pos)
         if end is None:
             return None
@@ -648,11 +660,13 @@ class _MacroExtent:
         self, table: _Table, state: ParserState, tok: Token, errors: int, last: Token | None
     ) -> bool:
         """Before `tok` is fed: False when it must be dropped."""
+        start = tok.start_pos
+        assert start is not None  # a lexed token
         if errors == self.errors:  # the body parses so far: the grammar's own #end counts
-            if tok.start_pos >= self.end:
+            if start >= self.end:
                 self.done = True
             return True
-        if tok.start_pos < self.end:
+        if start < self.end:
             return not self.closed(table, state)  # what a macro closed too early leaves over
         self.done = True
         for _ in range(64):

@@ -14,12 +14,15 @@ from __future__ import annotations
 
 import re
 
+from lang import lexical
+
 INDENT = "  "
 
 _OPENERS = {"if", "ifdef", "ifndef", "while", "for", "macro", "switch"}
 _MIDDLES = {"else", "elseif", "case", "range"}
 # One token of interest at a time: strings, comments, brackets, directives, commas.
-_SCAN = re.compile(r'"(?:[^"\\\n]|\\.)*"?|//[^\n]*|/\*|\*/|[{}\[\]]|#[ \t]*[A-Za-z_]+|,')
+# A string not closed on its line runs to the line's end.
+_SCAN = re.compile(lexical.STRING + r"?|//[^\n]*|/\*|\*/|[{}\[\]]|#[ \t]*[A-Za-z_]+|,")
 
 
 def format_source(text: str) -> str:
@@ -31,7 +34,8 @@ def format_source(text: str) -> str:
     for raw in lines:
         if comment_depth > 0:
             # Inside a block comment: keep the line as written (minus trailing blanks).
-            comment_depth = _comment_depth_after(raw, comment_depth)
+            # (the rest of a line that closes it is code again, but re-indents nothing)
+            _, comment_depth = lexical.block_comment_end(raw, 0, comment_depth)
             out.append(raw.rstrip())
             blank_run = 0
             continue
@@ -58,15 +62,6 @@ class _State:
         self.frames: list[int] = []
 
 
-def _comment_depth_after(line: str, depth: int) -> int:
-    for m in re.finditer(r"/\*|\*/", line):
-        depth += 1 if m.group() == "/*" else -1
-        if depth == 0:
-            # The rest of the line is code again; its brackets do not re-indent anything.
-            break
-    return max(depth, 0)
-
-
 def _scan_line(line: str, state: _State) -> tuple[str, int, int]:
     """Returns the re-spaced line, its indentation (from its first token: a closing `}`,
     `#end` or `#else` steps out), and the open block-comment depth at its end.
@@ -79,18 +74,16 @@ def _scan_line(line: str, state: _State) -> tuple[str, int, int]:
     indent = state.depth
     at_start = True  # no token of the line seen yet
     comment = 0
-    for m in _SCAN.finditer(line):
+    scan = 0
+    while (m := _SCAN.search(line, scan)) is not None:
+        scan = m.end()
         tok = m.group()
-        if comment > 0:
-            if tok == "/*":
-                comment += 1
-            elif tok == "*/":
-                comment -= 1
-            continue
         if tok.startswith("//"):
             break
         if tok == "/*":
-            comment = 1
+            scan, comment = lexical.block_comment_end(line, m.start())
+            if comment:
+                break
             continue
         first = at_start and not line[: m.start()].strip()
         at_start = False

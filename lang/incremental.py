@@ -1,7 +1,7 @@
 """Re-parse only what an edit touched.
 
 The parser reads a file as chunks of top-level statements, each from a fresh parser state
-(lang/parser.py). An open document keeps its chunks; after an edit, the chunks wholly before
+(lang/chunks.py). An open document keeps its chunks; after an edit, the chunks wholly before
 the first changed character are kept, the chunks wholly after the last changed character are
 kept and moved (offsets, and line numbers in every span), and the parser re-reads the text in
 between, stopping as soon as a chunk boundary falls where an old chunk began. On the way it
@@ -16,7 +16,7 @@ from __future__ import annotations
 from lang import syntax
 from lang.chunks import Chunk, ChunkParser, assemble
 from lang.diagnostics import Diagnostic, DiagnosticSink
-from lang.parser import strip_comments
+from lang.lexical import strip_comments
 
 
 def common_prefix(a: str, b: str) -> int:

@@ -1,7 +1,8 @@
 """What an editor shows of a file's structure: symbols, folds, definitions, the node at a point.
 
 Works on the syntax tree alone (no evaluation), so it is cheap enough to run on every
-keystroke and still useful when the file has errors.
+keystroke and still useful when the file has errors; the blocks open at the cursor are read
+from the text with lang/lexical.py's scanner, as the user is typing them.
 """
 
 from __future__ import annotations
@@ -9,8 +10,9 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
+from lang import lexical
 from lang import syntax as S
-from lang.diagnostics import Span
+from lang.diagnostics import DiagnosticSink, Span
 
 
 @dataclass
@@ -157,16 +159,6 @@ def includes(tree: S.SourceFile) -> list[tuple[str, Span]]:
     return out
 
 
-def _contains(span: Span, line: int, col: int) -> bool:
-    if line < span.line or line > span.end_line:
-        return False
-    if line == span.line and col < span.col:
-        return False
-    if line == span.end_line and col >= span.end_col:
-        return False
-    return True
-
-
 def word_at(text: str, line: int, col: int) -> str | None:
     """The identifier or keyword under a 1-based position."""
     lines = text.split("\n")
@@ -186,40 +178,10 @@ def word_at(text: str, line: int, col: int) -> str | None:
     return word or None
 
 
-def enclosing_blocks(tree: S.SourceFile, line: int, col: int) -> list[str]:
-    """Keywords of the blocks around a position, outermost first (for completion)."""
-    path: list[str] = []
-
-    def visit(node: S.Node) -> None:
-        for child in children_of(node):
-            if _contains(child.span, line, col):
-                if isinstance(child, S.Block):
-                    path.append(child.keyword)
-                visit(child)
-                return
-
-    visit(tree)
-    return path
-
-
 def open_blocks_before(text: str, offset: int) -> list[str]:
     """Keywords of the blocks still open at a character offset, outermost first.
 
     Text-based (comments blanked, braces matched) so it works while the user is typing and
     the file does not parse."""
-    import re
-
-    from lang.diagnostics import DiagnosticSink
-    from lang.parser import strip_comments
-
-    clean = strip_comments(text[:offset], "<completion>", DiagnosticSink())
-    stack: list[str] = []
-    for m in re.finditer(r'"(?:[^"\\\n]|\\.)*"|[{}]', clean):
-        if m.group() == "{":
-            head = re.search(
-                r"([A-Za-z_][A-Za-z0-9_]*)\s*$", clean[max(0, m.start() - 64) : m.start()]
-            )
-            stack.append(head.group(1) if head else "")
-        elif m.group() == "}" and stack:
-            stack.pop()
-    return stack
+    clean = lexical.strip_comments(text[:offset], "<completion>", DiagnosticSink())
+    return lexical.open_blocks(clean)

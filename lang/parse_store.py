@@ -29,10 +29,13 @@ MAX_ENTRIES: int = 2000  # about 30 KB each: a store of at most ~60 MB
 _PARSER_FILES = (
     "grammar.lark",
     "parser.py",
+    "grammar.py",
+    "lexical.py",
     "chunks.py",
     "syntax.py",
     "diagnostics.py",
     "keywords.py",
+    "schema.py",
 )
 
 

@@ -3,8 +3,11 @@
 For each block: the positional values that open it (`sphere { <c>, r …}`), the keywords it
 takes with their argument kinds, the value kinds it accepts as items (a `pigment {…}` inside
 a `sphere`), and a one-line doc for each. The evaluator groups a block's elements with it,
-`check` reports against it and the language server completes and hovers from it. A keyword
-is added here, in one place.
+`check` reports against it and the language server completes and hovers from it. It is
+also the language's one list of reserved words (`RESERVED_WORDS`: lang/keywords.py sorts them
+into the classes the grammar tells apart), so a keyword is added here, in one place. The data
+shapes (`lathe`, `blob`, `isosurface` …) have specs too, marked `free_form`: they say what the
+block takes, while lang/pov_shapes.py reads its data.
 
 Argument kinds: float int vector vector2 color string matrix transform rgb (a colour or a
 float taken as an RGB triple); a trailing `?` makes one optional; `listN` takes up to N
@@ -45,9 +48,13 @@ class BlockSpec:
     accepts: frozenset[str] = frozenset()  # value kinds taken as items
     soft: frozenset[str] = frozenset()  # strala's soft words read as keywords here
     supported: bool = True  # False: parsed and warned about, not rendered
+    # True: a data shape (`lathe`, `blob` …), its data a free-form list that lang/pov_shapes.py
+    # reads itself; the spec describes the block (completion, hover, the reserved words) but
+    # its elements are not grouped with it
+    free_form: bool = False
 
 
-def _items(*groups: Iterable[str]) -> dict[str, Item]:
+def items(*groups: Iterable[str]) -> dict[str, Item]:
     """Parse `"name kind kind | doc"` lines."""
     out: dict[str, Item] = {}
     for group in groups:
@@ -56,6 +63,9 @@ def _items(*groups: Iterable[str]) -> dict[str, Item]:
             words = head.split()
             out[words[0]] = Item(words[0], tuple(words[1:]), doc.strip())
     return out
+
+
+_items = items  # the former name, still read by lang/evaluate.py and lang/pov_shapes.py
 
 
 def _pos(*specs: str) -> tuple[Positional, ...]:
@@ -223,14 +233,17 @@ UV_ITEM = "uv_vectors vector2 vector2 vector2 | uv coordinates of the corners (i
 
 
 # ------------------------------------------------------------------ the blocks
-def _shape(name: str, doc: str, *positional: str, extra: Iterable[str] = ()) -> BlockSpec:
+def _shape(
+    name: str, doc: str, *positional: str, extra: Iterable[str] = (), free_form: bool = False
+) -> BlockSpec:
     return BlockSpec(
         name,
         "object",
         doc,
         _pos(*positional),
-        _items(OBJECT_ITEMS, extra),
+        items(OBJECT_ITEMS, extra),
         OBJECT_ACCEPTS,
+        free_form=free_form,
     )
 
 
@@ -308,7 +321,7 @@ SHAPES: dict[str, BlockSpec] = {
             "object",
             "Triangles (`triangle`, `smooth_triangle`) with optional textures each.",
             (),
-            _items(
+            items(
                 OBJECT_ITEMS,
                 [
                     "inside_vector vector | A direction for inside tests.",
@@ -322,7 +335,7 @@ SHAPES: dict[str, BlockSpec] = {
             "object",
             "An indexed triangle mesh: vertex_vectors, face_indices and friends.",
             (),
-            _items(
+            items(
                 OBJECT_ITEMS,
                 [
                     "inside_vector vector | A direction for inside tests.",
@@ -337,7 +350,7 @@ SHAPES: dict[str, BlockSpec] = {
                 "object",
                 doc,
                 (),
-                _items(OBJECT_ITEMS),
+                items(OBJECT_ITEMS),
                 OBJECT_ACCEPTS | {"object", "light"},
             )
             for op, doc in [
@@ -352,17 +365,11 @@ SHAPES: dict[str, BlockSpec] = {
             "object",
             "A declared object with more modifiers: `object { Name modifiers }`.",
             _pos("object:object"),
-            _items(OBJECT_ITEMS),
+            items(OBJECT_ITEMS),
             OBJECT_ACCEPTS,
         ),
     ]
 }
-
-# POV-Ray shapes whose data is a free-form list (lang/pov_shapes.py reads them).
-DATA_SHAPES = frozenset(
-    """quadric cubic quartic poly superellipsoid blob lathe sor prism text height_field
-    sphere_sweep isosurface""".split()
-)
 
 # POV-Ray shapes strala parses but does not render yet (an ir.Unsupported object + a warning).
 UNSUPPORTED_SHAPES = frozenset(
@@ -453,7 +460,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "light",
         "A light: position and colour, then modifiers.",
         _pos("light?:base", "vector?:position", "color?:color"),
-        _items(LIGHT_ITEMS),
+        items(LIGHT_ITEMS),
         frozenset({"transform", "unsupported", "looks_like"}),
     ),
     "looks_like": BlockSpec(
@@ -469,7 +476,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "camera",
         "The camera: where it is, where it looks, its field of view.",
         _pos("camera?:base"),
-        _items(
+        items(
             TRANSFORM_ITEMS,
             [
                 "perspective | A pinhole camera (default).",
@@ -504,7 +511,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "global_settings",
         "Scene-wide settings.",
         (),
-        _items(
+        items(
             [
                 "assumed_gamma float | The working gamma (1.0 for linear light).",
                 "max_trace_level int | Maximum reflection/refraction depth (default 5).",
@@ -526,7 +533,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "radiosity",
         "Diffuse interreflection by the radiosity method.",
         (),
-        _items(
+        items(
             [
                 "count int int? | Rays per patch (POV-Ray: samples per point).",
                 "error_bound float | Patch subdivision threshold.",
@@ -569,7 +576,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "sky_sphere",
         "Pigments painted on an infinitely large sphere.",
         _pos("sky_sphere?:base"),
-        _items(TRANSFORM_ITEMS, ["emission rgb | Sky brightness."]),
+        items(TRANSFORM_ITEMS, ["emission rgb | Sky brightness."]),
         frozenset({"pigment", "transform"}),
     ),
     "fog": BlockSpec(
@@ -577,7 +584,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "fog",
         "Constant or ground fog.",
         _pos("color?:color"),
-        _items(
+        items(
             TRANSFORM_ITEMS,
             [
                 "distance float | Distance at which 63% of the light is fogged.",
@@ -599,7 +606,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "transform",
         "A reusable transformation.",
         _pos("transform?:base"),
-        _items(TRANSFORM_ITEMS, ["inverse | The inverse of the transformation so far."]),
+        items(TRANSFORM_ITEMS, ["inverse | The inverse of the transformation so far."]),
         frozenset({"transform"}),
     ),
     "pigment": BlockSpec(
@@ -607,7 +614,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "pigment",
         "A colour or colour pattern.",
         (),
-        _items(
+        items(
             TRANSFORM_ITEMS,
             PATTERN_ITEMS,
             ["color color | A solid colour."],
@@ -620,7 +627,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "normal",
         "A perturbation of the surface normal.",
         (),
-        _items(
+        items(
             TRANSFORM_ITEMS,
             NORMAL_PATTERN_ITEMS,
             [
@@ -636,7 +643,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "finish",
         "How the surface reacts to light.",
         (),
-        _items(FINISH_ITEMS),
+        items(FINISH_ITEMS),
         frozenset({"finish", "reflection", "irid", "unsupported"}),
     ),
     "reflection": BlockSpec(
@@ -644,7 +651,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "reflection",
         "Mirror reflection: `reflection { [min,] max [fresnel] [falloff f] … }`.",
         _pos("color:min", "color?:max"),
-        _items(
+        items(
             [
                 "fresnel bool? | Reflection by the Fresnel equations (uses the interior's ior).",
                 "falloff float | Falloff exponent between min and max.",
@@ -659,7 +666,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "warp",
         "A warp of the point a pattern is evaluated at (applied in order with transforms).",
         (),
-        _items(WARP_ITEMS),
+        items(WARP_ITEMS),
         frozenset(),
     ),
     "irid": BlockSpec(
@@ -667,7 +674,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "irid",
         "Iridescence: amount, film thickness and turbulence.",
         _pos("float:amount"),
-        _items(["thickness float | Film thickness.", "turbulence float | Thickness turbulence."]),
+        items(["thickness float | Film thickness.", "turbulence float | Thickness turbulence."]),
         frozenset(),
     ),
     "interior": BlockSpec(
@@ -675,7 +682,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "interior",
         "What is inside an object: index of refraction, fading, caustics.",
         (),
-        _items(
+        items(
             [
                 "ior float | Index of refraction.",
                 "caustics float | Fake caustics.",
@@ -694,7 +701,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "media",
         "Participating media: emitting, absorbing and scattering light inside a volume.",
         _pos("media?:base"),
-        _items(
+        items(
             TRANSFORM_ITEMS,
             [
                 "emission rgb | Light emitted per unit length.",
@@ -718,7 +725,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "scattering",
         "Light from the light sources scattered toward the viewer.",
         _pos("int:type", "rgb:color"),
-        _items(
+        items(
             [
                 "eccentricity float | Henyey-Greenstein eccentricity (type 5).",
                 "extinction float | How much scattering dims light (default 1).",
@@ -731,7 +738,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "density",
         "A media density: a pattern whose colour map gives the density.",
         (),
-        _items(
+        items(
             TRANSFORM_ITEMS,
             PATTERN_ITEMS,
             ["color color | A constant density."],
@@ -743,7 +750,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "texture",
         "A texture: pigment, normal and finish.",
         (),
-        _items(TRANSFORM_ITEMS, PATTERN_ITEMS, ["uv_mapping | Map by uv coordinates."]),
+        items(TRANSFORM_ITEMS, PATTERN_ITEMS, ["uv_mapping | Map by uv coordinates."]),
         frozenset(
             {
                 "texture",
@@ -763,7 +770,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "material",
         "A texture with an interior.",
         (),
-        _items(TRANSFORM_ITEMS),
+        items(TRANSFORM_ITEMS),
         frozenset({"material", "texture", "interior", "transform", "unsupported"}),
     ),
     "image_map": BlockSpec(
@@ -771,7 +778,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "pigment",
         'An image as a pigment: `image_map { png "file" map_type 0 interpolate 2 once }`.',
         (),
-        _items(
+        items(
             [
                 f"{t} string? | Image format {t}."
                 for t in "png jpeg tiff exr hdr gif tga iff ppm pgm sys".split()
@@ -795,7 +802,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "clipped_by",
         "Objects that clip this one.",
         (),
-        _items(["bounded_by | Clip by the bounding objects."]),
+        items(["bounded_by | Clip by the bounding objects."]),
         frozenset({"object"}),
     ),
     "bounded_by": BlockSpec(
@@ -803,7 +810,7 @@ BLOCKS: dict[str, BlockSpec] = {
         "bounded_by",
         "A bounding shape (a speed hint).",
         (),
-        _items(["clipped_by | Bound by the clipping objects."]),
+        items(["clipped_by | Bound by the clipping objects."]),
         frozenset({"object"}),
     ),
 }
@@ -812,7 +819,7 @@ BLOCKS["nurbs"] = BlockSpec(
     "object",
     "A NURBS surface, or with `degree` and `radius` a NURBS curve drawn as a tube.",
     (),
-    _items(
+    items(
         OBJECT_ITEMS,
         [
             "u_degree int | Degree in u (default 3).",
@@ -830,7 +837,7 @@ BLOCKS["subdivision"] = BlockSpec(
     "object",
     "A subdivision surface (vertex_vectors, face_indices) or curve (control_points).",
     (),
-    _items(
+    items(
         OBJECT_ITEMS,
         [
             "scheme word | catmull_clark, loop, bilinear; curves: midpoint, chaikin, "
@@ -850,6 +857,165 @@ BLOCKS["subdivision"] = BlockSpec(
         "scheme levels boundary limit m chaikin midpoint loop bilinear sharp bezier closed".split()
     ),
 )
+
+
+# ------------------------------------------------------------------ data shapes
+# POV-Ray 3.7's shapes whose data is a free-form list (a spline word, a count, then points; a
+# coefficient vector; blob components): lang/pov_shapes.py reads them, then the object
+# modifiers after the data. Their specs say what the data is, for the language server.
+def _data_shape(name: str, doc: str, *positional: str, extra: Iterable[str] = ()) -> BlockSpec:
+    return _shape(name, doc, *positional, extra=extra, free_form=True)
+
+
+SPLINE_2D_ITEMS = [
+    "linear_spline | Straight segments between the points (the default).",
+    "quadratic_spline | Quadratic segments; each uses the point before it.",
+    "cubic_spline | Cubic segments; the first and last points only steer the ends.",
+    "bezier_spline | Cubic Bézier segments of four points each.",
+]
+HF_TYPES = "gif tga pot png pgm ppm jpeg tiff sys exr hdr".split()
+
+for _spec in [
+    _data_shape(
+        "quadric",
+        "A second-order surface: A x² + B y² + C z² + D xy + E xz + F yz + G x + H y + I z "
+        "+ J = 0.",
+        "vector:squares",
+        "vector:mixed",
+        "vector:linear",
+        "float:constant",
+    ),
+    _data_shape(
+        "cubic", "A third-order polynomial surface: its 20 coefficients.", "vector:coefficients"
+    ),
+    _data_shape(
+        "quartic", "A fourth-order polynomial surface: its 35 coefficients.", "vector:coefficients"
+    ),
+    _data_shape(
+        "poly",
+        "A polynomial surface of order 2 to 15: the order, then its coefficients.",
+        "int:order",
+        "vector:coefficients",
+    ),
+    _data_shape(
+        "superellipsoid",
+        "A superquadric ellipsoid: the east-west and north-south exponents <e, n>.",
+        "vector:exponents",
+    ),
+    BlockSpec(
+        "blob",
+        "object",
+        "Metaballs: sphere and cylinder components whose fields add up; the surface is "
+        "where the field equals the threshold.",
+        (),
+        items(
+            OBJECT_ITEMS,
+            [
+                "threshold float | The field strength at the surface (default 1).",
+                "component float float vector | (Old syntax) a spherical component: strength, "
+                "radius, centre.",
+                "strength float | A component's field strength (in its sphere or cylinder).",
+                "hierarchy bool? | Build a bounding hierarchy of the components.",
+            ],
+        ),
+        OBJECT_ACCEPTS | {"object"},
+        free_form=True,
+    ),
+    _data_shape(
+        "lathe",
+        "A surface of revolution: a 2-D spline of <r, y> points turned about the y axis.",
+        "int:count",
+        "*vector:points",
+        extra=SPLINE_2D_ITEMS,
+    ),
+    _data_shape(
+        "sor",
+        "A surface of revolution: a curve through <r, y> points turned about the y axis "
+        "(the first and last points steer the ends).",
+        "int:count",
+        "*vector:points",
+        extra=["open | Leave the end caps off."],
+    ),
+    _data_shape(
+        "prism",
+        "A 2-D spline of <x, z> points swept along y between two heights.",
+        "float:height1",
+        "float:height2",
+        "int:count",
+        "*vector:points",
+        extra=[
+            *SPLINE_2D_ITEMS,
+            "linear_sweep | Sweep straight along y (the default).",
+            "conic_sweep | Sweep toward the origin: the shape scales with the height.",
+            "open | Leave the end caps off.",
+        ],
+    ),
+    _data_shape(
+        "text",
+        "Extruded text: a font, the string, the thickness and the offset between letters.",
+        "string:text",
+        "float:thickness",
+        "vector:offset",
+        extra=[
+            "ttf string | The TrueType font file.",
+            "internal int | One of POV-Ray's built-in fonts (0 to 3).",
+        ],
+    ),
+    _data_shape(
+        "height_field",
+        "Heights over the unit square in x and z from an image (or a function), 0 to 1 in y.",
+        "string?:file",
+        extra=[
+            *(f"{t} string | An image of format {t} for the heights." for t in HF_TYPES),
+            "smooth | Smooth the normals between the triangles.",
+            "water_level float | Heights below this (0 to 1) are left out.",
+            "hierarchy bool? | Build a bounding hierarchy (a speed hint).",
+            "premultiplied bool? | The image's alpha is premultiplied.",
+        ],
+    ),
+    _data_shape(
+        "sphere_sweep",
+        "A sphere of varying radius swept along a spline: the number of spheres, then a "
+        "centre and radius each.",
+        "int:count",
+        "*vector:spheres",
+        extra=[
+            "linear_spline | Straight segments between the spheres.",
+            "b_spline | A uniform B-spline (it does not pass through the spheres).",
+            "cubic_spline | A cubic spline through the spheres (the first and last steer the "
+            "ends).",
+            "tolerance float | Depth tolerance of the intersection tests (default 1e-6).",
+        ],
+    ),
+    BlockSpec(
+        "isosurface",
+        "object",
+        "The surface where a function equals the threshold, inside a container.",
+        (),
+        items(
+            OBJECT_ITEMS,
+            [
+                "contained_by | The box or sphere the surface is searched in "
+                "(default: a box from <-1,-1,-1> to <1,1,1>).",
+                "threshold float | The function's value at the surface (default 0).",
+                "accuracy float | How closely the surface is found (default 0.001).",
+                "max_gradient float | The function's largest gradient (default 1.1).",
+                "evaluate float float float | Adapt max_gradient while rendering: P0, P1, P2.",
+                "open | Leave the container's surface off.",
+                "max_trace int | Surfaces found along a ray, for CSG (default 1).",
+                "all_intersections | Find every surface along a ray, for CSG.",
+            ],
+        ),
+        OBJECT_ACCEPTS,
+        free_form=True,
+    ),
+]:
+    BLOCKS[_spec.name] = _spec
+
+# The data shapes, by name (the evaluator hands them to lang/pov_shapes.py).
+DATA_SHAPES = frozenset(name for name, b in BLOCKS.items() if b.free_form)
+
+
 SPLINE_TYPES = ("linear_spline", "quadratic_spline", "cubic_spline", "natural_spline")
 SPLINE_DOC = "A spline: `spline { [type] t0, <v0>, t1, <v1> … }`, called as `S(t)`."
 
@@ -918,7 +1084,7 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
     """photons subsurface bump_map material_map interior_texture
-    image_pattern function_image projected_through""".split()
+    image_pattern projected_through""".split()
 )
 
 
@@ -937,11 +1103,45 @@ def spec(name: str) -> BlockSpec | None:
     return BLOCKS.get(name)
 
 
-def all_item_names() -> frozenset[str]:
-    """Every keyword the schema knows (for did-you-mean hints)."""
-    names: set[str] = (
-        set(BLOCKS) | set(LIST_BLOCKS) | DATA_SHAPES | UNSUPPORTED_SHAPES | UNSUPPORTED_BLOCKS
-    )
-    for b in BLOCKS.values():
-        names |= set(b.items)
-    return frozenset(names)
+# ------------------------------------------------------------------ reserved words
+# POV-Ray 3.7's reserved words that no block above lists: keywords all the same (the lexer
+# types them so, they are never names), by where POV-Ray writes them.
+OTHER_WORDS = frozenset(
+    " ".join(
+        [
+            # the grammar's own words, and blocks the evaluator reads without a spec
+            "array function default optional append read write pattern spline",
+            "bicubic_patch flatness u_steps v_steps",
+            # data and file formats (density files, #write, charset)
+            "df3 pov ascii utf8 sint8 sint16be sint16le sint32be sint32le uint8 uint16be uint16le",
+            # photons, light groups, subsurface light transport (not rendered)
+            "spacing target refraction autostop expand_thresholds gather global_lights",
+            "translucency importance",
+            # the julia_fractal shape (not rendered)
+            "quaternion hypercomplex slice precision cube pwr reciprocal",
+            # the subdivision schemes that are reserved (the others are soft words)
+            "catmull_clark four_point",
+            # more of POV-Ray's words that strala does not describe
+            "all alpha altitude anisotropy composite falloff_angle focal_blur mixed precompute",
+            "rainbow size spiral tile2 tiles trace_level use_color use_colour use_index width xyz",
+        ]
+    ).split()
+)
+
+# Words that are keywords only inside the blocks whose spec lists them (`scheme`, `gamma`
+# …): names everywhere else, so users may keep variables with these names.
+SOFT_WORDS = frozenset(w for b in BLOCKS.values() for w in b.soft)
+
+# Every reserved word of the language but the directives (`#declare` …, which the grammar
+# spells out) and `deprecated`: block heads, items, list blocks, shapes parsed but not
+# rendered, and the value words (colour components). lang/keywords.py sorts them into the
+# classes the grammar tells apart.
+RESERVED_WORDS = (
+    frozenset(BLOCKS)
+    | frozenset(w for b in BLOCKS.values() for w in b.items)
+    | frozenset(LIST_BLOCKS)
+    | UNSUPPORTED_SHAPES
+    | UNSUPPORTED_BLOCKS
+    | frozenset(SPLINE_TYPES)
+    | OTHER_WORDS
+) - SOFT_WORDS

@@ -30,7 +30,7 @@ class IRFormatError(ValueError):
 
 
 def _registry() -> dict[str, type]:
-    classes = {
+    classes: dict[str, type] = {
         name: obj
         for name, obj in vars(ir).items()
         if isinstance(obj, type) and dataclasses.is_dataclass(obj) and obj.__module__ == ir.__name__

@@ -1,4 +1,5 @@
-"""The syntax tree: small node classes, each with the Span it came from.
+"""The syntax tree: small node classes, each with the Span it came from, and `walk`, the one
+walk over a tree.
 
 The grammar is about shape, not meaning: a block body is a flat sequence of elements
 (keywords, expressions, commas, map entries, nested blocks and directives). Which keyword
@@ -7,6 +8,7 @@ takes which arguments is the schema's business, applied by the evaluator.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
 
 from lang.diagnostics import Span
@@ -285,16 +287,17 @@ class Break(Node):
     """`#break`: ends a `#case` clause, or leaves a `#while`/`#for` loop."""
 
 
-def walk(node: Node | list):
-    """`node` and every node below it (lists of nodes included), depth first."""
-    stack = [node]
+def walk(node: object) -> Iterator[Node]:
+    """Every syntax node under `node` (itself included; lists of nodes too), parents before
+    children, children in the order of their fields."""
+    stack: list[object] = [node]
     while stack:
-        item = stack.pop()
-        if isinstance(item, list | tuple):
-            stack.extend(reversed(item))
-        elif isinstance(item, Node):
-            yield item
-            for f in fields(item):
-                value = getattr(item, f.name)
-                if isinstance(value, Node | list | tuple):
-                    stack.append(value)
+        v = stack.pop()
+        if isinstance(v, (list, tuple)):
+            stack.extend(reversed(v))
+        elif isinstance(v, Node):
+            yield v
+            for f in reversed(fields(v)):
+                x = getattr(v, f.name)
+                if isinstance(x, (Node, list, tuple)):
+                    stack.append(x)

@@ -26,14 +26,15 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from lang import paths, syntax
-from lang.diagnostics import Diagnostic, Severity, Span
+from lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
 from lang.eval.interpreter import Interpreter
 from lang.format import format_source
-from lang.parser import parse, strip_comments
+from lang.lexical import comment_ranges, line_col, strip_comments
+from lang.parser import parse
 from lang.paths import STDLIB
 
 # Blocks strala parses and ignores: commenting them out changes no pixel of its render.
@@ -165,9 +166,7 @@ def _count(items: Iterator[str]) -> dict[str, int]:
 
 # ------------------------------------------------------------------ positions
 def _line_col(text: str, pos: int) -> tuple[int, int]:
-    pos = max(0, min(pos, len(text)))
-    line = text.count("\n", 0, pos) + 1
-    return line, pos - (text.rfind("\n", 0, pos) + 1) + 1
+    return line_col(text, max(0, min(pos, len(text))))
 
 
 def _line_starts(text: str) -> list[int]:
@@ -186,21 +185,6 @@ def _offsets(text: str, span: Span, starts: list[int] | None = None) -> tuple[in
 
 
 # ------------------------------------------------------------------ tree walks
-def walk(node: object) -> Iterator[syntax.Node]:
-    """Every syntax node under `node` (itself included), parents before children."""
-    stack: list[object] = [node]
-    while stack:
-        v = stack.pop()
-        if isinstance(v, (list, tuple)):
-            stack.extend(reversed(v))
-        elif isinstance(v, syntax.Node):
-            yield v
-            for f in reversed(fields(v)):
-                x = getattr(v, f.name)
-                if isinstance(x, (syntax.Node, list, tuple)):
-                    stack.append(x)
-
-
 def _bodies(node: syntax.Node) -> list[list[syntax.Node]]:
     """The element lists directly inside a node (a block's body, a directive's branches)."""
     if isinstance(node, syntax.If):
@@ -245,41 +229,16 @@ def _holds(outer: Span, inner: Span) -> bool:
 
 
 # ------------------------------------------------------------------ commenting out
-_COMMENT = re.compile(r'"(?:[^"\\\n]|\\.)*"|//[^\n]*|/\*|\*/')
-
-
-def _comment_ranges(text: str) -> list[tuple[int, int]]:
-    """(start, end) of every comment (block comments nest)."""
-    out: list[tuple[int, int]] = []
-    depth, start = 0, 0
-    for m in _COMMENT.finditer(text):
-        tok = m.group()
-        if depth == 0:
-            if tok.startswith("//"):
-                out.append((m.start(), m.end()))
-            elif tok == "/*":
-                depth, start = 1, m.start()
-        elif tok == "/*":
-            depth += 1
-        elif tok == "*/":
-            depth -= 1
-            if depth == 0:
-                out.append((start, m.end()))
-    if depth:
-        out.append((start, len(text)))
-    return out
-
-
 def comment_out(text: str, start: int, end: int, reason: str) -> _Edit:
     """An edit turning text[start:end] into `//` comment lines headed by the reason."""
-    for a, b in _comment_ranges(text):  # never cut a comment in two
+    for a, b in comment_ranges(text):  # never cut a comment in two
         if a < end < b:
             end = b
         if a < start < b:
             start = b
     region = text[start:end]
     if "/*" in region or "*/" in region:
-        region = strip_comments(region, "", _NullSink())  # its block comments go with it
+        region = strip_comments(region, "", DiagnosticSink())  # its block comments go with it
     line_start = text.rfind("\n", 0, start) + 1
     line_end = text.find("\n", end)
     line_end = len(text) if line_end < 0 else line_end
@@ -287,11 +246,6 @@ def comment_out(text: str, start: int, end: int, reason: str) -> _Edit:
     tail = "" if not text[end:line_end].strip() else "\n"
     body = "\n".join(("// " + ln.rstrip()).rstrip() for ln in region.split("\n"))
     return _Edit(start, end, f"{lead}// {TAG} {reason}\n{body}{tail}")
-
-
-class _NullSink:
-    def error(self, *args, **kwargs) -> None:
-        pass
 
 
 # ------------------------------------------------------------------ phase 1: syntax
@@ -343,7 +297,7 @@ def _drop_chunk(f: SourceFile, d: Diagnostic) -> None:
     """Comment out the top-level statement (parser chunk) that holds a syntax error."""
     from lang.chunks import ChunkParser
 
-    clean = strip_comments(f.text, str(f.source), _NullSink())
+    clean = strip_comments(f.text, str(f.source), DiagnosticSink())
     chunks, _, _ = ChunkParser(clean, str(f.source)).run()
     pos, _ = _offsets(f.text, d.span)
     chunk = next((c for c in chunks if c.start <= pos < c.end), chunks[-1])
@@ -438,7 +392,7 @@ def _read_names(files: Mapping[Path, SourceFile]) -> set[str]:
     names: set[str] = set()
     for f in files.values():
         tree, _ = parse(f.text, str(f.source))
-        for n in walk(tree):
+        for n in syntax.walk(tree):
             if isinstance(n, syntax.FileOp) and n.op == "read":
                 names |= {a.name for a in n.args if isinstance(a, syntax.Ident)}
     return names
@@ -580,7 +534,7 @@ def plan_includes(
     folder = f.source.parent
     local: list[Path] = []
     edits: list[_Edit] = []
-    for n in walk(tree):
+    for n in syntax.walk(tree):
         if not isinstance(n, syntax.Include):
             continue
         a, b = _offsets(f.text, n.span)
@@ -619,7 +573,7 @@ def rewrite_data_paths(f: SourceFile, libraries: Sequence[str]) -> None:
         return
     tree, _ = parse(f.text, str(f.source))
     edits: list[_Edit] = []
-    for n in walk(tree):
+    for n in syntax.walk(tree):
         if isinstance(n, syntax.Include):
             continue
         if not isinstance(n, syntax.String) or Path(n.value).suffix.lower() not in DATA_SUFFIXES:
@@ -678,7 +632,7 @@ class Translator:
         """The translated includes a file reads, transitively."""
         seen = seen if seen is not None else {f.source}
         tree, _ = parse(f.text, str(f.source))
-        for n in walk(tree):
+        for n in syntax.walk(tree):
             if isinstance(n, syntax.Include) and isinstance(n.path, syntax.String):
                 found = _resolve(n.path.value, f.source.parent, self.opts.library_paths)
                 if found and found[1] in self.files and found[1] not in seen:

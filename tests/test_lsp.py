@@ -149,18 +149,48 @@ async def test_completion_is_driven_by_the_schema_and_hover_shows_docs(
     client: LanguageClient, tmp_path
 ):
     text = "sphere { 0, 1\n  finish { phong 1  }\n}\n"
-    uri = _open(client, tmp_path / "d.pov", text)
-    doc = T.TextDocumentIdentifier(uri=uri)
-    result = await client.text_document_completion_async(
-        T.CompletionParams(text_document=doc, position=T.Position(line=1, character=19))
-    )
-    keywords = {i.label for i in result.items if i.kind == T.CompletionItemKind.Keyword}
+    doc = T.TextDocumentIdentifier(uri=_open(client, tmp_path / "d.pov", text))
+    keywords = await _keywords_at(client, doc, 1, 19)
     assert {"phong", "specular", "reflection", "metallic"} <= keywords
     assert "sphere" not in keywords and "look_at" not in keywords
-    hov = await client.text_document_hover_async(
-        T.HoverParams(text_document=doc, position=T.Position(line=1, character=13))
+    assert "phong <float>" in await _hover_at(client, doc, 1, 13)
+
+
+async def _keywords_at(
+    client: LanguageClient, doc: T.TextDocumentIdentifier, line: int, character: int
+) -> set[str]:
+    """The keywords completion offers at a (0-based) position."""
+    result = await client.text_document_completion_async(
+        T.CompletionParams(text_document=doc, position=T.Position(line=line, character=character))
     )
-    assert hov is not None and "phong <float>" in hov.contents.value
+    assert result is not None
+    return {i.label for i in result.items if i.kind == T.CompletionItemKind.Keyword}
+
+
+async def _hover_at(
+    client: LanguageClient, doc: T.TextDocumentIdentifier, line: int, character: int
+) -> str:
+    """What hover shows at a (0-based) position."""
+    hov = await client.text_document_hover_async(
+        T.HoverParams(text_document=doc, position=T.Position(line=line, character=character))
+    )
+    assert hov is not None
+    return hov.contents.value
+
+
+async def test_completion_and_hover_inside_a_data_shape_come_from_its_schema(
+    client: LanguageClient, tmp_path
+):
+    """`lathe`, `blob`, `isosurface` … read free-form data, but the schema still describes
+    them: inside `lathe {` completion offers lathe's items, and hover shows their docs."""
+    text = "lathe {\n  bezier_spline 4, <0, 0>, <1, 1>, <1, 2>, <0, 3>\n  \n}\n"
+    doc = T.TextDocumentIdentifier(uri=_open(client, tmp_path / "l.pov", text))
+    keywords = await _keywords_at(client, doc, 2, 2)
+    assert {"linear_spline", "quadratic_spline", "cubic_spline", "bezier_spline"} <= keywords
+    assert {"sturm", "translate", "pigment", "texture"} <= keywords
+    assert "look_at" not in keywords and "phong" not in keywords and "lathe" not in keywords
+    assert "Cubic Bézier segments of four points each" in await _hover_at(client, doc, 1, 5)
+    assert "surface of revolution" in await _hover_at(client, doc, 0, 2)
 
 
 def _scene(n: int) -> str:

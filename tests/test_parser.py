@@ -8,7 +8,8 @@ from hypothesis import strategies as st
 
 from lang import syntax as S
 from lang.diagnostics import Severity
-from lang.parser import parse, strip_comments
+from lang.lexical import strip_comments
+from lang.parser import parse
 
 
 def ok(text: str) -> list[S.Node]:

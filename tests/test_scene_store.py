@@ -195,7 +195,7 @@ FILE_ACCESS = {
     ("store", "read"): "the store's own files",
     ("store", "write"): "the store's own files",
     ("store", "_prune"): "the store's own files",
-    ("parser", "_get_parser"): "the grammar",
+    ("grammar", "get_parser"): "the grammar",
 }
 _LOOKS = {"open", "read_text", "read_bytes", "is_file", "exists", "isfile", "listdir", "stat",
           "glob", "scandir", "iterdir", "utime"}  # fmt: skip
