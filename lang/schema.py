@@ -7,7 +7,7 @@ a `sphere`), and a one-line doc for each. The evaluator groups a block's element
 also the language's one list of reserved words (`RESERVED_WORDS`: lang/keywords.py sorts them
 into the classes the grammar tells apart), so a keyword is added here, in one place. The data
 shapes (`lathe`, `blob`, `isosurface` …) have specs too, marked `free_form`: they say what the
-block takes, while lang/pov_shapes.py reads its data.
+block takes, while lang/eval/data_shapes.py reads its data.
 
 Argument kinds: float int vector vector2 color string matrix transform rgb (a colour or a
 float taken as an RGB triple); a trailing `?` makes one optional; `listN` takes up to N
@@ -48,9 +48,9 @@ class BlockSpec:
     accepts: frozenset[str] = frozenset()  # value kinds taken as items
     soft: frozenset[str] = frozenset()  # strala's soft words read as keywords here
     supported: bool = True  # False: parsed and warned about, not rendered
-    # True: a data shape (`lathe`, `blob` …), its data a free-form list that lang/pov_shapes.py
-    # reads itself; the spec describes the block (completion, hover, the reserved words) but
-    # its elements are not grouped with it
+    # True: a data shape (`lathe`, `blob` …), its data a free-form list that
+    # lang/eval/data_shapes.py reads itself; the spec describes the block (completion,
+    # hover, the reserved words) but its elements are not grouped with it
     free_form: bool = False
 
 
@@ -63,9 +63,6 @@ def items(*groups: Iterable[str]) -> dict[str, Item]:
             words = head.split()
             out[words[0]] = Item(words[0], tuple(words[1:]), doc.strip())
     return out
-
-
-_items = items  # the former name, still read by lang/evaluate.py and lang/pov_shapes.py
 
 
 def _pos(*specs: str) -> tuple[Positional, ...]:
@@ -861,7 +858,7 @@ BLOCKS["subdivision"] = BlockSpec(
 
 # ------------------------------------------------------------------ data shapes
 # POV-Ray 3.7's shapes whose data is a free-form list (a spline word, a count, then points; a
-# coefficient vector; blob components): lang/pov_shapes.py reads them, then the object
+# coefficient vector; blob components): lang/eval/data_shapes.py reads them, then the object
 # modifiers after the data. Their specs say what the data is, for the language server.
 def _data_shape(name: str, doc: str, *positional: str, extra: Iterable[str] = ()) -> BlockSpec:
     return _shape(name, doc, *positional, extra=extra, free_form=True)
@@ -1012,7 +1009,7 @@ for _spec in [
 ]:
     BLOCKS[_spec.name] = _spec
 
-# The data shapes, by name (the evaluator hands them to lang/pov_shapes.py).
+# The data shapes, by name (the evaluator hands them to lang/eval/data_shapes.py).
 DATA_SHAPES = frozenset(name for name, b in BLOCKS.items() if b.free_form)
 
 

@@ -196,7 +196,7 @@ class FunctionValue:
     body: tuple[Any, ...]
     span: Span | None = None
     kind: str = "function"
-    compiled: ir.Function | None = None  # the body as an expression tree (lang.functions)
+    compiled: ir.Function | None = None  # the body as an expression tree (lang.eval.functions)
     size: tuple[int, int] | None = None  # `function W, H { … }`: an image of W×H pixels
 
 

@@ -1,7 +1,7 @@
 """User functions compiled to numpy: an `ir.Function` becomes a callable on arrays.
 
 `compile_function(fn)` returns f(*args) -> ndarray that evaluates the function's expression
-tree (lang.functions builds it) for whole arrays of arguments at once, in float64, the way
+tree (lang.eval.functions builds it) for whole arrays of arguments at once, in float64, the way
 POV-Ray's function VM does per point:
 - comparisons and logical operators give 1.0 or 0.0 (`=` within the scene language's
   epsilon), `cond ? a : b` and `select` pick per element;

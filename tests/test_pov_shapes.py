@@ -1,4 +1,4 @@
-"""The evaluator's reading of POV-Ray's free-form shapes (lang/pov_shapes.py): their data
+"""The evaluator's reading of POV-Ray's free-form shapes (lang/eval/data_shapes.py): their data
 becomes IR shapes, their mistakes diagnostics at the right place."""
 
 from __future__ import annotations

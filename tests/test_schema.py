@@ -3,7 +3,8 @@ exactly its words, and every block (the data shapes too) is described there."""
 
 from __future__ import annotations
 
-from lang import grammar, keywords, pov_shapes, schema
+from lang import grammar, keywords, schema
+from lang.eval import data_shapes
 
 _VALUE_CLASSES = {"CONST", "FUNC", "COLOR_TYPE", "COLOR_WORD", "COMPONENT"}
 
@@ -41,7 +42,7 @@ def test_the_words_the_schema_describes_are_reserved():
 
 
 def test_every_data_shape_has_a_spec():
-    assert schema.DATA_SHAPES == pov_shapes.SHAPES | {"isosurface"}
+    assert schema.DATA_SHAPES == data_shapes.SHAPES | {"isosurface"}
     for name in schema.DATA_SHAPES:
         spec = schema.spec(name)
         assert spec is not None and spec.free_form and spec.doc, name

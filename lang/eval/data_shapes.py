@@ -23,9 +23,10 @@ if TYPE_CHECKING:
     from lang.eval.context import BuildContext
     from lang.eval.elements import El
 
-SPLINES_2D = ("linear_spline", "quadratic_spline", "cubic_spline", "bezier_spline")
+# the words of the schema (the names before each item line's "|")
+SPLINES_2D = tuple(line.split()[0] for line in schema.SPLINE_2D_ITEMS)
 SWEEP_SPLINES = ("linear_spline", "b_spline", "cubic_spline")
-HF_TYPES = ("gif", "tga", "pot", "png", "pgm", "ppm", "jpeg", "tiff", "sys", "exr", "hdr")
+HF_TYPES = tuple(schema.HF_TYPES)
 # Folders POV-Ray itself searches for its bundled fonts (timrom.ttf …) when a scene's
 # library paths do not name them: its standard include folders.
 FONT_FOLDERS = ("/usr/share/povray-3.7/include", "/usr/local/share/povray-3.7/include")
@@ -387,7 +388,7 @@ SHAPES = frozenset(READERS) | {"blob"}
 
 def object_spec(keyword: str, extra: list[str] | None = None) -> schema.BlockSpec:
     return schema.BlockSpec(
-        keyword, "object", "", (), schema._items(schema.OBJECT_ITEMS, extra or []),
+        keyword, "object", "", (), schema.items(schema.OBJECT_ITEMS, extra or []),
         schema.OBJECT_ACCEPTS,
     )  # fmt: skip
 

@@ -116,7 +116,7 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
     becomes the equal NURBS (degree 3×3, Bézier knots, unit weights), so it is tessellated
     to the scene's tolerance like every NURBS surface."""
     spec = schema.BlockSpec(
-        node.keyword, "object", "", (), schema._items(schema.OBJECT_ITEMS),
+        node.keyword, "object", "", (), schema.items(schema.OBJECT_ITEMS),
         schema.OBJECT_ACCEPTS,
     )  # fmt: skip
     it.loose_depth += 1
@@ -159,7 +159,7 @@ def unsupported_object(it: BuildContext, node: syntax.Block) -> ObjectValue:
         "object",
         "",
         (),
-        schema._items(schema.OBJECT_ITEMS),
+        schema.items(schema.OBJECT_ITEMS),
         schema.OBJECT_ACCEPTS,
     )
     it.loose_depth += 1  # blob components take a strength, text a font …: no errors
