@@ -454,9 +454,13 @@ def object_pattern(p: np.ndarray, params: dict) -> np.ndarray:
     obj = params.get("object")
     if obj is None:
         return np.zeros(len(p), dtype=np.int64)
-    from runtime.prepare import inside_points
+    # Lazily, both: the object's isosurfaces compile their functions with runtime.functions
+    # (the circle the language makes: a function may hold a pigment), handed to the inside
+    # test so that runtime.inside and the primitives never import the function compiler.
+    from runtime.functions import compile_xyz
+    from runtime.inside import inside_points
 
-    return inside_points(obj, p).astype(np.int64)
+    return inside_points(obj, p, compile_xyz).astype(np.int64)
 
 
 LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick, "object": object_pattern}

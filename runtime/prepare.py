@@ -9,16 +9,17 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import sys
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from lang import ir
-from runtime import shapes
+from runtime import prims, shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
+from runtime.functions import compile_xyz
+from runtime.inside import inside_node, object_matrix, singular, warn_once
 from runtime.occlusion import Occluders, lets_light_through
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
@@ -67,26 +68,6 @@ _TESSELLATED = tuple(
 _PLAIN = (ir.Sphere, ir.Box)
 
 
-def inside_test(obj: ir.Object):
-    """A node whose `inside(points)` is POV-Ray's inside test of obj (for the object
-    pattern), or None when the shape has no inside."""
-    return _Builder(ir.Camera(), 1).clip_node(obj)
-
-
-_INSIDE_TESTS: dict[int, tuple[ir.Object, object]] = {}
-
-
-def inside_points(obj: ir.Object, points: np.ndarray) -> np.ndarray:
-    """(N,) bool: which points are inside obj (a shape without an inside, such as a mesh,
-    has none). The test is built once per object (the object pattern, inside())."""
-    hit = _INSIDE_TESTS.get(id(obj))
-    if hit is None:
-        hit = _INSIDE_TESTS[id(obj)] = (obj, inside_test(obj))  # obj kept: its id stays unique
-    if hit[1] is None:
-        return np.zeros(len(points), dtype=bool)
-    return np.asarray(hit[1].inside(np.ascontiguousarray(points, dtype=np.float64)), dtype=bool)
-
-
 class _Builder:
     def __init__(self, camera: ir.Camera, width: int) -> None:
         self.camera = camera
@@ -107,10 +88,7 @@ class _Builder:
 
     def warn_once(self, msg: str, span=None) -> None:
         """One line per distinct problem, on stderr, blaming the object's source when known."""
-        if msg not in self.warnings:
-            self.warnings.append(msg)
-            where = f"{span}" if span is not None else "strala"
-            print(f"{where}: warning: {msg}", file=sys.stderr)
+        warn_once(self.warnings, msg, span)
 
     def add_leaf_object(self, obj: ir.Object, flags: dict[str, bool]) -> int:
         """obj's index among the leaves; `flags` are its own and inherited ones, merged."""
@@ -194,9 +172,9 @@ class _Builder:
             obj = dataclasses.replace(obj, shape=mesh)
             shape = mesh
         if isinstance(shape, ir.Mesh | ir.Triangle):
-            if _singular(obj):
+            if singular(obj):
                 self.warn_once(
-                    f"a {type(shape).__name__.lower()} is skipped: {_singular(obj)}", obj.span
+                    f"a {type(shape).__name__.lower()} is skipped: {singular(obj)}", obj.span
                 )
                 return
             if obj.clipped_by:
@@ -256,14 +234,14 @@ class _Builder:
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
             return None
-        why = shapes.degenerate(shape) or _singular(obj)
+        why = shapes.degenerate(shape) or singular(obj)
         if why:
             self.warn_once(
                 f"a degenerate {type(shape).__name__.lower()} is skipped: {why}", obj.span
             )
             return None
         try:
-            prim = shapes.primitive_for(shape)
+            prim = prims.primitive_for(shape, compile_xyz)
         except ValueError as exc:  # unreadable data behind a shape (a broken font file)
             self.warn_once(f"{type(shape).__name__.lower()} skipped: {exc}", obj.span)
             return None
@@ -271,7 +249,7 @@ class _Builder:
             self.warn_once(f"shape {type(shape).__name__} is not supported by the tracer", obj.span)
             return None
         index = self.add_leaf_object(obj, flags)
-        leaf = Leaf(prim, _matrix(obj), index, inverse=obj.inverse)
+        leaf = Leaf(prim, object_matrix(obj), index, inverse=obj.inverse)
         self.sizes[index] = leaf.size
         return self.clipped(obj, leaf)
 
@@ -298,15 +276,7 @@ class _Builder:
         return ClipNode(node, clips) if clips else node
 
     def clip_node(self, obj: ir.Object):
-        shape = obj.shape
-        if isinstance(shape, ir.CSG):
-            kids = [c for c in (self.clip_node(ch) for ch in shape.children) if c is not None]
-            return CsgNode(shape.op, kids, inverse=obj.inverse) if kids else None
-        prim = None if shapes.degenerate(shape) or _singular(obj) else shapes.primitive_for(shape)
-        if prim is None or isinstance(shape, ir.Triangle | ir.Polygon):
-            self.warn_once(f"clipped_by {type(shape).__name__} has no inside: ignored", obj.span)
-            return None
-        return Leaf(prim, _matrix(obj), -1, inverse=obj.inverse)
+        return inside_node(obj, self.warn_once, compile_xyz)
 
     def tessellate(self, obj: ir.Object) -> ir.Mesh | None:
         """NURBS and subdivision shapes become indexed triangle meshes (their own modules do
@@ -519,21 +489,6 @@ def _bounding_points(obj: ir.Object) -> np.ndarray | None:
         return np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)])
     if _TESSELLATED and isinstance(shape, _TESSELLATED):
         return _Culler.hull(obj)
-    return None
-
-
-def _matrix(obj: ir.Object) -> np.ndarray | None:
-    """The object's transform as a matrix, None for the identity (a Leaf's fast path)."""
-    return None if obj.transform == ir.IDENTITY else tf.as_matrix(obj.transform)
-
-
-def _singular(obj: ir.Object) -> str | None:
-    """A transform that flattens the object (scale 0) cannot be inverted: say so."""
-    if obj.transform == ir.IDENTITY:  # most objects; no numpy for them (1000s of spheres)
-        return None
-    m = tf.as_matrix(obj.transform)
-    if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) == 0:
-        return "its transform is singular (a zero scale?)"
     return None
 
 

@@ -66,12 +66,6 @@ KNOWN_CROSSINGS: set[str] = {
     "runtime/bezier.py: imports runtime.tessellate._assemble",
     "runtime/export.py: imports runtime.prepare._Builder",
     "runtime/export.py: imports runtime.triangles._vertex_normals",
-    "runtime/prims/blob.py: imports runtime.shapes._dot",
-    "runtime/prims/blob.py: imports runtime.shapes._recentre",
-    "runtime/prims/polynomial.py: imports runtime.shapes._dot",
-    "runtime/prims/polynomial.py: imports runtime.shapes._recentre",
-    "runtime/prims/superellipsoid.py: imports runtime.shapes._dot",
-    "runtime/prims/superellipsoid.py: imports runtime.shapes._recentre",
     "runtime/whitted.py: runtime.patterns._inverse",
     "runtime/whitted.py: runtime.patterns._turb_params",
     "runtime/whitted.py: runtime.shading._unit",
@@ -120,25 +114,6 @@ KNOWN_CIRCLES: list[frozenset[str]] = [
         {
             "runtime/curves.py",
             "runtime/subdivide.py",
-        }
-    ),
-    frozenset(
-        {
-            "runtime/fn_internal.py",
-            "runtime/functions.py",
-            "runtime/heightfield.py",
-            "runtime/occlusion.py",
-            "runtime/patterns.py",
-            "runtime/prepare.py",
-            "runtime/prims/__init__.py",
-            "runtime/prims/blob.py",
-            "runtime/prims/isosurface.py",
-            "runtime/prims/polynomial.py",
-            "runtime/prims/superellipsoid.py",
-            "runtime/shapes.py",
-            "runtime/sphere_sweep.py",
-            "runtime/trace.py",
-            "runtime/triangles.py",
         }
     ),
     frozenset(

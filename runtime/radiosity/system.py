@@ -176,11 +176,17 @@ class RadiosityResult:
 def scene_bounds(objects: list[ir.Object], extra: list[np.ndarray]) -> tuple[np.ndarray, ...]:
     """World bounding box of the finite objects and the extra points (lights); ±inf when
     there is nothing finite."""
-    from runtime import shapes  # lazily: only radiosity scenes need it here
+    # lazily: only radiosity scenes need them here
+    from runtime import prims
+    from runtime.functions import compile_xyz
 
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for obj in objects:
-        prim = shapes.primitive_for(obj.shape) if not isinstance(obj.shape, ir.Mesh) else None
+        prim = (
+            prims.primitive_for(obj.shape, compile_xyz)
+            if not isinstance(obj.shape, ir.Mesh)
+            else None
+        )
         if isinstance(obj.shape, ir.Mesh):
             v = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(obj.shape.vertices))
             a, b = v.min(axis=0), v.max(axis=0)
