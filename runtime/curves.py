@@ -25,7 +25,18 @@ import math
 import numpy as np
 
 from lang import ir
-from runtime.subdivide import SubdivisionError
+
+
+class SubdivisionError(ValueError):
+    """A subdivision shape (a surface, runtime.subdivide, or a curve) that cannot be built;
+    `code` matches runtime.subdivide.validate's codes. Defined here, the lower of the two
+    modules: the surfaces' module builds its curves with this one."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
 
 # Largest tube (vertices) a curve may produce before it is refused as a memory error.
 MAX_TUBE_VERTICES = 50_000_000

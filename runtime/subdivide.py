@@ -25,6 +25,9 @@ sectors take the angle-weighted face normal.
 Vertex numbering is stable: a refined mesh keeps the parent's vertices first (then face
 points, then edge points), so a control vertex keeps its index at every level. Limit
 evaluation uses this: a vertex's limit point and normal are the same at every level.
+
+`subdivision_mesh` (and `tessellate`, `validate`, `levels_for_tolerance`) take any
+subdivision shape: a curve (no faces) is tubed by runtime.curves.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from itertools import chain
 import numpy as np
 
 from lang import ir
+from runtime.curves import SubdivisionError, curve_mesh
 
 SURFACE_SCHEMES = ("catmull_clark", "loop", "bilinear")
 CURVE_SCHEMES = ("midpoint", "chaikin", "four_point", "bezier")
@@ -59,15 +63,6 @@ MEMORY_FRACTION = 0.6
 # Catmull–Clark, 200 for Loop, everything included).
 _BYTES_PER_VERTEX = 3 * 8 * 10
 _BYTES_PER_CORNER = 8 * 24
-
-
-class SubdivisionError(ValueError):
-    """A subdivision shape that cannot be built; `code` matches `validate`'s codes."""
-
-    def __init__(self, code: str, message: str):
-        super().__init__(message)
-        self.code = code
-        self.message = message
 
 
 # ------------------------------------------------------------------ the mesh
@@ -1138,12 +1133,10 @@ def subdivision_mesh(
     float64, faces (M,3) int32, normals (N,3) float64). With `limit on` the vertices are
     pushed to their limit positions; the normals are limit normals either way."""
     if not shape.faces:
-        from runtime import curves
-
         errors = validate(shape)
         if errors:
             raise SubdivisionError(*errors[0])
-        return curves.curve_mesh(shape, levels)
+        return curve_mesh(shape, levels)
     mesh = refine(shape, levels, max_bytes)
     scheme, boundary = shape.scheme, shape.boundary
     V = mesh.nv

@@ -112,12 +112,6 @@ KNOWN_CIRCLES: list[frozenset[str]] = [
     ),
     frozenset(
         {
-            "runtime/curves.py",
-            "runtime/subdivide.py",
-        }
-    ),
-    frozenset(
-        {
             "runtime/integrate.py",
             "runtime/media.py",
         }
