@@ -20,6 +20,7 @@ import numpy as np
 from lang import ir
 from runtime import antialias, integrate
 from runtime.camera import FocalBlur, blur_rounds, blur_thresholds, camera_rays, has_focal_blur
+from runtime.context import Context
 
 # ~16k camera rays per batch: numpy work large enough to release the GIL, so two threads
 # overlap (Ex3 1280x960: 0.97 s on 2 threads vs 1.67 s with 64-pixel tiles).
@@ -125,7 +126,7 @@ def render_scene(
 
 
 def trace_pixels(
-    ctx: integrate.Context,
+    ctx: Context,
     camera: ir.Camera,
     width: int,
     height: int,
@@ -171,9 +172,7 @@ def _trace_blurred(ctx, camera: ir.Camera, width: int, height: int, xs, ys) -> n
     return s1 / np.maximum(done, 1)[:, None]
 
 
-def _trace_primary(
-    ctx: integrate.Context, origins: np.ndarray, dirs: np.ndarray, traced=None
-) -> np.ndarray:
+def _trace_primary(ctx: Context, origins: np.ndarray, dirs: np.ndarray, traced=None) -> np.ndarray:
     """(N,3) colours of camera rays; black where `traced` (a mask, or None for all) says
     the projection traces no ray (outside a fisheye's circle), as in POV-Ray."""
     if traced is None:
@@ -185,7 +184,7 @@ def _trace_primary(
 
 
 def render_tile(
-    ctx: integrate.Context,
+    ctx: Context,
     camera: ir.Camera,
     width: int,
     height: int,

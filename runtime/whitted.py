@@ -31,9 +31,10 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, integrate, patterns, shading, shapes
+from runtime import color, context, patterns, shading, shapes
 from runtime import tolerances as tol
 from runtime.camera import view_planes
+from runtime.lights import MAX_SHADOW_CROSSINGS
 from runtime.trace import CsgNode, Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
@@ -202,7 +203,7 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         if key not in seen:
             seen.add(key)
             out.extend(_texture_reasons(tex))
-    if scene.sky_sphere and integrate.legacy_rules(scene.settings):
+    if scene.sky_sphere and context.legacy_rules(scene.settings):
         out.append("sky_sphere in a pre-3.7 scene")
     for pig in scene.sky_sphere or ():
         out.extend(_pigment_reasons(pig))
@@ -461,7 +462,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         shading.EPSILON,
         shading.SHADOW_TOLERANCE,
         patterns.CHECKER_OFFSET,
-        integrate.MAX_SHADOW_CROSSINGS,
+        MAX_SHADOW_CROSSINGS,
         tol.INSIDE_EPS,
         tol.BOX_PAD_REL,
         tol.BOX_PAD_ABS,

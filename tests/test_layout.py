@@ -110,12 +110,6 @@ KNOWN_CIRCLES: list[frozenset[str]] = [
             "lang/pov_shapes.py",
         }
     ),
-    frozenset(
-        {
-            "runtime/integrate.py",
-            "runtime/media.py",
-        }
-    ),
 ]
 KNOWN_LONG: set[str] = {"lang/evaluate.py"}
 
