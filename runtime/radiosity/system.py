@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import os
 import pickle
 import sys
 import time
@@ -763,11 +762,6 @@ def _hash_value(h, v) -> None:
         h.update(float(v).hex().encode())
     else:
         h.update(repr(v).encode())
-
-
-def default_cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "strala" / "radiosity"
 
 
 def compute(
