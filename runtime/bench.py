@@ -164,11 +164,11 @@ def knobs(scene: ir.Scene) -> dict[str, list[Setting]]:
             Setting("subdivision", f"levels {n}", _with_shape_field(ir.Subdivision, "levels", n))
             for n in SUBDIVISION_LEVELS
         ]
-    from runtime.prepare import _reflects, _texture_transparent
+    from runtime.prepare import texture_reflects, texture_transparent
 
     objects = _objects(scene)
-    reflective = any(_reflects(o.texture) for o in objects if o.texture is not None)
-    transparent = any(_texture_transparent(o.texture) for o in objects if o.texture is not None)
+    reflective = any(texture_reflects(o.texture) for o in objects if o.texture is not None)
+    transparent = any(texture_transparent(o.texture) for o in objects if o.texture is not None)
     if reflective or transparent:
         out["max_trace_level"] = [
             Setting("max_trace_level", f"{n}", _settings_edit(max_trace_level=n))

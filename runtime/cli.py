@@ -209,7 +209,7 @@ def resolve_region(
     return left, top, right, bottom
 
 
-def _looks_like_render(argv: Sequence[str]) -> bool:
+def looks_like_render(argv: Sequence[str]) -> bool:
     """`strala scene.pov +W512` and `strala +Iscene.pov` render, as `povray` would."""
     if not argv or argv[0] in COMMANDS:
         return False
@@ -1099,7 +1099,7 @@ def _write_text_atomically(path: Path, text: str) -> None:
 # --------------------------------------------------------------------- main
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if _looks_like_render(argv):
+    if looks_like_render(argv):
         argv.insert(0, "render")
     parser = build_parser()
     warnings: list[str] = []

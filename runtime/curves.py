@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from lang import ir
+from runtime import transform as tf
 
 
 class SubdivisionError(ValueError):
@@ -178,19 +179,14 @@ def _prefix_rotations(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _normalize(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
 def tube_frames(P: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit tangents T and rotation-minimising normals U, binormals W = T × U per point."""
     seg = np.roll(P, -1, axis=0) - P if closed else P[1:] - P[:-1]
-    d = _normalize(seg)
+    d = tf.normalize(seg)
     if closed:
-        T = _normalize(d + np.roll(d, 1, axis=0))
+        T = tf.normalize(d + np.roll(d, 1, axis=0))
     else:
-        T = np.concatenate([d[:1], _normalize(d[:-1] + d[1:]), d[-1:]])
+        T = np.concatenate([d[:1], tf.normalize(d[:-1] + d[1:]), d[-1:]])
     fallback = d if closed else np.concatenate([d, d[-1:]])  # at a U-turn
     T = np.where(np.linalg.norm(T, axis=1, keepdims=True) > 0.5, T, fallback)
     rot = _min_rotation(T[:-1], T[1:])
@@ -204,7 +200,7 @@ def tube_frames(P: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray, np
         ang = twist * np.arange(len(P)) / len(P)
         W0 = np.cross(T, U)
         U = np.cos(ang)[:, None] * U + np.sin(ang)[:, None] * W0
-    U = _normalize(U - np.einsum("ij,ij->i", U, T)[:, None] * T)
+    U = tf.normalize(U - np.einsum("ij,ij->i", U, T)[:, None] * T)
     return T, U, np.cross(T, U)
 
 

@@ -44,12 +44,12 @@ class Prepared:
     @functools.cached_property
     def has_reflection(self) -> bool:
         """Some finish reflects (reflection max or min > 0)."""
-        return any(_reflects(t) for o in self.objects for t in _textures(o))
+        return any(texture_reflects(t) for o in self.objects for t in _textures(o))
 
     @functools.cached_property
     def has_refraction(self) -> bool:
         """Some pigment colour lets light through (filter or transmit > 0)."""
-        return any(_texture_transparent(t) for o in self.objects for t in _textures(o))
+        return any(texture_transparent(t) for o in self.objects for t in _textures(o))
 
 
 # Shapes prepare turns into meshes before tracing (absent from older IR versions).
@@ -68,10 +68,79 @@ _TESSELLATED = tuple(
 _PLAIN = (ir.Sphere, ir.Box)
 
 
-class _Builder:
-    def __init__(self, camera: ir.Camera, width: int) -> None:
+class Tessellator:
+    """Turns NURBS, subdivision and height-field shapes into meshes, at a chord tolerance
+    picked from the camera (half a pixel at the control net's nearest point) when the shape
+    sets none: what prepare does for the tracer, and runtime.export for a mesh file."""
+
+    def __init__(self, camera: ir.Camera, width: int, warnings: list[str] | None = None):
         self.camera = camera
         self.width = max(int(width), 1)
+        self.warnings: list[str] = [] if warnings is None else warnings
+        self.curved_ids: set[int] = set()  # id() of the meshes tessellated from curved shapes
+
+    def warn_once(self, msg: str, span=None) -> None:
+        """One line per distinct problem, on stderr, blaming the object's source when known."""
+        warn_once(self.warnings, msg, span)
+
+    def tessellate(self, obj: ir.Object) -> ir.Mesh | None:
+        """NURBS and subdivision shapes become indexed triangle meshes (their own modules do
+        the work; this only picks the tolerance and reports failures as warnings)."""
+        shape = obj.shape
+        name = type(shape).__name__
+        try:
+            if name == "HeightField":
+                from runtime.heightfield import height_field_mesh
+
+                return height_field_mesh(shape)
+            if name == "Nurbs":
+                from runtime.tessellate import nurbs_mesh
+
+                tolerance = shape.tolerance or self.auto_tolerance(obj)
+                verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
+            else:
+                from runtime.subdivide import levels_for_tolerance, subdivision_mesh
+
+                levels = shape.levels
+                if shape.adaptive:  # half a pixel from the camera; `levels` caps it
+                    tolerance = self.auto_tolerance(obj)
+                    if shape.tolerance:
+                        tolerance = min(tolerance, shape.tolerance)
+                    cap = MAX_ADAPTIVE_LEVELS if levels is None else levels
+                    levels = levels_for_tolerance(shape, tolerance, cap)
+                elif levels is None:  # `tolerance`, else half a pixel from the camera
+                    tolerance = shape.tolerance or self.auto_tolerance(obj)
+                    levels = levels_for_tolerance(shape, tolerance)
+                verts, faces, normals = subdivision_mesh(shape, levels)
+                uvs = None
+        except Exception as exc:  # noqa: BLE001 - a broken surface must not stop the render
+            self.warn_once(f"{name.lower()} could not be tessellated ({exc}); skipped", obj.span)
+            return None
+        mesh = ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
+        self.curved_ids.add(id(mesh))
+        return mesh
+
+    def auto_tolerance(self, obj: ir.Object) -> float:
+        """Chord-error bound from the camera: half a pixel at the control net's nearest
+        distance from the eye (in world units)."""
+        cam = self.camera
+        pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(obj.shape.points, float))
+        dist = float(np.min(np.linalg.norm(pts - np.asarray(cam.location), axis=1)))
+        right = float(np.linalg.norm(cam.right))
+        if cam.kind == "orthographic":
+            return max(tol.AUTO_TESSELLATION_PIXELS * right / self.width, tol.ABS_FLOOR)
+        pixel = right / float(np.linalg.norm(cam.direction)) / self.width
+        extent = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+        return max(
+            tol.AUTO_TESSELLATION_PIXELS * pixel * dist,
+            tol.TESSELLATION_REL * max(extent, tol.ABS_FLOOR),
+        )
+
+
+class _Builder:
+    """Walks a scene's objects into the tracer's nodes and leaves (see `prepare`)."""
+
+    def __init__(self, camera: ir.Camera, width: int) -> None:
         self.objects: list[ir.Object] = []
         self.flags: dict[str, list[bool]] = {k: [] for k in FLAG_NAMES}
         self.sizes: list[float] = []
@@ -80,8 +149,9 @@ class _Builder:
         self.warnings: list[str] = []
         self.culled: list[str] = []
         self.curved: list[bool] = []
-        self.curved_ids: set[int] = set()  # id() of the meshes tessellated from curved shapes
-        self.cull: _Culler | None = None
+        self.tessellator = Tessellator(camera, width, self.warnings)
+        self.curved_ids = self.tessellator.curved_ids  # id() of the meshes from curved shapes
+        self.cull: Culler | None = None
         self.occluders: Occluders | None = None  # planes walling objects off (culling on)
         # plain spheres waiting for their leaves: (node slot, object index, centre, radius)
         self.spheres: list[tuple[int, int, tuple, float]] = []
@@ -138,7 +208,7 @@ class _Builder:
 
     def hidden(self, obj: ir.Object, no_shadow: bool) -> bool:
         """Is obj walled off by a plane (runtime.occlusion), or outside the view where
-        nothing can show or shadow it (_Culler)? Asked of the shapes whose bounds come
+        nothing can show or shadow it (Culler)? Asked of the shapes whose bounds come
         cheaply: untransformed boxes, and surfaces held by their control points (whose
         tessellation culling saves most)."""
         if not (self.occluders or (self.cull is not None and self.cull.enabled)):
@@ -166,7 +236,7 @@ class _Builder:
             self.culled.append(type(shape).__name__.lower())
             return
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
-            mesh = self.tessellate(obj)
+            mesh = self.tessellator.tessellate(obj)
             if mesh is None:
                 return
             obj = dataclasses.replace(obj, shape=mesh)
@@ -220,7 +290,7 @@ class _Builder:
                 return None
             return self.clipped(obj, CsgNode(shape.op, children, inverse=obj.inverse))
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
-            mesh = self.tessellate(obj)
+            mesh = self.tessellator.tessellate(obj)
             if mesh is None:
                 return None
             obj = dataclasses.replace(obj, shape=mesh)
@@ -278,59 +348,6 @@ class _Builder:
     def clip_node(self, obj: ir.Object):
         return inside_node(obj, self.warn_once, compile_xyz)
 
-    def tessellate(self, obj: ir.Object) -> ir.Mesh | None:
-        """NURBS and subdivision shapes become indexed triangle meshes (their own modules do
-        the work; this only picks the tolerance and reports failures as warnings)."""
-        shape = obj.shape
-        name = type(shape).__name__
-        try:
-            if name == "HeightField":
-                from runtime.heightfield import height_field_mesh
-
-                return height_field_mesh(shape)
-            if name == "Nurbs":
-                from runtime.tessellate import nurbs_mesh
-
-                tolerance = shape.tolerance or self.auto_tolerance(obj)
-                verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
-            else:
-                from runtime.subdivide import levels_for_tolerance, subdivision_mesh
-
-                levels = shape.levels
-                if shape.adaptive:  # half a pixel from the camera; `levels` caps it
-                    tolerance = self.auto_tolerance(obj)
-                    if shape.tolerance:
-                        tolerance = min(tolerance, shape.tolerance)
-                    cap = MAX_ADAPTIVE_LEVELS if levels is None else levels
-                    levels = levels_for_tolerance(shape, tolerance, cap)
-                elif levels is None:  # `tolerance`, else half a pixel from the camera
-                    tolerance = shape.tolerance or self.auto_tolerance(obj)
-                    levels = levels_for_tolerance(shape, tolerance)
-                verts, faces, normals = subdivision_mesh(shape, levels)
-                uvs = None
-        except Exception as exc:  # noqa: BLE001 - a broken surface must not stop the render
-            self.warn_once(f"{name.lower()} could not be tessellated ({exc}); skipped", obj.span)
-            return None
-        mesh = ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
-        self.curved_ids.add(id(mesh))
-        return mesh
-
-    def auto_tolerance(self, obj: ir.Object) -> float:
-        """Chord-error bound from the camera: half a pixel at the control net's nearest
-        distance from the eye (in world units)."""
-        cam = self.camera
-        pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(obj.shape.points, float))
-        dist = float(np.min(np.linalg.norm(pts - np.asarray(cam.location), axis=1)))
-        right = float(np.linalg.norm(cam.right))
-        if cam.kind == "orthographic":
-            return max(tol.AUTO_TESSELLATION_PIXELS * right / self.width, tol.ABS_FLOOR)
-        pixel = right / float(np.linalg.norm(cam.direction)) / self.width
-        extent = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-        return max(
-            tol.AUTO_TESSELLATION_PIXELS * pixel * dist,
-            tol.TESSELLATION_REL * max(extent, tol.ABS_FLOOR),
-        )
-
 
 def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prepared:
     """width/height are the image size (they set the automatic tessellation tolerance);
@@ -339,7 +356,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     A light's `looks_like` object is taken as modelled around the origin (as written in
     POV-Ray) and is moved to the light's position here, with `no_shadow`."""
     b = _Builder(scene.camera, width)
-    b.cull = _Culler(scene, width, height) if cull else None
+    b.cull = Culler(scene, width, height) if cull else None
     b.occluders = Occluders(scene, width, height) if cull else None
     for obj in scene.objects:
         if not b.plain_sphere(obj):
@@ -375,7 +392,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     )
 
 
-class _Culler:
+class Culler:
     """Decides that a surface needs no tessellation because it cannot show in the image.
 
     Only where that is provable: nothing in the scene reflects or refracts, there is no
@@ -407,7 +424,7 @@ class _Culler:
             for t in _textures(o):
                 if id(t) not in seen:
                     seen.add(id(t))
-                    if _reflects(t) or _texture_transparent(t) or lets_light_through(t):
+                    if texture_reflects(t) or texture_transparent(t) or lets_light_through(t):
                         return False
         return True
 
@@ -488,7 +505,7 @@ def _bounding_points(obj: ir.Object) -> np.ndarray | None:
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         return np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)])
     if _TESSELLATED and isinstance(shape, _TESSELLATED):
-        return _Culler.hull(obj)
+        return Culler.hull(obj)
     return None
 
 
@@ -508,17 +525,21 @@ def _textures(obj: ir.Object) -> list[ir.Texture]:
     return [obj.texture, *extra]
 
 
-def _reflects(tex: ir.Texture) -> bool:
+def texture_reflects(tex: ir.Texture) -> bool:
+    """Does some layer or map entry of the texture reflect (reflection max or min > 0)?"""
     if max(tex.finish.reflection.max) > 0 or max(tex.finish.reflection.min) > 0:
         return True
-    return any(_reflects(t) for t in tex.layers) or any(_reflects(t) for _, t in tex.map)
+    return any(texture_reflects(t) for t in tex.layers) or any(
+        texture_reflects(t) for _, t in tex.map
+    )
 
 
-def _texture_transparent(tex: ir.Texture) -> bool:
+def texture_transparent(tex: ir.Texture) -> bool:
+    """Does some pigment colour of the texture let light through (filter or transmit > 0)?"""
     return (
         _pigment_transparent(tex.pigment)
-        or any(_texture_transparent(t) for t in tex.layers)
-        or any(_texture_transparent(t) for _, t in tex.map)
+        or any(texture_transparent(t) for t in tex.layers)
+        or any(texture_transparent(t) for _, t in tex.map)
     )
 
 

@@ -40,6 +40,7 @@ from itertools import chain
 import numpy as np
 
 from lang import ir
+from runtime import transform as tf
 from runtime.curves import SubdivisionError, curve_mesh
 
 SURFACE_SCHEMES = ("catmull_clark", "loop", "bilinear")
@@ -614,13 +615,13 @@ def limit_positions(mesh: ControlMesh, scheme: str, boundary: str = "sharp") -> 
     out = np.where(
         (r.parent == SMOOTH)[:, None], smooth, np.where((r.parent == CREASE)[:, None], crease, P)
     )
-    darts = _darts(mesh, s, r)
+    darts = find_darts(mesh, s, r)
     if darts is not None:
         out[darts.vertices] = darts.apply(P, 0)
     return out
 
 
-def _dart_matrix(scheme: str, n: int) -> np.ndarray:
+def dart_matrix(scheme: str, n: int) -> np.ndarray:
     """The subdivision matrix of a dart's 1-ring (valence n, the sharp edge to e_0).
     Catmull–Clark: [centre, e_0..e_n-1, f_0..f_n-1] (f_j the far corner of the quad
     between e_j and e_j+1); Loop: [centre, e_0..e_n-1]. The rules are the ones the
@@ -657,12 +658,12 @@ def _dart_matrix(scheme: str, n: int) -> np.ndarray:
     return S
 
 
-def _dart_masks(scheme: str, n: int) -> np.ndarray:
+def dart_masks(scheme: str, n: int) -> np.ndarray:
     """(3, m) masks over a dart's 1-ring: the limit point (left eigenvector of eigenvalue
     1, summing to 1) and two tangents (the left eigenvectors of the subdominant pair;
     real and imaginary parts when they are complex). The smooth closed forms assume a
     rotationally symmetric ring, which a dart's sharp edge breaks."""
-    St = _dart_matrix(scheme, n).T
+    St = dart_matrix(scheme, n).T
     w, vec = np.linalg.eig(St)
     order = np.argsort(-np.abs(w), kind="stable")
     limit = np.real(vec[:, order[0]])
@@ -680,7 +681,7 @@ def _dart_masks(scheme: str, n: int) -> np.ndarray:
 
 
 @dataclass
-class _Darts:
+class Darts:
     """Per-corner ring weights for the dart vertices of a mesh."""
 
     vertices: np.ndarray  # (D,) dart vertex ids
@@ -700,7 +701,7 @@ class _Darts:
         return centre + _scatter(self.row, terms, len(self.vertices))
 
 
-def _darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> _Darts | None:
+def find_darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> Darts | None:
     """Smooth-rule vertices with exactly one sharp edge (darts) in a closed fan of quads
     (Catmull–Clark) or triangles (Loop), with their eigen-analysed masks."""
     sharp = s > 0
@@ -730,7 +731,7 @@ def _darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> _Darts | None:
     face_w = np.zeros((3, len(corners)))
     valence_of = np.bincount(fv[corners], minlength=V)[verts]
     for valence in np.unique(n):  # one small eigenproblem per distinct valence
-        masks = _dart_masks(scheme, int(valence))
+        masks = dart_masks(scheme, int(valence))
         sel = n == valence
         edge_w[:, sel] = masks[:, 1 + j[sel]]
         if scheme == "catmull_clark":
@@ -738,7 +739,7 @@ def _darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> _Darts | None:
         centre[:, valence_of == valence] = masks[:, :1]
     nx = topo.nxt[corners]
     dn = fv[topo.nxt[nx]] if scheme == "catmull_clark" else None
-    return _Darts(verts, slot[fv[corners]], centre, edge_w, face_w, fv[nx], dn)
+    return Darts(verts, slot[fv[corners]], centre, edge_w, face_w, fv[nx], dn)
 
 
 @dataclass
@@ -805,11 +806,6 @@ def _walk_rings(mesh: ControlMesh, sharp: np.ndarray) -> Rings:
     return Rings(j, fan, sector, size, topo.twin[fan] >= 0, rep)
 
 
-def _normalize(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
 def smooth_limit_normals(mesh: ControlMesh, scheme: str, boundary: str = "sharp"):
     """Limit normals of the smooth vertices of a `limit_ready` mesh from the tangent masks
     (Halstead et al. for Catmull–Clark, cos/sin masks for Loop). Returns (normals (V,3),
@@ -840,10 +836,10 @@ def smooth_limit_normals(mesh: ControlMesh, scheme: str, boundary: str = "sharp"
             ek = Pt[k][en]
             t1[:, k] = np.bincount(fv, c * ek, V)
             t2[:, k] = np.bincount(fv, sn * ek, V)
-    normals = _normalize(np.cross(t1, t2))
-    darts = _darts(mesh, s, r)
+    normals = tf.normalize(np.cross(t1, t2))
+    darts = find_darts(mesh, s, r)
     if darts is not None:
-        dn = _normalize(np.cross(darts.apply(P, 1), darts.apply(P, 2)))
+        dn = tf.normalize(np.cross(darts.apply(P, 1), darts.apply(P, 2)))
         # eigenvectors have no sign: turn each dart normal to its faces' side
         cn = np.cross(P[fv[topo.nxt]] - P[fv], P[fv[topo.prv]] - P[fv])
         side = _scatter(fv, cn, V)[darts.vertices]
@@ -941,8 +937,8 @@ def shade(
         w = p[fv[topo.prv[need]]] - p[cv]
         cn = np.cross(u, w)
         angle = np.arctan2(np.linalg.norm(cn, axis=1), np.einsum("ij,ij->i", u, w))
-        sector_n = _scatter(group[need], _normalize(cn) * angle[:, None], G)
-        tangent = _normalize(_crease_tangents(mesh, inf_sharp))[gvert]
+        sector_n = _scatter(group[need], tf.normalize(cn) * angle[:, None], G)
+        tangent = tf.normalize(_crease_tangents(mesh, inf_sharp))[gvert]
         sector_n -= np.einsum("ij,ij->i", sector_n, tangent)[:, None] * tangent
         for exact in (
             _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps),
@@ -954,7 +950,7 @@ def shade(
                 en[np.einsum("ij,ij->i", en, sector_n[g]) < 0] *= -1.0
                 sector_n[g] = en
         gn[~use_smooth] = sector_n[~use_smooth]
-    gn = _normalize(gn)
+    gn = tf.normalize(gn)
     verts = np.concatenate([positions, positions[gvert[~primary]]])
     normals = np.zeros((V, 3))
     normals[:, 2] = 1.0  # unreferenced vertices: any unit vector
@@ -1068,7 +1064,7 @@ def _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
     )
     across = _scatter(grp, terms, G)
     groups = np.unique(grp[ok])
-    return groups, _normalize(np.cross(along[groups], across[groups]))
+    return groups, tf.normalize(np.cross(along[groups], across[groups]))
 
 
 # Corner sectors whose two sharp edges meet at less than this angle (or more than π minus
@@ -1108,7 +1104,7 @@ def _corner_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
         np.linalg.norm(a[groups], axis=1) * np.linalg.norm(b[groups], axis=1), 1e-300
     )
     keep = sin > math.sin(CORNER_MIN_ANGLE)
-    return groups[keep], _normalize(n[keep])
+    return groups[keep], tf.normalize(n[keep])
 
 
 # ----------------------------------------------------------- entry points

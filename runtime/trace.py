@@ -27,6 +27,13 @@ try:  # the compiled box-tree build; without a C compiler, BoxTree._build does i
     from runtime import _boxtree
 except ImportError:  # pragma: no cover - an install without the extension
     _boxtree = None
+
+
+def box_tree_compiled() -> bool:
+    """Whether the compiled box-tree build (runtime._boxtree) was built and loads."""
+    return _boxtree is not None
+
+
 # Tests set this to compare the two builds.
 _PYTHON_TREE = False
 

@@ -44,7 +44,7 @@ def _leaf_triangles(obj: ir.Object):
     tri = verts[faces]
     normals = shape.normals
     if normals is None and shape.smooth:
-        normals = _vertex_normals(verts, faces)
+        normals = vertex_normals(verts, faces)
         vn = normals[faces]
     elif normals is not None:
         n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
@@ -54,7 +54,7 @@ def _leaf_triangles(obj: ir.Object):
     return tri, vn
 
 
-def _vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Area-weighted vertex normals (for `smooth` meshes that give none)."""
     fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
     acc = np.zeros_like(verts)
@@ -105,7 +105,7 @@ class TriangleSet:
         self.offset = (lo + hi) / 2
         self.extent = float(np.linalg.norm(hi - lo))
         self.flags: dict[str, np.ndarray] = {}
-        self._scenes: dict[tuple[int, ...], tuple] = {}
+        self.scenes: dict[tuple[int, ...], tuple] = {}
         self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ embree
@@ -118,7 +118,7 @@ class TriangleSet:
         if flag is not None and len(flag):
             left_out = tuple(int(i) for i in np.unique(self.leaf_of[flag[self.leaf_of]]))
         with self._lock:
-            if left_out not in self._scenes:
+            if left_out not in self.scenes:
                 # Degenerate (zero-area) triangles can never be hit: leave them out.
                 keep = np.linalg.norm(np.cross(self.e1, self.e2), axis=1) > 0
                 if left_out:
@@ -136,8 +136,8 @@ class TriangleSet:
                     # lock, so render threads never commit the same scene concurrently.
                     one = np.zeros((1, 3), np.float32)
                     scene.run(one, one + np.float32(1), dists=np.zeros(1, np.float32))
-                self._scenes[left_out] = (scene, ids)
-            return self._scenes[left_out]
+                self.scenes[left_out] = (scene, ids)
+            return self.scenes[left_out]
 
     def _reach(self, o: np.ndarray) -> np.ndarray:
         return np.linalg.norm(o - self.offset, axis=1) + self.extent
