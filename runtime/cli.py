@@ -30,7 +30,8 @@ from typing import TextIO
 
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 
-COMMANDS = ("render", "check", "compile", "fmt", "lsp", "translate")
+# Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
+COMMANDS = ("render", "check", "translate", "compile", "export", "fmt", "bench", "lsp")
 SCENE_SUFFIXES = (".scene", ".pov", ".inc", ".ini", ".json")
 POVRAY_DEFAULT_SIZE = (320, 240)  # POV-Ray's image size when +W/+H are not given
 DEFAULT_AA_THRESHOLD = 0.3  # POV-Ray's Antialias_Threshold default

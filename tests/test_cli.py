@@ -7,6 +7,7 @@ import argparse
 import io
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -718,3 +719,14 @@ def test_the_command_exits_without_teardown_but_not_under_a_profiler(tmp_path):
         assert done.returncode == 1, done.stderr  # check's code for an error
         assert "bad.pov:1:" in done.stdout + done.stderr  # the diagnostic got out
         assert ("teardown ran" in done.stdout) is teardown
+
+
+def test_commands_lists_every_subcommand(capsys):
+    """cli.COMMANDS names exactly the parser's subcommands (argparse lists them when it
+    refuses an unknown one)."""
+    with pytest.raises(SystemExit):
+        cli.build_parser().parse_args(["no-such-command"])
+    err = capsys.readouterr().err
+    listed = err.split("choose from", 1)[1]
+    names = re.findall(r"'([^']+)'", listed)
+    assert sorted(names) == sorted(cli.COMMANDS)
