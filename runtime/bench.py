@@ -129,6 +129,7 @@ def _settings_edit(**changes) -> Callable[[ir.Scene], ir.Scene]:
     def edit(scene: ir.Scene) -> ir.Scene:
         s = scene.settings
         if "radiosity" in changes:
+            assert s.radiosity is not None  # knobs() offers these only with radiosity
             rad = dataclasses.replace(s.radiosity, **changes["radiosity"])
             return dataclasses.replace(scene, settings=dataclasses.replace(s, radiosity=rad))
         return dataclasses.replace(scene, settings=dataclasses.replace(s, **changes))
@@ -245,7 +246,9 @@ def povray_rows(
             seconds = time.perf_counter() - t0
             if done.returncode != 0 or not out.is_file():
                 continue
-            img = oiio.ImageBuf(str(out)).get_pixels(oiio.FLOAT)[..., :3]
+            pixels = oiio.ImageBuf(str(out)).get_pixels(oiio.FLOAT)
+            assert pixels is not None  # None only when the file cannot be read
+            img = pixels[..., :3]
             rows.append(Row("povray", knob, label, seconds, image=img))
             out.unlink()
     return rows
@@ -365,7 +368,9 @@ def run(
     sweeps = knobs(scene)
     log(f"knobs: {', '.join(sweeps)}")
     if reference_image is not None:
-        ref = oiio.ImageBuf(str(reference_image)).get_pixels(oiio.FLOAT)[..., :3]
+        ref_pixels = oiio.ImageBuf(str(reference_image)).get_pixels(oiio.FLOAT)
+        assert ref_pixels is not None  # None only when the file cannot be read
+        ref = ref_pixels[..., :3]
         if ref.shape[:2] != (height, width):
             raise ValueError(
                 f"the reference is {ref.shape[1]}x{ref.shape[0]}, the bench renders "

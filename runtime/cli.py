@@ -1145,6 +1145,7 @@ def run() -> None:
     exit took 25-35 ms of every command (a tenth of a small render); everything the command
     writes is closed and renamed before main() returns. Under a profiler or a tracer (cProfile,
     coverage) the normal exit stays, so that their reports are written."""
+    code: str | int | None
     try:
         code = main()
     except SystemExit as exc:  # argparse's exits, --help

@@ -7,12 +7,15 @@ makes the context (`make_context`) and shades with it; runtime.lights casts shad
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from lang import ir
 from runtime import patterns
+
+if TYPE_CHECKING:
+    from runtime.prepare import Prepared
 
 
 class Media(Protocol):
@@ -28,6 +31,24 @@ class Media(Protocol):
         dist: np.ndarray,
         atmosphere: bool = True,
     ) -> np.ndarray: ...
+
+
+class Radiosity(Protocol):
+    """What shading asks of a solved radiosity (runtime.radiosity.system.RadiosityResult,
+    not imported: it shades its patches with runtime.shading, which reads this module)."""
+
+    def gathered(
+        self, obj: int, points: np.ndarray, ray_dir: np.ndarray, prim: np.ndarray | None = None
+    ) -> np.ndarray: ...
+
+
+class TileKernel(Protocol):
+    """A compiled path that traces whole tiles (runtime.whitted.Kernel, which reads this
+    module)."""
+
+    def render_tile(
+        self, tile: tuple[int, int, int, int], threshold: float | None, depth: int
+    ) -> tuple[np.ndarray, int]: ...
 
 
 def texture_layers(tex: ir.Texture) -> list[ir.Texture]:
@@ -65,6 +86,7 @@ def _resolve(ctx, tex: ir.Texture, points: np.ndarray):
     if not is_patterned(tex):
         return np.arange(n), np.full(n, ctx.leaf_id[id(tex)], dtype=np.int64), np.ones(n)
     keys = np.array([k for k, _ in tex.map], dtype=np.float64)
+    assert tex.pattern is not None  # is_patterned
     weights = patterns.entry_weights(tex.pattern, keys, points)
     src, leaf, weight = [], [], []
     for k, (_, sub) in enumerate(tex.map):
@@ -165,7 +187,7 @@ class Context:
     declared texture are shaded in one group, and a mesh with per-face textures splits into
     one group per texture."""
 
-    prepared: object  # runtime.prepare.Prepared
+    prepared: Prepared
     settings: ir.Settings
     textures: list[list[ir.Texture]]  # unique layer stacks, top layer first
     obj_tex: np.ndarray  # (n_obj,) index into textures of each object's texture
@@ -180,7 +202,7 @@ class Context:
     legacy_opacity: bool  # pre-3.7 transparency formula
     gamma: float | None  # working gamma (None: legacy), for image files
     background: np.ndarray  # (3,)
-    radiosity: object | None = None  # runtime.radiosity.system.RadiosityResult
+    radiosity: Radiosity | None = None  # runtime.radiosity.system.RadiosityResult
     plain: np.ndarray | None = None  # (n_tex,) bool: shades in the shared batch
     patterned: np.ndarray | None = None  # (n_tex,) bool: a patterned texture (resolve first)
     tree: dict[int, ir.Texture] = field(default_factory=dict)  # patterned id -> its texture
@@ -188,7 +210,7 @@ class Context:
     plain_colour: np.ndarray | None = None  # (n_tex,5) solid colour of plain textures
     finish_table: FinishTable | None = None
     media: Media | None = None  # participating media (None: the scene has none)
-    kernel: object | None = None  # runtime.whitted.Kernel: the compiled path covers the scene
+    kernel: TileKernel | None = None  # runtime.whitted.Kernel: the compiled path covers the scene
     stats: dict[str, int] = field(default_factory=dict)
 
     @property

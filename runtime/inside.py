@@ -46,7 +46,7 @@ def singular(obj: ir.Object) -> str | None:
     return None
 
 
-def inside_node(obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler):
+def inside_node(obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler) -> CsgNode | Leaf | None:
     """A node whose `inside(points)` is POV-Ray's inside test of obj (its leaves report no
     hits: index -1), or None when the shape has no inside (`warn` says so)."""
     shape = obj.shape
@@ -68,7 +68,7 @@ def inside_node(obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler):
     return Leaf(prim, object_matrix(obj), -1, inverse=obj.inverse)
 
 
-_INSIDE_TESTS: dict[int, tuple[ir.Object, object]] = {}
+_INSIDE_TESTS: dict[int, tuple[ir.Object, CsgNode | Leaf | None]] = {}
 
 
 def inside_points(obj: ir.Object, points: np.ndarray, compile_xyz: FunctionCompiler) -> np.ndarray:

@@ -236,6 +236,7 @@ def trace(
         if hits is None:
             hits = _empty_like(h, len(alive))
         _scatter_hits(hits, sel, h)
+    assert hits is not None  # the alive rays hold at least one skip code
     hit = hits.obj >= 0
     col = np.zeros((len(alive), 3))
     miss = np.nonzero(~hit)[0]
@@ -338,7 +339,7 @@ def apply_fogs(fogs, depth: np.ndarray, col: np.ndarray, origins=None, dirs=None
 def fog_attenuation(fog: ir.Fog, width: np.ndarray, origins=None, dirs=None) -> np.ndarray:
     """The share of light one fog lets through over `width` along each ray (before its
     transmit floor): POV-Ray's ComputeConstantFogDepth and ComputeGroundFogDepth."""
-    density = 1.0
+    density: float | np.ndarray = 1.0
     have_rays = origins is not None and dirs is not None
     if fog.fog_type == 2 and have_rays and fog.alt != 0:
         up = np.asarray(fog.up, dtype=np.float64)
@@ -657,6 +658,7 @@ def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.
     """With radiosity, POV-Ray 3.7 replaces the ambient term by the gathered indirect light
     times the surface's diffuse reflectance (`ambient` still counts in pre-3.7 scenes):
     pigment * (diffuse * G + emission) * opacity."""
+    assert ctx.radiosity is not None  # called only when the scene's radiosity is solved
     g = np.zeros((len(rows), 3))
     objs = hit.obj[rows]
     for oid in np.unique(objs):

@@ -199,7 +199,7 @@ def _in_scattered(ctx, region: Region, p, ray_dir, scat) -> np.ndarray:
                 ctx, pts[lit], ls.direction[lit], ls.distance[lit], light.media_attenuation
             )
         alpha = np.einsum("ij,ij->i", ls.direction[lit], rd[lit])
-        k = sum(phase(m, alpha) for m in region.media) / len(region.media)
+        k = np.asarray(sum(phase(m, alpha) for m in region.media) / len(region.media))
         acc[lit] += k[:, None] * col
     out[rows] = acc * scat[rows]
     return out

@@ -253,7 +253,7 @@ def _repeat(w: dict, p: np.ndarray) -> np.ndarray:
     return q + block[:, None] * offset
 
 
-def _turn(theta: np.ndarray, x: np.ndarray, z: np.ndarray, length: np.ndarray) -> np.ndarray:
+def _turn(theta: np.ndarray | None, x: np.ndarray, z: np.ndarray, length: np.ndarray) -> np.ndarray:
     """POV-Ray's angle of (x, z) from +x toward +z as a fraction of a turn, from acos."""
     with np.errstate(invalid="ignore", divide="ignore"):
         a = np.arccos(np.clip(x / np.where(length > 0, length, 1.0), -1.0, 1.0))
@@ -383,7 +383,7 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
                 full = full @ np.asarray(before, dtype=np.float64)
             at = p @ full[:3, :3].T + full[:3, 3]
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
-        return sum(w * evaluate(q, at, gamma) for w, q in pigment.pigment_map) / total
+        return np.asarray(sum(w * evaluate(q, at, gamma) for w, q in pigment.pigment_map) / total)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -89,16 +90,18 @@ class Tessellator:
         shape = obj.shape
         name = type(shape).__name__
         try:
-            if name == "HeightField":
+            if isinstance(shape, ir.HeightField):
                 from runtime.heightfield import height_field_mesh
 
                 return height_field_mesh(shape)
-            if name == "Nurbs":
+            if isinstance(shape, ir.Nurbs):
                 from runtime.tessellate import nurbs_mesh
 
                 tolerance = shape.tolerance or self.auto_tolerance(obj)
                 verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
             else:
+                if not isinstance(shape, ir.Subdivision):
+                    raise TypeError(f"{name} is not a tessellated shape")
                 from runtime.subdivide import levels_for_tolerance, subdivision_mesh
 
                 levels = shape.levels
@@ -124,7 +127,10 @@ class Tessellator:
         """Chord-error bound from the camera: half a pixel at the control net's nearest
         distance from the eye (in world units)."""
         cam = self.camera
-        pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(obj.shape.points, float))
+        shape = obj.shape
+        if not isinstance(shape, ir.Nurbs | ir.Subdivision):
+            raise TypeError(f"a {type(shape).__name__} has no control net")
+        pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(shape.points, float))
         dist = float(np.min(np.linalg.norm(pts - np.asarray(cam.location), axis=1)))
         right = float(np.linalg.norm(cam.right))
         if cam.kind == "orthographic":
@@ -327,7 +333,10 @@ class _Builder:
         """One object whose surface is the merge of spheres and tangent cones."""
         from runtime.sphere_sweep import pieces
 
-        parts = pieces(obj.shape)
+        shape = obj.shape
+        if not isinstance(shape, ir.SphereSweep):
+            return None
+        parts = pieces(shape)
         if not parts:
             self.warn_once("a sphere_sweep with no positive radius is skipped", obj.span)
             return None
@@ -368,7 +377,8 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
             # lets the light shine through it: it casts no shadows.
             shape_obj = light.looks_like
             moved = tf.translation(light.position) @ tf.as_matrix(shape_obj.transform)
-            matrix = tuple(tuple(float(x) for x in row) for row in moved)
+            # four rows of four: a length the type of a comprehension cannot say
+            matrix = cast(ir.Matrix, tuple(tuple(float(x) for x in row) for row in moved))
             b.top(dataclasses.replace(shape_obj, transform=matrix, no_shadow=True), _NO_FLAGS)
     triangles = None
     if b.triangle_leaves:
@@ -466,12 +476,14 @@ class Culler:
     def hull(obj: ir.Object) -> np.ndarray | None:
         """World points whose convex hull holds the surface, or None when there are none."""
         shape = obj.shape
-        if type(shape).__name__ == "HeightField":  # inside the unit cube
+        if isinstance(shape, ir.HeightField):  # inside the unit cube
             cube = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
             return tf.apply_points(tf.as_matrix(obj.transform), cube)
-        if type(shape).__name__ == "Nurbs":
+        if isinstance(shape, ir.Nurbs):
             if min(shape.weights, default=1.0) <= 0:
                 return None
+        elif not isinstance(shape, ir.Subdivision):
+            return None  # not a surface held by control points
         elif shape.scheme == "four_point" or (shape.scheme == "midpoint" and shape.m < 2):
             return None  # interpolating / negative-weight rules may leave the hull
         pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(shape.points, float))

@@ -19,11 +19,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from lang import ir
 from runtime import transform as tf
+
+if TYPE_CHECKING:  # the batched finishes of plain textures, which these functions take too
+    from runtime.context import FinishRows
 
 # POV-Ray's EPSILON: a light exactly in the tangent plane does not light the surface.
 EPSILON: float = 1e-10
@@ -138,8 +142,8 @@ def area_offsets(area: ir.AreaLight) -> np.ndarray:
     n1, n2 = max(1, area.size1), max(1, area.size2)
     u = np.arange(n1, dtype=np.float64)
     v = np.arange(n2, dtype=np.float64)
-    uu, vv = np.meshgrid(u, v, indexing="ij")
-    uu, vv = uu.ravel(), vv.ravel()
+    grid_u, grid_v = np.meshgrid(u, v, indexing="ij")
+    uu, vv = grid_u.ravel(), grid_v.ravel()
     if area.circular and n1 > 1 and n2 > 1:
         ju = uu / (n1 - 1) - 0.5 + 0.001
         jv = vv / (n2 - 1) - 0.5 + 0.001
@@ -233,7 +237,7 @@ class Surface:
 
 
 def ambient_term(
-    finish: ir.Finish, pigment: np.ndarray, opacity: np.ndarray, ambient_light
+    finish: ir.Finish | FinishRows, pigment: np.ndarray, opacity: np.ndarray, ambient_light
 ) -> np.ndarray:
     amb = np.asarray(finish.ambient, dtype=np.float64) * np.asarray(ambient_light, dtype=np.float64)
     emis = np.asarray(finish.emission, dtype=np.float64)
@@ -241,7 +245,7 @@ def ambient_term(
 
 
 def light_terms(
-    finish: ir.Finish,
+    finish: ir.Finish | FinishRows,
     surf: Surface,
     pigment: np.ndarray,
     opacity: np.ndarray,
@@ -329,7 +333,7 @@ def highlight_specular(finish, surf: Surface, light_dir, light_col, pigment, cos
 
 # ------------------------------------------------------------------- reflection
 def reflectivity(
-    finish: ir.Finish,
+    finish: ir.Finish | FinishRows,
     cos_angle: np.ndarray,
     pigment: np.ndarray,
     relative_ior: np.ndarray | float = 1.0,

@@ -191,8 +191,10 @@ def build_topology(mesh: ControlMesh) -> Topology:
     twin = np.full(len(sk), -1, dtype=np.int64)
     twin[c0], twin[c1] = c1, c0
     dup = int(np.count_nonzero(fv[c0] == fv[c1]))  # both run the same way
-    face, nxt, prv, edge, edges, twin = (x.astype(IDX) for x in (face, nxt, prv, edge, edges, twin))
-    return Topology(face, nxt, prv, edge, edges, edge_nf, ekeys, twin, dup)
+    t_face, t_nxt, t_prv, t_edge, t_edges, t_twin = (
+        x.astype(IDX) for x in (face, nxt, prv, edge, edges, twin)
+    )
+    return Topology(t_face, t_nxt, t_prv, t_edge, t_edges, edge_nf, ekeys, t_twin, dup)
 
 
 def _scatter(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
@@ -476,7 +478,7 @@ def bilinear_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
     return _quad_child(mesh, s, P, fp, ep)
 
 
-def loop_beta(n: np.ndarray) -> np.ndarray:
+def loop_beta(n: np.ndarray | int) -> np.ndarray:
     """Loop's β(n) = (5/8 − (3/8 + ¼cos(2π/n))²)/n; 1/16 for the seed's valence 6."""
     n = np.maximum(np.asarray(n, dtype=np.float64), 1.0)
     return (0.625 - (0.375 + 0.25 * np.cos(2.0 * np.pi / n)) ** 2) / n
@@ -1280,8 +1282,10 @@ def validate(shape: ir.Subdivision) -> list[tuple[str, str]]:
             out.append(("subdiv.crease_range", "crease edge index outside the vertex list"))
         else:
             keys = np.minimum(cr[:, 0], cr[:, 1]) * npts + np.maximum(cr[:, 0], cr[:, 1])
-            pos = np.minimum(np.searchsorted(topo.ekeys, keys), len(topo.ekeys) - 1)
-            missing = np.nonzero(topo.ekeys[pos] != keys)[0]
+            ekeys = topo.ekeys
+            assert ekeys is not None  # a control mesh's topology is built from its edge keys
+            pos = np.minimum(np.searchsorted(ekeys, keys), len(ekeys) - 1)
+            missing = np.nonzero(ekeys[pos] != keys)[0]
             if missing.size:
                 pairs = ", ".join(f"<{a},{b}>" for a, b in cr[missing[:5]])
                 out.append(("subdiv.crease_edge", f"crease(s) {pairs} are not edges of the mesh"))

@@ -35,17 +35,19 @@ def _leaf_triangles(obj: ir.Object):
         tri = tf.apply_points(m, v)[None]
         if shape.normals is None:
             return tri, None
-        vn = tf.apply_normals(m_inv, np.asarray(shape.normals, dtype=np.float64))
-        return tri, vn[None]
+        corner_n = tf.apply_normals(m_inv, np.asarray(shape.normals, dtype=np.float64))
+        return tri, corner_n[None]
+    if not isinstance(shape, ir.Mesh):
+        raise TypeError(f"a {type(shape).__name__} is not triangle geometry")
     verts = np.asarray(shape.vertices, dtype=np.float64).reshape(-1, 3)
     if move:
         verts = tf.apply_points(m, verts)
     faces = np.asarray(shape.faces, dtype=np.int64).reshape(-1, 3)
     tri = verts[faces]
     normals = shape.normals
+    vn: np.ndarray | None
     if normals is None and shape.smooth:
-        normals = vertex_normals(verts, faces)
-        vn = normals[faces]
+        vn = vertex_normals(verts, faces)[faces]
     elif normals is not None:
         n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
         vn = (tf.apply_normals(m_inv, n) if move else tf.normalize(n))[faces]

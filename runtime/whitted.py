@@ -41,7 +41,7 @@ from runtime.trace import CsgNode, Leaf
 try:  # the extension is optional: without a compiler the numpy path renders everything
     from runtime import _whitted
 except ImportError:  # pragma: no cover - depends on the build
-    _whitted = None
+    _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
 HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 48, 64, 48, 24, 64, 7, 16, 1024
@@ -503,9 +503,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     rows[:, O_FLIP] = [leaf.inverse for leaf in leaves]
     rows[:, O_SIZE] = tracer.sizes[:n_obj]
     rows[:, O_TEX] = ctx.obj_tex
-    for k, bit in FLAG_BITS.items():
-        if tracer.flags.get(k) is not None:
-            rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[k], dtype=bool)
+    for flag, bit in FLAG_BITS.items():
+        if tracer.flags.get(flag) is not None:
+            rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[flag], dtype=bool)
     rows[:, O_DOUBLE] = ctx.double_illuminate
     rows[:, O_IOR] = ctx.ior
     # Untransformed leaves (most of a big scene) share one matrix row: only the others are

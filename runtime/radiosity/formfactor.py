@@ -330,7 +330,7 @@ def form_factors(
     geo = _Targets(dst, n_dst, float(np.abs(dst).max()) + float(np.abs(src).max()))
     rules = [polygon_quadrature(src, order)]
     tiered = far_order is not None and far_order != order
-    if tiered:
+    if tiered and far_order is not None:  # (tiered says it is not None)
         rules.append(polygon_quadrature(src, far_order))
     if tiered or point_ratio is not None:
         c_src, r_src = polygon_centroid(src), _radius(src)
@@ -346,6 +346,7 @@ def form_factors(
     def chunk(start: int) -> None:
         sl = slice(start, min(ns, start + rows_per_chunk))
         point = None
+        masks: list[np.ndarray | None]
         if len(rules) == 1 and point_ratio is None:
             masks = [None]
         else:

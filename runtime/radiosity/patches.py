@@ -267,7 +267,8 @@ def ear_clip(pts: np.ndarray) -> list[tuple[int, int, int]]:
         else:
             break  # not simple: give up on the rest
     if len(idx) == 3:
-        out.append(tuple(idx))
+        i, j, l = idx
+        out.append((i, j, l))
     return out
 
 

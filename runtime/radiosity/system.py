@@ -566,15 +566,15 @@ def open_points(prepared, patches: Patches, count: int, rng, extent: float, holl
     # the floor) exclude their boundary, so a point exactly on it would count as open.
     probe = flat + np.repeat(patches.normal, cand_n, axis=0) * (1e-7 * extent)
     owner = np.repeat(patches.surface, cand_n)
-    buried = np.zeros(len(flat), dtype=bool)
+    buried_flat = np.zeros(len(flat), dtype=bool)
     for k, node in enumerate(prepared.tracer.nodes):
         if k in hollow:
             continue
         inside = node.inside(probe)
         if inside.any():
             mine = np.isin(owner, node.leaves)
-            buried |= inside & ~mine
-    buried = buried.reshape(n, cand_n)
+            buried_flat |= inside & ~mine
+    buried = buried_flat.reshape(n, cand_n)
     beta = buried.mean(axis=1)
     # Open candidates first (stable), then take the first `count` of each row.
     order = np.argsort(buried, axis=1, kind="stable")
