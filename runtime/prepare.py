@@ -3,6 +3,11 @@
 Unions flatten into their leaves (each child already carries its full world transform and
 resolved texture); intersection / difference / merge become CSG nodes over leaves; all
 triangle geometry goes into one Embree-backed TriangleSet, built only when there is some.
+
+Also owned here: `Tessellator` (NURBS, subdivision and height fields to meshes at a
+tolerance from the camera; runtime.export uses it too), `Culler` (what the view cannot
+show or shadow) and the texture predicates `texture_reflects` / `texture_transparent`.
+An object's inside test (clipped_by) is runtime.inside's.
 """
 
 from __future__ import annotations

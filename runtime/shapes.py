@@ -12,6 +12,10 @@ which keeps t equal to the world distance parameter under any object transform):
 
 `bounds()` gives the object-space box (inf for infinite shapes), `size` a characteristic
 length for the self-intersection floor.
+
+This module holds the common shapes' primitives (`primitive_for` picks one of them; the
+rarer shapes are runtime.prims', whose `primitive_for` covers every shape) and the helpers
+the primitives share (`dot`, `recentre`, `stable_quadratic`, `barycentric` …).
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""4x4 affine matrix helpers (float64, column-vector convention p' = M @ (p, 1), as `ir`)."""
+"""4x4 affine matrix helpers (float64, column-vector convention p' = M @ (p, 1), as `ir`),
+and the runtime's one `normalize` (unit vectors along rows)."""
 
 from __future__ import annotations
 

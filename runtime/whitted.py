@@ -5,7 +5,9 @@ arrays of up to a million rays, which costs more than the arithmetic in a scene 
 spheres and planes (the seed scene spent 1.7 s there at 1280x960, profiled). The C kernel
 traces the same rays depth first, one at a time, with the same formulas and tolerances, and
 is used only when a scene has nothing it does not know; anything else renders through
-numpy, unchanged. tests/test_whitted_kernel.py holds the two to the same images.
+numpy, unchanged. tests/test_whitted_kernel.py holds the two to the same images. This
+module is the kernel's only importer: `kernel_built`, `kernel_layout` and `trace_packed`
+are the way to it from elsewhere.
 
 What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
 without focal blur; spheres, planes, boxes, discs, cylinders and cones, transformed or not,
