@@ -16,6 +16,9 @@ Schemes (open curves keep their end points; closed curves wrap):
 Tubes sweep a circle along the polyline with rotation-minimising frames: the frame
 rotations are composed by a parallel prefix product of quaternions (log2 N array steps,
 no loop per point).
+
+`SubdivisionError`, what a subdivision shape that cannot be built raises, is defined here
+for both kinds (runtime.subdivide builds its curves with this module).
 """
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
 """The renderer's answers to the evaluator's geometry questions (lang.queries): `trace()`
-and `inside()` on one object, with the tracer the render itself uses."""
+on one object with the tracer the render itself uses (runtime.prepare), `inside()` with
+its inside test (runtime.inside)."""
 
 from __future__ import annotations
 
