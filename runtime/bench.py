@@ -129,6 +129,7 @@ def _settings_edit(**changes) -> Callable[[ir.Scene], ir.Scene]:
     def edit(scene: ir.Scene) -> ir.Scene:
         s = scene.settings
         if "radiosity" in changes:
+            assert s.radiosity is not None  # knobs() offers these only with radiosity
             rad = dataclasses.replace(s.radiosity, **changes["radiosity"])
             return dataclasses.replace(scene, settings=dataclasses.replace(s, radiosity=rad))
         return dataclasses.replace(scene, settings=dataclasses.replace(s, **changes))
@@ -164,11 +165,11 @@ def knobs(scene: ir.Scene) -> dict[str, list[Setting]]:
             Setting("subdivision", f"levels {n}", _with_shape_field(ir.Subdivision, "levels", n))
             for n in SUBDIVISION_LEVELS
         ]
-    from runtime.prepare import _reflects, _texture_transparent
+    from runtime.prepare import texture_reflects, texture_transparent
 
     objects = _objects(scene)
-    reflective = any(_reflects(o.texture) for o in objects if o.texture is not None)
-    transparent = any(_texture_transparent(o.texture) for o in objects if o.texture is not None)
+    reflective = any(texture_reflects(o.texture) for o in objects if o.texture is not None)
+    transparent = any(texture_transparent(o.texture) for o in objects if o.texture is not None)
     if reflective or transparent:
         out["max_trace_level"] = [
             Setting("max_trace_level", f"{n}", _settings_edit(max_trace_level=n))
@@ -245,7 +246,9 @@ def povray_rows(
             seconds = time.perf_counter() - t0
             if done.returncode != 0 or not out.is_file():
                 continue
-            img = oiio.ImageBuf(str(out)).get_pixels(oiio.FLOAT)[..., :3]
+            pixels = oiio.ImageBuf(str(out)).get_pixels(oiio.FLOAT)
+            assert pixels is not None  # None only when the file cannot be read
+            img = pixels[..., :3]
             rows.append(Row("povray", knob, label, seconds, image=img))
             out.unlink()
     return rows
@@ -365,7 +368,9 @@ def run(
     sweeps = knobs(scene)
     log(f"knobs: {', '.join(sweeps)}")
     if reference_image is not None:
-        ref = oiio.ImageBuf(str(reference_image)).get_pixels(oiio.FLOAT)[..., :3]
+        ref_pixels = oiio.ImageBuf(str(reference_image)).get_pixels(oiio.FLOAT)
+        assert ref_pixels is not None  # None only when the file cannot be read
+        ref = ref_pixels[..., :3]
         if ref.shape[:2] != (height, width):
             raise ValueError(
                 f"the reference is {ref.shape[1]}x{ref.shape[0]}, the bench renders "

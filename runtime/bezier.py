@@ -21,7 +21,7 @@ import numpy as np
 
 from lang import ir
 from runtime.nurbs import Surface
-from runtime.tessellate import _assemble
+from runtime.tessellate import assemble
 
 BEZIER_KNOTS = (0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0)
 # POV-Ray's EPSILON for coincident corners in its flatness test.
@@ -123,7 +123,7 @@ def bicubic_patch_mesh(points16, u_steps: int = 0, v_steps: int = 0, flatness: f
     surf = patch_surface(points16)
     us = np.linspace(0.0, 1.0, (1 << lu) + 1)
     vs = np.linspace(0.0, 1.0, (1 << lv) + 1)
-    m = _assemble(surf, us, vs, float("nan"), False)
+    m = assemble(surf, us, vs, float("nan"), False)
     return m.vertices, m.faces, m.normals, np.ascontiguousarray(m.uvs[:, ::-1])
 
 

@@ -7,6 +7,7 @@ from statistics import NormalDist
 import numpy as np
 
 from lang import ir
+from runtime import transform as tf
 
 
 def screen_coords(width: int, height: int, xs: np.ndarray, ys: np.ndarray):
@@ -97,8 +98,8 @@ class FocalBlur:
         self.px = xs[:, None] + jx - 0.5
         self.py = ys[:, None] + jy - 0.5
         d = np.asarray(camera.direction, dtype=np.float64)
-        self.xperp = _unit(np.cross(np.asarray(camera.up, dtype=np.float64), d))
-        self.yperp = _unit(np.cross(d, self.xperp))
+        self.xperp = tf.normalize(np.cross(np.asarray(camera.up, dtype=np.float64), d))
+        self.yperp = tf.normalize(np.cross(d, self.xperp))
         loc = np.asarray(camera.location, dtype=np.float64)
         focus = loc if camera.focal_point is None else np.asarray(camera.focal_point, float)
         self.reach = np.linalg.norm(focus - loc) / np.linalg.norm(d)  # in direction lengths
@@ -166,7 +167,7 @@ def _fisheye(camera, sx, sy, loc, d, r, u):
     rad = np.hypot(x0, y0)
     phi = _polar_angle(x0, y0, rad)
     theta = rad * _angle(camera) / 2.0
-    r, u, d = _unit(r), _unit(u), _unit(d)
+    r, u, d = tf.normalize(r), tf.normalize(u), tf.normalize(d)
     dirs = (np.cos(phi) * np.sin(theta)) * r + (np.sin(phi) * np.sin(theta)) * u
     dirs = dirs + np.cos(theta) * d
     return dirs, np.broadcast_to(loc, dirs.shape), (rad <= 1.0).ravel()
@@ -193,7 +194,7 @@ def _omnimax(camera, sx, sy, loc, d, r, u):
     phi = _polar_angle(x0, y0, rad)
     theta = 1.411269 * rad - 0.09439 * rad**3 + 0.25674 * rad**5  # the Omnimax lens
     sp, st, ct = np.sin(phi), np.sin(theta), np.cos(theta)
-    r, u, d = _unit(r), _unit(u), _unit(d)
+    r, u, d = tf.normalize(r), tf.normalize(u), tf.normalize(d)
     dirs = (np.cos(phi) * st) * r + (sp * st) * u + ct * d
     # nothing below 45 degrees under the projection axis
     traced = (rad <= 1.0) & ~(sp * st < np.tan(np.radians(135.0)) * ct)
@@ -214,7 +215,11 @@ def _ultra_wide(camera, sx, sy, loc, d, r, u):
     aspect = np.linalg.norm(u) / np.linalg.norm(r)
     a = _angle(camera)
     x0, y0 = sx * a, sy * a * aspect
-    dirs = np.sin(x0) * _unit(r) + np.sin(y0) * _unit(u) + (np.cos(x0) * np.cos(y0)) * _unit(d)
+    dirs = (
+        np.sin(x0) * tf.normalize(r)
+        + np.sin(y0) * tf.normalize(u)
+        + (np.cos(x0) * np.cos(y0)) * tf.normalize(d)
+    )
     return dirs, np.broadcast_to(loc, dirs.shape), None
 
 
@@ -223,7 +228,7 @@ def _cylinder(camera, sx, sy, loc, d, r, u):
     shift the origin along the axis (parallel rays along it) instead of fanning out."""
     kind = camera.cylinder or 1
     lr, lu = np.linalg.norm(r), np.linalg.norm(u)
-    r, u, d = _unit(r), _unit(u), _unit(d)
+    r, u, d = tf.normalize(r), tf.normalize(u), tf.normalize(d)
     # 2 and 4 are 1 and 3 with right and up (and the screen's x and y) trading places
     side, s_side, axis, s_axis, length = (
         (r, sx, u, sy, lu) if kind in (1, 3) else (u, sy, r, sx, lr)
@@ -245,8 +250,8 @@ def _spherical(camera, sx, sy, loc, d, r, u):
     v = camera.v_angle if camera.v_angle is not None else h / 2.0
     lat = sy * np.radians(v)
     lon = sx * np.radians(h)
-    v1 = _rotate(np.broadcast_to(d, (len(sy), 3)), _unit(r), -lat)
-    return _rotate(v1, _unit(u), lon), np.broadcast_to(loc, v1.shape), None
+    v1 = _rotate(np.broadcast_to(d, (len(sy), 3)), tf.normalize(r), -lat)
+    return _rotate(v1, tf.normalize(u), lon), np.broadcast_to(loc, v1.shape), None
 
 
 def _rotate(v: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -320,7 +325,3 @@ def view_planes(camera: ir.Camera, width: int, height: int) -> list[tuple[np.nda
         if all(c @ fwd > 0 for c in corners):  # every ray goes forward: nothing behind the eye
             out.append((-fwd, loc))
     return [(n / np.linalg.norm(n), p0) for n, p0 in out]
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)

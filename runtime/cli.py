@@ -31,7 +31,8 @@ from typing import TextIO
 from lang import paths
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 
-COMMANDS = ("render", "check", "compile", "fmt", "lsp", "translate")
+# Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
+COMMANDS = ("render", "check", "translate", "compile", "export", "fmt", "bench", "lsp")
 SCENE_SUFFIXES = (".scene", ".pov", ".inc", ".ini", ".json")
 POVRAY_DEFAULT_SIZE = (320, 240)  # POV-Ray's image size when +W/+H are not given
 DEFAULT_AA_THRESHOLD = 0.3  # POV-Ray's Antialias_Threshold default
@@ -210,7 +211,7 @@ def resolve_region(
     return left, top, right, bottom
 
 
-def _looks_like_render(argv: Sequence[str]) -> bool:
+def looks_like_render(argv: Sequence[str]) -> bool:
     """`strala scene.pov +W512` and `strala +Iscene.pov` render, as `povray` would."""
     if not argv or argv[0] in COMMANDS:
         return False
@@ -1099,7 +1100,7 @@ def _write_text_atomically(path: Path, text: str) -> None:
 # --------------------------------------------------------------------- main
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if _looks_like_render(argv):
+    if looks_like_render(argv):
         argv.insert(0, "render")
     parser = build_parser()
     warnings: list[str] = []
@@ -1144,6 +1145,7 @@ def run() -> None:
     exit took 25-35 ms of every command (a tenth of a small render); everything the command
     writes is closed and renamed before main() returns. Under a profiler or a tracer (cProfile,
     coverage) the normal exit stays, so that their reports are written."""
+    code: str | int | None
     try:
         code = main()
     except SystemExit as exc:  # argparse's exits, --help

@@ -101,7 +101,7 @@ def to_display8(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
     try:
         from runtime import _pixels
     except ImportError:  # pragma: no cover - depends on the build
-        _pixels = None
+        _pixels = None  # type: ignore[assignment]  # typed by the import: module or None
     if _pixels is None:
         return np.rint(to_display(working, settings) * 255.0).astype(np.uint8)
     src = np.ascontiguousarray(working, dtype=np.float32)

@@ -16,6 +16,9 @@ Schemes (open curves keep their end points; closed curves wrap):
 Tubes sweep a circle along the polyline with rotation-minimising frames: the frame
 rotations are composed by a parallel prefix product of quaternions (log2 N array steps,
 no loop per point).
+
+`SubdivisionError`, what a subdivision shape that cannot be built raises, is defined here
+for both kinds (runtime.subdivide builds its curves with this module).
 """
 
 from __future__ import annotations
@@ -25,7 +28,19 @@ import math
 import numpy as np
 
 from lang import ir
-from runtime.subdivide import SubdivisionError
+from runtime import transform as tf
+
+
+class SubdivisionError(ValueError):
+    """A subdivision shape (a surface, runtime.subdivide, or a curve) that cannot be built;
+    `code` matches runtime.subdivide.validate's codes. Defined here, the lower of the two
+    modules: the surfaces' module builds its curves with this one."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
 
 # Largest tube (vertices) a curve may produce before it is refused as a memory error.
 MAX_TUBE_VERTICES = 50_000_000
@@ -167,19 +182,14 @@ def _prefix_rotations(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _normalize(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
 def tube_frames(P: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit tangents T and rotation-minimising normals U, binormals W = T × U per point."""
     seg = np.roll(P, -1, axis=0) - P if closed else P[1:] - P[:-1]
-    d = _normalize(seg)
+    d = tf.normalize(seg)
     if closed:
-        T = _normalize(d + np.roll(d, 1, axis=0))
+        T = tf.normalize(d + np.roll(d, 1, axis=0))
     else:
-        T = np.concatenate([d[:1], _normalize(d[:-1] + d[1:]), d[-1:]])
+        T = np.concatenate([d[:1], tf.normalize(d[:-1] + d[1:]), d[-1:]])
     fallback = d if closed else np.concatenate([d, d[-1:]])  # at a U-turn
     T = np.where(np.linalg.norm(T, axis=1, keepdims=True) > 0.5, T, fallback)
     rot = _min_rotation(T[:-1], T[1:])
@@ -193,7 +203,7 @@ def tube_frames(P: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray, np
         ang = twist * np.arange(len(P)) / len(P)
         W0 = np.cross(T, U)
         U = np.cos(ang)[:, None] * U + np.sin(ang)[:, None] * W0
-    U = _normalize(U - np.einsum("ij,ij->i", U, T)[:, None] * T)
+    U = tf.normalize(U - np.einsum("ij,ij->i", U, T)[:, None] * T)
     return T, U, np.cross(T, U)
 
 

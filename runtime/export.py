@@ -21,8 +21,8 @@ import numpy as np
 
 from lang import ir
 from runtime import transform as tf
-from runtime.prepare import _Builder
-from runtime.triangles import _vertex_normals
+from runtime.prepare import Tessellator
+from runtime.triangles import vertex_normals
 
 
 @dataclass
@@ -62,7 +62,7 @@ def _leaves(objects):
 
 
 def collect(scene: ir.Scene, width: int = 320) -> ExportMesh:
-    builder = _Builder(scene.camera, width)
+    builder = Tessellator(scene.camera, width)
     parts = []
     skipped: list[str] = []
     for obj in _leaves(scene.objects):
@@ -88,7 +88,7 @@ def collect(scene: ir.Scene, width: int = 320) -> ExportMesh:
         n = (
             np.asarray(mesh.normals, dtype=float).reshape(-1, 3)
             if mesh.normals is not None
-            else _vertex_normals(v, f)
+            else vertex_normals(v, f)
         )
         uv = np.asarray(mesh.uvs, dtype=float).reshape(-1, 2) if mesh.uvs is not None else None
         m = tf.as_matrix(obj.transform)

@@ -7,7 +7,7 @@ POV-Ray's "sor" switch (P_sor > 0: revolve the curve around y at offset P_off, t
 P_angle degrees), otherwise extruded along z.
 
 Noise: f_noise3d and the fractal noises use strala's POV-Ray-like noise
-(runtime.patterns.noise, values in 0..1); the noise_generator parameter is accepted and
+(runtime.noise.noise, values in 0..1); the noise_generator parameter is accepted and
 all three generators give that noise.
 """
 
@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from runtime import patterns
+from runtime.noise import noise
 
 Arr = Any  # an ndarray or a float (parameters are usually plain numbers)
 _missing: set[str] = set()
@@ -55,7 +55,7 @@ def _rot2d(x: Arr, y: Arr, z: Arr, sor: Arr, off: Arr, angle: Arr) -> tuple[Arr,
 def _noise(p0: Arr, p1: Arr, p2: Arr) -> np.ndarray:
     shape = np.broadcast(p0, p1, p2).shape
     pts = np.stack([np.broadcast_to(v, shape).ravel() for v in (p0, p1, p2)], axis=1)
-    return patterns.noise(pts.astype(np.float64)).reshape(shape)
+    return noise(pts.astype(np.float64)).reshape(shape)
 
 
 def _section(a: Arr, b: Arr, kind: float) -> Arr:

@@ -24,7 +24,7 @@ class HeightFieldError(ValueError):
     pass
 
 
-def _png_palette_indices(data: bytes) -> np.ndarray | None:
+def png_palette_indices(data: bytes) -> np.ndarray | None:
     """The index array of a palette PNG (colour type 3), or None for any other PNG."""
     if not data.startswith(PNG_SIGNATURE):
         return None
@@ -95,7 +95,7 @@ def read_heights(path: str) -> np.ndarray:
     """Heights 0..1 as (rows, columns), row 0 the image's top row."""
     with open(path, "rb") as f:
         data = f.read()
-    index = _png_palette_indices(data)
+    index = png_palette_indices(data)
     if index is not None:
         return index.astype(np.float64) / 255.0
     import OpenImageIO as oiio

@@ -11,7 +11,10 @@ Bounds as in POV-Ray: a ray whose trace level has reached `max_trace_level` or w
 Camera rays skip `no_image` objects, reflected rays `no_reflection` objects, shadow rays
 `no_shadow` objects. Rays that pass straight through a transparent surface (ior 1) continue
 at the same trace level, as in POV-Ray. Shadow rays are filtered by transparent objects
-(filter, transmit, interior fade, faked caustics); area lights sample adaptively.
+(filter, transmit, interior fade, faked caustics); area lights sample adaptively
+(runtime.lights). `make_context` builds the render's runtime.context.Context: its textures
+numbered (by identity, plain colours also by value), their flags, finish table and media.
+Fog is applied here too.
 """
 
 from __future__ import annotations
@@ -22,15 +25,21 @@ import numpy as np
 
 from lang import ir
 from runtime import color, media, noise, patterns, shading
+from runtime.context import (
+    FINISH_FLOATS,
+    Context,
+    FinishRows,
+    FinishTable,
+    Hit,
+    LightColours,
+    ReflectionRows,
+    is_patterned,
+    legacy_rules,
+    resolve_textures,
+    texture_layers,
+)
+from runtime.lights import interior_fade, light_colours
 from runtime.shading import GREY, Surface
-
-# A shadow ray crosses at most this many transparent surfaces before it counts as blocked
-# (bounds the loop for pathological stacks of glass; each crossing is one batch query).
-MAX_SHADOW_CROSSINGS: int = 32
-
-# POV-Ray's faked caustics brighten light through a transparent surface by
-# 1 + |N.L|^(45 caustics): near head-on light is focused, oblique light is not.
-CAUSTICS_SCALE: float = 45.0
 
 _warned: set[str] = set()
 
@@ -39,133 +48,6 @@ def _warn(msg: str) -> None:
     if msg not in _warned:
         _warned.add(msg)
         print(f"strala: warning: {msg}")
-
-
-def texture_layers(tex: ir.Texture) -> list[ir.Texture]:
-    """Layers from the top (outermost, last written) down to the base texture."""
-    return [*reversed(tex.layers), tex]
-
-
-def is_patterned(tex: ir.Texture) -> bool:
-    """A patterned texture (checker/brick/hexagon/object textures, texture_map, average)."""
-    return tex.pattern is not None and bool(tex.map)
-
-
-def resolve_textures(ctx, tex: np.ndarray, points: np.ndarray):
-    """Hits of patterned textures resolved to the plain textures they show, as POV-Ray's
-    ComputeOneTextureColour does: a list pattern picks one texture, a texture_map blends
-    the two around the pattern's value, `average` weighs them all (nested maps recurse).
-    Returns None when no hit has a patterned texture, else (src, leaf, weight): for every
-    (hit, texture) pair its hit row, texture index and weight (a hit's weights sum to 1)."""
-    if ctx.patterned is None or not ctx.patterned[tex].any():
-        return None
-    pat = ctx.patterned[tex]
-    keep = np.nonzero(~pat)[0]
-    src, leaf, weight = [keep], [tex[keep]], [np.ones(len(keep))]
-    for tid in np.unique(tex[pat]):
-        rows = np.nonzero(tex == tid)[0]
-        r, lf, w = _resolve(ctx, ctx.tree[int(tid)], points[rows])
-        src.append(rows[r])
-        leaf.append(lf)
-        weight.append(w)
-    return np.concatenate(src), np.concatenate(leaf), np.concatenate(weight)
-
-
-def _resolve(ctx, tex: ir.Texture, points: np.ndarray):
-    n = len(points)
-    if not is_patterned(tex):
-        return np.arange(n), np.full(n, ctx.leaf_id[id(tex)], dtype=np.int64), np.ones(n)
-    keys = np.array([k for k, _ in tex.map], dtype=np.float64)
-    weights = patterns.entry_weights(tex.pattern, keys, points)
-    src, leaf, weight = [], [], []
-    for k, (_, sub) in enumerate(tex.map):
-        rows = np.nonzero(weights[:, k] > 0.0)[0]
-        if not len(rows):
-            continue
-        r, lf, w = _resolve(ctx, sub, points[rows])
-        src.append(rows[r])
-        leaf.append(lf)
-        weight.append(w * weights[rows[r], k])
-    if not src:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)
-    return np.concatenate(src), np.concatenate(leaf), np.concatenate(weight)
-
-
-@dataclass
-class ReflectionRows:
-    """`ir.Reflection` with one row per hit (fresnel is never mixed in here)."""
-
-    min: np.ndarray  # (N,3)
-    max: np.ndarray  # (N,3)
-    falloff: np.ndarray  # (N,)
-    exponent: np.ndarray  # (N,)
-    metallic: np.ndarray  # (N,)
-    fresnel: bool = False
-
-
-@dataclass
-class FinishRows:
-    """`ir.Finish` with one row per hit: the shading functions take these arrays wherever
-    they take a finish's scalars, so hits of many plain textures shade in one batch."""
-
-    ambient: np.ndarray
-    emission: np.ndarray
-    diffuse: np.ndarray
-    diffuse_back: np.ndarray
-    brilliance: np.ndarray
-    specular: np.ndarray
-    roughness: np.ndarray
-    phong: np.ndarray
-    phong_size: np.ndarray
-    metallic: np.ndarray
-    crand: np.ndarray
-    conserve_energy: np.ndarray
-    reflection: ReflectionRows
-    irid: None = None
-
-
-# The scalar finish terms shaded as per-row columns (FinishTable, FinishRows).
-FINISH_FLOATS = (
-    "diffuse",
-    "diffuse_back",
-    "brilliance",
-    "specular",
-    "roughness",
-    "phong",
-    "phong_size",
-    "metallic",
-    "crand",
-)
-
-
-class FinishTable:
-    """Every plain texture's finish as columns, indexed by texture id."""
-
-    def __init__(self, finishes: list[ir.Finish]):
-        def col(get, width=None):
-            a = np.array([get(f) for f in finishes], dtype=np.float64)
-            return a.reshape(len(finishes), width) if width else a
-
-        self.cols = {
-            "ambient": col(lambda f: f.ambient, 3),
-            "emission": col(lambda f: f.emission, 3),
-            **{k: col(lambda f, k=k: getattr(f, k)) for k in FINISH_FLOATS},
-            "conserve_energy": col(lambda f: float(f.conserve_energy)),
-        }
-        self.refl = {
-            "min": col(lambda f: f.reflection.min, 3),
-            "max": col(lambda f: f.reflection.max, 3),
-            "falloff": col(lambda f: f.reflection.falloff),
-            "exponent": col(lambda f: f.reflection.exponent),
-            "metallic": col(lambda f: f.reflection.metallic),
-        }
-
-    def rows(self, tex: np.ndarray) -> FinishRows:
-        c = {k: v[tex] for k, v in self.cols.items()}
-        c["conserve_energy"] = c["conserve_energy"] > 0
-        return FinishRows(
-            **c, reflection=ReflectionRows(**{k: v[tex] for k, v in self.refl.items()})
-        )
 
 
 def _plain(layers: list[ir.Texture]) -> bool:
@@ -180,63 +62,6 @@ def _plain(layers: list[ir.Texture]) -> bool:
         and t.finish.irid is None
         and not t.finish.reflection.fresnel
     )
-
-
-@dataclass
-class Context:
-    """Per-render constants shared by every tile (read-only while rendering).
-
-    Shading works per *texture* (a layer stack), not per object: objects that share a
-    declared texture are shaded in one group, and a mesh with per-face textures splits into
-    one group per texture."""
-
-    prepared: object  # runtime.prepare.Prepared
-    settings: ir.Settings
-    textures: list[list[ir.Texture]]  # unique layer stacks, top layer first
-    obj_tex: np.ndarray  # (n_obj,) index into textures of each object's texture
-    face_tex: dict[int, np.ndarray]  # object -> (n_faces,) texture index (textured meshes)
-    transmits: np.ndarray  # (n_tex,) bool: pigment may let light through
-    lit: np.ndarray  # (n_tex,) bool: some layer has diffuse/specular/phong
-    back_lit: np.ndarray  # (n_tex,) bool: some layer has diffuse_back
-    bumpy: np.ndarray  # (n_tex,) bool: some layer perturbs the normal
-    double_illuminate: np.ndarray  # (n_obj,) bool
-    ior: np.ndarray  # (n_obj,) interior ior
-    interiors: list[ir.Interior]  # (n_obj,) interior of each object
-    legacy_opacity: bool  # pre-3.7 transparency formula
-    gamma: float | None  # working gamma (None: legacy), for image files
-    background: np.ndarray  # (3,)
-    radiosity: object | None = None  # runtime.radiosity.system.RadiosityResult
-    plain: np.ndarray | None = None  # (n_tex,) bool: shades in the shared batch
-    patterned: np.ndarray | None = None  # (n_tex,) bool: a patterned texture (resolve first)
-    tree: dict[int, ir.Texture] = field(default_factory=dict)  # patterned id -> its texture
-    leaf_id: dict[int, int] = field(default_factory=dict)  # id(texture) -> texture index
-    plain_colour: np.ndarray | None = None  # (n_tex,5) solid colour of plain textures
-    finish_table: FinishTable | None = None
-    media: media.MediaScene | None = None  # participating media (None: the scene has none)
-    kernel: object | None = None  # runtime.whitted.Kernel: the compiled path covers the scene
-    stats: dict[str, int] = field(default_factory=dict)
-
-    @property
-    def tracer(self):
-        return self.prepared.tracer
-
-    @property
-    def scene(self) -> ir.Scene:
-        return self.prepared.scene
-
-    def count(self, key: str, n: int) -> None:
-        # Not locked: the counters are diagnostics, a lost increment between threads is fine.
-        self.stats[key] = self.stats.get(key, 0) + int(n)
-
-    def texture_of(self, obj: np.ndarray, prim: np.ndarray | None) -> np.ndarray:
-        """(N,) texture index of each hit (per-face textures of meshes resolved)."""
-        tex = self.obj_tex[obj]
-        if self.face_tex and prim is not None:
-            for oid, table in self.face_tex.items():
-                rows = np.nonzero((obj == oid) & (prim >= 0))[0]
-                if len(rows):
-                    tex[rows] = table[np.clip(prim[rows], 0, len(table) - 1)]
-        return tex
 
 
 def _solid_key(tex: ir.Texture, finishes: _Finishes) -> tuple | None:
@@ -269,12 +94,8 @@ class _Finishes:
         return None if n < 0 else n
 
 
-def legacy_rules(settings: ir.Settings) -> bool:
-    """A scene before 3.7: POV-Ray's older transparency and sky_sphere rules."""
-    return settings.version is not None and settings.version < 3.7
-
-
 def make_context(prepared) -> Context:
+    """The shading context of a prepared scene (runtime.prepare.Prepared)."""
     scene: ir.Scene = prepared.scene
     objs: list[ir.Object] = prepared.objects
     textures: list[list[ir.Texture]] = []
@@ -415,6 +236,7 @@ def trace(
         if hits is None:
             hits = _empty_like(h, len(alive))
         _scatter_hits(hits, sel, h)
+    assert hits is not None  # the alive rays hold at least one skip code
     hit = hits.obj >= 0
     col = np.zeros((len(alive), 3))
     miss = np.nonzero(~hit)[0]
@@ -492,14 +314,6 @@ def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
     return col + ctx.background * fil
 
 
-def apply_fog(
-    fog: ir.Fog, depth: np.ndarray, col: np.ndarray, origins=None, dirs=None
-) -> np.ndarray:
-    """One fog over the colours `col` seen at `depth` along rays from `origins` in the
-    (unit) directions `dirs`: see apply_fogs."""
-    return apply_fogs((fog,), depth, col, origins, dirs)
-
-
 def apply_fogs(fogs, depth: np.ndarray, col: np.ndarray, origins=None, dirs=None) -> np.ndarray:
     """POV-Ray's ComputeFog: each fog lets att = exp(-depth * density / distance) of what is
     behind it through (at least its transmit), tinted by its filter, and adds (1 - att) of
@@ -525,7 +339,7 @@ def apply_fogs(fogs, depth: np.ndarray, col: np.ndarray, origins=None, dirs=None
 def fog_attenuation(fog: ir.Fog, width: np.ndarray, origins=None, dirs=None) -> np.ndarray:
     """The share of light one fog lets through over `width` along each ray (before its
     transmit floor): POV-Ray's ComputeConstantFogDepth and ComputeGroundFogDepth."""
-    density = 1.0
+    density: float | np.ndarray = 1.0
     have_rays = origins is not None and dirs is not None
     if fog.fog_type == 2 and have_rays and fog.alt != 0:
         up = np.asarray(fog.up, dtype=np.float64)
@@ -676,226 +490,6 @@ class Secondary:
         if bent.any():
             col[bent] = np.power(np.clip(col[bent], 0, None), power[bent, None])
         np.add.at(result, rows, mult * col)
-
-
-@dataclass
-class Hit:
-    """The hits of one wave being shaded (structure of arrays)."""
-
-    obj: np.ndarray  # (N,) object index
-    tex: np.ndarray  # (N,) texture index
-    point: np.ndarray  # (N,3)
-    normal: np.ndarray  # (N,3) turned toward the incoming ray
-    leaving: np.ndarray  # (N,) the ray leaves the object here (outward normal along it)
-    dirs: np.ndarray  # (N,3) incoming ray directions
-    weight: np.ndarray  # (N,) largest possible contribution to the pixel
-    depth: np.ndarray | None = None  # (N,) distance from the ray's origin to the hit
-    prim: np.ndarray | None = None  # (N,) mesh face of each hit (-1: not a mesh)
-
-
-@dataclass
-class LightColours:
-    direction: list[np.ndarray]  # per light (N,3)
-    colour: list[np.ndarray]  # per light (N,3), after attenuation and shadows
-
-
-def light_colours(ctx: Context, hit: Hit) -> LightColours:
-    """Every light as seen from every hit: direction and shadowed colour (once per hit,
-    shared by all texture layers, like POV-Ray's light colour cache)."""
-    dirs_out, cols_out = [], []
-    lit = ctx.lit[hit.tex]
-    origins = _shadow_origins(ctx, hit)
-    # A bumpy normal may face a light the smooth one does not: test those hits too.
-    any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex] | ctx.bumpy[hit.tex]
-    for light in ctx.scene.lights:
-        ls = shading.sample_light(light, hit.point)
-        col = ls.colour
-        facing = np.einsum("ij,ij->i", hit.normal, ls.direction) >= shading.EPSILON
-        need = lit & (facing | any_side)
-        need &= np.abs(col).max(axis=1) > shading.EPSILON
-        col = np.where(need[:, None], col, 0.0)
-        if not light.shadowless:
-            rows = np.nonzero(need)[0]
-            if len(rows):
-                col[rows] *= shadow(
-                    ctx, light, origins[rows], ls.direction[rows], ls.distance[rows]
-                )
-                if ctx.media is not None:
-                    col[rows] *= media.transmittance(
-                        ctx,
-                        origins[rows],
-                        ls.direction[rows],
-                        ls.distance[rows],
-                        light.media_attenuation,
-                    )
-        dirs_out.append(ls.direction)
-        cols_out.append(col)
-    return LightColours(dirs_out, cols_out)
-
-
-def _shadow_origins(ctx: Context, hit: Hit) -> np.ndarray:
-    """Where shadow rays start: the hit points, except on meshes tessellated from curved
-    surfaces, whose points move onto the surface their smooth normals describe."""
-    curved = getattr(ctx.prepared, "curved", None)
-    triangles = ctx.tracer.triangles
-    if curved is None or not curved.any() or hit.prim is None or triangles is None:
-        return hit.point
-    sel = np.nonzero((hit.prim >= 0) & curved[hit.obj])[0]
-    if len(sel) == 0:
-        return hit.point
-    out = hit.point.copy()
-    out[sel] = triangles.terminator_points(
-        hit.obj[sel], hit.prim[sel], hit.point[sel], hit.normal[sel]
-    )
-    return out
-
-
-def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:
-    """(N,3) fraction of the light that reaches the points. Area lights follow POV-Ray's
-    adaptive sampling, vectorised over (point, grid region) pairs: sample a region's four
-    corner sub-lights; split it into quarters (sharing their middle row/column) while its
-    level is below `adaptive` or its corners differ by more than 0.1; a region that is not
-    split contributes the mean of its corners. Each round of splitting is one batch of
-    shadow rays, and no sub-light is traced twice for the same point."""
-    area = light.area
-    if area is None or area.size1 * area.size2 <= 1:
-        return shadow_filter(ctx, points, ldir, ldist)
-    n1, n2 = max(1, area.size1), max(1, area.size2)
-    n = len(points)
-    centres = shading.area_centres(light, points).reshape(n, n1, n2, 3)
-    cache = np.full((n, n1, n2, 3), np.nan)
-    out = np.zeros((n, 3))
-    pt = np.arange(n)
-    u1 = np.zeros(n, dtype=np.int64)
-    v1 = np.zeros(n, dtype=np.int64)
-    u2 = np.full(n, n1 - 1, dtype=np.int64)
-    v2 = np.full(n, n2 - 1, dtype=np.int64)
-    level = np.zeros(n, dtype=np.int64)
-    weight = np.ones(n)
-    while len(pt):
-        corners = ((u1, v1), (u2, v1), (u1, v2), (u2, v2))
-        cp = np.concatenate([pt] * 4)
-        cu = np.concatenate([c[0] for c in corners])
-        cv = np.concatenate([c[1] for c in corners])
-        key = np.unique((cp * n1 + cu) * n2 + cv)
-        kp, rest = np.divmod(key, n1 * n2)
-        ku, kv = np.divmod(rest, n2)
-        todo = np.isnan(cache[kp, ku, kv, 0])
-        kp, ku, kv = kp[todo], ku[todo], kv[todo]
-        if len(kp):
-            f = _sub_light_filter(ctx, light, points[kp], ldir[kp], centres[kp, ku, kv][:, None])
-            cache[kp, ku, kv] = f[:, 0]
-        s = [cache[pt, u, v] for u, v in corners]
-        divisible = (u2 - u1 > 1) | (v2 - v1 > 1)
-        differ = level < area.adaptive
-        for a, b in ((0, 1), (1, 3), (3, 2), (2, 0)):
-            differ = differ | (np.abs(s[a] - s[b]).sum(axis=1) > 0.1)
-        split = divisible & differ
-        leaf = ~split
-        np.add.at(out, pt[leaf], (weight[leaf] / 4.0)[:, None] * (s[0] + s[1] + s[2] + s[3])[leaf])
-        if not split.any():
-            break
-        pt, u1, v1, u2, v2 = pt[split], u1[split], v1[split], u2[split], v2[split]
-        level, weight = level[split] + 1, weight[split] / 4.0
-        mu, mv = (u1 + u2) / 2.0, (v1 + v2) / 2.0
-        lo_u, hi_u = np.floor(mu).astype(np.int64), np.ceil(mu).astype(np.int64)
-        lo_v, hi_v = np.floor(mv).astype(np.int64), np.ceil(mv).astype(np.int64)
-        quads = (
-            (u1, v1, lo_u, lo_v),
-            (hi_u, v1, u2, lo_v),
-            (u1, hi_v, lo_u, v2),
-            (hi_u, hi_v, u2, v2),
-        )
-        u1 = np.concatenate([q[0] for q in quads])
-        v1 = np.concatenate([q[1] for q in quads])
-        u2 = np.concatenate([q[2] for q in quads])
-        v2 = np.concatenate([q[3] for q in quads])
-        pt = np.concatenate([pt] * 4)
-        level = np.concatenate([level] * 4)
-        weight = np.concatenate([weight] * 4)
-    return out
-
-
-def _sub_light_filter(ctx: Context, light: ir.Light, points, ldir, centres) -> np.ndarray:
-    """(N,K,3) shadow filter toward K sub-light positions (N,K,3) per point, one batch."""
-    n, k, _ = centres.shape
-    pts = np.repeat(points, k, axis=0)
-    to = centres.reshape(-1, 3) - pts
-    if light.kind == "parallel" or light.kind == "cylinder":
-        # Parallel and cylinder area lights keep their beam direction; only the start moves.
-        d = np.repeat(ldir, k, axis=0)
-        depth = np.einsum("ij,ij->i", to, d)
-    else:
-        depth = np.linalg.norm(to, axis=1)
-        d = to / np.where(depth > 0, depth, 1.0)[:, None]
-    return shadow_filter(ctx, pts, d, depth).reshape(n, k, 3)
-
-
-def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
-    """(N,3) light let through between the points and the light: 0 behind an opaque
-    object, filter*colour + transmit through each transparent one."""
-    n = len(points)
-    tmax = ldist * (1.0 - 1e-9) - np.minimum(shading.SHADOW_TOLERANCE, 1e-6 * ldist)
-    ctx.count("shadow_rays", n)
-    if not ctx.transmits.any():
-        blocked = ctx.tracer.occluded(points, ldir, tmax)
-        return np.where(blocked[:, None], 0.0, np.ones((n, 3)))
-    mult = np.ones((n, 3))
-    active = np.arange(n)
-    o = points.copy()
-    remaining = tmax.copy()
-    for _ in range(MAX_SHADOW_CROSSINGS):
-        if len(active) == 0:
-            break
-        h = ctx.tracer.closest(o[active], ldir[active], tmax=remaining[active], skip="no_shadow")
-        hit = h.obj >= 0
-        active_hit = active[hit]
-        if len(active_hit) == 0:
-            break
-        pts = h.point[hit]
-        objs = h.obj[hit]
-        rd = ldir[active_hit]
-        tex = ctx.texture_of(objs, h.prim[hit] if h.prim is not None else None)
-        f = np.zeros((len(active_hit), 3))
-        resolved = resolve_textures(ctx, tex, pts)
-        if resolved is None:
-            src, leaf, share = np.arange(len(tex)), tex, np.ones(len(tex))
-        else:
-            src, leaf, share = resolved
-        for tid in np.unique(leaf):
-            if not ctx.transmits[tid]:
-                continue  # opaque: the light is blocked
-            sel_e = np.nonzero(leaf == tid)[0]
-            sel = src[sel_e]
-            t = np.ones((len(sel), 3))
-            caustics = np.array([ctx.interiors[int(o)].caustics for o in objs[sel]])
-            # The surface normal turned against the shadow ray, for faked caustics.
-            nrm = h.normal[hit][sel]
-            nrm = np.where((np.einsum("ij,ij->i", nrm, rd[sel]) > 0)[:, None], -nrm, nrm)
-            for layer in ctx.textures[tid]:
-                t *= shading.rgb_transmit(patterns.evaluate(layer.pigment, pts[sel], ctx.gamma))
-                if (caustics != 0).any():
-                    ln = nrm
-                    if layer.normal is not None:
-                        ln = patterns.perturb_normal(layer.normal, pts[sel], nrm)
-                    cdot = np.abs(np.einsum("ij,ij->i", ln, rd[sel]))
-                    # POV-Ray stores `caustics c` as the exponent 45 c.
-                    k = np.where(
-                        caustics != 0, 1.0 + np.power(cdot, CAUSTICS_SCALE * caustics), 1.0
-                    )
-                    t *= k[:, None]
-            np.add.at(f, sel, share[sel_e, None] * t)
-        # Light that crossed an object's inside fades with the distance it travelled there.
-        leaving = np.einsum("ij,ij->i", h.normal[hit], rd) > 0
-        f *= interior_fade(ctx, objs, h.t[hit], leaving)
-        mult[active_hit] *= f
-        o[active_hit] = pts
-        remaining[active_hit] -= h.t[hit]
-        keep = np.abs(mult[active_hit]).max(axis=1) > shading.EPSILON
-        active = active_hit[keep]
-    else:
-        mult[active] = 0.0
-    return mult
 
 
 def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondary, level):
@@ -1060,30 +654,11 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary) -> Non
     secondary.add(rows, out_dir, mult, w, level[rows], straight, skip[rows])
 
 
-def interior_fade(ctx: Context, obj: np.ndarray, depth: np.ndarray, inside: np.ndarray):
-    """(N,3) POV-Ray's interior attenuation of light that travelled `depth` inside the
-    object (only where `inside`): fade_colour + (1 - fade_colour) / (1 + (d/fade_distance)
-    ^ fade_power), or exp(-(1 - fade_colour) d / fade_distance) for fade_power >= 1000."""
-    out = np.ones((len(obj), 3))
-    for oid in np.unique(obj[inside]):
-        it = ctx.interiors[int(oid)]
-        if it.fade_power <= 0 or abs(it.fade_distance) <= shading.EPSILON:
-            continue
-        rows = np.nonzero(inside & (obj == oid))[0]
-        fc = np.asarray(it.fade_color, dtype=np.float64)
-        d = depth[rows] / it.fade_distance
-        if it.fade_power >= 1000:
-            out[rows] = np.exp(-(1.0 - fc) * d[:, None])
-        else:
-            att = 1.0 + np.power(np.abs(d), it.fade_power)
-            out[rows] = fc + (1.0 - fc) / att[:, None]
-    return out
-
-
 def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.ndarray:
     """With radiosity, POV-Ray 3.7 replaces the ambient term by the gathered indirect light
     times the surface's diffuse reflectance (`ambient` still counts in pre-3.7 scenes):
     pigment * (diffuse * G + emission) * opacity."""
+    assert ctx.radiosity is not None  # called only when the scene's radiosity is solved
     g = np.zeros((len(rows), 3))
     objs = hit.obj[rows]
     for oid in np.unique(objs):

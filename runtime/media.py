@@ -15,6 +15,9 @@ the media on its way; lights with `media_interaction off` are left out). The pha
 functions are POV-Ray's (isotropic 1, Mie haze and murky, Rayleigh, Henyey-Greenstein),
 not normalised, averaged over the media of the region. The samples are not POV-Ray's random
 sequence; their expected value is the same integral.
+
+Light reaching a sample comes through runtime.lights (shadow rays), which reaches back here
+only through the context: `ctx.media.transmittance` dims light by the media on its way.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import numpy as np
 
 from lang import ir
 from runtime import patterns, shading
+from runtime.lights import shadow
 
 # Rays that hit nothing cross this much atmosphere (POV-Ray's MAX_DISTANCE).
 MAX_DISTANCE: float = 1.0e7
@@ -63,6 +67,27 @@ class MediaScene:
     @property
     def active(self) -> bool:
         return bool(self.regions) or self.atmosphere is not None
+
+    def transmittance(self, ctx, points, dirs, dist, atmosphere: bool = True) -> np.ndarray:
+        """(N,3) share of light let through by the media between points and points + dist*dirs:
+        the media of objects always (as POV-Ray's shadow rays), the atmosphere's only when
+        `atmosphere` (the light's media_attenuation)."""
+        n = len(points)
+        tau = np.zeros((n, 3))
+        t_end = np.minimum(dist, MAX_DISTANCE)
+        rng = _rng(dirs)
+        allowed = np.ones(n, dtype=bool)
+        regions = _all_regions(self) if atmosphere else self.regions
+        for region in regions:
+            s = _samples(region, points, dirs, t_end, allowed, _count(region, True), rng)
+            if s is None:
+                continue
+            r, t, ds = s
+            p = points[r] + t[:, None] * dirs[r]
+            ext, _, _ = coefficients(region, p, ctx.gamma)
+            for ch in range(3):
+                tau[:, ch] += np.bincount(r, ext[:, ch] * ds, minlength=n)
+        return np.exp(-tau)
 
 
 def build(prepared) -> MediaScene | None:
@@ -146,29 +171,6 @@ def _count(region: Region, shadow: bool) -> int:
     return region.samples
 
 
-def transmittance(ctx, points, dirs, dist, atmosphere: bool = True) -> np.ndarray:
-    """(N,3) share of light let through by the media between points and points + dist*dirs:
-    the media of objects always (as POV-Ray's shadow rays), the atmosphere's only when
-    `atmosphere` (the light's media_attenuation)."""
-    ms: MediaScene = ctx.media
-    n = len(points)
-    tau = np.zeros((n, 3))
-    t_end = np.minimum(dist, MAX_DISTANCE)
-    rng = _rng(dirs)
-    allowed = np.ones(n, dtype=bool)
-    regions = _all_regions(ms) if atmosphere else ms.regions
-    for region in regions:
-        s = _samples(region, points, dirs, t_end, allowed, _count(region, True), rng)
-        if s is None:
-            continue
-        r, t, ds = s
-        p = points[r] + t[:, None] * dirs[r]
-        ext, _, _ = coefficients(region, p, ctx.gamma)
-        for ch in range(3):
-            tau[:, ch] += np.bincount(r, ext[:, ch] * ds, minlength=n)
-    return np.exp(-tau)
-
-
 def _all_regions(ms: MediaScene) -> list[Region]:
     return [*ms.regions, *([ms.atmosphere] if ms.atmosphere is not None else [])]
 
@@ -176,8 +178,6 @@ def _all_regions(ms: MediaScene) -> list[Region]:
 def _in_scattered(ctx, region: Region, p, ray_dir, scat) -> np.ndarray:
     """(M,3) light from the lights scattered toward the viewer at points p (per unit
     scattering coefficient times scat)."""
-    from runtime.integrate import shadow
-
     out = np.zeros((len(p), 3))
     rows = np.nonzero(np.abs(scat).max(axis=1) > 0)[0]
     if not len(rows):
@@ -195,11 +195,11 @@ def _in_scattered(ctx, region: Region, p, ray_dir, scat) -> np.ndarray:
         col = col[lit]
         if not light.shadowless:
             col = col * shadow(ctx, light, pts[lit], ls.direction[lit], ls.distance[lit])
-            col = col * transmittance(
+            col = col * ctx.media.transmittance(
                 ctx, pts[lit], ls.direction[lit], ls.distance[lit], light.media_attenuation
             )
         alpha = np.einsum("ij,ij->i", ls.direction[lit], rd[lit])
-        k = sum(phase(m, alpha) for m in region.media) / len(region.media)
+        k = np.asarray(sum(phase(m, alpha) for m in region.media) / len(region.media))
         acc[lit] += k[:, None] * col
     out[rows] = acc * scat[rows]
     return out

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from math import comb
+from typing import Literal
 
 import numpy as np
 
@@ -147,7 +148,7 @@ class KnotVector:
         non-empty span at the domain end); parameters outside the domain are clamped. With
         `left`, knots[s] < u <= knots[s+1] instead: the left-hand limit at a knot (the start
         of the domain keeps the first span)."""
-        side = "left" if left else "right"
+        side: Literal["left", "right"] = "left" if left else "right"
         k = np.searchsorted(self.starts, u, side=side) - 1
         return self.spans[np.clip(k, 0, len(self.spans) - 1)]
 

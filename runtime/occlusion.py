@@ -65,9 +65,9 @@ class Occluders:
             n, off = plane
             side = [float(np.dot(n, o)) - off for o in origins]
             if min(side) > _margin(origins, off) and _lights_inside(scene.lights, n, off):
-                self.planes.append((tuple(float(v) for v in n), off))
+                self.planes.append(((float(n[0]), float(n[1]), float(n[2])), off))
             elif max(side) < -_margin(origins, off) and _lights_inside(scene.lights, -n, -off):
-                self.planes.append((tuple(float(-v) for v in n), -off))
+                self.planes.append(((float(-n[0]), float(-n[1]), float(-n[2])), -off))
 
     def __bool__(self) -> bool:
         return bool(self.planes)

@@ -37,6 +37,7 @@ from functools import cache, lru_cache
 import numpy as np
 
 from lang import ir
+from runtime import transform as tf
 from runtime.density import density_file
 from runtime.noise import (
     DEFAULT_GENERATOR,
@@ -125,17 +126,8 @@ def _warn(msg: str, span=None) -> None:
         print(f"{span if span is not None else 'strala'}: warning: {msg}")
 
 
-@lru_cache(maxsize=4096)
-def _inverse(m: ir.Matrix) -> np.ndarray | None:
-    """Inverse of a pattern transform (None for the identity, the common case)."""
-    a = np.asarray(m, dtype=np.float64)
-    if np.array_equal(a, np.eye(4)):
-        return None
-    return np.linalg.inv(a)
-
-
 def _untransform(m: ir.Matrix, points: np.ndarray) -> np.ndarray:
-    inv = _inverse(m)
+    inv = tf.cached_inverse(m)
     if inv is None:
         return points
     return points @ inv[:3, :3].T + inv[:3, 3]
@@ -161,7 +153,7 @@ def pattern_linear(pigment: ir.Pigment | ir.Normal) -> np.ndarray | None:
     mats = [pigment.transform, *(before for _, before in pigment.params.get("warps", ()))]
     out = None
     for m in mats:
-        if _inverse(m) is None:
+        if tf.cached_inverse(m) is None:
             continue
         lin = np.asarray(m, dtype=np.float64)[:3, :3]
         out = lin if out is None else lin @ out
@@ -201,7 +193,7 @@ def warp_points(w: dict, p: np.ndarray) -> np.ndarray:
 
 
 @lru_cache(maxsize=1)
-def _warp_rands() -> np.ndarray:
+def warp_rands() -> np.ndarray:
     """POV-Ray's WarpRands: 32768 doubles in [0, 1) from a default-seeded (5489) 32-bit
     Mersenne Twister, one draw each divided by 2^32 (boost's uniform_real)."""
     raw = np.random.RandomState(5489).randint(0, 2**32, size=32768, dtype=np.uint32)
@@ -223,7 +215,7 @@ def _black_hole(w: dict, p: np.ndarray) -> np.ndarray:
         if w.get("turbulence") is not None:
             jitter = _vec(w.get("turbulence"), 0.0)
             seed = hash3d(block[:, 0], block[:, 1], block[:, 2])
-            rands = _warp_rands()
+            rands = warp_rands()
             for i in range(3):
                 centre[:, i] += rands[(seed + i) % len(rands)] * jitter[i]
         centre += rep * block
@@ -261,7 +253,7 @@ def _repeat(w: dict, p: np.ndarray) -> np.ndarray:
     return q + block[:, None] * offset
 
 
-def _turn(theta: np.ndarray, x: np.ndarray, z: np.ndarray, length: np.ndarray) -> np.ndarray:
+def _turn(theta: np.ndarray | None, x: np.ndarray, z: np.ndarray, length: np.ndarray) -> np.ndarray:
     """POV-Ray's angle of (x, z) from +x toward +z as a fraction of a turn, from acos."""
     with np.errstate(invalid="ignore", divide="ignore"):
         a = np.arccos(np.clip(x / np.where(length > 0, length, 1.0), -1.0, 1.0))
@@ -385,13 +377,13 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
         # the point after the average's own warps (POV-Ray averages at the warped point; the
         # entries already carry the average's transforms, so only the warps are added).
         at = points
-        if pigment.params.get("warps") or _turb_params(pigment.params)[0] is not None:
+        if pigment.params.get("warps") or turb_params(pigment.params)[0] is not None:
             full = np.asarray(pigment.transform, dtype=np.float64)
             for _, before in pigment.params.get("warps", ()):
                 full = full @ np.asarray(before, dtype=np.float64)
             at = p @ full[:3, :3].T + full[:3, 3]
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
-        return sum(w * evaluate(q, at, gamma) for w, q in pigment.pigment_map) / total
+        return np.asarray(sum(w * evaluate(q, at, gamma) for w, q in pigment.pigment_map) / total)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
@@ -454,9 +446,13 @@ def object_pattern(p: np.ndarray, params: dict) -> np.ndarray:
     obj = params.get("object")
     if obj is None:
         return np.zeros(len(p), dtype=np.int64)
-    from runtime.prepare import inside_points
+    # Lazily, both: the object's isosurfaces compile their functions with runtime.functions
+    # (the circle the language makes: a function may hold a pigment), handed to the inside
+    # test so that runtime.inside and the primitives never import the function compiler.
+    from runtime.functions import compile_xyz
+    from runtime.inside import inside_points
 
-    return inside_points(obj, p).astype(np.int64)
+    return inside_points(obj, p, compile_xyz).astype(np.int64)
 
 
 LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick, "object": object_pattern}
@@ -625,7 +621,9 @@ def _generator(params: dict) -> int:
     return int(params.get("noise_generator", DEFAULT_GENERATOR) or DEFAULT_GENERATOR)
 
 
-def _turb_params(params: dict) -> tuple[np.ndarray | None, int, float, float]:
+def turb_params(params: dict) -> tuple[np.ndarray | None, int, float, float]:
+    """A pattern's turbulence (vector or None), octaves, omega and lambda, with POV-Ray's
+    defaults (read by the compiled path too: runtime.whitted)."""
     t = params.get("turbulence")
     octaves = int(params.get("octaves", 6))
     omega = float(params.get("omega", 0.5))
@@ -640,14 +638,14 @@ def _turb_params(params: dict) -> tuple[np.ndarray | None, int, float, float]:
 
 def turbulence_warp(p: np.ndarray, params: dict) -> np.ndarray:
     """The classic `turbulence` warp: displace the point by turbulence * DTurbulence(p)."""
-    vec, octaves, omega, lam = _turb_params(params)
+    vec, octaves, omega, lam = turb_params(params)
     if vec is None:
         return p
     return p + dturbulence(p, octaves, omega, lam) * vec
 
 
 def _builtin_turb(p: np.ndarray, params: dict, axis: int) -> np.ndarray | float:
-    vec, octaves, omega, lam = _turb_params(params)
+    vec, octaves, omega, lam = turb_params(params)
     if vec is None:
         return 0.0
     return vec[axis] * turbulence(p, octaves, omega, lam, _generator(params))
@@ -695,7 +693,7 @@ def wood(p: np.ndarray, params: dict) -> np.ndarray:
     rings the way POV-Ray's wood does: x += sin(2 pi (x + DTurbulence.x) turbulence.x),
     the same for y."""
     x, y = p[:, 0], p[:, 1]
-    vec, octaves, omega, lam = _turb_params(params)
+    vec, octaves, omega, lam = turb_params(params)
     if vec is not None:
         d = dturbulence(p, octaves, omega, lam)
         x = x + _cycloidal((x + d[:, 0]) * vec[0])
@@ -778,7 +776,7 @@ def agate(p: np.ndarray, params: dict) -> np.ndarray:
     """0.5 (1 + sin(2 pi (1.3 agate_turb turbulence + 1.1 z)))^0.77; the turbulence uses
     the pattern's octaves/omega/lambda (6, 0.5, 2 unless given)."""
     turb = float(params.get("agate_turb", 1.0))
-    _, octaves, omega, lam = _turb_params(params)
+    _, octaves, omega, lam = turb_params(params)
     t = turb * turbulence(p, octaves, omega, lam, _generator(params))
     value = 0.5 * (_cycloidal(1.3 * t + 1.1 * p[:, 2]) + 1.0)
     return np.clip(value, 0.0, 1.0) ** 0.77

@@ -3,22 +3,29 @@
 Unions flatten into their leaves (each child already carries its full world transform and
 resolved texture); intersection / difference / merge become CSG nodes over leaves; all
 triangle geometry goes into one Embree-backed TriangleSet, built only when there is some.
+
+Also owned here: `Tessellator` (NURBS, subdivision and height fields to meshes at a
+tolerance from the camera; runtime.export uses it too), `Culler` (what the view cannot
+show or shadow) and the texture predicates `texture_reflects` / `texture_transparent`.
+An object's inside test (clipped_by) is runtime.inside's.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import sys
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
 from lang import ir
-from runtime import shapes
+from runtime import prims, shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
+from runtime.functions import compile_xyz
+from runtime.inside import inside_node, object_matrix, singular, warn_once
 from runtime.occlusion import Occluders, lets_light_through
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
@@ -43,12 +50,12 @@ class Prepared:
     @functools.cached_property
     def has_reflection(self) -> bool:
         """Some finish reflects (reflection max or min > 0)."""
-        return any(_reflects(t) for o in self.objects for t in _textures(o))
+        return any(texture_reflects(t) for o in self.objects for t in _textures(o))
 
     @functools.cached_property
     def has_refraction(self) -> bool:
         """Some pigment colour lets light through (filter or transmit > 0)."""
-        return any(_texture_transparent(t) for o in self.objects for t in _textures(o))
+        return any(texture_transparent(t) for o in self.objects for t in _textures(o))
 
 
 # Shapes prepare turns into meshes before tracing (absent from older IR versions).
@@ -67,30 +74,84 @@ _TESSELLATED = tuple(
 _PLAIN = (ir.Sphere, ir.Box)
 
 
-def inside_test(obj: ir.Object):
-    """A node whose `inside(points)` is POV-Ray's inside test of obj (for the object
-    pattern), or None when the shape has no inside."""
-    return _Builder(ir.Camera(), 1).clip_node(obj)
+class Tessellator:
+    """Turns NURBS, subdivision and height-field shapes into meshes, at a chord tolerance
+    picked from the camera (half a pixel at the control net's nearest point) when the shape
+    sets none: what prepare does for the tracer, and runtime.export for a mesh file."""
 
+    def __init__(self, camera: ir.Camera, width: int, warnings: list[str] | None = None):
+        self.camera = camera
+        self.width = max(int(width), 1)
+        self.warnings: list[str] = [] if warnings is None else warnings
+        self.curved_ids: set[int] = set()  # id() of the meshes tessellated from curved shapes
 
-_INSIDE_TESTS: dict[int, tuple[ir.Object, object]] = {}
+    def warn_once(self, msg: str, span=None) -> None:
+        """One line per distinct problem, on stderr, blaming the object's source when known."""
+        warn_once(self.warnings, msg, span)
 
+    def tessellate(self, obj: ir.Object) -> ir.Mesh | None:
+        """NURBS and subdivision shapes become indexed triangle meshes (their own modules do
+        the work; this only picks the tolerance and reports failures as warnings)."""
+        shape = obj.shape
+        name = type(shape).__name__
+        try:
+            if isinstance(shape, ir.HeightField):
+                from runtime.heightfield import height_field_mesh
 
-def inside_points(obj: ir.Object, points: np.ndarray) -> np.ndarray:
-    """(N,) bool: which points are inside obj (a shape without an inside, such as a mesh,
-    has none). The test is built once per object (the object pattern, inside())."""
-    hit = _INSIDE_TESTS.get(id(obj))
-    if hit is None:
-        hit = _INSIDE_TESTS[id(obj)] = (obj, inside_test(obj))  # obj kept: its id stays unique
-    if hit[1] is None:
-        return np.zeros(len(points), dtype=bool)
-    return np.asarray(hit[1].inside(np.ascontiguousarray(points, dtype=np.float64)), dtype=bool)
+                return height_field_mesh(shape)
+            if isinstance(shape, ir.Nurbs):
+                from runtime.tessellate import nurbs_mesh
+
+                tolerance = shape.tolerance or self.auto_tolerance(obj)
+                verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
+            else:
+                if not isinstance(shape, ir.Subdivision):
+                    raise TypeError(f"{name} is not a tessellated shape")
+                from runtime.subdivide import levels_for_tolerance, subdivision_mesh
+
+                levels = shape.levels
+                if shape.adaptive:  # half a pixel from the camera; `levels` caps it
+                    tolerance = self.auto_tolerance(obj)
+                    if shape.tolerance:
+                        tolerance = min(tolerance, shape.tolerance)
+                    cap = MAX_ADAPTIVE_LEVELS if levels is None else levels
+                    levels = levels_for_tolerance(shape, tolerance, cap)
+                elif levels is None:  # `tolerance`, else half a pixel from the camera
+                    tolerance = shape.tolerance or self.auto_tolerance(obj)
+                    levels = levels_for_tolerance(shape, tolerance)
+                verts, faces, normals = subdivision_mesh(shape, levels)
+                uvs = None
+        except Exception as exc:  # noqa: BLE001 - a broken surface must not stop the render
+            self.warn_once(f"{name.lower()} could not be tessellated ({exc}); skipped", obj.span)
+            return None
+        mesh = ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
+        self.curved_ids.add(id(mesh))
+        return mesh
+
+    def auto_tolerance(self, obj: ir.Object) -> float:
+        """Chord-error bound from the camera: half a pixel at the control net's nearest
+        distance from the eye (in world units)."""
+        cam = self.camera
+        shape = obj.shape
+        if not isinstance(shape, ir.Nurbs | ir.Subdivision):
+            raise TypeError(f"a {type(shape).__name__} has no control net")
+        pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(shape.points, float))
+        dist = float(np.min(np.linalg.norm(pts - np.asarray(cam.location), axis=1)))
+        right = float(np.linalg.norm(cam.right))
+        if cam.kind == "orthographic":
+            return max(tol.AUTO_TESSELLATION_PIXELS * right / self.width, tol.ABS_FLOOR)
+        pixel = right / float(np.linalg.norm(cam.direction)) / self.width
+        extent = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+        return max(
+            tol.AUTO_TESSELLATION_PIXELS * pixel * dist,
+            tol.TESSELLATION_REL * max(extent, tol.ABS_FLOOR),
+        )
 
 
 class _Builder:
+    """Walks a scene's objects into the tracer's nodes and leaves (see `prepare`)."""
+
     def __init__(self, camera: ir.Camera, width: int) -> None:
-        self.camera = camera
-        self.width = max(int(width), 1)
         self.objects: list[ir.Object] = []
         self.flags: dict[str, list[bool]] = {k: [] for k in FLAG_NAMES}
         self.sizes: list[float] = []
@@ -99,18 +160,16 @@ class _Builder:
         self.warnings: list[str] = []
         self.culled: list[str] = []
         self.curved: list[bool] = []
-        self.curved_ids: set[int] = set()  # id() of the meshes tessellated from curved shapes
-        self.cull: _Culler | None = None
+        self.tessellator = Tessellator(camera, width, self.warnings)
+        self.curved_ids = self.tessellator.curved_ids  # id() of the meshes from curved shapes
+        self.cull: Culler | None = None
         self.occluders: Occluders | None = None  # planes walling objects off (culling on)
         # plain spheres waiting for their leaves: (node slot, object index, centre, radius)
         self.spheres: list[tuple[int, int, tuple, float]] = []
 
     def warn_once(self, msg: str, span=None) -> None:
         """One line per distinct problem, on stderr, blaming the object's source when known."""
-        if msg not in self.warnings:
-            self.warnings.append(msg)
-            where = f"{span}" if span is not None else "strala"
-            print(f"{where}: warning: {msg}", file=sys.stderr)
+        warn_once(self.warnings, msg, span)
 
     def add_leaf_object(self, obj: ir.Object, flags: dict[str, bool]) -> int:
         """obj's index among the leaves; `flags` are its own and inherited ones, merged."""
@@ -160,7 +219,7 @@ class _Builder:
 
     def hidden(self, obj: ir.Object, no_shadow: bool) -> bool:
         """Is obj walled off by a plane (runtime.occlusion), or outside the view where
-        nothing can show or shadow it (_Culler)? Asked of the shapes whose bounds come
+        nothing can show or shadow it (Culler)? Asked of the shapes whose bounds come
         cheaply: untransformed boxes, and surfaces held by their control points (whose
         tessellation culling saves most)."""
         if not (self.occluders or (self.cull is not None and self.cull.enabled)):
@@ -188,15 +247,15 @@ class _Builder:
             self.culled.append(type(shape).__name__.lower())
             return
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
-            mesh = self.tessellate(obj)
+            mesh = self.tessellator.tessellate(obj)
             if mesh is None:
                 return
             obj = dataclasses.replace(obj, shape=mesh)
             shape = mesh
         if isinstance(shape, ir.Mesh | ir.Triangle):
-            if _singular(obj):
+            if singular(obj):
                 self.warn_once(
-                    f"a {type(shape).__name__.lower()} is skipped: {_singular(obj)}", obj.span
+                    f"a {type(shape).__name__.lower()} is skipped: {singular(obj)}", obj.span
                 )
                 return
             if obj.clipped_by:
@@ -242,7 +301,7 @@ class _Builder:
                 return None
             return self.clipped(obj, CsgNode(shape.op, children, inverse=obj.inverse))
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
-            mesh = self.tessellate(obj)
+            mesh = self.tessellator.tessellate(obj)
             if mesh is None:
                 return None
             obj = dataclasses.replace(obj, shape=mesh)
@@ -256,14 +315,14 @@ class _Builder:
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
             return None
-        why = shapes.degenerate(shape) or _singular(obj)
+        why = shapes.degenerate(shape) or singular(obj)
         if why:
             self.warn_once(
                 f"a degenerate {type(shape).__name__.lower()} is skipped: {why}", obj.span
             )
             return None
         try:
-            prim = shapes.primitive_for(shape)
+            prim = prims.primitive_for(shape, compile_xyz)
         except ValueError as exc:  # unreadable data behind a shape (a broken font file)
             self.warn_once(f"{type(shape).__name__.lower()} skipped: {exc}", obj.span)
             return None
@@ -271,7 +330,7 @@ class _Builder:
             self.warn_once(f"shape {type(shape).__name__} is not supported by the tracer", obj.span)
             return None
         index = self.add_leaf_object(obj, flags)
-        leaf = Leaf(prim, _matrix(obj), index, inverse=obj.inverse)
+        leaf = Leaf(prim, object_matrix(obj), index, inverse=obj.inverse)
         self.sizes[index] = leaf.size
         return self.clipped(obj, leaf)
 
@@ -279,7 +338,10 @@ class _Builder:
         """One object whose surface is the merge of spheres and tangent cones."""
         from runtime.sphere_sweep import pieces
 
-        parts = pieces(obj.shape)
+        shape = obj.shape
+        if not isinstance(shape, ir.SphereSweep):
+            return None
+        parts = pieces(shape)
         if not parts:
             self.warn_once("a sphere_sweep with no positive radius is skipped", obj.span)
             return None
@@ -298,68 +360,7 @@ class _Builder:
         return ClipNode(node, clips) if clips else node
 
     def clip_node(self, obj: ir.Object):
-        shape = obj.shape
-        if isinstance(shape, ir.CSG):
-            kids = [c for c in (self.clip_node(ch) for ch in shape.children) if c is not None]
-            return CsgNode(shape.op, kids, inverse=obj.inverse) if kids else None
-        prim = None if shapes.degenerate(shape) or _singular(obj) else shapes.primitive_for(shape)
-        if prim is None or isinstance(shape, ir.Triangle | ir.Polygon):
-            self.warn_once(f"clipped_by {type(shape).__name__} has no inside: ignored", obj.span)
-            return None
-        return Leaf(prim, _matrix(obj), -1, inverse=obj.inverse)
-
-    def tessellate(self, obj: ir.Object) -> ir.Mesh | None:
-        """NURBS and subdivision shapes become indexed triangle meshes (their own modules do
-        the work; this only picks the tolerance and reports failures as warnings)."""
-        shape = obj.shape
-        name = type(shape).__name__
-        try:
-            if name == "HeightField":
-                from runtime.heightfield import height_field_mesh
-
-                return height_field_mesh(shape)
-            if name == "Nurbs":
-                from runtime.tessellate import nurbs_mesh
-
-                tolerance = shape.tolerance or self.auto_tolerance(obj)
-                verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
-            else:
-                from runtime.subdivide import levels_for_tolerance, subdivision_mesh
-
-                levels = shape.levels
-                if shape.adaptive:  # half a pixel from the camera; `levels` caps it
-                    tolerance = self.auto_tolerance(obj)
-                    if shape.tolerance:
-                        tolerance = min(tolerance, shape.tolerance)
-                    cap = MAX_ADAPTIVE_LEVELS if levels is None else levels
-                    levels = levels_for_tolerance(shape, tolerance, cap)
-                elif levels is None:  # `tolerance`, else half a pixel from the camera
-                    tolerance = shape.tolerance or self.auto_tolerance(obj)
-                    levels = levels_for_tolerance(shape, tolerance)
-                verts, faces, normals = subdivision_mesh(shape, levels)
-                uvs = None
-        except Exception as exc:  # noqa: BLE001 - a broken surface must not stop the render
-            self.warn_once(f"{name.lower()} could not be tessellated ({exc}); skipped", obj.span)
-            return None
-        mesh = ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
-        self.curved_ids.add(id(mesh))
-        return mesh
-
-    def auto_tolerance(self, obj: ir.Object) -> float:
-        """Chord-error bound from the camera: half a pixel at the control net's nearest
-        distance from the eye (in world units)."""
-        cam = self.camera
-        pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(obj.shape.points, float))
-        dist = float(np.min(np.linalg.norm(pts - np.asarray(cam.location), axis=1)))
-        right = float(np.linalg.norm(cam.right))
-        if cam.kind == "orthographic":
-            return max(tol.AUTO_TESSELLATION_PIXELS * right / self.width, tol.ABS_FLOOR)
-        pixel = right / float(np.linalg.norm(cam.direction)) / self.width
-        extent = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-        return max(
-            tol.AUTO_TESSELLATION_PIXELS * pixel * dist,
-            tol.TESSELLATION_REL * max(extent, tol.ABS_FLOOR),
-        )
+        return inside_node(obj, self.warn_once, compile_xyz)
 
 
 def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prepared:
@@ -369,7 +370,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     A light's `looks_like` object is taken as modelled around the origin (as written in
     POV-Ray) and is moved to the light's position here, with `no_shadow`."""
     b = _Builder(scene.camera, width)
-    b.cull = _Culler(scene, width, height) if cull else None
+    b.cull = Culler(scene, width, height) if cull else None
     b.occluders = Occluders(scene, width, height) if cull else None
     for obj in scene.objects:
         if not b.plain_sphere(obj):
@@ -381,7 +382,8 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
             # lets the light shine through it: it casts no shadows.
             shape_obj = light.looks_like
             moved = tf.translation(light.position) @ tf.as_matrix(shape_obj.transform)
-            matrix = tuple(tuple(float(x) for x in row) for row in moved)
+            # four rows of four: a length the type of a comprehension cannot say
+            matrix = cast(ir.Matrix, tuple(tuple(float(x) for x in row) for row in moved))
             b.top(dataclasses.replace(shape_obj, transform=matrix, no_shadow=True), _NO_FLAGS)
     triangles = None
     if b.triangle_leaves:
@@ -405,7 +407,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     )
 
 
-class _Culler:
+class Culler:
     """Decides that a surface needs no tessellation because it cannot show in the image.
 
     Only where that is provable: nothing in the scene reflects or refracts, there is no
@@ -437,7 +439,7 @@ class _Culler:
             for t in _textures(o):
                 if id(t) not in seen:
                     seen.add(id(t))
-                    if _reflects(t) or _texture_transparent(t) or lets_light_through(t):
+                    if texture_reflects(t) or texture_transparent(t) or lets_light_through(t):
                         return False
         return True
 
@@ -479,12 +481,14 @@ class _Culler:
     def hull(obj: ir.Object) -> np.ndarray | None:
         """World points whose convex hull holds the surface, or None when there are none."""
         shape = obj.shape
-        if type(shape).__name__ == "HeightField":  # inside the unit cube
+        if isinstance(shape, ir.HeightField):  # inside the unit cube
             cube = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
             return tf.apply_points(tf.as_matrix(obj.transform), cube)
-        if type(shape).__name__ == "Nurbs":
+        if isinstance(shape, ir.Nurbs):
             if min(shape.weights, default=1.0) <= 0:
                 return None
+        elif not isinstance(shape, ir.Subdivision):
+            return None  # not a surface held by control points
         elif shape.scheme == "four_point" or (shape.scheme == "midpoint" and shape.m < 2):
             return None  # interpolating / negative-weight rules may leave the hull
         pts = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(shape.points, float))
@@ -518,22 +522,7 @@ def _bounding_points(obj: ir.Object) -> np.ndarray | None:
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         return np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)])
     if _TESSELLATED and isinstance(shape, _TESSELLATED):
-        return _Culler.hull(obj)
-    return None
-
-
-def _matrix(obj: ir.Object) -> np.ndarray | None:
-    """The object's transform as a matrix, None for the identity (a Leaf's fast path)."""
-    return None if obj.transform == ir.IDENTITY else tf.as_matrix(obj.transform)
-
-
-def _singular(obj: ir.Object) -> str | None:
-    """A transform that flattens the object (scale 0) cannot be inverted: say so."""
-    if obj.transform == ir.IDENTITY:  # most objects; no numpy for them (1000s of spheres)
-        return None
-    m = tf.as_matrix(obj.transform)
-    if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) == 0:
-        return "its transform is singular (a zero scale?)"
+        return Culler.hull(obj)
     return None
 
 
@@ -553,17 +542,21 @@ def _textures(obj: ir.Object) -> list[ir.Texture]:
     return [obj.texture, *extra]
 
 
-def _reflects(tex: ir.Texture) -> bool:
+def texture_reflects(tex: ir.Texture) -> bool:
+    """Does some layer or map entry of the texture reflect (reflection max or min > 0)?"""
     if max(tex.finish.reflection.max) > 0 or max(tex.finish.reflection.min) > 0:
         return True
-    return any(_reflects(t) for t in tex.layers) or any(_reflects(t) for _, t in tex.map)
+    return any(texture_reflects(t) for t in tex.layers) or any(
+        texture_reflects(t) for _, t in tex.map
+    )
 
 
-def _texture_transparent(tex: ir.Texture) -> bool:
+def texture_transparent(tex: ir.Texture) -> bool:
+    """Does some pigment colour of the texture let light through (filter or transmit > 0)?"""
     return (
         _pigment_transparent(tex.pigment)
-        or any(_texture_transparent(t) for t in tex.layers)
-        or any(_texture_transparent(t) for _, t in tex.map)
+        or any(texture_transparent(t) for t in tex.layers)
+        or any(texture_transparent(t) for _, t in tex.map)
     )
 
 

@@ -1,5 +1,6 @@
 """The renderer's answers to the evaluator's geometry questions (lang.queries): `trace()`
-and `inside()` on one object, with the tracer the render itself uses."""
+on one object with the tracer the render itself uses (runtime.prepare), `inside()` with
+its inside test (runtime.inside)."""
 
 from __future__ import annotations
 
@@ -29,9 +30,10 @@ class RuntimeQueries:
         return point, normal
 
     def inside(self, obj: ir.Object, point: ir.Vec3) -> bool:
-        from runtime.prepare import inside_points
+        from runtime.functions import compile_xyz
+        from runtime.inside import inside_points
 
-        return bool(inside_points(obj, np.asarray([point], dtype=np.float64))[0])
+        return bool(inside_points(obj, np.asarray([point], dtype=np.float64), compile_xyz)[0])
 
     def _tracer(self, obj: ir.Object):
         from runtime.prepare import prepare

@@ -20,6 +20,7 @@ import numpy as np
 from lang import ir
 from runtime import antialias, integrate
 from runtime.camera import FocalBlur, blur_rounds, blur_thresholds, camera_rays, has_focal_blur
+from runtime.context import Context
 
 # ~16k camera rays per batch: numpy work large enough to release the GIL, so two threads
 # overlap (Ex3 1280x960: 0.97 s on 2 threads vs 1.67 s with 64-pixel tiles).
@@ -125,7 +126,7 @@ def render_scene(
 
 
 def trace_pixels(
-    ctx: integrate.Context,
+    ctx: Context,
     camera: ir.Camera,
     width: int,
     height: int,
@@ -136,7 +137,7 @@ def trace_pixels(
     the compiled kernel traces whole tiles, `render_tile`)."""
     if has_focal_blur(camera):
         return _trace_blurred(ctx, camera, width, height, xs, ys)
-    return _trace_primary(ctx, *camera_rays(camera, width, height, xs, ys))
+    return trace_primary(ctx, *camera_rays(camera, width, height, xs, ys))
 
 
 def _trace_blurred(ctx, camera: ir.Camera, width: int, height: int, xs, ys) -> np.ndarray:
@@ -159,7 +160,7 @@ def _trace_blurred(ctx, camera: ir.Camera, width: int, height: int, xs, ys) -> n
         col = np.zeros((len(rows), 3))
         for lo in range(0, len(rows), BLUR_BATCH):
             sl = slice(lo, lo + BLUR_BATCH)
-            col[sl] = _trace_primary(ctx, *lens.rays(rows[sl], k[sl]))
+            col[sl] = trace_primary(ctx, *lens.rays(rows[sl], k[sl]))
         np.add.at(s1, rows, col)
         np.add.at(s2, rows, col * col)
         taken += take
@@ -171,21 +172,19 @@ def _trace_blurred(ctx, camera: ir.Camera, width: int, height: int, xs, ys) -> n
     return s1 / np.maximum(done, 1)[:, None]
 
 
-def _trace_primary(
-    ctx: integrate.Context, origins: np.ndarray, dirs: np.ndarray, traced=None
-) -> np.ndarray:
+def trace_primary(ctx: Context, origins: np.ndarray, dirs: np.ndarray, traced=None) -> np.ndarray:
     """(N,3) colours of camera rays; black where `traced` (a mask, or None for all) says
     the projection traces no ray (outside a fisheye's circle), as in POV-Ray."""
     if traced is None:
         return integrate.trace(ctx, origins, dirs, np.ones(len(origins)), 0, "no_image")
     out = np.zeros((len(origins), 3))
     if traced.any():
-        out[traced] = _trace_primary(ctx, origins[traced], dirs[traced])
+        out[traced] = trace_primary(ctx, origins[traced], dirs[traced])
     return out
 
 
 def render_tile(
-    ctx: integrate.Context,
+    ctx: Context,
     camera: ir.Camera,
     width: int,
     height: int,

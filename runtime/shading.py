@@ -19,10 +19,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from lang import ir
+from runtime import transform as tf
+
+if TYPE_CHECKING:  # the batched finishes of plain textures, which these functions take too
+    from runtime.context import FinishRows
 
 # POV-Ray's EPSILON: a light exactly in the tangent plane does not light the surface.
 EPSILON: float = 1e-10
@@ -66,18 +71,12 @@ class LightSample:
     colour: np.ndarray  # (N,3) light colour after cone and distance attenuation
 
 
-def _unit(v) -> np.ndarray:
-    v = np.asarray(v, dtype=np.float64)
-    n = np.linalg.norm(v)
-    return v / n if n > 0 else v
-
-
 def light_ray(light: ir.Light, points: np.ndarray, centre=None) -> tuple[np.ndarray, np.ndarray]:
     """Unit direction to the light and its depth (POV-Ray's ComputeOneWhiteLightRay)."""
     c = np.asarray(light.position if centre is None else centre, dtype=np.float64)
     pts = np.asarray(points, dtype=np.float64)
     if light.kind == "cylinder":
-        axis = _unit(np.asarray(light.position) - np.asarray(light.point_at))
+        axis = tf.normalize(np.asarray(light.position) - np.asarray(light.point_at))
         d = np.broadcast_to(axis, pts.shape).copy()
         depth = (c - pts) @ axis
         return d, depth
@@ -85,7 +84,7 @@ def light_ray(light: ir.Light, points: np.ndarray, centre=None) -> tuple[np.ndar
     depth = np.linalg.norm(to_light, axis=-1)
     d = to_light / np.where(depth > 0, depth, 1.0)[..., None]
     if light.kind == "parallel":
-        beam = _unit(np.asarray(light.point_at) - np.asarray(light.position))
+        beam = tf.normalize(np.asarray(light.point_at) - np.asarray(light.position))
         a = d @ beam
         depth = depth * -a
         d = np.broadcast_to(-beam, pts.shape).copy()
@@ -97,7 +96,7 @@ def attenuation(light: ir.Light, points: np.ndarray, direction: np.ndarray, dept
     n = len(depth)
     att = np.ones(n)
     if light.kind == "spotlight":
-        axis = _unit(np.asarray(light.point_at) - np.asarray(light.position))
+        axis = tf.normalize(np.asarray(light.point_at) - np.asarray(light.position))
         cos_t = direction @ axis
         cos_t = np.where(depth > 0, -cos_t, cos_t)
         att = np.where(cos_t > 0, np.power(np.clip(cos_t, 0, None), light.tightness), 0.0)
@@ -106,7 +105,7 @@ def attenuation(light: ir.Light, points: np.ndarray, direction: np.ndarray, dept
         if cos_r > 0:
             att = np.where(cos_t < cos_r, att * cubic_spline(cos_f, cos_r, cos_t), att)
     elif light.kind == "cylinder":
-        axis = _unit(np.asarray(light.point_at) - np.asarray(light.position))
+        axis = tf.normalize(np.asarray(light.point_at) - np.asarray(light.position))
         v1 = points - np.asarray(light.position, dtype=np.float64)
         k = v1 @ axis
         radial = np.linalg.norm(v1 - k[:, None] * axis, axis=1)
@@ -143,8 +142,8 @@ def area_offsets(area: ir.AreaLight) -> np.ndarray:
     n1, n2 = max(1, area.size1), max(1, area.size2)
     u = np.arange(n1, dtype=np.float64)
     v = np.arange(n2, dtype=np.float64)
-    uu, vv = np.meshgrid(u, v, indexing="ij")
-    uu, vv = uu.ravel(), vv.ravel()
+    grid_u, grid_v = np.meshgrid(u, v, indexing="ij")
+    uu, vv = grid_u.ravel(), grid_v.ravel()
     if area.circular and n1 > 1 and n2 > 1:
         ju = uu / (n1 - 1) - 0.5 + 0.001
         jv = vv / (n2 - 1) - 0.5 + 0.001
@@ -238,7 +237,7 @@ class Surface:
 
 
 def ambient_term(
-    finish: ir.Finish, pigment: np.ndarray, opacity: np.ndarray, ambient_light
+    finish: ir.Finish | FinishRows, pigment: np.ndarray, opacity: np.ndarray, ambient_light
 ) -> np.ndarray:
     amb = np.asarray(finish.ambient, dtype=np.float64) * np.asarray(ambient_light, dtype=np.float64)
     emis = np.asarray(finish.emission, dtype=np.float64)
@@ -246,7 +245,7 @@ def ambient_term(
 
 
 def light_terms(
-    finish: ir.Finish,
+    finish: ir.Finish | FinishRows,
     surf: Surface,
     pigment: np.ndarray,
     opacity: np.ndarray,
@@ -334,7 +333,7 @@ def highlight_specular(finish, surf: Surface, light_dir, light_col, pigment, cos
 
 # ------------------------------------------------------------------- reflection
 def reflectivity(
-    finish: ir.Finish,
+    finish: ir.Finish | FinishRows,
     cos_angle: np.ndarray,
     pigment: np.ndarray,
     relative_ior: np.ndarray | float = 1.0,

@@ -12,6 +12,10 @@ which keeps t equal to the world distance parameter under any object transform):
 
 `bounds()` gives the object-space box (inf for infinite shapes), `size` a characteristic
 length for the self-intersection floor.
+
+This module holds the common shapes' primitives (`primitive_for` picks one of them; the
+rarer shapes are runtime.prims', whose `primitive_for` covers every shape) and the helpers
+the primitives share (`dot`, `recentre`, `stable_quadratic`, `barycentric` …).
 """
 
 from __future__ import annotations
@@ -25,7 +29,8 @@ from runtime import transform as tf
 INF = np.inf
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N,) row-wise dot products of two (N,3) arrays."""
     return np.einsum("ij,ij->i", a, b)
 
 
@@ -53,12 +58,12 @@ def stable_quadratic(a, b, c, disc=None) -> tuple[np.ndarray, np.ndarray]:
     return np.minimum(t1, t2), np.maximum(t1, t2)
 
 
-def _recentre(o: np.ndarray, d: np.ndarray, centre) -> tuple[np.ndarray, np.ndarray]:
+def recentre(o: np.ndarray, d: np.ndarray, centre) -> tuple[np.ndarray, np.ndarray]:
     """Move each ray origin along its line to the point closest to `centre`; returns the new
     origins and the t offset. Far-away origins then no longer cancel in the polynomial."""
-    dd = _dot(d, d)
+    dd = dot(d, d)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        t0 = np.where(dd > 0, _dot(centre - o, d) / dd, 0.0)
+        t0 = np.where(dd > 0, dot(centre - o, d) / dd, 0.0)
     return o + t0[:, None] * d, t0
 
 
@@ -82,14 +87,14 @@ class SpherePrim:
     def crossings(self, o, d):
         # The seed's A t^2 + 2B t + C with A = d.d, B = (o-M).d, C = |o-M|^2 - r^2.
         oc = o - self.c
-        a = _dot(d, d)
-        b = _dot(oc, d)
-        c = _dot(oc, oc) - self.r * self.r
+        a = dot(d, d)
+        b = dot(oc, d)
+        c = dot(oc, oc) - self.r * self.r
         # Hearn's recentring: B^2 - AC = A (r^2 - |l|^2) with l the perpendicular from the
         # centre to the line; exact for far-away and grazing rays.
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             lv = oc - (b / a)[:, None] * d
-        lnorm = np.sqrt(_dot(lv, lv))
+        lnorm = np.sqrt(dot(lv, lv))
         disc = a * (self.r - lnorm) * (self.r + lnorm)
         t1, t2 = stable_quadratic(a, b, c, disc)
         return np.stack([t1, t2], axis=1), np.zeros((len(o), 2), dtype=np.int8)
@@ -99,12 +104,12 @@ class SpherePrim:
 
     def inside(self, p):
         q = p - self.c
-        return _dot(q, q) < self.r * self.r
+        return dot(q, q) < self.r * self.r
 
     def outside(self, p):
         # POV-Ray: a point on the sphere is neither inside it nor inside its inverse.
         q = p - self.c
-        return _dot(q, q) > self.r * self.r
+        return dot(q, q) > self.r * self.r
 
 
 # ---------------------------------------------------------------------------- plane
@@ -393,7 +398,7 @@ class DiscPrim:
         t = np.where(np.abs(denom) > tol.PARALLEL_EPS, t, INF)
         fin = np.isfinite(t)
         q = o + np.where(fin, t, 0.0)[:, None] * d - self.c
-        r2 = _dot(q, q)
+        r2 = dot(q, q)
         ok = fin & (r2 <= self.r2) & (r2 >= self.h2)
         return np.where(ok, t, INF)[:, None], np.zeros((len(o), 1), dtype=np.int8)
 
@@ -442,7 +447,7 @@ class ConePrim:
 
     def crossings(self, o, d):
         o, d = self._canon(o, d)
-        oc, t0 = _recentre(o, d, np.array([0.0, 0.0, 0.5]))
+        oc, t0 = recentre(o, d, np.array([0.0, 0.0, 0.5]))
         r0, k = self.r0, self.k
         rho = r0 + k * oc[:, 2]
         a = d[:, 0] ** 2 + d[:, 1] ** 2 - (k * d[:, 2]) ** 2
@@ -525,10 +530,10 @@ class TorusPrim:
         n = len(o)
         dl = np.linalg.norm(d, axis=1)
         du = d / np.where(dl > 0, dl, 1.0)[:, None]
-        oc, t0 = _recentre(o, d, np.zeros(3))
+        oc, t0 = recentre(o, d, np.zeros(3))
         R2 = self.R**2
-        H = 2 * _dot(oc, du)
-        I = _dot(oc, oc) + R2 - self.r**2
+        H = 2 * dot(oc, du)
+        I = dot(oc, oc) + R2 - self.r**2
         J2 = du[:, 0] ** 2 + du[:, 2] ** 2
         J1 = oc[:, 0] * du[:, 0] + oc[:, 2] * du[:, 2]
         J0 = oc[:, 0] ** 2 + oc[:, 2] ** 2
@@ -538,7 +543,7 @@ class TorusPrim:
         c0 = I * I - 4 * R2 * J0
         # Only rays passing within the bounding sphere can hit; skip the eigen solve for
         # the others (it is the expensive part).
-        near = _dot(oc, oc) <= ((abs(self.R) + abs(self.r)) * (1 + tol.BOX_PAD_REL)) ** 2
+        near = dot(oc, oc) <= ((abs(self.R) + abs(self.r)) * (1 + tol.BOX_PAD_REL)) ** 2
         roots = np.full((n, 4), INF)
         rows = np.nonzero(near)[0]
         if len(rows):
@@ -617,7 +622,8 @@ def degenerate(shape) -> str | None:
 
 
 def primitive_for(shape):
-    """The analytic primitive for an IR shape, or None (meshes go to Embree, CSG to nodes)."""
+    """The analytic primitive for one of the common IR shapes, or None for any other
+    (runtime.prims.primitive_for picks the primitive of every shape)."""
     if isinstance(shape, ir.Sphere):
         return SpherePrim(shape.center, shape.radius)
     if isinstance(shape, ir.Plane):
@@ -636,6 +642,4 @@ def primitive_for(shape):
         return ConePrim(shape.base, shape.cap, shape.base_radius, shape.cap_radius, shape.open)
     if isinstance(shape, ir.Torus):
         return TorusPrim(shape.major, shape.minor)
-    from runtime import prims  # the rarer shapes, each in its own module
-
-    return prims.primitive_for(shape)
+    return None

@@ -18,7 +18,7 @@ from runtime.shapes import ConePrim, SpherePrim
 MIN_PIECES, MAX_PIECES = 4, 64
 
 
-def _spline_points(shape: ir.SphereSweep) -> np.ndarray:
+def spline_points(shape: ir.SphereSweep) -> np.ndarray:
     """(M, 4) samples (centre, radius) along the sweep's spline, in order."""
     P = np.asarray(shape.spheres, dtype=np.float64)
     if shape.spline == "linear_spline":
@@ -56,7 +56,7 @@ def tangent_cone(c1, r1: float, c2, r2: float):
 
 def pieces(shape: ir.SphereSweep) -> list:
     """The primitives whose merge is the sweep."""
-    S = _spline_points(shape)
+    S = spline_points(shape)
     prims: list = [SpherePrim(p[:3], p[3]) for p in S if p[3] > 0]
     for a, b in zip(S[:-1], S[1:], strict=True):
         cone = tangent_cone(a[:3], a[3], b[:3], b[3])

@@ -25,6 +25,9 @@ sectors take the angle-weighted face normal.
 Vertex numbering is stable: a refined mesh keeps the parent's vertices first (then face
 points, then edge points), so a control vertex keeps its index at every level. Limit
 evaluation uses this: a vertex's limit point and normal are the same at every level.
+
+`subdivision_mesh` (and `tessellate`, `validate`, `levels_for_tolerance`) take any
+subdivision shape: a curve (no faces) is tubed by runtime.curves.
 """
 
 from __future__ import annotations
@@ -37,6 +40,8 @@ from itertools import chain
 import numpy as np
 
 from lang import ir
+from runtime import transform as tf
+from runtime.curves import SubdivisionError, curve_mesh
 
 SURFACE_SCHEMES = ("catmull_clark", "loop", "bilinear")
 CURVE_SCHEMES = ("midpoint", "chaikin", "four_point", "bezier")
@@ -59,15 +64,6 @@ MEMORY_FRACTION = 0.6
 # Catmull–Clark, 200 for Loop, everything included).
 _BYTES_PER_VERTEX = 3 * 8 * 10
 _BYTES_PER_CORNER = 8 * 24
-
-
-class SubdivisionError(ValueError):
-    """A subdivision shape that cannot be built; `code` matches `validate`'s codes."""
-
-    def __init__(self, code: str, message: str):
-        super().__init__(message)
-        self.code = code
-        self.message = message
 
 
 # ------------------------------------------------------------------ the mesh
@@ -195,8 +191,10 @@ def build_topology(mesh: ControlMesh) -> Topology:
     twin = np.full(len(sk), -1, dtype=np.int64)
     twin[c0], twin[c1] = c1, c0
     dup = int(np.count_nonzero(fv[c0] == fv[c1]))  # both run the same way
-    face, nxt, prv, edge, edges, twin = (x.astype(IDX) for x in (face, nxt, prv, edge, edges, twin))
-    return Topology(face, nxt, prv, edge, edges, edge_nf, ekeys, twin, dup)
+    t_face, t_nxt, t_prv, t_edge, t_edges, t_twin = (
+        x.astype(IDX) for x in (face, nxt, prv, edge, edges, twin)
+    )
+    return Topology(t_face, t_nxt, t_prv, t_edge, t_edges, edge_nf, ekeys, t_twin, dup)
 
 
 def _scatter(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
@@ -480,7 +478,7 @@ def bilinear_once(mesh: ControlMesh, boundary: str = "sharp") -> ControlMesh:
     return _quad_child(mesh, s, P, fp, ep)
 
 
-def loop_beta(n: np.ndarray) -> np.ndarray:
+def loop_beta(n: np.ndarray | int) -> np.ndarray:
     """Loop's β(n) = (5/8 − (3/8 + ¼cos(2π/n))²)/n; 1/16 for the seed's valence 6."""
     n = np.maximum(np.asarray(n, dtype=np.float64), 1.0)
     return (0.625 - (0.375 + 0.25 * np.cos(2.0 * np.pi / n)) ** 2) / n
@@ -619,13 +617,13 @@ def limit_positions(mesh: ControlMesh, scheme: str, boundary: str = "sharp") -> 
     out = np.where(
         (r.parent == SMOOTH)[:, None], smooth, np.where((r.parent == CREASE)[:, None], crease, P)
     )
-    darts = _darts(mesh, s, r)
+    darts = find_darts(mesh, s, r)
     if darts is not None:
         out[darts.vertices] = darts.apply(P, 0)
     return out
 
 
-def _dart_matrix(scheme: str, n: int) -> np.ndarray:
+def dart_matrix(scheme: str, n: int) -> np.ndarray:
     """The subdivision matrix of a dart's 1-ring (valence n, the sharp edge to e_0).
     Catmull–Clark: [centre, e_0..e_n-1, f_0..f_n-1] (f_j the far corner of the quad
     between e_j and e_j+1); Loop: [centre, e_0..e_n-1]. The rules are the ones the
@@ -662,12 +660,12 @@ def _dart_matrix(scheme: str, n: int) -> np.ndarray:
     return S
 
 
-def _dart_masks(scheme: str, n: int) -> np.ndarray:
+def dart_masks(scheme: str, n: int) -> np.ndarray:
     """(3, m) masks over a dart's 1-ring: the limit point (left eigenvector of eigenvalue
     1, summing to 1) and two tangents (the left eigenvectors of the subdominant pair;
     real and imaginary parts when they are complex). The smooth closed forms assume a
     rotationally symmetric ring, which a dart's sharp edge breaks."""
-    St = _dart_matrix(scheme, n).T
+    St = dart_matrix(scheme, n).T
     w, vec = np.linalg.eig(St)
     order = np.argsort(-np.abs(w), kind="stable")
     limit = np.real(vec[:, order[0]])
@@ -685,7 +683,7 @@ def _dart_masks(scheme: str, n: int) -> np.ndarray:
 
 
 @dataclass
-class _Darts:
+class Darts:
     """Per-corner ring weights for the dart vertices of a mesh."""
 
     vertices: np.ndarray  # (D,) dart vertex ids
@@ -705,7 +703,7 @@ class _Darts:
         return centre + _scatter(self.row, terms, len(self.vertices))
 
 
-def _darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> _Darts | None:
+def find_darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> Darts | None:
     """Smooth-rule vertices with exactly one sharp edge (darts) in a closed fan of quads
     (Catmull–Clark) or triangles (Loop), with their eigen-analysed masks."""
     sharp = s > 0
@@ -735,7 +733,7 @@ def _darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> _Darts | None:
     face_w = np.zeros((3, len(corners)))
     valence_of = np.bincount(fv[corners], minlength=V)[verts]
     for valence in np.unique(n):  # one small eigenproblem per distinct valence
-        masks = _dart_masks(scheme, int(valence))
+        masks = dart_masks(scheme, int(valence))
         sel = n == valence
         edge_w[:, sel] = masks[:, 1 + j[sel]]
         if scheme == "catmull_clark":
@@ -743,7 +741,7 @@ def _darts(mesh: ControlMesh, s: np.ndarray, r: VertexRules) -> _Darts | None:
         centre[:, valence_of == valence] = masks[:, :1]
     nx = topo.nxt[corners]
     dn = fv[topo.nxt[nx]] if scheme == "catmull_clark" else None
-    return _Darts(verts, slot[fv[corners]], centre, edge_w, face_w, fv[nx], dn)
+    return Darts(verts, slot[fv[corners]], centre, edge_w, face_w, fv[nx], dn)
 
 
 @dataclass
@@ -810,11 +808,6 @@ def _walk_rings(mesh: ControlMesh, sharp: np.ndarray) -> Rings:
     return Rings(j, fan, sector, size, topo.twin[fan] >= 0, rep)
 
 
-def _normalize(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
 def smooth_limit_normals(mesh: ControlMesh, scheme: str, boundary: str = "sharp"):
     """Limit normals of the smooth vertices of a `limit_ready` mesh from the tangent masks
     (Halstead et al. for Catmull–Clark, cos/sin masks for Loop). Returns (normals (V,3),
@@ -845,10 +838,10 @@ def smooth_limit_normals(mesh: ControlMesh, scheme: str, boundary: str = "sharp"
             ek = Pt[k][en]
             t1[:, k] = np.bincount(fv, c * ek, V)
             t2[:, k] = np.bincount(fv, sn * ek, V)
-    normals = _normalize(np.cross(t1, t2))
-    darts = _darts(mesh, s, r)
+    normals = tf.normalize(np.cross(t1, t2))
+    darts = find_darts(mesh, s, r)
     if darts is not None:
-        dn = _normalize(np.cross(darts.apply(P, 1), darts.apply(P, 2)))
+        dn = tf.normalize(np.cross(darts.apply(P, 1), darts.apply(P, 2)))
         # eigenvectors have no sign: turn each dart normal to its faces' side
         cn = np.cross(P[fv[topo.nxt]] - P[fv], P[fv[topo.prv]] - P[fv])
         side = _scatter(fv, cn, V)[darts.vertices]
@@ -946,8 +939,8 @@ def shade(
         w = p[fv[topo.prv[need]]] - p[cv]
         cn = np.cross(u, w)
         angle = np.arctan2(np.linalg.norm(cn, axis=1), np.einsum("ij,ij->i", u, w))
-        sector_n = _scatter(group[need], _normalize(cn) * angle[:, None], G)
-        tangent = _normalize(_crease_tangents(mesh, inf_sharp))[gvert]
+        sector_n = _scatter(group[need], tf.normalize(cn) * angle[:, None], G)
+        tangent = tf.normalize(_crease_tangents(mesh, inf_sharp))[gvert]
         sector_n -= np.einsum("ij,ij->i", sector_n, tangent)[:, None] * tangent
         for exact in (
             _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps),
@@ -959,7 +952,7 @@ def shade(
                 en[np.einsum("ij,ij->i", en, sector_n[g]) < 0] *= -1.0
                 sector_n[g] = en
         gn[~use_smooth] = sector_n[~use_smooth]
-    gn = _normalize(gn)
+    gn = tf.normalize(gn)
     verts = np.concatenate([positions, positions[gvert[~primary]]])
     normals = np.zeros((V, 3))
     normals[:, 2] = 1.0  # unreferenced vertices: any unit vector
@@ -1073,7 +1066,7 @@ def _crease_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
     )
     across = _scatter(grp, terms, G)
     groups = np.unique(grp[ok])
-    return groups, _normalize(np.cross(along[groups], across[groups]))
+    return groups, tf.normalize(np.cross(along[groups], across[groups]))
 
 
 # Corner sectors whose two sharp edges meet at less than this angle (or more than π minus
@@ -1113,7 +1106,7 @@ def _corner_sector_normals(mesh, scheme, boundary, s, rings, group, reps):
         np.linalg.norm(a[groups], axis=1) * np.linalg.norm(b[groups], axis=1), 1e-300
     )
     keep = sin > math.sin(CORNER_MIN_ANGLE)
-    return groups[keep], _normalize(n[keep])
+    return groups[keep], tf.normalize(n[keep])
 
 
 # ----------------------------------------------------------- entry points
@@ -1138,12 +1131,10 @@ def subdivision_mesh(
     float64, faces (M,3) int32, normals (N,3) float64). With `limit on` the vertices are
     pushed to their limit positions; the normals are limit normals either way."""
     if not shape.faces:
-        from runtime import curves
-
         errors = validate(shape)
         if errors:
             raise SubdivisionError(*errors[0])
-        return curves.curve_mesh(shape, levels)
+        return curve_mesh(shape, levels)
     mesh = refine(shape, levels, max_bytes)
     scheme, boundary = shape.scheme, shape.boundary
     V = mesh.nv
@@ -1291,8 +1282,10 @@ def validate(shape: ir.Subdivision) -> list[tuple[str, str]]:
             out.append(("subdiv.crease_range", "crease edge index outside the vertex list"))
         else:
             keys = np.minimum(cr[:, 0], cr[:, 1]) * npts + np.maximum(cr[:, 0], cr[:, 1])
-            pos = np.minimum(np.searchsorted(topo.ekeys, keys), len(topo.ekeys) - 1)
-            missing = np.nonzero(topo.ekeys[pos] != keys)[0]
+            ekeys = topo.ekeys
+            assert ekeys is not None  # a control mesh's topology is built from its edge keys
+            pos = np.minimum(np.searchsorted(ekeys, keys), len(ekeys) - 1)
+            missing = np.nonzero(ekeys[pos] != keys)[0]
             if missing.size:
                 pairs = ", ".join(f"<{a},{b}>" for a, b in cr[missing[:5]])
                 out.append(("subdiv.crease_edge", f"crease(s) {pairs} are not edges of the mesh"))

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lang import ir
+from runtime import transform as tf
 from runtime.nurbs import Curve, KnotVector, Surface, validate
 
 # Refinement aims below the bound so that one more pass is rarely needed.
@@ -221,10 +222,12 @@ def surface_mesh(surf: Surface, tol: float, max_triangles: int = MAX_TRIANGLES) 
             RuntimeWarning,
             stacklevel=2,
         )
-    return _assemble(surf, us, vs, worst, capped)
+    return assemble(surf, us, vs, worst, capped)
 
 
-def _assemble(surf: Surface, us, vs, worst: float, capped: bool) -> TriMesh:
+def assemble(surf: Surface, us, vs, worst: float, capped: bool) -> TriMesh:
+    """The triangle mesh of `surf` sampled on the grid us x vs (positions, normals, uvs),
+    with its chord error `worst`; shared by NURBS and Bezier patches (runtime.bezier)."""
     D = surf.grid_derivatives(us, vs, 1)
     nv, nu = len(vs), len(us)
     P = D[0, 0].reshape(-1, 3)
@@ -270,12 +273,6 @@ def _assemble(surf: Surface, us, vs, worst: float, capped: bool) -> TriMesh:
     return TriMesh(P[used], faces, N[used], uv[used], worst, capped, corner_uvs)
 
 
-# ---------------------------------------------------------------------------- tubes
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
 def _tangents(curve: Curve, ts: np.ndarray, left: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Points and unit tangents (right-hand, or with `left` the left-hand limits at knots);
     where C' vanishes (coincident control points) the tangent is the direction of C'' (the
@@ -295,7 +292,7 @@ def _tangents(curve: Curve, ts: np.ndarray, left: bool = False) -> tuple[np.ndar
     if still.any():
         chord = np.diff(C, axis=0, append=C[-1:] + (C[-1:] - C[-2:-1]))
         T[still] = chord[still]
-    T = _unit(T)
+    T = tf.normalize(T)
     T[np.linalg.norm(T, axis=-1) == 0] = (0.0, 0.0, 1.0)
     return C, T
 

@@ -26,7 +26,14 @@ from runtime import transform as tf
 try:  # the compiled box-tree build; without a C compiler, BoxTree._build does it
     from runtime import _boxtree
 except ImportError:  # pragma: no cover - an install without the extension
-    _boxtree = None
+    _boxtree = None  # type: ignore[assignment]  # typed by the import: module or None
+
+
+def box_tree_compiled() -> bool:
+    """Whether the compiled box-tree build (runtime._boxtree) was built and loads."""
+    return _boxtree is not None
+
+
 # Tests set this to compare the two builds.
 _PYTHON_TREE = False
 
@@ -120,6 +127,7 @@ class Leaf:
             else:
                 self._place(*(np.asarray(b, dtype=np.float64).tolist() for b in prim.bounds()))
             return
+        assert matrix is not None  # a leaf without one is an identity leaf, placed above
         lo, hi = prim.bounds()
         if inverse:
             lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
@@ -143,7 +151,7 @@ class Leaf:
         r = np.abs(np.array(radii, dtype=np.float64))
         with np.errstate(invalid="ignore"):  # inf - inf: such a leaf is unbounded below
             lo, hi = c - r[:, None], c + r[:, None]
-        finite = np.isfinite(lo).all(axis=1) & np.isfinite(hi).all(axis=1)
+        finite = np.asarray(np.isfinite(lo).all(axis=1) & np.isfinite(hi).all(axis=1))
         lo[~finite], hi[~finite] = -np.inf, np.inf
         sizes = [math.dist(a, b) for a, b in zip(lo.tolist(), hi.tolist(), strict=True)]
         out = []
@@ -330,6 +338,10 @@ class ClipNode:
 # --------------------------------------------------------------------------- tracer
 
 
+# A node of the tracer: a leaf, or CSG or clipping over leaves.
+Node = Leaf | CsgNode | ClipNode
+
+
 def default_tmin(origins: np.ndarray) -> np.ndarray:
     """Scale-aware ray start offset (see tolerances.ORIGIN_REL)."""
     return tol.ORIGIN_REL * np.linalg.norm(origins, axis=1) + tol.ABS_FLOOR
@@ -419,7 +431,7 @@ class BoxTree:
 
         Each stack entry carries its rows' ray data packed in one array (origin, 1/d, tmin,
         tmax), already cut down by its parent, so a tree node costs one small gather."""
-        out = []
+        out: list[tuple[int, np.ndarray]] = []
         packed = np.column_stack([o, inv, tmin, tmax])
         stack = [(0, np.arange(len(o)), packed)]
         while stack:
@@ -432,10 +444,11 @@ class BoxTree:
             if not hit.all():
                 rows = rows[hit]
                 sub = sub[hit]
-            if self.kids[k] is None:
+            kids = self.kids[k]
+            if kids is None:
                 out.extend((int(i), rows) for i in self.items[k])
             else:
-                stack.extend((c, rows, sub) for c in self.kids[k])
+                stack.extend((c, rows, sub) for c in kids)
         return sorted(out, key=lambda item: item[0])
 
 
@@ -471,10 +484,10 @@ class Tracer:
 
     def _visits(
         self, o, d, tmin, tmax, skipped, inv, bounded: bool = True
-    ) -> list[tuple[object, np.ndarray | None]]:
+    ) -> list[tuple[Node, np.ndarray | None]]:
         """(node, candidate rows or None for all) pairs to intersect: the unbounded nodes in
         scene order (bounded=False), or the bounded ones in tree order (bounded=True)."""
-        out: list[tuple[object, np.ndarray | None]] = []
+        out: list[tuple[Node, np.ndarray | None]] = []
         if not bounded:
             out.extend((self.nodes[i], None) for i in self.unbounded)
         elif self.tree is None:
@@ -590,6 +603,7 @@ class Tracer:
             self.triangles.closest(o, d, tmin_a, np.minimum(hits.t, tmax_a), skip, hits)
         hits.point = o + np.where(np.isfinite(hits.t), hits.t, np.nan)[:, None] * d
         # Normals once per winning analytic leaf (Embree hits filled theirs already).
+        assert hits.prim is not None  # empty_hits made it
         won = analytic & (hits.prim < 0) & (hits.obj >= 0)
         if won.any():
             ids = hits.obj[won]

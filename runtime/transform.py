@@ -1,6 +1,9 @@
-"""4x4 affine matrix helpers (float64, column-vector convention p' = M @ (p, 1), as `ir`)."""
+"""4x4 affine matrix helpers (float64, column-vector convention p' = M @ (p, 1), as `ir`),
+and the runtime's one `normalize` (unit vectors along rows)."""
 
 from __future__ import annotations
+
+from functools import lru_cache
 
 import numpy as np
 
@@ -24,6 +27,17 @@ def inverse(m: np.ndarray) -> np.ndarray:
     out[:3, :3] = lin_inv
     out[:3, 3] = -lin_inv @ m[:3, 3]
     return out
+
+
+@lru_cache(maxsize=4096)
+def cached_inverse(m: tuple) -> np.ndarray | None:
+    """Inverse of an `ir.Matrix` (4 row tuples) by numpy's general 4x4 inverse, None for
+    the identity (the common case); cached by value, as pattern transforms repeat across a
+    scene's textures. Not `inverse`: pattern values at cell edges follow its exact rounding."""
+    a = np.asarray(m, dtype=np.float64)
+    if np.array_equal(a, np.eye(4)):
+        return None
+    return np.linalg.inv(a)
 
 
 def compose(*ms: np.ndarray) -> np.ndarray:
@@ -57,8 +71,9 @@ def apply_normals(m_inv: np.ndarray, n: np.ndarray) -> np.ndarray:
     return normalize(out)
 
 
-def normalize(v: np.ndarray) -> np.ndarray:
-    """Unit vectors along the rows of v (zero rows stay zero)."""
+def normalize(v) -> np.ndarray:
+    """Unit vectors along the rows of v (one vector or (N,3); zero rows stay zero)."""
+    v = np.asarray(v, dtype=np.float64)
     length = np.linalg.norm(v, axis=-1, keepdims=True)
     return np.divide(v, length, out=np.zeros_like(v), where=length > 0)
 

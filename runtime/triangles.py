@@ -35,17 +35,19 @@ def _leaf_triangles(obj: ir.Object):
         tri = tf.apply_points(m, v)[None]
         if shape.normals is None:
             return tri, None
-        vn = tf.apply_normals(m_inv, np.asarray(shape.normals, dtype=np.float64))
-        return tri, vn[None]
+        corner_n = tf.apply_normals(m_inv, np.asarray(shape.normals, dtype=np.float64))
+        return tri, corner_n[None]
+    if not isinstance(shape, ir.Mesh):
+        raise TypeError(f"a {type(shape).__name__} is not triangle geometry")
     verts = np.asarray(shape.vertices, dtype=np.float64).reshape(-1, 3)
     if move:
         verts = tf.apply_points(m, verts)
     faces = np.asarray(shape.faces, dtype=np.int64).reshape(-1, 3)
     tri = verts[faces]
     normals = shape.normals
+    vn: np.ndarray | None
     if normals is None and shape.smooth:
-        normals = _vertex_normals(verts, faces)
-        vn = normals[faces]
+        vn = vertex_normals(verts, faces)[faces]
     elif normals is not None:
         n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
         vn = (tf.apply_normals(m_inv, n) if move else tf.normalize(n))[faces]
@@ -54,7 +56,7 @@ def _leaf_triangles(obj: ir.Object):
     return tri, vn
 
 
-def _vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Area-weighted vertex normals (for `smooth` meshes that give none)."""
     fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
     acc = np.zeros_like(verts)
@@ -105,7 +107,7 @@ class TriangleSet:
         self.offset = (lo + hi) / 2
         self.extent = float(np.linalg.norm(hi - lo))
         self.flags: dict[str, np.ndarray] = {}
-        self._scenes: dict[tuple[int, ...], tuple] = {}
+        self.scenes: dict[tuple[int, ...], tuple] = {}
         self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ embree
@@ -118,7 +120,7 @@ class TriangleSet:
         if flag is not None and len(flag):
             left_out = tuple(int(i) for i in np.unique(self.leaf_of[flag[self.leaf_of]]))
         with self._lock:
-            if left_out not in self._scenes:
+            if left_out not in self.scenes:
                 # Degenerate (zero-area) triangles can never be hit: leave them out.
                 keep = np.linalg.norm(np.cross(self.e1, self.e2), axis=1) > 0
                 if left_out:
@@ -136,8 +138,8 @@ class TriangleSet:
                     # lock, so render threads never commit the same scene concurrently.
                     one = np.zeros((1, 3), np.float32)
                     scene.run(one, one + np.float32(1), dists=np.zeros(1, np.float32))
-                self._scenes[left_out] = (scene, ids)
-            return self._scenes[left_out]
+                self.scenes[left_out] = (scene, ids)
+            return self.scenes[left_out]
 
     def _reach(self, o: np.ndarray) -> np.ndarray:
         return np.linalg.norm(o - self.offset, axis=1) + self.extent

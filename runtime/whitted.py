@@ -5,7 +5,9 @@ arrays of up to a million rays, which costs more than the arithmetic in a scene 
 spheres and planes (the seed scene spent 1.7 s there at 1280x960, profiled). The C kernel
 traces the same rays depth first, one at a time, with the same formulas and tolerances, and
 is used only when a scene has nothing it does not know; anything else renders through
-numpy, unchanged. tests/test_whitted_kernel.py holds the two to the same images.
+numpy, unchanged. tests/test_whitted_kernel.py holds the two to the same images. This
+module is the kernel's only importer: `kernel_built`, `kernel_layout` and `trace_packed`
+are the way to it from elsewhere.
 
 What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
 without focal blur; spheres, planes, boxes, discs, cylinders and cones, transformed or not,
@@ -31,15 +33,17 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, integrate, patterns, shading, shapes
+from runtime import color, context, patterns, shading, shapes
 from runtime import tolerances as tol
+from runtime import transform as tf
 from runtime.camera import view_planes
+from runtime.lights import MAX_SHADOW_CROSSINGS
 from runtime.trace import CsgNode, Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
     from runtime import _whitted
 except ImportError:  # pragma: no cover - depends on the build
-    _whitted = None
+    _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
 HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 48, 64, 48, 24, 64, 7, 16, 1024
@@ -105,8 +109,35 @@ MAX_OBJECTS: int = 1_000_000
 ENV = "STRALA_KERNEL"
 
 
+def kernel_built() -> bool:
+    """Whether the compiled kernel (runtime._whitted) was built and loads."""
+    return _whitted is not None
+
+
+def kernel_layout() -> dict[str, int]:
+    """The packed layout the compiled kernel was built with (`layout()` must match it)."""
+    return _whitted.layout()
+
+
+def trace_packed(
+    buf: np.ndarray,
+    x0: int,
+    y0: int,
+    x1: int,
+    y1: int,
+    threshold: float,
+    power: float,
+    depth: int,
+    out: np.ndarray,
+) -> tuple[int, int, int]:
+    """Trace one tile of a packed scene (`pack`) into `out` with the compiled kernel:
+    (rays, shadow rays, supersampled pixels). The kernel checks the packed tables first and
+    raises ValueError on a damaged one."""
+    return _whitted.render_tile(buf, x0, y0, x1, y1, threshold, power, depth, out)
+
+
 def available() -> bool:
-    return _whitted is not None and os.environ.get(ENV, "") != "numpy"
+    return kernel_built() and os.environ.get(ENV, "") != "numpy"
 
 
 def layout() -> dict[str, int]:
@@ -130,7 +161,7 @@ def _pigment_reasons(pig: ir.Pigment) -> list[str]:
         return [f"pigment pattern {kind}"]
     if kind == "solid":
         return []
-    if pig.params.get("warps") or patterns._turb_params(pig.params)[0] is not None:
+    if pig.params.get("warps") or patterns.turb_params(pig.params)[0] is not None:
         return [f"warped or turbulent {kind}"]
     if kind == "checker":
         if any(sub.pattern != "solid" for sub in pig.list) or len(pig.list) == 1:
@@ -168,7 +199,7 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     context (integrate.make_context), textures it made one entry are looked at once."""
     scene: ir.Scene = prepared.scene
     out: list[str] = []
-    if _whitted is None:
+    if not kernel_built():
         out.append("the compiled kernel is not built")
     if camera.kind not in ("perspective", "orthographic"):
         out.append(f"{camera.kind} camera")
@@ -202,7 +233,7 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         if key not in seen:
             seen.add(key)
             out.extend(_texture_reasons(tex))
-    if scene.sky_sphere and integrate.legacy_rules(scene.settings):
+    if scene.sky_sphere and context.legacy_rules(scene.settings):
         out.append("sky_sphere in a pre-3.7 scene")
     for pig in scene.sky_sphere or ():
         out.extend(_pigment_reasons(pig))
@@ -232,7 +263,7 @@ def pack_pigment(pig: ir.Pigment, row: np.ndarray) -> None:
         row[P_PHASE] = float(prm.get("phase", 0.0))
         row[P_WAVE] = WAVES[prm.get("wave", "ramp_wave")]
         row[P_WEXP] = float(prm.get("wave_exponent", prm.get("exponent", 1.0)))
-    inv = patterns._inverse(pig.transform)
+    inv = tf.cached_inverse(pig.transform)
     row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
     row[P_N] = len(entries)
     for k, (key, colour) in enumerate(entries):
@@ -253,7 +284,7 @@ def _tree_depth(tracer) -> int:
     return depth
 
 
-def _box_tree(tracer) -> tuple[np.ndarray, list[int]]:
+def box_tree(tracer) -> tuple[np.ndarray, list[int]]:
     """(rows, items): the tracer's box tree over its bounded roots (one leaf holding them
     all when it has none), as BVH rows and the flat list of root indices of its leaves."""
     bounded = tracer.bounded
@@ -326,7 +357,7 @@ def view_masks(bvh: np.ndarray, camera: ir.Camera, width: int, height: int, ligh
     return masks
 
 
-def _walk_starts(bvh: np.ndarray, masks: np.ndarray) -> np.ndarray:
+def walk_starts(bvh: np.ndarray, masks: np.ndarray) -> np.ndarray:
     """Per ray class (a column of `masks`), the box-tree node its walk can start at: below
     the root, past every node of which the class can meet one child only (a crowd of
     objects outside the view then costs camera rays nothing, not even a box test); -1 when
@@ -428,11 +459,11 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     sky = list(reversed(scene.sky_sphere or ()))  # evaluated innermost first, as integrate.sky
     n_pig = n_tex + len(sky)
     n_node = len(nodes)
-    bvh, items = _box_tree(tracer)
+    bvh, items = box_tree(tracer)
     unbounded = list(tracer.unbounded)
     size = HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT + n_pig * PIG + n_node * NODE
     masks = view_masks(bvh, camera, width, height, scene.lights)
-    starts = _walk_starts(bvh, masks)
+    starts = walk_starts(bvh, masks)
     tail = np.concatenate([children, unbounded, bvh.ravel(), items, masks.ravel(), starts])
     tail = tail.astype(np.float64)
     buf = np.zeros(size + len(tail))
@@ -461,7 +492,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         shading.EPSILON,
         shading.SHADOW_TOLERANCE,
         patterns.CHECKER_OFFSET,
-        integrate.MAX_SHADOW_CROSSINGS,
+        MAX_SHADOW_CROSSINGS,
         tol.INSIDE_EPS,
         tol.BOX_PAD_REL,
         tol.BOX_PAD_ABS,
@@ -474,9 +505,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     rows[:, O_FLIP] = [leaf.inverse for leaf in leaves]
     rows[:, O_SIZE] = tracer.sizes[:n_obj]
     rows[:, O_TEX] = ctx.obj_tex
-    for k, bit in FLAG_BITS.items():
-        if tracer.flags.get(k) is not None:
-            rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[k], dtype=bool)
+    for flag, bit in FLAG_BITS.items():
+        if tracer.flags.get(flag) is not None:
+            rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[flag], dtype=bool)
     rows[:, O_DOUBLE] = ctx.double_illuminate
     rows[:, O_IOR] = ctx.ior
     # Untransformed leaves (most of a big scene) share one matrix row: only the others are
@@ -545,7 +576,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         r[L_SHADOWLESS] = light.shadowless
         r[L_FADEPOW], r[L_FADEDIST] = light.fade_power or 0.0, light.fade_distance or 0.0
         if light.kind == "spotlight":
-            r[L_AXIS : L_AXIS + 3] = shading._unit(np.subtract(light.point_at, light.position))
+            r[L_AXIS : L_AXIS + 3] = tf.normalize(np.subtract(light.point_at, light.position))
             r[L_TIGHT] = light.tightness
             r[L_COSR] = math.cos(math.radians(light.radius))
             r[L_COSF] = math.cos(math.radians(light.falloff))
@@ -568,7 +599,7 @@ class Kernel:
         out = np.empty((y1 - y0, x1 - x0, 3))
         power = color.aa_metric_power(self.ctx.settings)
         thr = -1.0 if threshold is None else float(threshold)
-        rays, shadow_rays, n = _whitted.render_tile(
+        rays, shadow_rays, n = trace_packed(
             self.buf, x0, y0, x1, y1, thr, power, max(1, int(depth)), out
         )
         self.ctx.count("rays", rays)
@@ -578,6 +609,6 @@ class Kernel:
 
 def why_not(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     """Why the numpy path renders this scene (empty: the compiled kernel does)."""
-    if _whitted is not None and os.environ.get(ENV, "") == "numpy":
+    if kernel_built() and os.environ.get(ENV, "") == "numpy":
         return [f"{ENV}=numpy"]
     return reasons(prepared, camera, ctx)

@@ -7,6 +7,7 @@ import argparse
 import io
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -42,7 +43,7 @@ def test_povray_switches_become_strala_options():
 def test_the_seeds_own_command_line_works():
     # NOTES §5: "povray +IEx3.pov +X +D +W512 +H512"
     argv = ["+IEx3.pov", "+X", "+D", "+W512", "+H512"]
-    assert cli._looks_like_render(argv)
+    assert cli.looks_like_render(argv)
     args = cli.build_parser().parse_args(["render", *_translate(*argv)[0]])
     assert (args.file, args.width, args.height, args.aa) == ("Ex3.pov", 512, 512, None)
     assert cli.output_path(args.file, args.output, ".png") == Path("Ex3.png")
@@ -83,10 +84,10 @@ def test_ignored_switches_never_reach_argparse(switches):
 
 
 def test_bare_scene_or_plus_option_means_render():
-    assert cli._looks_like_render(["scene.pov", "+W10"])
-    assert cli._looks_like_render(["+Iscene.pov"])
-    assert not cli._looks_like_render(["check", "scene.pov"])
-    assert not cli._looks_like_render(["--help"])
+    assert cli.looks_like_render(["scene.pov", "+W10"])
+    assert cli.looks_like_render(["+Iscene.pov"])
+    assert not cli.looks_like_render(["check", "scene.pov"])
+    assert not cli.looks_like_render(["--help"])
 
 
 @given(st.integers(0, 10_000), st.integers(0, 10_000), st.sampled_from(["..", ":", "-"]))
@@ -690,3 +691,14 @@ def test_the_command_exits_without_teardown_but_not_under_a_profiler(tmp_path):
         assert done.returncode == 1, done.stderr  # check's code for an error
         assert "bad.pov:1:" in done.stdout + done.stderr  # the diagnostic got out
         assert ("teardown ran" in done.stdout) is teardown
+
+
+def test_commands_lists_every_subcommand(capsys):
+    """cli.COMMANDS names exactly the parser's subcommands (argparse lists them when it
+    refuses an unknown one)."""
+    with pytest.raises(SystemExit):
+        cli.build_parser().parse_args(["no-such-command"])
+    err = capsys.readouterr().err
+    listed = err.split("choose from", 1)[1]
+    names = re.findall(r"'([^']+)'", listed)
+    assert sorted(names) == sorted(cli.COMMANDS)

@@ -65,13 +65,13 @@ def test_confidence_thresholds_follow_the_chi_square_quantiles():
 
 def test_a_flat_image_stops_at_the_first_round_and_a_busy_one_takes_more(monkeypatch):
     traced: list[int] = []
-    real = render._trace_primary
+    real = render.trace_primary
 
     def counting(ctx, origins, dirs, mask=None):
         traced.append(len(origins) if mask is None else int(mask.sum()))
         return real(ctx, origins, dirs, mask)
 
-    monkeypatch.setattr(render, "_trace_primary", counting)
+    monkeypatch.setattr(render, "trace_primary", counting)
     flat = "background { rgb 0.5 }"
     busy = "plane { z, 4 pigment { checker rgb 1, rgb 0 scale 0.05 } finish { ambient 1 } }"
     for body, few in ((flat, True), (busy, False)):

@@ -34,7 +34,7 @@ def test_palette_indices_map_through_the_palette_to_what_openimageio_reads():
     import OpenImageIO as oiio
 
     data = PLASMA.read_bytes()
-    index = hf._png_palette_indices(data)
+    index = hf.png_palette_indices(data)
     rgb = oiio.ImageBuf(str(PLASMA)).get_pixels(oiio.UINT8)[..., :3]
     assert index.shape == rgb.shape[:2]
     assert np.array_equal(palette_of(data)[index], rgb)

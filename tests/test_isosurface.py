@@ -10,13 +10,14 @@ from hypothesis import strategies as st
 
 from lang import ir
 from lang.evaluate import compile_source
+from runtime.functions import compile_xyz
 from runtime.prims.isosurface import WALL, IsosurfacePrim
 from runtime.shapes import SpherePrim
 
 
 def iso(src_fn: str, **kw) -> IsosurfacePrim:
     r = compile_source(f'#include "functions.inc"\n#declare F = function {{ {src_fn} }}', "t.pov")
-    return IsosurfacePrim(ir.Isosurface(r.symbols["F"].compiled, **kw))
+    return IsosurfacePrim(ir.Isosurface(r.symbols["F"].compiled, **kw), compile_xyz)
 
 
 def rays(n: int, seed: int, spread: float = 0.9):

@@ -1,6 +1,6 @@
 """Objects no ray can reach, left out of the render: walled off by an opaque plane
 (runtime.occlusion), or outside the view of a scene where nothing reflects and their shadows
-cannot fall into it (prepare._Culler). Found only where the proof holds; leaving them out
+cannot fall into it (prepare.Culler). Found only where the proof holds; leaving them out
 changes no pixel."""
 
 from __future__ import annotations
@@ -133,7 +133,7 @@ def _render(s, monkeypatch, left_out: bool, kernel: str) -> np.ndarray:
         m.setenv("STRALA_KERNEL", kernel)
         if not left_out:
             m.setattr(prepare_module, "Occluders", lambda *args: None)
-            m.setattr(prepare_module._Culler, "enabled", False)
+            m.setattr(prepare_module.Culler, "enabled", False)
         return render_scene(s, 48, 36, antialias=0.3)
 
 

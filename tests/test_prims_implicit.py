@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from lang import ir
 from lang.eval.data_shapes import poly_size, poly_terms
 from lang.evaluate import compile_source
-from runtime import shapes
+from runtime import prims, shapes
+from runtime.functions import compile_xyz
 from runtime.prepare import prepare
 from runtime.prims import roots
 from runtime.prims.blob import BlobPrim
@@ -400,7 +401,7 @@ def test_shapes_trace_and_work_in_csg(src, x):
     """Each shape renders through the tracer and as a CSG child (difference with a box
     that cuts away everything with z < 0: the ray from -z meets the cut face first)."""
     obj = compile_source(src).scene.objects[0]
-    assert shapes.primitive_for(obj.shape) is not None
+    assert prims.primitive_for(obj.shape, compile_xyz) is not None
     cut = ir.Object(ir.Box((-5, -5, -5), (5, 5, 0)))
     diff = ir.Object(ir.CSG("difference", (obj, cut)))
     o = np.array([[x, 0.02, -5.0], [x + 0.01, -0.03, -5.0]])

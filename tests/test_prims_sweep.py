@@ -149,7 +149,7 @@ def test_hits_lie_on_the_sor_surface(seed):
     t, _ = prim.crossings(o, d)
     fin = np.isfinite(t)
     p = (o[:, None, :] + np.where(fin, t, 0)[..., None] * d[:, None, :])[fin]
-    f = sp.polyval(prim.coef[prim._segment_of(p[:, 1])], p[:, 1])
+    f = sp.polyval(prim.coef[prim.segment_of(p[:, 1])], p[:, 1])
     assert np.max(np.abs(p[:, 0] ** 2 + p[:, 2] ** 2 - f), initial=0.0) < 1e-9
 
 

@@ -74,7 +74,7 @@ def test_subdivision_keeps_area_and_lookup_finds_the_patch(split, seed):
     k = 200
     element = rng.integers(0, len(p.elements), k)
     uv = rng.random((k, 2))
-    tri = p._a["kind"][element] == 1
+    tri = p.element_arrays["kind"][element] == 1
     uv[tri] = np.where((uv[tri].sum(axis=1) > 1)[:, None], 1 - uv[tri], uv[tri])
     leaf, local = p.locate(element, uv)
     assert np.all(p.element[leaf] == element)

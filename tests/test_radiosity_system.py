@@ -293,18 +293,18 @@ def test_closed_patches_conserve_energy_exactly():
     room = ir.Object(ir.Box((0, 0, 0), (2, 2, 2)), texture=_tex(emission=0.05))
     dark = ir.Light((1.0, 1.0, 1.0), color=(0.0, 0.0, 0.0))
     prep = prepare(_scene((room,), [dark]), 8, 8)
-    sm = system._SceneMesher(prep, system.Options(patch_size=0.5))
+    sm = system.SceneMesher(prep, system.Options(patch_size=0.5))
     sm.run()
     patches = sm.mesher.patches()
     rng = np.random.default_rng(1)
-    pts, _ = system._open_points(prep, patches, 4, rng, sm.extent, set())
+    pts, _ = system.open_points(prep, patches, 4, rng, sm.extent, set())
     vis = system.PatchVisibility(patches.verts)
-    closed = system._hit_fraction(vis, pts, patches.normal, 32, rng) == 1.0
+    closed = system.hit_fraction(vis, pts, patches.normal, 32, rng) == 1.0
     inner = np.einsum("nc,nc->n", patches.normal, 1.0 - patches.centroid) > 0
     assert np.all(closed[inner]) and not np.any(closed[~inner])
     F = system.form_factors(patches.verts, far_order=1, visible=vis, vis_points=(pts, pts))
     raw = F.sum(axis=1)
-    system._conserve(F, closed)
+    system.conserve(F, closed)
     assert np.abs(raw[inner] - 1).max() > 1e-5  # there was something to correct
     assert np.allclose(F.sum(axis=1)[inner], 1.0, atol=1e-12)
     assert np.all(F.sum(axis=1) <= 1.0 + 1e-12)
@@ -320,14 +320,14 @@ def test_unmeshed_objects_open_the_closure():
     fractions = []
     for objects in ((room,), (room, post)):
         prep = prepare(_scene(objects, [dark], camera=ir.Camera(location=(0.3, 1.0, 0.4))), 8, 8)
-        sm = system._SceneMesher(prep, system.Options(patch_size=0.5))
+        sm = system.SceneMesher(prep, system.Options(patch_size=0.5))
         sm.run()
         patches = sm.mesher.patches()
         inner = np.einsum("nc,nc->n", patches.normal, 1.0 - patches.centroid) > 0
         rng = np.random.default_rng(2)
-        pts, _ = system._open_points(prep, patches, 4, rng, sm.extent, set())
-        vis = system.PatchVisibility(patches.verts, system._unmeshed_tracer(prep, set(sm.records)))
-        fractions.append(system._hit_fraction(vis, pts, patches.normal, 32, rng)[inner])
+        pts, _ = system.open_points(prep, patches, 4, rng, sm.extent, set())
+        vis = system.PatchVisibility(patches.verts, system.unmeshed_tracer(prep, set(sm.records)))
+        fractions.append(system.hit_fraction(vis, pts, patches.normal, 32, rng)[inner])
     alone, with_post = fractions
     assert np.all(alone == 1.0)
     assert (with_post < 1.0).mean() > 0.5 and with_post.min() > 0.3

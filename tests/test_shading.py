@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from lang import ir
-from runtime import integrate, shading
+from runtime import integrate, lights, shading
 from runtime.prepare import prepare
 from runtime.shading import Surface
 
@@ -380,7 +380,7 @@ def test_area_light_penumbra_is_between_lit_and_shadowed():
     ys = np.linspace(0.0, 3.0, 40)
     pts = np.stack([np.zeros_like(ys), ys, np.full_like(ys, -1.0)], axis=1)
     ls = shading.sample_light(light, pts)
-    frac = integrate.shadow(ctx, light, pts, ls.direction, ls.distance)[:, 0]
+    frac = lights.shadow(ctx, light, pts, ls.direction, ls.distance)[:, 0]
     assert frac[0] == pytest.approx(0.0)
     assert frac[-1] == pytest.approx(1.0)
     assert ((frac > 0.05) & (frac < 0.95)).sum() >= 3
@@ -429,7 +429,7 @@ def test_faked_caustics_focus_head_on_light():
         )
         ctx = integrate.make_context(prepare(scene, 8, 8))
         p = np.array([[0.0, 0.0, 0.0]])
-        return integrate.shadow_filter(ctx, p, np.array([[0.0, 1.0, 0.0]]), np.array([20.0]))
+        return lights.shadow_filter(ctx, p, np.array([[0.0, 1.0, 0.0]]), np.array([20.0]))
 
     np.testing.assert_allclose(through(0.0)[0], [1, 1, 1])
     np.testing.assert_allclose(through(1.0)[0], [2, 2, 2])

@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from lang import ir
-from runtime.sphere_sweep import _spline_points, pieces, tangent_cone
+from runtime.sphere_sweep import pieces, spline_points, tangent_cone
 
 coord = st.floats(-3, 3)
 radius = st.floats(0.05, 1.0)
@@ -38,7 +38,7 @@ def test_the_frustum_touches_both_spheres_along_its_side(c1, r1, c2, r2):
 
 def test_b_spline_samples_lie_on_the_uniform_cubic_b_spline():
     P = np.array([[0, 0, 0, 0.1], [1, 2, 0, 0.2], [2, -1, 1, 0.3], [3, 1, 0, 0.1]], float)
-    S = _spline_points(ir.SphereSweep("b_spline", tuple(map(tuple, P))))
+    S = spline_points(ir.SphereSweep("b_spline", tuple(map(tuple, P))))
     # t = 0 and t = 1 of the single segment: (P0 + 4 P1 + P2)/6 and (P1 + 4 P2 + P3)/6
     assert np.allclose(S[0], (P[0] + 4 * P[1] + P[2]) / 6)
     assert np.allclose(S[-1], (P[1] + 4 * P[2] + P[3]) / 6)
@@ -46,7 +46,7 @@ def test_b_spline_samples_lie_on_the_uniform_cubic_b_spline():
 
 def test_cubic_spline_passes_through_the_inner_points():
     P = np.array([[0, 0, 0, 0.1], [1, 2, 0, 0.2], [2, -1, 1, 0.3], [3, 1, 0, 0.1], [4, 0, 0, 0.2]])
-    S = _spline_points(ir.SphereSweep("cubic_spline", tuple(map(tuple, P))))
+    S = spline_points(ir.SphereSweep("cubic_spline", tuple(map(tuple, P))))
     for p in P[1:-1]:
         assert np.min(np.linalg.norm(S - p, axis=1)) < 1e-12
 

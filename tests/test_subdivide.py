@@ -782,13 +782,13 @@ subdivision {{
 
 def _adaptive_faces(dist: float, width: int, extra: str = "") -> int:
     from lang.evaluate import compile_source
-    from runtime.prepare import _Builder
+    from runtime.prepare import Tessellator
 
     res = compile_source(ADAPTIVE_SCENE.format(dist=dist, extra=extra))
     assert not [d for d in res.diagnostics if d.severity == "error"]
     (obj,) = res.scene.objects
     assert obj.shape.adaptive and (obj.shape.levels is None) == (not extra)
-    return len(_Builder(res.scene.camera, width).tessellate(obj).faces)
+    return len(Tessellator(res.scene.camera, width).tessellate(obj).faces)
 
 
 def test_adaptive_level_follows_the_screen_size():
@@ -820,7 +820,7 @@ def test_dart_on_a_regular_vertex_has_a_normal(scheme):
     )
     m = sd.ControlMesh.from_shape(shape)
     s = sd.edge_sharpness(m)
-    darts = sd._darts(m, s, sd.vertex_rules(m, s, "sharp"))
+    darts = sd.find_darts(m, s, sd.vertex_rules(m, s, "sharp"))
     assert darts is not None and sorted(darts.vertices) == ends
     normals = [sd.subdivision_mesh(shape, lv)[2][ends] for lv in (0, 2, 6)]
     assert all(np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12) for n in normals)

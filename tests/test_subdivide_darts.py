@@ -12,8 +12,8 @@ from runtime import subdivide as sd
 @pytest.mark.parametrize("scheme", ["catmull_clark", "loop"])
 @pytest.mark.parametrize("valence", range(3, 10))
 def test_dart_tangent_masks_span_the_subdominant_plane(scheme, valence):
-    S = sd._dart_matrix(scheme, valence)
-    masks = sd._dart_masks(scheme, valence)
+    S = sd.dart_matrix(scheme, valence)
+    masks = sd.dart_masks(scheme, valence)
     limit, tangents = masks[0], masks[1:]
     assert limit.sum() == pytest.approx(1.0)
     assert np.allclose(limit @ S, limit, atol=1e-12)  # a left eigenvector of eigenvalue 1

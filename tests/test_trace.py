@@ -96,7 +96,7 @@ def test_no_embree_scene_without_triangles():
     for skip in (None, "no_image", "no_reflection"):
         assert prep.tracer.closest(o, d, skip=skip).obj[0] == 0
     assert prep.tracer.occluded(o, d, np.array([5.0]))[0]
-    assert len(prep.tracer.triangles._scenes) == 1
+    assert len(prep.tracer.triangles.scenes) == 1
 
 
 def test_skip_flags_and_shadows():
@@ -258,7 +258,7 @@ def test_the_compiled_box_tree_is_the_python_one(n, seed, layout):
     leaf items node for node (ties in the sort and lopsided splits included)."""
     from runtime import trace
 
-    if trace._boxtree is None:
+    if not trace.box_tree_compiled():
         pytest.skip("the compiled box tree is not built (no C compiler)")
     rng = np.random.default_rng(seed)
     c = rng.normal(size=(n, 3)) * 10

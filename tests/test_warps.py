@@ -101,5 +101,5 @@ def test_average_pigment_averages_at_its_warped_point():
 
 
 def test_warp_rands_are_povray_sequence():
-    r = patterns._warp_rands()
+    r = patterns.warp_rands()
     assert len(r) == 32768 and abs(r[0] - 3499211612 / 2**32) < 1e-15

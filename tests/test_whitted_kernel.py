@@ -49,8 +49,8 @@ def _scene(text: str):
 
 
 def test_layout_is_the_kernels():
-    assert whitted._whitted is not None
-    assert whitted._whitted.layout() == whitted.layout()
+    assert whitted.kernel_built()
+    assert whitted.kernel_layout() == whitted.layout()
 
 
 @pytest.mark.skipif(not (shutil.which("cc") or shutil.which("gcc")), reason="no C compiler")
@@ -59,7 +59,7 @@ def test_kernel_is_built_where_a_compiler_is():
     assert whitted.available()
     from runtime import trace
 
-    assert trace._boxtree is not None  # the box tree's build, likewise
+    assert trace.box_tree_compiled()  # the box tree's build, likewise
 
 
 def test_seed_scene_matches_numpy_with_antialiasing(monkeypatch):
@@ -365,11 +365,11 @@ def test_the_environment_switch_turns_it_off(monkeypatch):
     monkeypatch.setenv(whitted.ENV, "numpy")
     assert not whitted.available()
     monkeypatch.delenv(whitted.ENV)
-    assert whitted.available() == (whitted._whitted is not None)
+    assert whitted.available() == whitted.kernel_built()
 
 
 def test_no_extension_falls_back(monkeypatch):
-    monkeypatch.setattr(whitted, "_whitted", None)
+    monkeypatch.setattr(whitted, "kernel_built", lambda: False)
     scene = api.compile_file(ROOT / "examples" / "ex3.scene").scene
     assert "the compiled kernel is not built" in whitted.reasons(
         prepare(scene, 16, 12), scene.camera
@@ -393,7 +393,7 @@ def test_a_damaged_scene_array_is_refused_not_traced():
     out = np.empty((6, 8, 3))
 
     def tile(buf):
-        return whitted._whitted.render_tile(buf, 0, 0, 8, 6, -1.0, 0.4, 3, out)
+        return whitted.trace_packed(buf, 0, 0, 8, 6, -1.0, 0.4, 3, out)
 
     tile(good)
     assert np.isfinite(out).all()
@@ -408,7 +408,7 @@ def test_a_damaged_scene_array_is_refused_not_traced():
     with pytest.raises(ValueError):
         tile(good[:10])
     with pytest.raises(ValueError):
-        whitted._whitted.render_tile(good, 0, 0, 0, 0, -1.0, 0.4, 3, out)
+        whitted.trace_packed(good, 0, 0, 0, 0, -1.0, 0.4, 3, out)
 
 
 # ------------------------------------------------------------------ view masks
@@ -504,9 +504,9 @@ def test_objects_outside_the_view_are_skipped_and_the_image_is_the_same(monkeypa
     """
     scene = _scene(text)
     prepared = prepare(scene, 64, 48)
-    bvh, _ = whitted._box_tree(prepared.tracer)
+    bvh, _ = whitted.box_tree(prepared.tracer)
     masks = whitted.view_masks(bvh, scene.camera, 64, 48, scene.lights)
-    starts = whitted._walk_starts(bvh, masks)
+    starts = whitted.walk_starts(bvh, masks)
     assert masks[:, 0].sum() < len(bvh) / 4  # most of the tree is outside the view
     assert starts[0] > 0 and starts[1] > 0  # camera and shadow rays skip the crowd
     _assert_identical(scene, 64, 48, 0.3, monkeypatch)

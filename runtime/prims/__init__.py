@@ -1,12 +1,22 @@
 """Analytic primitives for POV-Ray's less common shapes, one module each, imported only
-when a scene uses the shape. Each class follows the protocol of `runtime.shapes`
-(`bounds`, `size`, `crossings`, `normal`, `inside`, `outside`)."""
+when a scene uses the shape, and `primitive_for`, which picks the primitive of any IR
+shape (the common ones are runtime.shapes'). Each class follows the protocol of
+`runtime.shapes` (`bounds`, `size`, `crossings`, `normal`, `inside`, `outside`)."""
 
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable
+
+import numpy as np
 
 from lang import ir
+from runtime import shapes
+
+# Compiles a user function to g(points (N,3)) -> (N,): runtime.functions.compile_xyz. The
+# callers hand it in rather than this package importing it: a function may hold a pigment
+# whose object pattern asks for an object's inside, which is built from these primitives.
+FunctionCompiler = Callable[[ir.Function], Callable[[np.ndarray], np.ndarray]]
 
 # IR class → (module, class) of its primitive (`sphere_sweep` is a merge: runtime.prepare)
 _PRIMS: dict[type, tuple[str, str]] = {
@@ -19,11 +29,16 @@ _PRIMS: dict[type, tuple[str, str]] = {
     ir.Text: ("text", "TextPrim"),
     ir.Isosurface: ("isosurface", "IsosurfacePrim"),
 }
+# The primitives built from a compiled function as well as their shape.
+_TAKE_FUNCTIONS = frozenset({ir.Isosurface})
 
 
-def primitive_for(shape):
-    """The primitive for `shape`, or None when this package has none for its class (or the
-    module is not written yet)."""
+def primitive_for(shape, compile_xyz: FunctionCompiler):
+    """The analytic primitive for an IR shape, or None (meshes go to Embree, CSG to nodes;
+    a class this package has no module for yet has none either)."""
+    prim = shapes.primitive_for(shape)
+    if prim is not None:
+        return prim
     where = _PRIMS.get(type(shape))
     if where is None:
         return None
@@ -34,4 +49,6 @@ def primitive_for(shape):
             raise
         return None
     cls = getattr(module, where[1], None)
-    return None if cls is None else cls(shape)
+    if cls is None:
+        return None
+    return cls(shape, compile_xyz) if type(shape) in _TAKE_FUNCTIONS else cls(shape)

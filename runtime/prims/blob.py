@@ -27,7 +27,7 @@ from lang import ir
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.prims import roots
-from runtime.shapes import _dot, _recentre, stable_quadratic
+from runtime.shapes import dot, recentre, stable_quadratic
 
 INF = np.inf
 
@@ -155,10 +155,10 @@ class BlobPrim:
     def crossings(self, o, d):
         n = len(o)
         parts = []
-        dl = np.sqrt(_dot(d, d))
+        dl = np.sqrt(dot(d, d))
         good = dl > 0
         du = d / np.where(good, dl, 1.0)[:, None]
-        oc, t0 = _recentre(o, d, self.centre)
+        oc, t0 = recentre(o, d, self.centre)
         for sl in self._chunks(n, max(1, 4 * len(self.s))):
             u = self._chunk_crossings(oc[sl], du[sl])
             parts.append(u)

@@ -17,10 +17,11 @@ differences of step `accuracy`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from lang import ir
-from runtime.functions import compile_xyz
 from runtime.shapes import BoxPrim, SpherePrim
 
 # Bounds on the work for one batch of rays: marching steps (a ray grazing the surface
@@ -33,7 +34,13 @@ SURFACE, WALL = 0, 1
 
 
 class IsosurfacePrim:
-    def __init__(self, shape: ir.Isosurface):
+    def __init__(
+        self,
+        shape: ir.Isosurface,
+        compile_xyz: Callable[[ir.Function], Callable[[np.ndarray], np.ndarray]],
+    ):
+        """`compile_xyz` compiles the shape's function (runtime.functions.compile_xyz;
+        handed in, see runtime.prims.FunctionCompiler)."""
         self.shape = shape
         self.f = compile_xyz(shape.function)
         self.threshold = float(shape.threshold)

@@ -316,7 +316,7 @@ class SorPrim:
             return np.full((n, 1), np.inf), np.zeros((n, 1), dtype=np.int8)
         return sp.compact(np.concatenate(ts, axis=1), np.concatenate(fs, axis=1))
 
-    def _segment_of(self, y):
+    def segment_of(self, y):
         return np.clip(np.searchsorted(self.y[:, 1], y, side="left"), 0, len(self.coef) - 1)
 
     def inside(self, p):
@@ -324,7 +324,7 @@ class SorPrim:
             return np.zeros(len(p), dtype=bool)
         y = p[:, 1]
         rho2 = p[:, 0] ** 2 + p[:, 2] ** 2
-        f = sp.polyval(self.coef[self._segment_of(y)], y)
+        f = sp.polyval(self.coef[self.segment_of(y)], y)
         return (y >= self.ylo) & (y <= self.yhi) & (rho2 <= f)
 
     def outside(self, p):
@@ -333,7 +333,7 @@ class SorPrim:
     def normal(self, p, face):
         f = face.astype(np.int64)
         y = p[:, 1]
-        c = self.coef[self._segment_of(y)]
+        c = self.coef[self.segment_of(y)]
         slope = sp.polyval(sp.polyder(c), y)
         n = np.stack([p[:, 0], -0.5 * slope, p[:, 2]], axis=1)
         n[f == 0] = (0.0, -1.0, 0.0)

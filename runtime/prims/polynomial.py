@@ -22,7 +22,7 @@ import numpy as np
 from lang import ir
 from runtime import tolerances as tol
 from runtime.prims import roots
-from runtime.shapes import _dot, _recentre, stable_quadratic
+from runtime.shapes import dot, recentre, stable_quadratic
 
 INF = np.inf
 
@@ -117,10 +117,10 @@ class PolyPrim:
         n = len(o)
         if self.degree == 0:
             return np.full((n, 1), INF), np.zeros((n, 1), dtype=np.int8)
-        dl = np.sqrt(_dot(d, d))
+        dl = np.sqrt(dot(d, d))
         ok = dl > 0
         du = d / np.where(ok, dl, 1.0)[:, None]
-        oc, t0 = _recentre(o, d, np.zeros(3))
+        oc, t0 = recentre(o, d, np.zeros(3))
         cf = self.along(oc, du)
         if self.degree == 1:
             with np.errstate(divide="ignore", invalid="ignore"):

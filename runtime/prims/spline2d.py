@@ -84,7 +84,7 @@ def prism_segments(kind: str, points) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ polynomials
-def polyval(c: np.ndarray, t: np.ndarray) -> np.ndarray:
+def polyval(c: np.ndarray, t: np.ndarray | float) -> np.ndarray:
     """Horner: c (..., n+1) highest power first, t broadcast against c[..., 0]."""
     out = np.zeros(np.broadcast_shapes(c.shape[:-1], np.shape(t)))
     for k in range(c.shape[-1]):

@@ -26,7 +26,7 @@ import numpy as np
 from lang import ir
 from runtime import tolerances as tol
 from runtime.prims import roots
-from runtime.shapes import _dot, _recentre
+from runtime.shapes import dot, recentre
 
 INF = np.inf
 
@@ -105,15 +105,15 @@ class SuperellipsoidPrim:
         enough to bisect for the minimum, whose location does not depend on the scale.
         A convex f has a finite gradient everywhere, and its plain form is cheaper."""
         p = o + t[:, None] * d
-        return _dot(self.exact_gradient(p) if self.convex else self.gradient(p), d)
+        return dot(self.exact_gradient(p) if self.convex else self.gradient(p), d)
 
     # ------------------------------------------------------------------- protocol
     def crossings(self, o, d):
         n = len(o)
-        dl = np.sqrt(_dot(d, d))
+        dl = np.sqrt(dot(d, d))
         good = dl > 0
         du = d / np.where(good, dl, 1.0)[:, None]
-        oc, t0 = _recentre(o, d, np.zeros(3))
+        oc, t0 = recentre(o, d, np.zeros(3))
         lo, hi = _box_chord(oc, du, 1.0 + tol.SUPERELLIPSOID_BOX_PAD)
         rows = np.nonzero(good & (lo < hi))[0]
         t = np.full((n, 2), INF)
@@ -175,7 +175,7 @@ class SuperellipsoidPrim:
                 with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                     big = self.value(p) + 1.0
                     root = big ** (1.0 / self.q)
-                    slope = root / (self.q * big) * _dot(self.exact_gradient(p), dd[sel])
+                    slope = root / (self.q * big) * dot(self.exact_gradient(p), dd[sel])
                 return root - 1.0, slope
 
             out[ri, ci] = roots.bracketed(

@@ -41,6 +41,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from runtime import transform as tf
+
 Visibility = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 # Below this |R_k × R_{k+1}| an edge is degenerate (padding vertex or an edge seen end-on):
@@ -61,18 +63,13 @@ _VIS_BATCH_RAYS = 2**20
 # ------------------------------------------------------------------- geometry
 
 
-def _normalize(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
-
-
 def polygon_normal_area(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit normals (...,3) and areas (...) of planar polygons (...,K,3) (Newell's method,
     exact for planar polygons and robust to repeated padding vertices)."""
     nxt = np.roll(verts, -1, axis=-2)
     twice = np.cross(verts, nxt).sum(axis=-2)
     area = 0.5 * np.linalg.norm(twice, axis=-1)
-    return _normalize(twice), area
+    return tf.normalize(twice), area
 
 
 def polygon_centroid(verts: np.ndarray) -> np.ndarray:
@@ -127,7 +124,7 @@ def clip_to_hemisphere(rel: np.ndarray, normal: np.ndarray) -> np.ndarray:
 def projected_solid_angle(rel: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """Lambert's contour integral / π for polygons already above the tangent plane:
     (...,K,3) relative vertices, (...,3) normal → (...) form factor in [0, 1]."""
-    u = _normalize(rel)
+    u = tf.normalize(rel)
     v = np.roll(u, -1, axis=-2)
     c = np.cross(u, v)
     s = np.linalg.norm(c, axis=-1)
@@ -333,7 +330,7 @@ def form_factors(
     geo = _Targets(dst, n_dst, float(np.abs(dst).max()) + float(np.abs(src).max()))
     rules = [polygon_quadrature(src, order)]
     tiered = far_order is not None and far_order != order
-    if tiered:
+    if tiered and far_order is not None:  # (tiered says it is not None)
         rules.append(polygon_quadrature(src, far_order))
     if tiered or point_ratio is not None:
         c_src, r_src = polygon_centroid(src), _radius(src)
@@ -349,6 +346,7 @@ def form_factors(
     def chunk(start: int) -> None:
         sl = slice(start, min(ns, start + rows_per_chunk))
         point = None
+        masks: list[np.ndarray | None]
         if len(rules) == 1 and point_ratio is None:
             masks = [None]
         else:

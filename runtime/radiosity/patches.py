@@ -267,7 +267,8 @@ def ear_clip(pts: np.ndarray) -> list[tuple[int, int, int]]:
         else:
             break  # not simple: give up on the rest
     if len(idx) == 3:
-        out.append(tuple(idx))
+        i, j, l = idx
+        out.append((i, j, l))
     return out
 
 
@@ -292,7 +293,7 @@ class Patches:
     def __init__(self, elements: Elements):
         self.elements = elements
         a = elements.arrays()
-        self._a = a
+        self.element_arrays = a
         self.reflectance_el = np.asarray(elements.reflectance).reshape(-1, 3)
         self.emission_el = np.asarray(elements.emission).reshape(-1, 3)
         self.group_el = np.asarray(elements.group, dtype=np.int64)
@@ -314,7 +315,7 @@ class Patches:
         self.uv = self.node_uv[nodes]
         self.verts = self.surface_points(self.element[:, None], self.uv)
         self.verts = np.where(
-            self._a["flip"][self.element][:, None, None],
+            self.element_arrays["flip"][self.element][:, None, None],
             self._flip_order(self.verts),
             self.verts,
         )
@@ -325,12 +326,12 @@ class Patches:
         self.group = self.group_el[self.element]
         self.surface = self.surface_el[self.element]
         self.level = self.node_level[nodes]
-        self.is_tri = self._a["kind"][self.element] == TRI
+        self.is_tri = self.element_arrays["kind"][self.element] == TRI
 
     def _flip_order(self, verts: np.ndarray) -> np.ndarray:
         """Reverse the winding; triangles (last vertex repeated) stay padded at the end."""
         flipped = verts[:, ::-1]
-        tri = (self._a["kind"][self.element] == TRI)[:, None, None]
+        tri = (self.element_arrays["kind"][self.element] == TRI)[:, None, None]
         tri_order = verts[:, [0, 2, 1, 1]]
         return np.where(tri, tri_order, flipped)
 
@@ -339,7 +340,7 @@ class Patches:
 
     def surface_points(self, element: np.ndarray, uv: np.ndarray) -> np.ndarray:
         """World points of element-local (u, v); element broadcastable to uv[..., 0]."""
-        a = self._a
+        a = self.element_arrays
         element = np.broadcast_to(element, uv.shape[:-1])
         u, v = uv[..., 0], uv[..., 1]
         kind = a["kind"][element]
@@ -373,11 +374,11 @@ class Patches:
         self.children = np.concatenate([self.children, np.full((4 * k, 4), -1)])
         self.children[nodes] = new
         parent_uv = self.node_uv[nodes]  # (k,4,2)
-        tri = (self._a["kind"][self.node_element[nodes]] == TRI)[:, None, None, None]
+        tri = (self.element_arrays["kind"][self.node_element[nodes]] == TRI)[:, None, None, None]
         rule = np.where(tri, _TRI_CHILDREN[None], _QUAD_CHILDREN[None])  # (k,4,4,2)
         # Child corners = parent's affine map of the rule's local corners (parents are
         # parallelograms or triangles in (u, v), so two edge vectors define the map).
-        tri1 = self._a["kind"][self.node_element[nodes]] == TRI
+        tri1 = self.element_arrays["kind"][self.node_element[nodes]] == TRI
         o = parent_uv[:, None, None, 0]
         du = parent_uv[:, 1] - parent_uv[:, 0]
         dv = np.where(tri1[:, None], parent_uv[:, 2], parent_uv[:, 3]) - parent_uv[:, 0]
@@ -430,7 +431,7 @@ class Patches:
 
     def _sphere_inner(self) -> np.ndarray:
         """(N,) bool: sphere patches facing the sphere's centre."""
-        a = self._a
+        a = self.element_arrays
         sph = a["kind"][self.element] == SPHERE
         out = np.zeros(len(self), dtype=bool)
         if sph.any():
@@ -467,7 +468,7 @@ class Patches:
         descended level by level for the whole batch at once."""
         node = np.asarray(element, dtype=np.int64).copy()
         loc = np.asarray(uv, dtype=np.float64).copy()
-        tri = self._a["kind"][node] == TRI
+        tri = self.element_arrays["kind"][node] == TRI
         while True:
             ch = self.children[node]
             inner = ch[:, 0] >= 0
@@ -491,7 +492,7 @@ class Patches:
 
     def element_uv(self, element: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Element-local (u, v) of world points on (or near) the element's surface."""
-        a = self._a
+        a = self.element_arrays
         element = np.asarray(element, dtype=np.int64)
         out = np.zeros((len(element), 2))
         aff = a["kind"][element] != SPHERE

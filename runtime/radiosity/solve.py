@@ -165,6 +165,7 @@ def progressive(
         if F is not None:
             cols = F[:, s]  # (N,k): F[j, i] for shooters i
         else:
+            assert rows is not None  # the caller gives F or rows
             r = rows(s)  # (k,N) = F[i, j]
             cols = (r * area[s][:, None] / area[None, :]).T
         shot = unshot[s].copy()
@@ -246,16 +247,16 @@ class RowCache:
         self.computed = 0
 
     def __call__(self, idx: np.ndarray) -> np.ndarray:
-        idx = [int(i) for i in np.asarray(idx).reshape(-1)]
-        missing = [i for i in dict.fromkeys(idx) if i not in self.rows]
+        ids = [int(i) for i in np.asarray(idx).reshape(-1)]
+        missing = [i for i in dict.fromkeys(ids) if i not in self.rows]
         if missing:
             fresh = self.provider(np.asarray(missing, dtype=np.int64))
             self.computed += len(missing)
             for i, row in zip(missing, fresh, strict=True):
                 self.rows[i] = row
-        for i in idx:
+        for i in ids:
             self.rows.move_to_end(i)
-        out = np.stack([self.rows[i] for i in idx]) if idx else np.zeros((0, 0))
+        out = np.stack([self.rows[i] for i in ids]) if ids else np.zeros((0, 0))
         while len(self.rows) > self.max_rows:
             self.rows.popitem(last=False)
         return out

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import os
 import pickle
 import sys
 import time
@@ -176,11 +175,17 @@ class RadiosityResult:
 def scene_bounds(objects: list[ir.Object], extra: list[np.ndarray]) -> tuple[np.ndarray, ...]:
     """World bounding box of the finite objects and the extra points (lights); ±inf when
     there is nothing finite."""
-    from runtime import shapes  # lazily: only radiosity scenes need it here
+    # lazily: only radiosity scenes need them here
+    from runtime import prims
+    from runtime.functions import compile_xyz
 
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for obj in objects:
-        prim = shapes.primitive_for(obj.shape) if not isinstance(obj.shape, ir.Mesh) else None
+        prim = (
+            prims.primitive_for(obj.shape, compile_xyz)
+            if not isinstance(obj.shape, ir.Mesh)
+            else None
+        )
         if isinstance(obj.shape, ir.Mesh):
             v = tf.apply_points(tf.as_matrix(obj.transform), np.asarray(obj.shape.vertices))
             a, b = v.min(axis=0), v.max(axis=0)
@@ -231,7 +236,10 @@ def eye_cell(prepared) -> EyeCell:
     return EyeCell(frozenset(objects), nodes)
 
 
-class _SceneMesher:
+class SceneMesher:
+    """Meshes a prepared scene's surfaces into radiosity elements, recording which object
+    and primitive each element came from (`records`), with the problems it met."""
+
     def __init__(self, prepared, opts: Options):
         self.prepared = prepared
         self.opts = opts
@@ -479,7 +487,7 @@ def _gathered(F, B, patches: Patches, D) -> np.ndarray:
     return np.maximum(g, 0.0)
 
 
-def _hollow_solids(prepared, sm: _SceneMesher) -> set[int]:
+def _hollow_solids(prepared, sm: SceneMesher) -> set[int]:
     """Tracer nodes whose inside holds a light source, part of an emitter or the eye: the
     scene happens inside them (a room box, the half-space of Ex3's back plane), so they
     bury nothing. Indices into prepared.tracer.nodes."""
@@ -509,7 +517,7 @@ def _residual_tolerance(F: np.ndarray | None, rho: np.ndarray, tolerance: float)
     return tolerance * max(1.0 - q, 1e-4)
 
 
-def _hit_fraction(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays: int,
+def hit_fraction(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays: int,
                   rng) -> np.ndarray:  # fmt: skip
     """(N,) the fraction of `rays` cosine-distributed rays from each patch's open points
     that hit a surface: 1 where the patch sees a closed scene (no sky through any
@@ -533,7 +541,7 @@ def _hit_fraction(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, ray
     return vis.hits(o.reshape(-1, 3), d.reshape(-1, 3)).reshape(n, rays).mean(axis=1)
 
 
-def _conserve(F: np.ndarray, closed: np.ndarray) -> None:
+def conserve(F: np.ndarray, closed: np.ndarray) -> None:
     """Scale form-factor rows in place so that energy is conserved: a patch that sees only
     surfaces (`closed`) sends all its light to them (row sum 1), no row sends more than
     all. The quadrature (far pairs use fewer points) and the visibility sampling leave row
@@ -544,7 +552,7 @@ def _conserve(F: np.ndarray, closed: np.ndarray) -> None:
     F *= np.where(s > 0, target / np.maximum(s, 1e-300), 1.0)[:, None]
 
 
-def _open_points(prepared, patches: Patches, count: int, rng, extent: float, hollow: set[int]):
+def open_points(prepared, patches: Patches, count: int, rng, extent: float, hollow: set[int]):
     """(N,count,3) sample points on each patch that lie outside every other solid, and the
     buried fraction β (N,) of each patch (from 8·count candidates). A fully buried patch
     keeps buried points (its β = 1 removes it from the exchange anyway).
@@ -558,15 +566,15 @@ def _open_points(prepared, patches: Patches, count: int, rng, extent: float, hol
     # the floor) exclude their boundary, so a point exactly on it would count as open.
     probe = flat + np.repeat(patches.normal, cand_n, axis=0) * (1e-7 * extent)
     owner = np.repeat(patches.surface, cand_n)
-    buried = np.zeros(len(flat), dtype=bool)
+    buried_flat = np.zeros(len(flat), dtype=bool)
     for k, node in enumerate(prepared.tracer.nodes):
         if k in hollow:
             continue
         inside = node.inside(probe)
         if inside.any():
             mine = np.isin(owner, node.leaves)
-            buried |= inside & ~mine
-    buried = buried.reshape(n, cand_n)
+            buried_flat |= inside & ~mine
+    buried = buried_flat.reshape(n, cand_n)
     beta = buried.mean(axis=1)
     # Open candidates first (stable), then take the first `count` of each row.
     order = np.argsort(buried, axis=1, kind="stable")
@@ -601,7 +609,7 @@ def _patterned_materials(prepared, patches: Patches, rng, samples: int = 8) -> N
         patches.emission[rows] = rgb * np.asarray(fin.emission, dtype=np.float64)
 
 
-def _unmeshed_tracer(prepared, meshed: set[int]):
+def unmeshed_tracer(prepared, meshed: set[int]):
     """A tracer over the objects that got no patches (they still block light), or None."""
     from runtime.trace import Leaf, Tracer
 
@@ -759,11 +767,6 @@ def _hash_value(h, v) -> None:
         h.update(repr(v).encode())
 
 
-def default_cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "strala" / "radiosity"
-
-
 def compute(
     prepared, opts: Options | None = None, *, cache_dir: Path | None = None, log=None
 ) -> RadiosityResult:
@@ -814,7 +817,7 @@ def _print_warnings(res: RadiosityResult) -> None:
 def _compute(prepared, opts: Options, log) -> RadiosityResult:
     t_start = time.perf_counter()
     say = log or (lambda msg: None)
-    sm = _SceneMesher(prepared, opts)
+    sm = SceneMesher(prepared, opts)
     sm.run()
     stats: dict[str, float] = {}
     if len(sm.mesher.el) == 0:
@@ -823,7 +826,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     grade = (sm.lo, sm.hi, sm.extent / 6)
     patches = sm.mesher.patches(opts.max_patches, grade)
     _attach_triangle_geometry(sm)
-    extra = _unmeshed_tracer(prepared, set(sm.records))
+    extra = unmeshed_tracer(prepared, set(sm.records))
     hollow = _hollow_solids(prepared, sm)
     rng = np.random.default_rng(opts.seed)
     min_size = sm.mesher.size / 16
@@ -833,9 +836,9 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     for round_ in range(opts.max_rounds + 1):
         t0 = time.perf_counter()
         n = len(patches)
-        pts, beta = _open_points(prepared, patches, opts.vis_samples, rng, sm.extent, hollow)
+        pts, beta = open_points(prepared, patches, opts.vis_samples, rng, sm.extent, hollow)
         vis = PatchVisibility(patches.verts, extra)
-        hit = _hit_fraction(vis, pts, patches.normal, opts.closure_rays, rng)
+        hit = hit_fraction(vis, pts, patches.normal, opts.closure_rays, rng)
         closed = hit == 1.0
         if solver.fits_dense(n, opts.dense_bytes):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
@@ -847,7 +850,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
             # its open part only: its visibility came from open points, and it is hit in
             # proportion to its open area (reciprocity with the effective area A(1-β)).
             F *= (1.0 - beta)[None, :]
-            _conserve(F, closed)
+            conserve(F, closed)
             rows = None
         else:  # memory-bounded: rows on demand for progressive refinement
             F = None
@@ -858,7 +861,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
                                  point_ratio=opts.point_ratio, visible=vis,
                                  vis_points=(pts[idx], pts))  # fmt: skip
                 f *= (1.0 - beta)[None, :]
-                _conserve(f, closed[idx])
+                conserve(f, closed[idx])
                 return f
 
             rows = solver.RowCache(provider, n, budget=max(opts.dense_bytes // 2, 8 * n))
@@ -944,7 +947,7 @@ def _empty_result(sm, opts) -> RadiosityResult:
     return RadiosityResult(p, z, z, sol, opts, {}, np.zeros(3), {}, sm.warnings)
 
 
-def _attach_triangle_geometry(sm: _SceneMesher) -> None:
+def _attach_triangle_geometry(sm: SceneMesher) -> None:
     """Triangle records keep per-triangle (p0, e1, e2) arrays for hit lookup."""
     a = sm.mesher.el.arrays()
     for recs in sm.records.values():

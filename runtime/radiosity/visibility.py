@@ -78,11 +78,11 @@ class PatchVisibility:
         if self.extra is not None:
             rows = np.nonzero(free & ~blocked)[0]
             if len(rows):
-                d = t[rows] - o[rows]
-                dist = np.linalg.norm(d, axis=1)
-                gap = REL_GAP * (self.extent + dist)
+                seg = t[rows] - o[rows]  # float64 here, unlike the float32 `d` above
+                seg_len = np.linalg.norm(seg, axis=1)
+                seg_gap = REL_GAP * (self.extent + seg_len)
                 blocked[rows] = self.extra.occluded(
-                    o[rows], d / dist[:, None], tmax=dist - gap, tmin=gap
+                    o[rows], seg / seg_len[:, None], tmax=seg_len - seg_gap, tmin=seg_gap
                 )
         return (~blocked).astype(np.float64)
 
@@ -96,16 +96,16 @@ class PatchVisibility:
         far = np.full(len(o), np.inf)
         if self.scene is not None and len(o):
             for s in range(0, len(o), _BATCH):
-                rows = slice(s, s + _BATCH)
-                start = (o[rows] - self.offset) + gap * d[rows]
+                sl = slice(s, s + _BATCH)
+                start = (o[sl] - self.offset) + gap * d[sl]
                 res = self.scene.run(
                     np.ascontiguousarray(start.astype(np.float32)),
-                    np.ascontiguousarray(d[rows].astype(np.float32)),
+                    np.ascontiguousarray(d[sl].astype(np.float32)),
                     dists=np.full(len(start), 1e30, dtype=np.float32),
                     output=1,
                 )
                 got = np.asarray(res["geomID"]) != -1
-                far[rows] = np.where(got, np.asarray(res["tfar"], dtype=np.float64) + gap, np.inf)
+                far[sl] = np.where(got, np.asarray(res["tfar"], dtype=np.float64) + gap, np.inf)
         hit = np.isfinite(far)
         if self.extra is not None:
             rows = np.nonzero(hit)[0]

@@ -229,7 +229,7 @@ def _culling_off():
 
     stack = contextlib.ExitStack()
     stack.enter_context(mock.patch.object(prepare, "Occluders", lambda *args: None))
-    stack.enter_context(mock.patch.object(prepare._Culler, "enabled", False))
+    stack.enter_context(mock.patch.object(prepare.Culler, "enabled", False))
     return stack
 
 

@@ -368,17 +368,17 @@ def test_auto_tessellation_is_half_a_pixel_and_bounded_below(monkeypatch):
     """The automatic chord bound is AUTO_TESSELLATION_PIXELS pixels at the net's nearest
     distance from the eye, at any scale; with the eye on the surface it would be 0, and
     TESSELLATION_REL (1e-6 of the extent) keeps it finite."""
-    from runtime.prepare import _Builder
+    from runtime.prepare import Tessellator
 
     for s in (1e-3, 1.0, 1e6):
         cam = ir.Camera(location=(0.0, 0.0, -5.0 * s))
-        b = _Builder(cam, 100)
+        b = Tessellator(cam, 100)
         pixel = np.linalg.norm(cam.right) / np.linalg.norm(cam.direction) / 100
         nearest = 4.0 * s  # the net's nearest control point is 1 radius in front
         assert b.auto_tolerance(_nurbs_sphere_object(s)) == pytest.approx(
             tol.AUTO_TESSELLATION_PIXELS * pixel * nearest, rel=1e-6
         )
-        on = _Builder(ir.Camera(location=(0.0, 0.0, -1.0 * s)), 100)  # a control point
+        on = Tessellator(ir.Camera(location=(0.0, 0.0, -1.0 * s)), 100)  # a control point
         bound = on.auto_tolerance(_nurbs_sphere_object(s))
         assert bound == pytest.approx(tol.TESSELLATION_REL * 2 * np.sqrt(3) * s, rel=1e-6)
 

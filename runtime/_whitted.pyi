@@ -1,0 +1,17 @@
+"""The compiled Whitted kernel (runtime/kernel/whitted.c), wrapped by runtime/whitted.py."""
+
+import numpy as np
+
+def render_tile(
+    scene: np.ndarray,
+    x0: int,
+    y0: int,
+    x1: int,
+    y1: int,
+    threshold: float,
+    metric_power: float,
+    depth: int,
+    out: np.ndarray,
+    /,
+) -> tuple[int, int, int]: ...
+def layout() -> dict[str, int]: ...

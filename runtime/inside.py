@@ -1,0 +1,87 @@
+"""Insideness: POV-Ray's inside test of one object, as the object pattern, `inside()` and
+`clipped_by` ask it. An object's test is a tree of the tracer's nodes (runtime.trace) over
+the primitives of its shapes (runtime.prims), built from the object alone: no scene is
+prepared for it. Also the two facts about an object's transform that decide whether it
+can be built at all (`singular`) and what its leaf carries (`object_matrix`)."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from lang import ir
+from runtime import prims, shapes
+from runtime import transform as tf
+from runtime.prims import FunctionCompiler
+from runtime.trace import CsgNode, Leaf
+
+# What a builder of nodes reports a problem with: (message, the object's source span).
+Warn = Callable[[str, Any], None]
+
+
+def warn_once(seen: list[str], msg: str, span=None) -> None:
+    """One line per distinct problem (`seen` holds those said already), on stderr, blaming
+    the object's source when known."""
+    if msg not in seen:
+        seen.append(msg)
+        where = f"{span}" if span is not None else "strala"
+        print(f"{where}: warning: {msg}", file=sys.stderr)
+
+
+def object_matrix(obj: ir.Object) -> np.ndarray | None:
+    """The object's transform as a matrix, None for the identity (a Leaf's fast path)."""
+    return None if obj.transform == ir.IDENTITY else tf.as_matrix(obj.transform)
+
+
+def singular(obj: ir.Object) -> str | None:
+    """A transform that flattens the object (scale 0) cannot be inverted: say so."""
+    if obj.transform == ir.IDENTITY:  # most objects; no numpy for them (1000s of spheres)
+        return None
+    m = tf.as_matrix(obj.transform)
+    if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) == 0:
+        return "its transform is singular (a zero scale?)"
+    return None
+
+
+def inside_node(obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler) -> CsgNode | Leaf | None:
+    """A node whose `inside(points)` is POV-Ray's inside test of obj (its leaves report no
+    hits: index -1), or None when the shape has no inside (`warn` says so)."""
+    shape = obj.shape
+    if isinstance(shape, ir.CSG):
+        kids = [
+            c
+            for c in (inside_node(ch, warn, compile_xyz) for ch in shape.children)
+            if c is not None
+        ]
+        return CsgNode(shape.op, kids, inverse=obj.inverse) if kids else None
+    prim = (
+        None
+        if shapes.degenerate(shape) or singular(obj)
+        else prims.primitive_for(shape, compile_xyz)
+    )
+    if prim is None or isinstance(shape, ir.Triangle | ir.Polygon):
+        warn(f"clipped_by {type(shape).__name__} has no inside: ignored", obj.span)
+        return None
+    return Leaf(prim, object_matrix(obj), -1, inverse=obj.inverse)
+
+
+_INSIDE_TESTS: dict[int, tuple[ir.Object, CsgNode | Leaf | None]] = {}
+
+
+def inside_points(obj: ir.Object, points: np.ndarray, compile_xyz: FunctionCompiler) -> np.ndarray:
+    """(N,) bool: which points are inside obj (a shape without an inside, such as a mesh,
+    has none). The test is built once per object (the object pattern, inside());
+    `compile_xyz` compiles the functions of its isosurfaces (runtime.functions.compile_xyz,
+    handed in: see runtime.prims)."""
+    hit = _INSIDE_TESTS.get(id(obj))
+    if hit is None:
+        seen: list[str] = []
+        node = inside_node(obj, lambda msg, span: warn_once(seen, msg, span), compile_xyz)
+        hit = _INSIDE_TESTS[id(obj)] = (obj, node)  # obj kept: its id stays unique
+    node = hit[1]
+    if node is None:
+        return np.zeros(len(points), dtype=bool)
+    return np.asarray(node.inside(np.ascontiguousarray(points, dtype=np.float64)), dtype=bool)

@@ -1,0 +1,241 @@
+"""Light reaching a surface: every light's direction and shadowed colour at the hits of a
+wave (`light_colours`), shadow rays (`shadow`: POV-Ray's adaptive area-light sampling;
+`shadow_filter`: light let through transparent objects, with faked caustics) and the
+interior fade of light that crossed an object's inside. The media along a shadow ray are
+reached through the context (`ctx.media`), not imported: the media import this module."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lang import ir
+from runtime import patterns, shading
+from runtime.context import Context, Hit, LightColours, resolve_textures
+
+# A shadow ray crosses at most this many transparent surfaces before it counts as blocked
+# (bounds the loop for pathological stacks of glass; each crossing is one batch query).
+MAX_SHADOW_CROSSINGS: int = 32
+
+
+# POV-Ray's faked caustics brighten light through a transparent surface by
+# 1 + |N.L|^(45 caustics): near head-on light is focused, oblique light is not.
+CAUSTICS_SCALE: float = 45.0
+
+
+def light_colours(ctx: Context, hit: Hit) -> LightColours:
+    """Every light as seen from every hit: direction and shadowed colour (once per hit,
+    shared by all texture layers, like POV-Ray's light colour cache)."""
+    dirs_out, cols_out = [], []
+    lit = ctx.lit[hit.tex]
+    origins = _shadow_origins(ctx, hit)
+    # A bumpy normal may face a light the smooth one does not: test those hits too.
+    any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex] | ctx.bumpy[hit.tex]
+    for light in ctx.scene.lights:
+        ls = shading.sample_light(light, hit.point)
+        col = ls.colour
+        facing = np.einsum("ij,ij->i", hit.normal, ls.direction) >= shading.EPSILON
+        need = lit & (facing | any_side)
+        need &= np.abs(col).max(axis=1) > shading.EPSILON
+        col = np.where(need[:, None], col, 0.0)
+        if not light.shadowless:
+            rows = np.nonzero(need)[0]
+            if len(rows):
+                col[rows] *= shadow(
+                    ctx, light, origins[rows], ls.direction[rows], ls.distance[rows]
+                )
+                if ctx.media is not None:
+                    col[rows] *= ctx.media.transmittance(
+                        ctx,
+                        origins[rows],
+                        ls.direction[rows],
+                        ls.distance[rows],
+                        light.media_attenuation,
+                    )
+        dirs_out.append(ls.direction)
+        cols_out.append(col)
+    return LightColours(dirs_out, cols_out)
+
+
+def _shadow_origins(ctx: Context, hit: Hit) -> np.ndarray:
+    """Where shadow rays start: the hit points, except on meshes tessellated from curved
+    surfaces, whose points move onto the surface their smooth normals describe."""
+    curved = getattr(ctx.prepared, "curved", None)
+    triangles = ctx.tracer.triangles
+    if curved is None or not curved.any() or hit.prim is None or triangles is None:
+        return hit.point
+    sel = np.nonzero((hit.prim >= 0) & curved[hit.obj])[0]
+    if len(sel) == 0:
+        return hit.point
+    out = hit.point.copy()
+    out[sel] = triangles.terminator_points(
+        hit.obj[sel], hit.prim[sel], hit.point[sel], hit.normal[sel]
+    )
+    return out
+
+
+def shadow(ctx: Context, light: ir.Light, points, ldir, ldist) -> np.ndarray:
+    """(N,3) fraction of the light that reaches the points. Area lights follow POV-Ray's
+    adaptive sampling, vectorised over (point, grid region) pairs: sample a region's four
+    corner sub-lights; split it into quarters (sharing their middle row/column) while its
+    level is below `adaptive` or its corners differ by more than 0.1; a region that is not
+    split contributes the mean of its corners. Each round of splitting is one batch of
+    shadow rays, and no sub-light is traced twice for the same point."""
+    area = light.area
+    if area is None or area.size1 * area.size2 <= 1:
+        return shadow_filter(ctx, points, ldir, ldist)
+    n1, n2 = max(1, area.size1), max(1, area.size2)
+    n = len(points)
+    centres = shading.area_centres(light, points).reshape(n, n1, n2, 3)
+    cache = np.full((n, n1, n2, 3), np.nan)
+    out = np.zeros((n, 3))
+    pt = np.arange(n)
+    u1 = np.zeros(n, dtype=np.int64)
+    v1 = np.zeros(n, dtype=np.int64)
+    u2 = np.full(n, n1 - 1, dtype=np.int64)
+    v2 = np.full(n, n2 - 1, dtype=np.int64)
+    level = np.zeros(n, dtype=np.int64)
+    weight = np.ones(n)
+    while len(pt):
+        corners = ((u1, v1), (u2, v1), (u1, v2), (u2, v2))
+        cp = np.concatenate([pt] * 4)
+        cu = np.concatenate([c[0] for c in corners])
+        cv = np.concatenate([c[1] for c in corners])
+        key = np.unique((cp * n1 + cu) * n2 + cv)
+        kp, rest = np.divmod(key, n1 * n2)
+        ku, kv = np.divmod(rest, n2)
+        todo = np.isnan(cache[kp, ku, kv, 0])
+        kp, ku, kv = kp[todo], ku[todo], kv[todo]
+        if len(kp):
+            f = _sub_light_filter(ctx, light, points[kp], ldir[kp], centres[kp, ku, kv][:, None])
+            cache[kp, ku, kv] = f[:, 0]
+        s = [cache[pt, u, v] for u, v in corners]
+        divisible = (u2 - u1 > 1) | (v2 - v1 > 1)
+        differ = level < area.adaptive
+        for a, b in ((0, 1), (1, 3), (3, 2), (2, 0)):
+            differ = differ | (np.abs(s[a] - s[b]).sum(axis=1) > 0.1)
+        split = divisible & differ
+        leaf = ~split
+        np.add.at(out, pt[leaf], (weight[leaf] / 4.0)[:, None] * (s[0] + s[1] + s[2] + s[3])[leaf])
+        if not split.any():
+            break
+        pt, u1, v1, u2, v2 = pt[split], u1[split], v1[split], u2[split], v2[split]
+        level, weight = level[split] + 1, weight[split] / 4.0
+        mu, mv = (u1 + u2) / 2.0, (v1 + v2) / 2.0
+        lo_u, hi_u = np.floor(mu).astype(np.int64), np.ceil(mu).astype(np.int64)
+        lo_v, hi_v = np.floor(mv).astype(np.int64), np.ceil(mv).astype(np.int64)
+        quads = (
+            (u1, v1, lo_u, lo_v),
+            (hi_u, v1, u2, lo_v),
+            (u1, hi_v, lo_u, v2),
+            (hi_u, hi_v, u2, v2),
+        )
+        u1 = np.concatenate([q[0] for q in quads])
+        v1 = np.concatenate([q[1] for q in quads])
+        u2 = np.concatenate([q[2] for q in quads])
+        v2 = np.concatenate([q[3] for q in quads])
+        pt = np.concatenate([pt] * 4)
+        level = np.concatenate([level] * 4)
+        weight = np.concatenate([weight] * 4)
+    return out
+
+
+def _sub_light_filter(ctx: Context, light: ir.Light, points, ldir, centres) -> np.ndarray:
+    """(N,K,3) shadow filter toward K sub-light positions (N,K,3) per point, one batch."""
+    n, k, _ = centres.shape
+    pts = np.repeat(points, k, axis=0)
+    to = centres.reshape(-1, 3) - pts
+    if light.kind == "parallel" or light.kind == "cylinder":
+        # Parallel and cylinder area lights keep their beam direction; only the start moves.
+        d = np.repeat(ldir, k, axis=0)
+        depth = np.einsum("ij,ij->i", to, d)
+    else:
+        depth = np.linalg.norm(to, axis=1)
+        d = to / np.where(depth > 0, depth, 1.0)[:, None]
+    return shadow_filter(ctx, pts, d, depth).reshape(n, k, 3)
+
+
+def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
+    """(N,3) light let through between the points and the light: 0 behind an opaque
+    object, filter*colour + transmit through each transparent one."""
+    n = len(points)
+    tmax = ldist * (1.0 - 1e-9) - np.minimum(shading.SHADOW_TOLERANCE, 1e-6 * ldist)
+    ctx.count("shadow_rays", n)
+    if not ctx.transmits.any():
+        blocked = ctx.tracer.occluded(points, ldir, tmax)
+        return np.where(blocked[:, None], 0.0, np.ones((n, 3)))
+    mult = np.ones((n, 3))
+    active = np.arange(n)
+    o = points.copy()
+    remaining = tmax.copy()
+    for _ in range(MAX_SHADOW_CROSSINGS):
+        if len(active) == 0:
+            break
+        h = ctx.tracer.closest(o[active], ldir[active], tmax=remaining[active], skip="no_shadow")
+        hit = h.obj >= 0
+        active_hit = active[hit]
+        if len(active_hit) == 0:
+            break
+        pts = h.point[hit]
+        objs = h.obj[hit]
+        rd = ldir[active_hit]
+        tex = ctx.texture_of(objs, h.prim[hit] if h.prim is not None else None)
+        f = np.zeros((len(active_hit), 3))
+        resolved = resolve_textures(ctx, tex, pts)
+        if resolved is None:
+            src, leaf, share = np.arange(len(tex)), tex, np.ones(len(tex))
+        else:
+            src, leaf, share = resolved
+        for tid in np.unique(leaf):
+            if not ctx.transmits[tid]:
+                continue  # opaque: the light is blocked
+            sel_e = np.nonzero(leaf == tid)[0]
+            sel = src[sel_e]
+            t = np.ones((len(sel), 3))
+            caustics = np.array([ctx.interiors[int(o)].caustics for o in objs[sel]])
+            # The surface normal turned against the shadow ray, for faked caustics.
+            nrm = h.normal[hit][sel]
+            nrm = np.where((np.einsum("ij,ij->i", nrm, rd[sel]) > 0)[:, None], -nrm, nrm)
+            for layer in ctx.textures[tid]:
+                t *= shading.rgb_transmit(patterns.evaluate(layer.pigment, pts[sel], ctx.gamma))
+                if (caustics != 0).any():
+                    ln = nrm
+                    if layer.normal is not None:
+                        ln = patterns.perturb_normal(layer.normal, pts[sel], nrm)
+                    cdot = np.abs(np.einsum("ij,ij->i", ln, rd[sel]))
+                    # POV-Ray stores `caustics c` as the exponent 45 c.
+                    k = np.where(
+                        caustics != 0, 1.0 + np.power(cdot, CAUSTICS_SCALE * caustics), 1.0
+                    )
+                    t *= k[:, None]
+            np.add.at(f, sel, share[sel_e, None] * t)
+        # Light that crossed an object's inside fades with the distance it travelled there.
+        leaving = np.einsum("ij,ij->i", h.normal[hit], rd) > 0
+        f *= interior_fade(ctx, objs, h.t[hit], leaving)
+        mult[active_hit] *= f
+        o[active_hit] = pts
+        remaining[active_hit] -= h.t[hit]
+        keep = np.abs(mult[active_hit]).max(axis=1) > shading.EPSILON
+        active = active_hit[keep]
+    else:
+        mult[active] = 0.0
+    return mult
+
+
+def interior_fade(ctx: Context, obj: np.ndarray, depth: np.ndarray, inside: np.ndarray):
+    """(N,3) POV-Ray's interior attenuation of light that travelled `depth` inside the
+    object (only where `inside`): fade_colour + (1 - fade_colour) / (1 + (d/fade_distance)
+    ^ fade_power), or exp(-(1 - fade_colour) d / fade_distance) for fade_power >= 1000."""
+    out = np.ones((len(obj), 3))
+    for oid in np.unique(obj[inside]):
+        it = ctx.interiors[int(oid)]
+        if it.fade_power <= 0 or abs(it.fade_distance) <= shading.EPSILON:
+            continue
+        rows = np.nonzero(inside & (obj == oid))[0]
+        fc = np.asarray(it.fade_color, dtype=np.float64)
+        d = depth[rows] / it.fade_distance
+        if it.fade_power >= 1000:
+            out[rows] = np.exp(-(1.0 - fc) * d[:, None])
+        else:
+            att = 1.0 + np.power(np.abs(d), it.fade_power)
+            out[rows] = fc + (1.0 - fc) / att[:, None]
+    return out
