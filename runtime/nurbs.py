@@ -560,7 +560,3 @@ def nurbs_torus(R: float = 1.0, r: float = 0.25, center: ir.Vec3 = (0.0, 0.0, 0.
     profile = [(R + r * a, r * b) for a, b in _CIRCLE_XY]
     return _revolve(profile, _CIRCLE_W, CIRCLE_KNOTS, center)
 
-
-def to_geometry(shape: ir.Nurbs) -> Curve | Surface:
-    """The evaluator object for an IR shape (call `validate` first)."""
-    return Curve.from_ir(shape) if shape.nv == 0 else Surface.from_ir(shape)
