@@ -96,35 +96,49 @@ def _div(p: float, q: float) -> float:
     return p / q
 
 
+# Each operator's formula on two floats, the one place it is written: vectors and colours
+# apply it per component (_combine). Comparisons and logic give POV-Ray's 1.0 or 0.0.
+_ARITHMETIC: dict[str, Callable[[float, float], float]] = {
+    "+": lambda p, q: p + q,
+    "-": lambda p, q: p - q,
+    "*": lambda p, q: p * q,
+    "/": _div,
+}
+_COMPARISONS: dict[str, Callable[[float, float], float]] = {
+    "<": lambda p, q: 1.0 if p < q else 0.0,
+    "<=": lambda p, q: 1.0 if p <= q else 0.0,
+    ">": lambda p, q: 1.0 if p > q else 0.0,
+    ">=": lambda p, q: 1.0 if p >= q else 0.0,
+    "=": lambda p, q: 1.0 if abs(p - q) < EQUALITY_EPSILON else 0.0,
+    "!=": lambda p, q: 1.0 if abs(p - q) >= EQUALITY_EPSILON else 0.0,
+}
+_LOGIC: dict[str, Callable[[float, float], float]] = {
+    "&": lambda p, q: 1.0 if p != 0.0 and q != 0.0 else 0.0,
+    "|": lambda p, q: 1.0 if p != 0.0 or q != 0.0 else 0.0,
+}
+# Two plain floats (most of what loops compute) take the formula at once, without the
+# promotions to vectors and colours.
+_FLOAT_OPS = {**_ARITHMETIC, **_COMPARISONS, **_LOGIC}
+
+
 def binary(op: str, a: Any, b: Any) -> Any:
-    if op == "+":
-        return _combine(a, b, lambda p, q: p + q)
-    if op == "-":
-        return _combine(a, b, lambda p, q: p - q)
-    if op == "*":
-        return _combine(a, b, lambda p, q: p * q)
-    if op == "/":
-        return _combine(a, b, _div)
-    if op in ("&", "|"):
-        x, y = truth(a), truth(b)
-        return 1.0 if (x and y if op == "&" else x or y) else 0.0
+    if type(a) is float and type(b) is float:
+        f = _FLOAT_OPS.get(op)
+        if f is not None:
+            return f(a, b)
+    if op in _LOGIC:
+        return _LOGIC[op](1.0 if truth(a) else 0.0, 1.0 if truth(b) else 0.0)
     if isinstance(a, str) and isinstance(b, str) and op in ("=", "!="):
         return 1.0 if (a == b) == (op == "=") else 0.0
-    cmp: dict[str, Callable[[float, float], bool]] = {
-        "<": lambda p, q: p < q,
-        "<=": lambda p, q: p <= q,
-        ">": lambda p, q: p > q,
-        ">=": lambda p, q: p >= q,
-        "=": lambda p, q: abs(p - q) < EQUALITY_EPSILON,
-        "!=": lambda p, q: abs(p - q) >= EQUALITY_EPSILON,
-    }
-    if op in cmp:
-        f = cmp[op]
-        return _combine(a, b, lambda p, q: 1.0 if f(p, q) else 0.0)
-    raise EvalError(f"unknown operator `{op}`")
+    f = _ARITHMETIC.get(op) or _COMPARISONS.get(op)
+    if f is None:
+        raise EvalError(f"unknown operator `{op}`")
+    return _combine(a, b, f)
 
 
 def unary(op: str, a: Any) -> Any:
+    if op == "-" and type(a) is float:
+        return -a
     if op == "+":
         return _combine(0.0, a, lambda p, q: q)
     if op == "-":

@@ -271,3 +271,33 @@ def test_against_povray(tmp_path):
             )
         else:
             assert p == o, (expr, p, o)
+
+
+_OPS = ["+", "-", "*", "/", "<", "<=", ">", ">=", "=", "!=", "&", "|"]
+_finite = st.floats(-1e6, 1e6, allow_nan=False)
+
+
+@given(op=st.sampled_from(_OPS), a=st.one_of(_finite, st.sampled_from([0.0, -0.0, 1.0])),
+       b=st.one_of(_finite, st.sampled_from([0.0, -0.0, 1e-11])))  # fmt: skip
+def test_two_floats_take_the_same_formula_as_components(op, a, b):
+    """binary() computes two plain floats at once; the result is what the same operator
+    gives per component of one-component vectors (the general path), errors included."""
+
+    def run(x, y):
+        try:
+            return B.binary(op, x, y)
+        except B.EvalError as e:
+            return e.message
+
+    fast = run(a, b)
+    general = run(Vec((a,)), Vec((b,)))
+    if op in ("&", "|"):
+        assert fast == general  # logic reads a vector's truth, giving a float
+    else:
+        assert fast == (general if isinstance(general, str) else general[0])
+        assert type(fast) is type(general if isinstance(general, str) else general[0])
+
+
+@given(a=_finite)
+def test_negating_a_float_is_its_negation(a):
+    assert B.unary("-", a) == -a and B.unary("-", Vec((a,)))[0] == -a

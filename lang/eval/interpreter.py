@@ -120,6 +120,10 @@ _READ_TOKEN = re.compile(
 )
 
 
+# bound once: eval() is the evaluator's hottest call
+_EXPRESSIONS = expressions.EXPRESSIONS
+
+
 class Interpreter:
     def __init__(
         self,
@@ -1108,7 +1112,7 @@ class Interpreter:
     # ------------------------------------------------------------ expressions
     def eval(self, node: syntax.Node) -> Any:
         try:
-            return expressions.EXPRESSIONS[type(node)](self, node)
+            return _EXPRESSIONS[type(node)](self, node)
         except KeyError:
             if type(node) in _DIRECTIVES:
                 return self.eval_value(node)
