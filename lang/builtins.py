@@ -117,13 +117,13 @@ _LOGIC: dict[str, Callable[[float, float], float]] = {
     "|": lambda p, q: 1.0 if p != 0.0 or q != 0.0 else 0.0,
 }
 # Two plain floats (most of what loops compute) take the formula at once, without the
-# promotions to vectors and colours.
-_FLOAT_OPS = {**_ARITHMETIC, **_COMPARISONS, **_LOGIC}
+# promotions to vectors and colours (here and in lang.eval.expressions' compiled closures).
+FLOAT_OPS = {**_ARITHMETIC, **_COMPARISONS, **_LOGIC}
 
 
 def binary(op: str, a: Any, b: Any) -> Any:
     if type(a) is float and type(b) is float:
-        f = _FLOAT_OPS.get(op)
+        f = FLOAT_OPS.get(op)
         if f is not None:
             return f(a, b)
     if op in _LOGIC:

@@ -375,3 +375,97 @@ EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
     syntax.Block: _e_block,
     syntax.CutBlock: _e_cut_block,
 }
+
+
+# ---------------------------------------------------------------- compiled expressions
+# An operator, a call of a built-in function or a negation is turned into a closure the
+# first time it is evaluated, with its operands' closures inside: a loop body's arithmetic
+# then runs without the tree walk's dispatch per node. A closure does exactly what
+# Interpreter.eval does for its node (an EvalError becomes E0203 at the node's span; the
+# operands' errors at theirs); kinds without a closure of their own go through it.eval.
+Compiled = Callable[[BuildContext], Any]
+# built-ins that look at their arguments' syntax or the scene, not only at their values
+_SPECIAL_CALLS = frozenset(
+    {"defined", "min_extent", "max_extent", "inside", "trace", "prod", "sum"}
+)
+
+
+def compiled(node: syntax.Node) -> Compiled | None:
+    """The closure of an operator, unary operator or built-in call; None for other nodes."""
+    t = type(node)
+    if t is syntax.Binary:
+        return _compile_binary(node)  # type: ignore[arg-type]  # t is its exact type
+    if t is syntax.Unary:
+        return _compile_unary(node)  # type: ignore[arg-type]
+    if t is syntax.Call and node.builtin and node.name not in _SPECIAL_CALLS:  # type: ignore[attr-defined]
+        return _compile_call(node)  # type: ignore[arg-type]
+    return None
+
+
+def _operand(node: syntax.Node) -> Compiled:
+    t = type(node)
+    if t is syntax.Number:
+        value = node.value  # type: ignore[attr-defined]
+        return lambda it: value
+    if t is syntax.Ident:
+        return _compile_ident(node)  # type: ignore[arg-type]
+    return compiled(node) or (lambda it: it.eval(node))
+
+
+def _compile_ident(node: syntax.Ident) -> Compiled:
+    name = node.name
+
+    def ident(it: BuildContext) -> Any:
+        found, v = it.lookup(name)
+        if not found or isinstance(v, MacroValue) or (it.deprecated and name in it.deprecated):
+            return it.eval(node)  # the rare cases, as the tree walk handles them
+        return v
+
+    return ident
+
+
+def _compile_binary(node: syntax.Binary) -> Compiled:
+    left, right, op, span = _operand(node.left), _operand(node.right), node.op, node.span
+    fast = builtins.FLOAT_OPS.get(op)
+    truth = builtins.truth
+
+    def binary(it: BuildContext) -> Any:
+        try:
+            a = left(it)
+            if op == "&" and not truth(a):
+                return 0.0
+            if op == "|" and truth(a):
+                return 1.0
+            b = right(it)
+            if fast is not None and type(a) is float and type(b) is float:
+                return fast(a, b)
+            return builtins.binary(op, a, b)
+        except EvalError as e:
+            raise it.error("E0203", e.message, span, e.hint) from None
+
+    return binary
+
+
+def _compile_unary(node: syntax.Unary) -> Compiled:
+    operand, op, span = _operand(node.operand), node.op, node.span
+
+    def unary(it: BuildContext) -> Any:
+        try:
+            return builtins.unary(op, operand(it))
+        except EvalError as e:
+            raise it.error("E0203", e.message, span, e.hint) from None
+
+    return unary
+
+
+def _compile_call(node: syntax.Call) -> Compiled:
+    args, name, span = [_operand(a) for a in node.args], node.name, node.span
+    call = builtins.call
+
+    def builtin(it: BuildContext) -> Any:
+        try:
+            return call(name, [a(it) for a in args], it.state)
+        except EvalError as e:
+            raise it.error("E0203", e.message, span, e.hint) from None
+
+    return builtin

@@ -122,6 +122,8 @@ _READ_TOKEN = re.compile(
 
 # bound once: eval() is the evaluator's hottest call
 _EXPRESSIONS = expressions.EXPRESSIONS
+# the node kinds lang.eval.expressions compiles into closures on first evaluation
+_COMPILED_KINDS = frozenset({syntax.Binary, syntax.Unary, syntax.Call})
 
 
 class Interpreter:
@@ -194,6 +196,10 @@ class Interpreter:
         self.probed: dict[str, str | None] = {}
         self._digests: dict[str, str] = {}  # resolved include path -> digest of its text
         self.printed: list[str] = []  # `#debug` text written to stderr
+        # expressions compiled on first evaluation (lang.eval.expressions.compiled), by node
+        self._compiled: dict[int, expressions.Compiled] = {}
+        self._compiled_nodes: list[syntax.Node] = []
+        self._evaluated: set[int] = set()  # ids of the nodes of those kinds evaluated once
 
     # ------------------------------------------------------------ running
     def run(self, text: str, filename: str) -> Result:
@@ -1111,6 +1117,20 @@ class Interpreter:
 
     # ------------------------------------------------------------ expressions
     def eval(self, node: syntax.Node) -> Any:
+        if type(node) in _COMPILED_KINDS:
+            # compiled when evaluated again (a loop's, a macro's): compiling what runs once
+            # would cost more than it saves
+            key = id(node)
+            hit = self._compiled.get(key)
+            if hit is not None:
+                return hit(self)
+            if key not in self._evaluated:
+                self._evaluated.add(key)
+            elif (fn := expressions.compiled(node)) is not None:
+                # kept beside its node, whose id then stays its own for the evaluation
+                self._compiled[key] = fn
+                self._compiled_nodes.append(node)
+                return fn(self)
         try:
             return _EXPRESSIONS[type(node)](self, node)
         except KeyError:
