@@ -135,6 +135,9 @@ CAMERAS = [
     "location <-2, 3, -5> up y right -x*1.33 look_at <0.2, 0, 0>",
     "orthographic location <0, 6, 0.01> look_at 0",
     "orthographic location <1, 1, -5> look_at 0 angle 40",
+    # angle 0 leaves the direction as it is (POV-Ray scales it by a positive angle only)
+    "location <1, 1, -7> look_at <0, 0, 0> angle 0",
+    "orthographic location <1, 1, -5> look_at 0 angle 0",
 ]
 POINTS = [(0, 0, 0), (1.5, 0.8, 0.5), (-1.2, -1, 1), (0.5, 1.2, -1)]
 

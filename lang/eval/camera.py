@@ -125,7 +125,11 @@ class CameraBuilder:
     def build(self) -> Camera:
         c = self.camera
         direction, right, up = c.direction, c.right, c.up
-        if self.had_angle and c.angle is not None and c.kind in ("perspective", "orthographic"):
+        if (
+            self.had_angle
+            and c.angle  # POV-Ray scales the direction by a positive angle; 0 leaves it
+            and c.kind in ("perspective", "orthographic")
+        ):
             length = 0.5 * _len(right) / math.tan(math.radians(c.angle) / 2.0)
             direction = _scaled(_unit(direction), length)
         if self.had_look_at:
