@@ -74,6 +74,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "E0231": "give the recursion a condition that ends it",
     "E0232": "pass one argument per parameter, in order",
     "E0233": "open the macro and fix its syntax errors",
+    "E0234": "use #break to leave a #while, #for, #switch or macro early",
     "E0240": "raised by #error",
     "E0250": "indices start at 0 and stop one before the declared size",
     "E0260": "file I/O reads and writes only inside the scene's folder",

@@ -82,7 +82,12 @@ class Result:
 
 
 class _Break(Exception):
-    pass
+    """`#break`: leaves the innermost #while, #for, #switch or macro, keeping what it had
+    expanded before the #break (POV-Ray has already read those tokens)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.partial: list[El] = []
 
 
 class _Els(list):
@@ -163,6 +168,7 @@ class Interpreter:
         # `#declare deprecated [once] "message" NAME`: NAME → [message, once, warned yet]
         self.deprecated: dict[str, list] = {}
         self.macro_depth = 0
+        self._break_targets = 0  # the #while, #for, #switch and macros a #break may leave
         self.loose_depth = 0
         self.blob_depth = 0  # inside a blob body, `sphere`/`cylinder` are components
         self.state = builtins.BuiltinState()
@@ -473,7 +479,8 @@ class Interpreter:
                 if top:
                     return out
                 raise
-            except _Break:
+            except _Break as e:
+                e.partial[:0] = out  # this body's elements come before the inner ones
                 raise
             except Exception as e:  # a bug in strala: still a diagnostic, never a traceback
                 if isinstance(e, OverflowError) or (isinstance(e, ValueError) and "NaN" in str(e)):
@@ -763,6 +770,7 @@ class Interpreter:
     def _d_switch(self, node: syntax.Switch, out, spec) -> None:
         value = as_float(self.eval(node.value), "#switch value")
         running = False
+        self._break_targets += 1
         try:
             for case in node.cases:
                 if not running:
@@ -778,12 +786,15 @@ class Interpreter:
                     out.extend(self.expand(case.body, spec))
                     if case.breaks:
                         return
-        except _Break:
-            return
+        except _Break as e:
+            out.extend(e.partial)
+        finally:
+            self._break_targets -= 1
 
     def _d_while(self, node: syntax.While, out, spec) -> None:
         n = 0
         watched = _loop_watch(node)
+        self._break_targets += 1
         try:
             while builtins.truth(self.eval(node.cond)):
                 n += 1
@@ -810,8 +821,10 @@ class Interpreter:
                         node.span,
                         "change a variable of the condition in the body, or leave with #break",
                     )
-        except _Break:
-            pass
+        except _Break as e:
+            out.extend(e.partial)
+        finally:
+            self._break_targets -= 1
 
     def _errors_since(self, mark: int) -> bool:
         return any(d.severity is Severity.ERROR for d in self.sink.items[mark:])
@@ -831,6 +844,7 @@ class Interpreter:
                 "check the loop's bounds and step",
             )
         i, n = start, 0
+        self._break_targets += 1
         try:
             while (i <= end + 1e-10) if step > 0 else (i >= end - 1e-10):
                 n += 1
@@ -845,8 +859,10 @@ class Interpreter:
                     break  # reported once: the next iterations would repeat it
                 found, cur = self.lookup(node.var)
                 i = (as_float(cur) if found else i) + step
-        except _Break:
-            pass
+        except _Break as e:
+            out.extend(e.partial)
+        finally:
+            self._break_targets -= 1
 
     def _d_macro(self, node: syntax.MacroDef, out, spec) -> None:
         self.scopes[0][node.name] = MacroValue(
@@ -897,6 +913,10 @@ class Interpreter:
                 )
 
     def _d_break(self, node: syntax.Break, out, spec) -> None:
+        if not self._break_targets:
+            raise self.error(
+                "E0234", "`#break` outside a #while, #for, #switch or macro", node.span
+            )  # POV-Ray: "Invalid context for #break", and it stops
         raise _Break()
 
     # ---- file I/O (inside the scene's folder only, and never while checking)
@@ -1089,9 +1109,13 @@ class Interpreter:
         self.scopes.append(scope)
         self.file_stack.append(macro.file)
         self.macro_depth += 1
+        self._break_targets += 1
         try:
             els = self.expand(macro.body, None)
+        except _Break as e:  # POV-Ray: #break in a macro ends the macro
+            els = _Els(e.partial)
         finally:
+            self._break_targets -= 1
             self.macro_depth -= 1
             self.file_stack.pop()
             self.scopes.pop()
