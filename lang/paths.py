@@ -1,10 +1,14 @@
 """Where scene files find their includes and data files: the bundled stdlib, the library
 folders (`-L`, an INI file's `Library_Path`, the Python API's `library_paths`, then
-`$STRALA_LIBRARY_PATH`), and the one search every tool makes (the evaluator, the language
-server, translate): the including file's folder, the library folders in order, the stdlib."""
+`$STRALA_LIBRARY_PATH`), POV-Ray's own include folder where POV-Ray is installed, and the
+one search every tool makes (the evaluator, the language server, translate): the including
+file's folder, the library folders in order, the stdlib, then POV-Ray's folder (for the
+files strala's stdlib does not have, such as woods.inc: POV-Ray finds them there through
+the Library_Path of its own povray.ini)."""
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Iterable, MutableMapping, Sequence
 from dataclasses import dataclass
@@ -12,6 +16,17 @@ from pathlib import Path
 
 STDLIB = Path(__file__).resolve().parent.parent / "stdlib"
 LIBRARY_PATH_VARIABLE = "STRALA_LIBRARY_PATH"
+# Where POV-Ray 3.7's packages install its include files (Debian's and a source build's).
+POVRAY_INCLUDE_FOLDERS = (
+    Path("/usr/share/povray-3.7/include"),
+    Path("/usr/local/share/povray-3.7/include"),
+)
+
+
+@functools.cache
+def povray_include() -> Path | None:
+    """POV-Ray's installed include folder, if there is one."""
+    return next((p for p in POVRAY_INCLUDE_FOLDERS if (p / "colors.inc").is_file()), None)
 
 
 def library_paths(given: Iterable[str | os.PathLike[str]] = ()) -> tuple[str, ...]:
@@ -29,7 +44,16 @@ class Found:
 
 def search_folders(folder: Path, libraries: Sequence[str]) -> list[tuple[str, Path]]:
     """(kind, folder) in the order a name is looked up from a file in `folder`."""
-    return [("local", folder), *(("library", Path(p)) for p in libraries), ("stdlib", STDLIB)]
+    found = [("local", folder), *(("library", Path(p)) for p in libraries), ("stdlib", STDLIB)]
+    installed = povray_include()
+    if installed is not None:
+        found.append(("povray", installed))
+    return found
+
+
+def searched(folder: Path, libraries: Sequence[str]) -> str:
+    """The folders a name was looked for in, for a message."""
+    return ", ".join(str(where) for _, where in search_folders(folder, libraries))
 
 
 def find(

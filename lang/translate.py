@@ -551,6 +551,8 @@ def plan_includes(
         elif kind == "library":
             lib = next(str(x) for x in libraries if (Path(x) / name).is_file())
             f.note("include", f"`{name}` is read from the library folder {lib} (-L)", a, b)
+        elif kind == "povray":
+            f.note("include", f"`{name}` is read from POV-Ray's include folder {path.parent}", a, b)
         elif path.is_relative_to(root):
             local.append(path)
             new = os.path.relpath(target_of(path), f.target.parent)

@@ -184,6 +184,7 @@ FILE_ACCESS = {
     ("eval.interpreter", "_find_declaring_include"): "a hint for an error: errors are not stored",
     ("eval.interpreter", "_d_include"): "an include: its text's digest is kept",
     ("paths", "find"): "include probes are kept; resolve (other files) depends_outside",
+    ("paths", "povray_include"): "searched last: a stored scene found its files before it",
     ("eval.interpreter", "_d_fileop"): "file I/O: depends_outside",
     ("eval.textures", "_unreadable_image"): "after resolve found the image: depends_outside",
     ("builtins", "_file_exists"): "sets BuiltinState.looked_outside",

@@ -48,7 +48,6 @@ from lang.ir_ops import (
     transform_texture,
 )
 from lang.keywords import ALL_WORDS
-from lang.paths import STDLIB
 from lang.queries import QueriesFactory, SceneQueries
 from lang.values import (
     ArrayValue,
@@ -362,7 +361,8 @@ class Interpreter:
 
     def _find_declaring_include(self, name: str) -> str | None:
         pat = re.compile(rf"#\s*declare\s+{re.escape(name)}\s*=")
-        for folder in [*self.library_paths, str(STDLIB)]:
+        libraries = paths.search_folders(self._folder(), self.library_paths)
+        for folder in [str(where) for kind, where in libraries if kind != "local"]:
             try:
                 entries = sorted(os.listdir(folder))
             except OSError:
@@ -592,7 +592,7 @@ class Interpreter:
                 "E0220",
                 f"include file `{name}` not found",
                 node.span,
-                "searched the scene's folder, the -L library paths and strala's stdlib",
+                f"searched {paths.searched(self._folder(), self.library_paths)}",
             )
         probed_at, path = found
         if path in self.file_stack:
@@ -663,9 +663,12 @@ class Interpreter:
         """(the path probed, the resolved path) of the file `name` names: in the current
         file's folder, the library paths, the stdlib (lang.paths). The misses are kept in
         `probed` (lang.scene_store follows them)."""
-        here = Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()
-        found = paths.find(name, here, self.library_paths, self.probed)
+        found = paths.find(name, self._folder(), self.library_paths, self.probed)
         return None if found is None else (found.probed, found.path)
+
+    def _folder(self) -> Path:
+        """The folder of the file being read, where its includes are looked for first."""
+        return Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()
 
     def standalone(self, result: Result) -> bool:
         """The result depends only on its files' text and the options, and has no errors:
