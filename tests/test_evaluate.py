@@ -848,8 +848,10 @@ SPLINES = {
 
 def _spline_scene() -> str:
     lines = [f"#declare {k} = spline {{ {v} }}" for k, v in SPLINES.items()]
+    # POV-Ray's spline function: `function { spline { … } }` called as F(t)
+    lines.append(f"#declare F = function {{ spline {{ {SPLINES['C']} }} }}")
     lines.append("#for (T, -0.5, 6.5, 0.25)")
-    for k in SPLINES:
+    for k in [*SPLINES, "F"]:
         lines.append(f'#debug concat("{k} ", vstr(3, {k}(T), ",", 0, 9), "\\n")')
     lines.append("#end")
     return "\n".join(lines) + "\n"
@@ -859,6 +861,7 @@ def test_spline_values():
     r = ok(_spline_scene() + "#declare A = L(0.5);\n#declare B = C(2);")
     assert tuple(r.symbols["A"]) == (0.5, 1.0, 0.0)
     assert close(r.symbols["B"], (1.25, 1.125, 0.5), 1e-12)
+    assert close(ok(_spline_scene() + "#declare D = F(2);").symbols["D"], (1.25, 1.125, 0.5))
     (e,) = errors(run("#declare S = spline { cubic_spline 0, x, 1, y }"))
     assert "at least 4" in e.message
 
@@ -868,7 +871,7 @@ def test_splines_match_povray(tmp_path):
     src = tmp_path / "s.pov"
     src.write_text(_spline_scene())
     pov = povray_debug(src)
-    want = [ln for ln in pov.splitlines() if ln[:2] in ("L ", "C ", "N ", "Q ")]
+    want = [ln for ln in pov.splitlines() if ln[:2] in ("L ", "C ", "N ", "Q ", "F ")]
     got = [d.message for d in compile_file(str(src)).diagnostics if d.code == "N0100"]
     assert len(want) == len(got) > 100, pov[-800:]
     for w, g in zip(want, got, strict=True):

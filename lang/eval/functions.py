@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 from lang import builtins, ir, syntax
 from lang.builtins import EvalError
 from lang.diagnostics import Span
-from lang.values import ArrayValue, FunctionValue, MacroValue, Vec, describe
+from lang.values import ArrayValue, FunctionValue, MacroValue, SplineValue, Vec, describe
 
 if TYPE_CHECKING:
     from lang.eval.context import BuildContext
@@ -71,9 +71,17 @@ _COMPONENTS = {
 }  # fmt: skip
 
 
-def build(it: BuildContext, node: syntax.Block) -> FunctionValue:
+def build(it: BuildContext, node: syntax.Block) -> FunctionValue | SplineValue:
     """The FunctionValue of a `function [(params)] { body }` block, or of a `function W, H
-    { body }` image (height_field, image_map …): the sizes lead its body."""
+    { body }` image (height_field, image_map …): the sizes lead its body. POV-Ray's spline
+    function, `function { spline { … } }`, is the spline: called as F(t), it gives the
+    spline's value at t."""
+    body = [n for n in node.body if not isinstance(n, syntax.Comma)]
+    if node.params is None and len(body) == 1 and isinstance(body[0], syntax.Block):
+        if body[0].keyword == "spline":
+            spline = it.eval_block(body[0])
+            assert isinstance(spline, SplineValue)  # what a spline block evaluates to
+            return spline
     params = tuple(node.params) if node.params is not None else ("x", "y", "z")
     size = None
     head = [n for n in node.body[:3] if not isinstance(n, syntax.Comma)][:2]
