@@ -207,6 +207,7 @@ class FileHandle:
     lines: list[str] = field(default_factory=list)
     pos: int = 0
     kind: str = "file"
+    span: Span | None = None  # the #fopen, where a failure to write is reported
 
 
 def kind_of(value: Any) -> str:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import re
 import shutil
 import subprocess
@@ -626,6 +627,31 @@ def test_reading_the_last_value_closes_the_file_and_fclose_then_does_nothing(tmp
     r = compile_file(str(main))
     assert not errors(r), [d.format() for d in errors(r)]
     assert r.symbols["S"] == "abc" and r.symbols["A"] == 5 and r.symbols["Open"] == 0
+
+
+def test_a_file_that_cannot_be_written_is_the_fopens_error(tmp_path):
+    """POV-Ray: "Cannot open user file … (write)." at the #fopen, for a missing folder or a
+    folder's name (strala wrote at the #fclose and failed there: an internal error); a
+    file that cannot be written when closed is an error at its #fopen too."""
+    (tmp_path / "adir").mkdir()
+    (tmp_path / "locked").mkdir()
+    main = tmp_path / "io.pov"
+    main.write_text(
+        '#fopen F "nodir/x.txt" write\n#fopen G "adir" append\n'
+        '#fopen H "locked/out.txt" write\n#write (H, "x")\n'
+    )
+    (tmp_path / "locked").chmod(0o500)
+    try:
+        r = compile_file(str(main))
+    finally:
+        (tmp_path / "locked").chmod(0o700)
+    found = [(d.code, d.span.line, d.message) for d in errors(r)]
+    assert found[:2] == [
+        ("E0260", 1, "cannot open user file `nodir/x.txt` (write): its folder does not exist"),
+        ("E0260", 2, "cannot open user file `adir` (append): it is a folder"),
+    ]
+    if os.geteuid() != 0:  # root writes into a read-only folder all the same
+        assert found[2][:2] == ("E0260", 3) and "cannot write" in found[2][2]
 
 
 def test_image_size_constants():

@@ -949,7 +949,12 @@ class Interpreter:
                     node.span,
                     "scenes may only read and write files beside them",
                 )
-            h = FileHandle(str(path), node.mode or "read")
+            h = FileHandle(str(path), node.mode or "read", span=node.span)
+            if h.mode != "read" and (path.is_dir() or not path.parent.is_dir()):
+                why = "it is a folder" if path.is_dir() else "its folder does not exist"
+                raise self.error(
+                    "E0260", f"cannot open user file `{name}` ({h.mode}): {why}", node.span
+                )  # POV-Ray: "Cannot open user file … (write)."
             if h.mode == "read":
                 try:
                     text = path.read_text(errors="replace")
@@ -959,7 +964,12 @@ class Interpreter:
                     ) from None
                 h.lines = [m.group(0) for m in _READ_TOKEN.finditer(text)]
             elif h.mode == "append" and path.exists():
-                h.lines = [path.read_text(errors="replace")]
+                try:
+                    h.lines = [path.read_text(errors="replace")]
+                except OSError as e:
+                    raise self.error(
+                        "E0260", f"cannot open `{name}` to append: {e.strerror}", node.span
+                    ) from None
             self.handles[node.handle] = h
             self.declare(node.handle, h, False)
             return
@@ -1024,9 +1034,14 @@ class Interpreter:
         raise EvalError(f"#write cannot write {describe(v)}")
 
     def _flush(self, h: FileHandle) -> None:
+        """Write what #write gave the file; a failure is the #fopen's error."""
         if h.mode in ("write", "append") and h.path:
-            Path(h.path).write_text("".join(h.lines))
             h.mode = "closed"
+            try:
+                Path(h.path).write_text("".join(h.lines))
+            except OSError as e:
+                where = h.span or Span(self.main_file, 1, 1, 1, 1)
+                self.sink.error("E0260", f"cannot write `{h.path}`: {e.strerror}", where)
 
     # ------------------------------------------------------------ macros
     def _object_then_value(self, node: syntax.Node) -> tuple[Any, syntax.Node] | None:
