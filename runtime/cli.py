@@ -498,6 +498,26 @@ def _missing(path: str) -> Diagnostic | None:
     )
 
 
+# What a render holds per pixel at the least: the film (float32 RGB), its linear copy for
+# the output and the encoded image, with the tracer's per-tile work on top.
+BYTES_PER_PIXEL = 32
+
+
+def check_image_size(width: int, height: int) -> None:
+    """Refuse, before any work, an image this machine cannot hold (it failed after the
+    scene was read: a MemoryError, or numpy's 'Maximum allowed size exceeded')."""
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # not a POSIX system: no bound known
+        return
+    need = width * height * BYTES_PER_PIXEL
+    if need > memory:
+        raise UsageError(
+            f"an image of {width}×{height} needs about {need / 2**30:,.1f} GiB to render; "
+            f"this machine has {memory / 2**30:,.1f} GiB"
+        )
+
+
 def image_size(args: argparse.Namespace) -> tuple[int, int]:
     """As POV-Ray: a side not given keeps its default (320×240), whatever the other one is."""
     width = getattr(args, "width", None) or POVRAY_DEFAULT_SIZE[0]
@@ -766,6 +786,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
     if args.frames is not None and args.file.lower().endswith(".json"):
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
+    check_image_size(*image_size(args))
 
     from lang.evaluate import animation_values
 

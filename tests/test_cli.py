@@ -702,3 +702,15 @@ def test_commands_lists_every_subcommand(capsys):
     listed = err.split("choose from", 1)[1]
     names = re.findall(r"'([^']+)'", listed)
     assert sorted(names) == sorted(cli.COMMANDS)
+
+
+def test_an_image_too_large_for_the_machine_is_refused_before_any_work(tmp_path):
+    scene = tmp_path / "s.pov"
+    scene.write_text("camera { location -5*z look_at 0 } sphere { 0, 1 pigment { rgb 1 } }\n")
+    out = tmp_path / "big.png"
+    for w, h in (("2000000", "2000000"), ("2147483648", "10")):
+        done = run_cli("render", str(scene), "-W", w, "-H", h, "-o", str(out))
+        assert done.returncode == 2, done.stderr
+        assert f"an image of {w}×{h} needs about" in done.stderr and "GiB" in done.stderr
+        assert "internal error" not in done.stderr
+    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".*"))
