@@ -392,23 +392,21 @@ _SPECIAL_CALLS = frozenset(
 
 def compiled(node: syntax.Node) -> Compiled | None:
     """The closure of an operator, unary operator or built-in call; None for other nodes."""
-    t = type(node)
-    if t is syntax.Binary:
-        return _compile_binary(node)  # type: ignore[arg-type]  # t is its exact type
-    if t is syntax.Unary:
-        return _compile_unary(node)  # type: ignore[arg-type]
-    if t is syntax.Call and node.builtin and node.name not in _SPECIAL_CALLS:  # type: ignore[attr-defined]
-        return _compile_call(node)  # type: ignore[arg-type]
+    if isinstance(node, syntax.Binary):
+        return _compile_binary(node)
+    if isinstance(node, syntax.Unary):
+        return _compile_unary(node)
+    if isinstance(node, syntax.Call) and node.builtin and node.name not in _SPECIAL_CALLS:
+        return _compile_call(node)
     return None
 
 
 def _operand(node: syntax.Node) -> Compiled:
-    t = type(node)
-    if t is syntax.Number:
-        value = node.value  # type: ignore[attr-defined]
+    if isinstance(node, syntax.Number):
+        value = node.value
         return lambda it: value
-    if t is syntax.Ident:
-        return _compile_ident(node)  # type: ignore[arg-type]
+    if isinstance(node, syntax.Ident):
+        return _compile_ident(node)
     return compiled(node) or (lambda it: it.eval(node))
 
 
