@@ -267,10 +267,6 @@ def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigmen
             params["object"] = v.object
         elif name in schema.LIST_PATTERNS:
             defaults = _LIST_DEFAULTS.get(name, [])
-            if v and isinstance(v[0], ir.Pigment):
-                # entries given as pigments: POV-Ray's missing ones are black pigments, not
-                # the pattern's default colours (which colour entries replace one by one)
-                defaults = [(0.0, 0.0, 0.0)] * len(defaults)
             given = [as_pigment(x) for x in v]
             while len(given) < len(defaults):
                 given.append(ir.Pigment(color=(*defaults[len(given)], 0.0, 0.0)))
