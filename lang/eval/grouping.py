@@ -100,8 +100,6 @@ def group(
                 while i < n and els[i].kind != "kw":
                     i += 1
                 continue
-            if e.value == "scale":
-                args = _scale_without_zeros(it, args, e.span)
             items.append((e.value, args, e.span))
             if e.value in schema.IGNORED_ITEMS:
                 it.ignored(spec.name, e.value, args, e.span)
@@ -222,20 +220,3 @@ def _parse_args(
                 f"`{item.signature}`",
             )
     return args, i
-
-
-def _scale_without_zeros(it: BuildContext, args: list[Any], span: Span) -> list[Any]:
-    """POV-Ray's repair of a zero scale factor (Parse_Scale_Vector): each 0 becomes 1,
-    with its warning, and the object renders."""
-    v = args[0] if args else None
-    if not isinstance(v, tuple) or 0.0 not in v:
-        return args
-    for axis, c in zip("XYZ", v, strict=False):
-        if c == 0.0:
-            it.sink.warning(
-                "W0309",
-                f"Illegal Value: Scale {axis} by 0.0. Changed to 1.0.",
-                span,
-                "POV-Ray's repair; a scale factor of 0 would flatten the object away",
-            )
-    return [tuple(1.0 if c == 0.0 else c for c in v), *args[1:]]
