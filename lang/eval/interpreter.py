@@ -879,10 +879,8 @@ class Interpreter:
 
     def _d_version(self, node: syntax.Version, out, spec) -> None:
         self.version = as_float(self.eval(node.value), "#version")
-        # any file's #version makes the version explicit, an include's too: POV-Ray's
-        # standard includes end with one (restoring the scene's), so a scene without
-        # #version that includes colors.inc is read with 3.7's gamma rules
-        self.version_set = True
+        if self.file_stack and self.file_stack[-1] == self.main_file:
+            self.version_set = True
 
     def _d_message(self, node: syntax.Message, out, spec) -> None:
         v = self.eval(node.value)
