@@ -718,8 +718,9 @@ class Fog:
 
 @dataclass(frozen=True)
 class Settings:
-    """`version` is the scene's `#version` at the end of parsing (None when the scene has no
-    #version directive). `assumed_gamma` is None when the scene does not set it.
+    """`version` is the scene's `#version` at the end of parsing (None when no #version ran,
+    in the scene or in a file it includes: POV-Ray counts both). `assumed_gamma` is None
+    when the scene does not set it.
 
     POV-Ray 3.7's gamma rules (the runtime applies them): the working gamma is
     `assumed_gamma` when given; otherwise 1.0 if version >= 3.7, else *legacy* (no gamma

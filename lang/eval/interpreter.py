@@ -849,9 +849,12 @@ class Interpreter:
         )
 
     def _d_version(self, node: syntax.Version, out, spec) -> None:
+        # POV-Ray 3.7 (tokenize.cpp, VERSION_TOKEN): any #version, in the scene or in a file
+        # it includes, marks the language version as set; the version the scene ends with
+        # decides the gamma and legacy rules. POV-Ray's include files set 3.5 and restore the
+        # version they found, so `#include "colors.inc"` alone makes a scene 3.7.
         self.version = as_float(self.eval(node.value), "#version")
-        if self.file_stack and self.file_stack[-1] == self.main_file:
-            self.version_set = True
+        self.version_set = True
 
     def _d_message(self, node: syntax.Message, out, spec) -> None:
         v = self.eval(node.value)
