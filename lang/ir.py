@@ -96,6 +96,10 @@ class Finish:
     conserve_energy: bool = False
     crand: float = 0.0
     irid: tuple[float, float, float] | None = None  # (amount, thickness, turbulence)
+    # The old `finish { ior … caustics … }` (POV-Ray's Temp_IOR, Temp_Caustics): moved into
+    # the object's interior when the object is made; None when not given.
+    ior: float | None = None
+    caustics: float | None = None
 
 
 @dataclass(frozen=True)

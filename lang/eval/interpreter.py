@@ -112,6 +112,22 @@ class _Scope(dict):
 # The interior of every object that names none: one (frozen) value, not one each (a stored
 # scene of thousands of objects loads it once).
 _DEFAULT_INTERIOR = ir.Interior()
+
+
+def _finish_interior(inter: ir.Interior, tex: ir.Texture) -> ir.Interior:
+    """POV-Ray's Post_Process (parse.cpp): the finish of a plain (unpatterned) texture that
+    gives the old `ior` or `caustics` sets them in the object's interior, over its own; the
+    ior comes with dispersion 1. The outermost layer is POV-Ray's first texture."""
+    if tex.pattern is not None:
+        return inter
+    fin = tex.layers[-1].finish if tex.layers else tex.finish
+    if fin.ior is not None:
+        inter = replace(inter, ior=fin.ior, dispersion=1.0)
+    if fin.caustics is not None:
+        inter = replace(inter, caustics=fin.caustics)
+    return inter
+
+
 _INHERITED_FLAGS = ("no_shadow", "no_reflection", "no_image", "hollow", "double_illuminate")
 
 
@@ -1257,7 +1273,7 @@ class Interpreter:
         own_interior = obj.interior
         if has_parent:
             own_interior = transform_interior(own_interior, parent)
-        inter = own_interior or interior or _DEFAULT_INTERIOR
+        inter = _finish_interior(own_interior or interior or _DEFAULT_INTERIOR, tex)
         full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
         shape = obj.shape
         # no_shadow, hollow … on a CSG hold for every child (the runtime may flatten CSG)

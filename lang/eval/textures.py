@@ -341,6 +341,35 @@ def _b_normal(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Normal:
     return replace(nrm, params=params)
 
 
+# POV-Ray 3.7's words (parstxtr.cpp, Parse_Finish, through Warn_Compat) for the interior
+# values an old scene gives in its finish.
+_OLD_FINISH_WARNINGS = {
+    "ior": "Index of refraction value should be specified in 'interior{...}' statement.",
+    "caustics": "Caustics value should be specified in 'interior{...}' statement.",
+    "refraction": "Refraction value unnecessary to turn on refraction. To attenuate, the "
+    "fade_power and fade_distance keywords should be specified in 'interior{...}' statement.",
+}
+
+
+def _old_finish_item(it: BuildContext, f: ir.Finish, name: str, v: float, span) -> ir.Finish:
+    """`ior`, `caustics` or `refraction` in a finish: POV-Ray warns and keeps the ior and
+    caustics for the object's interior (parse.cpp, Post_Process: a plain texture's finish
+    sets them, over the object's own interior). `refraction` scales the refracted light
+    (POV-Ray's Old_Refract), which strala does not do: 1 changes nothing."""
+    it.sink.warning("W0310", _OLD_FINISH_WARNINGS[name], span)
+    if name == "refraction":
+        _old_refraction(it, v, span, "finish")
+        return f
+    return replace(f, ior=v) if name == "ior" else replace(f, caustics=v)
+
+
+def _old_refraction(it: BuildContext, v: float, span, block: str) -> None:
+    if v != 1.0:
+        it.unsupported(
+            "refraction", span, f" in {block} but as 1: POV-Ray scales the refracted light by it"
+        )
+
+
 def _b_finish(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Finish:
     # POV-Ray starts every finish block from a copy of the `#default` finish
     f = it.default_texture.finish
@@ -378,6 +407,8 @@ def _b_finish(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Finish:
             it.unsupported(v.keyword, span, " in finish")
         elif name == "albedo":
             pass
+        elif name in ("ior", "caustics", "refraction"):
+            f = _old_finish_item(it, f, name, v, span)
     if refl:
         f = replace(f, reflection=replace(f.reflection, **refl))
     return f
@@ -466,6 +497,9 @@ def _b_interior(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Interior
             i = replace(i, **{name: v})
         elif name in ("fade_color", "fade_colour"):
             i = replace(i, fade_color=v)
+        elif name == "refraction":
+            it.sink.warning("W0310", _OLD_FINISH_WARNINGS[name], span)
+            _old_refraction(it, v, span, "interior")
         elif name == "media":
             i = replace(i, media=(*i.media, v))
         elif name == "unsupported":
