@@ -85,8 +85,11 @@ def _sorted_entries(entries: list[tuple[float, Any]]) -> tuple[tuple[float, Any]
     return tuple(sorted(entries, key=lambda e: e[0]))
 
 
-# Pattern default colours when a list pattern is given fewer than it takes (POV-Ray's, read
-# back from its renders).
+# Pattern default colours when a list pattern is given fewer colours than it takes: POV-Ray's
+# Parse_Blend_List (express.cpp) fills entry i from the default map's entry i (pigment.cpp:
+# checker takes Hex_Entries, so `checker Green` is all green in POV-Ray too). A list of
+# `pigment { }` entries is filled with the default pigment instead, a texture list with the
+# default texture (`#default` counts for both).
 _LIST_DEFAULTS = {
     "checker": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0)],
     "hexagon": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)],
@@ -268,8 +271,13 @@ def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigmen
         elif name in schema.LIST_PATTERNS:
             defaults = _LIST_DEFAULTS.get(name, [])
             given = [as_pigment(x) for x in v]
+            pigments = bool(v) and isinstance(v[0], ir.Pigment)
             while len(given) < len(defaults):
-                given.append(ir.Pigment(color=(*defaults[len(given)], 0.0, 0.0)))
+                given.append(
+                    it.default_texture.pigment
+                    if pigments
+                    else ir.Pigment(color=(*defaults[len(given)], 0.0, 0.0))
+                )
             pig = replace(pig, pattern=name, list=tuple(given))
             if name not in ("checker", "hexagon", "brick"):
                 it.unsupported(f"{name} pattern", span)
@@ -536,7 +544,11 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
                 it.sink.error("E0212", f"a {v.map_kind} in a texture", span)
         elif name in schema.LIST_PATTERNS or (name == "object" and isinstance(v, ObjectPattern)):
             items = v.items if isinstance(v, ObjectPattern) else v
-            entries = tuple((float(i), _as_texture(it, x)) for i, x in enumerate(items))
+            textures = [_as_texture(it, x) for x in items]
+            # POV-Ray's Parse_Blend_List: the missing textures are the default texture
+            while len(textures) < len(_LIST_DEFAULTS.get(name, _OBJECT_DEFAULTS)):
+                textures.append(replace(it.default_texture, layers=()))
+            entries = tuple((float(i), x) for i, x in enumerate(textures))
             if isinstance(v, ObjectPattern):
                 params["object"] = v.object
             if name not in ("checker", "hexagon", "brick", "object"):
