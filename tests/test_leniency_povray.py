@@ -93,3 +93,29 @@ def test_lenient_case_renders_like_povray(tmp_path, body) -> None:
     # may differ by more than 0.1, the mean by at most 0.01
     assert float((off > 0.1).mean()) <= 0.03, float((off > 0.1).mean())
     assert float(off.mean()) <= 0.01, float(off.mean())
+
+
+ACOS = (
+    "#declare A = acos(1.5);\n#declare B = asin(-1.0000001);\n"
+    '#debug concat(str(A, 0, 6), " ", str(B, 0, 6), "\\n")\n'
+)
+
+
+def test_acos_asin_outside_their_domain_warn_and_clamp() -> None:
+    # POV-Ray's express.cpp (ACOS_TOKEN, ASIN_TOKEN): "Domain error in acos.", the nearer end
+    diags = compile_source(ACOS, "a.pov").diagnostics
+    assert [(d.code, d.message) for d in diags if d.code == "W0309"] == [
+        ("W0309", "Domain error in acos."),
+        ("W0309", "Domain error in asin."),
+    ]
+    assert [d.message for d in diags if d.code == "N0100"] == ["0.000000 -1.570796"]
+
+
+@pytest.mark.povray
+def test_acos_asin_clamp_like_povray(tmp_path) -> None:
+    from conftest import povray_debug
+
+    (tmp_path / "a.pov").write_text(ACOS)
+    out = povray_debug(tmp_path / "a.pov")
+    assert "Domain error in acos." in out and "Domain error in asin." in out
+    assert "0.000000 -1.570796" in out

@@ -196,6 +196,8 @@ def _e_call(it: BuildContext, node: syntax.Call) -> Any:
             it.unsupported(f"{node.name}()", node.span)
             return 0.0
         args = [it.eval(a) for a in node.args]
+        if node.name in ("acos", "asin") and len(args) == 1:
+            args = [_clamped_domain(it, node, args[0])]
         try:
             return builtins.call(node.name, args, it.state)
         except EvalError as e:
@@ -375,3 +377,18 @@ EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
     syntax.Block: _e_block,
     syntax.CutBlock: _e_cut_block,
 }
+
+
+def _clamped_domain(it: BuildContext, node: syntax.Call, v: Any) -> Any:
+    """POV-Ray's acos and asin (express.cpp, Parse_Num_Factor) warn "Domain error in acos."
+    for an argument outside [-1, 1] and use the nearer end (acos(1.0000001) from rounding in
+    a dot product is common); only a float is clamped, anything else errors as before."""
+    if not isinstance(v, float | int) or -1.0 <= v <= 1.0:
+        return v
+    it.sink.warning(
+        "W0309",
+        f"Domain error in {node.name}.",
+        node.span,
+        "POV-Ray uses the nearer of -1 and 1 and renders the same",
+    )
+    return 1.0 if v > 1.0 else -1.0
