@@ -100,6 +100,8 @@ DEFAULT_HINTS: dict[str, str] = {
     "W0306": "check the camera's vectors",
     "W0307": "the image renders black; check its name and folder",
     "W0308": "the keyword is read and has no effect in strala",
+    "W0309": "POV-Ray repairs it the same way and renders; write the value meant",
+    "W0310": "POV-Ray reads it the same way; move it into `interior { }`",
     "W0400": "remove the declaration, or use the name",
     "W0401": "rename one of them if the other was meant",
     "W0402": "the declaration is deprecated",

@@ -96,6 +96,10 @@ class Finish:
     conserve_energy: bool = False
     crand: float = 0.0
     irid: tuple[float, float, float] | None = None  # (amount, thickness, turbulence)
+    # The old `finish { ior … caustics … }` (POV-Ray's Temp_IOR, Temp_Caustics): moved into
+    # the object's interior when the object is made; None when not given.
+    ior: float | None = None
+    caustics: float | None = None
 
 
 @dataclass(frozen=True)
@@ -718,8 +722,9 @@ class Fog:
 
 @dataclass(frozen=True)
 class Settings:
-    """`version` is the scene's `#version` at the end of parsing (None when the scene has no
-    #version directive). `assumed_gamma` is None when the scene does not set it.
+    """`version` is the scene's `#version` at the end of parsing (None when no #version ran,
+    in the scene or in a file it includes: POV-Ray counts both). `assumed_gamma` is None
+    when the scene does not set it.
 
     POV-Ray 3.7's gamma rules (the runtime applies them): the working gamma is
     `assumed_gamma` when given; otherwise 1.0 if version >= 3.7, else *legacy* (no gamma

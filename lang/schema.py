@@ -411,6 +411,9 @@ FINISH_ITEMS = [
     "crand float | Random graininess.",
     "fresnel bool? | Fresnel reflection (old syntax).",
     "albedo | Read the following diffuse/specular as albedo.",
+    "ior float | Old syntax: the object's interior ior (POV-Ray warns; it belongs in interior).",
+    "caustics float | Old syntax: the object's interior caustics (belongs in interior).",
+    "refraction float | Old syntax: scales the refracted light (1 is no change).",
 ]
 
 NORMAL_PATTERN_ITEMS = [
@@ -689,6 +692,7 @@ BLOCKS: dict[str, BlockSpec] = {
                 "fade_power float | Exponent of fading.",
                 "fade_color rgb | Colour of fading.",
                 "fade_colour rgb | Colour of fading.",
+                "refraction float | Old syntax: scales the refracted light (1 is no change).",
             ]
         ),
         frozenset({"interior", "media", "unsupported"}),

@@ -19,6 +19,7 @@ _FLOATS = ["1", "0", "2.5", "-3", "A", "pi", "0.1"]
 _OTHERS = ["V", "C", "S", "<1, 2, 3>", "rgb <0.1, 0.2, 0.3>"]
 _OPS = ["+", "-", "*", "/", "<", "<=", ">", ">=", "=", "!=", "&", "|"]
 _CALLS = ["sin", "cos", "sqrt", "abs", "max", "min", "vlength", "pow", "mod", "int", "strlen"]
+_CALLS += ["acos", "asin"]  # they warn outside [-1, 1]
 
 
 @st.composite

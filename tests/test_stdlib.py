@@ -182,8 +182,8 @@ def test_metals_leave_their_own_finishes_over_the_gold_ones(tmp_path):
 
 
 # ------------------------------------------------ oracle 1: POV-Ray's include files as data
-# Names POV-Ray's files declare that strala's deliberately do not: their include-guard
-# values (they hold `version`).
+# POV-Ray's include-guard values (they hold `version`, what the file restores at its end):
+# strala's files declare them too, but their value is the including scene's, not data.
 def _guard_name(name: str) -> bool:
     return name.lower().endswith("_inc_temp")
 

@@ -196,6 +196,8 @@ def _e_call(it: BuildContext, node: syntax.Call) -> Any:
             it.unsupported(f"{node.name}()", node.span)
             return 0.0
         args = [it.eval(a) for a in node.args]
+        if node.name in ("acos", "asin") and len(args) == 1:
+            args = [_clamped_domain(it, node, args[0])]
         try:
             return builtins.call(node.name, args, it.state)
         except EvalError as e:
@@ -377,6 +379,21 @@ EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
 }
 
 
+def _clamped_domain(it: BuildContext, node: syntax.Call, v: Any) -> Any:
+    """POV-Ray's acos and asin (express.cpp, Parse_Num_Factor) warn "Domain error in acos."
+    for an argument outside [-1, 1] and use the nearer end (acos(1.0000001) from rounding in
+    a dot product is common); only a float is clamped, anything else errors as before."""
+    if not isinstance(v, float | int) or -1.0 <= v <= 1.0:
+        return v
+    it.sink.warning(
+        "W0309",
+        f"Domain error in {node.name}.",
+        node.span,
+        "POV-Ray uses the nearer of -1 and 1 and renders the same",
+    )
+    return 1.0 if v > 1.0 else -1.0
+
+
 # ---------------------------------------------------------------- compiled expressions
 # An operator, a call of a built-in function or a negation is turned into a closure the
 # first time it is evaluated, with its operands' closures inside: a loop body's arithmetic
@@ -384,9 +401,10 @@ EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
 # Interpreter.eval does for its node (an EvalError becomes E0203 at the node's span; the
 # operands' errors at theirs); kinds without a closure of their own go through it.eval.
 Compiled = Callable[[BuildContext], Any]
-# built-ins that look at their arguments' syntax or the scene, not only at their values
+# built-ins that look at their arguments' syntax or the scene, not only at their values,
+# or warn (acos and asin outside [-1, 1]): the tree walk evaluates them
 _SPECIAL_CALLS = frozenset(
-    {"defined", "min_extent", "max_extent", "inside", "trace", "prod", "sum"}
+    {"defined", "min_extent", "max_extent", "inside", "trace", "prod", "sum", "acos", "asin"}
 )
 
 

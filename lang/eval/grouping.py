@@ -100,6 +100,8 @@ def group(
                 while i < n and els[i].kind != "kw":
                     i += 1
                 continue
+            if e.value == "scale" and args and isinstance(args[0], tuple):
+                args[0] = _scale_vector(it, args[0], e.span)
             items.append((e.value, args, e.span))
             if e.value in schema.IGNORED_ITEMS:
                 it.ignored(spec.name, e.value, args, e.span)
@@ -132,6 +134,17 @@ def group(
             )
         i += 1
     return Grouped(pos, items, span)
+
+
+def _scale_vector(it, v: tuple, span: Span) -> tuple:
+    """POV-Ray's Parse_Scale_Vector (express.cpp): a zero scale factor is changed to 1.0,
+    with a warning for each axis, and the scene renders."""
+    if not any(c == 0.0 for c in v):
+        return v
+    for axis, c in zip("XYZ", v, strict=False):
+        if c == 0.0:
+            it.sink.warning("W0309", f"Illegal Value: Scale {axis} by 0.0. Changed to 1.0.", span)
+    return tuple(1.0 if c == 0.0 else c for c in v)
 
 
 def _positional_hint(it: BuildContext, spec: schema.BlockSpec) -> str | None:

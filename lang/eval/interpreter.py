@@ -116,6 +116,22 @@ class _Scope(dict):
 # The interior of every object that names none: one (frozen) value, not one each (a stored
 # scene of thousands of objects loads it once).
 _DEFAULT_INTERIOR = ir.Interior()
+
+
+def _finish_interior(inter: ir.Interior, tex: ir.Texture) -> ir.Interior:
+    """POV-Ray's Post_Process (parse.cpp): the finish of a plain (unpatterned) texture that
+    gives the old `ior` or `caustics` sets them in the object's interior, over its own; the
+    ior comes with dispersion 1. The outermost layer is POV-Ray's first texture."""
+    if tex.pattern is not None:
+        return inter
+    fin = tex.layers[-1].finish if tex.layers else tex.finish
+    if fin.ior is not None:
+        inter = replace(inter, ior=fin.ior, dispersion=1.0)
+    if fin.caustics is not None:
+        inter = replace(inter, caustics=fin.caustics)
+    return inter
+
+
 _INHERITED_FLAGS = ("no_shadow", "no_reflection", "no_image", "hollow", "double_illuminate")
 
 
@@ -878,9 +894,12 @@ class Interpreter:
         )
 
     def _d_version(self, node: syntax.Version, out, spec) -> None:
+        # POV-Ray 3.7 (tokenize.cpp, VERSION_TOKEN): any #version, in the scene or in a file
+        # it includes, marks the language version as set; the version the scene ends with
+        # decides the gamma and legacy rules. POV-Ray's include files set 3.5 and restore the
+        # version they found, so `#include "colors.inc"` alone makes a scene 3.7.
         self.version = as_float(self.eval(node.value), "#version")
-        if self.file_stack and self.file_stack[-1] == self.main_file:
-            self.version_set = True
+        self.version_set = True
 
     def _d_message(self, node: syntax.Message, out, spec) -> None:
         v = self.eval(node.value)
@@ -1320,7 +1339,7 @@ class Interpreter:
         own_interior = obj.interior
         if has_parent:
             own_interior = transform_interior(own_interior, parent)
-        inter = own_interior or interior or _DEFAULT_INTERIOR
+        inter = _finish_interior(own_interior or interior or _DEFAULT_INTERIOR, tex)
         full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
         shape = obj.shape
         # no_shadow, hollow … on a CSG hold for every child (the runtime may flatten CSG)

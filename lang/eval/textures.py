@@ -85,8 +85,11 @@ def _sorted_entries(entries: list[tuple[float, Any]]) -> tuple[tuple[float, Any]
     return tuple(sorted(entries, key=lambda e: e[0]))
 
 
-# Pattern default colours when a list pattern is given fewer than it takes (POV-Ray's, read
-# back from its renders).
+# Pattern default colours when a list pattern is given fewer colours than it takes: POV-Ray's
+# Parse_Blend_List (express.cpp) fills entry i from the default map's entry i (pigment.cpp:
+# checker takes Hex_Entries, so `checker Green` is all green in POV-Ray too). A list of
+# `pigment { }` entries is filled with the default pigment instead, a texture list with the
+# default texture (`#default` counts for both).
 _LIST_DEFAULTS = {
     "checker": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0)],
     "hexagon": [(0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)],
@@ -268,8 +271,13 @@ def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigmen
         elif name in schema.LIST_PATTERNS:
             defaults = _LIST_DEFAULTS.get(name, [])
             given = [as_pigment(x) for x in v]
+            pigments = bool(v) and isinstance(v[0], ir.Pigment)
             while len(given) < len(defaults):
-                given.append(ir.Pigment(color=(*defaults[len(given)], 0.0, 0.0)))
+                given.append(
+                    it.default_texture.pigment
+                    if pigments
+                    else ir.Pigment(color=(*defaults[len(given)], 0.0, 0.0))
+                )
             pig = replace(pig, pattern=name, list=tuple(given))
             if name not in ("checker", "hexagon", "brick"):
                 it.unsupported(f"{name} pattern", span)
@@ -341,6 +349,35 @@ def _b_normal(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Normal:
     return replace(nrm, params=params)
 
 
+# POV-Ray 3.7's words (parstxtr.cpp, Parse_Finish, through Warn_Compat) for the interior
+# values an old scene gives in its finish.
+_OLD_FINISH_WARNINGS = {
+    "ior": "Index of refraction value should be specified in 'interior{...}' statement.",
+    "caustics": "Caustics value should be specified in 'interior{...}' statement.",
+    "refraction": "Refraction value unnecessary to turn on refraction. To attenuate, the "
+    "fade_power and fade_distance keywords should be specified in 'interior{...}' statement.",
+}
+
+
+def _old_finish_item(it: BuildContext, f: ir.Finish, name: str, v: float, span) -> ir.Finish:
+    """`ior`, `caustics` or `refraction` in a finish: POV-Ray warns and keeps the ior and
+    caustics for the object's interior (parse.cpp, Post_Process: a plain texture's finish
+    sets them, over the object's own interior). `refraction` scales the refracted light
+    (POV-Ray's Old_Refract), which strala does not do: 1 changes nothing."""
+    it.sink.warning("W0310", _OLD_FINISH_WARNINGS[name], span)
+    if name == "refraction":
+        _old_refraction(it, v, span, "finish")
+        return f
+    return replace(f, ior=v) if name == "ior" else replace(f, caustics=v)
+
+
+def _old_refraction(it: BuildContext, v: float, span, block: str) -> None:
+    if v != 1.0:
+        it.unsupported(
+            "refraction", span, f" in {block} but as 1: POV-Ray scales the refracted light by it"
+        )
+
+
 def _b_finish(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Finish:
     # POV-Ray starts every finish block from a copy of the `#default` finish
     f = it.default_texture.finish
@@ -378,6 +415,8 @@ def _b_finish(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Finish:
             it.unsupported(v.keyword, span, " in finish")
         elif name == "albedo":
             pass
+        elif name in ("ior", "caustics", "refraction"):
+            f = _old_finish_item(it, f, name, v, span)
     if refl:
         f = replace(f, reflection=replace(f.reflection, **refl))
     return f
@@ -466,6 +505,9 @@ def _b_interior(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Interior
             i = replace(i, **{name: v})
         elif name in ("fade_color", "fade_colour"):
             i = replace(i, fade_color=v)
+        elif name == "refraction":
+            it.sink.warning("W0310", _OLD_FINISH_WARNINGS[name], span)
+            _old_refraction(it, v, span, "interior")
         elif name == "media":
             i = replace(i, media=(*i.media, v))
         elif name == "unsupported":
@@ -502,7 +544,11 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
                 it.sink.error("E0212", f"a {v.map_kind} in a texture", span)
         elif name in schema.LIST_PATTERNS or (name == "object" and isinstance(v, ObjectPattern)):
             items = v.items if isinstance(v, ObjectPattern) else v
-            entries = tuple((float(i), _as_texture(it, x)) for i, x in enumerate(items))
+            textures = [_as_texture(it, x) for x in items]
+            # POV-Ray's Parse_Blend_List: the missing textures are the default texture
+            while len(textures) < len(_LIST_DEFAULTS.get(name, _OBJECT_DEFAULTS)):
+                textures.append(replace(it.default_texture, layers=()))
+            entries = tuple((float(i), x) for i, x in enumerate(textures))
             if isinstance(v, ObjectPattern):
                 params["object"] = v.object
             if name not in ("checker", "hexagon", "brick", "object"):
