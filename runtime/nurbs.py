@@ -559,4 +559,3 @@ def nurbs_torus(R: float = 1.0, r: float = 0.25, center: ir.Vec3 = (0.0, 0.0, 0.
     """An exact rational torus about the y axis like POV-Ray's `torus { R, r }` (9 x 9 net)."""
     profile = [(R + r * a, r * b) for a, b in _CIRCLE_XY]
     return _revolve(profile, _CIRCLE_W, CIRCLE_KNOTS, center)
-
