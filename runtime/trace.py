@@ -247,7 +247,8 @@ class CsgNode:
     only when the children's boxes hold their insides (`boxes_inside`); a disc's does not
     (its inside is a half space), so the box of intersection { sphere disc } is the flat
     one of the disc while the sphere's cap below it is a crossing too. POV-Ray culls such
-    an object by that box all the same."""
+    an object by that box all the same; the Tracer does too, in a way that does not depend
+    on the order it meets the roots in (see Tracer.loose)."""
 
     def __init__(self, op: str, children: list, inverse: bool = False):
         self.op = op
@@ -501,8 +502,14 @@ class Tracer:
                 self.leaf_by_index[n.index] = n
             else:
                 self._register(n)
-        finite = [i for i, n in enumerate(nodes) if n.bounded]
+        finite = [i for i, n in enumerate(nodes) if n.bounded and n.tight]
         self.unbounded = [i for i, n in enumerate(nodes) if not n.bounded]
+        # Roots whose box may not hold their crossings (CsgNode.tight): met last, each culled
+        # by its box against the segment the other roots left of the ray, (tmin, their
+        # nearest hit), whatever the order. That is POV-Ray's rule with its bounding slabs
+        # (it meets objects by their boxes' entry depths and stops where a box starts
+        # behind the nearest hit so far), and leaves the image to the boxes, not the walk.
+        self.loose = [i for i, n in enumerate(nodes) if n.bounded and not n.tight]
         self.bounded = finite
         self.tree = None
         if len(finite) > self.TREE_THRESHOLD:
@@ -560,7 +567,7 @@ class Tracer:
         `limit_of(rows)` gives the current far limit of those rows (it shrinks as hits are
         found, which lets later box tests cull more). Spheres and boxes are gathered into
         one vectorised call per kind (many small objects would otherwise cost a Python
-        call each)."""
+        call each). The loose roots (Tracer.loose) come last."""
         pending: dict[type, list[tuple[Leaf, np.ndarray]]] = {}
         with np.errstate(divide="ignore", over="ignore"):
             inv = 1.0 / d
@@ -589,6 +596,16 @@ class Tracer:
             yield rows, node.crossings(o[rows], d[rows])
         for group in pending.values():
             yield batch_crossings(group, o, d)
+        if not self.loose:
+            return
+        # the other roots' nearest hits, taken once: a loose root's own hit does not cull another
+        cull = np.array(limit_of(None))
+        for node in (self.nodes[i] for i in self.loose):
+            if skipped is not None and skipped[node.leaves].all():
+                continue
+            rows = np.nonzero(slab_hits(o, None, node.lo, node.hi, tmin_a, cull, inv))[0]
+            if len(rows):
+                yield rows, node.crossings(o[rows], d[rows])
 
     def closest(self, origins, directions, tmin=None, tmax=None, skip: str | None = None) -> Hits:
         o, d, tmin_a, tmax_a = self._arrays(origins, directions, tmin, tmax)
