@@ -376,6 +376,9 @@ def barycentric(p, v0, e1, e2):
 # ----------------------------------------------------------------------------- disc
 class DiscPrim:
     K = 1
+    # POV-Ray's disc is inside on the side its normal points away from (Inside_Disc): a
+    # half space, which the disc's box does not hold (see trace.Leaf.boxes_inside).
+    INSIDE_BOUNDED = False
 
     def __init__(self, center, normal, radius: float, hole_radius: float = 0.0):
         self.c = np.asarray(center, dtype=np.float64)

@@ -101,6 +101,9 @@ class Leaf:
     """One analytic primitive (object space) placed in the world by `matrix` (None: left
     where it is, the common case of a scene's thousands of plain spheres and boxes)."""
 
+    # Its box holds its crossings: it is its primitive's box (see CsgNode.tight).
+    tight = True
+
     def __init__(self, prim, matrix: np.ndarray | None, index: int, inverse: bool = False):
         if matrix is not None and isinstance(prim, shapes.BoxPrim) and _axis_aligned(matrix):
             # POV-Ray moves and scales an untransformed box's corners instead of keeping a
@@ -180,6 +183,12 @@ class Leaf:
             self.bounded = False
             self.size = self.prim.size
 
+    @property
+    def boxes_inside(self) -> bool:
+        """Does its box hold its inside too? Not a disc's (a half space), unless the box is
+        infinite anyway (an inverse leaf)."""
+        return not self.bounded or getattr(self.prim, "INSIDE_BOUNDED", True)
+
     def to_object(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.identity:
             return o, d
@@ -231,7 +240,15 @@ class CsgNode:
     """intersection / difference / merge (union is flattened away by `prepare`, but a union
     nested inside another CSG stays a node so that `inside` is right). Interval logic the
     way POV-Ray does it: a child's crossing is a crossing of the whole if the point is inside
-    (or outside) the other children."""
+    (or outside) the other children.
+
+    The box is POV-Ray's (its CSG::Compute_BBox): an intersection's is the overlap of its
+    children's, a difference's its first child's. That holds the node's crossings (`tight`)
+    only when the children's boxes hold their insides (`boxes_inside`); a disc's does not
+    (its inside is a half space), so the box of intersection { sphere disc } is the flat
+    one of the disc while the sphere's cap below it is a crossing too. POV-Ray culls such
+    an object by that box all the same; the Tracer does too, in a way that does not depend
+    on the order it meets the roots in (see Tracer.loose)."""
 
     def __init__(self, op: str, children: list, inverse: bool = False):
         self.op = op
@@ -240,16 +257,27 @@ class CsgNode:
         self.leaves = [i for c in children for i in c.leaves]
         los = np.array([c.lo for c in children])
         his = np.array([c.hi for c in children])
+        tight = all(c.tight for c in children)
+        boxed = [c.boxes_inside for c in children]
         if inverse:
             self.lo, self.hi = np.full(3, -np.inf), np.full(3, np.inf)
         elif op == "intersection":
             self.lo, self.hi = los.max(axis=0), his.min(axis=0)
+            # a child's crossing lies in its own box and in the others' insides
+            tight = tight and (len(children) == 1 or all(boxed))
+            boxed = [all(boxed)]
         elif op == "difference":
             self.lo, self.hi = los[0], his[0]
+            # the subtracted children's crossings lie in the first child's inside
+            tight = children[0].tight and (len(children) == 1 or boxed[0])
+            boxed = boxed[:1]
         else:
             self.lo, self.hi = los.min(axis=0), his.max(axis=0)
         self.size = max(c.size for c in children)
         self.bounded = _finite_box(self.lo, self.hi)
+        # an infinite box culls nothing
+        self.tight: bool = tight or not self.bounded
+        self.boxes_inside: bool = all(boxed) or not self.bounded
 
     def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
         parts = []
@@ -316,6 +344,10 @@ class ClipNode:
             self.hi = np.minimum(self.hi, c.hi)
         self.size = inner.size
         self.bounded = _finite_box(self.lo, self.hi)
+        # as an intersection's (CsgNode): the crossings left lie in the clips' insides
+        clips_boxed = all(c.boxes_inside for c in clips)
+        self.tight: bool = (inner.tight and clips_boxed) or not self.bounded
+        self.boxes_inside: bool = (inner.boxes_inside and clips_boxed) or not self.bounded
 
     def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
         c = self.inner.crossings(o, d)
@@ -470,8 +502,14 @@ class Tracer:
                 self.leaf_by_index[n.index] = n
             else:
                 self._register(n)
-        finite = [i for i, n in enumerate(nodes) if n.bounded]
+        finite = [i for i, n in enumerate(nodes) if n.bounded and n.tight]
         self.unbounded = [i for i, n in enumerate(nodes) if not n.bounded]
+        # Roots whose box may not hold their crossings (CsgNode.tight): met last, each culled
+        # by its box against the segment the other roots left of the ray, (tmin, their
+        # nearest hit), whatever the order. That is POV-Ray's rule with its bounding slabs
+        # (it meets objects by their boxes' entry depths and stops where a box starts
+        # behind the nearest hit so far), and leaves the image to the boxes, not the walk.
+        self.loose = [i for i, n in enumerate(nodes) if n.bounded and not n.tight]
         self.bounded = finite
         self.tree = None
         if len(finite) > self.TREE_THRESHOLD:
@@ -529,7 +567,7 @@ class Tracer:
         `limit_of(rows)` gives the current far limit of those rows (it shrinks as hits are
         found, which lets later box tests cull more). Spheres and boxes are gathered into
         one vectorised call per kind (many small objects would otherwise cost a Python
-        call each)."""
+        call each). The loose roots (Tracer.loose) come last."""
         pending: dict[type, list[tuple[Leaf, np.ndarray]]] = {}
         with np.errstate(divide="ignore", over="ignore"):
             inv = 1.0 / d
@@ -558,6 +596,16 @@ class Tracer:
             yield rows, node.crossings(o[rows], d[rows])
         for group in pending.values():
             yield batch_crossings(group, o, d)
+        if not self.loose:
+            return
+        # the other roots' nearest hits, taken once: a loose root's own hit does not cull another
+        cull = np.array(limit_of(None))
+        for node in (self.nodes[i] for i in self.loose):
+            if skipped is not None and skipped[node.leaves].all():
+                continue
+            rows = np.nonzero(slab_hits(o, None, node.lo, node.hi, tmin_a, cull, inv))[0]
+            if len(rows):
+                yield rows, node.crossings(o[rows], d[rows])
 
     def closest(self, origins, directions, tmin=None, tmax=None, skip: str | None = None) -> Hits:
         o, d, tmin_a, tmax_a = self._arrays(origins, directions, tmin, tmax)

@@ -21,8 +21,10 @@ ior and fade, no caustics or media; a background colour and sky_sphere layers of
 pigments (3.7 rules); no fog, media or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
-light, pigment and node, the child lists and the box tree. The layout below is mirrored in
-kernel/whitted.c; `layout()` checks it, and the kernel checks every index between tables.
+light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
+may not hold their crossings: trace.Tracer.loose) and the box tree. The layout below is
+mirrored in kernel/whitted.c; `layout()` checks it, and the kernel checks every index
+between tables.
 """
 
 from __future__ import annotations
@@ -46,12 +48,13 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 48, 64, 48, 24, 64, 7, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 56, 64, 48, 24, 64, 7, 16, 1024
 BVH, BVH_STACK = 11, 128
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
 H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL = 16, 19, 22, 25, 28
 H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM, H_MASK = range(39, 48)
+H_NLOOSE = 48
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
@@ -461,16 +464,17 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     n_node = len(nodes)
     bvh, items = box_tree(tracer)
     unbounded = list(tracer.unbounded)
+    loose = list(tracer.loose)
     size = HDR + n_obj * OBJ + n_tex * TEX + n_light * LIT + n_pig * PIG + n_node * NODE
     masks = view_masks(bvh, camera, width, height, scene.lights)
     starts = walk_starts(bvh, masks)
-    tail = np.concatenate([children, unbounded, bvh.ravel(), items, masks.ravel(), starts])
+    tail = np.concatenate([children, unbounded, loose, bvh.ravel(), items, masks.ravel(), starts])
     tail = tail.astype(np.float64)
     buf = np.zeros(size + len(tail))
     h = buf[:HDR]
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
-    h[[H_NUNB, H_NBVH, H_NITEM]] = len(unbounded), len(bvh), len(items)
+    h[[H_NUNB, H_NBVH, H_NITEM, H_NLOOSE]] = len(unbounded), len(bvh), len(items), len(loose)
     h[H_MASK] = 1.0
     h[H_MAXLEVEL], h[H_BAILOUT] = s.max_trace_level, s.adc_bailout
     h[H_AMB : H_AMB + 3] = s.ambient_light

@@ -4,6 +4,7 @@ offsets, shadow queries, and what `prepare` decides to build."""
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -555,3 +556,97 @@ def test_degenerate_shapes_warn_instead_of_crashing():
     assert len(prep.warnings) == 4
     h = prep.tracer.closest(np.zeros((1, 3)), np.array([[0.0, 0, 1]]))
     assert h.obj[0] == 0 and h.t[0] == pytest.approx(4.0)
+
+
+# intersection { sphere disc }: its box is the overlap of the sphere's and the disc's (flat)
+# ones, as POV-Ray makes it, but the disc's inside is a half space, so the sphere's cap
+# behind the disc is a crossing too, outside that box.
+_BALL = ir.Object(ir.Sphere((0, 0, 0), 1))
+_DISC = ir.Object(ir.Disc((0, 0.2, 0), (0.2, 1, 0), 1.1, 0.3))
+_CAP = ir.Object(ir.CSG("intersection", (_BALL, _DISC)))
+
+
+def test_a_csg_box_holds_its_crossings_where_its_childrens_hold_their_insides():
+    def node(shape, inverse=False):
+        return prep_of(ir.Object(shape, inverse=inverse)).tracer.nodes[0]
+
+    disc = node(_DISC.shape)
+    assert disc.tight and not disc.boxes_inside  # the disc's own box: not its half space
+    assert node(_DISC.shape, inverse=True).boxes_inside  # an infinite box holds anything
+    assert not node(_CAP.shape).tight
+    assert node(ir.CSG("difference", (_BALL, _DISC))).tight  # what is left: in the ball
+    assert not node(ir.CSG("difference", (_DISC, _BALL))).tight  # the ball's cap: not
+    assert node(ir.CSG("merge", (_BALL, _DISC))).tight  # each crossing in its own box
+    assert not node(ir.CSG("merge", (_BALL, _CAP))).tight  # the cap inside it is loose
+    assert node(_CAP.shape, inverse=True).tight  # unbounded: never culled
+    ball2 = ir.Object(ir.Sphere((0.5, 0, 0), 1))
+    assert node(ir.CSG("intersection", (_BALL, ball2))).tight
+
+
+def test_a_loose_root_is_culled_against_the_others_nearest_hit_in_any_order():
+    """POV-Ray culls intersection { sphere disc } by its (flat) box, and with its bounding
+    slabs meets objects by their boxes' entry depths, stopping at a box that starts behind
+    the nearest hit so far. The tracer's rule is that one, whatever the order of the roots:
+    a loose root counts where its box meets (tmin, the other roots' nearest hit)."""
+    blocker = ir.Object(ir.Sphere((-0.34, -0.04, 0), 0.05))  # on the ray below, in the cap
+    prep = prep_of(_CAP, blocker)
+    tracer = prep.tracer
+    assert [tracer.nodes[i] for i in tracer.loose] == [tracer.nodes[0]]
+    # along x at y = -0.5: the cap is crossed (t 4.13), the disc's box never: culled
+    # rising: the cap at t 4.1, the blocker at 4.6, the flat box entered only at 4.8: culled
+    # rising without the blocker in the way (z = 1): the cap counts, its box met later
+    o = np.array([[-5.0, -0.5, 0.0], [-5.0, -0.5, 0.0], [-5.0, -0.5, 0.3]])
+    d = np.array([[1.0, 0.0, 0.0], [1.0, 0.1, 0.0], [1.0, 0.1, 0.0]])
+    h = tracer.closest(o, d)
+    cap = tracer.nodes[0].crossings(o, d).t.min(axis=1)
+    assert cap[0] < 4.2 and h.obj[0] == -1
+    assert cap[1] < h.t[1] and h.obj[1] == 2
+    assert h.t[2] == cap[2] and h.obj[2] in (0, 1)
+    # the same in the other order of the roots, and for many random rays
+    rng = np.random.default_rng(3)
+    o = np.concatenate([o, rng.uniform(-3, 3, (3000, 3))])
+    d = np.concatenate([d, random_dirs(rng, 3000)])
+    h = tracer.closest(o, d)
+    swapped = prep_of(blocker, _CAP).tracer
+    assert swapped.loose == [1]
+    s = swapped.closest(o, d)
+    assert np.array_equal(h.t, s.t)
+    renumber = np.array([1, 2, 0, -1])  # ball, disc, blocker there; none (-1) stays
+    assert np.array_equal(renumber[h.obj], s.obj)
+    assert (h.obj == 2).any() and (h.obj == 0).any()
+
+
+# Each name's object, and points about it: both sides of the disc's plane far beyond its
+# radius, inside its hole, its centre (on the plane: outside, as POV-Ray's Inside_Disc says).
+INSIDE = """
+#declare D = disc { <0, 0.2, 0>, <0.2, 1, 0>, 1.1, 0.3 }
+#declare O = array[9] { D, object { D inverse },
+  object { D translate <0.039, 0.021, 0.033> rotate y * 20 },
+  object { D scale <1, -2, 1> rotate z * 70 },
+  intersection { sphere { 0, 1 } object { D } },
+  difference { sphere { 0, 1 } object { D } },
+  merge { sphere { 0, 1 } object { D } }, intersection { sphere { 0, 1 } object { D } inverse },
+  union { sphere { <0, 3, 0>, 0.5 } object { D } } }
+#declare P = array[10] { <0, 0, 0>, <0, 1, 0>, <5, -3, 2>, <-4, 3, 1>, <0, 0.2, 0>,
+  <0.1, 0.15, 0.05>, <30, 9, -20>, <-30, -4, 20>, <0.5, -0.5, 0.5>, <0, 3.2, 0> }
+#for (I, 0, 8) #for (J, 0, 9)
+  #debug concat("in ", str(I, 0, 0), " ", str(J, 0, 0), " ", str(inside(O[I], P[J]), 0, 0), "\\n")
+#end #end
+"""
+
+
+@pytest.mark.povray
+def test_disc_insides_are_povrays(tmp_path):
+    """The disc's inside is the half space its normal points away from (not just the disc),
+    its plane outside; so in CSG, moved, mirrored, inverse: POV-Ray's inside() for each."""
+    from conftest import povray_debug
+
+    from runtime import api
+
+    line = re.compile(r"^in (\d+) (\d+) ([01])$", re.M)
+    scene = tmp_path / "inside.pov"
+    scene.write_text(INSIDE)
+    theirs = line.findall(povray_debug(scene))
+    ours = line.findall("\n".join(d.message for d in api.compile_string(INSIDE).diagnostics))
+    assert len(theirs) == 90 and ours == theirs
+    assert {v for *_, v in theirs} == {"0", "1"}

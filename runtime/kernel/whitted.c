@@ -18,7 +18,7 @@
 #include <string.h>
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
-#define HDR 48
+#define HDR 56
 #define OBJ 64
 #define TEX 48
 #define LIT 24
@@ -33,7 +33,7 @@
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
-       H_MASK };
+       H_MASK, H_NLOOSE };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
@@ -78,12 +78,13 @@ enum { TOL_ORIGIN_REL, TOL_OBJECT_REL, TOL_ABS_FLOOR, TOL_PARALLEL, TOL_EPSILON,
 static const double GREY[3] = {0.297, 0.589, 0.114};
 
 typedef struct {
-    const double *h, *obj, *tex, *light, *tol, *pig, *node, *child, *unb, *bvh, *item;
+    const double *h, *obj, *tex, *light, *tol, *pig, *node, *child, *unb, *loose, *bvh, *item;
     /* per box-tree node: may camera rays (column 0), or shadow rays from their hits toward
      * light l (column 1 + l), meet it (whitted.py view masks); NULL: not packed */
     const double *mask, *start; /* start: per class, the node its walk begins at (-1: none) */
     int mwidth;
-    int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nbvh, nitem, maxlevel, legacy, anytrans;
+    int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nloose, nbvh, nitem, maxlevel,
+        legacy, anytrans;
     double bailout;
     long long rays, shadow_rays;
 } Scene;
@@ -471,9 +472,10 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
     return n;
 }
 
-/* Test root node r; 1 when `any` and a hit was found (the caller stops). */
+/* Test root node r; 1 when `any` and a hit was found (the caller stops). A CSG root is
+ * culled by its box against the segment (tmin, cull). */
 static int test_root(Scene *s, int r, const double *o, const double *d, const double *inv,
-                     double tmin, int skip, int any, Hit *h, Cross *buf) {
+                     double tmin, double cull, int skip, int any, Hit *h, Cross *buf) {
     const double *nd = s->node + (size_t)r * NODE;
     double limit = h->t;
     int n;
@@ -496,7 +498,7 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
         }
         return 0;
     } else {
-        if (!slab(s, nd + N_LO, nd + N_HI, o, inv, tmin, limit)) return 0;
+        if (!slab(s, nd + N_LO, nd + N_HI, o, inv, tmin, cull)) return 0;
         n = node_crossings(s, r, o, d, inv, tmin, limit, buf, MAX_CROSS);
     }
     for (int c = 0; c < n; c++) {
@@ -515,7 +517,9 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
 
 /* Closest crossing in (floor, tmax) over all objects not flagged `skip`; 0 when none.
  * any: stop at the first one (shadow rays). Unbounded roots (planes) first: their hits
- * shorten the ray before the box tree is walked, as in trace.Tracer. */
+ * shorten the ray before the box tree is walked, as in trace.Tracer; the loose roots
+ * (trace.Tracer.loose: CSG whose box may not hold their crossings) last, each culled by
+ * its box against what the others left of the ray, whatever the order. */
 static int find_hit(Scene *s, const double *o, const double *d, double tmax, int skip, int any,
                     int cls, Hit *h) {
     double tmin = default_tmin(s, o);
@@ -524,7 +528,7 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
     Cross buf[MAX_CROSS];
     double inv[3] = {1.0 / d[0], 1.0 / d[1], 1.0 / d[2]}; /* inf for 0, as numpy's */
     for (int u = 0; u < s->nunb; u++)
-        if (test_root(s, (int)s->unb[u], o, d, inv, tmin, skip, any, h, buf)) return 1;
+        if (test_root(s, (int)s->unb[u], o, d, inv, tmin, h->t, skip, any, h, buf)) return 1;
     int stack[BVH_STACK], top = 0;
     /* a class's walk starts below the nodes only one of whose children it can meet */
     int first = cls >= 0 && s->mask ? (int)s->start[cls] : 0;
@@ -543,7 +547,7 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
                 /* a leaf's own box is not tested: it costs about what a sphere does, and a
                  * tree leaf holds only a few roots */
                 int r = (int)s->item[(size_t)b[B_FIRST] + k];
-                if (test_root(s, r, o, d, inv, tmin, skip, any, h, buf)) return 1;
+                if (test_root(s, r, o, d, inv, tmin, h->t, skip, any, h, buf)) return 1;
             }
         } else {
             /* the far child first, so the near one is popped (and shortens the ray) first;
@@ -554,6 +558,9 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
             stack[top++] = (int)(axis_near_left ? b[B_LEFT] : b[B_RIGHT]);
         }
     }
+    double cull = h->t;
+    for (int u = 0; u < s->nloose; u++)
+        if (test_root(s, (int)s->loose[u], o, d, inv, tmin, cull, skip, any, h, buf)) return 1;
     return h->obj >= 0;
 }
 
@@ -935,7 +942,7 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     /* counts are checked as doubles first: casting a NaN or a huge value to int is
      * undefined behaviour */
     static const int counts[] = {H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_NPIG, H_NSKY, H_NNODE,
-                                 H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM};
+                                 H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM, H_NLOOSE};
     for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++)
         if (!(h[counts[i]] >= 0 && h[counts[i]] <= 1e9)) {
             PyErr_SetString(PyExc_ValueError, "scene: a count in its header is not a count");
@@ -947,10 +954,11 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                  .anytrans = (int)h[H_ANYTRANS], .npig = (int)h[H_NPIG],
                  .nsky = (int)h[H_NSKY], .nnode = (int)h[H_NNODE],
                  .nroot = (int)h[H_NROOT], .nchild = (int)h[H_NCHILD],
-                 .nunb = (int)h[H_NUNB], .nbvh = (int)h[H_NBVH], .nitem = (int)h[H_NITEM]};
+                 .nunb = (int)h[H_NUNB], .nloose = (int)h[H_NLOOSE], .nbvh = (int)h[H_NBVH],
+                 .nitem = (int)h[H_NITEM]};
     Py_ssize_t need = HDR + (Py_ssize_t)s->nobj * OBJ + (Py_ssize_t)s->ntex * TEX +
                       (Py_ssize_t)s->nlight * LIT + (Py_ssize_t)s->npig * PIG +
-                      (Py_ssize_t)s->nnode * NODE + s->nchild + s->nunb +
+                      (Py_ssize_t)s->nnode * NODE + s->nchild + s->nunb + s->nloose +
                       (Py_ssize_t)s->nbvh * BVH + s->nitem;
     if (!(h[H_MASK] == 0.0 || h[H_MASK] == 1.0)) {
         PyErr_SetString(PyExc_ValueError, "scene: the header's mask flag is not 0 or 1");
@@ -960,7 +968,7 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     if (masked) need += (Py_ssize_t)(s->nbvh + 1) * (1 + s->nlight);
     if (s->nobj < 0 || s->ntex < 0 || s->nlight < 0 || s->npig < 0 || s->nsky < 0 ||
         s->nnode < 0 || s->nroot < 0 || s->nchild < 0 || s->nroot > s->nnode ||
-        s->nunb < 0 || s->nbvh < 0 || s->nitem < 0 ||
+        s->nunb < 0 || s->nloose < 0 || s->nbvh < 0 || s->nitem < 0 ||
         s->nsky > s->npig || sb->len < need * 8) {
         PyErr_SetString(PyExc_ValueError, "scene: array shorter than its header says");
         return -1;
@@ -973,7 +981,8 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     s->node = s->pig + (size_t)s->npig * PIG;
     s->child = s->node + (size_t)s->nnode * NODE;
     s->unb = s->child + s->nchild;
-    s->bvh = s->unb + s->nunb;
+    s->loose = s->unb + s->nunb;
+    s->bvh = s->loose + s->nloose;
     s->item = s->bvh + (size_t)s->nbvh * BVH;
     s->mwidth = 1 + s->nlight;
     s->mask = masked ? s->item + s->nitem : NULL;
@@ -983,6 +992,8 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
             if (!(s->start[c] >= -1 && s->start[c] < s->nbvh)) goto bad;
     for (int i = 0; i < s->nunb; i++)
         if (!(s->unb[i] >= 0 && s->unb[i] < s->nroot)) goto bad;
+    for (int i = 0; i < s->nloose; i++)
+        if (!(s->loose[i] >= 0 && s->loose[i] < s->nroot)) goto bad;
     for (int i = 0; i < s->nitem; i++)
         if (!(s->item[i] >= 0 && s->item[i] < s->nroot)) goto bad;
     for (int i = 0; i < s->nbvh; i++) {
