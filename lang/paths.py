@@ -25,7 +25,10 @@ POVRAY_INCLUDE_FOLDERS = (
 
 @functools.cache
 def povray_include() -> Path | None:
-    """POV-Ray's installed include folder, if there is one."""
+    """POV-Ray's installed include folder, if there is one and STRALA_POVRAY_INCLUDE is not
+    `off` (which measures what strala's own stdlib covers)."""
+    if os.environ.get("STRALA_POVRAY_INCLUDE", "").lower() == "off":
+        return None
     return next((p for p in POVRAY_INCLUDE_FOLDERS if (p / "colors.inc").is_file()), None)
 
 

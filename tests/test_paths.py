@@ -56,6 +56,12 @@ def test_no_povray_folder_is_searched_where_none_is_installed(tmp_path, monkeypa
         paths.povray_include.cache_clear()
 
 
+def test_povrays_folder_can_be_left_out(povray_folder, tmp_path, monkeypatch):
+    monkeypatch.setenv("STRALA_POVRAY_INCLUDE", "off")
+    paths.povray_include.cache_clear()
+    assert [k for k, _ in paths.search_folders(tmp_path, [])] == ["local", "stdlib"]
+
+
 def test_a_scene_reads_what_only_povray_has(povray_folder):
     r = compile_source('#include "only_povray.inc"\n#declare X = Only_Povray;\n', "s.pov")
     assert r.symbols["X"] == 2.0

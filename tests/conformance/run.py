@@ -230,7 +230,10 @@ def strala_render(
     cmd += ["--threads", "1", "-q", "-o", str(out), *_frame_options(frame)]
     for folder in library:
         cmd += ["-L", folder]
-    code, _, err, seconds = run_process(cmd, scene.parent, timeout, _strala_env())
+    env = _strala_env()
+    if not library:  # strala's stdlib only: not POV-Ray's files where the stdlib lacks one
+        env["STRALA_POVRAY_INCLUDE"] = "off"
+    code, _, err, seconds = run_process(cmd, scene.parent, timeout, env)
     diags = _diagnostics(err, scene)
     if code == 0 and out.exists():
         run = StralaRun(status="ok", eval_ok=True, seconds=seconds, diagnostics=diags)
