@@ -35,6 +35,7 @@ BROKEN_FOR_BOTH = "sphere { 0, 1 pigment { color rgb 1 } \n"  # no closing brace
             "`tiles` is not supported yet in texture (in pieces.inc)",
         ),
         ("expected 3 components, got 2.5e-3", "expected 4 components, got .5"),
+        ("unexpected `Foo`", "unexpected `bar_2`"),
     ],
 )
 def test_normalize_groups_the_same_failure(a, b):
@@ -47,6 +48,7 @@ def test_normalize_groups_the_same_failure(a, b):
         ("`tiles` is not supported yet in texture", "`photons` is not supported yet in texture"),
         ("unknown identifier `T_Wood20`", "include file `woods.inc` not found"),
         ("`#switch` without `#end`", "`#while` without `#end`"),
+        ("unexpected `=`", "unexpected `}`"),
     ],
 )
 def test_normalize_keeps_what_names_the_feature(a, b):
@@ -82,6 +84,8 @@ def test_failure_classes_put_internal_errors_first_then_the_largest():
     assert [len(n) for _, n in classes[1:]] == sorted(
         (len(n) for _, n in classes[1:]), reverse=True
     )
+    # f.pov renders unlike POV-Ray: a difference, grouped by its first warning
+    assert wild.differences(results) == [("no warning", ["f.pov"])]
     # an error that only says "internal" in its text (exit 1) is not an internal error
     exit1 = _scene("i.pov", strala="error", exit_code=1, diagnostic="internal error while x")
     assert not wild.failure_class(exit1).startswith(wild.INTERNAL)
@@ -203,6 +207,7 @@ def test_runner_on_a_tiny_corpus(tmp_path):
     assert doc["options"]["povray_include"] is False
     assert [c["count"] for c in doc["failure_classes"]] == [1]
     assert [c["scenes"] for c in doc["povray_failures"]] == [["users/broken.pov"]]
+    assert doc["differences"] == []
     page = (out / "index.html").read_text()
     assert "users/strala_fails.pov" in page and "good.povray.png" in page
     assert (out / "images" / "users__good.diff.png").exists()

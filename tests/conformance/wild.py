@@ -67,7 +67,7 @@ class WildResult:
     scene: str  # path under the corpus folder
     clock: float = 0.0
     frame: int | None = None
-    povray: str = "n/a"  # ok | error | skip (a file it needs is missing) | timeout
+    povray: str = "n/a"  # ok | error | skip (its error: a file is missing) | timeout
     povray_seconds: float = 0.0
     povray_note: str = ""
     strala: str = "n/a"  # ok | error | internal | crash | timeout
@@ -180,7 +180,7 @@ def povray_render(
             return "timeout", seconds, f"POV-Ray took over {timeout:g} s"
         if code != 0 or not images:
             note = povray_error(err) or f"exit {code}, no image"
-            return ("skip" if run._MISSING_FILE.search(err) else "error"), seconds, note
+            return ("skip" if run._MISSING_FILE.search(note) else "error"), seconds, note
         shutil.move(images[0], out)
     return "ok", seconds, ""
 
@@ -354,6 +354,8 @@ def normalize(message: str) -> str:
         word = text.lstrip("#")
         if word in _reserved() and not text.startswith(" "):
             return m.group(0)
+        if not re.search(r"\w", text):  # punctuation, an operator: it names the failure
+            return m.group(0)
         return "`ID`" if re.fullmatch(r"[A-Za-z_]\w*", text) else "`…`"
 
     text = _IN_FILE.sub("(in FILE)", message.strip())
@@ -387,6 +389,17 @@ def failure_classes(results: Iterable[WildResult]) -> list[tuple[str, list[str]]
             groups.setdefault(key, []).append(r.scene)
     return sorted(groups.items(), key=lambda kv: (not kv[0].startswith(INTERNAL), -len(kv[1]),
                                                    kv[0]))  # fmt: skip
+
+
+def differences(results: Iterable[WildResult]) -> list[tuple[str, list[str]]]:
+    """Scenes strala renders unlike POV-Ray, grouped by strala's first warning (normalised;
+    "no warning" for those it rendered without one), largest first."""
+    groups: dict[str, list[str]] = {}
+    for r in results:
+        if r.counted and r.rendered and not r.match:
+            key = normalize(r.diagnostic) if r.diagnostic else "no warning"
+            groups.setdefault(key, []).append(r.scene)
+    return sorted(groups.items(), key=lambda kv: (-len(kv[1]), kv[0]))
 
 
 def povray_failures(results: Iterable[WildResult]) -> list[tuple[str, list[str]]]:
@@ -535,6 +548,18 @@ def write_report(
             f"<td>{html.escape(', '.join(names[:3]) + more)}</td></tr>"
         )
     povray_classes = povray_failures(results)
+    differing = differences(results)
+    doc += [
+        f"</table><h2>Rendered, unlike POV-Ray ({sum(len(n) for _, n in differing)} scenes)"
+        "</h2><p>Grouped by strala's first warning.</p>"
+        "<table><tr><th>scenes</th><th>first warning</th><th>e.g.</th></tr>",
+    ]
+    for message, names in differing:
+        more = " …" if len(names) > 3 else ""
+        doc.append(
+            f"<tr><td>{len(names)}</td><td><code>{html.escape(message)}</code></td>"
+            f"<td>{html.escape(', '.join(names[:3]) + more)}</td></tr>"
+        )
     doc += [
         f"</table><h2>Why POV-Ray does not render ({s.scenes - s.povray} scenes, not counted)"
         "</h2><table><tr><th>scenes</th><th>POV-Ray's error</th><th>e.g.</th></tr>",
@@ -580,6 +605,7 @@ def write_report(
         },
         "options": options,
         "failure_classes": [{"class": m, "count": len(n), "scenes": n} for m, n in classes],
+        "differences": [{"class": m, "count": len(n), "scenes": n} for m, n in differing],
         "povray_failures": [{"class": m, "count": len(n), "scenes": n} for m, n in povray_classes],
         "scenes": [asdict(r) | {"match": r.match, "class": failure_class(r)} for r in results],
     }
