@@ -217,7 +217,10 @@ def strala_render(
     for folder in ([str(cwd)] if cwd != scene.parent else []) + list(library):
         cmd += ["-L", folder]
     out.unlink(missing_ok=True)
-    code, _, err, seconds = run.run_process(cmd, cwd, timeout, run._strala_env())
+    env = run._strala_env()
+    if not library:  # --no-povray-include: strala's stdlib alone, not POV-Ray's files either
+        env["STRALA_POVRAY_INCLUDE"] = "off"
+    code, _, err, seconds = run.run_process(cmd, cwd, timeout, env)
     diags = run._diagnostics(err, scene)
     errors = [m for s, m in diags if s == "error"]
     if code is None:
