@@ -4,11 +4,14 @@ grouped by message (what to work on next)."""
 from __future__ import annotations
 
 import csv
+import html
 import io
+import os
 import re
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -212,3 +215,22 @@ def reasons(results: Sequence[SceneResult], top: int = 40) -> str:
     out += [f"## Skipped: POV-Ray cannot render them here ({len(skipped)})", ""]
     out += [f"- {r.scene}: {r.povray} — {r.povray_note}" for r in skipped]
     return "\n".join(out) + "\n"
+
+
+# ---------------------------------------------------------------- HTML and files
+def image_cell(path: Path, base: Path) -> str:
+    """A table cell showing the image at `path` (linked relative to `base`), or a dash."""
+    if not path.exists():
+        return "<td>—</td>"
+    return f'<td><img src="{html.escape(os.path.relpath(path, base))}" alt=""></td>'
+
+
+def number_cell(v: float | None, digits: int = 3) -> str:
+    return "—" if v is None else f"{v:.{digits}f}"
+
+
+def write_file(path: Path, text: str) -> None:
+    """Write through a temporary name, so a report is never half written."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)

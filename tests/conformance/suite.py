@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import html
 import json
-import os
 import sys
 import tempfile
 import time
@@ -35,6 +34,7 @@ import numpy as np  # noqa: E402
 
 from conformance import corpus, run  # noqa: E402
 from conformance.compare import compare, read_rgb  # noqa: E402
+from conformance.report import image_cell, number_cell, write_file  # noqa: E402
 from lang.evaluate import animation_values, compile_file  # noqa: E402
 from lang.translate import Options, Translator  # noqa: E402
 
@@ -211,16 +211,6 @@ img{width:160px;height:120px;image-rendering:pixelated}.ok{color:#070}.bad{color
 details pre{max-width:60em;white-space:pre-wrap;font-size:11px}"""
 
 
-def _img(path: Path, base: Path) -> str:
-    if not path.exists():
-        return "<td>—</td>"
-    return f'<td><img src="{html.escape(os.path.relpath(path, base))}" alt=""></td>'
-
-
-def _num(v: float | None, digits: int = 3) -> str:
-    return "—" if v is None else f"{v:.{digits}f}"
-
-
 def write_report(rows: Sequence[Row], work: Path) -> str:
     """work/index.html and work/suite.json; returns the summary line."""
     s = summarize(rows)
@@ -250,10 +240,11 @@ def write_report(rows: Sequence[Row], work: Path) -> str:
             f"{html.escape(verdict)}</span>"
             + (f"<br>{html.escape(t.note)}" if t.note and not t.match else "")
             + "</td>"
-            + _img(images / f"{slug}.povray.png", work)
-            + _img(images / f"{slug}.translated.png", work)
-            + _img(images / f"{slug}.diff.png", work)
-            + f"<td>{_num(t.rmse)}</td><td class={trip_cls}>{_num(r.round_trip, 5)}</td>"
+            + image_cell(images / f"{slug}.povray.png", work)
+            + image_cell(images / f"{slug}.translated.png", work)
+            + image_cell(images / f"{slug}.diff.png", work)
+            + f"<td>{number_cell(t.rmse)}</td>"
+            f"<td class={trip_cls}>{number_cell(r.round_trip, 5)}</td>"
             f"<td>POV-Ray {r.result.povray_seconds:.2f}<br>strala {t.seconds:.2f}<br>"
             f"translate {r.translate_seconds:.2f}</td>"
             f"<td><details><summary>{len(r.changes)} changes, {state}</summary>"
@@ -261,9 +252,9 @@ def write_report(rows: Sequence[Row], work: Path) -> str:
         )
     out.append("</table>")
     work.mkdir(parents=True, exist_ok=True)
-    _write(work / "index.html", "\n".join(out) + "\n")
+    write_file(work / "index.html", "\n".join(out) + "\n")
     doc = {"summary": s.line, "rows": [_row_json(r) for r in rows]}
-    _write(work / "suite.json", json.dumps(doc, indent=1))
+    write_file(work / "suite.json", json.dumps(doc, indent=1))
     return s.line
 
 
@@ -271,12 +262,6 @@ def _row_json(r: Row) -> dict:
     d = asdict(r)
     d["round_trip_ok"] = r.round_trip_ok
     return d
-
-
-def _write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -297,7 +282,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         t = row.translated
         print(
             f"{row.scene}: {'clean' if row.clean else 'errors'} | {t.status}"
-            f" rmse {_num(t.rmse)} | round trip {_num(row.round_trip, 5)}",
+            f" rmse {number_cell(t.rmse)} | round trip {number_cell(row.round_trip, 5)}",
             flush=True,
         )
 

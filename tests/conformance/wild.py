@@ -52,6 +52,7 @@ for _path in (HERE.parent, HERE.parent.parent):  # run as a script: `conformance
 
 from conformance import corpus, run  # noqa: E402
 from conformance.compare import OFF_DIFF, OFF_LIMIT, RMSE_LIMIT, compare, read_rgb  # noqa: E402
+from conformance.report import image_cell, number_cell, write_file  # noqa: E402
 
 TIMEOUT = 120.0  # seconds per scene and renderer
 WIDTH, HEIGHT = run.WIDTH, run.HEIGHT
@@ -472,16 +473,6 @@ img{width:160px;height:120px;image-rendering:pixelated}.ok{color:#070}.bad{color
 code{font-size:12px}"""
 
 
-def _img(path: Path, base: Path) -> str:
-    if not path.exists():
-        return "<td>—</td>"
-    return f'<td><img src="{html.escape(os.path.relpath(path, base))}" alt=""></td>'
-
-
-def _num(v: float | None, digits: int = 3) -> str:
-    return "—" if v is None else f"{v:.{digits}f}"
-
-
 def _pct(part: int, whole: int) -> str:
     return f"{part} ({100.0 * part / whole:.1f}%)" if whole else f"{part}"
 
@@ -586,10 +577,10 @@ def write_report(
         doc.append(
             f"<tr><td>{html.escape(r.scene)}{frame}<br>"
             f"<span class={'ok' if good else 'bad'}>{html.escape(verdict(r))}</span></td>"
-            + _img(images / f"{name}.povray.png", out)
-            + _img(images / f"{name}.strala.png", out)
-            + _img(images / f"{name}.diff.png", out)
-            + f"<td>{_num(r.rmse)}</td>"
+            + image_cell(images / f"{name}.povray.png", out)
+            + image_cell(images / f"{name}.strala.png", out)
+            + image_cell(images / f"{name}.diff.png", out)
+            + f"<td>{number_cell(r.rmse)}</td>"
             f"<td>{'—' if r.off is None else f'{100 * r.off:.1f}%'}</td>"
             f"<td>POV-Ray {r.povray_seconds:.2f}<br>strala {r.strala_seconds:.2f}</td>"
             f"<td>{'—' if r.exit_code is None else r.exit_code}</td>"
@@ -597,7 +588,7 @@ def write_report(
         )
     doc.append("</table>")
     out.mkdir(parents=True, exist_ok=True)
-    _write(out / "index.html", "\n".join(doc) + "\n")
+    write_file(out / "index.html", "\n".join(doc) + "\n")
     data = {
         "summary": asdict(s)
         | {
@@ -612,7 +603,7 @@ def write_report(
         "povray_failures": [{"class": m, "count": len(n), "scenes": n} for m, n in povray_classes],
         "scenes": [asdict(r) | {"match": r.match, "class": failure_class(r)} for r in results],
     }
-    _write(out / "results.json", json.dumps(data, indent=1, default=str))
+    write_file(out / "results.json", json.dumps(data, indent=1, default=str))
     return s
 
 
@@ -621,12 +612,6 @@ def load_results(path: Path) -> list[WildResult]:
     names = {f.name for f in fields(WildResult)}
     doc = json.loads(path.read_text(encoding="utf-8"))
     return [WildResult(**{k: v for k, v in d.items() if k in names}) for d in doc["scenes"]]
-
-
-def _write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
 
 
 def _progress_line(r: WildResult) -> str:
