@@ -45,6 +45,9 @@ MAX_SYNTAX_ERRORS = 50
 
 _NEW, _CONTINUES, _ERROR = "new", "continues", "error"
 
+# A brace that pairs up only across directives is lexed as itself and re-typed here.
+_CUT_TYPES = {"LBRACE": "CUT_OPEN", "RBRACE": "CUT_CLOSE"}
+
 # Codes of the syntax errors counted against MAX_SYNTAX_ERRORS.
 _COUNTED = frozenset({"E0001", "E0002", "E0004", "E0005", "E0101", "E0102", "E0106", "E0107"})
 
@@ -403,7 +406,13 @@ class ChunkParser:
     parse the same in every element list, and only error-free chunks are taken."""
 
     def __init__(
-        self, clean: str, file: str, *, split: bool = True, reusable: dict[int, Chunk] | None = None
+        self,
+        clean: str,
+        file: str,
+        *,
+        split: bool = True,
+        reusable: dict[int, Chunk] | None = None,
+        cuts: frozenset[int] | None = None,
     ) -> None:
         self.clean = clean
         self.file = file
@@ -416,6 +425,7 @@ class ChunkParser:
         self.thread.state = self.lexer_state
         self._pieces: list[Chunk] = []
         self._last: Token | None = None
+        self.cuts = lexical.cut_braces(clean) if cuts is None else cuts
 
     def _seek(self, pos: int, line: int) -> None:
         counter = self.lexer_state.line_ctr
@@ -532,6 +542,8 @@ class ChunkParser:
             jumped = False
             try:
                 for tok in itertools.chain(pending, self.thread.lex(state)):
+                    if tok.type in _CUT_TYPES and tok.start_pos in self.cuts:
+                        tok.type = _CUT_TYPES[tok.type]
                     if macro is not None:
                         keep = macro.step(table, state, tok, errors.reported, last)
                         if macro.done:

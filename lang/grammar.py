@@ -322,21 +322,12 @@ class _Builder(Transformer):
             keyword_span=tok_span(self.file, head),
         )
 
-    def cut_head(self, children):
+    def cut_open(self, children):
         head = children[0]
-        return syntax.CutHead(tok_span(self.file, head), None, str(head))
+        return syntax.CutOpen(self._span(children), str(head), tok_span(self.file, head))
 
-    def cut_elseif(self, children):
-        head = children[-1]
-        head.cond = children[2]
-        return head
-
-    def cut_block(self, children):
-        heads = [c for c in children if isinstance(c, syntax.CutHead)]
-        heads[0].cond = children[2]
-        heads[-1].cond = None  # the #else
-        body = [c for c in self._nodes(children[4:]) if not isinstance(c, syntax.CutHead)]
-        return syntax.CutBlock(self._span(children), heads, body)
+    def cut_close(self, children):
+        return syntax.CutClose(self._span(children))
 
     def array(self, children):
         mixed = any(isinstance(c, Token) and c.type == "KEYWORD" for c in children)
@@ -350,7 +341,17 @@ class _Builder(Transformer):
         return init
 
     # ---- directives
+    def _old_directive(self, head: Token) -> None:
+        if not str(head).startswith("#"):
+            self.sink.warning(
+                "W0311",
+                f"`{head}` without `#`: POV-Ray reads it as `#{head}`, with a warning",
+                tok_span(self.file, head),
+                f"write `#{head}`; later versions may not read it",
+            )
+
     def include(self, children):
+        self._old_directive(children[0])
         return syntax.Include(self._span(children), children[1])
 
     def deprecation(self, children):
@@ -365,6 +366,7 @@ class _Builder(Transformer):
 
     def declare(self, children):
         head = children[0]
+        self._old_directive(head)
         note = children[1] if isinstance(children[1], _Deprecation) else None
         at = 2 if note else 1
         name = children[at]
@@ -379,6 +381,14 @@ class _Builder(Transformer):
             deprecated=note.message if note else None,
             deprecated_once=bool(note and note.once),
         )
+
+    def declare_cut(self, children):
+        """`#declare U = union {` whose `}` stands across a directive: the value is the
+        block the evaluator gathers up to that `}`."""
+        value = syntax.CutOpen(
+            self._span(children[-2:]), str(children[-2]), tok_span(self.file, children[-2])
+        )
+        return self.declare([*children[:-2], value])
 
     def undef(self, children):
         return syntax.Undef(self._span(children), str(children[1]))
@@ -512,6 +522,10 @@ def _word_types() -> dict[str, str]:
         (keywords.FUNCTIONS, "FUNC"),
     ):
         table.update(dict.fromkeys(words, kind))
+    # POV-Ray 3.7 still reads the directives of its first versions without the `#` (with a
+    # warning): `declare X = …`, `include "file"`
+    table["declare"] = "DECLARE"
+    table["include"] = "INCLUDE"
     table["array"] = "ARRAY"
     table["function"] = "FUNCTION"
     table["deprecated"] = "DEPRECATED"
@@ -549,6 +563,8 @@ def get_parser() -> Lark:
 _TERMINAL_WORDS = {
     "RBRACE": "`}`",
     "LBRACE": "`{`",
+    "CUT_CLOSE": "`}`",
+    "CUT_OPEN": "`{`",
     "RPAR": "`)`",
     "LPAR": "`(`",
     "RSQB": "`]`",
@@ -581,11 +597,6 @@ def expected_words(expected: set[str]) -> str:
 
 
 def hint_for(tok: Token, expected: set[str]) -> str | None:
-    if tok.type == "END" and "ELSE" in expected:  # only a cut block's head expects #else, not #end
-        return (
-            "an #if that opens a block needs an #else that opens it too: "
-            "`#if (A) merge { #else union { #end … }`"
-        )
     if tok.type == "RBRACE":
         return "a `}` closes a block; check that the item before it is complete"
     if tok.type == "KEYWORD" and "RPAR" in expected:

@@ -16,7 +16,7 @@ from __future__ import annotations
 from lang import syntax
 from lang.chunks import Chunk, ChunkParser, assemble
 from lang.diagnostics import Diagnostic, DiagnosticSink
-from lang.lexical import strip_comments
+from lang.lexical import cut_braces, strip_comments
 
 
 def common_prefix(a: str, b: str) -> int:
@@ -60,13 +60,23 @@ class IncrementalParser:
         self.file = file
         self.clean = ""
         self.chunks: list[Chunk] = []
+        self.cuts: frozenset[int] = frozenset()
         self.reparsed = 0  # characters the last call parsed again (for tests and benchmarks)
 
     def parse(self, text: str) -> tuple[syntax.SourceFile, list[Diagnostic]]:
         sink = DiagnosticSink()
         clean = strip_comments(text, self.file, sink)
         old, chunks = self.clean, self.chunks
+        cuts = cut_braces(clean)
         p = common_prefix(old, clean) if chunks else 0
+        if chunks:
+            # A brace's cut (lang/lexical.py) depends on the whole file: an edit that changes
+            # it outside the edited text leaves no earlier chunk to trust.
+            s = common_suffix(old, clean, min(len(old), len(clean)) - p)
+            delta, suffix = len(clean) - len(old), len(old) - s
+            before = {c if c < p else c + delta for c in self.cuts if c < p or c >= suffix}
+            if before != {c for c in cuts if c < p or c >= suffix + delta}:
+                chunks, p = [], 0
         # Keep a leading chunk when its text and the token after it (which decided where it
         # ends) lie inside the unchanged prefix, with a character to spare: that token's
         # extent depends on the character after it.
@@ -90,7 +100,7 @@ class IncrementalParser:
                     reusable[c.start] = c
                 elif c.start >= suffix:
                     reusable[c.start + delta] = c
-        parser = ChunkParser(clean, self.file, reusable=reusable)
+        parser = ChunkParser(clean, self.file, reusable=reusable, cuts=cuts)
         fresh, stop, stop_line = parser.run(pos, line, frozenset(resume))
         taken = {id(c) for c in reusable.values()}
         self.reparsed = sum(len(c.text) for c in fresh if id(c) not in taken)
@@ -104,5 +114,6 @@ class IncrementalParser:
             for c in tail:
                 c.move(delta, lines)
         self.clean = clean
+        self.cuts = cuts
         self.chunks = keep + fresh + tail
         return assemble(clean, self.file, self.chunks, sink.items)

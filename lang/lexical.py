@@ -154,3 +154,129 @@ def open_blocks(text: str) -> list[str]:
         elif m.group() == "}" and stack:
             stack.pop()
     return stack
+
+
+# -------------------------------------------------------------- cut braces
+# POV-Ray expands directives in the token stream, so a branch may open a block that a later
+# `}` outside it closes (`#if (M) merge { #else union { #end … }`), or close one opened before
+# it. The grammar keeps a block whole where its braces pair up inside one directive branch;
+# the braces that pair up only across directives are *cut*: the grammar reads them as
+# elements of their own, and the evaluator pairs them as POV-Ray's parser would, at run time.
+_DIRECTIVE_OPENERS = frozenset({"if", "ifdef", "ifndef", "while", "for", "switch", "macro"})
+_BRANCHES = frozenset({"else", "elseif", "case", "range"})
+_CUT_SCAN = re.compile(STRING + r"|[{}]|#[ \t]*([A-Za-z_][A-Za-z0-9_]*)")
+
+
+@dataclass(eq=False)
+class _Open:
+    pos: int
+    region: object
+    cut: bool = False
+
+
+@dataclass(eq=False)
+class _Construct:
+    """A directive with its branches (a loop's body is one; `#macro` is read apart)."""
+
+    word: str
+    branches: list[list]
+    has_else: bool = False
+
+
+def _constructs(text: str) -> list:
+    """The braces (offsets) and directive constructs of a comment-free text, nested."""
+    root: list = []
+    stack: list[tuple[_Construct, list]] = []  # open constructs and the list they sit in
+    cur = root
+    for m in _CUT_SCAN.finditer(text):
+        word = m.group(1)
+        if word is None:
+            if m.group() in "{}":
+                cur.append(m.start())
+        elif word in _DIRECTIVE_OPENERS:
+            c = _Construct(word, [[]])
+            cur.append(c)
+            stack.append((c, cur))
+            cur = c.branches[0]
+        elif (
+            word in _BRANCHES and stack and stack[-1][0].word in ("if", "ifdef", "ifndef", "switch")
+        ):
+            c = stack[-1][0]
+            c.has_else = c.has_else or word == "else"
+            c.branches.append([])
+            cur = c.branches[-1]
+        elif word == "end" and stack:
+            _, cur = stack.pop()
+    return root
+
+
+def _same(a: list[_Open], b: list[_Open]) -> bool:
+    return len(a) == len(b) and all(x is y for x, y in zip(a, b, strict=True))
+
+
+def cut_braces(text: str) -> frozenset[int]:
+    """Offsets of the braces of a comment-free text that pair up only across directives."""
+    if "#" not in text:
+        return frozenset()
+    cuts: set[int] = set()
+    root = object()
+    macro_opens = macro_closes = False
+
+    def cut(o: _Open) -> None:
+        o.cut = True
+        cuts.add(o.pos)
+
+    def run(seq: list, stack: list[_Open], region: object, in_macro: bool) -> list[_Open]:
+        nonlocal macro_opens, macro_closes
+        for item in seq:
+            if isinstance(item, int):
+                if text[item] == "{":
+                    stack.append(_Open(item, region))
+                elif stack:
+                    top = stack.pop()
+                    if top.cut or top.region is not region:
+                        cut(top)
+                        cuts.add(item)
+                elif region is not root:
+                    cuts.add(item)  # closes what a caller opened (a macro's body)
+                    macro_closes = macro_closes or in_macro
+                continue
+            if item.word == "macro":
+                left = run(item.branches[0], [], object(), True)
+                for o in left:
+                    cut(o)
+                macro_opens = macro_opens or bool(left)
+                continue
+            # what comes before a #switch's first #case is never read
+            taken = item.branches[1:] if item.word == "switch" else item.branches
+            outs = [run(b, list(stack), object(), in_macro) for b in taken]
+            if item.word in ("while", "for") or not item.has_else or not outs:
+                outs.append(list(stack))  # no pass of the loop, no branch taken
+            if not all(_same(o, stack) for o in outs):
+                for o in stack:
+                    cut(o)
+                for out in outs:
+                    for o in out:
+                        cut(o)
+                stack[:] = outs[0]
+        return stack
+
+    left = run(_constructs(text), [], root, False)
+    for o in left:
+        if o.cut or macro_closes:
+            cuts.add(o.pos)
+    if macro_opens:
+        # a `}` the file's own text leaves unmatched may close a block one of its macros opens
+        depth = 0
+        for m in _BRACE.finditer(text):
+            ch = m.group()
+            if m.start() in cuts:
+                continue
+            if ch == "{":
+                depth += 1
+            elif ch == "}":
+                if depth == 0:
+                    cuts.add(m.start())
+                else:
+                    depth -= 1
+    return frozenset(cuts)

@@ -121,20 +121,25 @@ class Block(Node):
 
 
 @dataclass(slots=True)
-class CutHead(Node):
-    """One choice of a CutBlock: its condition (None for `#else`) and keyword."""
+class CutOpen(Node):
+    """`keyword {` whose `}` stands across a directive (lang/lexical.py, cut_braces): the
+    evaluator collects what follows it, as POV-Ray reads tokens, up to its CutClose."""
 
-    cond: Node | None
     keyword: str
+    keyword_span: Span | None = None
 
 
 @dataclass(slots=True)
-class CutBlock(Node):
-    """`#if (c) merge { #else union { #end body }`: a block whose keyword an #if chooses; the
-    body is shared. The first head whose condition holds names the block."""
+class CutClose(Node):
+    """A `}` that closes a CutOpen across a directive."""
 
-    heads: list[CutHead]
-    body: list[Node]
+
+@dataclass(slots=True, eq=False)
+class Expanded(Node):
+    """Elements already evaluated (a cut block's body, gathered at run time): never parsed,
+    made by the evaluator to build the block the usual way."""
+
+    els: list
 
 
 @dataclass(slots=True)

@@ -449,21 +449,36 @@ CUT = """#macro RB(M)
 """
 
 
-def test_cut_block_is_one_block_with_its_heads():
+def test_braces_paired_across_directives_are_cut_elements_and_the_rest_stay_blocks():
     (macro,) = ok(CUT)
-    (cut,) = macro.body
-    assert isinstance(cut, S.CutBlock)
-    assert [h.keyword for h in cut.heads] == ["merge", "intersection", "union"]
-    assert isinstance(cut.heads[0].cond, S.Ident) and isinstance(cut.heads[1].cond, S.Binary)
-    assert cut.heads[2].cond is None
-    assert (cut.heads[1].span.line, cut.heads[1].span.col) == (5, 5)
-    assert [type(n) for n in cut.body] == [S.Block]
-    assert (cut.span.line, cut.span.end_line) == (2, 10)
+    branch_if, cut_sphere, close = macro.body
+    assert isinstance(branch_if, S.If)
+    heads = [b[0] for _, b in branch_if.branches]
+    assert all(isinstance(h, S.CutOpen) for h in heads)
+    assert [h.keyword for h in heads] == ["merge", "intersection", "union"]
+    assert (heads[1].keyword_span.line, heads[1].keyword_span.col) == (5, 5)
+    assert isinstance(cut_sphere, S.Block) and cut_sphere.keyword == "sphere"
+    assert isinstance(close, S.CutClose) and (close.span.line, close.span.col) == (10, 3)
 
 
-def test_cut_block_without_else_names_the_form():
-    (e, *_) = errors("#if (A) merge {\n#end\nsphere {0,1} }\n")
-    assert e.span.line == 2 and "#else union {" in e.hint
+@pytest.mark.parametrize(
+    "text",
+    [
+        "#switch (k) #case (0) object { A #break #case (1) object { B #break #end translate x }",
+        "object { O #if (A) rotate z*90 translate y } #else translate z } #end",
+        "#declare U = union { #if (0) sphere {0,1} } #else box {0,1} } #end",
+        "#macro S() union { #end\nS() sphere {0,1} }",
+        "#macro E() } #end\nunion { sphere {0,1} E()",
+        "object { #if (W) union { #end A #if (W) } #end }",
+    ],
+)
+def test_a_block_cut_across_directives_is_no_syntax_error(text):
+    ok(text)
+
+
+def test_a_stray_brace_outside_any_directive_is_still_a_syntax_error():
+    assert [e.code for e in errors("sphere { 0, 1 } }\n")] == ["E0101"]
+    assert errors("sphere { 0, 1\n")[0].code == "E0106"
 
 
 def test_cut_block_incremental_parse_equals_full_parse_under_edits():

@@ -54,11 +54,19 @@ def test_cut_block_body_is_checked_against_the_chosen_keyword():
     assert errs and errs[0].span.line == 1
 
 
-@pytest.mark.parametrize("guard", ["#if (1) merge {", "#if (1) merge { #elseif (0) union {"])
-def test_cut_block_needs_an_else(guard):
-    r = compile_source(guard + " #end sphere {0,1} }\n", "t.pov")
+@pytest.mark.parametrize("guard", ["#if (G) merge {", "#if (G) merge { #elseif (0) union {"])
+@pytest.mark.parametrize("g", [0, 1])
+def test_a_block_opened_in_a_branch_without_else_is_closed_by_the_brace_after(guard, g):
+    """POV-Ray reads the tokens of the branch taken: with G the `}` closes the merge, without
+    it the `}` is stray (POV-Ray stops there too)."""
+    r = compile_source(f"#declare G = {g};\n" + guard + " #end sphere {0,1} }\n", "t.pov")
     errs = _errors(r)
-    assert errs and errs[0].span.line == 1 and errs[0].span.col > 1
+    if g:
+        assert not errs, [d.format() for d in errs]
+        (obj,) = r.scene.objects
+        assert obj.shape.op == "merge"
+    else:
+        assert [(e.code, e.span.line, e.span.col) for e in errs] == [("E0236", 2, len(guard) + 20)]
 
 
 INTERP = """
@@ -98,7 +106,7 @@ def test_a_parenthesised_directive_without_a_value_is_an_error():
 
 def test_include_file_macro_that_does_not_parse_fails_only_when_called(tmp_path):
     (tmp_path / "lib.inc").write_text(
-        "#macro Good() sphere {0, 1} #end\n#macro Bad()\n  #if (1) box { #end\n#end\n"
+        "#macro Good() sphere {0, 1} #end\n#macro Bad()\n  #if (1) box { 0, 1 ) } #end\n#end\n"
     )
     scene = tmp_path / "s.pov"
     scene.write_text('#include "lib.inc"\nobject { Good() }\n')

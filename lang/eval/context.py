@@ -70,6 +70,10 @@ class BuildContext(Protocol):
 
     def declare(self, name: str, value: Any, local: bool) -> None: ...
 
+    def assign(self, node: syntax.Declare, value: Any) -> None:
+        """What `#declare` (or `#local`) does with its value once it has one."""
+        ...
+
     # evaluation
     def eval(self, node: syntax.Node) -> Any: ...
 

@@ -350,15 +350,6 @@ def _e_block(it: BuildContext, node: syntax.Block) -> Any:
     return it.eval_block(node)
 
 
-def _e_cut_block(it: BuildContext, node: syntax.CutBlock) -> Any:
-    """`#if (c) merge { #else union { #end body }`: the block the first true head names."""
-    for head in node.heads:
-        if head.cond is None or builtins.truth(it.eval(head.cond)):
-            block = syntax.Block(node.span, head.keyword, node.body, keyword_span=head.span)
-            return it.eval_block(block)
-    raise AssertionError("a cut block ends with #else")  # the grammar requires it
-
-
 # How each kind of expression node evaluates.
 EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
     syntax.Number: _e_number,
@@ -375,7 +366,6 @@ EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
     syntax.ColorCtor: _e_color,
     syntax.ArrayLit: _e_array,
     syntax.Block: _e_block,
-    syntax.CutBlock: _e_cut_block,
 }
 
 

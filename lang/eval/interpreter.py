@@ -32,7 +32,7 @@ from lang import (
 )
 from lang.builtins import EvalError, as_float
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
-from lang.eval import data_shapes, expressions, functions, grouping, splines, surfaces
+from lang.eval import cuts, data_shapes, expressions, functions, grouping, splines, surfaces
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
 from lang.eval.elements import (
@@ -183,6 +183,7 @@ class Interpreter:
         # `#declare deprecated [once] "message" NAME`: NAME → [message, once, warned yet]
         self.deprecated: dict[str, list] = {}
         self.macro_depth = 0
+        self.cut_braces = False  # a brace paired across directives was read (lang.eval.cuts)
         self._break_targets = 0  # the #while, #for, #switch and macros a #break may leave
         self.loose_depth = 0
         self.blob_depth = 0  # inside a blob body, `sphere`/`cylinder` are components
@@ -235,7 +236,10 @@ class Interpreter:
         old_limit = sys.getrecursionlimit()
         sys.setrecursionlimit(max(old_limit, RECURSION_LIMIT))
         try:
-            for el in self.expand(tree.body, None, top=True):
+            els = self.expand(tree.body, None, top=True)
+            if self.cut_braces:
+                els = cuts.report_loose(self, els, "the scene")
+            for el in els:
                 self._top_level(el)
         finally:
             sys.setrecursionlimit(old_limit)
@@ -452,6 +456,7 @@ class Interpreter:
     ) -> list[El]:
         """Run directives, evaluate values; `top` keeps what came before an #error."""
         out: list[El] = _Els()
+        opens: list[int] = []  # cut blocks open in this sequence (lang.eval.cuts)
         i, n = 0, len(body)
         while i < n:
             node = body[i]
@@ -479,7 +484,9 @@ class Interpreter:
                         self.declare(node.name, base, node.local)
                         continue
                 start = len(out)
-                self.expand_node(node, out, spec)
+                self.expand_node(node, out, cuts.spec_for(out, opens, spec) if opens else spec)
+                if self.cut_braces:
+                    cuts.pair(self, out, start, opens)
                 self._stamp_default(out, start)
             except SceneError as e:
                 self.sink.items.append(e.diagnostic)
@@ -536,6 +543,14 @@ class Interpreter:
             out.append(El("kw", n.name, n.span))
         elif t is syntax.Comma:
             out.append(El("comma", None, n.span))
+        elif t is syntax.Expanded:
+            out.extend(n.els)
+        elif t is syntax.CutOpen:
+            self.cut_braces = True
+            out.append(cuts.open_element(n))
+        elif t is syntax.CutClose:
+            self.cut_braces = True
+            out.append(El(cuts.CLOSE, None, n.span))
         elif t is syntax.MapEntry:
             out.append(El("entry", self.expand(n.body, None), n.span))
         elif t is syntax.Call and not n.builtin and self._is_macro(n.name):
@@ -702,7 +717,21 @@ class Interpreter:
             self.outside.append(why)
 
     def _d_declare(self, node: syntax.Declare, out: list[El], spec) -> None:
-        value = self.eval_value(node.value)
+        if type(node.value) in _DIRECTIVES or type(node.value) is syntax.CutOpen:
+            since = len(self.sink.items)
+            els = self.expand([node.value], None)
+            if els and els[-1].kind == cuts.OPEN:
+                # `#declare U = union {` closed across a directive: declared once closed
+                out.append(El(cuts.DECLARE, node, node.span))
+                out.extend(els)
+                return
+            value = self.single(els, node.span, "this declaration", since)
+        else:
+            value = self.eval_value(node.value)
+        self.assign(node, value)
+
+    def assign(self, node: syntax.Declare, value: Any) -> None:
+        """Give a #declare's (or #local's) name, or its array element, the value."""
         if node.indices:
             found, arr = self.lookup(node.name)
             if not found or not isinstance(arr, ArrayValue):
@@ -1258,6 +1287,9 @@ class Interpreter:
                 self.loose_depth -= 1
             return UnsupportedValue(kw, span)
         els = self.expand(node.body, spec)
+        if self.cut_braces and cuts.has_loose(els):
+            els = _Els(cuts.report_loose(self, els, f"this `{kw}` block"))
+            els.failed = True
         if getattr(els, "failed", False):
             return self._build_after_failure(spec, els, node)
         g = grouping.group(self, spec, els, node)
