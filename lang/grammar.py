@@ -512,6 +512,11 @@ BUILDER = _Builder()
 _parser: Lark | None = None
 
 
+# POV-Ray 3.7 still reads two directives of its first versions without the `#` (with a
+# warning): `declare X = …`, `include "file"`.
+OLD_DIRECTIVES = {"declare": "DECLARE", "include": "INCLUDE"}
+
+
 def _word_types() -> dict[str, str]:
     table = {w: "KEYWORD" for w in keywords.ITEM_WORDS}
     for words, kind in (
@@ -522,10 +527,7 @@ def _word_types() -> dict[str, str]:
         (keywords.FUNCTIONS, "FUNC"),
     ):
         table.update(dict.fromkeys(words, kind))
-    # POV-Ray 3.7 still reads the directives of its first versions without the `#` (with a
-    # warning): `declare X = …`, `include "file"`
-    table["declare"] = "DECLARE"
-    table["include"] = "INCLUDE"
+    table.update(OLD_DIRECTIVES)
     table["array"] = "ARRAY"
     table["function"] = "FUNCTION"
     table["deprecated"] = "DEPRECATED"

@@ -119,3 +119,24 @@ def test_braces_that_pair_inside_one_branch_are_never_cut(text):
     """A file whose every branch is balanced keeps every block whole: the tools (check,
     the language server, fmt) see the same tree as before."""
     assert cut_braces(text) == frozenset()
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize(
+    "body",
+    [
+        # a directive in a vector gives the components of the branch taken
+        "#declare V = <-1, #if (A) 0.5, 0 #else 0, 0.5 #end>;\nsphere { V, 1 pigment { rgb 1 } }",
+        "#for (I, 0, 2) sphere { <I - 1, #if (I = 1) 0.6 #else 0 #end, 0>, 0.4 "
+        "pigment { rgb 1 } } #end",
+        # trailing commas after a macro's last parameter and its call's last argument
+        "#macro M(P, R,) sphere { P, R pigment { rgb 1 } } #end\nM(<0, 0.5, 0>, 1,)",
+    ],
+)
+@pytest.mark.parametrize("a", [0, 1])
+def test_directives_in_vectors_and_trailing_commas_as_povray(tmp_path, body, a):
+    text = HEAD + f"#declare A = {a};\n" + body + "\n"
+    ref = povray_image(text, tmp_path, 96, 72)
+    ours, messages = strala_image(text, tmp_path, 96, 72)
+    err, off = image_errors(ours, ref)
+    assert err < 0.02 and off < 0.01, (body, a, err, off, messages)

@@ -93,12 +93,16 @@ def _e_const(it: BuildContext, node: syntax.Const) -> Any:
 def _e_vector(it: BuildContext, node: syntax.Vector) -> Vec:
     comps = []
     for item in node.items:
-        v = it.eval(item)
-        if not isinstance(v, float | int):
-            raise it.error(
-                "E0202", f"a vector component must be a float, not {describe(v)}", item.span
-            )
-        comps.append(v)
+        if type(item) in EXPRESSIONS:
+            values = [(it.eval(item), item.span)]
+        else:  # a directive: the components of the branch it takes
+            values = [(e.value, e.span) for e in it.expand([item], None) if e.kind != "comma"]
+        for v, span in values:
+            if not isinstance(v, float | int):
+                raise it.error(
+                    "E0202", f"a vector component must be a float, not {describe(v)}", span
+                )
+            comps.append(v)
     if len(comps) < 2:
         raise it.error("E0202", "a vector needs 2 to 5 components", node.span)
     return Vec(comps)
