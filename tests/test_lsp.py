@@ -287,3 +287,36 @@ async def test_completion_and_hover_know_the_included_and_built_in_names(
     )
     assert {"declare", "macro", "include"} <= {i.label for i in result.items}
     assert "sphere" not in {i.label for i in result.items}
+
+
+CUT = """#declare K = 1;
+#declare A = sphere { 0, 1 }
+#switch (K) #case (0) object { A #break #case (1) object { A scale 2 #break #end
+  translate x
+}
+#if (K) merge { #else union { #end
+  sphere { 0, 1 } sphere { x, 1 }
+}
+#declare Later = 2;
+"""
+
+
+async def test_directives_cut_across_blocks_give_no_false_error_and_keep_the_tools(
+    client: LanguageClient, tmp_path
+):
+    """POV-Ray reads these as its token stream: no syntax error; the declarations around
+    them keep their symbols and hover."""
+    uri = _open(client, tmp_path / "cut.pov", CUT)
+    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    errors = [d for d in client.diagnostics[uri] if d.severity == T.DiagnosticSeverity.Error]
+    assert not errors, errors
+    doc = T.TextDocumentIdentifier(uri=uri)
+    symbols = await client.text_document_document_symbol_async(
+        T.DocumentSymbolParams(text_document=doc)
+    )
+    names = [s.name for s in symbols]
+    assert {"K", "A", "Later"} <= set(names), names
+    hov = await client.text_document_hover_async(
+        T.HoverParams(text_document=doc, position=T.Position(line=8, character=10))
+    )
+    assert hov is not None and "value: `2`" in hov.contents.value
