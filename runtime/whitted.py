@@ -101,6 +101,7 @@ KINDS = {
     shapes.BoxPrim: 2,
     shapes.DiscPrim: 3,
     shapes.ConePrim: 4,
+    shapes.TorusPrim: 5,
 }
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
@@ -221,8 +222,6 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append("a box tree deeper than the kernel's stack")
     for node in tracer.nodes:
         out.extend(_uncovered(node))
-        if len(node.leaves) > MAX_CROSS // 4:
-            out.append(f"a CSG of more than {MAX_CROSS // 4} shapes")
     # each interior and texture once: a large scene's objects share them, or (textures)
     # ones equal to them, which make_context made one entry (ctx.leaf_id)
     interiors = {id(o.interior): o.interior for o in prepared.objects}
@@ -435,6 +434,8 @@ def _prim_row(prim) -> list[float]:
         row = [*prim.c.tolist(), *prim.n.tolist(), prim.r2, prim.h2]
     elif isinstance(prim, shapes.ConePrim):
         row = [*prim.frame_inv[:3].ravel().tolist(), prim.r0, prim.r1, float(prim.open)]
+    elif isinstance(prim, shapes.TorusPrim):
+        row = [prim.R, prim.r]
     else:
         raise TypeError(f"no kernel row for {type(prim).__name__}")
     return row + [0.0] * (PRIM_SLOTS - len(row))

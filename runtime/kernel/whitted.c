@@ -47,7 +47,7 @@ enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL
        PK_BOXED, PK_RADIAL };
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 
-enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE };
+enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS };
 /* a disc's parameters: centre, unit normal, radius^2, hole radius^2; a cone's (shapes.ConePrim,
  * canonical frame: axis +z from 0 to 1): the object-to-canonical rows, r0, r1, open */
 enum { D_C, D_N = 3, D_R2 = 6, D_H2 };
@@ -193,6 +193,124 @@ static int cone_crossings(const Scene *s, const double *p, const double *o, cons
     return 4;
 }
 
+/* ---- torus: POV-Ray's, around y in the x-z plane (shapes.TorusPrim). The numpy path finds
+ * the quartic's roots as companion-matrix eigenvalues; here they are bracketed between the
+ * critical points (the roots of the derivatives, down to a quadratic) and refined by
+ * bisection-safeguarded Newton, then both polish on the torus equation alike. */
+static inline double quartic_at(const double *c, double u) {
+    return (((u + c[3]) * u + c[2]) * u + c[1]) * u + c[0];
+}
+
+/* A root of f in [a, b] where f(a), f(b) differ in sign: bisection with Newton steps. */
+static double bracketed_root(const double *c, int deg, double a, double b) {
+    double fa = 0;
+    for (int it = 0; it < 200; it++) {
+        double m = 0.5 * (a + b);
+        if (m <= a || m >= b) return m;
+        double f, df;
+        if (deg == 4) {
+            f = quartic_at(c, m);
+            df = ((4 * m + 3 * c[3]) * m + 2 * c[2]) * m + c[1];
+        } else { /* the derivative, a cubic 4u^3 + 3c3 u^2 + 2c2 u + c1 */
+            f = ((4 * m + 3 * c[3]) * m + 2 * c[2]) * m + c[1];
+            df = (12 * m + 6 * c[3]) * m + 2 * c[2];
+        }
+        if (it == 0) {
+            fa = deg == 4 ? quartic_at(c, a) : ((4 * a + 3 * c[3]) * a + 2 * c[2]) * a + c[1];
+        }
+        if (f == 0) return m;
+        if ((f < 0) == (fa < 0)) a = m, fa = f;
+        else b = m;
+        if (df != 0) { /* a Newton step that stays inside the bracket replaces the halving */
+            double n = m - f / df;
+            if (n > a && n < b && fabs(n - m) < 0.25 * (b - a)) {
+                double fn = deg == 4 ? quartic_at(c, n)
+                                     : ((4 * n + 3 * c[3]) * n + 2 * c[2]) * n + c[1];
+                if (fn == 0) return n;
+                if ((fn < 0) == (fa < 0)) a = n, fa = fn;
+                else b = n;
+            }
+        }
+        if (b - a <= 1e-15 * (fabs(a) + fabs(b))) break;
+    }
+    return 0.5 * (a + b);
+}
+
+/* Real roots of u^4 + c3 u^3 + c2 u^2 + c1 u + c0 in [-e, e], ascending; returns how many. */
+static int quartic_roots(const double *c, double e, double *out) {
+    double q[4];
+    int nq = 0; /* critical points of the derivative: roots of 12u^2 + 6c3 u + 2c2 */
+    double A = 12, B = 6 * c[3], C = 2 * c[2], disc = B * B - 4 * A * C;
+    q[0] = -e;
+    if (disc > 0) {
+        double sq = sqrt(disc), r1 = (-B - sq) / (2 * A), r2 = (-B + sq) / (2 * A);
+        if (r1 > -e && r1 < e) q[1 + nq++] = r1;
+        if (r2 > -e && r2 < e) q[1 + nq++] = r2;
+    }
+    q[1 + nq] = e;
+    int nseg = nq + 2;
+    double s[5];
+    int ns = 0; /* critical points of the quartic: roots of its derivative */
+    s[ns++] = -e;
+    for (int i = 0; i + 1 < nseg; i++) {
+        double a = q[i], b = q[i + 1];
+        double fa = ((4 * a + 3 * c[3]) * a + 2 * c[2]) * a + c[1];
+        double fb = ((4 * b + 3 * c[3]) * b + 2 * c[2]) * b + c[1];
+        if ((fa < 0) != (fb < 0)) s[ns++] = bracketed_root(c, 3, a, b);
+    }
+    s[ns++] = e;
+    int n = 0;
+    for (int i = 0; i + 1 < ns; i++) {
+        double a = s[i], b = s[i + 1];
+        double fa = quartic_at(c, a), fb = quartic_at(c, b);
+        if (fa == 0 && i == 0) out[n++] = a;
+        if (fb == 0) out[n++] = b;
+        else if (fa != 0 && (fa < 0) != (fb < 0)) out[n++] = bracketed_root(c, 4, a, b);
+        if (n >= 4) break;
+    }
+    return n;
+}
+
+static int torus_crossings(const Scene *s, const double *p, const double *o, const double *d,
+                           double *t, int *face) {
+    double R = p[0], r = p[1], R2 = R * R;
+    double dl = sqrt(dot(d, d));
+    for (int j = 0; j < 4; j++) t[j] = INFINITY, face[j] = 0;
+    if (!(dl > 0)) return 4;
+    double du[3] = {d[0] / dl, d[1] / dl, d[2] / dl};
+    double dd = dot(d, d), t0 = -dot(o, d) / dd; /* recentred on the torus' centre */
+    double oc[3] = {o[0] + t0 * d[0], o[1] + t0 * d[1], o[2] + t0 * d[2]};
+    double e = fabs(R) + fabs(r);
+    double bound = e * (1 + BOX_PAD_REL);
+    if (dot(oc, oc) > bound * bound) return 4;
+    double H = 2 * dot(oc, du), I = dot(oc, oc) + R2 - r * r;
+    double J2 = du[0] * du[0] + du[2] * du[2], J1 = oc[0] * du[0] + oc[2] * du[2];
+    double J0 = oc[0] * oc[0] + oc[2] * oc[2];
+    double c[4] = {I * I - 4 * R2 * J0, 2 * H * I - 8 * R2 * J1, H * H + 2 * I - 4 * R2 * J2,
+                   2 * H};
+    double u[4];
+    int n = quartic_roots(c, bound, u);
+    for (int j = 0; j < n; j++) {
+        /* polished on the torus equation, as the numpy path (tolerances.NEWTON_STEPS = 2,
+         * NEWTON_MAX_STEP_REL = 0.1) */
+        for (int k = 0; k < 3; k++) {
+            double q[3] = {oc[0] + u[j] * du[0], oc[1] + u[j] * du[1], oc[2] + u[j] * du[2]};
+            double sq = dot(q, q) + R2 - r * r;
+            double f = sq * sq - 4 * R2 * (q[0] * q[0] + q[2] * q[2]);
+            double fp = 4 * sq * dot(q, du) - 8 * R2 * (q[0] * du[0] + q[2] * du[2]);
+            double step = fp != 0 ? f / fp : 0.0;
+            if (fabs(step) < 0.1 * e) u[j] -= step;
+        }
+        t[j] = u[j] / dl + t0;
+    }
+    for (int a = 1; a < n; a++) /* ascending, as numpy's sort */
+        for (int b = a; b > 0 && t[b] < t[b - 1]; b--) {
+            double x = t[b];
+            t[b] = t[b - 1], t[b - 1] = x;
+        }
+    return 4;
+}
+
 /* All crossings of one primitive along o + t d (object space); returns how many. */
 static int crossings(const Scene *s, const double *ob, const double *o, const double *d, double *t, int *face) {
     const double *p = ob + O_PRIM;
@@ -238,6 +356,8 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
     }
     case K_CONE:
         return cone_crossings(s, p, o, d, t, face);
+    case K_TORUS:
+        return torus_crossings(s, p, o, d, t, face);
     default: { /* box */
         const double *lo = p, *hi = p + 3;
         double n_ax[3], f_ax[3];
@@ -291,6 +411,13 @@ static void object_normal(const double *ob, const double *po, int face, double *
         if (face == 3) cn[0] = 0.0, cn[1] = 0.0, cn[2] = 1.0;
         /* canonical to object space: n @ frame_inv[:3,:3] */
         for (int i = 0; i < 3; i++) n[i] = cn[0] * m[i] + cn[1] * m[4 + i] + cn[2] * m[8 + i];
+        break;
+    }
+    case K_TORUS: {
+        double R2 = p[0] * p[0], sq = dot(po, po) + R2 - p[1] * p[1];
+        n[0] = po[0] * sq - 2 * R2 * po[0];
+        n[1] = po[1] * sq;
+        n[2] = po[2] * sq - 2 * R2 * po[2];
         break;
     }
     default:
@@ -362,6 +489,11 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
         double e = (int)q[C_OPEN] ? INSIDE_EPS : -INSIDE_EPS;
         double w2 = c[0] * c[0] + c[1] * c[1];
         int in = c[2] >= -e && c[2] <= 1 + e && w2 <= rho * rho + e;
+        return outside ? !in : in;
+    }
+    case K_TORUS: { /* distance to the core circle, surface included (as POV-Ray) */
+        double rho = hypot(p[0], p[2]) - q[0];
+        int in = p[1] * p[1] + rho * rho <= q[1] * q[1];
         return outside ? !in : in;
     }
     default: {
@@ -472,6 +604,9 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
     return n;
 }
 
+static int gather_hit(Scene *s, const Cross *buf, int n, double tmin, double limit, int skip,
+                      int any, Hit *h);
+
 /* Test root node r; 1 when `any` and a hit was found (the caller stops). A CSG root is
  * culled by its box against the segment (tmin, cull). */
 static int test_root(Scene *s, int r, const double *o, const double *d, const double *inv,
@@ -500,7 +635,24 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
     } else {
         if (!slab(s, nd + N_LO, nd + N_HI, o, inv, tmin, cull)) return 0;
         n = node_crossings(s, r, o, d, inv, tmin, limit, buf, MAX_CROSS);
+        if (n < 0) {
+            /* a ray through more leaves than the stack buffer holds (a CSG of hundreds of
+             * shapes): once more with room for every leaf's crossings */
+            size_t cap = 4 * (size_t)s->nobj + 4;
+            Cross *big = malloc(cap * sizeof(Cross));
+            if (big == NULL) return 0;
+            n = node_crossings(s, r, o, d, inv, tmin, limit, big, (int)cap);
+            int found = gather_hit(s, big, n, tmin, limit, skip, any, h);
+            free(big);
+            return found;
+        }
     }
+    return gather_hit(s, buf, n, tmin, limit, skip, any, h);
+}
+
+/* The closest of a root's gathered crossings beyond each object's floor. */
+static int gather_hit(Scene *s, const Cross *buf, int n, double tmin, double limit, int skip,
+                      int any, Hit *h) {
     for (int c = 0; c < n; c++) {
         const double *ob = s->obj + (size_t)buf[c].obj * OBJ;
         if (skip & (int)ob[O_FLAGS]) continue;
