@@ -45,6 +45,8 @@ MAX_SYNTAX_ERRORS = 50
 
 _NEW, _CONTINUES, _ERROR = "new", "continues", "error"
 
+_DIRECTIVE_WORD = re.compile(r"#[ \t]*[A-Za-z_]")
+
 # A brace that pairs up only across directives is lexed as itself and re-typed here.
 _CUT_TYPES = {"LBRACE": "CUT_OPEN", "RBRACE": "CUT_CLOSE"}
 
@@ -259,6 +261,16 @@ class _ChunkErrors:
 
     def bad_character(self, pos: int) -> None:
         ch = self.clean[pos]
+        if ch == "#" and not _DIRECTIVE_WORD.match(self.clean, pos):
+            # a `#` with no word after it: POV-Ray reads on without a word (its example
+            # language/image_size.pov has `look_at <0,2,0>#`)
+            self.sink.warning(
+                "W0312",
+                "a `#` with no directive after it; POV-Ray ignores it",
+                self.span_at(pos),
+                "remove the `#`",
+            )
+            return
         if not self.quiet_since_last(pos):
             if ch == '"':
                 self.report(
