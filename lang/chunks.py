@@ -265,7 +265,7 @@ class _ChunkErrors:
             # a `#` with no word after it: POV-Ray reads on without a word (its example
             # language/image_size.pov has `look_at <0,2,0>#`)
             self.sink.warning(
-                "W0312",
+                "W0330",
                 "a `#` with no directive after it; POV-Ray ignores it",
                 self.span_at(pos),
                 "remove the `#`",

@@ -106,7 +106,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "W0309": "POV-Ray repairs it the same way and renders; write the value meant",
     "W0310": "POV-Ray reads it the same way; move it into `interior { }`",
     "W0311": "add the `#`",
-    "W0312": "remove the `#`",
+    "W0330": "remove the `#`",
     "W0400": "remove the declaration, or use the name",
     "W0401": "rename one of them if the other was meant",
     "W0402": "the declaration is deprecated",

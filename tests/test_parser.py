@@ -535,6 +535,6 @@ def test_a_hash_without_a_directive_word_is_read_past_with_a_warning():
     """POV-Ray renders `look_at <0,2,0>#` (its example language/image_size.pov); `#object`,
     a word that is no directive, stays an error."""
     tree, diags = parse("camera { location -5*z look_at <0,2,0>#\n}\n", "t.pov")
-    assert [(d.code, d.severity, d.span.line) for d in diags] == [("W0312", Severity.WARNING, 1)]
+    assert [(d.code, d.severity, d.span.line) for d in diags] == [("W0330", Severity.WARNING, 1)]
     assert [n.keyword for n in tree.body] == ["camera"]
     assert [d.code for d in errors("#object { A }\n")]
