@@ -950,6 +950,13 @@ def _render_one(
         return 1
     if getattr(args, "stats", False):
         print(render_stats(stats), file=sys.stderr)
+    if stats.get("nonfinite"):
+        print(
+            f"strala: warning: {stats['nonfinite']} pixel(s) had no finite colour (an infinite "
+            "or undefined value in the scene: a huge light, ambient or background, a negative "
+            "fog distance); written black or at the brightest value an image holds",
+            file=sys.stderr,
+        )
     if not args.quiet:
         if "radiosity_patches" in stats:
             print(radiosity_summary(stats), file=sys.stderr)

@@ -87,8 +87,16 @@ def render_scene(
     supersampled = 0
     workers = threads or os.cpu_count() or 1
 
+    nonfinite = 0
+
     def run(tile):
-        return tile, render_tile(ctx, scene.camera, width, height, tile, antialias, aa_depth)
+        nonlocal nonfinite
+        # an overflow or undefined value is repaired and counted below, not printed
+        with np.errstate(over="ignore", invalid="ignore"):
+            pix, ss = render_tile(ctx, scene.camera, width, height, tile, antialias, aa_depth)
+        pix, bad = finite_pixels(pix)
+        nonfinite += bad
+        return tile, (pix, ss)
 
     if workers <= 1 or len(tiles) <= 1:
         results = (run(t) for t in tiles)
@@ -114,6 +122,7 @@ def render_scene(
             stats.update({f"radiosity_{k}": v for k, v in radiosity.stats.items()})
             stats["radiosity_method"] = radiosity.solution.method
         stats["supersampled"] = supersampled
+        stats["nonfinite"] = nonfinite
         stats["pixels"] = total
         # seconds: preparing the scene (shapes, box tree, radiosity, the kernel's packing)
         # and tracing it, for benchmarks that separate the two
@@ -123,6 +132,21 @@ def render_scene(
         stats["left_out"] = len(prepared.culled)  # objects no ray of this render can reach
         stats["numpy_because"] = numpy_because
     return image
+
+
+# The largest colour a float32 image holds: brighter values are written as it.
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def finite_pixels(pix: np.ndarray) -> tuple[np.ndarray, int]:
+    """A tile's colours made fit for an image file: NaN (an undefined colour, as 0 * inf
+    gives) becomes black and values beyond float32 its largest; also how many pixels
+    needed it. POV-Ray clips its colours too; an image never holds a NaN."""
+    if np.isfinite(pix).all() and np.abs(pix).max(initial=0.0) <= _FLOAT32_MAX:
+        return pix, 0
+    bad = ~np.isfinite(pix) | (np.abs(pix) > _FLOAT32_MAX)
+    fixed = np.nan_to_num(pix, nan=0.0, posinf=_FLOAT32_MAX, neginf=-_FLOAT32_MAX)
+    return np.clip(fixed, -_FLOAT32_MAX, _FLOAT32_MAX), int(bad.any(axis=-1).sum())
 
 
 def trace_pixels(
