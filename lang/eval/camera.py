@@ -24,6 +24,11 @@ from lang.ir import IDENTITY, Camera, Matrix, Vec3
 CAMERA_EPSILON = 1e-10
 
 
+# Focal blur's rays per pixel, at most (POV-Ray sets no bound; its adaptive sampling stops
+# far below this in any scene that renders).
+MAX_BLUR_SAMPLES = 65536
+
+
 class CameraError(Exception):
     pass
 
@@ -106,6 +111,10 @@ class CameraBuilder:
             self.camera = replace(c, aperture=float(value))
         elif name == "blur_samples":  # max, or (min, max)
             both = value if isinstance(value, tuple) else (0, value)
+            if not all(abs(float(v)) <= MAX_BLUR_SAMPLES for v in both):
+                raise CameraError(
+                    f"blur_samples takes at most {MAX_BLUR_SAMPLES:,} rays per pixel"
+                )  # each pixel's rays are traced at once: more cannot be held
             lo, hi = int(both[0]), int(both[1])
             if lo < 0 or hi < 0:
                 raise CameraError("blur_samples must not be negative")

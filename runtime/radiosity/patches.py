@@ -79,6 +79,14 @@ class Elements:
         self.reflectance.append(np.broadcast_to(np.asarray(rho, dtype=np.float64), (3,)).copy())
         self.emission.append(np.broadcast_to(np.asarray(emit, dtype=np.float64), (3,)).copy())
 
+    def truncate(self, n: int, matrices: int) -> None:
+        """Drop the elements from the n-th on and the matrices from `matrices` on (a
+        surface given up half way)."""
+        for name in ("kind", "p0", "eu", "ev", "sphere_box", "matrix", "flip", "group",
+                     "surface", "reflectance", "emission"):  # fmt: skip
+            del getattr(self, name)[n:]
+        del self.matrices[matrices:]
+
     def arrays(self) -> dict[str, np.ndarray]:
         return {
             "kind": np.asarray(self.kind, dtype=np.int8),
@@ -89,6 +97,15 @@ class Elements:
             "matrix": np.asarray(self.matrix, dtype=np.int64),
             "flip": np.asarray(self.flip, dtype=bool),
         }
+
+
+# Cells one surface may be cut into: an object far larger than the rest of the scene (or
+# of infinite size) would otherwise exhaust memory.
+MAX_GRID = 1_000_000
+
+
+class TooLarge(Exception):
+    """A surface would need more patches than MAX_GRID (or its size is not finite)."""
 
 
 class Mesher:
@@ -113,8 +130,12 @@ class Mesher:
         sides: for each side to mesh, whether it is the flipped one (normal −eu×ev)."""
         p0, eu, ev = (np.asarray(a, dtype=np.float64) for a in (p0, eu, ev))
         cell = self.size if cell is None else max(float(cell), self.size)
-        nu = max(1, int(np.ceil(np.linalg.norm(eu) / cell - 1e-9)))
-        nv = max(1, int(np.ceil(np.linalg.norm(ev) / cell - 1e-9)))
+        with np.errstate(over="ignore", invalid="ignore"):
+            ru, rv = np.linalg.norm(eu) / cell, np.linalg.norm(ev) / cell
+        if not (np.isfinite(ru) and np.isfinite(rv)) or (ru + 1) * (rv + 1) > MAX_GRID:
+            raise TooLarge(f"a surface of {ru:.3g} × {rv:.3g} patches")
+        nu = max(1, int(np.ceil(ru - 1e-9)))
+        nv = max(1, int(np.ceil(rv - 1e-9)))
         for flip in sides:
             g = self.new_group()
             for j in range(nv):

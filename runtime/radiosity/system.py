@@ -44,7 +44,7 @@ from runtime import transform as tf
 from runtime.radiosity import solve as solver
 from runtime.radiosity.formfactor import form_factors, point_form_factors
 from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
-from runtime.radiosity.patches import Mesher, Patches, box_faces
+from runtime.radiosity.patches import Mesher, Patches, TooLarge, box_faces
 from runtime.radiosity.visibility import PatchVisibility
 
 CACHE_VERSION = 3  # 2: energy conservation, eye cell, budgeted refinement; 3: key inside
@@ -329,7 +329,15 @@ class SceneMesher:
     def run(self) -> None:
         for i in self.indices:
             obj = self.prepared.objects[i]
-            self.object(i, obj)
+            el = self.mesher.el
+            mark = (len(el), len(el.matrices))
+            try:
+                self.object(i, obj)
+            except TooLarge as e:
+                el.truncate(*mark)
+                self.warn(
+                    f"{type(obj.shape).__name__} gets no radiosity patches: {e} (ambient estimate)"
+                )
 
     def object(self, i: int, obj: ir.Object) -> None:
         shape = obj.shape

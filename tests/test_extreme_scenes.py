@@ -1,0 +1,37 @@
+"""Values far outside what a scene means give a located error or a warning and a finite
+render, never an internal error: a focal blur of 1e30 samples, a radiosity scene with a box
+1e300 long."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from runtime import api
+from runtime.render import render_scene
+
+HEAD = "light_source { <5, 5, -5> rgb 1 }\n"
+
+
+def test_blur_samples_beyond_what_can_be_held_is_a_located_camera_error(tmp_path, cli):
+    scene = tmp_path / "b.pov"
+    scene.write_text(
+        "camera { location -5*z look_at 0 aperture 0.4 blur_samples 1e30 }\n"
+        + HEAD
+        + "sphere { 0, 1 pigment { rgb 1 } }\n"
+    )
+    r = cli("render", str(scene), "-o", str(tmp_path / "b.png"), "-W", "16", "-H", "12")
+    assert r.returncode == 1, r.stderr
+    assert "b.pov:1:" in r.stderr and "blur_samples takes at most" in r.stderr
+    assert "internal error" not in r.stderr
+    assert not (tmp_path / "b.png").exists()
+
+
+def test_a_surface_too_large_for_patches_is_left_to_the_ambient_estimate():
+    text = (
+        "camera { location -5*z look_at 0 }\n" + HEAD + "global_settings { radiosity {} }\n"
+        "box { <-1, 0, -1>, <1, 1, 1e300> pigment { rgb 1 } }\n"
+        "sphere { <0, -2, 0>, 0.5 pigment { rgb 1 } }\n"
+    )
+    scene = api.compile_string(text).scene
+    image = render_scene(scene, 16, 12)
+    assert np.isfinite(image).all()
