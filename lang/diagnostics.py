@@ -55,6 +55,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "E0003": "close it with `*/`",
     "E0004": 'close the string with `"` on the same line',
     "E0005": "remove it; it is not part of the scene language",
+    "E0006": "numbers go up to about 1.8e308",
     "E0101": "remove it, or open the block it was meant to close",
     "E0102": "pick another name: keywords cannot be redeclared",
     "E0103": "check the directive's form",

@@ -10,6 +10,7 @@ The chunk parser (lang/chunks.py) drives it and words its errors with `describe_
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -206,7 +207,16 @@ class _Builder(Transformer):
     # ---- expressions
     def number(self, children):
         tok = children[0]
-        return syntax.Number(tok_span(self.file, tok), float(tok))
+        value = float(tok)
+        if value == math.inf:  # `1e400`: infinity, which no item takes
+            self.sink.error(
+                "E0006",
+                f"the number `{tok}` is too large",
+                tok_span(self.file, tok),
+                "numbers go up to about 1.8e308",
+            )
+            value = 0.0  # reported: the scene does not render, the rest is still checked
+        return syntax.Number(tok_span(self.file, tok), value)
 
     def string(self, children):
         tok = children[0]

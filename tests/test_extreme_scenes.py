@@ -35,3 +35,18 @@ def test_a_surface_too_large_for_patches_is_left_to_the_ambient_estimate():
     scene = api.compile_string(text).scene
     image = render_scene(scene, 16, 12)
     assert np.isfinite(image).all()
+
+
+def test_an_infinite_literal_is_a_located_error():
+    from lang.evaluate import compile_source
+
+    r = compile_source("sphere { 0, 1 rotate <1e400, 0, 0> }\n", "t.pov")
+    errs = [d for d in r.diagnostics if d.severity == "error"]
+    assert [(e.code, e.span.line, e.span.col) for e in errs] == [("E0006", 1, 23)]
+
+
+def test_an_include_name_too_long_for_the_system_is_not_found(tmp_path):
+    from lang.evaluate import compile_source
+
+    r = compile_source(f'#include "{"a" * 300}.inc"\n', str(tmp_path / "t.pov"))
+    assert [d.code for d in r.diagnostics if d.severity == "error"] == ["E0220"]

@@ -694,7 +694,10 @@ class Interpreter:
         """(the path probed, the resolved path) of the file `name` names: in the current
         file's folder, the library paths, the stdlib (lang.paths). The misses are kept in
         `probed` (lang.scene_store follows them)."""
-        found = paths.find(name, self._folder(), self.library_paths, self.probed)
+        try:
+            found = paths.find(name, self._folder(), self.library_paths, self.probed)
+        except OSError:  # a name the system cannot look up (too long): not found
+            return None
         return None if found is None else (found.probed, found.path)
 
     def _folder(self) -> Path:
