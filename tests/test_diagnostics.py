@@ -119,13 +119,13 @@ CORPUS = [
         1,
         66,
     ),
-    ("infinite_array_size", "#declare A = array[1e400];\n", "E0203", 1, 1),
+    ("infinite_array_size", "#declare A = array[1e400];\n", "E0006", 1, 20),
     (
         "infinite_face_index",
         "subdivision { vertex_vectors { 3, 0, x, y } face_indices { 1, <0, 1, 1e400> } }\n",
-        "E0203",
+        "E0006",
         1,
-        1,
+        70,
     ),
     (
         "nurbs_degenerate_net",

@@ -68,7 +68,7 @@ def test_missing_comma_between_vectors_is_added_where_it_was_missing(tmp_path):
 
 
 def test_a_stray_character_is_removed(tmp_path):
-    text = CAMERA.replace("look_at 0", "look_at 0#") + "sphere { 0, 1 }\n"
+    text = CAMERA.replace("look_at 0", "look_at 0@") + "sphere { 0, 1 }\n"
     t, out = translate(tmp_path, text)
     assert [c.kind for c in t.changes] == ["syntax"]
     assert t.changes[0].span.line == 1
