@@ -30,6 +30,7 @@ from typing import TextIO
 
 from lang import paths
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
+from lang.ini import ini_tokens
 
 # Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
 COMMANDS = ("render", "check", "translate", "compile", "export", "fmt", "bench", "lsp")
@@ -57,47 +58,11 @@ _OWN_SHORT = {"-o", "-W", "-H", "-L", "-q", "-h"}
 
 
 def _ini_tokens(path: Path) -> list[str]:
-    """POV-Ray INI file → command-line tokens (the main section only; `;` comments)."""
-    keys = {
-        "input_file_name": "+I",
-        "output_file_name": "+O",
-        "width": "+W",
-        "height": "+H",
-        "antialias_threshold": "+A",
-        "antialias_depth": "+R",
-        "library_path": "+L",
-        "clock": "+K",
-        "work_threads": "+WT",
-        "initial_frame": "+KFI",
-        "final_frame": "+KFF",
-        "start_column": "+SC",
-        "end_column": "+EC",
-        "start_row": "+SR",
-        "end_row": "+ER",
-    }
-    tokens: list[str] = []
+    """POV-Ray INI file → command-line tokens (lang.ini reads it)."""
     try:
-        text = path.read_text(encoding="utf-8", errors="replace")
+        return ini_tokens(path)
     except OSError as exc:
         raise UsageError(f"cannot read {path}: {exc.strerror}") from None
-    for raw in text.splitlines():
-        line = raw.split(";", 1)[0].strip()
-        if not line:
-            continue
-        if line.startswith("["):
-            break  # named sections are for POV-Ray's +I<ini>[section]; strala reads the main one
-        if line[0] in "+-":
-            tokens.extend(line.split())
-            continue
-        key, sep, value = line.partition("=")
-        key, value = key.strip().lower(), value.strip().strip('"')
-        if not sep:
-            continue
-        if key == "antialias":
-            tokens.append("+A" if value.lower() in ("on", "true", "yes", "1") else "-A")
-        elif key in keys:
-            tokens.append(keys[key] + value)
-    return tokens
 
 
 def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:

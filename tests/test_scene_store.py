@@ -185,6 +185,8 @@ FILE_ACCESS = {
     ("eval.interpreter", "_d_include"): "an include: its text's digest is kept",
     ("paths", "find"): "include probes are kept; resolve (other files) depends_outside",
     ("paths", "povray_include"): "searched last: a stored scene found its files before it",
+    ("paths", "povray_ini"): "read before evaluating: its library folders are in the key",
+    ("ini", "ini_tokens"): "read before evaluating: its library folders are in the key",
     ("eval.interpreter", "_d_fileop"): "file I/O: depends_outside",
     ("eval.textures", "_unreadable_image"): "after resolve found the image: depends_outside",
     ("builtins", "_file_exists"): "sets BuiltinState.looked_outside",

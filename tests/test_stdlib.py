@@ -879,12 +879,13 @@ _FORMULAS = [
     *(f"f_torus({p}, 1, 0.3)" for p in _POINTS),
     *(f"f_rounded_box({p}, 0.3, 1, 0.5, 0.8)" for p in _POINTS),
     *(f"f_rounded_box({p}, 0, 0.2, 2, 0.1)" for p in _POINTS),
+    *(f"{f}({p})" for f in ("f_sine_wave", "f_scallop_wave") for p in _POINTS),
 ]
 _PATTERN_FUNCTIONS = (
     "f_noise3d f_snoise3d f_agate f_boxed f_bozo f_brick f_bumps f_checker f_crackle "
     "f_cylindrical f_dents f_gradientX f_gradientY f_gradientZ f_granite f_leopard "
     "f_marble f_onion f_planar f_radial f_ripples f_spherical f_spiral1 f_spiral2 f_spotted "
-    "f_waves f_wood f_wrinkles"
+    "f_waves f_wood f_wrinkles f_mandel"
 ).split()
 _FUNCTION_PROBES = [
     *_FORMULAS,
@@ -926,6 +927,18 @@ def test_povray_running_the_stdlib_functions_agrees_with_its_own(tmp_path, povra
     assert len(set(povray_functions)) > len(_FUNCTION_PROBES) // 2  # the probes vary
     for call, got, want in zip(_FUNCTION_PROBES, ours, povray_functions, strict=True):
         assert got == pytest.approx(want, rel=1e-9, abs=1e-9), call
+
+
+@needs_pov_includes
+def test_the_stdlib_functions_inc_names_every_function_of_povrays():
+    """Every function and macro POV-Ray 3.7's functions.inc declares, strala's declares
+    too (so `#include "functions.inc"` gives a scene all the names POV-Ray's does)."""
+    declared = re.compile(r"#\s*(?:declare|macro)\s+(\w+)")
+    theirs = set(declared.findall((POV_INCLUDE / "functions.inc").read_text(errors="replace")))
+    ours = set(declared.findall((STDLIB / "functions.inc").read_text()))
+    theirs.discard("Functions_Inc_Temp")  # its version guard
+    assert {n for n in theirs if n.startswith("f_")}, "POV-Ray's functions.inc declares f_…"
+    assert sorted(theirs - ours) == []
 
 
 # ------------------------------------------------ oracle 6: POV-Ray renders the test stage

@@ -6,11 +6,13 @@ dispatched by EXPRESSIONS."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from lang import (
     builtins,
+    schema,
     syntax,
 )
 from lang.builtins import EvalError, as_color, as_float, as_vec
@@ -216,13 +218,25 @@ def _e_call(it: BuildContext, node: syntax.Call) -> Any:
     if isinstance(v, FunctionValue):
         return it.call_function(v, [it.eval(a) for a in node.args], node.span)
     if isinstance(v, SplineValue):
-        if not 1 <= len(node.args) <= 2:
-            raise it.error("E0232", "a spline takes one parameter", node.span)
-        return evaluate_spline(v, as_float(it.eval(node.args[0]), "a spline parameter"))
+        return _spline_call(it, v, node)
     if isinstance(v, UnsupportedValue):
         it.unsupported(v.keyword, node.span)
         return 0.0
     raise it.error("E0202", f"`{node.name}` is {describe(v)}, not a macro or function", node.span)
+
+
+def _spline_call(it: BuildContext, v: SplineValue, node: syntax.Call) -> Any:
+    """`S(t)`, or `S(t, linear_spline)`: the spline's points read as another kind (POV-Ray)."""
+    args = node.args
+    usage = "S(T) or S(T, linear_spline)"
+    if not 1 <= len(args) <= 2:
+        raise it.error("E0232", "a spline takes one parameter and maybe a kind", node.span, usage)
+    if len(args) == 2:
+        kind = args[1]
+        if not isinstance(kind, syntax.Keyword) or kind.name not in schema.SPLINE_TYPES:
+            raise it.error("E0202", "a spline's second argument is its kind", kind.span, usage)
+        v = replace(v, spline_type=kind.name)
+    return evaluate_spline(v, as_float(it.eval(args[0]), "a spline parameter"))
 
 
 def _geometry_call(it: BuildContext, node: syntax.Call) -> Any:

@@ -195,7 +195,23 @@ class _Builder:
         hint = "x, y and z are the function's parameters" if name in ("x", "y", "z") else None
         raise self.error(f"{what}; a function works with floats", node.span, hint)
 
+    def spline_of_parameters(self, node: syntax.Call) -> bool:
+        """Whether `node` calls a spline with a parameter of the function (not computed)."""
+        if node.builtin:
+            return False
+        found, v = self.it.lookup(node.name)
+        if not found or not isinstance(v, SplineValue):
+            return False
+        values = [self.expr(a) for a in node.args if not isinstance(a, syntax.Keyword)]
+        return not all(isinstance(a, ir.FnNum) for a in values)
+
+    def unsupported_spline(self, node: syntax.Call) -> ir.FnNum:
+        self.it.unsupported("a spline of the function's parameters", node.span, ": it gives 0")
+        return ir.FnNum(0.0)
+
     def call(self, node: syntax.Call) -> Any:
+        if self.spline_of_parameters(node):
+            return self.unsupported_spline(node)
         args = tuple(self.expr(a) for a in node.args)
         if node.builtin:
             arity = FN_BUILTINS.get(node.name)
@@ -234,6 +250,8 @@ class _Builder:
 
     def member(self, node: syntax.Member) -> Any:
         target = node.target
+        if isinstance(target, syntax.Call) and self.spline_of_parameters(target):
+            return self.unsupported_spline(target)
         if isinstance(target, syntax.Call) and not target.builtin:
             found, v = self.it.lookup(target.name)
             if found and isinstance(v, FunctionValue) and v.compiled is not None:

@@ -40,9 +40,9 @@ def evaluate_spline(sp: SplineValue, t: float) -> Any:
     i = max(k for k in range(lo, hi) if ts[k] <= t)
     h = ts[i + 1] - ts[i]
     s = (t - ts[i]) / h
-    if sp.spline_type == "linear_spline":
+    if sp.spline_type == "linear_spline" or (sp.spline_type == "quadratic_spline" and n < 3):
         return out([a + (b - a) * s for a, b in zip(ps[i], ps[i + 1], strict=True)])
-    if sp.spline_type == "quadratic_spline":
+    if sp.spline_type == "quadratic_spline" and n >= 3:
         j = max(i - 1, 0)
         t0, t1, t2 = ts[j], ts[j + 1], ts[j + 2]
         w0 = (t - t1) * (t - t2) / ((t0 - t1) * (t0 - t2))
