@@ -44,7 +44,8 @@ CORPUS = [
     ("light_no_colour", "light_source { <0,0,0> }\n", "E0211", 1, 1),
     ("finish_bad_value", 'sphere { 0, 1 finish { ambient "x" } }\n', "E0211", 1, 32),
     ("pigment_unknown_pattern_ident", "sphere { 0, 1 pigment { Nonesuch } }\n", "E0201", 1, 25),
-    ("color_bad", "#declare C = rgb <1,0>;\n", "E0202", 1, 14),
+    # POV-Ray pads `rgb <1,0>` with zeros; a string is no colour
+    ("color_bad", '#declare C = rgb "red";\n', "E0202", 1, 14),
     (
         "nurbs_bad_count",
         "nurbs { u_degree 1 v_degree 1 control_points { 2, 2, <0,0,0>, <1,0,0>, <0,1,0> } }\n",
@@ -134,6 +135,8 @@ CORPUS = [
         1,
         31,
     ),
+    # POV-Ray reads exactly the declared number of points
+    ("count_mismatch", "polygon { 4, <0,0>, <1,0>, <0,1> }\n", "E0290", 1, 1),
 ]
 
 # (name, source, code, line, col) of a warning the scene must get
@@ -158,7 +161,7 @@ WARNINGS = [
         1,
         41,
     ),
-    ("count_mismatch", "polygon { 4, <0,0>, <1,0>, <0,1> }\n", "W0302", 1, 1),
+    ("open_polygon", "polygon { 3, <0,0>, <1,0>, <0,1> }\n", "W0309", 1, 1),
     ("image_missing", 'plane { y, 0 pigment { image_map { png "none.png" } } }\n', "W0307", 1, 24),
     (
         "image_unreadable",

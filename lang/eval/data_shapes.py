@@ -257,8 +257,22 @@ def _prism(cur: Cursor) -> ir.Prism:
     while (w := cur.word("open", "sturm")) is not None:
         open_ |= w == "open"
         sturm |= w == "sturm"
+    spline = spline or "linear_spline"
+    closed, start = _prism_closed(spline, pts)
+    if not closed:
+        if spline == "linear_spline":
+            # POV-Ray's Parse_Prism adds the first point of the last outline
+            cur.it.sink.warning("W0309", "Linear prism not closed. Closing it.", cur.span)
+            pts = [*pts, start]
+        elif spline == "bezier_spline":
+            cur.it.sink.warning("W0303", "Prism not closed. Ignoring it.", cur.span)
+            return ir.Unsupported("prism")
+        else:
+            # flagged degenerate, and then Compute_Prism runs out of points: the parse stops
+            cur.it.sink.warning("W0303", "Prism not closed. Ignoring it.", cur.span)
+            raise cur.it.error("E0290", "Too few points in prism.", cur.span)
     return ir.Prism(
-        spline or "linear_spline",
+        spline,
         sweep or "linear_sweep",
         h1,
         h2,
@@ -266,6 +280,45 @@ def _prism(cur: Cursor) -> ir.Prism:
         open_,
         sturm,
     )
+
+
+def _near(a, b) -> bool:
+    return abs(a[0] - b[0]) <= 1e-10 and abs(a[1] - b[1]) <= 1e-10
+
+
+def _prism_closed(spline: str, pts) -> tuple[bool, Any]:
+    """Whether a prism's outlines close, as POV-Ray's Parse_Prism scans them, and the first
+    point of the last outline. A linear, quadratic or cubic outline closes on its first
+    point (the second, for the curves, whose first is a control point) and the next outline
+    starts after it; a Bézier one is read in segments of four points, an outline ending
+    where a segment does not join."""
+    n = len(pts)
+    if n == 0:
+        return True, None
+    if spline == "bezier_spline":
+        start = 0
+        for i in range(4, n, 4):
+            if not _near(pts[i], pts[i - 1]):
+                if not _near(pts[i - 1], pts[start]):
+                    return False, None
+                start = i
+        return _near(pts[n - 1], pts[start]), None
+    step = {"linear_spline": 1, "quadratic_spline": 2, "cubic_spline": 3}.get(spline)
+    if step is None:
+        return True, None
+    first = 0 if step == 1 else 1
+    if first >= n:
+        return False, None
+    p, closed, i = pts[first], False, first + 1
+    while i < n:
+        closed = False
+        if _near(p, pts[i]):
+            i += step
+            if i < n:
+                p = pts[i]
+            closed = True
+        i += 1
+    return closed, p
 
 
 def _text(cur: Cursor) -> ir.Text:

@@ -275,18 +275,19 @@ def _e_color(it: BuildContext, node: syntax.ColorCtor) -> ColorValue:
             if isinstance(v, float | int):
                 p = [float(v)] * n
             elif isinstance(v, Vec):
-                if len(v) < n and len(v) != 3:
-                    raise it.error("E0202", f"`{kind}` needs a {n}-component vector", node.span)
-                p = list(v.padded(n))
+                p = [float(x) for x in v][:5]
+                if len(p) > n:
+                    # POV-Ray's Parse_Colour: the components given fill red, green, blue,
+                    # filter, transmit in turn, however many the keyword names; fewer are
+                    # padded with zeros
+                    it.sink.warning("W0313", f"Suspicious expression after {kind}.", node.span)
             else:
                 raise it.error("E0202", f"`{kind}` needs a vector, not {describe(v)}", node.span)
-            c = p[:3] + [0.0, 0.0]
-            if base == "rgbf":
-                c[3] = p[3]
-            elif base == "rgbt":
-                c[4] = p[3]
-            elif base == "rgbft":
-                c[3], c[4] = p[3], p[4]
+            c = (p + [0.0] * 5)[:5]
+            if base == "rgbt":  # its fourth component is the transmit
+                c[3], c[4] = 0.0, c[3]
+            elif base == "rgb" and len(p) == 3:
+                c[3] = c[4] = 0.0
             if kind.startswith("s"):
                 c[:3] = [_from_srgb(it, x) for x in c[:3]]
     idx = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}

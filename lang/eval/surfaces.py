@@ -217,11 +217,19 @@ def _b_shape(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     elif kw == "polygon":
         pts = [as_vec(v, 3).xyz for v in p["points"]]
         if len(pts) != p["count"]:
-            it.sink.warning(
-                "W0302", f"`polygon` declares {p['count']} points but lists {len(pts)}", g.span
+            # POV-Ray reads exactly the declared number of points: the parse stops at the
+            # first missing one or at the first extra one
+            raise it.error(
+                "E0290",
+                f"`polygon` declares {p['count']} points but lists {len(pts)}",
+                g.span,
+                "make the count match the points listed",
             )
         if len(pts) < 3:
             raise it.error("E0202", "a polygon needs at least 3 points", g.span)
+        if not _polygon_closed(pts):
+            # POV-Ray's Parse_Polygon adds the first point of the last sub-polygon
+            it.sink.warning("W0309", "Polygon not closed. Closing it.", g.span)
         shape = ir.Polygon(tuple(pts))
     elif kw == "triangle":
         _warn_degenerate_triangle(it, (p["p1"], p["p2"], p["p3"]), (), g.span)
@@ -234,6 +242,22 @@ def _b_shape(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
         raise it.error("E0200", f"no builder for `{kw}`", g.span)
     obj = ObjectValue(shape, kw, span=node.span, default=it.default_texture)
     return apply_object_items(it, obj, g)
+
+
+def _polygon_closed(pts: list) -> bool:
+    """Whether a polygon's last sub-polygon ends on its first point (within POV-Ray's
+    EPSILON per axis), as Parse_Polygon scans it: a repeated first point closes a
+    sub-polygon and the next point starts one."""
+    start, closed, i = pts[0], False, 1
+    while i < len(pts):
+        closed = False
+        if all(abs(a - b) < 1e-10 for a, b in zip(start, pts[i], strict=True)):
+            i += 1
+            if i < len(pts):
+                start = pts[i]
+            closed = True
+        i += 1
+    return closed
 
 
 def _warn_degenerate_triangle(it: BuildContext, pts, normals, span) -> None:
