@@ -208,6 +208,23 @@ CASES += [
     ),
 ]
 
+CASES += [
+    # express.cpp, Parse_Mult_Factor: the quotient is +HUGE_VAL
+    Case(
+        "divide-by-zero",
+        f"#declare K = -1/0;\n#if (K > 1e30) sphere {{ 0, 1 {RED} }} #end",
+        "W0309",
+        "Divide by zero.",
+    ),
+    # express.cpp, Parse_Vector_Factor: the zero vector (a possible error)
+    Case(
+        "normalize-zero-vector",
+        f"sphere {{ vnormalize(<0, 0, 0>), 1 {RED} }}",
+        "W0309",
+        "Normalizing zero-length vector.",
+    ),
+]
+
 
 def _flat(text: str) -> str:
     return re.sub(r"\s+", " ", text)

@@ -122,7 +122,7 @@ def _e_binary(it: BuildContext, node: syntax.Binary) -> Any:
     try:
         return builtins.binary(node.op, a, b)
     except EvalError as e:
-        raise it.error("E0203", e.message, node.span, e.hint) from None
+        return _lenient(it, e, node.span, lambda: builtins.divide_as_povray(a, b))
 
 
 def _e_ternary(it: BuildContext, node: syntax.Ternary) -> Any:
@@ -205,7 +205,7 @@ def _e_call(it: BuildContext, node: syntax.Call) -> Any:
         try:
             return builtins.call(node.name, args, it.state)
         except EvalError as e:
-            raise it.error("E0203", e.message, node.span, e.hint) from None
+            return _lenient(it, e, node.span, lambda: Vec((0.0, 0.0, 0.0)))
     found, v = it.lookup(node.name)
     if not found:
         raise it.unknown_ident(node.name, node.span)
@@ -374,6 +374,20 @@ EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
 }
 
 
+def _lenient(it: BuildContext, e: EvalError, span, repaired: Callable[[], Any]) -> Any:
+    """An evaluation error that POV-Ray repairs with a warning gives its repair; any other
+    is the located error E0203. A zero divisor gives infinity (express.cpp,
+    Parse_Mult_Factor: "Divide by zero."), vnormalize(<0,0,0>) the zero vector
+    (Parse_Vector_Factor: "Normalizing zero-length vector.", a possible error)."""
+    if e.message == builtins.ZERO_DIVISION:
+        it.sink.warning("W0309", "Divide by zero.", span, "POV-Ray makes the quotient infinite")
+        return repaired()
+    if e.message == builtins.ZERO_NORMALIZE:
+        it.sink.warning("W0309", "Normalizing zero-length vector.", span, "POV-Ray gives <0,0,0>")
+        return repaired()
+    raise it.error("E0203", e.message, span, e.hint) from None
+
+
 def _clamped_domain(it: BuildContext, node: syntax.Call, v: Any) -> Any:
     """POV-Ray's acos and asin (express.cpp, Parse_Num_Factor) warn "Domain error in acos."
     for an argument outside [-1, 1] and use the nearer end (acos(1.0000001) from rounding in
@@ -452,7 +466,7 @@ def _compile_binary(node: syntax.Binary) -> Compiled:
                 return fast(a, b)
             return builtins.binary(op, a, b)
         except EvalError as e:
-            raise it.error("E0203", e.message, span, e.hint) from None
+            return _lenient(it, e, span, lambda: builtins.divide_as_povray(a, b))
 
     return binary
 
@@ -477,6 +491,6 @@ def _compile_call(node: syntax.Call) -> Compiled:
         try:
             return call(name, [a(it) for a in args], it.state)
         except EvalError as e:
-            raise it.error("E0203", e.message, span, e.hint) from None
+            return _lenient(it, e, span, lambda: Vec((0.0, 0.0, 0.0)))
 
     return builtin
