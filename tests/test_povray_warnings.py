@@ -225,6 +225,58 @@ CASES += [
     ),
 ]
 
+ISO = (
+    "isosurface {{ function {{ sqrt(x*x + y*y + z*z) - 1 }} {} "
+    "contained_by {{ box {{ -2, 2 }} }} {} }}"
+)
+CASES += [
+    # parse.cpp, Parse_Global_Settings: the first assumed_gamma stands
+    Case(
+        "assumed-gamma-twice",
+        f"global_settings {{ assumed_gamma 2.2 }}\nsphere {{ 0, 1 {RED} }}",
+        "W0312",
+        "New instance of assumed_gamma ignored",
+    ),
+    # ... and Parse_Frame: max_intersections is read and has no effect
+    Case(
+        "max-intersections",
+        f"global_settings {{ max_intersections 64 }}\nsphere {{ 0, 1 {RED} }}",
+        "W0312",
+        "'max_intersections' is no longer needed",
+    ),
+    Case(
+        "max-intersections-at-top",
+        f"max_intersections 64\nsphere {{ 0, 1 {RED} }}",
+        "W0312",
+        "'max_intersections' is no longer needed",
+    ),
+    # parse.cpp, Parse_Isosurface: the defaults replace values it cannot use
+    Case(
+        "isosurface-accuracy",
+        ISO.format("accuracy 0", RED),
+        "W0309",
+        "Isosurface 'accuracy' is not positive. Using 0.001 (default).",
+    ),
+    Case(
+        "isosurface-max-gradient",
+        ISO.format("max_gradient -1", RED),
+        "W0309",
+        "Isosurface 'max_gradient' is not positive. Using 1.1 (default).",
+    ),
+    Case(
+        "isosurface-max-trace",
+        ISO.format("max_trace 20", RED),
+        "W0309",
+        "Isosurface 'max_trace' exceeds maximum of 10. Using maximum.",
+    ),
+    Case(
+        "isosurface-max-trace-zero",
+        ISO.format("max_trace 0", RED),
+        "W0309",
+        "Isosurface 'max_trace' is not positive. Using 1 (default).",
+    ),
+]
+
 
 def _flat(text: str) -> str:
     return re.sub(r"\s+", " ", text)

@@ -570,7 +570,7 @@ def _isosurface(it: BuildContext, node: syntax.Block, spec: schema.BlockSpec) ->
             opts[e.value] = cur.number(f"the {e.value.replace('_', ' ')}")
         elif e.kind == "kw" and e.value == "all_intersections":
             cur.i += 1
-            opts["max_trace"] = 0
+            opts["max_trace"] = None  # all of them: strala's max_trace 0, set below
         elif e.kind == "kw" and e.value == "open":
             opts["open"] = cur.flag("open")
         elif e.kind == "kw" and e.value == "evaluate":
@@ -587,16 +587,48 @@ def _isosurface(it: BuildContext, node: syntax.Block, spec: schema.BlockSpec) ->
         raise it.error("E0202", "`isosurface` needs a function { … }", where, USAGE["isosurface"])
     if fn.kind != "float":
         raise it.error("E0202", "an isosurface's function gives a float, not a colour", where)
-    for name in ("accuracy", "max_gradient"):
-        if name in opts and not opts[name] > 0:
-            raise it.error("E0202", f"the isosurface's {name} must be positive", where)
-    if "max_trace" in opts:
-        opts["max_trace"] = max(0, int(opts["max_trace"]))
+    _iso_repairs(it, opts, where)
     if container is not None:
         opts["container"] = container
     shape = ir.Isosurface(fn, **opts)
     obj = ObjectValue(shape, "isosurface", span=node.span, default=it.default_texture)
     return surfaces.apply_object_items(it, obj, g)
+
+
+# strala's max_trace for all_intersections; POV-Ray's ISOSURFACE_MAXTRACE bounds a given one
+ALL_INTERSECTIONS = 0
+ISO_MAX_TRACE = 10
+
+
+def _iso_repairs(it: BuildContext, opts: dict[str, Any], where: Span) -> None:
+    """POV-Ray's Parse_Isosurface replaces what it cannot use by its defaults, warning."""
+    if "accuracy" in opts and not opts["accuracy"] > 0:
+        it.sink.warning(
+            "W0309", "Isosurface 'accuracy' is not positive. Using 0.001 (default).", where
+        )
+        opts["accuracy"] = 0.001
+    if "max_gradient" in opts and not opts["max_gradient"] > 0:
+        it.sink.warning(
+            "W0309", "Isosurface 'max_gradient' is not positive. Using 1.1 (default).", where
+        )
+        opts["max_gradient"] = 1.1
+    if "max_trace" in opts and opts["max_trace"] is None:
+        opts["max_trace"] = ALL_INTERSECTIONS
+    elif "max_trace" in opts:
+        n = int(opts["max_trace"])
+        if n > ISO_MAX_TRACE:
+            it.sink.warning(
+                "W0309",
+                f"Isosurface 'max_trace' exceeds maximum of {ISO_MAX_TRACE}. Using maximum.",
+                where,
+            )
+            n = ISO_MAX_TRACE
+        elif n < 1:
+            it.sink.warning(
+                "W0309", "Isosurface 'max_trace' is not positive. Using 1 (default).", where
+            )
+            n = 1
+        opts["max_trace"] = n
 
 
 def _container(it: BuildContext, node: syntax.Block) -> ir.Box | ir.Sphere | None:

@@ -202,6 +202,17 @@ def trace_level(it: BuildContext, v: float, span) -> int:
     return level
 
 
+def _no_max_intersections(it: BuildContext, span) -> None:
+    if it.version < 3.7:
+        return
+    it.sink.warning(
+        "W0312",
+        "'max_intersections' is no longer needed and has no effect in POV-Ray 3.7 or later.",
+        span,
+        "remove it",
+    )
+
+
 def settings_at_top(it: BuildContext, els: list) -> list:
     """What POV-Ray's Parse_Frame warns about among the scene's top-level elements.
     `max_trace_level N` outside global_settings, which it still reads (a possible error
@@ -214,13 +225,19 @@ def settings_at_top(it: BuildContext, els: list) -> list:
         el = els[i]
         if isinstance(el.value, CameraValue):
             cameras += 1
-            if cameras >= 2:
+            if cameras >= 2 and it.version >= 3.5:
                 it.sink.warning(
                     "W0312",
                     "More than one camera in scene. Ignoring previous camera(s).",
                     el.span,
                     "the last camera is the one rendered",
                 )
+        if el.kind == "kw" and el.value == "max_intersections" and i + 1 < n:
+            nxt = els[i + 1]
+            if nxt.kind == "val" and isinstance(nxt.value, int | float):
+                _no_max_intersections(it, el.span)
+                i += 2
+                continue
         if el.kind == "kw" and el.value == "max_trace_level" and i + 1 < n:
             nxt = els[i + 1]
             if nxt.kind == "val" and isinstance(nxt.value, int | float):
@@ -245,7 +262,13 @@ def _b_global_settings(it: BuildContext, g: Grouped, node: syntax.Block) -> None
         if name == "assumed_gamma":
             if args[0] <= 0:
                 raise it.error("E0202", "assumed_gamma must be positive", span)
-            s["assumed_gamma"] = args[0]
+            if s.get("assumed_gamma") is not None:
+                # POV-Ray's Parse_Global_Settings: the first one stands
+                it.sink.warning("W0312", "New instance of assumed_gamma ignored", span)
+            else:
+                s["assumed_gamma"] = args[0]
+        elif name == "max_intersections":
+            _no_max_intersections(it, span)
         elif name == "max_trace_level":
             s["max_trace_level"] = trace_level(it, args[0], span)
         elif name == "adc_bailout":
