@@ -277,6 +277,26 @@ CASES += [
     ),
 ]
 
+CASES += [
+    # parse.cpp, Parse_Mesh: a zero normal becomes <1,0,0>; a flat triangle is dropped quietly
+    Case(
+        "mesh-zero-normal",
+        "mesh { smooth_triangle { <-1, 0, 0>, 0, <1, 0, 0>, <0, 0, -1>, <0, 1, 0>, <0, 0, -1> } "
+        f"triangle {{ 0, x, 2*x }} {RED} }}",
+        "W0309",
+        "Normal vector in mesh cannot be zero - changing it to <1,0,0>.",
+    ),
+    # parse.cpp, Parse_Frame: the last sky_sphere is used
+    Case(
+        "second-sky-sphere",
+        "sky_sphere { pigment { rgb <0, 1, 0> } }\nsky_sphere { pigment { rgb <0, 0, 1> } }\n"
+        f"sphere {{ 0, 1 {RED} }}",
+        "W0312",
+        "Only one sky-sphere allowed (last one will be used).",
+        line=1,
+    ),
+]
+
 
 def _flat(text: str) -> str:
     return re.sub(r"\s+", " ", text)

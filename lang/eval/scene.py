@@ -216,13 +216,20 @@ def _no_max_intersections(it: BuildContext, span) -> None:
 def settings_at_top(it: BuildContext, els: list) -> list:
     """What POV-Ray's Parse_Frame warns about among the scene's top-level elements.
     `max_trace_level N` outside global_settings, which it still reads (a possible error
-    under 3.5+), is applied as if in global_settings; a second camera replaces the first.
+    under 3.5+), is applied as if in global_settings; a second camera or sky_sphere
+    replaces the first.
     The other elements are returned for the top level."""
     out = []
     i, n = 0, len(els)
-    cameras = 0
+    cameras = skies = 0
     while i < n:
         el = els[i]
+        if isinstance(el.value, Statement) and el.value.kind == "sky_sphere":
+            skies += 1
+            if skies >= 2:
+                it.sink.warning(
+                    "W0312", "Only one sky-sphere allowed (last one will be used).", el.span
+                )
         if isinstance(el.value, CameraValue):
             cameras += 1
             if cameras >= 2 and it.version >= 3.5:

@@ -260,6 +260,24 @@ def _polygon_closed(pts: list) -> bool:
     return closed
 
 
+DEGENERATE_TRIANGLE = "Degenerate triangle. Please remove."
+
+
+def _mesh_triangles_are_not_warned(it: BuildContext, span: Span) -> None:
+    """A mesh's triangles are read by POV-Ray's Parse_Mesh, which drops the degenerate ones
+    silently: the warnings their blocks gave inside the mesh are taken back."""
+
+    def inside(s: Span) -> bool:
+        return s.file == span.file and (span.line, span.col) <= (s.line, s.col) <= (
+            span.end_line,
+            span.end_col,
+        )
+
+    it.sink.items[:] = [
+        d for d in it.sink.items if not (d.message == DEGENERATE_TRIANGLE and inside(d.span))
+    ]
+
+
 def _warn_degenerate_triangle(it: BuildContext, pts, normals, span) -> None:
     """POV-Ray's Parse_Triangle and Parse_Smooth_Triangle warn when the corners span no
     area (Compute_Triangle: the edges' cross product is exactly zero) or a normal is zero;
@@ -273,7 +291,7 @@ def _warn_degenerate_triangle(it: BuildContext, pts, normals, span) -> None:
         e1[0] * e2[1] - e1[1] * e2[0],
     )
     if cross == (0.0, 0.0, 0.0) or any(tuple(n) == (0.0, 0.0, 0.0) for n in normals):
-        it.sink.warning("W0303", "Degenerate triangle. Please remove.", span)
+        it.sink.warning("W0303", DEGENERATE_TRIANGLE, span)
 
 
 def _refuse_degenerate_axis(it: BuildContext, base, cap, message: str, span) -> None:
@@ -331,11 +349,27 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     textures: list[ir.Texture] = []
     smooth = False
     mods = []
+    _mesh_triangles_are_not_warned(it, node.span)
+    zero_normal = False
     for name, args, span in g.items:
         if name != "object":
             mods.append((name, args, span))
             continue
         tri = args[0]
+        if isinstance(tri.shape, ir.Triangle) and tri.shape.normals is not None:
+            if any(tuple(n) == (0.0, 0.0, 0.0) for n in tri.shape.normals):
+                # POV-Ray's Parse_Mesh: warned once, the normal becomes <1,0,0>
+                if not zero_normal:
+                    it.sink.warning(
+                        "W0309",
+                        "Normal vector in mesh cannot be zero - changing it to <1,0,0>.",
+                        span,
+                    )
+                zero_normal = True
+                fixed = tuple(
+                    (1.0, 0.0, 0.0) if tuple(n) == (0.0, 0.0, 0.0) else n for n in tri.shape.normals
+                )
+                tri = replace(tri, shape=replace(tri.shape, normals=fixed))
         if isinstance(tri.shape, ir.Mesh) and not tri.children:  # `mesh { Declared_Mesh }`
             base = len(verts)
             verts.extend(transforms.apply_point(tri.transform, q) for q in tri.shape.vertices)
