@@ -92,8 +92,18 @@ def _combine(a: Any, b: Any, fn: Callable[[float, float], float]) -> Any:
 
 def _div(p: float, q: float) -> float:
     if q == 0.0:
-        raise EvalError("division by zero", "the divisor is 0 here; guard it with #if or select()")
+        raise EvalError(ZERO_DIVISION, "the divisor is 0 here; guard it with #if or select()")
     return p / q
+
+
+def divide_as_povray(a: Any, b: Any) -> Any:
+    """`a / b` as POV-Ray's Parse_Mult_Factor computes it when a divisor is 0: that
+    component becomes +HUGE_VAL (infinity, whatever the dividend's sign), with a warning."""
+    return _combine(a, b, lambda p, q: math.inf if q == 0.0 else p / q)
+
+
+ZERO_DIVISION = "division by zero"
+ZERO_NORMALIZE = "vnormalize() of a zero-length vector"
 
 
 # Each operator's formula on two floats, the one place it is written: vectors and colours
@@ -332,7 +342,7 @@ def _vlength(args, state):
 def _vnormalize(args, state):
     v = _v(args, 0, "vnormalize")
     n = math.sqrt(sum(c * c for c in v))
-    _domain(n > 0.0, "vnormalize() of a zero-length vector")
+    _domain(n > 0.0, ZERO_NORMALIZE)
     return Vec(c / n for c in v)
 
 

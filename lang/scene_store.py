@@ -44,7 +44,8 @@ class Entry:
 @cache
 def _fingerprint() -> str:
     here = Path(__file__).resolve().parent
-    files = sorted([*here.glob("*.py"), *here.glob("*.lark")])
+    # the evaluator is lang/ and its builders in lang/eval/
+    files = sorted([*here.glob("*.py"), *here.glob("eval/*.py"), *here.glob("*.lark")])
     np = sys.modules.get("numpy")  # transforms are numpy products: its version counts
     return store.fingerprint(files, extra=getattr(np, "__version__", ""))
 

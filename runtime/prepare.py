@@ -252,6 +252,8 @@ class _Builder:
                 return
             obj = dataclasses.replace(obj, shape=mesh)
             shape = mesh
+        if isinstance(shape, ir.Triangle) and shapes.flat_triangle(shape):
+            return
         if isinstance(shape, ir.Mesh | ir.Triangle):
             if singular(obj):
                 self.warn_once(
@@ -314,6 +316,8 @@ class _Builder:
             )
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
+            return None
+        if isinstance(shape, ir.Triangle) and shapes.flat_triangle(shape):
             return None
         why = shapes.degenerate(shape) or singular(obj)
         if why:

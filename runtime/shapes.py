@@ -624,6 +624,15 @@ def degenerate(shape) -> str | None:
     return None
 
 
+def flat_triangle(shape: ir.Triangle) -> bool:
+    """POV-Ray's DEGENERATE_FLAG: the corners span no area, or (smooth) a normal is zero.
+    Such a triangle is never hit; the front end has warned about it."""
+    p1, p2, p3 = (np.asarray(p, dtype=np.float64) for p in (shape.p1, shape.p2, shape.p3))
+    if not np.any(np.cross(p1 - p2, p3 - p2)):
+        return True
+    return shape.normals is not None and any(not np.any(n) for n in shape.normals)
+
+
 def primitive_for(shape):
     """The analytic primitive for one of the common IR shapes, or None for any other
     (runtime.prims.primitive_for picks the primitive of every shape)."""

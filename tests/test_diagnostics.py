@@ -27,7 +27,8 @@ CORPUS = [
     ("unknown_ident", "sphere { 0, Radiu }\n", "E0201", 1, 13),
     ("did_you_mean", "#declare Radius = 1;\nsphere { 0, Radiuss }\n", "E0201", 2, 13),
     ("item_not_in_block", "sphere { 0, 1 angle 5 }\n", "E0210", 1, 15),
-    ("div_zero", "#declare A = 1/0;\n", "E0203", 1, 14),
+    # a zero divisor is POV-Ray's warning (W0309); a string in arithmetic is an error
+    ("string_arithmetic", '#declare A = 1 + "s";\n', "E0203", 1, 14),
     ("sqrt_negative", "#declare A = sqrt(-1);\n", "E0203", 1, 14),
     ("wrong_type_add", '#declare A = 1 + "s";\n', "E0203", 1, 14),
     ("include_missing", '#include "nope.inc"\n', "E0220", 1, 1),
@@ -44,7 +45,8 @@ CORPUS = [
     ("light_no_colour", "light_source { <0,0,0> }\n", "E0211", 1, 1),
     ("finish_bad_value", 'sphere { 0, 1 finish { ambient "x" } }\n', "E0211", 1, 32),
     ("pigment_unknown_pattern_ident", "sphere { 0, 1 pigment { Nonesuch } }\n", "E0201", 1, 25),
-    ("color_bad", "#declare C = rgb <1,0>;\n", "E0202", 1, 14),
+    # POV-Ray pads `rgb <1,0>` with zeros; a string is no colour
+    ("color_bad", '#declare C = rgb "red";\n', "E0202", 1, 14),
     (
         "nurbs_bad_count",
         "nurbs { u_degree 1 v_degree 1 control_points { 2, 2, <0,0,0>, <1,0,0>, <0,1,0> } }\n",
@@ -134,6 +136,8 @@ CORPUS = [
         1,
         31,
     ),
+    # POV-Ray reads exactly the declared number of points
+    ("count_mismatch", "polygon { 4, <0,0>, <1,0>, <0,1> }\n", "E0290", 1, 1),
 ]
 
 # (name, source, code, line, col) of a warning the scene must get
@@ -158,7 +162,7 @@ WARNINGS = [
         1,
         41,
     ),
-    ("count_mismatch", "polygon { 4, <0,0>, <1,0>, <0,1> }\n", "W0302", 1, 1),
+    ("open_polygon", "polygon { 3, <0,0>, <1,0>, <0,1> }\n", "W0309", 1, 1),
     ("image_missing", 'plane { y, 0 pigment { image_map { png "none.png" } } }\n', "W0307", 1, 24),
     (
         "image_unreadable",
@@ -222,11 +226,12 @@ def test_hints_say_how_to_call_and_what_the_range_is():
         "#declare A = pow(2);\n#declare B = array[3] {1, 2, 3};\n#declare C = B[3];\n"
         "#declare D = <1, 2>.z;\n#declare E = 1 / 0;\n"
     )
-    hints = {d.span.line: d.hint for d in compile_source(src, "h.pov").diagnostics}
+    diags = compile_source(src, "h.pov").diagnostics
+    hints = {d.span.line: d.hint for d in diags if d.code != "W0400"}
     assert hints[1] == "call it as pow(A, B)"
     assert "3 element(s)" in hints[3]
     assert ".u .v" in hints[4]
-    assert "divisor is 0" in hints[5]
+    assert "infinite" in hints[5]  # a warning: POV-Ray divides by zero too
 
 
 def test_ignored_keywords_warn_once_per_feature_and_not_for_rendered_ones():
@@ -261,7 +266,7 @@ def test_messages_and_hints_use_the_users_words(src, words):
 
 
 def test_several_errors_in_one_file_are_all_reported():
-    src = "sphere { 0, Foo }\nbox { 0, Bar }\n}\n#declare A = 1/0;\n"
+    src = 'sphere { 0, Foo }\nbox { 0, Bar }\n}\n#declare A = 1 + "s";\n'
     errs = [d for d in compile_source(src, "m.pov").diagnostics if d.severity is Severity.ERROR]
     lines = {d.span.line for d in errs}
     assert {1, 2, 3, 4} <= lines
@@ -414,7 +419,7 @@ def test_runtime_failures_name_the_object_that_caused_them(tmp_path):
 def test_a_value_that_failed_is_reported_once_not_again_as_missing():
     src = (
         "#declare Radius = 1;\nsphere { 0, Radiuss pigment { rgb 1 } }\n"
-        "light_source { <0, 1, 0>, Colr }\nbox { 0, 1/0 }\nbox { 0, 1, 2 }\n"
+        'light_source { <0, 1, 0>, Colr }\nbox { 0, 1 + "s" }\nbox { 0, 1, 2 }\n'
     )
     errs = [d for d in compile_source(src, "c.pov").diagnostics if d.severity is Severity.ERROR]
     assert [(d.code, d.span.line) for d in errs] == [

@@ -260,12 +260,23 @@ def test_declare_values_and_promotion():
 
 
 def test_expression_errors_have_locations():
-    r = run('#declare A = 1;\n#declare B = A / 0;\n#declare C = sqrt(-1);\n#declare D = A + "s";')
+    r = run('#declare A = 1;\n#declare B = A - "t";\n#declare C = sqrt(-1);\n#declare D = A + "s";')
     errs = errors(r)
     assert [e.span.line for e in errs] == [2, 3, 4]
-    assert "division by zero" in errs[0].message
+    assert "string" in errs[0].message
     assert "square root" in errs[1].message
     assert "A" in r.symbols and "B" not in r.symbols
+
+
+def test_a_zero_divisor_warns_and_gives_infinity_as_povray():
+    r = run("#declare A = 1;\n#declare B = -A / 0;\n#declare V = <1, 2, 3> / <0, 1, 0>;")
+    assert not errors(r)
+    assert [(d.code, d.span.line) for d in r.diagnostics if d.code == "W0309"] == [
+        ("W0309", 2),
+        ("W0309", 3),
+    ]
+    assert r.symbols["B"] == math.inf
+    assert tuple(r.symbols["V"]) == (math.inf, 2.0, math.inf)
 
 
 def test_unknown_identifier_did_you_mean():
@@ -660,7 +671,9 @@ def test_a_file_that_cannot_be_written_is_the_fopens_error(tmp_path):
 def test_image_size_constants():
     r = ok("#declare R = image_width / image_height;", image_width=640, image_height=480)
     assert math.isclose(r.symbols["R"], 4 / 3)
-    assert errors(run("#declare R = image_width / image_height;"))  # 0/0 unless given
+    # 0/0 unless given: POV-Ray's warning and infinite quotient
+    unset = run("#declare R = image_width / image_height;")
+    assert "W0309" in [d.code for d in unset.diagnostics] and unset.symbols["R"] == math.inf
 
 
 def test_user_functions():

@@ -151,7 +151,8 @@ class CameraBuilder:
             new_right = _cross(c.sky, new_dir)
             if all(abs(v) < CAMERA_EPSILON for v in new_right):
                 self.warnings.append(
-                    "the camera looks along its sky vector; keeping the given right vector"
+                    "Camera location to look_at direction and sky direction should be "
+                    "different. Using default/supplied right vector instead."
                 )
                 new_right = right
             new_right = _unit(new_right)
@@ -169,6 +170,12 @@ class CameraBuilder:
         c = replace(c, direction=direction, right=right, up=up)
         if not transforms.is_identity(self.transform):
             c = transform_camera(c, self.transform)
+        # POV-Ray's Parse_Camera ends by checking the vectors it will render with
+        pairs = ((c.right, c.up), (c.right, c.direction), (c.up, c.direction))
+        if any(abs(_dot(a, b)) > CAMERA_EPSILON for a, b in pairs):
+            self.warnings.append(
+                "Camera vectors are not perpendicular. Making look_at the last statement may help."
+            )
         return c
 
 

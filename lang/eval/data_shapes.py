@@ -257,8 +257,22 @@ def _prism(cur: Cursor) -> ir.Prism:
     while (w := cur.word("open", "sturm")) is not None:
         open_ |= w == "open"
         sturm |= w == "sturm"
+    spline = spline or "linear_spline"
+    closed, start = _prism_closed(spline, pts)
+    if not closed:
+        if spline == "linear_spline":
+            # POV-Ray's Parse_Prism adds the first point of the last outline
+            cur.it.sink.warning("W0309", "Linear prism not closed. Closing it.", cur.span)
+            pts = [*pts, start]
+        elif spline == "bezier_spline":
+            cur.it.sink.warning("W0303", "Prism not closed. Ignoring it.", cur.span)
+            return ir.Unsupported("prism")
+        else:
+            # flagged degenerate, and then Compute_Prism runs out of points: the parse stops
+            cur.it.sink.warning("W0303", "Prism not closed. Ignoring it.", cur.span)
+            raise cur.it.error("E0290", "Too few points in prism.", cur.span)
     return ir.Prism(
-        spline or "linear_spline",
+        spline,
         sweep or "linear_sweep",
         h1,
         h2,
@@ -266,6 +280,45 @@ def _prism(cur: Cursor) -> ir.Prism:
         open_,
         sturm,
     )
+
+
+def _near(a, b) -> bool:
+    return abs(a[0] - b[0]) <= 1e-10 and abs(a[1] - b[1]) <= 1e-10
+
+
+def _prism_closed(spline: str, pts) -> tuple[bool, Any]:
+    """Whether a prism's outlines close, as POV-Ray's Parse_Prism scans them, and the first
+    point of the last outline. A linear, quadratic or cubic outline closes on its first
+    point (the second, for the curves, whose first is a control point) and the next outline
+    starts after it; a Bézier one is read in segments of four points, an outline ending
+    where a segment does not join."""
+    n = len(pts)
+    if n == 0:
+        return True, None
+    if spline == "bezier_spline":
+        start = 0
+        for i in range(4, n, 4):
+            if not _near(pts[i], pts[i - 1]):
+                if not _near(pts[i - 1], pts[start]):
+                    return False, None
+                start = i
+        return _near(pts[n - 1], pts[start]), None
+    step = {"linear_spline": 1, "quadratic_spline": 2, "cubic_spline": 3}.get(spline)
+    if step is None:
+        return True, None
+    first = 0 if step == 1 else 1
+    if first >= n:
+        return False, None
+    p, closed, i = pts[first], False, first + 1
+    while i < n:
+        closed = False
+        if _near(p, pts[i]):
+            i += step
+            if i < n:
+                p = pts[i]
+            closed = True
+        i += 1
+    return closed, p
 
 
 def _text(cur: Cursor) -> ir.Text:
@@ -517,7 +570,7 @@ def _isosurface(it: BuildContext, node: syntax.Block, spec: schema.BlockSpec) ->
             opts[e.value] = cur.number(f"the {e.value.replace('_', ' ')}")
         elif e.kind == "kw" and e.value == "all_intersections":
             cur.i += 1
-            opts["max_trace"] = 0
+            opts["max_trace"] = None  # all of them: strala's max_trace 0, set below
         elif e.kind == "kw" and e.value == "open":
             opts["open"] = cur.flag("open")
         elif e.kind == "kw" and e.value == "evaluate":
@@ -534,16 +587,48 @@ def _isosurface(it: BuildContext, node: syntax.Block, spec: schema.BlockSpec) ->
         raise it.error("E0202", "`isosurface` needs a function { … }", where, USAGE["isosurface"])
     if fn.kind != "float":
         raise it.error("E0202", "an isosurface's function gives a float, not a colour", where)
-    for name in ("accuracy", "max_gradient"):
-        if name in opts and not opts[name] > 0:
-            raise it.error("E0202", f"the isosurface's {name} must be positive", where)
-    if "max_trace" in opts:
-        opts["max_trace"] = max(0, int(opts["max_trace"]))
+    _iso_repairs(it, opts, where)
     if container is not None:
         opts["container"] = container
     shape = ir.Isosurface(fn, **opts)
     obj = ObjectValue(shape, "isosurface", span=node.span, default=it.default_texture)
     return surfaces.apply_object_items(it, obj, g)
+
+
+# strala's max_trace for all_intersections; POV-Ray's ISOSURFACE_MAXTRACE bounds a given one
+ALL_INTERSECTIONS = 0
+ISO_MAX_TRACE = 10
+
+
+def _iso_repairs(it: BuildContext, opts: dict[str, Any], where: Span) -> None:
+    """POV-Ray's Parse_Isosurface replaces what it cannot use by its defaults, warning."""
+    if "accuracy" in opts and not opts["accuracy"] > 0:
+        it.sink.warning(
+            "W0309", "Isosurface 'accuracy' is not positive. Using 0.001 (default).", where
+        )
+        opts["accuracy"] = 0.001
+    if "max_gradient" in opts and not opts["max_gradient"] > 0:
+        it.sink.warning(
+            "W0309", "Isosurface 'max_gradient' is not positive. Using 1.1 (default).", where
+        )
+        opts["max_gradient"] = 1.1
+    if "max_trace" in opts and opts["max_trace"] is None:
+        opts["max_trace"] = ALL_INTERSECTIONS
+    elif "max_trace" in opts:
+        n = int(opts["max_trace"])
+        if n > ISO_MAX_TRACE:
+            it.sink.warning(
+                "W0309",
+                f"Isosurface 'max_trace' exceeds maximum of {ISO_MAX_TRACE}. Using maximum.",
+                where,
+            )
+            n = ISO_MAX_TRACE
+        elif n < 1:
+            it.sink.warning(
+                "W0309", "Isosurface 'max_trace' is not positive. Using 1 (default).", where
+            )
+            n = 1
+        opts["max_trace"] = n
 
 
 def _container(it: BuildContext, node: syntax.Block) -> ir.Box | ir.Sphere | None:

@@ -124,7 +124,7 @@ def _e_binary(it: BuildContext, node: syntax.Binary) -> Any:
     try:
         return builtins.binary(node.op, a, b)
     except EvalError as e:
-        raise it.error("E0203", e.message, node.span, e.hint) from None
+        return _lenient(it, e, node.span, lambda: builtins.divide_as_povray(a, b))
 
 
 def _e_ternary(it: BuildContext, node: syntax.Ternary) -> Any:
@@ -207,7 +207,7 @@ def _e_call(it: BuildContext, node: syntax.Call) -> Any:
         try:
             return builtins.call(node.name, args, it.state)
         except EvalError as e:
-            raise it.error("E0203", e.message, node.span, e.hint) from None
+            return _lenient(it, e, node.span, lambda: Vec((0.0, 0.0, 0.0)))
     found, v = it.lookup(node.name)
     if not found:
         raise it.unknown_ident(node.name, node.span)
@@ -289,18 +289,19 @@ def _e_color(it: BuildContext, node: syntax.ColorCtor) -> ColorValue:
             if isinstance(v, float | int):
                 p = [float(v)] * n
             elif isinstance(v, Vec):
-                if len(v) < n and len(v) != 3:
-                    raise it.error("E0202", f"`{kind}` needs a {n}-component vector", node.span)
-                p = list(v.padded(n))
+                p = [float(x) for x in v][:5]
+                if len(p) > n:
+                    # POV-Ray's Parse_Colour: the components given fill red, green, blue,
+                    # filter, transmit in turn, however many the keyword names; fewer are
+                    # padded with zeros
+                    it.sink.warning("W0313", f"Suspicious expression after {kind}.", node.span)
             else:
                 raise it.error("E0202", f"`{kind}` needs a vector, not {describe(v)}", node.span)
-            c = p[:3] + [0.0, 0.0]
-            if base == "rgbf":
-                c[3] = p[3]
-            elif base == "rgbt":
-                c[4] = p[3]
-            elif base == "rgbft":
-                c[3], c[4] = p[3], p[4]
+            c = (p + [0.0] * 5)[:5]
+            if base == "rgbt":  # its fourth component is the transmit
+                c[3], c[4] = 0.0, c[3]
+            elif base == "rgb" and len(p) == 3:
+                c[3] = c[4] = 0.0
             if kind.startswith("s"):
                 c[:3] = [_from_srgb(it, x) for x in c[:3]]
     idx = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}
@@ -387,6 +388,20 @@ EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
 }
 
 
+def _lenient(it: BuildContext, e: EvalError, span, repaired: Callable[[], Any]) -> Any:
+    """An evaluation error that POV-Ray repairs with a warning gives its repair; any other
+    is the located error E0203. A zero divisor gives infinity (express.cpp,
+    Parse_Mult_Factor: "Divide by zero."), vnormalize(<0,0,0>) the zero vector
+    (Parse_Vector_Factor: "Normalizing zero-length vector.", a possible error)."""
+    if e.message == builtins.ZERO_DIVISION:
+        it.sink.warning("W0309", "Divide by zero.", span, "POV-Ray makes the quotient infinite")
+        return repaired()
+    if e.message == builtins.ZERO_NORMALIZE:
+        it.sink.warning("W0309", "Normalizing zero-length vector.", span, "POV-Ray gives <0,0,0>")
+        return repaired()
+    raise it.error("E0203", e.message, span, e.hint) from None
+
+
 def _clamped_domain(it: BuildContext, node: syntax.Call, v: Any) -> Any:
     """POV-Ray's acos and asin (express.cpp, Parse_Num_Factor) warn "Domain error in acos."
     for an argument outside [-1, 1] and use the nearer end (acos(1.0000001) from rounding in
@@ -465,7 +480,7 @@ def _compile_binary(node: syntax.Binary) -> Compiled:
                 return fast(a, b)
             return builtins.binary(op, a, b)
         except EvalError as e:
-            raise it.error("E0203", e.message, span, e.hint) from None
+            return _lenient(it, e, span, lambda: builtins.divide_as_povray(a, b))
 
     return binary
 
@@ -490,6 +505,6 @@ def _compile_call(node: syntax.Call) -> Compiled:
         try:
             return call(name, [a(it) for a in args], it.state)
         except EvalError as e:
-            raise it.error("E0203", e.message, span, e.hint) from None
+            return _lenient(it, e, span, lambda: Vec((0.0, 0.0, 0.0)))
 
     return builtin

@@ -125,6 +125,10 @@ def group(
             items.append((k, [e.value], e.span))
         elif k == "unsupported":
             it.unsupported(e.value.keyword, e.span)
+        elif k == "color" and spec.produces == "object":
+            # POV-Ray's Parse_Object_Mods reads a colour among an object's modifiers (the
+            # pre-1.5 "quick colour"), warns and drops it
+            it.sink.warning("W0312", "Quick color belongs in texture. Color ignored.", e.span)
         elif not loose:
             it.sink.error(
                 "E0212",

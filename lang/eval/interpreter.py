@@ -42,6 +42,7 @@ from lang.eval.elements import (
     Quiet,
     Statement,
 )
+from lang.eval.scene import settings_at_top
 from lang.ir_ops import (
     collect_lights,
     transform_interior,
@@ -239,7 +240,7 @@ class Interpreter:
             els = self.expand(tree.body, None, top=True)
             if self.cut_braces:
                 els = cuts.report_loose(self, els, "the scene")
-            for el in els:
+            for el in settings_at_top(self, els):
                 self._top_level(el)
         finally:
             sys.setrecursionlimit(old_limit)

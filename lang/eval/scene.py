@@ -184,15 +184,100 @@ def _camera_copy(it: BuildContext, g: Grouped, node: syntax.Block, base) -> Came
     return CameraValue(cam, look)
 
 
+# POV-Ray's MAX_TRACE_LEVEL_LIMIT: a larger max_trace_level is lowered to it, with a warning
+MAX_TRACE_LEVEL = 256
+
+
+def trace_level(it: BuildContext, v: float, span) -> int:
+    """A max_trace_level as POV-Ray's parser keeps it: truncated, at least 1, at most 256."""
+    level = max(1, int(v))
+    if level > MAX_TRACE_LEVEL:
+        it.sink.warning(
+            "W0309",
+            f"Maximum max_trace_level is {MAX_TRACE_LEVEL} but {level} was specified. "
+            f"Going to use max_trace_level {MAX_TRACE_LEVEL}.",
+            span,
+        )
+        level = MAX_TRACE_LEVEL
+    return level
+
+
+def _no_max_intersections(it: BuildContext, span) -> None:
+    if it.version < 3.7:
+        return
+    it.sink.warning(
+        "W0312",
+        "'max_intersections' is no longer needed and has no effect in POV-Ray 3.7 or later.",
+        span,
+        "remove it",
+    )
+
+
+def settings_at_top(it: BuildContext, els: list) -> list:
+    """What POV-Ray's Parse_Frame warns about among the scene's top-level elements.
+    `max_trace_level N` outside global_settings, which it still reads (a possible error
+    under 3.5+), is applied as if in global_settings; a second camera or sky_sphere
+    replaces the first.
+    The other elements are returned for the top level."""
+    out = []
+    i, n = 0, len(els)
+    cameras = skies = 0
+    while i < n:
+        el = els[i]
+        if isinstance(el.value, Statement) and el.value.kind == "sky_sphere":
+            skies += 1
+            if skies >= 2:
+                it.sink.warning(
+                    "W0312", "Only one sky-sphere allowed (last one will be used).", el.span
+                )
+        if isinstance(el.value, CameraValue):
+            cameras += 1
+            if cameras >= 2 and it.version >= 3.5:
+                it.sink.warning(
+                    "W0312",
+                    "More than one camera in scene. Ignoring previous camera(s).",
+                    el.span,
+                    "the last camera is the one rendered",
+                )
+        if el.kind == "kw" and el.value == "max_intersections" and i + 1 < n:
+            nxt = els[i + 1]
+            if nxt.kind == "val" and isinstance(nxt.value, int | float):
+                _no_max_intersections(it, el.span)
+                i += 2
+                continue
+        if el.kind == "kw" and el.value == "max_trace_level" and i + 1 < n:
+            nxt = els[i + 1]
+            if nxt.kind == "val" and isinstance(nxt.value, int | float):
+                it.sink.warning(
+                    "W0314",
+                    "'max_trace_level' should be in global_settings block. "
+                    "Future versions may not support 'max_trace_level' outside global_settings.",
+                    el.span,
+                    "move it into `global_settings { }`",
+                )
+                it.settings["max_trace_level"] = trace_level(it, nxt.value, nxt.span)
+                i += 2
+                continue
+        out.append(el)
+        i += 1
+    return out
+
+
 def _b_global_settings(it: BuildContext, g: Grouped, node: syntax.Block) -> None:
     s = it.settings
     for name, args, span in g.items:
         if name == "assumed_gamma":
             if args[0] <= 0:
                 raise it.error("E0202", "assumed_gamma must be positive", span)
-            s["assumed_gamma"] = args[0]
+            if s.get("assumed_gamma") is not None:
+                # POV-Ray's Parse_Global_Settings: the first one stands
+                it.sink.warning("W0312", "New instance of assumed_gamma ignored", span)
+            else:
+                s["assumed_gamma"] = args[0]
+        elif name == "max_intersections":
+            _no_max_intersections(it, span)
         elif name == "max_trace_level":
-            s["max_trace_level"] = max(1, args[0])
+            s["max_trace_level"] = trace_level(it, args[0], span)
         elif name == "adc_bailout":
             s["adc_bailout"] = args[0]
         elif name == "ambient_light":

@@ -201,8 +201,12 @@ def _b_shape(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     elif kw == "box":
         shape = ir.Box(p["corner1"], p["corner2"])
     elif kw == "cylinder":
+        _refuse_degenerate_axis(
+            it, p["base"], p["cap"], "Degenerate cylinder, base point = apex point.", g.span
+        )
         shape = ir.Cylinder(p["base"], p["cap"], p["radius"], open="open" in flags)
     elif kw == "cone":
+        _refuse_degenerate_axis(it, p["base"], p["cap"], "Degenerate cone/cylinder.", g.span)
         shape = ir.Cone(
             p["base"], p["base_radius"], p["cap"], p["cap_radius"], open="open" in flags
         )
@@ -213,20 +217,88 @@ def _b_shape(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     elif kw == "polygon":
         pts = [as_vec(v, 3).xyz for v in p["points"]]
         if len(pts) != p["count"]:
-            it.sink.warning(
-                "W0302", f"`polygon` declares {p['count']} points but lists {len(pts)}", g.span
+            # POV-Ray reads exactly the declared number of points: the parse stops at the
+            # first missing one or at the first extra one
+            raise it.error(
+                "E0290",
+                f"`polygon` declares {p['count']} points but lists {len(pts)}",
+                g.span,
+                "make the count match the points listed",
             )
         if len(pts) < 3:
             raise it.error("E0202", "a polygon needs at least 3 points", g.span)
+        if not _polygon_closed(pts):
+            # POV-Ray's Parse_Polygon adds the first point of the last sub-polygon
+            it.sink.warning("W0309", "Polygon not closed. Closing it.", g.span)
         shape = ir.Polygon(tuple(pts))
     elif kw == "triangle":
+        _warn_degenerate_triangle(it, (p["p1"], p["p2"], p["p3"]), (), g.span)
         shape = ir.Triangle(p["p1"], p["p2"], p["p3"])
     elif kw == "smooth_triangle":
-        shape = ir.Triangle(p["p1"], p["p2"], p["p3"], normals=(p["n1"], p["n2"], p["n3"]))
+        normals = (p["n1"], p["n2"], p["n3"])
+        _warn_degenerate_triangle(it, (p["p1"], p["p2"], p["p3"]), normals, g.span)
+        shape = ir.Triangle(p["p1"], p["p2"], p["p3"], normals=normals)
     else:
         raise it.error("E0200", f"no builder for `{kw}`", g.span)
     obj = ObjectValue(shape, kw, span=node.span, default=it.default_texture)
     return apply_object_items(it, obj, g)
+
+
+def _polygon_closed(pts: list) -> bool:
+    """Whether a polygon's last sub-polygon ends on its first point (within POV-Ray's
+    EPSILON per axis), as Parse_Polygon scans it: a repeated first point closes a
+    sub-polygon and the next point starts one."""
+    start, closed, i = pts[0], False, 1
+    while i < len(pts):
+        closed = False
+        if all(abs(a - b) < 1e-10 for a, b in zip(start, pts[i], strict=True)):
+            i += 1
+            if i < len(pts):
+                start = pts[i]
+            closed = True
+        i += 1
+    return closed
+
+
+DEGENERATE_TRIANGLE = "Degenerate triangle. Please remove."
+
+
+def _mesh_triangles_are_not_warned(it: BuildContext, span: Span) -> None:
+    """A mesh's triangles are read by POV-Ray's Parse_Mesh, which drops the degenerate ones
+    silently: the warnings their blocks gave inside the mesh are taken back."""
+
+    def inside(s: Span) -> bool:
+        return s.file == span.file and (span.line, span.col) <= (s.line, s.col) <= (
+            span.end_line,
+            span.end_col,
+        )
+
+    it.sink.items[:] = [
+        d for d in it.sink.items if not (d.message == DEGENERATE_TRIANGLE and inside(d.span))
+    ]
+
+
+def _warn_degenerate_triangle(it: BuildContext, pts, normals, span) -> None:
+    """POV-Ray's Parse_Triangle and Parse_Smooth_Triangle warn when the corners span no
+    area (Compute_Triangle: the edges' cross product is exactly zero) or a normal is zero;
+    the triangle renders nothing."""
+    a, b, c = (tuple(float(x) for x in v) for v in pts)
+    e1 = (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+    e2 = (c[0] - b[0], c[1] - b[1], c[2] - b[2])
+    cross = (
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    )
+    if cross == (0.0, 0.0, 0.0) or any(tuple(n) == (0.0, 0.0, 0.0) for n in normals):
+        it.sink.warning("W0303", DEGENERATE_TRIANGLE, span)
+
+
+def _refuse_degenerate_axis(it: BuildContext, base, cap, message: str, span) -> None:
+    """POV-Ray's Compute_Cone_Data and Compute_Cylinder_Data (cones.cpp) stop the parse when
+    the axis is shorter than EPSILON: the scene is refused, in its words."""
+    if math.dist(base, cap) < 1e-10:
+        raise it.error("E0290", message, span, "move the cap away from the base")
 
 
 def _b_csg(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
@@ -242,6 +314,16 @@ def _b_csg(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     if not obj.children:
         it.sink.warning("W0304", f"`{node.keyword}` has no objects", g.span)
         obj.shape = ir.Unsupported(node.keyword)
+    elif len(obj.children) + len(obj.lights) < 2 and not (
+        node.body and isinstance(node.body[0], syntax.Ident)
+    ):
+        # POV-Ray's Parse_CSG; `union { Name … }` is read as a copy of Name (Parse_Object_Id)
+        it.sink.warning(
+            "W0313",
+            "Should have at least 2 objects in csg.",
+            node.keyword_span or g.span,
+            "a CSG of one object renders as that object",
+        )
     return apply_object_items(it, obj, Grouped(g.positional, mods, g.span))
 
 
@@ -267,11 +349,27 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     textures: list[ir.Texture] = []
     smooth = False
     mods = []
+    _mesh_triangles_are_not_warned(it, node.span)
+    zero_normal = False
     for name, args, span in g.items:
         if name != "object":
             mods.append((name, args, span))
             continue
         tri = args[0]
+        if isinstance(tri.shape, ir.Triangle) and tri.shape.normals is not None:
+            if any(tuple(n) == (0.0, 0.0, 0.0) for n in tri.shape.normals):
+                # POV-Ray's Parse_Mesh: warned once, the normal becomes <1,0,0>
+                if not zero_normal:
+                    it.sink.warning(
+                        "W0309",
+                        "Normal vector in mesh cannot be zero - changing it to <1,0,0>.",
+                        span,
+                    )
+                zero_normal = True
+                fixed = tuple(
+                    (1.0, 0.0, 0.0) if tuple(n) == (0.0, 0.0, 0.0) else n for n in tri.shape.normals
+                )
+                tri = replace(tri, shape=replace(tri.shape, normals=fixed))
         if isinstance(tri.shape, ir.Mesh) and not tri.children:  # `mesh { Declared_Mesh }`
             base = len(verts)
             verts.extend(transforms.apply_point(tri.transform, q) for q in tri.shape.vertices)

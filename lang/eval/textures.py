@@ -393,8 +393,9 @@ def _b_finish(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Finish:
             if args[1] is not None:
                 f = replace(f, diffuse_back=args[1])
         elif name in ("brilliance", "specular", "roughness", "phong", "phong_size", "crand"):
-            if name == "roughness" and v <= 0:
-                raise it.error("E0202", "roughness must be positive", span)
+            if name == "roughness" and v == 0:
+                # POV-Ray's Parse_Finish keeps it: the highlight's exponent becomes 0
+                it.sink.warning("W0313", "Zero roughness used.", span)
             f = replace(f, **{name: v})
         elif name == "metallic":
             f = replace(f, metallic=1.0 if v is None else v)
