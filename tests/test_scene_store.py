@@ -187,7 +187,7 @@ FILE_ACCESS = {
     ("paths", "povray_include"): "searched last: a stored scene found its files before it",
     ("paths", "povray_ini"): "read before evaluating: its library folders are in the key",
     ("ini", "ini_tokens"): "read before evaluating: its library folders are in the key",
-    ("eval.interpreter", "_d_fileop"): "file I/O: depends_outside",
+    ("eval.fileio", "file_op"): "file I/O: depends_outside",
     ("eval.textures", "_unreadable_image"): "after resolve found the image: depends_outside",
     ("builtins", "_file_exists"): "sets BuiltinState.looked_outside",
     ("eval.data_shapes", "_font_fallback"): "text objects call depends_outside",

@@ -15,7 +15,7 @@ if TYPE_CHECKING:
     from lang import builtins, ir, schema, syntax
     from lang.diagnostics import DiagnosticSink, SceneError, Span
     from lang.eval.elements import El, Grouped
-    from lang.values import FunctionValue, ObjectValue
+    from lang.values import FileHandle, FunctionValue, ObjectValue
 
 
 class BuildContext(Protocol):
@@ -34,6 +34,8 @@ class BuildContext(Protocol):
     main_file: str
     loose_depth: int  # > 0: inside a block whose items are read leniently (no errors)
     blob_depth: int  # > 0: inside a blob body, where sphere/cylinder are components
+    handles: dict[str, FileHandle]  # the files #fopen opened, by their names
+    allow_file_io: bool  # False while checking: #fopen does nothing
 
     def error(self, code: str, message: str, span: Span, hint: str | None = None) -> SceneError:
         """A SceneError to raise; reported once it reaches the element being expanded."""
@@ -69,6 +71,10 @@ class BuildContext(Protocol):
     def lookup(self, name: str) -> tuple[bool, Any]: ...
 
     def declare(self, name: str, value: Any, local: bool) -> None: ...
+
+    def undeclare(self, name: str) -> None:
+        """Remove the innermost binding of `name`, if any."""
+        ...
 
     def assign(self, node: syntax.Declare, value: Any) -> None:
         """What `#declare` (or `#local`) does with its value once it has one."""

@@ -244,7 +244,7 @@ def _sor(cur: Cursor) -> ir.Sor:
     return ir.Sor(pts, open_, sturm)  # type: ignore[arg-type]
 
 
-def _prism(cur: Cursor) -> ir.Prism:
+def _prism(cur: Cursor) -> ir.Prism | ir.Unsupported:
     sweep = spline = None
     for _ in range(2):
         sweep = sweep or cur.word("linear_sweep", "conic_sweep")
@@ -263,7 +263,7 @@ def _prism(cur: Cursor) -> ir.Prism:
         if spline == "linear_spline":
             # POV-Ray's Parse_Prism adds the first point of the last outline
             cur.it.sink.warning("W0309", "Linear prism not closed. Closing it.", cur.span)
-            pts = [*pts, start]
+            pts = (*pts, start)
         elif spline == "bezier_spline":
             cur.it.sink.warning("W0303", "Prism not closed. Ignoring it.", cur.span)
             return ir.Unsupported("prism")

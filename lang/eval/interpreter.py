@@ -32,7 +32,16 @@ from lang import (
 )
 from lang.builtins import EvalError, as_float
 from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
-from lang.eval import cuts, data_shapes, expressions, functions, grouping, splines, surfaces
+from lang.eval import (
+    cuts,
+    data_shapes,
+    expressions,
+    fileio,
+    functions,
+    grouping,
+    splines,
+    surfaces,
+)
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
 from lang.eval.elements import (
@@ -53,7 +62,6 @@ from lang.queries import QueriesFactory, SceneQueries
 from lang.values import (
     ArrayValue,
     CameraValue,
-    ColorValue,
     FileHandle,
     FunctionValue,
     ListValue,
@@ -134,11 +142,6 @@ def _finish_interior(inter: ir.Interior, tex: ir.Texture) -> ir.Interior:
 
 
 _INHERITED_FLAGS = ("no_shadow", "no_reflection", "no_image", "hollow", "double_illuminate")
-
-
-_READ_TOKEN = re.compile(
-    r'\s*(?:"((?:[^"\\]|\\.)*)"|<([^>]*)>|([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?))\s*,?'
-)
 
 
 # bound once: eval() is the evaluator's hottest call
@@ -246,7 +249,7 @@ class Interpreter:
             sys.setrecursionlimit(old_limit)
             self.file_stack.pop()
         for h in list(self.handles.values()):
-            self._flush(h)
+            fileio.flush(self, h)
         for name, span in self.main_declares.items():
             if name not in self.used:
                 self.sink.warning(
@@ -976,122 +979,13 @@ class Interpreter:
 
     # ---- file I/O (inside the scene's folder only, and never while checking)
     def _d_fileop(self, node: syntax.FileOp, out, spec) -> None:
-        self.depends_outside("file I/O")
-        if node.op == "fopen":
-            name = self.eval(node.args[0])
-            if not isinstance(name, str):
-                raise self.error("E0260", "#fopen needs a file name string", node.span)
-            if not self.allow_file_io:
-                self.warn_once(
-                    "fileio", "file I/O is off while checking; #fopen ignored", node.span
-                )
-                if node.mode == "read":
-                    return  # the handle stays undefined, as at the end of a file
-                self.handles[node.handle] = FileHandle("", "discard")
-                self.declare(node.handle, self.handles[node.handle], False)
-                return
-            folder = Path(self.state.folder)
-            path = (folder / name).resolve()
-            if not path.is_relative_to(folder):
-                raise self.error(
-                    "E0260",
-                    f"`{name}` is outside the scene's folder",
-                    node.span,
-                    "scenes may only read and write files beside them",
-                )
-            h = FileHandle(str(path), node.mode or "read", span=node.span)
-            if h.mode != "read" and (path.is_dir() or not path.parent.is_dir()):
-                why = "it is a folder" if path.is_dir() else "its folder does not exist"
-                raise self.error(
-                    "E0260", f"cannot open user file `{name}` ({h.mode}): {why}", node.span
-                )  # POV-Ray: "Cannot open user file … (write)."
-            if h.mode == "read":
-                try:
-                    text = path.read_text(errors="replace")
-                except OSError as e:
-                    raise self.error(
-                        "E0260", f"cannot open `{name}`: {e.strerror}", node.span
-                    ) from None
-                h.lines = [m.group(0) for m in _READ_TOKEN.finditer(text)]
-            elif h.mode == "append" and path.exists():
-                try:
-                    h.lines = [path.read_text(errors="replace")]
-                except OSError as e:
-                    raise self.error(
-                        "E0260", f"cannot open `{name}` to append: {e.strerror}", node.span
-                    ) from None
-            self.handles[node.handle] = h
-            self.declare(node.handle, h, False)
-            return
-        got = self.handles.get(node.handle)
-        if got is None:
-            # POV-Ray: a #read that reaches the end of the file closes it and undefines its
-            # name, so a later #fclose of it (or of any name not open) does nothing
-            if node.op in ("read", "fclose") or not self.allow_file_io:
-                return
-            raise self.error("E0260", f"`{node.handle}` is not an open file", node.span)
-        h = got
-        if node.op == "fclose":
-            self._flush(h)
-            self.handles.pop(node.handle, None)
-            scope = self._scope_of(node.handle)
-            if scope is not None:
-                del scope[node.handle]
-        elif node.op == "write":
-            for a in node.args:
-                h.lines.append(self._format_write(self.eval(a)))
-        elif node.op == "read":
-            for a in node.args:
-                if not isinstance(a, syntax.Ident):
-                    raise self.error("E0260", "#read stores into names", a.span)
-                if h.pos >= len(h.lines):
-                    scope = self._scope_of(node.handle)
-                    if scope is not None:
-                        del scope[node.handle]
-                    self.handles.pop(node.handle, None)
-                    return
-                m = _READ_TOKEN.match(h.lines[h.pos])
-                h.pos += 1
-                if m is None:
-                    raise self.error(
-                        "E0260",
-                        f"`{node.handle}` holds no string, vector or number to #read here",
-                        a.span,
-                        "#read reads what #write wrote: strings, vectors, numbers",
-                    )
-                if m.group(1) is not None:
-                    value: Any = m.group(1)
-                elif m.group(2) is not None:
-                    value = Vec(float(c) for c in m.group(2).split(","))
-                else:
-                    value = float(m.group(3))
-                self.declare(a.name, value, False)
-            if h.pos >= len(h.lines):
-                scope = self._scope_of(node.handle)
-                if scope is not None:
-                    del scope[node.handle]
-                self.handles.pop(node.handle, None)
+        fileio.file_op(self, node)
 
-    def _format_write(self, v: Any) -> str:
-        if isinstance(v, str):
-            return v
-        if isinstance(v, float):
-            return f"{v:g}"
-        if isinstance(v, Vec):
-            return "<" + ",".join(f"{c:g}" for c in v) + ">"
-        if isinstance(v, ColorValue):
-            return "<" + ",".join(f"{c:g}" for c in v.rgbft) + ">"
-        raise EvalError(f"#write cannot write {describe(v)}")
-
-    def _flush(self, h: FileHandle) -> None:
-        """Write what #write gave the file; a failure is the #fopen's error."""
-        if h.mode in ("write", "append") and h.path:
-            h.mode = "closed"
-            try:
-                Path(h.path).write_text("".join(h.lines))
-            except OSError as e:
-                where = h.span or Span(self.main_file, 1, 1, 1, 1)
-                self.sink.error("E0260", f"cannot write `{h.path}`: {e.strerror}", where)
+    def undeclare(self, name: str) -> None:
+        """Remove the innermost binding of `name`, if any."""
+        scope = self._scope_of(name)
+        if scope is not None:
+            del scope[name]
 
     # ------------------------------------------------------------ macros
     def _object_then_value(self, node: syntax.Node) -> tuple[Any, syntax.Node] | None:

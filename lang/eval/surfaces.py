@@ -366,9 +366,10 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
                         span,
                     )
                 zero_normal = True
-                fixed = tuple(
+                a, b, c = (
                     (1.0, 0.0, 0.0) if tuple(n) == (0.0, 0.0, 0.0) else n for n in tri.shape.normals
                 )
+                fixed = (a, b, c)
                 tri = replace(tri, shape=replace(tri.shape, normals=fixed))
         if isinstance(tri.shape, ir.Mesh) and not tri.children:  # `mesh { Declared_Mesh }`
             base = len(verts)
