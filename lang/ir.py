@@ -104,7 +104,9 @@ class Finish:
 
 @dataclass(frozen=True)
 class Normal:
-    """A normal perturbation pattern (`bumps 0.5 scale 0.2` …)."""
+    """A normal perturbation pattern (`bumps 0.5 scale 0.2` …). `params["no_bump_scale"]`
+    (POV-Ray's `no_bump_scale`, on the normal or its texture) keeps the bumps' height as the
+    pattern's transformations scale it: a pattern scaled up by s perturbs 1/s as much."""
 
     pattern: str
     depth: float = 0.5
@@ -163,7 +165,13 @@ class Texture:
     `average`) has `pattern` set: a Pigment that carries only the pattern (its kind, params,
     warps and transform); `map` holds its textures as (key, Texture) pairs: the list index
     for list patterns (checker, hexagon, brick, object), the map value for `texture_map`,
-    the weight for `average`. Its own pigment, finish and normal are unused."""
+    the weight for `average`. Its own pigment, finish and normal are unused. POV-Ray's
+    `tiles { A tile2 B }` is the checker texture of B then A.
+
+    `no_bump_scale` is POV-Ray's flag on the texture: the evaluator passes it to the
+    texture's normal and to its map's textures (POV-Ray's Post_Textures), where the
+    renderer reads it (the normal's params); it is kept here for a texture that gets its
+    normal later (`texture { T normal { … } }`)."""
 
     pigment: Pigment = field(default_factory=Pigment)
     finish: Finish = field(default_factory=Finish)
@@ -172,6 +180,7 @@ class Texture:
     span: Span | None = None
     pattern: Pigment | None = None
     map: tuple[tuple[float, Texture], ...] = ()
+    no_bump_scale: bool = False
 
 
 def plain_solid(tex: Texture) -> bool:

@@ -1,11 +1,12 @@
 """Transformations of evaluated values: moving a pigment, normal, texture, media, interior,
-light or object by a matrix as POV-Ray's Transform_* functions do, and collecting the
-lights a CSG carries. Pure functions of lang.ir and lang.values; used by the evaluator and
-nothing it depends on."""
+light or object by a matrix as POV-Ray's Transform_* functions do, changing the top layer
+of a layered texture, and collecting the lights a CSG carries. Pure functions of lang.ir
+and lang.values; used by the evaluator and nothing it depends on."""
 
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 from lang import ir, transforms
 from lang.values import ObjectValue
@@ -38,6 +39,21 @@ def transform_texture(t: ir.Texture, m: ir.Matrix) -> ir.Texture:
         pattern=None if t.pattern is None else transform_pigment(t.pattern, m),
         map=tuple((k, transform_texture(sub, m)) for k, sub in t.map),
     )
+
+
+def with_top_layer(t: ir.Texture, **changes: Any) -> ir.Texture:
+    """`t` with its top layer (the one written last) changed: a pigment, normal or finish
+    given to a layered texture (`texture { T_Wood20 finish { … } }`, or after it in an
+    object) changes that layer, as POV-Ray's Parse_Texture and Parse_Object_Mods change the
+    first texture of their list."""
+    if t.layers:
+        return replace(t, layers=(*t.layers[:-1], replace(t.layers[-1], **changes)))
+    return replace(t, **changes)
+
+
+def top_layer(t: ir.Texture) -> ir.Texture:
+    """The layer of `t` written last (the one on top)."""
+    return t.layers[-1] if t.layers else t
 
 
 def transform_light(light: ir.Light, m: ir.Matrix) -> ir.Light:

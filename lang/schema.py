@@ -152,6 +152,8 @@ PATTERN_ITEMS = [
     "octaves float | Turbulence octaves (default 6).",
     "omega float | Turbulence amplitude factor per octave (default 0.5).",
     "lambda float | Turbulence frequency factor per octave (default 2).",
+    "no_bump_scale | Bumps keep their height as the pattern is scaled, so a larger pattern "
+    "is gentler (normals and textures; no effect on a pigment).",
     "frequency float | Map repetitions.",
     "phase float | Map phase shift.",
     "mortar float | Brick mortar width.",
@@ -632,7 +634,6 @@ BLOCKS: dict[str, BlockSpec] = {
             NORMAL_PATTERN_ITEMS,
             [
                 "bump_size float | The depth of the perturbation.",
-                "no_bump_scale | Do not scale bumps with the object.",
                 "bump_map | An image as bumps (not rendered yet).",
             ],
         ),
@@ -755,6 +756,7 @@ BLOCKS: dict[str, BlockSpec] = {
         frozenset(
             {
                 "texture",
+                "tiles",
                 "pigment",
                 "finish",
                 "normal",
@@ -765,6 +767,15 @@ BLOCKS: dict[str, BlockSpec] = {
                 "pigment_pattern",
             }
         ),
+    ),
+    "tiles": BlockSpec(
+        "tiles",
+        "tiles",
+        "A checkerboard of two whole textures: `texture { tiles { texture {…} tile2 "
+        "texture {…} } }`, then only transformations (more textures in a tile layer it).",
+        (),
+        items(["tile2 | Starts the second tile's textures."]),
+        frozenset({"texture", "unsupported"}),
     ),
     "material": BlockSpec(
         "material",
@@ -1124,7 +1135,7 @@ OTHER_WORDS = frozenset(
             "catmull_clark four_point",
             # more of POV-Ray's words that strala does not describe
             "all alpha altitude anisotropy composite falloff_angle focal_blur mixed precompute",
-            "rainbow size spiral tile2 tiles trace_level use_color use_colour use_index width xyz",
+            "rainbow size spiral trace_level use_color use_colour use_index width xyz",
         ]
     ).split()
 )

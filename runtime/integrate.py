@@ -570,7 +570,9 @@ def shade_texture(
         fin = layer.finish
         if layer.normal is not None:
             surf = Surface(
-                normal=patterns.perturb_normal(layer.normal, pts, hit.normal[rows]),
+                normal=patterns.perturb_normal(
+                    layer.normal, pts, hit.normal[rows], layer.no_bump_scale
+                ),
                 ray_dir=hit.dirs[rows],
             )
         else:

@@ -200,7 +200,9 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
                 if (caustics != 0).any():
                     ln = nrm
                     if layer.normal is not None:
-                        ln = patterns.perturb_normal(layer.normal, pts[sel], nrm)
+                        ln = patterns.perturb_normal(
+                            layer.normal, pts[sel], nrm, layer.no_bump_scale
+                        )
                     cdot = np.abs(np.einsum("ij,ij->i", ln, rd[sel]))
                     # POV-Ray stores `caustics c` as the exponent 45 c.
                     k = np.where(

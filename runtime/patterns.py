@@ -1118,16 +1118,30 @@ def _wave_tables(count: int = 10) -> tuple[np.ndarray, np.ndarray]:
     return sources, np.array(freqs)
 
 
-def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -> np.ndarray:
+def perturb_normal(
+    normal: ir.Normal,
+    points: np.ndarray,
+    n_world: np.ndarray,
+    no_bump_scale: bool = False,
+    unit: bool = True,
+) -> np.ndarray:
     """(N,3) unit normals after a `normal { … }` pattern at world points. The perturbation
     happens in pattern space (so scaling a bump pattern scales its bumps), then the normal
-    goes back to world space."""
+    goes back to world space.
+
+    `no_bump_scale` (the texture's flag, or the normal's own `params["no_bump_scale"]`;
+    a normal_map passes it to its entries) is POV-Ray's DONT_SCALE_BUMPS_FLAG: Warp_Normal
+    and UnWarp_Normal then leave the normal's length alone, so a pattern scaled up by s
+    perturbs it 1/s as much. `unit` False (a normal_map's entry with the flag) returns the
+    perturbed normal unnormalised, as POV-Ray's Perturb_Normal leaves it to the blend."""
+    keep = no_bump_scale or bool(normal.params.get("no_bump_scale"))
     p = pattern_points(normal, points)
     lin = pattern_linear(normal)
     # Normals map with the inverse transpose: world -> pattern space is M^T n, normalised
     # there as POV-Ray does, so the bump strength does not depend on the pattern's scale.
     n = n_world if lin is None else n_world @ lin
-    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    if not keep:
+        n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     amount = float(normal.depth)
     kind = normal.pattern
     if kind == "none" or amount == 0.0:
@@ -1136,7 +1150,9 @@ def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -
         p = turbulence_warp(p, normal.params)
     nmap = normal.params.get("normal_map")
     if nmap:
-        n = _normal_map(normal, nmap, p, n)
+        n = _normal_map(normal, nmap, p, n, keep)
+        # POV-Ray normalises a normal_map's blend whatever the flag says
+        unit = unit or kind != "average"
     elif kind == "bumps":
         n = n + amount * dnoise(p)
     elif kind == "dents":
@@ -1169,22 +1185,27 @@ def perturb_normal(normal: ir.Normal, points: np.ndarray, n_world: np.ndarray) -
         n = n + (SLOPE_GAIN * amount) * _slope(kind, p, normal.params)
     if lin is not None:
         n = n @ np.linalg.inv(lin)
+    if keep and not unit:
+        return n
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return np.where(length > 0, n / np.where(length > 0, length, 1.0), n_world)
 
 
-def _normal_map(normal: ir.Normal, entries, p: np.ndarray, n: np.ndarray) -> np.ndarray:
+def _normal_map(
+    normal: ir.Normal, entries, p: np.ndarray, n: np.ndarray, keep: bool = False
+) -> np.ndarray:
     """A normal_map (POV-Ray's Perturb_Normal): the normals of the two entries around the
     pattern's value, each perturbing the normal at the pattern-space point, blended by
     weight; with `average`, every entry's normal weighted by its value (Do_Average_Normals).
-    The entries live in this normal's pattern space (their transforms come on top)."""
+    The entries live in this normal's pattern space (their transforms come on top); `keep`
+    (no_bump_scale) passes on to them, as POV-Ray's NormalBlendMap::Post does."""
     keys = np.array([k for k, _ in entries], dtype=np.float64)
     kind = normal.pattern
     if kind == "average":
         total = float(keys.sum()) or 1.0
         out = np.zeros_like(n)
         for k, sub in entries:
-            out += (k / total) * perturb_normal(sub, p, n)
+            out += (k / total) * perturb_normal(sub, p, n, keep, unit=False)
         return out
     if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS:
         _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
@@ -1198,7 +1219,7 @@ def _normal_map(normal: ir.Normal, entries, p: np.ndarray, n: np.ndarray) -> np.
             continue
         f = frac[rows]
         w = np.where(lo[rows] == i, 1.0 - f, 0.0) + np.where(hi[rows] == i, f, 0.0)
-        out[rows] += w[:, None] * perturb_normal(sub, p[rows], n[rows])
+        out[rows] += w[:, None] * perturb_normal(sub, p[rows], n[rows], keep, unit=False)
     return out
 
 

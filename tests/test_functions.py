@@ -139,6 +139,13 @@ def test_constants_are_bound_when_the_function_is_declared():
     assert f(3.0, 0.0, 0.0) == pytest.approx(11.0)
 
 
+def test_u_and_v_name_the_first_two_default_parameters():
+    # POV-Ray: a function of no declared parameters takes x, y, z, also called u and v
+    # (a parametric's functions are written in u and v)
+    f = compile_function(fn_of("#declare F = function { u * 10 + v - z }"))
+    assert f(3.0, 2.0, 1.0) == pytest.approx(31.0)
+
+
 def test_functions_call_functions_with_their_own_parameters():
     src = """#declare G = function(a, b) { a * 10 + b }
     #declare F = function { G(y, x) - G(1, 2) }"""

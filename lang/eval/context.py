@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 if TYPE_CHECKING:
     from lang import builtins, ir, schema, syntax
     from lang.diagnostics import DiagnosticSink, SceneError, Span
+    from lang.eval.edits import Edits
     from lang.eval.elements import El, Grouped
     from lang.values import FileHandle, FunctionValue, ObjectValue
 
@@ -24,6 +25,7 @@ class BuildContext(Protocol):
     state: builtins.BuiltinState
     settings: dict[str, Any]
     default_texture: ir.Texture
+    edits: Edits  # blocks that modify what they are written into (lang.eval.edits)
     deprecated: dict[str, list]
     animation: dict[str, float]
     fn_bindings: list[dict[str, float]]

@@ -111,6 +111,10 @@ def _image_size(it: BuildContext, node: syntax.Node) -> int:
     return n
 
 
+# Other names of the default parameters x and y (a parametric's functions of u and v).
+_UV = {"u": 0, "v": 1}
+
+
 class _Builder:
     def __init__(self, it: BuildContext, params: tuple[str, ...]):
         self.it = it
@@ -161,6 +165,9 @@ class _Builder:
         if t is syntax.Const or t is syntax.Ident:
             if n.name in self.params:
                 return ir.FnArg(self.params.index(n.name), n.name)
+            if n.name in _UV and self.params == ("x", "y", "z"):
+                # POV-Ray's default parameters: u and v are the first two, x and y
+                return ir.FnArg(_UV[n.name], n.name)
             return self.constant(n)
         if t is syntax.Unary:
             a = self.expr(n.operand)

@@ -44,6 +44,7 @@ from lang.eval import (
 )
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
+from lang.eval.edits import Edits
 from lang.eval.elements import (
     LIST_KINDS,
     El,
@@ -212,6 +213,7 @@ class Interpreter:
         self.fogs: list[ir.Fog] = []  # every fog block, in order (POV-Ray applies them all)
         self.media: list[ir.Media] = []  # atmospheric media blocks
         self.default_texture = ir.Texture()
+        self.edits = Edits()  # blocks that modify what they are written into
         # plain textures by value (see _shared_texture), each with the finish its key names
         self._textures: dict[tuple, tuple[ir.Finish, ir.Texture]] = {}
         self.handles: dict[str, FileHandle] = {}
@@ -361,6 +363,7 @@ class Interpreter:
     def declare(self, name: str, value: Any, local: bool) -> None:
         """POV-Ray: #local binds in the innermost table; #declare updates the most local
         visible binding (so a macro can assign its by-reference parameters), else global."""
+        self.edits.forget(value)
         if local:
             self.scopes[-1][name] = value
             return
@@ -958,11 +961,11 @@ class Interpreter:
             if isinstance(v, ir.Texture):
                 self.default_texture = v
             elif isinstance(v, ir.Pigment):
-                self.default_texture = replace(t, pigment=v)
+                self.default_texture = replace(t, pigment=self.edits.onto(self, v, t.pigment))
             elif isinstance(v, ir.Finish):
-                self.default_texture = replace(t, finish=v)
+                self.default_texture = replace(t, finish=self.edits.onto(self, v, t.finish))
             elif isinstance(v, ir.Normal):
-                self.default_texture = replace(t, normal=v)
+                self.default_texture = replace(t, normal=self.edits.onto(self, v, t.normal))
             elif el.kind != "comma":
                 self.sink.error(
                     "E0212",

@@ -27,8 +27,10 @@ from lang.eval.elements import (
     item_matrix,
 )
 from lang.ir_ops import (
+    top_layer,
     transform_light,
     transform_object,
+    with_top_layer,
 )
 from lang.values import (
     ListValue,
@@ -58,6 +60,15 @@ def _obj_texture(it: BuildContext, obj: ObjectValue) -> ir.Texture:
     return obj.texture if obj.texture is not None else it.default_texture
 
 
+def _modified_texture(it: BuildContext, t: ir.Texture, name: str, v: Any) -> ir.Texture:
+    """An object's texture after a pigment, normal or finish written into the object:
+    POV-Ray's Parse_Object_Mods changes the texture's top layer, over a new layer of the
+    default texture when that one is patterned; a block modifies the value it lands on."""
+    if top_layer(t).pattern is not None:
+        t = replace(t, layers=(*t.layers, replace(it.default_texture, layers=())))
+    return with_top_layer(t, **{name: it.edits.onto(it, v, getattr(top_layer(t), name))})
+
+
 def apply_object_items(it: BuildContext, obj: ObjectValue, g: Grouped) -> ObjectValue:
     for name, args, span in g.items:
         try:
@@ -70,13 +81,8 @@ def apply_object_items(it: BuildContext, obj: ObjectValue, g: Grouped) -> Object
 def _apply_object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -> ObjectValue:
     if name in TRANSFORM_WORDS:
         return transform_object(obj, item_matrix(name, args))
-    if name == "pigment":
-        t = _obj_texture(it, obj)
-        obj.texture = replace(t, pigment=args[0])
-    elif name == "finish":
-        obj.texture = replace(_obj_texture(it, obj), finish=args[0])
-    elif name == "normal":
-        obj.texture = replace(_obj_texture(it, obj), normal=args[0])
+    if name in ("pigment", "finish", "normal"):
+        obj.texture = _modified_texture(it, _obj_texture(it, obj), name, args[0])
     elif name == "texture":
         if obj.flags.get("_explicit_texture") and obj.texture is not None:
             obj.texture = replace(obj.texture, layers=obj.texture.layers + (args[0],))

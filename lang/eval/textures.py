@@ -28,8 +28,10 @@ from lang.eval.elements import (
     item_matrix,
 )
 from lang.ir_ops import (
+    top_layer,
     transform_pigment,
     transform_texture,
+    with_top_layer,
 )
 from lang.values import (
     ColorValue,
@@ -55,6 +57,16 @@ class _PigmentPattern:
 
     pigment: ir.Pigment
     kind: str = "pigment_pattern"
+
+
+@dataclass(frozen=True)
+class _Tiles:
+    """A `tiles { texture {…} tile2 texture {…} }` block: each tile's texture (several
+    textures in a tile are layered, the later on top)."""
+
+    first: ir.Texture
+    second: ir.Texture
+    kind: str = "tiles"
 
 
 @dataclass(frozen=True)
@@ -242,12 +254,29 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
 
 
 def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment:
-    pig = ir.Pigment(span=node.span)
-    params: dict[str, Any] = {}
-    for name, args, span in g.items:
+    # POV-Ray starts a pigment block from a copy of the `#default` pigment
+    base = it.default_texture.pigment
+    pig = _pigment_items(it, replace(base, span=node.span), g.items)
+    if _modifies(g, "pigment"):
+        it.edits.record(
+            pig, base, lambda b: _pigment_items(it, replace(b, span=node.span), g.items)
+        )
+    return pig
+
+
+def _modifies(g: Grouped, kind: str) -> bool:
+    """Whether a block modifies the value it is written into (lang.eval.edits): all do but
+    those that start with an identifier of their kind."""
+    return not g.items or g.items[0][0] != kind
+
+
+def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment:
+    """`pig` with a pigment block's items applied in order."""
+    params: dict[str, Any] = dict(pig.params)
+    for name, args, span in items:
         v: Any = args[0] if args else None
         if name == "pigment":
-            pig = replace(v, span=node.span)
+            pig = replace(v, span=pig.span)
             params = dict(v.params)
         elif name == "color":
             pig = replace(pig, pattern="solid", color=_shared_colour(as_color(v).rgbft))
@@ -287,7 +316,7 @@ def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigmen
                 it.unsupported(v.keyword, span)
             elif apply_pattern_item(it, st, name, args, span) and st["pattern"]:
                 pig = replace(pig, pattern=st["pattern"])
-    if params:
+    if params or pig.params:
         pig = replace(pig, params=params)
     return pig
 
@@ -304,12 +333,23 @@ def _with_map(it: BuildContext, pig: ir.Pigment, m: MapValue, span: Span) -> ir.
 def _b_normal(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Normal:
     # a normal block starts from the `#default` normal where there is one
     base = it.default_texture.normal
-    nrm = ir.Normal("none", span=node.span) if base is None else replace(base, span=node.span)
-    params: dict[str, Any] = {} if base is None else dict(base.params)
-    for name, args, span in g.items:
+    nrm = _normal_items(it, _normal_base(base, node), g.items)
+    if _modifies(g, "normal"):
+        it.edits.record(nrm, base, lambda b: _normal_items(it, _normal_base(b, node), g.items))
+    return nrm
+
+
+def _normal_base(base: ir.Normal | None, node: syntax.Block) -> ir.Normal:
+    return ir.Normal("none", span=node.span) if base is None else replace(base, span=node.span)
+
+
+def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
+    """`nrm` with a normal block's items applied in order."""
+    params: dict[str, Any] = dict(nrm.params)
+    for name, args, span in items:
         v: Any = args[0] if args else None
         if name == "normal":
-            nrm = replace(v, span=node.span)
+            nrm = replace(v, span=nrm.span)
             params = dict(v.params)
         elif name in TRANSFORM_WORDS:
             nrm = replace(nrm, transform=transforms.compose(item_matrix(name, args), nrm.transform))
@@ -327,9 +367,10 @@ def _b_normal(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Normal:
                 it.unsupported(v.map_kind, span)
         elif name == "warp":
             nrm = _add_warp(nrm, params, v)
-        elif name in ("bump_map", "no_bump_scale"):
-            if name == "bump_map":
-                it.unsupported("bump_map", span)
+        elif name == "no_bump_scale":
+            params["no_bump_scale"] = True
+        elif name == "bump_map":
+            it.unsupported("bump_map", span)
         elif name == "unsupported":
             it.unsupported(v.keyword, span)
         elif name == "object" and isinstance(v, ObjectPattern):
@@ -379,10 +420,18 @@ def _old_refraction(it: BuildContext, v: float, span, block: str) -> None:
 
 
 def _b_finish(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Finish:
-    # POV-Ray starts every finish block from a copy of the `#default` finish
-    f = it.default_texture.finish
+    # POV-Ray starts a finish block from a copy of the `#default` finish
+    base = it.default_texture.finish
+    f = _finish_items(it, base, g.items)
+    if _modifies(g, "finish"):
+        it.edits.record(f, base, lambda b: _finish_items(it, b, g.items))
+    return f
+
+
+def _finish_items(it: BuildContext, f: ir.Finish, items: list) -> ir.Finish:
+    """`f` with a finish block's items applied in order."""
     refl: dict[str, Any] = {}
-    for name, args, span in g.items:
+    for name, args, span in items:
         v: Any = args[0] if args else None
         if name == "finish":
             f = v
@@ -516,24 +565,96 @@ def _b_interior(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Interior
     return i
 
 
+def _b_tiles(it: BuildContext, g: Grouped, node: syntax.Block) -> _Tiles:
+    """POV-Ray's Parse_Tiles: the first tile's textures, `tile2`, the second tile's."""
+    tiles: tuple[list[ir.Texture], list[ir.Texture]] = ([], [])
+    second = False
+    for name, args, span in g.items:
+        if name == "tile2":
+            if second:
+                raise it.error("E0211", "`tile2` twice in `tiles`", span, _TILES_FORM)
+            second = True
+        elif name == "texture":
+            tiles[second].append(args[0])
+        elif name == "unsupported":
+            it.unsupported(args[0].keyword, span, " in tiles")
+    where = node.keyword_span or node.span
+    if not tiles[0]:
+        raise it.error("E0211", "the first texture is missing from `tiles`", where, _TILES_FORM)
+    if not second:
+        raise it.error(
+            "E0211", "`tiles` needs `tile2` before its second texture", where, _TILES_FORM
+        )
+    if not tiles[1]:
+        raise it.error("E0211", "the texture after `tile2` is missing", where, _TILES_FORM)
+    return _Tiles(_layered(tiles[0]), _layered(tiles[1]))
+
+
+_TILES_FORM = "tiles { texture { … } tile2 texture { … } }"
+
+
+def _layered(textures: list[ir.Texture]) -> ir.Texture:
+    """Textures written one after another, each layered over the ones before."""
+    base, *rest = textures
+    layers = list(base.layers)
+    for t in rest:
+        layers += [replace(t, layers=()), *t.layers]
+    return replace(base, layers=tuple(layers))
+
+
+def _no_bump_scale(t: ir.Texture) -> ir.Texture:
+    """A texture with POV-Ray's no_bump_scale flag, passed down to the textures of its map
+    (Post_Textures); the renderer reads it with each layer's normal."""
+    return replace(t, no_bump_scale=True, map=tuple((k, _no_bump_scale(x)) for k, x in t.map))
+
+
+def _tiles_misplaced(g: Grouped) -> tuple[str, Span] | None:
+    """The first item POV-Ray's Parse_Texture rejects in a texture with `tiles`: the block
+    comes first (only no_bump_scale before it), then only transformations."""
+    names = [name for name, _, _ in g.items]
+    if "tiles" not in names:
+        return None
+    at = names.index("tiles")
+    for k, (name, _, span) in enumerate(g.items):
+        ok = name == "no_bump_scale" or (k > at and name in TRANSFORM_WORDS) or k == at
+        if not ok:
+            return name, span
+    return None
+
+
 def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
     # a texture block starts from a copy of the `#default` texture (its pigment, finish, normal)
     t = replace(it.default_texture, layers=(), span=node.span)
     # A patterned texture: the pattern keyword and its modifiers build `t.pattern` (a
     # pigment holding only the pattern), the texture list or texture_map its `map`.
     params: dict[str, Any] = {}
+    misplaced = _tiles_misplaced(g)
+    if misplaced is not None:
+        it.sink.error(
+            "E0212",
+            f"`{misplaced[0]}` in a texture with `tiles`",
+            misplaced[1],
+            "POV-Ray takes `tiles { … }` as the whole texture, with only transformations "
+            "after it",
+        )
     for name, args, span in g.items:
         v: Any = args[0] if args else None
-        if name == "texture":
+        if name == "tiles":
+            # POV-Ray's Parse_Tiles: a checker whose entry 1 is the first tile, 0 the second
+            t = replace(
+                t,
+                pattern=ir.Pigment(pattern="checker", span=span),
+                map=((0.0, v.second), (1.0, v.first)),
+            )
+        elif name == "no_bump_scale":
+            t = replace(t, no_bump_scale=True)
+        elif name == "texture":
             t = replace(v, span=node.span)
             if v.pattern is not None:
                 params = dict(v.pattern.params)
-        elif name == "pigment":
-            t = replace(t, pigment=v)
-        elif name == "finish":
-            t = replace(t, finish=v)
-        elif name == "normal":
-            t = replace(t, normal=v)
+        elif name in ("pigment", "finish", "normal"):
+            # POV-Ray changes the texture's top layer, and a block modifies its value
+            t = with_top_layer(t, **{name: it.edits.onto(it, v, getattr(top_layer(t), name))})
         elif name in TRANSFORM_WORDS:
             t = transform_texture(t, item_matrix(name, args))
         elif name == "map":
@@ -574,6 +695,8 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
                 t = replace(t, pattern=replace(old, pattern=st["pattern"]))
     if t.pattern is not None:
         t = replace(t, pattern=replace(t.pattern, params=params))
+    if t.no_bump_scale and t.map:
+        t = _no_bump_scale(t)
     return t
 
 
@@ -778,6 +901,7 @@ BUILDERS: dict[str, Builder] = {
     "pigment_pattern": _b_pigment_pattern,
     "interior": _b_interior,
     "texture": _b_texture,
+    "tiles": _b_tiles,
     "material": _b_material,
     "image_map": _b_image_map,
     **{k: _b_map for k in schema.MAP_WORDS},
