@@ -652,7 +652,7 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary) -> Non
         mult[r_idx[tir]] = 1.0
         ctx.count("refraction_rays", len(r_idx))
     if hit.depth is not None:
-        mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], hit.leaving[rows])
+        mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], hit.leaving[rows], view=True)
     secondary.add(rows, out_dir, mult, w, level[rows], straight, skip[rows])
 
 

@@ -223,14 +223,18 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
     return mult
 
 
-def interior_fade(ctx: Context, obj: np.ndarray, depth: np.ndarray, inside: np.ndarray):
+def interior_fade(
+    ctx: Context, obj: np.ndarray, depth: np.ndarray, inside: np.ndarray, view: bool = False
+):
     """(N,3) POV-Ray's interior attenuation of light that travelled `depth` inside the
     object (only where `inside`): fade_colour + (1 - fade_colour) / (1 + (d/fade_distance)
-    ^ fade_power), or exp(-(1 - fade_colour) d / fade_distance) for fade_power >= 1000."""
+    ^ fade_power), or exp(-(1 - fade_colour) d / fade_distance) for fade_power >= 1000.
+    A ray seen through the surface (`view`) is faded whatever fade_power is (0 halves it,
+    as POV-Ray's trace.cpp has it); a shadow ray only for a positive power."""
     out = np.ones((len(obj), 3))
     for oid in np.unique(obj[inside]):
         it = ctx.interiors[int(oid)]
-        if it.fade_power <= 0 or abs(it.fade_distance) <= shading.EPSILON:
+        if (it.fade_power <= 0 and not view) or abs(it.fade_distance) <= shading.EPSILON:
             continue
         rows = np.nonzero(inside & (obj == oid))[0]
         fc = np.asarray(it.fade_color, dtype=np.float64)

@@ -415,6 +415,28 @@ def test_interior_fade_dims_light_that_crossed_the_inside():
     np.testing.assert_allclose(col[0], [1 / 5] * 3)
 
 
+@pytest.mark.povray
+def test_a_fade_power_of_0_halves_what_is_seen_through_and_leaves_shadows_alone(tmp_path):
+    # POV-Ray's trace.cpp fades a ray seen through the surface by 1 / (1 + (d/D)^0) = 1/2
+    # and checks fade_power > 0 only for shadow rays (interior/atten1.pov shows it)
+    from conftest import image_errors, povray_image, strala_image
+
+    text = """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 1, -5> look_at <0, 0.5, 0> }
+light_source { <2, 6, -3> rgb 1 }
+plane { y, 0 pigment { checker rgb 1 rgb <0.2, 0.4, 0.2> } }
+sphere { <-1.1, 1, 0>, 1 pigment { rgbt <1, 1, 1, 0.95> } finish { ambient 0 diffuse 0 }
+  interior { ior 1.05 fade_distance 2 fade_power 0 } }
+sphere { <1.1, 1, 0>, 1 pigment { rgbt <1, 1, 1, 0.95> } finish { ambient 0 diffuse 0 }
+  interior { ior 1.05 fade_distance 2 fade_power 1 } }
+"""
+    ref = povray_image(text, tmp_path, 160, 120)
+    ours, messages = strala_image(text, tmp_path, 160, 120)
+    err, off = image_errors(ours, ref)
+    assert off < 0.005 and err < 0.02, (err, off, messages)
+
+
 def test_faked_caustics_focus_head_on_light():
     # A clear slab (filter 1, white) between a point and a light straight above: with
     # caustics the head-on light is doubled (1 + |N.L|^45c), without it passes unchanged.

@@ -93,6 +93,8 @@ sphere { <-1, 2.5, 1.5>, 0.6 pigment { rgb <1, 0.9, 0.2> } no_reflection
   finish { emission 0.3 diffuse 0.4 } }
 sphere { <1.5, 2.6, 2>, 0.5 pigment { rgb 1 } no_image finish { reflection 0.6 } }
 sphere { <3.5, 1.5, -2>, 0.5 pigment { rgbf <1, 1, 1, 1> } interior { ior 1 } }
+sphere { <-3.2, 1.8, -1.5>, 0.6 pigment { rgbt <1, 1, 1, 0.9> }
+  interior { fade_distance 1 fade_power 0 } }
 """
 
 

@@ -837,9 +837,11 @@ static inline double fresnel_metallic(double cos_angle) {
     return f < 0.0 ? 0.0 : (f > 1.0 ? 1.0 : f);
 }
 
-static double interior_fade(const Scene *s, const double *ob, double depth, int ch) {
+/* view: a ray seen through the surface, which POV-Ray fades whatever fade_power is (a
+ * power of 0 halves it); a shadow ray is faded only for a positive power (trace.cpp) */
+static double interior_fade(const Scene *s, const double *ob, double depth, int ch, int view) {
     double power = ob[O_FADEPOW], fd = ob[O_FADEDIST], fc = ob[O_FADECOL + ch];
-    if (power <= 0 || fabs(fd) <= EPSILON) return 1.0;
+    if ((power <= 0 && !view) || fabs(fd) <= EPSILON) return 1.0;
     double x = depth / fd;
     if (power >= 1000) return exp(-(1.0 - fc) * x);
     return fc + (1.0 - fc) / (1.0 + pow(fabs(x), power));
@@ -885,7 +887,7 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
         double big = 0.0;
         for (int i = 0; i < 3; i++) {
             double f = c[3] * c[i] + c[4];
-            if (leaving) f *= interior_fade(s, ob, h.t, i);
+            if (leaving) f *= interior_fade(s, ob, h.t, i, 0);
             mult[i] *= f;
             if (fabs(mult[i]) > big) big = fabs(mult[i]);
         }
@@ -1055,7 +1057,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
         }
     }
     if (leaving)
-        for (int i = 0; i < 3; i++) mult[i] *= interior_fade(s, ob, h->t, i);
+        for (int i = 0; i < 3; i++) mult[i] *= interior_fade(s, ob, h->t, i, 1);
     double tc[3];
     trace(s, p, td, w, level, skip, straight, straight ? cls : -1, tc);
     for (int i = 0; i < 3; i++) out[i] += mult[i] * tc[i];
