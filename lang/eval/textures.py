@@ -634,8 +634,7 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
             "E0212",
             f"`{misplaced[0]}` in a texture with `tiles`",
             misplaced[1],
-            "POV-Ray takes `tiles { … }` as the whole texture, with only transformations "
-            "after it",
+            "POV-Ray takes `tiles { … }` as the whole texture, with only transformations after it",
         )
     for name, args, span in g.items:
         v: Any = args[0] if args else None
