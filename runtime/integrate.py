@@ -556,8 +556,8 @@ def shade_texture(
 ):
     """Accumulate the layers of texture `tid` at `rows` into result/fil; queue reflections."""
     s = ctx.settings
-    base_surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows])
     pts = hit.point[rows]
+    base_surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows], points=pts)
     double = ctx.double_illuminate[hit.obj[rows]]
     trans = np.ones(len(rows))
     f = np.ones((len(rows), 3))
@@ -574,6 +574,7 @@ def shade_texture(
                     layer.normal, pts, hit.normal[rows], layer.no_bump_scale
                 ),
                 ray_dir=hit.dirs[rows],
+                points=pts,
             )
         else:
             surf = base_surf
@@ -612,7 +613,7 @@ def shade_texture(
                 d = shading.reflect(surf.ray_dir[use], surf.normal[use], base_surf.normal[use])
                 mult = refl[use]
                 if fin.irid is not None and fin.irid[0] > 0:
-                    sub = Surface(normal=surf.normal[use], ray_dir=surf.ray_dir[use])
+                    sub = Surface(surf.normal[use], surf.ray_dir[use], pts[use])
                     mult = mult * shading.iridescence(fin, sub, d)
                 secondary.add(
                     rows[use],

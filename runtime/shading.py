@@ -25,6 +25,7 @@ import numpy as np
 
 from lang import ir
 from runtime import transform as tf
+from runtime.noise import turbulence
 
 if TYPE_CHECKING:  # the batched finishes of plain textures, which these functions take too
     from runtime.context import FinishRows
@@ -234,6 +235,7 @@ class Surface:
 
     normal: np.ndarray  # (N,3) layer normal, turned toward the viewer
     ray_dir: np.ndarray  # (N,3) unit direction of the incoming ray
+    points: np.ndarray | None = None  # (N,3) world points, for the iridescence's turbulence
 
 
 def ambient_term(
@@ -293,13 +295,18 @@ IRID_WAVELENGTHS = np.array([0.70, 0.52, 0.48])
 
 
 def iridescence(finish: ir.Finish, surf: Surface, light_dir: np.ndarray) -> np.ndarray:
-    """(N,3) thin-film factor 1 + irid * cos(2 pi thickness (|N.L| + |N.V|) / wavelength)
-    (turbulence of the film thickness is not applied)."""
+    """(N,3) thin-film factor 1 + irid * cos(2 pi thickness (|N.L| + |N.V|) / wavelength).
+    With `turbulence t` the film's thickness varies over the surface as POV-Ray's
+    ComputeIridColour has it: times 1 + t (2 Turbulence(P) - 1), 5 octaves, omega 0.5,
+    lambda 2, at the world point P."""
     assert finish.irid is not None
-    amount, thickness = finish.irid[0], finish.irid[1]
+    amount, thickness, turb = finish.irid[0], finish.irid[1], finish.irid[2]
     cos_l = np.abs(np.einsum("ij,ij->i", surf.normal, light_dir))
     cos_e = np.abs(np.einsum("ij,ij->i", surf.normal, surf.ray_dir))
-    phase = 2.0 * math.pi * thickness * (cos_l + cos_e)
+    film: float | np.ndarray = thickness
+    if turb != 0 and surf.points is not None:
+        film = thickness * (1.0 + turb * (2.0 * turbulence(surf.points, 5, 0.5, 2.0) - 1.0))
+    phase = 2.0 * math.pi * film * (cos_l + cos_e)
     return 1.0 + amount * np.cos(phase[:, None] / IRID_WAVELENGTHS)
 
 

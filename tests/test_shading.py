@@ -437,6 +437,25 @@ sphere { <1.1, 1, 0>, 1 pigment { rgbt <1, 1, 1, 0.95> } finish { ambient 0 diff
     assert off < 0.005 and err < 0.02, (err, off, messages)
 
 
+@pytest.mark.povray
+def test_iridescence_turbulence_varies_the_film_as_povray_does(tmp_path):
+    from conftest import image_errors, povray_image, strala_image
+
+    text = """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 0, -6> look_at 0 angle 30 }
+light_source { <150, 150, -2500> rgb 0.9 }
+sphere { <-0.8, 0, 0>, 0.7 pigment { rgb 1 } finish { diffuse 0.2 phong 0.6
+  irid { 0.5 thickness 0.5 turbulence 0.75 } } }
+sphere { <0.8, 0, 0>, 0.7 pigment { rgb 1 } finish { diffuse 0.2 reflection 0.3
+  irid { 0.75 thickness 2 turbulence 0.3 } } }
+"""
+    ref = povray_image(text, tmp_path, 160, 120)
+    ours, messages = strala_image(text, tmp_path, 160, 120)
+    err, off = image_errors(ours, ref)
+    assert off < 0.005 and err < 0.02, (err, off, messages)
+
+
 def test_faked_caustics_focus_head_on_light():
     # A clear slab (filter 1, white) between a point and a light straight above: with
     # caustics the head-on light is doubled (1 + |N.L|^45c), without it passes unchanged.
