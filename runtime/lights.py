@@ -11,6 +11,7 @@ import numpy as np
 from lang import ir
 from runtime import patterns, shading
 from runtime.context import Context, Hit, LightColours, resolve_textures
+from runtime.fog import apply_fogs
 
 # A shadow ray crosses at most this many transparent surfaces before it counts as blocked
 # (bounds the loop for pathological stacks of glass; each crossing is one batch query).
@@ -30,6 +31,7 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
     origins = _shadow_origins(ctx, hit)
     # A bumpy normal may face a light the smooth one does not: test those hits too.
     any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex] | ctx.bumpy[hit.tex]
+    fogs = ctx.scene.fogs or ((ctx.scene.fog,) if ctx.scene.fog is not None else ())
     for light in ctx.scene.lights:
         ls = shading.sample_light(light, hit.point)
         col = ls.colour
@@ -51,6 +53,14 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
                         ls.distance[rows],
                         light.media_attenuation,
                     )
+        if light.media_attenuation and light.media_interaction and fogs:
+            # POV-Ray's ComputeShadowMedia: the fog between the surface and the light
+            # dims it (a shadow ray's fog adds no colour of its own)
+            rows = np.nonzero(np.abs(col).max(axis=1) >= shading.EPSILON)[0]
+            if len(rows):
+                col[rows] = apply_fogs(
+                    fogs, ls.distance[rows], col[rows], origins[rows], ls.direction[rows], True
+                )
         dirs_out.append(ls.direction)
         cols_out.append(col)
     return LightColours(dirs_out, cols_out)

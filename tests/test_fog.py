@@ -12,7 +12,7 @@ from conftest import image_errors, povray_image, strala_image
 
 from lang import ir
 from lang.evaluate import compile_source
-from runtime import integrate, noise
+from runtime import fog, noise
 
 
 def run(src: str):
@@ -56,7 +56,7 @@ def test_several_fogs_multiply_attenuations_and_add_colours():
     a = ir.Fog((1.0, 0.0, 0.0, 0.0, 0.0), 2.0)
     b = ir.Fog((0.0, 0.0, 1.0, 0.5, 0.0), 4.0)  # half filtered: tints what it lets through
     depth, col = np.array([2.0]), np.array([[0.2, 0.4, 0.6]])
-    got = integrate.apply_fogs((a, b), depth, col)
+    got = fog.apply_fogs((a, b), depth, col)
     ka, kb = math.exp(-1.0), math.exp(-0.5)
     tint_b = kb * (0.5 + 0.5 * np.array([0.0, 0.0, 1.0]))
     want = (1 - ka) * np.array([1, 0, 0]) + (1 - kb) * np.array([0, 0, 1]) + ka * tint_b * col[0]
@@ -65,7 +65,7 @@ def test_several_fogs_multiply_attenuations_and_add_colours():
 
 def test_fog_transmit_is_the_least_that_shows():
     f = ir.Fog((1.0, 1.0, 1.0, 0.0, 0.7), 1.0)
-    got = integrate.apply_fogs((f,), np.array([100.0]), np.zeros((1, 3)))
+    got = fog.apply_fogs((f,), np.array([100.0]), np.zeros((1, 3)))
     np.testing.assert_allclose(got[0], [0.3, 0.3, 0.3])
 
 
@@ -75,7 +75,7 @@ def test_turbulence_thins_the_fog_by_povrays_formula():
     mid = (o + d * 3.0) * np.array([0.5, 1.0, 2.0])
     t = noise.turbulence(mid, 6, 0.5, 2.0)[0]
     width = 6.0 * (1.0 - math.exp(-0.6) * min(1.0, t * 0.4))
-    got = integrate.fog_attenuation(f, w, o, d)[0]
+    got = fog.fog_attenuation(f, w, o, d)[0]
     assert math.isclose(got, math.exp(-width / 10.0), rel_tol=1e-12)
     assert got > math.exp(-0.6)  # thinner than without turbulence
 
@@ -110,3 +110,23 @@ def test_fog_renders_like_povray(tmp_path, name):
     assert not [m for m in messages if "not supported" in m], messages
     err, off = image_errors(ours, ref)
     assert err < 0.01 and off < 0.005, (err, off)
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("fog_type", ["", "fog_type 2 fog_offset 2 fog_alt 3"])
+def test_fog_dims_a_light_with_media_attenuation_as_povray_does(tmp_path, fog_type):
+    # a bright, distant light seen through the fog: POV-Ray's ComputeShadowMedia applies
+    # the fog to the light's way to each surface (interior/media/hollow1.pov is like it)
+    scene = f"""#version 3.7;
+global_settings {{ assumed_gamma 1.0 }}
+camera {{ location <0, 1.5, -6> look_at <0, 0.5, 0> }}
+light_source {{ <50, 60, -20> color rgb 3000 media_attenuation on }}
+light_source {{ <-5, 3, -5> color rgb 0.3 }}
+plane {{ y, 0 pigment {{ checker rgb <0.2, 0.5, 0.1> rgb <0.8, 0.7, 0.3> }} }}
+sphere {{ <0, 1, 2>, 1 pigment {{ rgb <0.9, 0.3, 0.2> }} finish {{ phong 0.5 }} }}
+fog {{ {fog_type} distance 10 color rgb <0.5, 0.5, 0.6> }}
+"""
+    ref = povray_image(scene, tmp_path, 96, 72)
+    ours, messages = strala_image(scene, tmp_path, 96, 72)
+    err, off = image_errors(ours, ref)
+    assert err < 0.01 and off < 0.005, (err, off, messages)

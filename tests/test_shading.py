@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from lang import ir
-from runtime import integrate, lights, shading
+from runtime import fog, integrate, lights, shading
 from runtime.prepare import prepare
 from runtime.shading import Surface
 
@@ -513,11 +513,11 @@ def test_each_wave_traces_its_secondary_rays_in_one_batch(monkeypatch):
 
 
 def test_ground_fog_is_full_below_its_offset_and_thins_above():
-    below = integrate.ground_fog_density(np.array([-2.0]), np.array([-1.0]))
-    above = integrate.ground_fog_density(np.array([0.0]), np.array([1.0]))
+    below = fog.ground_fog_density(np.array([-2.0]), np.array([-1.0]))
+    above = fog.ground_fog_density(np.array([0.0]), np.array([1.0]))
     assert below[0] == 1.0
     assert above[0] == pytest.approx(math.atan(1.0))  # mean of 1/(1+h²) over [0, 1]
-    high = integrate.ground_fog_density(np.array([10.0]), np.array([11.0]))
+    high = fog.ground_fog_density(np.array([10.0]), np.array([11.0]))
     assert high[0] < 0.01
 
 

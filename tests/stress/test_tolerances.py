@@ -18,7 +18,7 @@ column names the test that exercises one where there is one.
 | shading          | EPSILON                       | 1e-10        | N·L cut-off of a light    |
 | shading          | SHADOW_TOLERANCE              | 1e-3         | blockers at the light     |
 | integrate        | MAX_SHADOW_CROSSINGS          | 32           | glass layers per shadow   |
-| integrate        | MAX_FOG_DISTANCE              | 1e7          | a miss's depth in fog     |
+| fog              | MAX_FOG_DISTANCE              | 1e7          | a miss's depth in fog     |
 | patterns         | CHECKER_OFFSET                | 1e-6         | POV-Ray's cell nudge      |
 | patterns         | WAVE_MODULUS                  | 1.00001      | POV-Ray's wave wrap       |
 | patterns         | NORMAL_DELTA                  | 0.02         | normal differences        |
