@@ -842,21 +842,70 @@ def crackle(p: np.ndarray, params: dict) -> np.ndarray:
 
 
 def _fractal_value(params: dict, c: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Escape-time iteration z -> z² + c, testing |z| > 2 before each step: exterior
-    points give (steps before escaping - 1) / max_iteration, interior points 1."""
-    max_iter = int(params.get("max_iteration", params.get("iterations", 30)))
+    """POV-Ray's mandel and julia patterns: z -> z^exponent + c, up to `iterations` steps,
+    a point escaping when |z|² > 4 after step `col` (from 0) coloured by its `exterior`
+    type (default 1: col / iterations), one that never does by its `interior` type
+    (default 0: the factor, 1), as fractal_exterior_color and fractal_interior_color."""
+    it_max = int(params.get("iterations", 30))
+    power = int(params.get("exponent", 2) or 2)
+    ext_type, efactor = _fractal_colouring(params.get("exterior"), 1)
+    int_type, ifactor = _fractal_colouring(params.get("interior"), 0)
     n = len(c)
-    count = np.zeros(n, dtype=np.int64)
+    out = np.zeros(n)
     alive = np.ones(n, dtype=bool)
-    for i in range(max_iter):
-        escaped = alive & (np.abs(z) > 2.0)
-        count[escaped] = i
-        alive &= ~escaped
+    mind2 = np.abs(z) ** 2
+    for col in range(it_max):
+        z = np.where(alive, z**power + c, z)
+        d2 = z.real * z.real + z.imag * z.imag
+        mind2 = np.where(alive, np.minimum(mind2, d2), mind2)
+        escaped = alive & (d2 > 4.0)
+        if escaped.any():
+            out[escaped] = _exterior(ext_type, efactor, col, it_max, z[escaped])
+            alive &= ~escaped
         if not alive.any():
-            break
-        z = np.where(alive, z * z + c, z)
-    # Calibrated on POV-Ray's renders: a point escaping on the first step counts 0 steps.
-    return np.where(alive, 1.0, np.maximum(count - 1, 0) / max_iter)
+            return out
+    out[alive] = _interior(int_type, ifactor, z[alive], mind2[alive])
+    return out
+
+
+def _fractal_colouring(given, default_type: int) -> tuple[int, float]:
+    if given is None:
+        return default_type, 1.0
+    if isinstance(given, tuple):
+        return int(given[0]), float(given[1]) if len(given) > 1 else 1.0
+    return int(given), 1.0
+
+
+def _exterior(kind: int, f: float, col: int, it_max: int, z: np.ndarray) -> np.ndarray:
+    a, b = z.real, z.imag
+    values = {
+        0: np.full(len(z), f),
+        1: np.full(len(z), col / it_max),
+        2: a * f,
+        3: b * f,
+        4: a * a * f,
+        5: b * b * f,
+        6: np.sqrt(a * a + b * b) * f,
+    }
+    if kind == 7 and int(f) > 0:
+        return np.full(len(z), (col % int(f)) / f)
+    if kind == 8 and f != 0:
+        return np.full(len(z), (col % int(1 + f)) / f)
+    return values.get(kind, np.zeros(len(z)))
+
+
+def _interior(kind: int, f: float, z: np.ndarray, mind2: np.ndarray) -> np.ndarray:
+    a, b = z.real, z.imag
+    values = {
+        0: np.full(len(z), f),
+        1: np.sqrt(mind2) * f,
+        2: a * f,
+        3: b * f,
+        4: a * a * f,
+        5: b * b * f,
+        6: a * a + b * b * f,  # POV-Ray's precedence, kept
+    }
+    return values.get(kind, np.zeros(len(z)))
 
 
 def mandel(p: np.ndarray, params: dict) -> np.ndarray:
@@ -1045,7 +1094,10 @@ def _map(
             )
             out[rows] += w[:, None] * col
         return out
-    cmap = pigment.color_map or DEFAULT_MAPS.get(pigment.pattern, DEFAULT_MAP)
+    kind = pigment.pattern
+    if kind == "mandel" and int(pigment.params.get("exponent", 2) or 2) != 2:
+        kind = "mandel3"  # POV-Ray's default map is the type MANDEL_PATTERN's alone
+    cmap = pigment.color_map or DEFAULT_MAPS.get(kind, DEFAULT_MAP)
     keys = np.array([k for k, _ in cmap], dtype=np.float64)
     cols = np.array([c for _, c in cmap], dtype=np.float64)
     lo, hi, frac = blend_indices(keys, value)

@@ -222,7 +222,9 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
             params["orientation"] = _unit_or_same(args[0])
         elif name in ("spiral1", "spiral2"):
             params["arms"] = args[0]
-        elif name in ("mandel", "magnet", "tiling"):
+        elif name == "mandel":
+            params["iterations"] = args[0]
+        elif name in ("magnet", "tiling"):
             params["value"] = args[0]
         elif name == "julia":
             params["complex"], params["iterations"] = args[0], args[1]
