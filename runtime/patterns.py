@@ -923,6 +923,12 @@ def quilted(p: np.ndarray, params: dict) -> np.ndarray:
     """Cushions in every unit cube: the offset from the cube's centre scaled by a cubic
     Bezier of its length (control points control0, control1; default 1, 1), then the mean
     of its absolute components."""
+    return np.abs(_quilt_offset(p, params)).sum(axis=1) / 3.0
+
+
+def _quilt_offset(p: np.ndarray, params: dict) -> np.ndarray:
+    """(N,3) the quilted pattern's offset from each unit cube's centre, scaled by the
+    cubic of its length; as a normal it is the bump itself (normal.cpp's quilted)."""
     c0 = float(params.get("control0", 1.0))
     c1 = float(params.get("control1", 1.0))
     v = p - np.floor(p) - 0.5
@@ -930,7 +936,7 @@ def quilted(p: np.ndarray, params: dict) -> np.ndarray:
     it = 1.0 - t
     # POV-Ray scales the Bezier by 1/sqrt(3/4) (2/sqrt(3) printed to ten digits).
     k = (t**3 + 3.0 * t * it * it * c0 + 3.0 * t * t * it * c1) * 1.154700538
-    return np.abs(v * k[:, None]).sum(axis=1) / 3.0
+    return v * k[:, None]
 
 
 # Patterns whose turbulence is part of the pattern, not a warp of the point.
@@ -1217,6 +1223,9 @@ def perturb_normal(
             total += np.abs(dnoise(p * scale)) / scale
             scale *= 2.0
         n = n + amount * total
+    elif kind == "quilted":
+        # one of POV-Ray's normal-only patterns: the offset is added, not differentiated
+        n = n + amount * _quilt_offset(p, normal.params)
     elif kind in ("ripples", "waves"):
         freq = float(normal.params.get("frequency", 1.0))
         phase = float(normal.params.get("phase", 0.0))

@@ -73,3 +73,19 @@ def test_normal_maps_render_like_povray(tmp_path):
     assert not any("not supported" in m for m in messages), messages
     err, off = image_errors(ours, ref)
     assert err < 0.01 and off < 0.005, (err, off)
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("amount", [0.5, 5])
+def test_quilted_normals_are_povray_s_normal_only_pattern(tmp_path, amount):
+    # POV-Ray adds the quilted offset itself to the normal (normal.cpp's quilted), where
+    # the other patterns' slopes are differenced: strong bumps showed the difference
+    text = HEAD + (
+        "box { -1, 1 scale 1.5 rotate <-30, 30, 0> translate y pigment { rgb 1 }"
+        f" normal {{ quilted {amount} control0 0 control1 0.5 scale 0.6 }} }}\n"
+        "sphere { <2.2, 1, 0>, 0.8 pigment { rgb 1 }"
+        f" normal {{ quilted {amount} scale 0.3 }} }}\n"
+    )
+    ours, messages = strala_image(text, tmp_path, 160, 120)
+    err, off = image_errors(ours, povray_image(text, tmp_path, 160, 120))
+    assert err < 0.01 and off < 0.002, (err, off, messages)
