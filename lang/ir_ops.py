@@ -5,6 +5,7 @@ and lang.values; used by the evaluator and nothing it depends on."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import replace
 from typing import Any
 
@@ -131,3 +132,51 @@ def transform_interior(i: ir.Interior | None, mat: ir.Matrix) -> ir.Interior | N
     if i is None or not i.media:
         return i
     return replace(i, media=tuple(transform_media(m, mat) for m in i.media))
+
+
+def with_pattern_defaults(scene: ir.Scene, defaults: dict[str, Any]) -> ir.Scene:
+    """`scene` with `defaults` in the params of every pigment and normal that does not name
+    its own value: the scene-wide settings POV-Ray's patterns read at render time
+    (global_settings' noise_generator and number_of_waves). Shared values are rebuilt once."""
+    memo: dict[int, Any] = {}
+
+    def walk(v: Any) -> Any:
+        key = id(v)
+        if key in memo:
+            return memo[key]
+        out = v
+        if isinstance(v, tuple):
+            if v and _plain_data(v[0]):
+                return v  # a vector, a matrix row, a mesh's vertex list
+            items = [walk(x) for x in v]
+            if any(a is not b for a, b in zip(items, v, strict=True)):
+                out = type(v)(items) if type(v) is not tuple else tuple(items)
+        elif isinstance(v, dict):
+            new = {k: walk(x) for k, x in v.items()}
+            if any(new[k] is not v[k] for k in v):
+                out = new
+        elif dataclasses.is_dataclass(v) and not isinstance(v, type):
+            changes = {}
+            for f in dataclasses.fields(v):
+                old = getattr(v, f.name)
+                new_value = walk(old)
+                if new_value is not old:
+                    changes[f.name] = new_value
+            if isinstance(v, ir.Pigment | ir.Normal):
+                params = changes.get("params", v.params)
+                missing = {k: x for k, x in defaults.items() if k not in params}
+                if missing:
+                    changes["params"] = {**params, **missing}
+            if changes:
+                out = replace(v, **changes)
+        memo[key] = out
+        return out
+
+    return walk(scene)
+
+
+def _plain_data(x: Any) -> bool:
+    """Numbers, strings, or tuples of numbers: values with no pattern inside."""
+    if isinstance(x, int | float | str | bool) or x is None:
+        return True
+    return isinstance(x, tuple) and (not x or isinstance(x[0], int | float))

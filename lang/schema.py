@@ -1067,11 +1067,6 @@ IGNORED_ITEMS: dict[str, tuple[frozenset[str] | None, str]] = {
     "uv_mapping": (None, "textures are mapped by position, not by the surface's uv coordinates"),
     "cutaway_textures": (None, "the cut faces of a CSG take the cutting object's texture"),
     "inside_vector": (None, "a mesh has no inside in strala's CSG"),
-    "number_of_waves": (None, "waves and ripples use POV-Ray's default of 10 wave sources"),
-    "noise_generator": (
-        frozenset({"global_settings"}),
-        "patterns use generator 2 unless they name their own `noise_generator`",
-    ),
     "irid_wavelength": (
         frozenset({"global_settings"}),
         "iridescence uses POV-Ray's default wavelengths <0.70, 0.52, 0.48>",

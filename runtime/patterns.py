@@ -748,9 +748,10 @@ def spiral2(p: np.ndarray, params: dict) -> np.ndarray:
 
 
 def ripples(p: np.ndarray, params: dict) -> np.ndarray:
-    """Concentric sine waves from POV-Ray's ten wave sources, averaged to [0, 1]."""
+    """Concentric sine waves from POV-Ray's wave sources (10 unless global_settings'
+    number_of_waves says), averaged to [0, 1]."""
     total = np.zeros(len(p))
-    sources, _ = _wave_tables()
+    sources, _ = _wave_tables(_wave_count(params))
     for src in sources:
         length = np.linalg.norm(p - src, axis=1)
         total += _cycloidal(length)
@@ -758,9 +759,9 @@ def ripples(p: np.ndarray, params: dict) -> np.ndarray:
 
 
 def waves(p: np.ndarray, params: dict) -> np.ndarray:
-    """Cosine waves of varied frequencies from POV-Ray's ten wave sources."""
+    """Cosine waves of varied frequencies from POV-Ray's wave sources."""
     total = np.zeros(len(p))
-    sources, freqs = _wave_tables()
+    sources, freqs = _wave_tables(_wave_count(params))
     for src, f in zip(sources, freqs, strict=True):
         length = np.linalg.norm(p - src, axis=1)
         length = np.where(length == 0.0, 1.0, length)
@@ -1162,6 +1163,11 @@ def may_transmit(pigment: ir.Pigment) -> bool:
 NORMAL_DELTA: float = 0.02
 
 
+def _wave_count(params: dict) -> int:
+    # global_settings' number_of_waves, which the evaluator gives every pattern
+    return max(1, int(params.get("number_of_waves", 10) or 10))
+
+
 @cache
 def _wave_tables(count: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """POV-Ray's ripple/wave sources and frequencies: source i is DNoise(<i, 0, 0>)
@@ -1214,7 +1220,7 @@ def perturb_normal(
     elif kind == "bumps":
         n = n + amount * dnoise(p)
     elif kind == "dents":
-        k = noise(p) ** 3 * amount
+        k = noise(p, _generator(normal.params)) ** 3 * amount
         n = n + k[:, None] * dnoise(p)
     elif kind == "wrinkles":
         total = np.zeros_like(p)
@@ -1229,14 +1235,16 @@ def perturb_normal(
     elif kind in ("ripples", "waves"):
         freq = float(normal.params.get("frequency", 1.0))
         phase = float(normal.params.get("phase", 0.0))
-        for src, f in zip(*_wave_tables(), strict=True):
+        count = _wave_count(normal.params)
+        # normal.cpp's ripples and waves: both are sines (POV-Ray's cycloidal)
+        for src, f in zip(*_wave_tables(count), strict=True):
             d = p - src
             length = np.linalg.norm(d, axis=1)
             length = np.where(length > 0, length, 1.0)
             if kind == "ripples":
-                s = np.sin(2.0 * math.pi * (length * freq + phase)) * amount / 10.0
+                s = _cycloidal(length * freq + phase) * amount / count
             else:
-                s = np.cos(2.0 * math.pi * (length * freq * f + phase)) * amount / (10.0 * f)
+                s = _cycloidal(length * freq * f + phase) * amount / (count * f)
             n = n + (d / length[:, None]) * s[:, None]
     else:
         fn = CONTINUOUS_PATTERNS.get(kind)

@@ -153,7 +153,7 @@ WARNINGS = [
     ("unsupported_block", "sphere { 0, 1 photons { target } }\n", "W0300", 1, 15),
     ("ignored_uv_mapping", "sphere { 0, 1 uv_mapping pigment { rgb 1 } }\n", "W0308", 1, 15),
     ("ignored_irid_waves", "global_settings { irid_wavelength <0.7, 0.5, 0.4> }\n", "W0308", 1, 19),
-    ("ignored_global_waves", "global_settings { number_of_waves 4 }\n", "W0308", 1, 19),
+    ("waves_at_least_one", "global_settings { number_of_waves -2 }\n", "W0309", 1, 19),
     ("ignored_albedo", "sphere { 0, 1 finish { diffuse albedo 0.7 } }\n", "W0308", 1, 32),
     (
         "ignored_cutaway",

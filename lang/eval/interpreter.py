@@ -57,6 +57,7 @@ from lang.ir_ops import (
     collect_lights,
     transform_interior,
     transform_texture,
+    with_pattern_defaults,
 )
 from lang.keywords import ALL_WORDS
 from lang.queries import QueriesFactory, SceneQueries
@@ -296,7 +297,7 @@ class Interpreter:
             radiosity=s.get("radiosity"),
             charset=s.get("charset", "ascii"),
         )
-        return ir.Scene(
+        scene = ir.Scene(
             camera=self.camera if self.camera is not None else ir.Camera(),
             lights=tuple(self.lights),
             objects=tuple(self.objects),
@@ -308,6 +309,21 @@ class Interpreter:
             media=tuple(self.media),
             files=tuple(self.files),
         )
+        defaults = self._pattern_defaults()
+        return with_pattern_defaults(scene, defaults) if defaults else scene
+
+    def _pattern_defaults(self) -> dict[str, int]:
+        """The scene-wide values POV-Ray's patterns read at render time, where they differ
+        from the runtime's own defaults: the noise generator (global_settings', else 1
+        for a scene of a language version before 3.5, as Parse_Frame sets it) and the
+        number of wave sources."""
+        s = self.settings
+        version = self.version if self.version_set else 3.7
+        gen = s.get("noise_generator") or (1 if version < 3.5 else 2)
+        out = {"noise_generator": gen} if gen != 2 else {}
+        if s.get("number_of_waves", 10) != 10:
+            out["number_of_waves"] = s["number_of_waves"]
+        return out
 
     # ------------------------------------------------------------ diagnostics
     def error(self, code: str, message: str, span: Span, hint: str | None = None) -> SceneError:

@@ -284,6 +284,26 @@ def _b_global_settings(it: BuildContext, g: Grouped, node: syntax.Block) -> None
             s["ambient_light"] = args[0]
         elif name == "charset":
             s["charset"] = args[0]
+        elif name == "noise_generator":
+            gen = int(args[0])
+            if gen not in (1, 2, 3):
+                # POV-Ray's Parse_Global_Settings refuses the others
+                raise it.error(
+                    "E0202",
+                    "Value for noise_generator in global_settings must be 1, 2, or 3.",
+                    span,
+                )
+            s["noise_generator"] = gen
+        elif name == "number_of_waves":
+            waves = int(args[0])
+            if waves <= 0:
+                it.sink.warning(
+                    "W0309",
+                    "Illegal Value: 'number_of_waves' must be greater than 0. Changed to 1.",
+                    span,
+                )
+                waves = 1
+            s["number_of_waves"] = waves
         elif name == "radiosity":
             s["radiosity"] = args[0]
         elif name == "unsupported":
