@@ -273,9 +273,18 @@ class _Builder:
         if node is not None:
             self.nodes.append(node)
 
-    def node(self, obj: ir.Object, inherited: dict[str, bool], merged: bool = False):
+    def node(
+        self,
+        obj: ir.Object,
+        inherited: dict[str, bool],
+        merged: bool = False,
+        inverted: bool = False,
+    ):
         """An analytic node (Leaf or CsgNode) for obj, or None when nothing renders.
-        `merged`: `inherited` already holds obj's own flags too."""
+        `merged`: `inherited` already holds obj's own flags too. `inverted`: obj is inside
+        an inverted CSG (a difference's subtracted child, an `inverse` one), where POV-Ray's
+        Invert turns every union into an intersection of inverted children (CSG::Morph):
+        its children's surfaces inside one another are gone, as a merge's."""
         shape = obj.shape
         flags = (
             inherited if merged else {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
@@ -298,10 +307,16 @@ class _Builder:
             sweep = self.sphere_sweep(obj, flags)
             return None if sweep is None else self.clipped(obj, sweep)
         if isinstance(shape, ir.CSG):
-            children = [c for c in (self.node(ch, flags) for ch in shape.children) if c]
+            under = inverted or obj.inverse
+            kids = (
+                self.node(ch, flags, inverted=under or (shape.op == "difference" and i > 0))
+                for i, ch in enumerate(shape.children)
+            )
+            children = [c for c in kids if c]
             if not children:
                 return None
-            return self.clipped(obj, CsgNode(shape.op, children, inverse=obj.inverse))
+            op = "merge" if under and shape.op == "union" else shape.op
+            return self.clipped(obj, CsgNode(op, children, inverse=obj.inverse))
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
             mesh = self.tessellator.tessellate(obj)
             if mesh is None:
