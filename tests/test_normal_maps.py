@@ -89,3 +89,24 @@ def test_quilted_normals_are_povray_s_normal_only_pattern(tmp_path, amount):
     ours, messages = strala_image(text, tmp_path, 160, 120)
     err, off = image_errors(ours, povray_image(text, tmp_path, 160, 120))
     assert err < 0.01 and off < 0.002, (err, off, messages)
+
+
+@pytest.mark.povray
+def test_list_patterns_of_normals_pick_the_cell_s_normal(tmp_path):
+    # `checker normal { A } normal { B }` and its kin are blend maps of normals in POV-Ray
+    # (strala perturbed by the checker's own slope: flat cells)
+    text = (
+        HEAD
+        + """
+box { <-2, -2, 0>, <2, 2, 1> pigment { rgb 1 } normal { hexagon normal { bumps 1 scale 0.2 }
+  normal { radial sine_wave frequency 10 rotate x*90 } normal { dents 2 scale 0.3 }
+  scale 0.7 } translate <-2.2, 0, 0> }
+box { <-2, -2, 0>, <2, 2, 1> pigment { rgb 1 } normal { object { sphere { 0, 1.2 }
+  normal { bumps 1 scale 0.2 } normal { wrinkles 1 scale 0.3 } } } translate <2.2, 0, 0> }
+box { <-2, -2, 0>, <2, 2, 1> pigment { rgb 1 } normal { checker normal { marble
+  turbulence 0.5 } normal { granite 0.5 } scale 0.5 } translate <0, -3, 2> }
+"""
+    )
+    ours, messages = strala_image(text, tmp_path, 160, 120)
+    err, off = image_errors(ours, povray_image(text, tmp_path, 160, 120))
+    assert err < 0.02 and off < 0.005, (err, off, messages)

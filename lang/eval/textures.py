@@ -379,9 +379,11 @@ def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
             nrm = replace(nrm, pattern="object")
             params["list"] = v.items
             params["object"] = v.object
+            _normal_list(params, v.items)
         elif name in schema.LIST_PATTERNS:
             nrm = replace(nrm, pattern=name)
             params["list"] = tuple(v)
+            _normal_list(params, v)
         else:
             st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
             if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
@@ -390,6 +392,14 @@ def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
                 if isinstance(depth, float):
                     nrm = replace(nrm, depth=depth)
     return replace(nrm, params=params)
+
+
+def _normal_list(params: dict[str, Any], items) -> None:
+    """`checker normal { A } normal { B }` (or hexagon, brick, object): POV-Ray's blend map
+    of normals, whose entry at the pattern's value (the cell's index) perturbs the
+    surface, as a normal_map's."""
+    if items and all(isinstance(x, ir.Normal) for x in items):
+        params["normal_map"] = tuple((float(i), x) for i, x in enumerate(items))
 
 
 # POV-Ray 3.7's words (parstxtr.cpp, Parse_Finish, through Warn_Compat) for the interior
