@@ -443,8 +443,10 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
     else:
         acc = radiosity_term(ctx, hit, rows, fin, pig, op)
     grain = shading.grain(pts) if np.any(fin.crand > 0) else None
-    for ldir, lcol in zip(lights.direction, lights.colour, strict=True):
-        acc += shading.light_terms(fin, surf, pig, op, ldir[rows], lcol[rows], double, grain)
+    for light, ldir, lcol in zip(ctx.scene.lights, lights.direction, lights.colour, strict=True):
+        acc += shading.light_terms(
+            fin, surf, pig, op, ldir[rows], lcol[rows], double, grain, not light.shadowless
+        )
     result[rows] += acc
     r = fin.reflection
     reflects = (r.max.max(axis=1) > 0) | (r.min.max(axis=1) > 0)
@@ -517,7 +519,8 @@ def shade_texture(
         else:
             acc = radiosity_term(ctx, hit, rows, fin, pig, op)
         if fin.diffuse != 0 or fin.diffuse_back != 0 or fin.specular != 0 or fin.phong != 0:
-            for ldir, lcol in zip(lights.direction, lights.colour, strict=True):
+            lit = zip(ctx.scene.lights, lights.direction, lights.colour, strict=True)
+            for light, ldir, lcol in lit:
                 acc += shading.light_terms(
                     fin,
                     surf,
@@ -527,6 +530,7 @@ def shade_texture(
                     lcol[rows],
                     double,
                     shading.grain(pts) if fin.crand > 0 else None,
+                    not light.shadowless,
                 )
         result[rows] += np.where(active[:, None], acc * f, 0.0)
         # Reflection of this layer (POV-Ray: weighted by the translucency above it).

@@ -255,11 +255,13 @@ def light_terms(
     light_col: np.ndarray,
     double_illuminate: bool | np.ndarray = False,
     grain: np.ndarray | None = None,
+    highlights: bool = True,
 ) -> np.ndarray:
     """(N,3) diffuse + specular + phong (+ iridescence) from one light (light_col already
     shadowed). double_illuminate (per row or for all) lights both sides alike. grain:
     (N,) random numbers in [0, 1) for `crand` (POV-Ray subtracts crand * random from the
-    diffuse intensity)."""
+    diffuse intensity). `highlights` False: a shadowless light, which POV-Ray's
+    ComputeOneLightRay gives no phong or specular highlight (a fill light)."""
     n = surf.normal
     cos_l = np.einsum("ij,ij->i", n, light_dir)
     front = cos_l >= EPSILON
@@ -280,9 +282,9 @@ def light_terms(
             intensity = intensity - grain * finish.crand
         intensity = np.where(lit | back, intensity, 0.0)
         out += intensity[:, None] * pigment * light_col
-    if np.any(np.asarray(finish.phong) > 0):
+    if highlights and np.any(np.asarray(finish.phong) > 0):
         out += highlight_phong(finish, surf, light_dir, light_col, pigment, cos_l, lit)
-    if np.any(np.asarray(finish.specular) > 0):
+    if highlights and np.any(np.asarray(finish.specular) > 0):
         out += highlight_specular(finish, surf, light_dir, light_col, pigment, cos_l, lit)
     if finish.irid is not None and finish.irid[0] > 0:
         out = out * iridescence(finish, surf, light_dir)

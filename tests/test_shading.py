@@ -456,6 +456,30 @@ sphere { <0.8, 0, 0>, 0.7 pigment { rgb 1 } finish { diffuse 0.2 reflection 0.3
     assert off < 0.005 and err < 0.02, (err, off, messages)
 
 
+@pytest.mark.povray
+@pytest.mark.parametrize("path", ["kernel", "numpy"])
+def test_a_shadowless_light_gives_no_highlights(tmp_path, monkeypatch, path):
+    # POV-Ray's ComputeOneLightRay skips phong and specular for a fill light (shadowless)
+    from conftest import image_errors, povray_image, strala_image
+
+    if path == "numpy":
+        monkeypatch.setenv("STRALA_KERNEL", "numpy")
+    text = """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 2, -6> look_at <0, 0.5, 0> }
+light_source { <-20, 30, -40> rgb 0.8 shadowless }
+light_source { <20, 30, -10> rgb 0.6 }
+plane { y, -1 pigment { rgb <0.3, 0.5, 0.4> } }
+sphere { <-1.2, 0.5, 0>, 1 pigment { rgb <1, 0.4, 0> } finish { phong 0.9 phong_size 20 } }
+sphere { <1.2, 0.5, 0>, 1 pigment { rgb <0.3, 0.4, 1> }
+  finish { specular 0.8 roughness 0.02 metallic 0.5 } }
+"""
+    ref = povray_image(text, tmp_path, 160, 120)
+    ours, messages = strala_image(text, tmp_path, 160, 120)
+    err, off = image_errors(ours, ref)
+    assert off < 0.002 and err < 0.01, (err, off, messages)
+
+
 def test_faked_caustics_focus_head_on_light():
     # A clear slab (filter 1, white) between a point and a light straight above: with
     # caustics the head-on light is doubled (1 + |N.L|^45c), without it passes unchanged.

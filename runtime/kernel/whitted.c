@@ -960,6 +960,8 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
             double in = (tx[T_BRIL] == 1.0 ? a : pow(a, tx[T_BRIL])) * diffuse * op;
             for (int i = 0; i < 3; i++) acc[i] += in * pig[i] * lc[i];
         }
+        /* POV-Ray gives a shadowless (fill) light no highlights */
+        if ((int)lt[L_SHADOWLESS]) continue;
         double metal = tx[T_METAL];
         double tint[3] = {1.0, 1.0, 1.0};
         if (metal > 0 && (tx[T_PHONG] > 0 || tx[T_SPEC] > 0)) {
