@@ -688,6 +688,8 @@ class Light:
     media_interaction: bool = True  # the light scatters in media
     media_attenuation: bool = False  # media on the way dims the light
     looks_like: Object | None = None
+    # POV-Ray's projected_through: the light reaches a point only through this object
+    projected_through: Object | None = None
     span: Span | None = None
 
 

@@ -68,12 +68,16 @@ def transform_light(light: ir.Light, m: ir.Matrix) -> ir.Light:
     looks = light.looks_like
     if looks is not None:
         looks = _transform_ir_object(looks, m)
+    through = light.projected_through
+    if through is not None:
+        through = _transform_ir_object(through, m)
     return replace(
         light,
         position=transforms.apply_point(m, light.position),
         point_at=transforms.apply_point(m, light.point_at),
         area=area,
         looks_like=looks,
+        projected_through=through,
     )
 
 

@@ -394,7 +394,6 @@ LIGHT_ITEMS = TRANSFORM_ITEMS + [
     "area_illumination bool? | Full area-light illumination.",
     "media_interaction bool? | Interaction with media.",
     "media_attenuation bool? | Attenuation by media.",
-    "projected_through | Project through an object (not rendered yet).",
 ]
 
 FINISH_ITEMS = [
@@ -463,7 +462,15 @@ BLOCKS: dict[str, BlockSpec] = {
         "A light: position and colour, then modifiers.",
         _pos("light?:base", "vector?:position", "color?:color"),
         items(LIGHT_ITEMS),
-        frozenset({"transform", "unsupported", "looks_like"}),
+        frozenset({"transform", "unsupported", "looks_like", "projected_through"}),
+    ),
+    "projected_through": BlockSpec(
+        "projected_through",
+        "projected_through",
+        "The object the light shines through: it lights only what it reaches through it.",
+        (),
+        {},
+        frozenset({"object"}),
     ),
     "looks_like": BlockSpec(
         "looks_like",
@@ -1091,7 +1098,7 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
     """photons subsurface bump_map material_map interior_texture
-    image_pattern projected_through""".split()
+    image_pattern""".split()
 )
 
 

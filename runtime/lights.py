@@ -12,6 +12,8 @@ from lang import ir
 from runtime import patterns, shading
 from runtime.context import Context, Hit, LightColours, resolve_textures
 from runtime.fog import apply_fogs
+from runtime.functions import compile_xyz
+from runtime.inside import inside_node
 
 # A shadow ray crosses at most this many transparent surfaces before it counts as blocked
 # (bounds the loop for pathological stacks of glass; each crossing is one batch query).
@@ -39,12 +41,18 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
         need = lit & (facing | any_side)
         need &= np.abs(col).max(axis=1) > shading.EPSILON
         col = np.where(need[:, None], col, 0.0)
+        reach = ls.distance  # how far the shadow test looks
+        if light.projected_through is not None:
+            rows = np.nonzero(need)[0]
+            through = _through(light.projected_through, origins[rows], ls.direction[rows])
+            col[rows] *= (through < ls.distance[rows])[:, None]
+            # only what lies before the object casts a shadow (the object itself does not)
+            reach = ls.distance.copy()
+            reach[rows] = np.minimum(reach[rows], through - _SMALL_TOLERANCE)
         if not light.shadowless:
             rows = np.nonzero(need)[0]
             if len(rows):
-                col[rows] *= shadow(
-                    ctx, light, origins[rows], ls.direction[rows], ls.distance[rows]
-                )
+                col[rows] *= shadow(ctx, light, origins[rows], ls.direction[rows], reach[rows])
                 if ctx.media is not None:
                     col[rows] *= ctx.media.transmittance(
                         ctx,
@@ -64,6 +72,33 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
         dirs_out.append(ls.direction)
         cols_out.append(col)
     return LightColours(dirs_out, cols_out)
+
+
+# POV-Ray's SMALL_TOLERANCE, by which the projected_through shadow test stops short
+_SMALL_TOLERANCE = 1e-3
+
+# the inside nodes of projected_through objects, by the object (kept, so its id is unique)
+_THROUGH: dict[int, tuple[ir.Object, object]] = {}
+
+
+def _quiet(msg: str, span=None) -> None:
+    """A projected object without an inside was warned about by the evaluator already."""
+
+
+def _through(obj: ir.Object, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """(N,) how far each ray travels to the first crossing of a light's projected_through
+    object (inf: none): POV-Ray's TracePointLightShadowRay lets the light through only
+    where the way to it meets the object, shadows still applying."""
+    got = _THROUGH.get(id(obj))
+    if got is None or got[0] is not obj:
+        got = (obj, inside_node(obj, _quiet, compile_xyz))
+        _THROUGH[id(obj)] = got
+    node = got[1]
+    if node is None or not len(origins):
+        return np.full(len(origins), np.inf)
+    t = node.crossings(origins, dirs).t  # type: ignore[attr-defined]
+    t = np.where(t > shading.EPSILON, t, np.inf)
+    return t.min(axis=1) if t.shape[1] else np.full(len(origins), np.inf)
 
 
 def _shadow_origins(ctx: Context, hit: Hit) -> np.ndarray:

@@ -244,6 +244,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
             out.append(f"{light.kind} light")
         if light.area is not None and light.area.size1 * light.area.size2 > 1:
             out.append("area light")
+        if light.projected_through is not None:
+            out.append("projected_through")
     return sorted(set(out))
 
 

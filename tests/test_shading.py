@@ -646,3 +646,28 @@ def test_sky_sphere_filter_rule_depends_on_the_version():
         settings=ir.Settings(assumed_gamma=1.0, version=3.6),
     )
     np.testing.assert_allclose(shoot(scene, [0, 0, 0], [0, 1, 0])[0], [0.5, 0.5, 0.5])
+
+
+@pytest.mark.povray
+def test_a_light_projected_through_an_object_lights_only_through_it(tmp_path):
+    # POV-Ray's TracePointLightShadowRay: the light passes where the way to it meets the
+    # object; what lies before the object still casts a shadow, the object itself not
+    from conftest import image_errors, povray_image, strala_image
+
+    text = """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <2, 3, -10> look_at <-1, 1.5, 0> }
+plane { y, 0 pigment { rgb 1 } }
+plane { z, 0 pigment { rgb <0.3, 0.5, 0.7> } }
+#declare Mask = union { torus { 1.5, 0.2 rotate x*90 } sphere { <0.8, 0.3, 0>, 0.6 }
+  translate <-1, 2.5, -6> }
+object { Mask pigment { rgb <0.6, 0.8, 0.2> } }
+sphere { <-0.7, 2.2, -3>, 0.3 pigment { rgb 1 } }
+light_source { <0, 4, -10> rgb 2 projected_through { Mask } }
+light_source { <0, 3, -9> rgb 0.4 shadowless }
+"""
+    ref = povray_image(text, tmp_path, 160, 120)
+    ours, messages = strala_image(text, tmp_path, 160, 120)
+    assert not [m for m in messages if "projected_through" in m], messages
+    err, off = image_errors(ours, ref)
+    assert off < 0.003 and err < 0.02, (err, off, messages)

@@ -39,6 +39,12 @@ class _LooksLike:
     kind: str = "looks_like"
 
 
+@dataclass(frozen=True)
+class _ProjectedThrough:
+    obj: ObjectValue
+    kind: str = "projected_through"
+
+
 _CAMERA_KINDS = frozenset(
     "perspective orthographic fisheye ultra_wide_angle omnimax panoramic spherical "
     "cylinder mesh_camera".split()
@@ -68,7 +74,8 @@ def _b_light(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Light:
         light = ir.Light(position=p["position"], color=p["color"].rgb, span=node.span)
     moves: list[ir.Matrix] = []
     looks: ObjectValue | None = None
-    for name, args, span in g.items:
+    through: ObjectValue | None = None
+    for name, args, _span in g.items:
         if name in ("spotlight", "parallel", "cylinder"):
             kind = name
             if name == "cylinder":
@@ -93,7 +100,7 @@ def _b_light(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Light:
         elif name == "looks_like":
             looks = args[0].obj
         elif name == "projected_through":
-            it.unsupported("projected_through", span)
+            through = args[0].obj
         elif name in ("transform",):
             moves.append(args[0])
     if kind == "parallel" and "point_at" not in fields:
@@ -107,6 +114,8 @@ def _b_light(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Light:
     if looks is not None:
         looks = transform_object(looks, transforms.translate(light.position))
         light = replace(light, looks_like=it.to_ir(looks))
+    if through is not None:
+        light = replace(light, projected_through=it.to_ir(through))
     for m in moves:
         light = transform_light(light, m)
     return light
@@ -117,6 +126,13 @@ def _b_looks_like(it: BuildContext, g: Grouped, node: syntax.Block) -> _LooksLik
     if len(objs) != 1:
         raise it.error("E0211", "`looks_like` takes one object", g.span)
     return _LooksLike(objs[0])
+
+
+def _b_projected_through(it: BuildContext, g: Grouped, node: syntax.Block) -> _ProjectedThrough:
+    objs = [args[0] for name, args, _ in g.items if name == "object"]
+    if len(objs) != 1:
+        raise it.error("E0211", "`projected_through` takes one object", g.span)
+    return _ProjectedThrough(objs[0])
 
 
 def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
@@ -445,6 +461,7 @@ def _b_transform(it: BuildContext, g: Grouped, node: syntax.Block) -> TransformV
 BUILDERS: dict[str, Builder] = {
     "light_source": _b_light,
     "looks_like": _b_looks_like,
+    "projected_through": _b_projected_through,
     "camera": _b_camera,
     "global_settings": _b_global_settings,
     "radiosity": _b_radiosity,
