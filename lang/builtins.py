@@ -353,7 +353,7 @@ def _vdot(args, state):
 
 def _vcross(args, state):
     a, b = _v(args, 0, "vcross"), _v(args, 1, "vcross")
-    return Vec((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]))
+    return Vec(transforms.cross(a, b))
 
 
 def _vrotate(args, state):

@@ -169,6 +169,11 @@ def apply_normal(m: Matrix, n: Sequence[float]) -> tuple[float, float, float]:
     return tuple(inv[0][i] * n[0] + inv[1][i] * n[1] + inv[2][i] * n[2] for i in range(3))  # type: ignore[return-value]
 
 
+def cross(a: Sequence[float], b: Sequence[float]) -> tuple[float, float, float]:
+    """The cross product a × b."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
 def is_identity(m: Matrix, tol: float = 0.0) -> bool:
     if tol == 0.0:
         return m == IDENTITY  # tuple equality: the common, fast case

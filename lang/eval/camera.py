@@ -41,10 +41,6 @@ def _dot(a: Vec3, b: Vec3) -> float:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _cross(a: Vec3, b: Vec3) -> Vec3:
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
 def _len(a: Vec3) -> float:
     return math.sqrt(_dot(a, a))
 
@@ -143,12 +139,12 @@ class CameraBuilder:
             direction = _scaled(_unit(direction), length)
         if self.had_look_at:
             d_len, u_len, r_len = _len(direction), _len(up), _len(right)
-            handedness = _dot(_cross(up, direction), right)
+            handedness = _dot(transforms.cross(up, direction), right)
             new_dir = _sub(self.look_at_point, c.location)
             if _dot(new_dir, new_dir) < CAMERA_EPSILON:
                 raise CameraError("camera location and look_at point must be different")
             new_dir = _unit(new_dir)
-            new_right = _cross(c.sky, new_dir)
+            new_right = transforms.cross(c.sky, new_dir)
             if all(abs(v) < CAMERA_EPSILON for v in new_right):
                 self.warnings.append(
                     "Camera location to look_at direction and sky direction should be "
@@ -156,7 +152,7 @@ class CameraBuilder:
                 )
                 new_right = right
             new_right = _unit(new_right)
-            up = _scaled(_cross(new_dir, new_right), u_len)
+            up = _scaled(transforms.cross(new_dir, new_right), u_len)
             direction = _scaled(new_dir, d_len)
             right = _scaled(new_right, r_len if handedness > 0.0 else -r_len)
         if c.kind == "orthographic" and (self.had_angle or not (self.had_up or self.had_right)):

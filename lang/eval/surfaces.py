@@ -291,12 +291,8 @@ def _warn_degenerate_triangle(it: BuildContext, pts, normals, span) -> None:
     a, b, c = (tuple(float(x) for x in v) for v in pts)
     e1 = (a[0] - b[0], a[1] - b[1], a[2] - b[2])
     e2 = (c[0] - b[0], c[1] - b[1], c[2] - b[2])
-    cross = (
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    )
-    if cross == (0.0, 0.0, 0.0) or any(tuple(n) == (0.0, 0.0, 0.0) for n in normals):
+    zero = (0.0, 0.0, 0.0)
+    if transforms.cross(e1, e2) == zero or any(tuple(n) == zero for n in normals):
         it.sink.warning("W0303", DEGENERATE_TRIANGLE, span)
 
 
@@ -409,11 +405,7 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
             a, b, c = pts
             e1 = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
             e2 = (c[0] - a[0], c[1] - a[1], c[2] - a[2])
-            fn = (
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            )
+            fn = transforms.cross(e1, e2)
             normals.extend([fn, fn, fn])
         faces.append((base, base + 1, base + 2))
         if tri.texture is not None:
