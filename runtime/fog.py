@@ -19,6 +19,11 @@ def _warn(msg: str) -> None:
         print(f"strala: warning: {msg}")
 
 
+def scene_fogs(scene: ir.Scene) -> tuple[ir.Fog, ...]:
+    """Every fog of the scene, in order (POV-Ray applies them all)."""
+    return scene.fogs or ((scene.fog,) if scene.fog is not None else ())
+
+
 def apply_fogs(
     fogs, depth: np.ndarray, col: np.ndarray, origins=None, dirs=None, shadow: bool = False
 ) -> np.ndarray:

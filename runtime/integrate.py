@@ -38,7 +38,7 @@ from runtime.context import (
     resolve_textures,
     texture_layers,
 )
-from runtime.fog import apply_fogs
+from runtime.fog import apply_fogs, scene_fogs
 from runtime.lights import interior_fade, light_colours
 from runtime.shading import GREY, Surface
 
@@ -263,7 +263,7 @@ def trace(
         )
     if ctx.media is not None:
         col = media.apply(ctx, o, d, hits.t, hits.obj, hits.normal, col)
-    fogs = ctx.scene.fogs or ((ctx.scene.fog,) if ctx.scene.fog is not None else ())
+    fogs = scene_fogs(ctx.scene)
     if fogs:
         col = apply_fogs(fogs, hits.t, col, o, d)
     out[alive] = col

@@ -11,9 +11,7 @@ import numpy as np
 from lang import ir
 from runtime import patterns, shading
 from runtime.context import Context, Hit, LightColours, resolve_textures
-from runtime.fog import apply_fogs
-from runtime.functions import compile_xyz
-from runtime.inside import inside_node
+from runtime.fog import apply_fogs, scene_fogs
 
 # A shadow ray crosses at most this many transparent surfaces before it counts as blocked
 # (bounds the loop for pathological stacks of glass; each crossing is one batch query).
@@ -33,8 +31,9 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
     origins = _shadow_origins(ctx, hit)
     # A bumpy normal may face a light the smooth one does not: test those hits too.
     any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex] | ctx.bumpy[hit.tex]
-    fogs = ctx.scene.fogs or ((ctx.scene.fog,) if ctx.scene.fog is not None else ())
-    for light in ctx.scene.lights:
+    fogs = scene_fogs(ctx.scene)
+    projected = getattr(ctx.prepared, "projected", None) or [None] * len(ctx.scene.lights)
+    for light, through_node in zip(ctx.scene.lights, projected, strict=True):
         ls = shading.sample_light(light, hit.point)
         col = ls.colour
         facing = np.einsum("ij,ij->i", hit.normal, ls.direction) >= shading.EPSILON
@@ -44,7 +43,7 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
         reach = ls.distance  # how far the shadow test looks
         if light.projected_through is not None:
             rows = np.nonzero(need)[0]
-            through = _through(light.projected_through, origins[rows], ls.direction[rows])
+            through = _through(through_node, origins[rows], ls.direction[rows])
             col[rows] *= (through < ls.distance[rows])[:, None]
             # only what lies before the object casts a shadow (the object itself does not)
             reach = ls.distance.copy()
@@ -77,26 +76,15 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
 # POV-Ray's SMALL_TOLERANCE, by which the projected_through shadow test stops short
 _SMALL_TOLERANCE = 1e-3
 
-# the inside nodes of projected_through objects, by the object (kept, so its id is unique)
-_THROUGH: dict[int, tuple[ir.Object, object]] = {}
 
-
-def _quiet(msg: str, span=None) -> None:
-    """A projected object without an inside was warned about by the evaluator already."""
-
-
-def _through(obj: ir.Object, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+def _through(node, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     """(N,) how far each ray travels to the first crossing of a light's projected_through
-    object (inf: none): POV-Ray's TracePointLightShadowRay lets the light through only
-    where the way to it meets the object, shadows still applying."""
-    got = _THROUGH.get(id(obj))
-    if got is None or got[0] is not obj:
-        got = (obj, inside_node(obj, _quiet, compile_xyz))
-        _THROUGH[id(obj)] = got
-    node = got[1]
+    object (`node`, from prepare; None: it has no surface strala can cross, warned there;
+    inf: no crossing): POV-Ray's TracePointLightShadowRay lets the light through only where
+    the way to it meets the object, shadows still applying."""
     if node is None or not len(origins):
         return np.full(len(origins), np.inf)
-    t = node.crossings(origins, dirs).t  # type: ignore[attr-defined]
+    t = node.crossings(origins, dirs).t
     t = np.where(t > shading.EPSILON, t, np.inf)
     return t.min(axis=1) if t.shape[1] else np.full(len(origins), np.inf)
 

@@ -45,6 +45,8 @@ class Prepared:
     # (n_objects,) bool: a mesh tessellated from a curved surface (nurbs, subdivision), whose
     # shadow rays start from the curved surface its normals describe (see integrate)
     curved: np.ndarray | None = None
+    # per scene light: the inside node of its projected_through object, or None
+    projected: list = field(default_factory=list)
 
     # Asked for, not computed for every render: a walk over thousands of objects.
     @functools.cached_property
@@ -416,6 +418,10 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     tracer = Tracer(b.nodes, triangles, flags, np.array(b.sizes, dtype=np.float64))
     if triangles is not None:
         triangles.flags = flags
+    projected = [
+        None if light.projected_through is None else b.clip_node(light.projected_through)
+        for light in scene.lights
+    ]
     return Prepared(
         scene=scene,
         objects=b.objects,
@@ -423,6 +429,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
         warnings=b.warnings,
         culled=b.culled,
         curved=np.array(b.curved, dtype=bool),
+        projected=projected,
     )
 
 
