@@ -878,35 +878,37 @@ def _fractal_colouring(given, default_type: int) -> tuple[int, float]:
 
 
 def _exterior(kind: int, f: float, col: int, it_max: int, z: np.ndarray) -> np.ndarray:
-    a, b = z.real, z.imag
-    values = {
-        0: np.full(len(z), f),
-        1: np.full(len(z), col / it_max),
-        2: a * f,
-        3: b * f,
-        4: a * a * f,
-        5: b * b * f,
-        6: np.sqrt(a * a + b * b) * f,
-    }
+    if kind == 1:
+        return np.full(len(z), col / it_max)
+    if kind == 6:
+        return np.sqrt(z.real * z.real + z.imag * z.imag) * f
     if kind == 7 and int(f) > 0:
         return np.full(len(z), (col % int(f)) / f)
     if kind == 8 and f != 0:
         return np.full(len(z), (col % int(1 + f)) / f)
-    return values.get(kind, np.zeros(len(z)))
+    return _coloured(kind, f, z)
 
 
 def _interior(kind: int, f: float, z: np.ndarray, mind2: np.ndarray) -> np.ndarray:
+    if kind == 1:
+        return np.sqrt(mind2) * f
+    if kind == 6:
+        return z.real * z.real + z.imag * z.imag * f  # POV-Ray's precedence, kept
+    return _coloured(kind, f, z)
+
+
+def _coloured(kind: int, f: float, z: np.ndarray) -> np.ndarray:
+    """The colourings exterior and interior share: 0 the factor, 2-5 the last z's real or
+    imaginary part (squared for 4 and 5) times it; another type gives 0."""
     a, b = z.real, z.imag
-    values = {
-        0: np.full(len(z), f),
-        1: np.sqrt(mind2) * f,
-        2: a * f,
-        3: b * f,
-        4: a * a * f,
-        5: b * b * f,
-        6: a * a + b * b * f,  # POV-Ray's precedence, kept
-    }
-    return values.get(kind, np.zeros(len(z)))
+    if kind == 0:
+        return np.full(len(z), f)
+    if kind in (2, 3):
+        return (a if kind == 2 else b) * f
+    if kind in (4, 5):
+        v = a if kind == 4 else b
+        return v * v * f
+    return np.zeros(len(z))
 
 
 def mandel(p: np.ndarray, params: dict) -> np.ndarray:
