@@ -258,6 +258,9 @@ class FnInternal:
 
     name: str
     args: tuple[Any, ...]
+    # the scene's noise_generator, which f_noise3d reads at render time (set with the
+    # scene's pattern defaults, lang.ir_ops)
+    noise_generator: int = 2
 
 
 @dataclass(frozen=True)

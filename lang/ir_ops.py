@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import replace
-from typing import Any
+from typing import Any, TypeVar
 
 from lang import ir, transforms
 from lang.values import ObjectValue
+
+_T = TypeVar("_T")
 
 
 def transform_pigment(p: ir.Pigment, m: ir.Matrix) -> ir.Pigment:
@@ -142,6 +144,12 @@ def with_pattern_defaults(scene: ir.Scene, defaults: dict[str, Any]) -> ir.Scene
     """`scene` with `defaults` in the params of every pigment and normal that does not name
     its own value: the scene-wide settings POV-Ray's patterns read at render time
     (global_settings' noise_generator and number_of_waves). Shared values are rebuilt once."""
+    return pattern_defaults_in(scene, defaults)
+
+
+def pattern_defaults_in(value: _T, defaults: dict[str, Any]) -> _T:
+    """with_pattern_defaults for any IR value (an object, a function): what the scene
+    language's trace() and function calls see before the scene is complete."""
     memo: dict[int, Any] = {}
 
     def walk(v: Any) -> Any:
@@ -171,12 +179,16 @@ def with_pattern_defaults(scene: ir.Scene, defaults: dict[str, Any]) -> ir.Scene
                 missing = {k: x for k, x in defaults.items() if k not in params}
                 if missing:
                     changes["params"] = {**params, **missing}
+            elif isinstance(v, ir.FnInternal) and v.name == "f_noise3d":
+                gen = defaults.get("noise_generator", v.noise_generator)
+                if gen != v.noise_generator:
+                    changes["noise_generator"] = gen
             if changes:
                 out = replace(v, **changes)
         memo[key] = out
         return out
 
-    return walk(scene)
+    return walk(value)
 
 
 def _plain_data(x: Any) -> bool:

@@ -1,10 +1,13 @@
-"""What the evaluator may ask about geometry while it runs: POV-Ray's `trace()` and
-`inside()` are evaluated at parse time, on the objects declared so far.
+"""What the evaluator may ask the renderer while it runs: POV-Ray's `trace()` and
+`inside()` are evaluated at parse time, on the objects declared so far, and a function
+whose body needs the renderer (a pattern, a pigment, an internal `f_*` function) may be
+called from the scene language.
 
 lang knows no intersection code (it never imports the runtime or numpy), so whoever
 compiles a scene for rendering hands the evaluator an implementation of `SceneQueries`
 (runtime.queries has the renderer's). Without one, as in `strala check`, `trace()`
-reports a miss and `inside()` says outside: the values a scene sees when it hits nothing.
+reports a miss and `inside()` says outside: the values a scene sees when it hits nothing;
+such a function call gives 0 with a warning.
 """
 
 from __future__ import annotations
@@ -26,6 +29,14 @@ class SceneQueries(Protocol):
     def inside(self, obj: ir.Object, point: ir.Vec3) -> bool:
         """Whether point is inside obj (POV-Ray's inside test; shapes without an inside:
         False)."""
+        ...
+
+    def function(self, fn: ir.Function, args: tuple[float, ...]) -> float:
+        """fn(args) for a float function the evaluator cannot compute alone."""
+        ...
+
+    def pigment(self, pigment: ir.Pigment, point: ir.Vec3) -> tuple[float, ...]:
+        """The pigment's colour at point, as five floats (red green blue filter transmit)."""
         ...
 
 

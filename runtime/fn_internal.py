@@ -7,8 +7,8 @@ POV-Ray's "sor" switch (P_sor > 0: revolve the curve around y at offset P_off, t
 P_angle degrees), otherwise extruded along z.
 
 Noise: f_noise3d and the fractal noises use strala's POV-Ray-like noise
-(runtime.noise.noise, values in 0..1); the noise_generator parameter is accepted and
-all three generators give that noise.
+(runtime.noise.noise, values in 0..1) with the generator POV-Ray's would use: the
+scene's for f_noise3d, the noise_generator parameter for the others.
 """
 
 from __future__ import annotations
@@ -52,10 +52,16 @@ def _rot2d(x: Arr, y: Arr, z: Arr, sor: Arr, off: Arr, angle: Arr) -> tuple[Arr,
     return r * math.cos(th) - y * math.sin(th), r * math.sin(th) + y * math.cos(th)
 
 
-def _noise(p0: Arr, p1: Arr, p2: Arr) -> np.ndarray:
+def _noise(p0: Arr, p1: Arr, p2: Arr, generator: int = 2) -> np.ndarray:
     shape = np.broadcast(p0, p1, p2).shape
     pts = np.stack([np.broadcast_to(v, shape).ravel() for v in (p0, p1, p2)], axis=1)
-    return noise(pts.astype(np.float64)).reshape(shape)
+    return noise(pts.astype(np.float64), generator).reshape(shape)
+
+
+def _generator(param: Arr) -> int:
+    """A noise_generator parameter as POV-Ray reads it (`(int)P & 3`; 0 is the original
+    noise, as 1)."""
+    return int(_scalar(param)) & 3 or 1
 
 
 def _section(a: Arr, b: Arr, kind: float) -> Arr:
@@ -537,57 +543,67 @@ def f_quantum(x, y, z, _p0):
 
 
 # ------------------------------------------------------------------- noise
-def f_noise3d(x, y, z):
-    return _noise(x, y, z)
+def f_noise3d(x, y, z, *, generator: int = 2):
+    """The scene's noise generator (global_settings), which the compiler passes."""
+    return _noise(x, y, z, generator)
 
 
-def f_noise_generator(x, y, z, _gen):
-    return _noise(x, y, z)
+def f_noise_generator(x, y, z, gen):
+    return _noise(x, y, z, _generator(gen))
 
 
-def f_ridged_mf(x, y, z, h, lacunarity, octaves, offset, gain, _gen):
+# f_noise3d reads the scene's generator (the others take theirs as a parameter)
+SCENE_NOISE = frozenset({"f_noise3d"})
+
+
+def f_ridged_mf(x, y, z, h, lacunarity, octaves, offset, gain, gen):
+    g = _generator(gen)
     lac, n = _scalar(lacunarity), _scalar(octaves)
     weights = [lac ** (-_scalar(h) * i) for i in range(int(n) + 1)]
-    signal = (offset - np.abs(_noise(x, y, z) * 2 - 1)) ** 2
+    signal = (offset - np.abs(_noise(x, y, z, g) * 2 - 1)) ** 2
     result = signal
     scale = 1.0
     i = 1
     while i < n:
         scale *= lac
         weight = np.clip(signal * gain, 0.0, 1.0)
-        signal = (offset - np.abs(_noise(x * scale, y * scale, z * scale) * 2 - 1)) ** 2 * weight
+        signal = (offset - np.abs(_noise(x * scale, y * scale, z * scale, g) * 2 - 1)) ** 2 * weight
         result = result + signal * weights[i]
         i += 1
     return result
 
 
-def f_ridge(x, y, z, lam, octaves, omega, off, ridge, _gen):
+def f_ridge(x, y, z, lam, octaves, omega, off, ridge, gen):
+    g = _generator(gen)
     lam_, om_, oct_ = _scalar(lam), _scalar(omega), _scalar(octaves)
     rscale = 1.0 / max(ridge, 1.0 - ridge)
     scale = 1.0 / max(off, 1.0 - off)
     n = int(oct_)
-    value = np.abs(_noise(x, y, z) - ridge) * rscale - off
+    value = np.abs(_noise(x, y, z, g) - ridge) * rscale - off
     tot, lv, o = 1.0, lam_, om_
     for _ in range(2, n + 1):
-        value = value + o * (np.abs(_noise(x * lv, y * lv, z * lv) - ridge) * rscale - off)
+        value = value + o * (np.abs(_noise(x * lv, y * lv, z * lv, g) - ridge) * rscale - off)
         tot += o
         lv *= lam_
         o *= om_
     resid = oct_ - n
     if resid:
-        value = value + o * (np.abs(_noise(x * lv, y * lv, z * lv) - ridge) * rscale - off) * resid
+        value = (
+            value + o * (np.abs(_noise(x * lv, y * lv, z * lv, g) - ridge) * rscale - off) * resid
+        )
         tot += o * resid
     return value * scale / tot
 
 
-def f_hetero_mf(x, y, z, h, lacunarity, octaves, offset, t, _gen):
+def f_hetero_mf(x, y, z, h, lacunarity, octaves, offset, t, gen):
+    g = _generator(gen)
     lac, oct_ = _scalar(lacunarity), _scalar(octaves)
-    signal = (_noise(x, y, z) * 2 - 1) + offset
+    signal = (_noise(x, y, z, g) * 2 - 1) + offset
     step = lac ** -_scalar(h)
     ea, scale = step, lac
     i = 1
     while i < oct_:
-        inc = ((_noise(x * scale, y * scale, z * scale) * 2 - 1) + offset) * ea
+        inc = ((_noise(x * scale, y * scale, z * scale, g) * 2 - 1) + offset) * ea
         for _ in range(int(_scalar(t))):
             inc = inc * signal
         signal = signal + inc
@@ -596,7 +612,7 @@ def f_hetero_mf(x, y, z, h, lacunarity, octaves, offset, t, _gen):
         i += 1
     rem = oct_ - int(oct_)
     if rem:
-        inc = ((_noise(x * scale, y * scale, z * scale) * 2 - 1) + offset) * ea
+        inc = ((_noise(x * scale, y * scale, z * scale, g) * 2 - 1) + offset) * ea
         signal = signal + rem * inc * signal
     return signal
 

@@ -167,6 +167,9 @@ class _Compiler:
             if impl is None:
                 fn_internal.warn_missing(e.name)
                 return lambda a: np.zeros(np.broadcast(*a).shape) if a else 0.0
+            if e.name in fn_internal.SCENE_NOISE:
+                gen = e.noise_generator
+                return lambda a: impl(*[k(a) for k in kids], generator=gen)
             return lambda a: impl(*[k(a) for k in kids])
         if t is ir.FnPattern or t is ir.FnPigment:
             return self.pattern(e)

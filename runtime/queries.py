@@ -1,6 +1,7 @@
-"""The renderer's answers to the evaluator's geometry questions (lang.queries): `trace()`
-on one object with the tracer the render itself uses (runtime.prepare), `inside()` with
-its inside test (runtime.inside)."""
+"""The renderer's answers to the evaluator's questions (lang.queries): `trace()` on one
+object with the tracer the render itself uses (runtime.prepare), `inside()` with its inside
+test (runtime.inside), and function and pigment values with the render's own compiled
+functions and patterns, so the scene language sees what the surfaces will."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ class RuntimeQueries:
 
     def __init__(self) -> None:
         self._tracers: dict[int, tuple[ir.Object, object]] = {}
+        self._functions: dict[int, tuple[ir.Function, object]] = {}
 
     def trace(self, obj: ir.Object, origin: ir.Vec3, direction: ir.Vec3):
         d = np.asarray(direction, dtype=np.float64)
@@ -34,6 +36,21 @@ class RuntimeQueries:
         from runtime.inside import inside_points
 
         return bool(inside_points(obj, np.asarray([point], dtype=np.float64), compile_xyz)[0])
+
+    def function(self, fn: ir.Function, args: tuple[float, ...]) -> float:
+        from runtime.functions import compile_function
+
+        key = id(fn)
+        if key not in self._functions:
+            self._functions[key] = (fn, compile_function(fn))  # fn kept: its id stays unique
+        f = self._functions[key][1]
+        return float(f(*args))  # type: ignore[operator]
+
+    def pigment(self, pigment: ir.Pigment, point: ir.Vec3) -> tuple[float, ...]:
+        from runtime.patterns import evaluate
+
+        colour = evaluate(pigment, np.asarray([point], dtype=np.float64))
+        return tuple(float(v) for v in colour[0])
 
     def _tracer(self, obj: ir.Object):
         from runtime.prepare import prepare

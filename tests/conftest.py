@@ -80,9 +80,11 @@ def strala_image(scene_text: str, folder: Path, width: int, height: int, name="s
     it were `folder/name`, so files beside it (images, fonts) are found."""
     from lang.evaluate import compile_source
     from runtime.color import to_display
+    from runtime.queries import RuntimeQueries
     from runtime.render import render_scene
 
-    result = compile_source(scene_text, str(folder / name))
+    # with the renderer's answers to trace() and function calls, as `strala render`
+    result = compile_source(scene_text, str(folder / name), queries=RuntimeQueries)
     messages = [d.message for d in result.diagnostics]
     assert result.scene is not None, messages
     image = to_display(render_scene(result.scene, width, height), result.scene.settings)

@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from lang.diagnostics import DiagnosticSink, SceneError, Span
     from lang.eval.edits import Edits
     from lang.eval.elements import El, Grouped
-    from lang.values import FileHandle, FunctionValue, ObjectValue
+    from lang.values import ColorValue, FileHandle, FunctionValue, ObjectValue
 
 
 class BuildContext(Protocol):
@@ -103,7 +103,9 @@ class BuildContext(Protocol):
 
     def call_macro(self, node: syntax.Call) -> list[El]: ...
 
-    def call_function(self, fn: FunctionValue, args: list[Any], span: Span) -> float: ...
+    def call_function(
+        self, fn: FunctionValue, args: list[Any], span: Span
+    ) -> float | ColorValue: ...
 
     def to_ir(
         self,

@@ -55,6 +55,7 @@ from lang.eval.elements import (
 from lang.eval.scene import settings_at_top
 from lang.ir_ops import (
     collect_lights,
+    pattern_defaults_in,
     transform_interior,
     transform_texture,
     with_pattern_defaults,
@@ -64,6 +65,7 @@ from lang.queries import QueriesFactory, SceneQueries
 from lang.values import (
     ArrayValue,
     CameraValue,
+    ColorValue,
     FileHandle,
     FunctionValue,
     ListValue,
@@ -168,6 +170,9 @@ class Interpreter:
         self.sink = DiagnosticSink()
         self._queries_factory = queries
         self._queries: SceneQueries | None = None
+        # functions called from the scene, with the scene's pattern defaults (the original
+        # kept beside its copy, so its id stays unique)
+        self._defaulted: dict[tuple[int, tuple[Any, ...]], tuple[ir.Function, ir.Function]] = {}
         # an object's IR for trace()/inside(), made once (the queries cache by object)
         self._query_objects: dict[int, tuple[ObjectValue, ir.Object]] = {}
         # frame_number, initial_frame, final_frame, initial_clock, final_clock, clock_delta,
@@ -1108,19 +1113,51 @@ class Interpreter:
                 owner[target] = scope[name]
         return els
 
-    def call_function(self, fn: FunctionValue, args: list[Any], span: Span) -> float:
+    def call_function(self, fn: FunctionValue, args: list[Any], span: Span) -> float | ColorValue:
         if len(args) != len(fn.params):
             raise self.error(
                 "E0232", f"this function takes {len(fn.params)} argument(s), got {len(args)}", span
             )
         values = tuple(as_float(a, "function argument") for a in args)
-        if fn.compiled is None:
+        compiled = fn.compiled
+        if compiled is None:
             return 0.0
+        if compiled.kind == "pigment" and isinstance(compiled.body, ir.FnPigment):
+            # POV-Ray: a pigment function called from the scene gives the colour
+            queries = self.scene_queries("a pigment function's value")
+            if queries is None:
+                self._without_renderer("a pigment function", span)
+                return ColorValue.of(0.0, 0.0, 0.0)
+            pigment = self._with_scene_defaults(compiled).body.pigment
+            x, y, z = (values + (0.0, 0.0, 0.0))[:3]
+            rgbft = queries.pigment(pigment, (x, y, z))
+            return ColorValue((rgbft[0], rgbft[1], rgbft[2], rgbft[3], rgbft[4]))
         try:
-            return functions.call(fn.compiled, values)
+            return functions.call(compiled, values)
         except functions.Unevaluable as e:
-            self.unsupported(f"{e.what} called from the scene language", span)
-            return 0.0
+            queries = self.scene_queries(f"{e.what}'s value")
+            if queries is None:
+                self._without_renderer(e.what, span)
+                return 0.0
+            return queries.function(self._with_scene_defaults(compiled), values)
+
+    def _without_renderer(self, what: str, span: Span) -> None:
+        self.warn_once(
+            f"no-renderer:{what}",
+            f"{what} called from the scene language gives 0 here",
+            span,
+            "its value needs the renderer's patterns: `strala render` computes it",
+        )
+
+    def _with_scene_defaults(self, fn: ir.Function) -> ir.Function:
+        """fn's patterns with the scene-wide settings so far (noise_generator…), as the
+        render will see them; made once per function and settings."""
+        defaults = self._pattern_defaults()
+        key = (id(fn), tuple(sorted(defaults.items())))
+        hit = self._defaulted.get(key)
+        if hit is None:
+            hit = self._defaulted[key] = (fn, pattern_defaults_in(fn, defaults))
+        return hit[1]
 
     # ------------------------------------------------------------ expressions
     def eval(self, node: syntax.Node) -> Any:
@@ -1147,8 +1184,8 @@ class Interpreter:
         except EvalError as e:
             raise self.error("E0203", e.message, node.span, e.hint) from None
 
-    def scene_queries(self) -> SceneQueries | None:
-        self.depends_outside("trace() or inside()")
+    def scene_queries(self, why: str = "trace() or inside()") -> SceneQueries | None:
+        self.depends_outside(why)
         if self._queries is None and self._queries_factory is not None:
             self._queries = self._queries_factory()
         return self._queries
@@ -1156,7 +1193,11 @@ class Interpreter:
     def query_object(self, obj: ObjectValue) -> ir.Object:
         key = id(obj)
         if key not in self._query_objects:
-            self._query_objects[key] = (obj, self.to_ir(obj))  # obj kept: its id stays unique
+            # obj kept: its id stays unique
+            self._query_objects[key] = (
+                obj,
+                pattern_defaults_in(self.to_ir(obj), self._pattern_defaults()),
+            )
         return self._query_objects[key][1]
 
     # ------------------------------------------------------------ blocks
