@@ -540,13 +540,19 @@ def _load_image(path: str, file_gamma: float | None, gamma: float | None) -> np.
 def image_uv(p: np.ndarray, map_type: int) -> tuple[np.ndarray, np.ndarray]:
     """Image coordinates (u, v) of pattern-space points: planar (0) maps the x-y unit square,
     spherical (1) longitude/latitude around the y axis, cylindrical (2) the angle around y
-    and the height y."""
+    and the height y, torus (5) the angle around y and the angle around the tube of a torus
+    of major radius 1 in the x-z plane."""
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
-    if map_type in (1, 2):
+    if map_type in (1, 2, 5):
         # The angle around y from +x toward +z, as a fraction of a turn (POV-Ray's theta).
         u = np.mod(np.arctan2(z, x) / (2.0 * math.pi), 1.0)
         if map_type == 2:
             return u, y
+        if map_type == 5:
+            # the tube's angle from its inner side, turning over the top (POV-Ray's phi)
+            d = np.hypot(x, z) - 1.0
+            phi = np.arctan2(y, -d)
+            return u, np.mod(-phi / (2.0 * math.pi), 1.0)
         r = np.linalg.norm(p, axis=1)
         safe = np.where(r > 0, r, 1.0)
         v = np.arcsin(np.clip(y / safe, -1.0, 1.0)) / math.pi + 0.5
