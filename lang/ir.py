@@ -629,6 +629,11 @@ class Object:
     double_illuminate: bool = False
     clipped_by: tuple[Object, ...] = ()
     span: Span | None = None
+    # Inside a light_group: the innermost group's lights (world space), which light this
+    # object and no other (POV-Ray's LLights); global_lights False: the scene's lights do
+    # not light it (its NO_GLOBAL_LIGHTS flag, which the outermost group decides).
+    local_lights: tuple[Light, ...] = ()
+    global_lights: bool = True
 
 
 # -------------------------------------------------------------- camera, lights

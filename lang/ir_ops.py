@@ -120,12 +120,18 @@ def transform_object(obj: ObjectValue, m: ir.Matrix) -> ObjectValue:
 
 
 def collect_lights(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> list[ir.Light]:
-    """Lights inside CSG (POV-Ray moves them with the CSG), in world space."""
+    """Lights inside CSG (POV-Ray moves them with the CSG), in world space; a light_group's
+    own lights are not the scene's (see group_lights)."""
     full = transforms.compose(parent, obj.transform)
-    out = [transform_light(light, full) for light in obj.lights]
+    out = [] if obj.keyword == "light_group" else [transform_light(lt, full) for lt in obj.lights]
     for c in obj.children:
         out.extend(collect_lights(c, full))
     return out
+
+
+def group_lights(obj: ObjectValue, full: ir.Matrix) -> tuple[ir.Light, ...]:
+    """A light_group's own lights in world space (`full`: its whole transform)."""
+    return tuple(transform_light(lt, full) for lt in obj.lights)
 
 
 def transform_media(m: ir.Media, mat: ir.Matrix) -> ir.Media:

@@ -360,6 +360,18 @@ SHAPES: dict[str, BlockSpec] = {
             ]
         ),
         BlockSpec(
+            "light_group",
+            "object",
+            "Lights that light only the objects beside them (and, with global_lights, the "
+            "scene's lights too).",
+            (),
+            items(
+                TRANSFORM_ITEMS,
+                ["global_lights bool? | The scene's lights light the group's objects too."],
+            ),
+            OBJECT_ACCEPTS | {"object", "light"},
+        ),
+        BlockSpec(
             "object",
             "object",
             "A declared object with more modifiers: `object { Name modifiers }`.",
@@ -371,9 +383,7 @@ SHAPES: dict[str, BlockSpec] = {
 }
 
 # POV-Ray shapes strala parses but does not render yet (an ir.Unsupported object + a warning).
-UNSUPPORTED_SHAPES = frozenset(
-    """parametric julia_fractal polynomial ovus lemon light_group""".split()
-)
+UNSUPPORTED_SHAPES = frozenset("""parametric julia_fractal polynomial ovus lemon""".split())
 
 LIGHT_ITEMS = TRANSFORM_ITEMS + [
     "spotlight | A spotlight (with point_at, radius, falloff, tightness).",

@@ -33,11 +33,16 @@ def light_colours(ctx: Context, hit: Hit) -> LightColours:
     any_side = ctx.double_illuminate[hit.obj] | ctx.back_lit[hit.tex] | ctx.bumpy[hit.tex]
     fogs = scene_fogs(ctx.scene)
     projected = getattr(ctx.prepared, "projected", None) or [None] * len(ctx.scene.lights)
-    for light, through_node in zip(ctx.scene.lights, projected, strict=True):
+    receivers = getattr(ctx.prepared, "receivers", None) or [None] * len(ctx.scene.lights)
+    for light, through_node, lights_them in zip(
+        ctx.scene.lights, projected, receivers, strict=True
+    ):
         ls = shading.sample_light(light, hit.point)
         col = ls.colour
         facing = np.einsum("ij,ij->i", hit.normal, ls.direction) >= shading.EPSILON
         need = lit & (facing | any_side)
+        if lights_them is not None:  # a light group's light, or a group the scene's miss
+            need &= lights_them[hit.obj]
         need &= np.abs(col).max(axis=1) > shading.EPSILON
         col = np.where(need[:, None], col, 0.0)
         reach = ls.distance  # how far the shadow test looks

@@ -184,7 +184,9 @@ def _in_scattered(ctx, region: Region, p, ray_dir, scat) -> np.ndarray:
         return out
     pts, rd = p[rows], ray_dir[rows]
     acc = np.zeros((len(rows), 3))
-    for light in ctx.scene.lights:
+    # a light group's lights light its objects only, not the media (POV-Ray's media
+    # takes the scene's lights)
+    for light in ctx.scene.lights[: ctx.prepared.scene_lights]:
         if not light.media_interaction:
             continue
         ls = shading.sample_light(light, pts)

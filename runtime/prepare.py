@@ -20,7 +20,7 @@ from typing import cast
 import numpy as np
 
 from lang import ir
-from runtime import prims, shapes
+from runtime import light_groups, prims, shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
@@ -47,6 +47,10 @@ class Prepared:
     curved: np.ndarray | None = None
     # per scene light: the inside node of its projected_through object, or None
     projected: list = field(default_factory=list)
+    # per light, (n_objects,) bool of the objects it lights (None: all); the scene's own
+    # lights come first (`scene_lights` of them), light groups' after (runtime.light_groups)
+    receivers: list = field(default_factory=list)
+    scene_lights: int | None = None  # None: every light is the scene's
 
     # Asked for, not computed for every render: a walk over thousands of objects.
     @functools.cached_property
@@ -390,6 +394,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
 
     A light's `looks_like` object is taken as modelled around the origin (as written in
     POV-Ray) and is moved to the light's position here, with `no_shadow`."""
+    scene, own_lights = light_groups.with_group_lights(scene)
     b = _Builder(scene.camera, width)
     b.cull = Culler(scene, width, height) if cull else None
     b.occluders = Occluders(scene, width, height) if cull else None
@@ -430,6 +435,8 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
         culled=b.culled,
         curved=np.array(b.curved, dtype=bool),
         projected=projected,
+        receivers=light_groups.receivers(scene.lights, own_lights, b.objects),
+        scene_lights=own_lights,
     )
 
 

@@ -239,6 +239,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append("sky_sphere in a pre-3.7 scene")
     for pig in scene.sky_sphere or ():
         out.extend(_pigment_reasons(pig))
+    if any(r is not None for r in getattr(prepared, "receivers", ())):
+        out.append("light groups")
     for light in scene.lights:
         if light.kind not in ("point", "spotlight"):
             out.append(f"{light.kind} light")

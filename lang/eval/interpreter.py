@@ -55,6 +55,7 @@ from lang.eval.elements import (
 from lang.eval.scene import settings_at_top
 from lang.ir_ops import (
     collect_lights,
+    group_lights,
     pattern_defaults_in,
     transform_interior,
     transform_texture,
@@ -1314,11 +1315,13 @@ class Interpreter:
         interior: ir.Interior | None = None,
         flags: dict[str, bool] | None = None,
         placed: ir.Texture | None = None,
+        group: tuple[tuple[ir.Light, ...], bool] | None = None,
     ) -> ir.Object:
         """Resolve an object: `parent` is the enclosing CSGs' transform (children store theirs
         relative to it); `inherited` is the nearest CSG texture, already in world space;
         `placed` is the #default texture where the object stands in the scene (what its
-        untextured parts get), else the default when it was made."""
+        untextured parts get), else the default when it was made; `group` the enclosing
+        light groups' lights and whether the scene's lights reach them too."""
         has_parent = not transforms.is_identity(parent)
         own = obj.texture
         if own is not None and has_parent:
@@ -1337,12 +1340,21 @@ class Interpreter:
         for k in _INHERITED_FLAGS:
             if obj.flags.get(k):
                 merged[k] = True
+        if obj.keyword == "light_group":
+            # a nested group's objects get its own lights only (POV-Ray's
+            # Promote_Local_Lights gives the outer lights to the inner group, not its
+            # objects); the outermost group's global_lights holds for all
+            # (Set_CSG_Children_Flag)
+            reach = obj.flags.get("global_lights", False) if group is None else group[1]
+            group = (group_lights(obj, full), reach)
         if obj.children:
             kids = tuple(
-                self.to_ir(c, full, own or inherited, own_interior or interior, merged, placed)
+                self.to_ir(
+                    c, full, own or inherited, own_interior or interior, merged, placed, group
+                )
                 for c in obj.children
             )
-            shape = ir.CSG(obj.keyword, kids)
+            shape = ir.CSG("union" if obj.keyword == "light_group" else obj.keyword, kids)
             full = ir.IDENTITY  # the children carry the whole transform
         elif isinstance(shape, ir.Mesh):
             if has_parent and shape.textures:
@@ -1371,6 +1383,8 @@ class Interpreter:
             double_illuminate=f.get("double_illuminate", False),
             clipped_by=tuple(self.to_ir(c, parent, tex, placed=placed) for c in obj.clipped_by),
             span=obj.span,
+            local_lights=group[0] if group else (),
+            global_lights=group[1] if group else True,
         )
 
 

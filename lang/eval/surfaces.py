@@ -329,6 +329,27 @@ def _b_csg(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     return apply_object_items(it, obj, Grouped(g.positional, mods, g.span))
 
 
+def _b_light_group(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
+    """POV-Ray's Parse_Light_Group: a union whose lights light only its objects; the
+    scene's lights reach them too only with `global_lights` (off by default)."""
+    obj = ObjectValue(None, "light_group", span=node.span, default=it.default_texture)
+    obj.flags["global_lights"] = False
+    mods = []
+    for name, args, span in g.items:
+        if name == "object":
+            obj.children.append(args[0])
+        elif name == "light":
+            obj.lights.append(args[0])
+        elif name == "global_lights":
+            obj.flags["global_lights"] = bool(args[0]) if args and args[0] is not None else True
+        else:
+            mods.append((name, args, span))
+    if not obj.children:
+        it.sink.warning("W0304", "`light_group` has no objects", g.span)
+        obj.shape = ir.Unsupported("light_group")
+    return apply_object_items(it, obj, Grouped(g.positional, mods, g.span))
+
+
 def _b_object(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue | ir.Light:
     base = g.positional["object"]
     if isinstance(base, ir.Light):  # `object { Lamp translate … }`
@@ -855,6 +876,7 @@ BUILDERS: dict[str, Builder] = {
         ).split()
     },
     **{k: _b_csg for k in ("union", "merge", "intersection", "difference")},
+    "light_group": _b_light_group,
     "object": _b_object,
     "mesh": _b_mesh,
     "mesh2": _b_mesh2,
