@@ -13,8 +13,8 @@ points too. Pattern values follow POV-Ray 3.7:
 - image_map pigments look up an image file (planar, spherical, cylindrical mapping).
 Supported: solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical, planar,
 boxed, leopard, radial, spiral1/2, quilted, bozo, spotted, bumps, dents, granite, marble,
-wood, agate, wrinkles, ripples, waves, cells, crackle, mandel, julia (runtime.fractal_patterns),
-average, image_map.
+wood, agate, wrinkles, ripples, waves, cells, crackle, mandel, julia, magnet
+(runtime.fractal_patterns), average, image_map.
 Unknown patterns render as the pattern's first colour with one warning each.
 
 `Pigment.params` keys read here: "orientation" (gradient vector), "brick_size", "mortar",
@@ -40,7 +40,7 @@ import numpy as np
 from lang import ir
 from runtime import transform as tf
 from runtime.density import density_file
-from runtime.fractal_patterns import julia, mandel
+from runtime.fractal_patterns import julia, magnet, mandel
 from runtime.noise import (
     DEFAULT_GENERATOR,
     dnoise,
@@ -973,6 +973,7 @@ CONTINUOUS_PATTERNS = {
     "crackle": crackle,
     "mandel": mandel,
     "julia": julia,
+    "magnet": magnet,
     "quilted": quilted,
     "function": function_pattern,
     "density_file": density_file,
@@ -1254,8 +1255,11 @@ SLOPE_GAIN: float = -5.0
 
 
 def _slope(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
-    """(N,3) sum of value(p + delta u_i) u_i over the tetrahedron (≈ 4/3 delta grad)."""
+    """(N,3) sum of value(p + delta u_i) u_i over the tetrahedron (≈ 4/3 delta grad),
+    delta the normal's `accuracy` (0.02); scaled by 0.02 / delta as POV-Ray scales the
+    amount, so a finer accuracy samples closer without flattening the bumps."""
+    delta = float(params.get("accuracy", NORMAL_DELTA))
     g = np.zeros_like(p)
     for u in _PYRAMID:
-        g += _pattern_value(kind, p + NORMAL_DELTA * u, params)[:, None] * u
-    return g
+        g += _pattern_value(kind, p + delta * u, params)[:, None] * u
+    return g if delta == NORMAL_DELTA else g * (NORMAL_DELTA / delta)

@@ -159,6 +159,33 @@ def _density_file(it: BuildContext, args: list[Any], span: Span) -> str:
     return path
 
 
+def _magnet_form(it, params: dict[str, Any], name: str, args: list[Any], span: Span) -> str:
+    """The pattern a pattern keyword names. `magnet 1` or `magnet 2` must be followed by
+    `mandel N` or `julia <c>, N`, which then give the magnet's form (params "magnet" and
+    "magnet_form", None until the form is read); any other pattern drops the magnet's keys."""
+    pending = "magnet_form" in params and params["magnet_form"] is None
+    if name == "magnet":
+        kind = int(args[0]) if args else 0
+        if kind not in (1, 2):
+            raise it.error("E0211", f"magnet type {kind}: the types are 1 and 2", span)
+        params.pop("exponent", None)  # POV-Ray's magnet has no exponent
+        params["magnet"], params["magnet_form"] = kind, None
+        return "magnet"
+    if pending and name in ("mandel", "julia"):
+        params["magnet_form"] = name
+        return "magnet"
+    if pending:
+        raise it.error(
+            "E0211",
+            f"`{name}` after `magnet`",
+            span,
+            "magnet 1 mandel 50, or magnet 2 julia <0.3, 0.4>, 50",
+        )
+    params.pop("magnet", None)
+    params.pop("magnet_form", None)
+    return name
+
+
 def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span: Span) -> bool:
     """Pattern keywords and their modifiers, shared by pigment, normal and texture."""
     params = st["params"]
@@ -206,6 +233,10 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
         "use_alpha",
         "interpolate",
     ):
+        if name == "exponent" and "magnet" in params:
+            raise it.error(
+                "E0212", "`exponent` in a magnet pattern", span, "only mandel and julia take one"
+            )
         params[name] = (args[0] if len(args) == 1 else tuple(args)) if args else True
     elif name in ("quick_color", "quick_colour"):
         pass
@@ -217,14 +248,14 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
         else:
             it.unsupported("function pattern", span)
     elif name in _PATTERN_KEYWORDS:
-        st["pattern"] = name
+        st["pattern"] = _magnet_form(it, params, name, args, span)
         if name == "gradient":
             params["orientation"] = _unit_or_same(args[0])
         elif name in ("spiral1", "spiral2"):
             params["arms"] = args[0]
         elif name == "mandel":
             params["iterations"] = args[0]
-        elif name in ("magnet", "tiling"):
+        elif name == "tiling":
             params["value"] = args[0]
         elif name == "julia":
             params["complex"], params["iterations"] = args[0], args[1]
@@ -241,7 +272,6 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
             "facets",
             "pavement",
             "tiling",
-            "magnet",
             "cubic",
             "triangular",
             "square",
