@@ -14,7 +14,7 @@ points too. Pattern values follow POV-Ray 3.7:
 Supported: solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical, planar,
 boxed, leopard, radial, spiral1/2, quilted, bozo, spotted, bumps, dents, granite, marble,
 wood, agate, wrinkles, ripples, waves, cells, crackle, mandel, julia, magnet
-(runtime.fractal_patterns), average, image_map.
+(runtime.fractal_patterns), slope (runtime.slope), average, image_map.
 Unknown patterns render as the pattern's first colour with one warning each.
 
 `Pigment.params` keys read here: "orientation" (gradient vector), "brick_size", "mortar",
@@ -50,6 +50,7 @@ from runtime.noise import (
     turbulence,
 )
 from runtime.noise import tables as noise_tables
+from runtime.slope import slope
 
 # POV-Ray adds a tiny epsilon to every coordinate before flooring, so a plane at an integer
 # coordinate (y = 0, the classic floor) does not flicker between cells. 1e-6 matches POV-Ray
@@ -357,10 +358,16 @@ def _cubic_warp(p: np.ndarray) -> np.ndarray:
     return out
 
 
-def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0) -> np.ndarray:
+def evaluate(
+    pigment: ir.Pigment,
+    points: np.ndarray,
+    gamma: float | None = 1.0,
+    normals: np.ndarray | None = None,
+) -> np.ndarray:
     """(N,5) float64 RGBFT colours of `pigment` at world points (N,3). `gamma` is the scene's
     working gamma (None: legacy, no gamma handling), used to bring image files into the
-    working colour space."""
+    working colour space. `normals` (N,3), the shaded surface's, are what the slope pattern
+    reads (None off a surface: slope is 0 there)."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = len(points)
     kind = pigment.pattern
@@ -371,7 +378,7 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
         p = turbulence_warp(p, pigment.params)
     if kind in LIST_PATTERNS:
         index = LIST_PATTERNS[kind](p, pigment.params)
-        return _select(pigment, kind, index, points, gamma)
+        return _select(pigment, kind, index, points, gamma, normals)
     if kind == "image_map":
         return image_map(pigment.params, p, gamma, pigment.span)
     if kind == "average" and pigment.pigment_map:
@@ -385,13 +392,17 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
                 full = full @ np.asarray(before, dtype=np.float64)
             at = p @ full[:3, :3].T + full[:3, 3]
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
-        return np.asarray(sum(w * evaluate(q, at, gamma) for w, q in pigment.pigment_map) / total)
+        mean = sum(w * evaluate(q, at, gamma, normals) for w, q in pigment.pigment_map) / total
+        return np.asarray(mean)
+    if kind == "slope":
+        value = apply_wave(slope(p, points, normals, pigment.params), pigment.params, kind)
+        return _map(pigment, value, points, gamma, normals)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
         return _fallback(pigment, points, gamma)
     value = apply_wave(fn(p, pigment.params), pigment.params, kind)
-    return _map(pigment, value, points, gamma)
+    return _map(pigment, value, points, gamma, normals)
 
 
 # --------------------------------------------------------------- list patterns
@@ -461,7 +472,12 @@ LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick, "object
 
 
 def _select(
-    pigment: ir.Pigment, kind: str, index: np.ndarray, points: np.ndarray, gamma: float | None
+    pigment: ir.Pigment,
+    kind: str,
+    index: np.ndarray,
+    points: np.ndarray,
+    gamma: float | None,
+    normals: np.ndarray | None,
 ) -> np.ndarray:
     entries: tuple = pigment.list or tuple(ir.Pigment(color=c) for c in DEFAULT_LISTS[kind])
     out = np.zeros((len(points), 5))
@@ -469,8 +485,12 @@ def _select(
     for i, sub in enumerate(entries):
         rows = np.nonzero(index == i)[0]
         if len(rows):
-            out[rows] = evaluate(sub, points[rows], gamma)
+            out[rows] = evaluate(sub, points[rows], gamma, _rows(normals, rows))
     return out
+
+
+def _rows(normals: np.ndarray | None, rows: np.ndarray) -> np.ndarray | None:
+    return None if normals is None else normals[rows]
 
 
 # --------------------------------------------------------- continuous patterns
@@ -897,10 +917,13 @@ def _compiled_function(fn: ir.Function):
     return hit[1]
 
 
-def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
+def pattern_value(
+    pattern: ir.Pigment, points: np.ndarray, normals: np.ndarray | None = None
+) -> np.ndarray:
     """(N,) the pattern's value at world points, as `function { pattern { … } }` gives it:
     the pattern's transform and turbulence applied, then frequency, phase and wave; no map.
-    List patterns give their index (checker 0 or 1, brick 0 mortar or 1 brick …)."""
+    List patterns give their index (checker 0 or 1, brick 0 mortar or 1 brick …).
+    `normals`: the surface's at the points, for the slope pattern (as `evaluate`)."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     kind = pattern.pattern
     if kind == "solid":
@@ -910,6 +933,8 @@ def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
         p = turbulence_warp(p, pattern.params)
     if kind in LIST_PATTERNS:
         return LIST_PATTERNS[kind](p, pattern.params).astype(np.float64)
+    if kind == "slope":
+        return apply_wave(slope(p, points, normals, pattern.params), pattern.params, kind)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pattern `{kind}` is not supported yet in a function: its value is 0")
@@ -917,11 +942,14 @@ def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
     return apply_wave(fn(p, pattern.params), pattern.params, kind)
 
 
-def entry_weights(pattern: ir.Pigment, keys: np.ndarray, points: np.ndarray) -> np.ndarray:
+def entry_weights(
+    pattern: ir.Pigment, keys: np.ndarray, points: np.ndarray, normals: np.ndarray | None = None
+) -> np.ndarray:
     """(N, K) weights of the K entries of a patterned texture (or any blend map) at world
     points, each row summing to 1: list patterns pick their entry (index clamped to the
     list), `average` weights every entry by its key, other patterns blend the two map
-    entries around the pattern's value as POV-Ray's Search_Blend_Map does."""
+    entries around the pattern's value as POV-Ray's Search_Blend_Map does. `normals`: the
+    surface's at the points (turned toward the ray), for the slope pattern."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n, k = len(points), len(keys)
     out = np.zeros((n, k))
@@ -932,7 +960,7 @@ def entry_weights(pattern: ir.Pigment, keys: np.ndarray, points: np.ndarray) -> 
         total = float(np.sum(keys)) or 1.0
         out[:] = np.asarray(keys, dtype=np.float64) / total
         return out
-    value = pattern_value(pattern, points)
+    value = pattern_value(pattern, points, normals)
     rows = np.arange(n)
     if kind in LIST_PATTERNS:
         index = np.clip(value.astype(np.int64), 0, k - 1)
@@ -1008,7 +1036,11 @@ def apply_wave(value: np.ndarray, params: dict, kind: str = "") -> np.ndarray:
 
 
 def _map(
-    pigment: ir.Pigment, value: np.ndarray, points: np.ndarray, gamma: float | None
+    pigment: ir.Pigment,
+    value: np.ndarray,
+    points: np.ndarray,
+    gamma: float | None,
+    normals: np.ndarray | None = None,
 ) -> np.ndarray:
     if pigment.pigment_map:
         keys = np.array([k for k, _ in pigment.pigment_map], dtype=np.float64)
@@ -1020,7 +1052,7 @@ def _map(
             rows = np.nonzero(use_lo | use_hi)[0]
             if not len(rows):
                 continue
-            col = evaluate(sub, points[rows], gamma)
+            col = evaluate(sub, points[rows], gamma, _rows(normals, rows))
             w = np.where(use_lo[rows], 1.0 - frac[rows], 0.0) + np.where(
                 use_hi[rows], frac[rows], 0.0
             )
@@ -1139,7 +1171,7 @@ def perturb_normal(
         p = turbulence_warp(p, normal.params)
     nmap = normal.params.get("normal_map")
     if nmap:
-        n = _normal_map(normal, nmap, p, n, keep)
+        n = _normal_map(normal, nmap, p, n, keep, (points, n_world))
         # POV-Ray normalises a normal_map's blend whatever the flag says
         unit = unit or kind != "average"
     elif kind == "bumps":
@@ -1173,10 +1205,10 @@ def perturb_normal(
             n = n + (d / length[:, None]) * s[:, None]
     else:
         fn = CONTINUOUS_PATTERNS.get(kind)
-        if fn is None and kind not in LIST_PATTERNS:
+        if fn is None and kind not in LIST_PATTERNS and kind != "slope":
             _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
             return n_world
-        n = n + (SLOPE_GAIN * amount) * _slope(kind, p, normal.params)
+        n = n + (SLOPE_GAIN * amount) * _slope(kind, p, normal.params, (points, n_world))
     if lin is not None:
         n = n @ np.linalg.inv(lin)
     if keep and not unit:
@@ -1186,13 +1218,19 @@ def perturb_normal(
 
 
 def _normal_map(
-    normal: ir.Normal, entries, p: np.ndarray, n: np.ndarray, keep: bool = False
+    normal: ir.Normal,
+    entries,
+    p: np.ndarray,
+    n: np.ndarray,
+    keep: bool = False,
+    at: _Surface | None = None,
 ) -> np.ndarray:
     """A normal_map (POV-Ray's Perturb_Normal): the normals of the two entries around the
     pattern's value, each perturbing the normal at the pattern-space point, blended by
     weight; with `average`, every entry's normal weighted by its value (Do_Average_Normals).
     The entries live in this normal's pattern space (their transforms come on top); `keep`
-    (no_bump_scale) passes on to them, as POV-Ray's NormalBlendMap::Post does."""
+    (no_bump_scale) passes on to them, as POV-Ray's NormalBlendMap::Post does. `at`: the
+    world points and normals, for a slope pattern."""
     keys = np.array([k for k, _ in entries], dtype=np.float64)
     kind = normal.pattern
     if kind == "average":
@@ -1201,10 +1239,10 @@ def _normal_map(
         for k, sub in entries:
             out += (k / total) * perturb_normal(sub, p, n, keep, unit=False)
         return out
-    if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS:
+    if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS and kind != "slope":
         _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
         return n
-    value = _pattern_value(kind, p, normal.params)
+    value = _pattern_value(kind, p, normal.params, at)
     lo, hi, frac = blend_indices(keys, value)
     out = np.zeros_like(n)
     for i, (_, sub) in enumerate(entries):
@@ -1231,9 +1269,18 @@ def slope_map(value: np.ndarray, entries) -> np.ndarray:
     return np.where(lo == hi, h2, rv)
 
 
-def _pattern_value(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
+# The world points and surface normals a normal pattern is evaluated at (for slope).
+_Surface = tuple[np.ndarray, np.ndarray]
+
+
+def _pattern_value(
+    kind: str, p: np.ndarray, params: dict, at: _Surface | None = None
+) -> np.ndarray:
     if kind in LIST_PATTERNS:
         value = LIST_PATTERNS[kind](p, params).astype(np.float64)
+    elif kind == "slope":
+        points, normals = at if at is not None else (p, None)
+        value = apply_wave(slope(p, points, normals, params), params, kind)
     else:
         value = apply_wave(CONTINUOUS_PATTERNS[kind](p, params), params, kind)
     slopes = params.get("slope_map")
@@ -1254,12 +1301,12 @@ _PYRAMID = np.array(
 SLOPE_GAIN: float = -5.0
 
 
-def _slope(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
+def _slope(kind: str, p: np.ndarray, params: dict, at: _Surface | None = None) -> np.ndarray:
     """(N,3) sum of value(p + delta u_i) u_i over the tetrahedron (≈ 4/3 delta grad),
     delta the normal's `accuracy` (0.02); scaled by 0.02 / delta as POV-Ray scales the
     amount, so a finer accuracy samples closer without flattening the bumps."""
     delta = float(params.get("accuracy", NORMAL_DELTA))
     g = np.zeros_like(p)
     for u in _PYRAMID:
-        g += _pattern_value(kind, p + delta * u, params)[:, None] * u
+        g += _pattern_value(kind, p + delta * u, params, at)[:, None] * u
     return g if delta == NORMAL_DELTA else g * (NORMAL_DELTA / delta)
