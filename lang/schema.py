@@ -135,11 +135,11 @@ PATTERN_ITEMS = [
     "spiral2 float | Two-armed spiral with N arms.",
     "mandel float | Mandelbrot set, with N iterations.",
     "julia vector2 float | Julia set for a complex constant, with N iterations.",
-    "magnet float | Magnet fractal of type 1 or 2.",
+    "magnet float | Magnet fractal of type 1 or 2, then `mandel N` or `julia <c>, N`.",
     "pavement | Pavement tiling.",
     "tiling float | One of POV-Ray's tilings.",
     "average | Average of the map's entries.",
-    "slope vector | Slope relative to a direction.",
+    "slope vector | The surface's slope against a direction (or `slope { … }`).",
     "aoi | Angle of incidence.",
     'density_file word string | A density file: `density_file df3 "file.df3"` (voxels over '
     "the unit cube).",
@@ -177,7 +177,7 @@ PATTERN_ITEMS = [
     "exterior float float | Fractal exterior colouring.",
     "interior float float | Fractal interior colouring.",
     "exponent float | Fractal exponent.",
-    "accuracy float | Slope accuracy.",
+    "accuracy float | A normal's sampling distance for its slope (default 0.02).",
     "orientation vector | Orientation for some patterns.",
     "dist_exp float | Distance exponent.",
     "arc_angle float | Tiling arc angle.",
@@ -197,7 +197,7 @@ MAP_WORDS = (
     "slope_map",
     "density_map",
 )
-PATTERN_ACCEPTS = frozenset("map transform unsupported function warp pigment_pattern".split())
+PATTERN_ACCEPTS = frozenset("map transform unsupported function warp pigment_pattern slope".split())
 
 WARP_ITEMS = [
     "turbulence vector | Turbulence warp (or a black hole's jitter of its repeated centres).",
@@ -782,6 +782,7 @@ BLOCKS: dict[str, BlockSpec] = {
                 "unsupported",
                 "warp",
                 "pigment_pattern",
+                "slope",
             }
         ),
     ),
@@ -1122,6 +1123,23 @@ BLOCKS["pigment_pattern"] = BlockSpec(
     BLOCKS["pigment"].accepts,
 )
 
+# `slope { [point_at] <v> [, low, high] [altitude <a> [, low, high]] }`: the slope pattern's
+# long form (the short `slope <v>` is the pattern item).
+BLOCKS["slope"] = BlockSpec(
+    "slope",
+    "slope",
+    "The surface's slope against a direction (0 facing away, 0.5 across, 1 facing it), "
+    "within the low-high range; with `altitude`, mixed with the height along that vector.",
+    _pos("vector?:direction", "float?:low", "float?:high"),
+    items(
+        [
+            "altitude vector float? float? | Mix in the height along this vector (its length "
+            "against the direction's is the mix), within the low-high range.",
+            "point_at vector float? float? | The slope toward this point, not a direction.",
+        ]
+    ),
+)
+
 
 def spec(name: str) -> BlockSpec | None:
     return BLOCKS.get(name)
@@ -1146,7 +1164,7 @@ OTHER_WORDS = frozenset(
             # the subdivision schemes that are reserved (the others are soft words)
             "catmull_clark four_point",
             # more of POV-Ray's words that strala does not describe
-            "all alpha altitude anisotropy composite falloff_angle focal_blur mixed precompute",
+            "all alpha anisotropy composite falloff_angle focal_blur mixed precompute",
             "rainbow size spiral trace_level use_color use_colour use_index width xyz",
         ]
     ).split()

@@ -61,12 +61,14 @@ def is_patterned(tex: ir.Texture) -> bool:
     return tex.pattern is not None and bool(tex.map)
 
 
-def resolve_textures(ctx, tex: np.ndarray, points: np.ndarray):
+def resolve_textures(ctx, tex: np.ndarray, points: np.ndarray, normals: np.ndarray | None = None):
     """Hits of patterned textures resolved to the plain textures they show, as POV-Ray's
     ComputeOneTextureColour does: a list pattern picks one texture, a texture_map blends
     the two around the pattern's value, `average` weighs them all (nested maps recurse).
-    Returns None when no hit has a patterned texture, else (src, leaf, weight): for every
-    (hit, texture) pair its hit row, texture index and weight (a hit's weights sum to 1)."""
+    `normals` are the hits' surface normals turned toward the ray (the slope pattern's;
+    None: not on a surface). Returns None when no hit has a patterned texture, else (src,
+    leaf, weight): for every (hit, texture) pair its hit row, texture index and weight (a
+    hit's weights sum to 1)."""
     if ctx.patterned is None or not ctx.patterned[tex].any():
         return None
     pat = ctx.patterned[tex]
@@ -74,26 +76,30 @@ def resolve_textures(ctx, tex: np.ndarray, points: np.ndarray):
     src, leaf, weight = [keep], [tex[keep]], [np.ones(len(keep))]
     for tid in np.unique(tex[pat]):
         rows = np.nonzero(tex == tid)[0]
-        r, lf, w = _resolve(ctx, ctx.tree[int(tid)], points[rows])
+        r, lf, w = _resolve(ctx, ctx.tree[int(tid)], points[rows], _rows(normals, rows))
         src.append(rows[r])
         leaf.append(lf)
         weight.append(w)
     return np.concatenate(src), np.concatenate(leaf), np.concatenate(weight)
 
 
-def _resolve(ctx, tex: ir.Texture, points: np.ndarray):
+def _rows(normals: np.ndarray | None, rows: np.ndarray) -> np.ndarray | None:
+    return None if normals is None else normals[rows]
+
+
+def _resolve(ctx, tex: ir.Texture, points: np.ndarray, normals: np.ndarray | None):
     n = len(points)
     if not is_patterned(tex):
         return np.arange(n), np.full(n, ctx.leaf_id[id(tex)], dtype=np.int64), np.ones(n)
     keys = np.array([k for k, _ in tex.map], dtype=np.float64)
     assert tex.pattern is not None  # is_patterned
-    weights = patterns.entry_weights(tex.pattern, keys, points)
+    weights = patterns.entry_weights(tex.pattern, keys, points, normals)
     src, leaf, weight = [], [], []
     for k, (_, sub) in enumerate(tex.map):
         rows = np.nonzero(weights[:, k] > 0.0)[0]
         if not len(rows):
             continue
-        r, lf, w = _resolve(ctx, sub, points[rows])
+        r, lf, w = _resolve(ctx, sub, points[rows], _rows(normals, rows))
         src.append(rows[r])
         leaf.append(lf)
         weight.append(w * weights[rows[r], k])

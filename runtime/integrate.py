@@ -340,7 +340,7 @@ def shade(
     hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim)
     lights = light_colours(ctx, hit)
     secondary = Secondary()
-    resolved = resolve_textures(ctx, tex, point)
+    resolved = resolve_textures(ctx, tex, point, raw)
     if resolved is None:
         result, fil = _shade_groups(ctx, hit, lights, secondary, level)
     else:
@@ -496,12 +496,13 @@ def shade_texture(
     double = ctx.double_illuminate[hit.obj[rows]]
     trans = np.ones(len(rows))
     f = np.ones((len(rows), 3))
+    # The normal a slope pigment reads: POV-Ray's PNormal, the last perturbed normal of the
+    # layers so far (each layer's normal is perturbed before its pigment is evaluated).
+    seen_normal = base_surf.normal
     for layer in ctx.textures[tid]:
         active = trans > s.adc_bailout
         if not active.any():
             break
-        colour = patterns.evaluate(layer.pigment, pts, ctx.gamma)
-        pig = colour[:, :3]
         fin = layer.finish
         if layer.normal is not None:
             surf = Surface(
@@ -511,8 +512,11 @@ def shade_texture(
                 ray_dir=hit.dirs[rows],
                 points=pts,
             )
+            seen_normal = surf.normal
         else:
             surf = base_surf
+        colour = patterns.evaluate(layer.pigment, pts, ctx.gamma, seen_normal)
+        pig = colour[:, :3]
         op = shading.opacity(colour, ctx.legacy_opacity)
         if ctx.radiosity is None:
             acc = shading.ambient_term(fin, pig, op, s.ambient_light)

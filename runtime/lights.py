@@ -218,7 +218,10 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
         rd = ldir[active_hit]
         tex = ctx.texture_of(objs, h.prim[hit] if h.prim is not None else None)
         f = np.zeros((len(active_hit), 3))
-        resolved = resolve_textures(ctx, tex, pts)
+        # POV-Ray turns the normal against the shadow ray (for slope patterns)
+        nrm_all = h.normal[hit]
+        nrm_all = np.where((np.einsum("ij,ij->i", nrm_all, rd) > 0)[:, None], -nrm_all, nrm_all)
+        resolved = resolve_textures(ctx, tex, pts, nrm_all)
         if resolved is None:
             src, leaf, share = np.arange(len(tex)), tex, np.ones(len(tex))
         else:
@@ -230,11 +233,10 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
             sel = src[sel_e]
             t = np.ones((len(sel), 3))
             caustics = np.array([ctx.interiors[int(o)].caustics for o in objs[sel]])
-            # The surface normal turned against the shadow ray, for faked caustics.
-            nrm = h.normal[hit][sel]
-            nrm = np.where((np.einsum("ij,ij->i", nrm, rd[sel]) > 0)[:, None], -nrm, nrm)
+            nrm = nrm_all[sel]  # for faked caustics and slope patterns
             for layer in ctx.textures[tid]:
-                t *= shading.rgb_transmit(patterns.evaluate(layer.pigment, pts[sel], ctx.gamma))
+                colour = patterns.evaluate(layer.pigment, pts[sel], ctx.gamma, nrm)
+                t *= shading.rgb_transmit(colour)
                 if (caustics != 0).any():
                     ln = nrm
                     if layer.normal is not None:

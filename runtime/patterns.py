@@ -13,7 +13,8 @@ points too. Pattern values follow POV-Ray 3.7:
 - image_map pigments look up an image file (planar, spherical, cylindrical mapping).
 Supported: solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical, planar,
 boxed, leopard, radial, spiral1/2, quilted, bozo, spotted, bumps, dents, granite, marble,
-wood, agate, wrinkles, ripples, waves, cells, crackle, mandel, julia, average, image_map.
+wood, agate, wrinkles, ripples, waves, cells, crackle, mandel, julia, magnet
+(runtime.fractal_patterns), slope (runtime.slope), average, image_map.
 Unknown patterns render as the pattern's first colour with one warning each.
 
 `Pigment.params` keys read here: "orientation" (gradient vector), "brick_size", "mortar",
@@ -39,6 +40,7 @@ import numpy as np
 from lang import ir
 from runtime import transform as tf
 from runtime.density import density_file
+from runtime.fractal_patterns import julia, magnet, mandel
 from runtime.noise import (
     DEFAULT_GENERATOR,
     dnoise,
@@ -48,6 +50,7 @@ from runtime.noise import (
     turbulence,
 )
 from runtime.noise import tables as noise_tables
+from runtime.slope import slope
 
 # POV-Ray adds a tiny epsilon to every coordinate before flooring, so a plane at an integer
 # coordinate (y = 0, the classic floor) does not flicker between cells. 1e-6 matches POV-Ray
@@ -355,10 +358,16 @@ def _cubic_warp(p: np.ndarray) -> np.ndarray:
     return out
 
 
-def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0) -> np.ndarray:
+def evaluate(
+    pigment: ir.Pigment,
+    points: np.ndarray,
+    gamma: float | None = 1.0,
+    normals: np.ndarray | None = None,
+) -> np.ndarray:
     """(N,5) float64 RGBFT colours of `pigment` at world points (N,3). `gamma` is the scene's
     working gamma (None: legacy, no gamma handling), used to bring image files into the
-    working colour space."""
+    working colour space. `normals` (N,3), the shaded surface's, are what the slope pattern
+    reads (None off a surface: slope is 0 there)."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = len(points)
     kind = pigment.pattern
@@ -369,7 +378,7 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
         p = turbulence_warp(p, pigment.params)
     if kind in LIST_PATTERNS:
         index = LIST_PATTERNS[kind](p, pigment.params)
-        return _select(pigment, kind, index, points, gamma)
+        return _select(pigment, kind, index, points, gamma, normals)
     if kind == "image_map":
         return image_map(pigment.params, p, gamma, pigment.span)
     if kind == "average" and pigment.pigment_map:
@@ -383,13 +392,17 @@ def evaluate(pigment: ir.Pigment, points: np.ndarray, gamma: float | None = 1.0)
                 full = full @ np.asarray(before, dtype=np.float64)
             at = p @ full[:3, :3].T + full[:3, 3]
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
-        return np.asarray(sum(w * evaluate(q, at, gamma) for w, q in pigment.pigment_map) / total)
+        mean = sum(w * evaluate(q, at, gamma, normals) for w, q in pigment.pigment_map) / total
+        return np.asarray(mean)
+    if kind == "slope":
+        value = apply_wave(slope(p, points, normals, pigment.params), pigment.params, kind)
+        return _map(pigment, value, points, gamma, normals)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
         return _fallback(pigment, points, gamma)
     value = apply_wave(fn(p, pigment.params), pigment.params, kind)
-    return _map(pigment, value, points, gamma)
+    return _map(pigment, value, points, gamma, normals)
 
 
 # --------------------------------------------------------------- list patterns
@@ -459,7 +472,12 @@ LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick, "object
 
 
 def _select(
-    pigment: ir.Pigment, kind: str, index: np.ndarray, points: np.ndarray, gamma: float | None
+    pigment: ir.Pigment,
+    kind: str,
+    index: np.ndarray,
+    points: np.ndarray,
+    gamma: float | None,
+    normals: np.ndarray | None,
 ) -> np.ndarray:
     entries: tuple = pigment.list or tuple(ir.Pigment(color=c) for c in DEFAULT_LISTS[kind])
     out = np.zeros((len(points), 5))
@@ -467,8 +485,12 @@ def _select(
     for i, sub in enumerate(entries):
         rows = np.nonzero(index == i)[0]
         if len(rows):
-            out[rows] = evaluate(sub, points[rows], gamma)
+            out[rows] = evaluate(sub, points[rows], gamma, _rows(normals, rows))
     return out
+
+
+def _rows(normals: np.ndarray | None, rows: np.ndarray) -> np.ndarray | None:
+    return None if normals is None else normals[rows]
 
 
 # --------------------------------------------------------- continuous patterns
@@ -848,86 +870,6 @@ def crackle(p: np.ndarray, params: dict) -> np.ndarray:
     return np.clip(dist @ form, 0.0, 1.0)
 
 
-def _fractal_value(params: dict, c: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """POV-Ray's mandel and julia patterns: z -> z^exponent + c, up to `iterations` steps,
-    a point escaping when |z|² > 4 after step `col` (from 0) coloured by its `exterior`
-    type (default 1: col / iterations), one that never does by its `interior` type
-    (default 0: the factor, 1), as fractal_exterior_color and fractal_interior_color."""
-    it_max = int(params.get("iterations", 30))
-    power = int(params.get("exponent", 2) or 2)
-    ext_type, efactor = _fractal_colouring(params.get("exterior"), 1)
-    int_type, ifactor = _fractal_colouring(params.get("interior"), 0)
-    n = len(c)
-    out = np.zeros(n)
-    alive = np.ones(n, dtype=bool)
-    mind2 = np.abs(z) ** 2
-    for col in range(it_max):
-        z = np.where(alive, z**power + c, z)
-        d2 = z.real * z.real + z.imag * z.imag
-        mind2 = np.where(alive, np.minimum(mind2, d2), mind2)
-        escaped = alive & (d2 > 4.0)
-        if escaped.any():
-            out[escaped] = _exterior(ext_type, efactor, col, it_max, z[escaped])
-            alive &= ~escaped
-        if not alive.any():
-            return out
-    out[alive] = _interior(int_type, ifactor, z[alive], mind2[alive])
-    return out
-
-
-def _fractal_colouring(given, default_type: int) -> tuple[int, float]:
-    if given is None:
-        return default_type, 1.0
-    if isinstance(given, tuple):
-        return int(given[0]), float(given[1]) if len(given) > 1 else 1.0
-    return int(given), 1.0
-
-
-def _exterior(kind: int, f: float, col: int, it_max: int, z: np.ndarray) -> np.ndarray:
-    if kind == 1:
-        return np.full(len(z), col / it_max)
-    if kind == 6:
-        return np.sqrt(z.real * z.real + z.imag * z.imag) * f
-    if kind == 7 and int(f) > 0:
-        return np.full(len(z), (col % int(f)) / f)
-    if kind == 8 and f != 0:
-        return np.full(len(z), (col % int(1 + f)) / f)
-    return _coloured(kind, f, z)
-
-
-def _interior(kind: int, f: float, z: np.ndarray, mind2: np.ndarray) -> np.ndarray:
-    if kind == 1:
-        return np.sqrt(mind2) * f
-    if kind == 6:
-        return z.real * z.real + z.imag * z.imag * f  # POV-Ray's precedence, kept
-    return _coloured(kind, f, z)
-
-
-def _coloured(kind: int, f: float, z: np.ndarray) -> np.ndarray:
-    """The colourings exterior and interior share: 0 the factor, 2-5 the last z's real or
-    imaginary part (squared for 4 and 5) times it; another type gives 0."""
-    a, b = z.real, z.imag
-    if kind == 0:
-        return np.full(len(z), f)
-    if kind in (2, 3):
-        return (a if kind == 2 else b) * f
-    if kind in (4, 5):
-        v = a if kind == 4 else b
-        return v * v * f
-    return np.zeros(len(z))
-
-
-def mandel(p: np.ndarray, params: dict) -> np.ndarray:
-    c = p[:, 0] + 1j * p[:, 1]
-    return _fractal_value(params, c, c.copy())
-
-
-def julia(p: np.ndarray, params: dict) -> np.ndarray:
-    k = params.get("complex", (0.353, 0.288))
-    c = np.full(len(p), complex(float(k[0]), float(k[1])))
-    return _fractal_value(params, c, p[:, 0] + 1j * p[:, 1])
-
-
 def quilted(p: np.ndarray, params: dict) -> np.ndarray:
     """Cushions in every unit cube: the offset from the cube's centre scaled by a cubic
     Bezier of its length (control points control0, control1; default 1, 1), then the mean
@@ -981,10 +923,13 @@ def _compiled_function(fn: ir.Function):
     return hit[1]
 
 
-def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
+def pattern_value(
+    pattern: ir.Pigment, points: np.ndarray, normals: np.ndarray | None = None
+) -> np.ndarray:
     """(N,) the pattern's value at world points, as `function { pattern { … } }` gives it:
     the pattern's transform and turbulence applied, then frequency, phase and wave; no map.
-    List patterns give their index (checker 0 or 1, brick 0 mortar or 1 brick …)."""
+    List patterns give their index (checker 0 or 1, brick 0 mortar or 1 brick …).
+    `normals`: the surface's at the points, for the slope pattern (as `evaluate`)."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     kind = pattern.pattern
     if kind == "solid":
@@ -994,6 +939,8 @@ def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
         p = turbulence_warp(p, pattern.params)
     if kind in LIST_PATTERNS:
         return LIST_PATTERNS[kind](p, pattern.params).astype(np.float64)
+    if kind == "slope":
+        return apply_wave(slope(p, points, normals, pattern.params), pattern.params, kind)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pattern `{kind}` is not supported yet in a function: its value is 0")
@@ -1001,11 +948,14 @@ def pattern_value(pattern: ir.Pigment, points: np.ndarray) -> np.ndarray:
     return apply_wave(fn(p, pattern.params), pattern.params, kind)
 
 
-def entry_weights(pattern: ir.Pigment, keys: np.ndarray, points: np.ndarray) -> np.ndarray:
+def entry_weights(
+    pattern: ir.Pigment, keys: np.ndarray, points: np.ndarray, normals: np.ndarray | None = None
+) -> np.ndarray:
     """(N, K) weights of the K entries of a patterned texture (or any blend map) at world
     points, each row summing to 1: list patterns pick their entry (index clamped to the
     list), `average` weights every entry by its key, other patterns blend the two map
-    entries around the pattern's value as POV-Ray's Search_Blend_Map does."""
+    entries around the pattern's value as POV-Ray's Search_Blend_Map does. `normals`: the
+    surface's at the points (turned toward the ray), for the slope pattern."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n, k = len(points), len(keys)
     out = np.zeros((n, k))
@@ -1016,7 +966,7 @@ def entry_weights(pattern: ir.Pigment, keys: np.ndarray, points: np.ndarray) -> 
         total = float(np.sum(keys)) or 1.0
         out[:] = np.asarray(keys, dtype=np.float64) / total
         return out
-    value = pattern_value(pattern, points)
+    value = pattern_value(pattern, points, normals)
     rows = np.arange(n)
     if kind in LIST_PATTERNS:
         index = np.clip(value.astype(np.int64), 0, k - 1)
@@ -1057,6 +1007,7 @@ CONTINUOUS_PATTERNS = {
     "crackle": crackle,
     "mandel": mandel,
     "julia": julia,
+    "magnet": magnet,
     "quilted": quilted,
     "function": function_pattern,
     "density_file": density_file,
@@ -1091,7 +1042,11 @@ def apply_wave(value: np.ndarray, params: dict, kind: str = "") -> np.ndarray:
 
 
 def _map(
-    pigment: ir.Pigment, value: np.ndarray, points: np.ndarray, gamma: float | None
+    pigment: ir.Pigment,
+    value: np.ndarray,
+    points: np.ndarray,
+    gamma: float | None,
+    normals: np.ndarray | None = None,
 ) -> np.ndarray:
     if pigment.pigment_map:
         keys = np.array([k for k, _ in pigment.pigment_map], dtype=np.float64)
@@ -1103,7 +1058,7 @@ def _map(
             rows = np.nonzero(use_lo | use_hi)[0]
             if not len(rows):
                 continue
-            col = evaluate(sub, points[rows], gamma)
+            col = evaluate(sub, points[rows], gamma, _rows(normals, rows))
             w = np.where(use_lo[rows], 1.0 - frac[rows], 0.0) + np.where(
                 use_hi[rows], frac[rows], 0.0
             )
@@ -1222,7 +1177,7 @@ def perturb_normal(
         p = turbulence_warp(p, normal.params)
     nmap = normal.params.get("normal_map")
     if nmap:
-        n = _normal_map(normal, nmap, p, n, keep)
+        n = _normal_map(normal, nmap, p, n, keep, (points, n_world))
         # POV-Ray normalises a normal_map's blend whatever the flag says
         unit = unit or kind != "average"
     elif kind == "bumps":
@@ -1256,10 +1211,10 @@ def perturb_normal(
             n = n + (d / length[:, None]) * s[:, None]
     else:
         fn = CONTINUOUS_PATTERNS.get(kind)
-        if fn is None and kind not in LIST_PATTERNS:
+        if fn is None and kind not in LIST_PATTERNS and kind != "slope":
             _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
             return n_world
-        n = n + (SLOPE_GAIN * amount) * _slope(kind, p, normal.params)
+        n = n + (SLOPE_GAIN * amount) * _slope(kind, p, normal.params, (points, n_world))
     if lin is not None:
         n = n @ np.linalg.inv(lin)
     if keep and not unit:
@@ -1269,13 +1224,19 @@ def perturb_normal(
 
 
 def _normal_map(
-    normal: ir.Normal, entries, p: np.ndarray, n: np.ndarray, keep: bool = False
+    normal: ir.Normal,
+    entries,
+    p: np.ndarray,
+    n: np.ndarray,
+    keep: bool = False,
+    at: _Surface | None = None,
 ) -> np.ndarray:
     """A normal_map (POV-Ray's Perturb_Normal): the normals of the two entries around the
     pattern's value, each perturbing the normal at the pattern-space point, blended by
     weight; with `average`, every entry's normal weighted by its value (Do_Average_Normals).
     The entries live in this normal's pattern space (their transforms come on top); `keep`
-    (no_bump_scale) passes on to them, as POV-Ray's NormalBlendMap::Post does."""
+    (no_bump_scale) passes on to them, as POV-Ray's NormalBlendMap::Post does. `at`: the
+    world points and normals, for a slope pattern."""
     keys = np.array([k for k, _ in entries], dtype=np.float64)
     kind = normal.pattern
     if kind == "average":
@@ -1284,10 +1245,10 @@ def _normal_map(
         for k, sub in entries:
             out += (k / total) * perturb_normal(sub, p, n, keep, unit=False)
         return out
-    if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS:
+    if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS and kind != "slope":
         _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
         return n
-    value = _pattern_value(kind, p, normal.params)
+    value = _pattern_value(kind, p, normal.params, at)
     lo, hi, frac = blend_indices(keys, value)
     out = np.zeros_like(n)
     for i, (_, sub) in enumerate(entries):
@@ -1314,9 +1275,18 @@ def slope_map(value: np.ndarray, entries) -> np.ndarray:
     return np.where(lo == hi, h2, rv)
 
 
-def _pattern_value(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
+# The world points and surface normals a normal pattern is evaluated at (for slope).
+_Surface = tuple[np.ndarray, np.ndarray]
+
+
+def _pattern_value(
+    kind: str, p: np.ndarray, params: dict, at: _Surface | None = None
+) -> np.ndarray:
     if kind in LIST_PATTERNS:
         value = LIST_PATTERNS[kind](p, params).astype(np.float64)
+    elif kind == "slope":
+        points, normals = at if at is not None else (p, None)
+        value = apply_wave(slope(p, points, normals, params), params, kind)
     else:
         value = apply_wave(CONTINUOUS_PATTERNS[kind](p, params), params, kind)
     slopes = params.get("slope_map")
@@ -1337,9 +1307,12 @@ _PYRAMID = np.array(
 SLOPE_GAIN: float = -5.0
 
 
-def _slope(kind: str, p: np.ndarray, params: dict) -> np.ndarray:
-    """(N,3) sum of value(p + delta u_i) u_i over the tetrahedron (≈ 4/3 delta grad)."""
+def _slope(kind: str, p: np.ndarray, params: dict, at: _Surface | None = None) -> np.ndarray:
+    """(N,3) sum of value(p + delta u_i) u_i over the tetrahedron (≈ 4/3 delta grad),
+    delta the normal's `accuracy` (0.02); scaled by 0.02 / delta as POV-Ray scales the
+    amount, so a finer accuracy samples closer without flattening the bumps."""
+    delta = float(params.get("accuracy", NORMAL_DELTA))
     g = np.zeros_like(p)
     for u in _PYRAMID:
-        g += _pattern_value(kind, p + NORMAL_DELTA * u, params)[:, None] * u
-    return g
+        g += _pattern_value(kind, p + delta * u, params, at)[:, None] * u
+    return g if delta == NORMAL_DELTA else g * (NORMAL_DELTA / delta)

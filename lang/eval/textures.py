@@ -60,6 +60,14 @@ class _PigmentPattern:
 
 
 @dataclass(frozen=True)
+class _Slope:
+    """A `slope { … }` block: the slope pattern's params (see `_slope_params`)."""
+
+    params: dict[str, Any]
+    kind: str = "slope"
+
+
+@dataclass(frozen=True)
 class _Tiles:
     """A `tiles { texture {…} tile2 texture {…} }` block: each tile's texture (several
     textures in a tile are layered, the later on top)."""
@@ -159,6 +167,33 @@ def _density_file(it: BuildContext, args: list[Any], span: Span) -> str:
     return path
 
 
+def _magnet_form(it, params: dict[str, Any], name: str, args: list[Any], span: Span) -> str:
+    """The pattern a pattern keyword names. `magnet 1` or `magnet 2` must be followed by
+    `mandel N` or `julia <c>, N`, which then give the magnet's form (params "magnet" and
+    "magnet_form", None until the form is read); any other pattern drops the magnet's keys."""
+    pending = "magnet_form" in params and params["magnet_form"] is None
+    if name == "magnet":
+        kind = int(args[0]) if args else 0
+        if kind not in (1, 2):
+            raise it.error("E0211", f"magnet type {kind}: the types are 1 and 2", span)
+        params.pop("exponent", None)  # POV-Ray's magnet has no exponent
+        params["magnet"], params["magnet_form"] = kind, None
+        return "magnet"
+    if pending and name in ("mandel", "julia"):
+        params["magnet_form"] = name
+        return "magnet"
+    if pending:
+        raise it.error(
+            "E0211",
+            f"`{name}` after `magnet`",
+            span,
+            "magnet 1 mandel 50, or magnet 2 julia <0.3, 0.4>, 50",
+        )
+    params.pop("magnet", None)
+    params.pop("magnet_form", None)
+    return name
+
+
 def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span: Span) -> bool:
     """Pattern keywords and their modifiers, shared by pigment, normal and texture."""
     params = st["params"]
@@ -206,6 +241,10 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
         "use_alpha",
         "interpolate",
     ):
+        if name == "exponent" and "magnet" in params:
+            raise it.error(
+                "E0212", "`exponent` in a magnet pattern", span, "only mandel and julia take one"
+            )
         params[name] = (args[0] if len(args) == 1 else tuple(args)) if args else True
     elif name in ("quick_color", "quick_colour"):
         pass
@@ -217,19 +256,22 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
         else:
             it.unsupported("function pattern", span)
     elif name in _PATTERN_KEYWORDS:
-        st["pattern"] = name
+        st["pattern"] = _magnet_form(it, params, name, args, span)
         if name == "gradient":
             params["orientation"] = _unit_or_same(args[0])
         elif name in ("spiral1", "spiral2"):
             params["arms"] = args[0]
         elif name == "mandel":
             params["iterations"] = args[0]
-        elif name in ("magnet", "tiling"):
+        elif name == "tiling":
             params["value"] = args[0]
         elif name == "julia":
             params["complex"], params["iterations"] = args[0], args[1]
         elif name == "slope":
-            params["direction"] = args[0]
+            if args and isinstance(args[0], _Slope):
+                params.update(args[0].params)
+            else:
+                params.update(_slope_params(it, span, args[0] if args else None))
         elif name == "density_file":
             params["df3"] = _density_file(it, args, span)
         if name in (
@@ -237,11 +279,9 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
             "image_pattern",
             "pigment_pattern",
             "aoi",
-            "slope",
             "facets",
             "pavement",
             "tiling",
-            "magnet",
             "cubic",
             "triangular",
             "square",
@@ -499,6 +539,78 @@ def _b_reflection_block(it: BuildContext, g: Grouped, node: syntax.Block) -> Ref
     return ReflectionValue(r)
 
 
+def _slope_params(
+    it: BuildContext,
+    span: Span,
+    direction: Any,
+    low_high: tuple[Any, Any] = (None, None),
+    altitude: Any = None,
+    altitude_low_high: tuple[Any, Any] = (None, None),
+    point_at: bool = False,
+) -> dict[str, Any]:
+    """The slope pattern's params as POV-Ray's parser leaves them: "slope_direction" (unit,
+    or the point with "slope_point_at"), "altitude" (unit), each range as (low, high - low)
+    ((0, 0): none; a zero-width range warns and is none), and "slope_mix" (slope, altitude),
+    the two vectors' lengths over their sum (the point_at form is all slope)."""
+    d = _vector3(direction)
+    a = _vector3(altitude)
+    out: dict[str, Any] = {
+        "slope_range": _slope_range(it, span, low_high, "Zero slope range, ignoring."),
+        "altitude_range": _slope_range(
+            it, span, altitude_low_high, "Zero gradient range, ignoring."
+        ),
+    }
+    if point_at:
+        return {**out, "slope_direction": d, "slope_point_at": True, "slope_mix": (1.0, 0.0)}
+    d_len, a_len = math.hypot(*d), math.hypot(*a)
+    if d_len + a_len == 0.0:
+        raise it.error("E0211", "the slope pattern's direction and altitude are both zero", span)
+    unit = lambda v, n: tuple(c / n for c in v) if n else v  # noqa: E731
+    share = d_len / (d_len + a_len)
+    return {
+        **out,
+        "slope_direction": unit(d, d_len),
+        "altitude": unit(a, a_len),
+        "slope_mix": (share, 1.0 - share),
+    }
+
+
+def _vector3(v: Any) -> tuple[float, float, float]:
+    if v is None:
+        return (0.0, 0.0, 0.0)
+    if isinstance(v, (int, float)):
+        return (float(v),) * 3
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _slope_range(
+    it: BuildContext, span: Span, low_high: tuple[Any, Any], zero: str
+) -> tuple[float, float]:
+    low, high = (0.0 if x is None else float(x) for x in low_high)
+    if high != 0.0 and high == low:
+        it.sink.warning("W0309", zero, span)
+        return (0.0, 0.0)
+    return (low, high - low)
+
+
+def _b_slope(it: BuildContext, g: Grouped, node: syntax.Block) -> _Slope:
+    span = node.keyword_span or node.span
+    direction, low_high, point_at = (
+        g.positional.get("direction"),
+        (g.positional.get("low"), g.positional.get("high")),
+        False,
+    )
+    altitude, alt_low_high = None, (None, None)
+    for name, args, _ in g.items:
+        if name == "point_at":
+            direction, low_high, point_at = args[0], (args[1], args[2]), True
+        elif name == "altitude":
+            if point_at:
+                raise it.error("E0212", "`altitude` with `point_at` in a slope pattern", span)
+            altitude, alt_low_high = args[0], (args[1], args[2])
+    return _Slope(_slope_params(it, span, direction, low_high, altitude, alt_low_high, point_at))
+
+
 def _b_pigment_pattern(it: BuildContext, g: Grouped, node: syntax.Block) -> _PigmentPattern:
     return _PigmentPattern(build_pigment(it, g, node))
 
@@ -670,8 +782,13 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
             t = transform_texture(t, item_matrix(name, args))
         elif name == "map":
             if v.map_kind == "texture_map" and v.entries:
-                entries = tuple((float(k), _as_texture(it, x)) for k, x in v.entries)
                 pattern = t.pattern or ir.Pigment(pattern="solid", span=node.span)
+                # POV-Ray evaluates a map's textures at the point its pattern's transforms
+                # moved, so the transforms written before the map move them too
+                entries = tuple(
+                    (float(k), transform_texture(_as_texture(it, x), pattern.transform))
+                    for k, x in v.entries
+                )
                 t = replace(t, pattern=pattern, map=entries)
             else:
                 it.sink.error("E0212", f"a {v.map_kind} in a texture", span)
@@ -910,6 +1027,7 @@ BUILDERS: dict[str, Builder] = {
     "irid": _b_irid,
     "warp": _b_warp,
     "pigment_pattern": _b_pigment_pattern,
+    "slope": _b_slope,
     "interior": _b_interior,
     "texture": _b_texture,
     "tiles": _b_tiles,
