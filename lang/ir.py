@@ -612,11 +612,14 @@ Shape = (
 class Object:
     """A renderable object. `transform` maps the shape's own coordinates to world space
     (for CSG children it is their full transform, the parent's already folded in).
-    `texture` is fully resolved (inherited from CSG parents, #default applied)."""
+    `texture` is fully resolved (inherited from CSG parents, #default applied).
+    `interior_texture` (POV-Ray's, inherited from CSG parents on its own) shades the hits
+    whose raw normal faces away from the ray, i.e. the surface seen from inside."""
 
     shape: Shape
     transform: Matrix = IDENTITY
     texture: Texture = field(default_factory=Texture)
+    interior_texture: Texture | None = None
     interior: Interior = field(default_factory=Interior)
     no_shadow: bool = False
     no_reflection: bool = False

@@ -17,7 +17,7 @@ colours/pigments/normals/textures (`checker Red, White`).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 
 @dataclass(frozen=True)
@@ -91,14 +91,13 @@ OBJECT_ITEMS = TRANSFORM_ITEMS + [
     "inverse | Swap inside and outside (for CSG).",
     "double_illuminate | Light both sides of the surface.",
     "sturm bool? | Use the slower, more accurate root solver.",
-    "interior_texture | A texture for the inside surface (not rendered yet).",
     "uv_mapping | Map textures by the surface's uv coordinates.",
     "split_union bool? | (CSG) split unions for bounding.",
     "cutaway_textures | (CSG) keep children's textures on cut faces.",
 ]
 OBJECT_ACCEPTS = frozenset(
-    "pigment finish normal texture interior material clipped_by bounded_by transform "
-    "unsupported".split()
+    "pigment finish normal texture interior_texture interior material clipped_by bounded_by "
+    "transform unsupported".split()
 )
 
 PATTERN_ITEMS = [
@@ -790,7 +789,9 @@ BLOCKS: dict[str, BlockSpec] = {
         "A texture with an interior.",
         (),
         items(TRANSFORM_ITEMS),
-        frozenset({"material", "texture", "interior", "transform", "unsupported"}),
+        frozenset(
+            {"material", "texture", "interior_texture", "interior", "transform", "unsupported"}
+        ),
     ),
     "image_map": BlockSpec(
         "image_map",
@@ -1097,8 +1098,17 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
-    """photons subsurface bump_map material_map interior_texture
+    """photons subsurface bump_map material_map
     image_pattern""".split()
+)
+
+
+# `interior_texture { … }`: a texture's body, for the surface seen from inside.
+BLOCKS["interior_texture"] = replace(
+    BLOCKS["texture"],
+    name="interior_texture",
+    produces="interior_texture",
+    doc="The texture of the surface seen from inside (where the ray leaves the object).",
 )
 
 

@@ -229,6 +229,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append("caustics or interior media")
     seen: set[tuple[str, int]] = set()
     for obj in prepared.objects:
+        if obj.interior_texture is not None:
+            out.append("interior_texture")
         tex = obj.texture
         entry = None if ctx is None else ctx.leaf_id.get(id(tex))
         key = ("entry", entry) if entry is not None else ("object", id(tex))

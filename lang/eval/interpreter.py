@@ -1273,15 +1273,22 @@ class Interpreter:
         interior: ir.Interior | None = None,
         flags: dict[str, bool] | None = None,
         placed: ir.Texture | None = None,
+        inside: ir.Texture | None = None,
     ) -> ir.Object:
         """Resolve an object: `parent` is the enclosing CSGs' transform (children store theirs
         relative to it); `inherited` is the nearest CSG texture, already in world space;
         `placed` is the #default texture where the object stands in the scene (what its
-        untextured parts get), else the default when it was made."""
+        untextured parts get), else the default when it was made. `inside` is the nearest
+        CSG interior_texture: POV-Ray's Post_Process passes it down on its own, to children
+        with a texture of their own too."""
         has_parent = not transforms.is_identity(parent)
         own = obj.texture
         if own is not None and has_parent:
             own = transform_texture(own, parent)
+        own_inside = obj.interior_texture
+        if own_inside is not None and has_parent:
+            own_inside = transform_texture(own_inside, parent)
+        inside = own_inside or inside
         tex = self._shared_texture(
             own or inherited or placed or obj.default or self.default_texture
         )
@@ -1298,7 +1305,9 @@ class Interpreter:
                 merged[k] = True
         if obj.children:
             kids = tuple(
-                self.to_ir(c, full, own or inherited, own_interior or interior, merged, placed)
+                self.to_ir(
+                    c, full, own or inherited, own_interior or interior, merged, placed, inside
+                )
                 for c in obj.children
             )
             shape = ir.CSG(obj.keyword, kids)
@@ -1321,6 +1330,7 @@ class Interpreter:
             shape=shape,
             transform=full,
             texture=tex,
+            interior_texture=inside,
             interior=inter,
             no_shadow=f.get("no_shadow", False),
             no_reflection=f.get("no_reflection", False),

@@ -36,6 +36,7 @@ from lang.ir_ops import (
 from lang.values import (
     ColorValue,
     FunctionValue,
+    InteriorTextureValue,
     MapValue,
     MaterialValue,
     ObjectPattern,
@@ -711,6 +712,11 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
     return t
 
 
+def _b_interior_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> InteriorTextureValue:
+    # POV-Ray parses its body as a texture's (Parse_Texture)
+    return InteriorTextureValue(_b_texture(it, g, node))
+
+
 def _as_texture(it: BuildContext, v: Any) -> ir.Texture:
     """An entry of a texture list or texture_map (a texture; a colour or pigment is taken
     as a texture of that pigment)."""
@@ -730,10 +736,22 @@ def _b_material(it: BuildContext, g: Grouped, node: syntax.Block) -> MaterialVal
                 m = replace(m, texture=v)
             else:
                 m = replace(m, texture=replace(m.texture, layers=m.texture.layers + (v,)))
+        elif name == "interior_texture":
+            inner = m.interior_texture
+            m = replace(
+                m,
+                interior_texture=v.texture
+                if inner is None
+                else replace(inner, layers=inner.layers + (v.texture,)),
+            )
         elif name == "interior":
             m = replace(m, interior=v)
-        elif name in TRANSFORM_WORDS and m.texture is not None:
-            m = replace(m, texture=transform_texture(m.texture, item_matrix(name, args)))
+        elif name in TRANSFORM_WORDS:
+            mat = item_matrix(name, args)
+            if m.texture is not None:
+                m = replace(m, texture=transform_texture(m.texture, mat))
+            if m.interior_texture is not None:
+                m = replace(m, interior_texture=transform_texture(m.interior_texture, mat))
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in material")
     return m
@@ -912,6 +930,7 @@ BUILDERS: dict[str, Builder] = {
     "pigment_pattern": _b_pigment_pattern,
     "interior": _b_interior,
     "texture": _b_texture,
+    "interior_texture": _b_interior_texture,
     "tiles": _b_tiles,
     "material": _b_material,
     "image_map": _b_image_map,
