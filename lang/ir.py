@@ -657,6 +657,9 @@ class Camera:
     blur_samples_min: int = 0  # its fewest before the confidence test may stop
     blur_confidence: float = 0.9
     blur_variance: float = 1.0 / 128.0
+    # POV-Ray's `normal { … }` in the camera: a pattern evaluated at the screen point
+    # <x0, y0, 0> of each ray (the projection's own coordinates) turns the ray's direction
+    normal: Normal | None = None
     span: Span | None = None
 
 

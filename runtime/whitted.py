@@ -209,6 +209,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append(f"{camera.kind} camera")
     if camera.aperture != 0.0 and camera.blur_samples > 0:
         out.append("focal blur")
+    if camera.normal is not None:
+        out.append("camera normal")
     if scene.settings.radiosity is not None:
         out.append("radiosity")
     if scene.fog is not None or scene.fogs or scene.media:
