@@ -640,10 +640,9 @@ BLOCKS: dict[str, BlockSpec] = {
             NORMAL_PATTERN_ITEMS,
             [
                 "bump_size float | The depth of the perturbation.",
-                "bump_map | An image as bumps (not rendered yet).",
             ],
         ),
-        PATTERN_ACCEPTS | {"normal", "float"},
+        PATTERN_ACCEPTS | {"normal", "float", "bump_map"},
     ),
     "finish": BlockSpec(
         "finish",
@@ -812,6 +811,31 @@ BLOCKS: dict[str, BlockSpec] = {
                 "use_alpha | Use the image's alpha channel.",
                 "gamma float | The image's gamma.",
                 "premultiplied bool? | The image's alpha is premultiplied.",
+            ],
+        ),
+        frozenset({"string"}),
+        soft=frozenset({"gamma"}),
+    ),
+    "bump_map": BlockSpec(
+        "bump_map",
+        "bump_map",
+        "An image as heights for a normal: "
+        '`normal { bump_map { png "file" bump_size 2 interpolate 2 } }`.',
+        (),
+        items(
+            [
+                f"{t} string? | Image format {t}."
+                for t in "png jpeg tiff exr hdr gif tga iff ppm pgm sys".split()
+            ],
+            [
+                "map_type int | 0 planar, 1 spherical, 2 cylindrical, 5 torus.",
+                "interpolate int | 2 bilinear, 3 bicubic, 4 normalised distance.",
+                "once | Do not repeat the image.",
+                "bump_size float | The height of white (or of palette index 1).",
+                "use_color | Heights from the colours' grey value (the default).",
+                "use_colour | Heights from the colours' grey value (the default).",
+                "use_index | Heights from a palette image's indices.",
+                "gamma float | The image's gamma (default: its values as they are).",
             ],
         ),
         frozenset({"string"}),
@@ -1098,7 +1122,7 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
-    """photons subsurface bump_map material_map
+    """photons subsurface material_map
     image_pattern""".split()
 )
 

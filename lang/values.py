@@ -83,6 +83,16 @@ class InteriorTextureValue:
 
 
 @dataclass(frozen=True)
+class BumpMapValue:
+    """`bump_map { … }` inside a normal: the image's settings (the normal's params["image"])
+    and its `bump_size` when given."""
+
+    params: dict[str, Any]
+    bump_size: float | None = None
+    kind: str = "bump_map"
+
+
+@dataclass(frozen=True)
 class MapValue:
     """color_map / pigment_map / normal_map / texture_map / slope_map entries, sorted."""
 
