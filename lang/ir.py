@@ -615,11 +615,14 @@ Shape = (
 class Object:
     """A renderable object. `transform` maps the shape's own coordinates to world space
     (for CSG children it is their full transform, the parent's already folded in).
-    `texture` is fully resolved (inherited from CSG parents, #default applied)."""
+    `texture` is fully resolved (inherited from CSG parents, #default applied).
+    `interior_texture` (POV-Ray's, inherited from CSG parents on its own) shades the hits
+    whose raw normal faces away from the ray, i.e. the surface seen from inside."""
 
     shape: Shape
     transform: Matrix = IDENTITY
     texture: Texture = field(default_factory=Texture)
+    interior_texture: Texture | None = None
     interior: Interior = field(default_factory=Interior)
     no_shadow: bool = False
     no_reflection: bool = False
@@ -662,6 +665,9 @@ class Camera:
     blur_samples_min: int = 0  # its fewest before the confidence test may stop
     blur_confidence: float = 0.9
     blur_variance: float = 1.0 / 128.0
+    # POV-Ray's `normal { … }` in the camera: a pattern evaluated at the screen point
+    # <x0, y0, 0> of each ray (the projection's own coordinates) turns the ray's direction
+    normal: Normal | None = None
     span: Span | None = None
 
 

@@ -95,6 +95,9 @@ def _transform_ir_object(o: ir.Object, m: ir.Matrix) -> ir.Object:
         shape=shape,
         transform=tr,
         texture=transform_texture(o.texture, m),
+        interior_texture=None
+        if o.interior_texture is None
+        else transform_texture(o.interior_texture, m),
         clipped_by=tuple(_transform_ir_object(c, m) for c in o.clipped_by),
     )
 
@@ -110,6 +113,9 @@ def transform_object(obj: ObjectValue, m: ir.Matrix) -> ObjectValue:
         shape=shape,
         transform=transforms.compose(m, obj.transform),
         texture=transform_texture(obj.texture, m) if obj.texture is not None else None,
+        interior_texture=None
+        if obj.interior_texture is None
+        else transform_texture(obj.interior_texture, m),
         interior=transform_interior(obj.interior, m),
         children=list(obj.children),
         lights=list(obj.lights),

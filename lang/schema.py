@@ -17,7 +17,7 @@ colours/pigments/normals/textures (`checker Red, White`).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 
 @dataclass(frozen=True)
@@ -91,14 +91,13 @@ OBJECT_ITEMS = TRANSFORM_ITEMS + [
     "inverse | Swap inside and outside (for CSG).",
     "double_illuminate | Light both sides of the surface.",
     "sturm bool? | Use the slower, more accurate root solver.",
-    "interior_texture | A texture for the inside surface (not rendered yet).",
     "uv_mapping | Map textures by the surface's uv coordinates.",
     "split_union bool? | (CSG) split unions for bounding.",
     "cutaway_textures | (CSG) keep children's textures on cut faces.",
 ]
 OBJECT_ACCEPTS = frozenset(
-    "pigment finish normal texture interior material clipped_by bounded_by transform "
-    "unsupported".split()
+    "pigment finish normal texture interior_texture interior material clipped_by bounded_by "
+    "transform unsupported".split()
 )
 
 PATTERN_ITEMS = [
@@ -651,10 +650,9 @@ BLOCKS: dict[str, BlockSpec] = {
             NORMAL_PATTERN_ITEMS,
             [
                 "bump_size float | The depth of the perturbation.",
-                "bump_map | An image as bumps (not rendered yet).",
             ],
         ),
-        PATTERN_ACCEPTS | {"normal", "float"},
+        PATTERN_ACCEPTS | {"normal", "float", "bump_map"},
     ),
     "finish": BlockSpec(
         "finish",
@@ -801,7 +799,9 @@ BLOCKS: dict[str, BlockSpec] = {
         "A texture with an interior.",
         (),
         items(TRANSFORM_ITEMS),
-        frozenset({"material", "texture", "interior", "transform", "unsupported"}),
+        frozenset(
+            {"material", "texture", "interior_texture", "interior", "transform", "unsupported"}
+        ),
     ),
     "image_map": BlockSpec(
         "image_map",
@@ -822,6 +822,31 @@ BLOCKS: dict[str, BlockSpec] = {
                 "use_alpha | Use the image's alpha channel.",
                 "gamma float | The image's gamma.",
                 "premultiplied bool? | The image's alpha is premultiplied.",
+            ],
+        ),
+        frozenset({"string"}),
+        soft=frozenset({"gamma"}),
+    ),
+    "bump_map": BlockSpec(
+        "bump_map",
+        "bump_map",
+        "An image as heights for a normal: "
+        '`normal { bump_map { png "file" bump_size 2 interpolate 2 } }`.',
+        (),
+        items(
+            [
+                f"{t} string? | Image format {t}."
+                for t in "png jpeg tiff exr hdr gif tga iff ppm pgm sys".split()
+            ],
+            [
+                "map_type int | 0 planar, 1 spherical, 2 cylindrical, 5 torus.",
+                "interpolate int | 2 bilinear, 3 bicubic, 4 normalised distance.",
+                "once | Do not repeat the image.",
+                "bump_size float | The height of white (or of palette index 1).",
+                "use_color | Heights from the colours' grey value (the default).",
+                "use_colour | Heights from the colours' grey value (the default).",
+                "use_index | Heights from a palette image's indices.",
+                "gamma float | The image's gamma (default: its values as they are).",
             ],
         ),
         frozenset({"string"}),
@@ -1108,8 +1133,17 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
-    """photons subsurface bump_map material_map interior_texture
+    """photons subsurface material_map
     image_pattern""".split()
+)
+
+
+# `interior_texture { … }`: a texture's body, for the surface seen from inside.
+BLOCKS["interior_texture"] = replace(
+    BLOCKS["texture"],
+    name="interior_texture",
+    produces="interior_texture",
+    doc="The texture of the surface seen from inside (where the ray leaves the object).",
 )
 
 

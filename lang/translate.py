@@ -38,7 +38,7 @@ from lang.parser import parse
 from lang.paths import STDLIB
 
 # Blocks strala parses and ignores: commenting them out changes no pixel of its render.
-IGNORED_BLOCKS = frozenset("photons subsurface interior_texture bump_map".split())
+IGNORED_BLOCKS = frozenset("photons subsurface".split())
 DATA_SUFFIXES = frozenset(
     ".png .jpg .jpeg .tga .gif .ppm .pgm .pbm .tif .tiff .exr .hdr .iff .sys .pot .ttf .ttc "
     ".otf .df3".split()

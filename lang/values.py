@@ -69,8 +69,27 @@ class TransformValue:
 class MaterialValue:
     texture: ir.Texture | None = None
     interior: ir.Interior | None = None
+    interior_texture: ir.Texture | None = None
     textures: tuple[ir.Texture, ...] = ()  # further layers
     kind: str = "material"
+
+
+@dataclass(frozen=True)
+class InteriorTextureValue:
+    """`interior_texture { … }`: a texture for the surface seen from inside."""
+
+    texture: ir.Texture
+    kind: str = "interior_texture"
+
+
+@dataclass(frozen=True)
+class BumpMapValue:
+    """`bump_map { … }` inside a normal: the image's settings (the normal's params["image"])
+    and its `bump_size` when given."""
+
+    params: dict[str, Any]
+    bump_size: float | None = None
+    kind: str = "bump_map"
 
 
 @dataclass(frozen=True)
@@ -122,6 +141,7 @@ class ObjectValue:
     keyword: str
     transform: ir.Matrix = ir.IDENTITY
     texture: ir.Texture | None = None
+    interior_texture: ir.Texture | None = None
     interior: ir.Interior | None = None
     children: list[ObjectValue] = field(default_factory=list)
     lights: list[ir.Light] = field(default_factory=list)

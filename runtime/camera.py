@@ -8,6 +8,7 @@ import numpy as np
 
 from lang import ir
 from runtime import transform as tf
+from runtime.patterns import perturb_normal
 
 
 def screen_coords(width: int, height: int, xs: np.ndarray, ys: np.ndarray):
@@ -40,7 +41,20 @@ def camera_rays(
     """Origins, directions (unit, unless `unit` is off: then as the projection builds
     them, which focal blur's focal distance is measured in) and which rays are traced
     ((N,) bool, or None for all) for every projection POV-Ray 3.7 has, by its formulas
-    (the angle in degrees; 90 when the scene gives none, as POV-Ray's default)."""
+    (the angle in degrees; 90 when the scene gives none, as POV-Ray's default). A
+    camera `normal` bends the unit directions; focal blur's (`unit` off) bends its own
+    after the lens, as POV-Ray does."""
+    origins, directions, traced, screen = _project(camera, width, height, xs, ys)
+    if unit:
+        if camera.normal is not None:
+            directions = bend(camera.normal, directions, *screen)
+        directions = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    return np.array(origins, dtype=np.float64), np.array(directions, dtype=np.float64), traced
+
+
+def _project(camera: ir.Camera, width: int, height: int, xs: np.ndarray, ys: np.ndarray):
+    """Origins, directions as the projection builds them, traced mask, and each ray's
+    (x0, y0) in the projection's own screen coordinates (where a camera normal is read)."""
     sx, sy = screen_coords(width, height, xs, ys)
     sx = sx.reshape(-1, 1)
     sy = sy.reshape(-1, 1)
@@ -51,6 +65,7 @@ def camera_rays(
     kind = camera.kind
     traced = None
     origins = np.broadcast_to(loc, (len(sx), 3))
+    screen = (sx, sy)
     if kind == "orthographic":
         origins = loc + sx * right + sy * up
         directions = np.broadcast_to(dirv, origins.shape)
@@ -59,10 +74,23 @@ def camera_rays(
             _warn_kind(kind)
         directions = dirv + sx * right + sy * up
     else:
-        directions, origins, traced = _PROJECTIONS[kind](camera, sx, sy, loc, dirv, right, up)
-    if unit:
-        directions = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-    return np.array(origins, dtype=np.float64), np.array(directions, dtype=np.float64), traced
+        directions, origins, traced, screen = _PROJECTIONS[kind](
+            camera, sx, sy, loc, dirv, right, up
+        )
+    return origins, directions, traced, screen
+
+
+def bend(normal: ir.Normal, directions: np.ndarray, x0: np.ndarray, y0: np.ndarray):
+    """Camera rays turned by the camera's `normal { … }`: POV-Ray's CreateCameraRay
+    perturbs the unit direction as if it were a surface normal, by the pattern at the
+    point <x0, y0, 0> of the projection's own screen coordinates (x0, y0 (N,1) each:
+    -0.5..0.5 for perspective and orthographic, angles for the others)."""
+    unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    n = len(unit)
+    pts = np.zeros((n, 3))
+    pts[:, 0] = np.broadcast_to(x0, (n, 1))[:, 0]
+    pts[:, 1] = np.broadcast_to(y0, (n, 1))[:, 0]
+    return perturb_normal(normal, pts, unit)
 
 
 def has_focal_blur(camera: ir.Camera) -> bool:
@@ -107,14 +135,17 @@ class FocalBlur:
 
     def rays(self, rows: np.ndarray, k: np.ndarray):
         """Origins, unit directions and traced mask of samples k (M,) of points rows (M,)."""
-        origins, dirs, traced = camera_rays(
-            self.camera, self.width, self.height, self.px[rows, k], self.py[rows, k], unit=False
+        origins, dirs, traced, screen = _project(
+            self.camera, self.width, self.height, self.px[rows, k], self.py[rows, k]
         )
+        origins = np.array(origins, dtype=np.float64)
         lx, ly = self.radius * self.lx[rows, k], self.radius * self.ly[rows, k]
         deflect = lx[:, None] * self.xperp - ly[:, None] * self.yperp
         target = origins + self.reach * dirs
         origins = origins + deflect
         dirs = target - origins
+        if self.camera.normal is not None:
+            dirs = bend(self.camera.normal, dirs, *screen)
         dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
         return origins, dirs, traced
 
@@ -170,7 +201,7 @@ def _fisheye(camera, sx, sy, loc, d, r, u):
     r, u, d = tf.normalize(r), tf.normalize(u), tf.normalize(d)
     dirs = (np.cos(phi) * np.sin(theta)) * r + (np.sin(phi) * np.sin(theta)) * u
     dirs = dirs + np.cos(theta) * d
-    return dirs, np.broadcast_to(loc, dirs.shape), (rad <= 1.0).ravel()
+    return dirs, np.broadcast_to(loc, dirs.shape), (rad <= 1.0).ravel(), (phi, theta)
 
 
 def _polar_angle(x0: np.ndarray, y0: np.ndarray, rad: np.ndarray) -> np.ndarray:
@@ -198,7 +229,7 @@ def _omnimax(camera, sx, sy, loc, d, r, u):
     dirs = (np.cos(phi) * st) * r + (sp * st) * u + ct * d
     # nothing below 45 degrees under the projection axis
     traced = (rad <= 1.0) & ~(sp * st < np.tan(np.radians(135.0)) * ct)
-    return dirs, np.broadcast_to(loc, dirs.shape), traced.ravel()
+    return dirs, np.broadcast_to(loc, dirs.shape), traced.ravel(), (phi, theta)
 
 
 def _panoramic(camera, sx, sy, loc, d, r, u):
@@ -208,7 +239,7 @@ def _panoramic(camera, sx, sy, loc, d, r, u):
     with np.errstate(over="ignore"):
         ty = np.where(np.abs(np.pi / 2 - np.abs(lat)) < 1e-10, np.sign(lat) * 1e30, np.tan(lat))
     dirs = np.cos(lon) * r + ty * u + np.sin(lon) * d
-    return dirs, np.broadcast_to(loc, dirs.shape), None
+    return dirs, np.broadcast_to(loc, dirs.shape), None, (lon, lat)
 
 
 def _ultra_wide(camera, sx, sy, loc, d, r, u):
@@ -220,7 +251,7 @@ def _ultra_wide(camera, sx, sy, loc, d, r, u):
         + np.sin(y0) * tf.normalize(u)
         + (np.cos(x0) * np.cos(y0)) * tf.normalize(d)
     )
-    return dirs, np.broadcast_to(loc, dirs.shape), None
+    return dirs, np.broadcast_to(loc, dirs.shape), None, (x0, y0)
 
 
 def _cylinder(camera, sx, sy, loc, d, r, u):
@@ -241,7 +272,8 @@ def _cylinder(camera, sx, sy, loc, d, r, u):
         dirs = dirs + offset
     else:
         origins = loc + offset
-    return dirs, origins, None
+    screen = (theta, sy * length) if kind in (1, 3) else (sx * length, theta)
+    return dirs, origins, None, screen
 
 
 def _spherical(camera, sx, sy, loc, d, r, u):
@@ -251,7 +283,7 @@ def _spherical(camera, sx, sy, loc, d, r, u):
     lat = sy * np.radians(v)
     lon = sx * np.radians(h)
     v1 = _rotate(np.broadcast_to(d, (len(sy), 3)), tf.normalize(r), -lat)
-    return _rotate(v1, tf.normalize(u), lon), np.broadcast_to(loc, v1.shape), None
+    return _rotate(v1, tf.normalize(u), lon), np.broadcast_to(loc, v1.shape), None, (lon, lat)
 
 
 def _rotate(v: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -295,6 +327,8 @@ def view_planes(camera: ir.Camera, width: int, height: int) -> list[tuple[np.nda
     fwd = np.asarray(camera.direction, dtype=np.float64)
     right = np.asarray(camera.right, dtype=np.float64)
     up = np.asarray(camera.up, dtype=np.float64)
+    if camera.normal is not None:
+        return []  # a camera normal bends rays out of the view's pyramid
     gx = 0.5 + VIEW_GROW_PIXELS / max(width, 1)
     gy = 0.5 + VIEW_GROW_PIXELS / max(height, 1)
     out = []

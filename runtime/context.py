@@ -198,6 +198,7 @@ class Context:
     textures: list[list[ir.Texture]]  # unique layer stacks, top layer first
     obj_tex: np.ndarray  # (n_obj,) index into textures of each object's texture
     face_tex: dict[int, np.ndarray]  # object -> (n_faces,) texture index (textured meshes)
+    obj_inside: np.ndarray  # (n_obj,) texture index of each interior_texture (-1: none)
     transmits: np.ndarray  # (n_tex,) bool: pigment may let light through
     lit: np.ndarray  # (n_tex,) bool: some layer has diffuse/specular/phong
     back_lit: np.ndarray  # (n_tex,) bool: some layer has diffuse_back
@@ -231,14 +232,22 @@ class Context:
         # Not locked: the counters are diagnostics, a lost increment between threads is fine.
         self.stats[key] = self.stats.get(key, 0) + int(n)
 
-    def texture_of(self, obj: np.ndarray, prim: np.ndarray | None) -> np.ndarray:
-        """(N,) texture index of each hit (per-face textures of meshes resolved)."""
+    def texture_of(
+        self, obj: np.ndarray, prim: np.ndarray | None, leaving: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(N,) texture index of each hit (per-face textures of meshes resolved). `leaving`:
+        the hits whose raw normal points along the ray, where POV-Ray's trace shades the
+        object's interior_texture instead (over any per-face texture too)."""
         tex = self.obj_tex[obj]
         if self.face_tex and prim is not None:
             for oid, table in self.face_tex.items():
                 rows = np.nonzero((obj == oid) & (prim >= 0))[0]
                 if len(rows):
                     tex[rows] = table[np.clip(prim[rows], 0, len(table) - 1)]
+        if leaving is not None and len(self.obj_inside) and self.obj_inside.max() >= 0:
+            inside = self.obj_inside[obj]
+            rows = np.nonzero(leaving & (inside >= 0))[0]
+            tex[rows] = inside[rows]
         return tex
 
 

@@ -131,6 +131,10 @@ def make_context(prepared) -> Context:
         return index[key]
 
     obj_tex = np.array([intern(o.texture) for o in objs], dtype=np.int64)
+    obj_inside = np.array(
+        [-1 if o.interior_texture is None else intern(o.interior_texture) for o in objs],
+        dtype=np.int64,
+    )
     face_tex: dict[int, np.ndarray] = {}
     for i, o in enumerate(objs):
         shape = o.shape
@@ -166,6 +170,7 @@ def make_context(prepared) -> Context:
         settings=scene.settings,
         textures=textures,
         obj_tex=obj_tex,
+        obj_inside=obj_inside,
         face_tex=face_tex,
         transmits=any_layer(lambda t: patterns.may_transmit(t.pigment)),
         lit=any_layer(
@@ -247,7 +252,9 @@ def trace(
     if len(rows):
         here = level[alive][rows] + np.where(continued[alive][rows], 0, 1)
         prim = hits.prim[rows] if hits.prim is not None else None
-        tex = ctx.texture_of(hits.obj[rows], prim)
+        # POV-Ray picks the interior_texture by the raw normal against the ray
+        leaving = np.einsum("ij,ij->i", hits.normal[rows], d[rows]) > 0
+        tex = ctx.texture_of(hits.obj[rows], prim, leaving)
         col[rows] = shade(
             ctx,
             hits.obj[rows],

@@ -216,7 +216,9 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
         pts = h.point[hit]
         objs = h.obj[hit]
         rd = ldir[active_hit]
-        tex = ctx.texture_of(objs, h.prim[hit] if h.prim is not None else None)
+        # Light that crosses an object leaves it where the raw normal points along the ray.
+        leaving = np.einsum("ij,ij->i", h.normal[hit], rd) > 0
+        tex = ctx.texture_of(objs, h.prim[hit] if h.prim is not None else None, leaving)
         f = np.zeros((len(active_hit), 3))
         # POV-Ray turns the normal against the shadow ray (for slope patterns)
         nrm_all = h.normal[hit]
@@ -251,7 +253,6 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
                     t *= k[:, None]
             np.add.at(f, sel, share[sel_e, None] * t)
         # Light that crossed an object's inside fades with the distance it travelled there.
-        leaving = np.einsum("ij,ij->i", h.normal[hit], rd) > 0
         f *= interior_fade(ctx, objs, h.t[hit], leaving)
         mult[active_hit] *= f
         o[active_hit] = pts

@@ -120,6 +120,7 @@ def _plane_of(obj: ir.Object) -> tuple[np.ndarray, float] | None:
         or obj.no_image
         or obj.no_reflection
         or lets_light_through(obj.texture)
+        or (obj.interior_texture is not None and lets_light_through(obj.interior_texture))
     ):
         return None
     n = np.asarray(shape.normal, dtype=np.float64)

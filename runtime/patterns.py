@@ -38,6 +38,7 @@ from functools import cache, lru_cache
 import numpy as np
 
 from lang import ir
+from runtime import bump_map
 from runtime import transform as tf
 from runtime.density import density_file
 from runtime.fractal_patterns import julia, magnet, mandel
@@ -1192,6 +1193,8 @@ def perturb_normal(
             total += np.abs(dnoise(p * scale)) / scale
             scale *= 2.0
         n = n + amount * total
+    elif kind == "bump_map":
+        n = bump_map.perturb(normal.params.get("image", {}), amount, p, n)
     elif kind == "quilted":
         # one of POV-Ray's normal-only patterns: the offset is added, not differentiated
         n = n + amount * _quilt_offset(p, normal.params)

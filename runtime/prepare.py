@@ -570,9 +570,10 @@ def _walk(objects):
 
 
 def _textures(obj: ir.Object) -> list[ir.Texture]:
-    """The object's texture and, for meshes, its per-face textures."""
+    """The object's texture, its interior_texture and, for meshes, its per-face textures."""
     extra = obj.shape.textures if isinstance(obj.shape, ir.Mesh) else ()
-    return [obj.texture, *extra]
+    inside = () if obj.interior_texture is None else (obj.interior_texture,)
+    return [obj.texture, *inside, *extra]
 
 
 def texture_reflects(tex: ir.Texture) -> bool:

@@ -209,6 +209,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append(f"{camera.kind} camera")
     if camera.aperture != 0.0 and camera.blur_samples > 0:
         out.append("focal blur")
+    if camera.normal is not None:
+        out.append("camera normal")
     if scene.settings.radiosity is not None:
         out.append("radiosity")
     if scene.fog is not None or scene.fogs or scene.media:
@@ -229,6 +231,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append("caustics or interior media")
     seen: set[tuple[str, int]] = set()
     for obj in prepared.objects:
+        if obj.interior_texture is not None:
+            out.append("interior_texture")
         tex = obj.texture
         entry = None if ctx is None else ctx.leaf_id.get(id(tex))
         key = ("entry", entry) if entry is not None else ("object", id(tex))

@@ -435,6 +435,14 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
         ("sphere { 0, 1 pigment { bozo } }", "bozo"),
         ("sphere { 0, 1 normal { bumps 0.5 } }", "normal"),
         ("mesh { triangle { 0, x, y } }", "meshes"),
+        (
+            "sphere { 0, 1 } camera { location -5*z look_at 0 normal { bumps 0.2 } }",
+            "camera normal",
+        ),
+        (
+            "sphere { 0, 1 pigment { rgb 1 } interior_texture { pigment { rgb 0 } } }",
+            "interior_texture",
+        ),
     ],
 )
 def test_scenes_beyond_the_kernel_say_why(text, reason):

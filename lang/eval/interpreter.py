@@ -1316,16 +1316,23 @@ class Interpreter:
         flags: dict[str, bool] | None = None,
         placed: ir.Texture | None = None,
         group: tuple[tuple[ir.Light, ...], bool] | None = None,
+        inside: ir.Texture | None = None,
     ) -> ir.Object:
         """Resolve an object: `parent` is the enclosing CSGs' transform (children store theirs
         relative to it); `inherited` is the nearest CSG texture, already in world space;
         `placed` is the #default texture where the object stands in the scene (what its
         untextured parts get), else the default when it was made; `group` the enclosing
-        light groups' lights and whether the scene's lights reach them too."""
+        light groups' lights and whether the scene's lights reach them too. `inside` is the
+        nearest CSG interior_texture: POV-Ray's Post_Process passes it down on its own, to
+        children with a texture of their own too."""
         has_parent = not transforms.is_identity(parent)
         own = obj.texture
         if own is not None and has_parent:
             own = transform_texture(own, parent)
+        own_inside = obj.interior_texture
+        if own_inside is not None and has_parent:
+            own_inside = transform_texture(own_inside, parent)
+        inside = own_inside or inside
         tex = self._shared_texture(
             own or inherited or placed or obj.default or self.default_texture
         )
@@ -1350,7 +1357,14 @@ class Interpreter:
         if obj.children:
             kids = tuple(
                 self.to_ir(
-                    c, full, own or inherited, own_interior or interior, merged, placed, group
+                    c,
+                    full,
+                    own or inherited,
+                    own_interior or interior,
+                    merged,
+                    placed,
+                    group,
+                    inside,
                 )
                 for c in obj.children
             )
@@ -1374,6 +1388,7 @@ class Interpreter:
             shape=shape,
             transform=full,
             texture=tex,
+            interior_texture=inside,
             interior=inter,
             no_shadow=f.get("no_shadow", False),
             no_reflection=f.get("no_reflection", False),

@@ -144,6 +144,7 @@ def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
         b.camera = base.camera
         b.look_at_point = base.look_at
     b.camera = replace(b.camera, span=node.span)
+    bumps: ir.Normal | None = b.camera.normal
     for name, args, span in g.items:
         if name in TRANSFORM_WORDS:
             b.add_transform(item_matrix(name, args))
@@ -170,9 +171,15 @@ def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
         elif name == "angle":
             given = tuple(a for a in args if a is not None)  # spherical: horizontal, vertical
             b.set("angle", given if len(given) > 1 else given[0])
-        elif name in ("normal", "unsupported"):
-            it.unsupported("camera normal" if name == "normal" else args[0].keyword, span)
+        elif name == "normal":
+            # a second block modifies the first (POV-Ray's Parse_Tnormal on New.Tnormal)
+            bumps = it.edits.onto(it, args[0], bumps)
+        elif name == "unsupported":
+            it.unsupported(args[0].keyword, span)
     cam = b.build()
+    if bumps is not None:
+        # the camera's transformations move its rays, never the pattern (screen space)
+        cam = replace(cam, normal=bumps)
     for w in b.warnings:
         it.sink.warning("W0306", w, g.span)
     look = b.look_at_point

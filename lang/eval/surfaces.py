@@ -75,6 +75,15 @@ def apply_object_items(it: BuildContext, obj: ObjectValue, g: Grouped) -> Object
             obj = _apply_object_item(it, obj, name, args, span)
         except EvalError as e:
             it.sink.error("E0203", e.message, span, e.hint)
+    if obj.interior_texture is not None and obj.texture is None:
+        where = next((s for n, _, s in g.items if n == "interior_texture"), None)
+        if where is not None:  # POV-Ray's Parse_Object stops here
+            it.sink.error(
+                "E0203",
+                "Interior texture requires an exterior texture.",
+                where,
+                "give the object a `texture` (or pigment) too",
+            )
     return obj
 
 
@@ -98,6 +107,8 @@ def _apply_object_item(it, obj: ObjectValue, name: str, args: list[Any], span: S
             obj.flags["_explicit_texture"] = True
         if m.interior is not None:
             obj.interior = m.interior
+        if m.interior_texture is not None:
+            obj.interior_texture = m.interior_texture
     elif name in _OBJECT_FLAGS:
         obj.flags[name] = bool(args[0]) if args and args[0] is not None else True
     elif name == "inverse":
@@ -109,7 +120,13 @@ def _apply_object_item(it, obj: ObjectValue, name: str, args: list[Any], span: S
         clip = args[0]
         obj.bounded_by.extend(obj.clipped_by if clip.use_other else clip.objects)
     elif name == "interior_texture":
-        it.unsupported("interior_texture", span)
+        # layers like `texture` (POV-Ray's Link_Textures onto Interior_Texture)
+        inner = obj.interior_texture
+        obj.interior_texture = (
+            args[0].texture
+            if inner is None
+            else replace(inner, layers=inner.layers + (args[0].texture,))
+        )
     elif name == "unsupported":
         it.unsupported(args[0].keyword, span)
     elif name in _IGNORED_OBJECT_ITEMS:

@@ -34,8 +34,10 @@ from lang.ir_ops import (
     with_top_layer,
 )
 from lang.values import (
+    BumpMapValue,
     ColorValue,
     FunctionValue,
+    InteriorTextureValue,
     MapValue,
     MaterialValue,
     ObjectPattern,
@@ -412,7 +414,10 @@ def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
         elif name == "no_bump_scale":
             params["no_bump_scale"] = True
         elif name == "bump_map":
-            it.unsupported("bump_map", span)
+            nrm = replace(nrm, pattern="bump_map")
+            params["image"] = v.params
+            if v.bump_size is not None:
+                nrm = replace(nrm, depth=v.bump_size)
         elif name == "unsupported":
             it.unsupported(v.keyword, span)
         elif name == "object" and isinstance(v, ObjectPattern):
@@ -828,6 +833,11 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
     return t
 
 
+def _b_interior_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> InteriorTextureValue:
+    # POV-Ray parses its body as a texture's (Parse_Texture)
+    return InteriorTextureValue(_b_texture(it, g, node))
+
+
 def _as_texture(it: BuildContext, v: Any) -> ir.Texture:
     """An entry of a texture list or texture_map (a texture; a colour or pigment is taken
     as a texture of that pigment)."""
@@ -847,10 +857,22 @@ def _b_material(it: BuildContext, g: Grouped, node: syntax.Block) -> MaterialVal
                 m = replace(m, texture=v)
             else:
                 m = replace(m, texture=replace(m.texture, layers=m.texture.layers + (v,)))
+        elif name == "interior_texture":
+            inner = m.interior_texture
+            m = replace(
+                m,
+                interior_texture=v.texture
+                if inner is None
+                else replace(inner, layers=inner.layers + (v.texture,)),
+            )
         elif name == "interior":
             m = replace(m, interior=v)
-        elif name in TRANSFORM_WORDS and m.texture is not None:
-            m = replace(m, texture=transform_texture(m.texture, item_matrix(name, args)))
+        elif name in TRANSFORM_WORDS:
+            mat = item_matrix(name, args)
+            if m.texture is not None:
+                m = replace(m, texture=transform_texture(m.texture, mat))
+            if m.interior_texture is not None:
+                m = replace(m, interior_texture=transform_texture(m.interior_texture, mat))
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in material")
     return m
@@ -932,26 +954,46 @@ def _b_map(it: BuildContext, g: Grouped, node: syntax.Block) -> MapValue:
     return MapValue(kind if kind != "colour_map" else "color_map", _sorted_entries(entries))
 
 
+_IMAGE_FORMATS = frozenset("png jpeg tiff exr hdr gif tga iff ppm pgm sys".split())
+
+
 def _b_image_map(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment:
     params: dict[str, Any] = {"map_type": 0, "interpolate": 0, "once": False}
+    for name, args, _span in g.items:
+        v: Any = args[0] if args else None
+        if name in ("filter", "transmit"):
+            params[name] = v if args[1] is None else (v, args[1])
+        elif name in ("use_alpha", "premultiplied"):
+            params[name] = True
+    _image_file(it, g, params, "image_map")
+    return ir.Pigment(pattern="image_map", params=params, span=node.span)
+
+
+def _b_bump_map(it: BuildContext, g: Grouped, node: syntax.Block) -> BumpMapValue:
+    # POV-Ray's Parse_Bump_Map: heights from the colours' grey unless use_index
+    params: dict[str, Any] = {"map_type": 0, "interpolate": 0, "once": False, "use_index": False}
+    size = None
+    for name, args, _span in g.items:
+        if name == "bump_size":
+            size = float(args[0])
+        elif name == "use_index":
+            params["use_index"] = True
+        elif name in ("use_color", "use_colour"):
+            params["use_index"] = False
+    _image_file(it, g, params, "bump_map")
+    return BumpMapValue(params, size)
+
+
+def _image_file(it: BuildContext, g: Grouped, params: dict[str, Any], block: str) -> None:
+    """The image items image_map and bump_map share (format and file, map_type,
+    interpolate, once, gamma) into `params`, with the file found (its "path") or warned
+    about."""
     fmt = None
     for name, args, _span in g.items:
         v: Any = args[0] if args else None
         if name == "string":
             params["file"] = v
-        elif name in (
-            "png",
-            "jpeg",
-            "tiff",
-            "exr",
-            "hdr",
-            "gif",
-            "tga",
-            "iff",
-            "ppm",
-            "pgm",
-            "sys",
-        ):
+        elif name in _IMAGE_FORMATS:
             fmt = name
             if v is not None:
                 params["file"] = v
@@ -959,15 +1001,11 @@ def _b_image_map(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment
             params["once"] = True
         elif name in ("map_type", "interpolate"):
             params[name] = int(v)
-        elif name in ("filter", "transmit"):
-            params[name] = v if args[1] is None else (v, args[1])
-        elif name in ("use_alpha", "premultiplied"):
-            params[name] = True
         elif name == "gamma":
             params["gamma"] = v
     if "file" not in params:
         raise it.error(
-            "E0211", "`image_map` needs a file name", g.span, 'image_map { png "file.png" }'
+            "E0211", f"`{block}` needs a file name", g.span, f'{block} {{ png "file.png" }}'
         )
     params["format"] = fmt or Path(params["file"]).suffix.lstrip(".").lower()
     path = it.resolve(params["file"])
@@ -981,9 +1019,10 @@ def _b_image_map(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment
                 "W0307",
                 f"image `{params['file']}` cannot be read: {problem}",
                 g.span,
-                "the image renders black; check the file",
+                "the image renders black; check the file"
+                if block == "image_map"
+                else "the surface stays smooth; check the file",
             )
-    return ir.Pigment(pattern="image_map", params=params, span=node.span)
 
 
 # How image files start, for formats that have a signature (TGA and IFF files are not checked).
@@ -1030,8 +1069,10 @@ BUILDERS: dict[str, Builder] = {
     "slope": _b_slope,
     "interior": _b_interior,
     "texture": _b_texture,
+    "interior_texture": _b_interior_texture,
     "tiles": _b_tiles,
     "material": _b_material,
     "image_map": _b_image_map,
+    "bump_map": _b_bump_map,
     **{k: _b_map for k in schema.MAP_WORDS},
 }

@@ -1,0 +1,334 @@
+"""`normal { bump_map { png "file" … } }`: an image as heights, as POV-Ray's bump_map
+(imageutil.cpp) derives a normal from it.
+
+The pattern-space point is mapped to image pixel coordinates (map_type 0 planar, 1
+spherical, 2 cylindrical, 5 torus; others planar; `once` leaves points off the single copy
+unbumped). Three samples, at the point and one pixel down to the left and to the right
+(wrapping round the image), are heights: bump_size times the grey value of the colour
+(0.297 r + 0.589 g + 0.114 b, the file's values with no gamma unless the block gives one),
+or with `use_index` times the palette index of a palette PNG. The normal of the triangle
+through them, in a frame whose y axis is the surface normal, is the new normal.
+`interpolate` 2 (bilinear), 3 (bicubic) and 4 (normalised distance) blend neighbouring
+pixels (and indices, then truncated) as POV-Ray's image lookup does.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import zlib
+from functools import lru_cache
+from typing import NamedTuple
+
+import numpy as np
+
+# POV-Ray's EPSILON, added to the pixel coordinates before they wrap
+_NUDGE = 1.0e-10
+# POV-Ray's greyscale weights (RED_INTENSITY, GREEN_INTENSITY, BLUE_INTENSITY)
+GREY = np.array([0.297, 0.589, 0.114])
+# below this the frame's x axis (normal × y) is too short: the normal is along ±y
+_PARALLEL = 1.0e-10
+
+
+class Heights(NamedTuple):
+    """An image's per-pixel grey values (H, W) and, for a palette image, its indices."""
+
+    grey: np.ndarray
+    indices: np.ndarray | None
+
+
+def perturb(params: dict, amount: float, p: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """(N,3) normals after the bump_map with image settings `params` (lang's
+    params["image"]) and height `amount` (bump_size), at pattern-space points p, for the
+    pattern-space normals n. Points off the image (`once`) or unmappable keep n."""
+    heights = image_heights(params)
+    if heights is None:
+        return n
+    h, w = heights.grey.shape
+    once = bool(params.get("once"))
+    x, y, ok = _map_pos(p, int(params.get("map_type", 0)), w, h, once)
+    out = n.copy()
+    rows = np.nonzero(ok)[0]
+    if not len(rows):
+        return out
+    x, y = x[rows], y[rows]
+    interp = int(params.get("interpolate", 0))
+    use_index = bool(params.get("use_index")) and heights.indices is not None
+    # the samples: at the point, then one pixel on (y grows downward) to either side
+    x2 = _wrap_once(x - 1.0, w)
+    y2 = _wrap_once(y + 1.0, h)
+    x3 = _wrap_once(x2 + 2.0, w)
+    h1, h2, h3 = (
+        amount * _sample(heights, sx, sy, interp, once, use_index)
+        for sx, sy in ((x, y), (x2, y2), (x3, y2))
+    )
+    # the triangle (0, h1, 0), (-1, h2, 1), (1, h3, 1) and its normal
+    xp = np.stack([np.ones_like(h1), h1 - h2, -np.ones_like(h1)], axis=1)
+    yp = np.stack([2.0 * np.ones_like(h1), h3 - h2, np.zeros_like(h1)], axis=1)
+    bump = np.cross(yp, xp)
+    bump /= np.linalg.norm(bump, axis=1, keepdims=True)
+    out[rows] = in_frame(n[rows], bump)
+    return out
+
+
+def in_frame(n: np.ndarray, bump: np.ndarray) -> np.ndarray:
+    """bump (in a frame with y along n, x along n × y, z along x × n) in n's space; the
+    z component enters negated, as POV-Ray adds it."""
+    yp = n
+    xp = np.cross(yp, np.array([0.0, 1.0, 0.0]))
+    length = np.linalg.norm(xp, axis=1)
+    flat = length < _PARALLEL
+    if flat.any():
+        up = np.abs(n[flat, 1] - 1.0) < _PARALLEL
+        yp = yp.copy()
+        yp[flat] = np.where(up[:, None], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0])
+        xp[flat] = (1.0, 0.0, 0.0)
+        length = np.where(flat, 1.0, length)
+    xp = xp / length[:, None]
+    zp = np.cross(xp, yp)
+    zp /= np.linalg.norm(zp, axis=1, keepdims=True)
+    return bump[:, :1] * xp + bump[:, 1:2] * yp - bump[:, 2:3] * zp
+
+
+def _wrap(v: np.ndarray, size: float) -> np.ndarray:
+    """POV-Ray's wrap(): into [0, size)."""
+    r = np.fmod(v, size)
+    r = np.where(r < 0.0, r + size, r)
+    return np.where(r >= size, 0.0, r)
+
+
+def _wrap_once(v: np.ndarray, size: float) -> np.ndarray:
+    """One step back into [0, size) (the neighbour samples move a pixel at most)."""
+    return np.where(v < 0.0, v + size, np.where(v >= size, v - size, v))
+
+
+def _theta(x: np.ndarray, z: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """The angle around y from +x toward +z in [0, 2 pi), from acos as POV-Ray takes it."""
+    safe = np.where(length > 0, length, 1.0)
+    t = np.arccos(np.clip(x / safe, -1.0, 1.0))
+    t = np.where(z < 0.0, 2.0 * math.pi - t, t)
+    return np.where(z == 0.0, np.where(x > 0, 0.0, math.pi), t)
+
+
+def _map_pos(p: np.ndarray, map_type: int, w: int, h: int, once: bool):
+    """Pixel coordinates (x right, y down from the top row) of pattern-space points and
+    which points map onto the image (POV-Ray's map_pos and its image mappers)."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    ok = np.ones(len(p), dtype=bool)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if map_type == 1:  # spherical
+            r = np.linalg.norm(p, axis=1)
+            ok &= r > 0
+            rs = np.where(r > 0, r, 1.0)
+            v = 0.5 + np.arcsin(np.clip(y / rs, -1.0, 1.0)) / math.pi
+            ring = np.hypot(x / rs, z / rs)
+            t = np.where(ring > 0, _theta(x / rs, z / rs, ring), 0.0)
+            u = t / (2.0 * math.pi) * w
+            v = v * h
+        elif map_type == 2:  # cylindrical
+            if once:
+                ok &= (y >= 0.0) & (y <= 1.0)
+            v = np.fmod(y * h, float(h))
+            r = np.linalg.norm(p, axis=1)
+            rs = np.where(r > 0, r, 1.0)
+            ring = np.hypot(x / rs, z / rs)
+            ok &= (r > 0) & (ring > 0)
+            u = _theta(x / rs, z / rs, ring) / (2.0 * math.pi) * w
+        elif map_type == 5:  # torus of major radius 1
+            ring = np.hypot(x, z)
+            ok &= ring > 0
+            theta = -_theta(x, z, ring)
+            dx = ring - 1.0
+            tube = np.hypot(dx, y)
+            ok &= tube > 0
+            phi = np.arccos(np.clip(-dx / np.where(tube > 0, tube, 1.0), -1.0, 1.0))
+            phi = np.where(y > 0.0, 2.0 * math.pi - phi, phi)
+            u = -theta / (2.0 * math.pi) * w
+            v = phi / (2.0 * math.pi) * h
+        else:  # planar: x across, y up the unit square
+            if once:
+                ok &= (x >= 0.0) & (x <= 1.0) & (y >= 0.0) & (y <= 1.0)
+            u = np.fmod(x * w, float(w))
+            v = np.fmod(y * h, float(h))
+    u = u + _NUDGE
+    v = v + _NUDGE
+    if once:
+        ok &= (u >= 0) & (u < w) & (v >= 0) & (v < h)
+    ok &= np.isfinite(u) & np.isfinite(v)
+    u = np.where(ok, u, 0.0)
+    v = np.where(ok, v, 0.0)
+    # the image's rows run down from the top
+    return _wrap(u, float(w)), _wrap(-v, float(h)), ok
+
+
+def _pixels(heights: Heights, ix: np.ndarray, iy: np.ndarray, once: bool, use_index: bool):
+    """Values at whole pixel coordinates: clamped to the edge for `once`, else wrapped."""
+    h, w = heights.grey.shape
+    if once:
+        ix = np.clip(ix, 0, w - 1)
+        iy = np.clip(iy, 0, h - 1)
+    else:
+        ix = np.mod(ix, w)
+        iy = np.mod(iy, h)
+    table = heights.indices if use_index and heights.indices is not None else heights.grey
+    return table[iy, ix]
+
+
+def _sample(heights: Heights, x, y, interp: int, once: bool, use_index: bool) -> np.ndarray:
+    """The grey value (or palette index) at pixel coordinates, interpolated as asked."""
+    if interp in (2, 3, 4):
+        x = x + 0.5
+        y = y + 0.5
+        ix = x.astype(np.int64)
+        iy = y.astype(np.int64)
+        p, q = x - ix, y - iy
+        if interp == 3:
+            total = np.zeros(len(x))
+            fx, fy = cubic_weights(p), cubic_weights(q)
+            for i in range(4):
+                for j in range(4):
+                    val = _pixels(heights, ix + i - 2, iy + j - 2, once, use_index)
+                    total += fx[i] * fy[j] * val
+        else:
+            corners = ((0, 0), (-1, 0), (0, -1), (-1, -1))
+            factors: tuple[np.ndarray, ...]
+            if interp == 2:
+                factors = (p * q, (1 - p) * q, p * (1 - q), (1 - p) * (1 - q))
+            else:
+                factors = norm_dist_weights(p, q)
+            total = np.zeros(len(x))
+            for (dx, dy), f in zip(corners, factors, strict=True):
+                total += f * _pixels(heights, ix + dx, iy + dy, once, use_index)
+        # POV-Ray truncates a blended index to a whole one
+        return np.trunc(total) if use_index else total
+    return _pixels(heights, x.astype(np.int64), y.astype(np.int64), once, use_index)
+
+
+def cubic_weights(p: np.ndarray) -> tuple[np.ndarray, ...]:
+    q = 1.0 - p
+    return (
+        -0.5 * p * q * q,
+        0.5 * q * (q * (3 * p + 1) + 1),
+        0.5 * p * (p * (3 * q + 1) + 1),
+        -0.5 * q * p * p,
+    )
+
+
+def norm_dist_weights(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Inverse squared distances to the four corners, normalised; a sample on a pixel's
+    centre takes that pixel alone."""
+    d = np.stack([(1 - p) ** 2 + (1 - q) ** 2, p**2 + (1 - q) ** 2, (1 - p) ** 2 + q**2,
+                  p**2 + q**2])  # fmt: skip
+    on = d <= 0.0
+    with np.errstate(divide="ignore"):
+        wts = np.where(on, 0.0, 1.0 / np.where(on, 1.0, d))
+    wts = np.where(on.any(axis=0), on.astype(np.float64), wts)
+    return tuple(wts / wts.sum(axis=0))
+
+
+def image_heights(params: dict) -> Heights | None:
+    """The image's heights (None when it is missing or unreadable: lang warned)."""
+    path = params.get("path")
+    if not path:
+        return None
+    gamma = params.get("gamma")
+    try:
+        return _load(
+            str(path), None if gamma is None else float(gamma), bool(params.get("use_index"))
+        )
+    except OSError:
+        return None
+
+
+@lru_cache(maxsize=16)
+def _load(path: str, gamma: float | None, use_index: bool) -> Heights:
+    import OpenImageIO as oiio  # imported only by scenes with images
+
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise OSError(oiio.geterror() or f"cannot read {path}")
+    try:
+        pixels = np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float64)
+    finally:
+        inp.close()
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    rgb = np.repeat(pixels[:, :, :1], 3, axis=2) if pixels.shape[2] < 3 else pixels[:, :, :3]
+    if gamma is not None:  # the block's `gamma` decodes the file; without it, none
+        rgb = np.clip(rgb, 0.0, None) ** gamma
+    index = palette_indices(path) if use_index else None
+    if index is not None and index.shape != rgb.shape[:2]:
+        index = None
+    return Heights(rgb @ GREY, index)
+
+
+def palette_indices(path: str) -> np.ndarray | None:
+    """(H, W) palette indices of a palette PNG (colour type 3, not interlaced), as
+    float64; None for any other file. Image libraries hand out the colours only."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError:
+        return None
+    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return None
+    pos, idat, head = 8, [], None
+    while pos + 8 <= len(data):
+        length, tag = struct.unpack(">I4s", data[pos : pos + 8])
+        body = data[pos + 8 : pos + 8 + length]
+        if tag == b"IHDR":
+            head = struct.unpack(">IIBBBBB", body)
+        elif tag == b"IDAT":
+            idat.append(body)
+        elif tag == b"IEND":
+            break
+        pos += 12 + length
+    if head is None:
+        return None
+    width, height, depth, colour, _, _, interlace = head
+    if colour != 3 or interlace != 0 or depth not in (1, 2, 4, 8):
+        return None
+    try:
+        raw = zlib.decompress(b"".join(idat))
+    except zlib.error:
+        return None
+    stride = (width * depth + 7) // 8
+    if len(raw) < height * (stride + 1):
+        return None
+    rows = _unfilter(raw, height, stride, max(1, depth // 8))
+    bits = np.unpackbits(rows, axis=1) if depth < 8 else rows
+    if depth < 8:
+        bits = bits[:, : width * depth].reshape(height, width, depth)
+        weights = 1 << np.arange(depth - 1, -1, -1)
+        return (bits * weights).sum(axis=2).astype(np.float64)
+    return bits[:, :width].astype(np.float64)
+
+
+def _unfilter(raw: bytes, height: int, stride: int, bpp: int) -> np.ndarray:
+    """PNG scanlines with their filters undone (None, Sub, Up, Average, Paeth)."""
+    out = np.zeros((height, stride), dtype=np.uint8)
+    prev = np.zeros(stride, dtype=np.int64)
+    for r in range(height):
+        start = r * (stride + 1)
+        kind = raw[start]
+        line = np.frombuffer(raw, dtype=np.uint8, count=stride, offset=start + 1).astype(np.int64)
+        if kind == 0:
+            cur = line
+        elif kind == 2:
+            cur = (line + prev) & 0xFF
+        else:  # Sub, Average and Paeth run along the line
+            cur = np.zeros(stride, dtype=np.int64)
+            for i in range(stride):
+                a = cur[i - bpp] if i >= bpp else 0
+                if kind == 1:
+                    pred = a
+                elif kind == 3:
+                    pred = (a + prev[i]) >> 1
+                else:
+                    b, c = prev[i], prev[i - bpp] if i >= bpp else 0
+                    pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
+                    pred = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+                cur[i] = (line[i] + pred) & 0xFF
+        out[r] = cur
+        prev = cur
+    return out
