@@ -290,7 +290,19 @@ class FnPigment:
     component: int = 5
 
 
-FnExpr = FnNum | FnArg | FnUnary | FnBinary | FnCond | FnBuiltin | FnInternal | FnCall
+@dataclass(frozen=True)
+class FnSpline:
+    """One component of a spline at `arg`, as the piecewise cubic every POV-Ray spline kind
+    is: segment k spans knots[k]..knots[k+1] and is c0 + c1 s + c2 s² + c3 s³ in
+    s = (t - knots[k]) / (knots[k+1] - knots[k]); before the first knot and after the last
+    the end values hold (s clamped to 0..1)."""
+
+    knots: tuple[float, ...]
+    coeffs: tuple[tuple[float, float, float, float], ...]
+    arg: Any
+
+
+FnExpr = FnNum | FnArg | FnUnary | FnBinary | FnCond | FnBuiltin | FnInternal | FnCall | FnSpline
 
 
 @dataclass(frozen=True)

@@ -171,6 +171,8 @@ class _Compiler:
                 gen = e.noise_generator
                 return lambda a: impl(*[k(a) for k in kids], generator=gen)
             return lambda a: impl(*[k(a) for k in kids])
+        if t is ir.FnSpline:
+            return _spline_node(e, self.node(e.arg))
         if t is ir.FnPattern or t is ir.FnPigment:
             return self.pattern(e)
         raise FunctionError(f"not a function expression: {t.__name__}")
@@ -209,6 +211,23 @@ class _Compiler:
             return v.reshape(shape)
 
         return colour
+
+
+def _spline_node(e: ir.FnSpline, arg: _Node) -> _Node:
+    """ir.FnSpline over arrays: the piece each t falls in, its cubic at the clamped s."""
+    knots = np.asarray(e.knots, dtype=np.float64)
+    coeffs = np.asarray(e.coeffs, dtype=np.float64)
+    inner = knots[1:-1]
+
+    def value(a: tuple[Any, ...]) -> Array:
+        t = np.asarray(arg(a), dtype=np.float64)
+        k = np.searchsorted(inner, t, side="right")
+        lo, hi = knots[k], knots[k + 1]
+        s = np.clip((t - lo) / (hi - lo), 0.0, 1.0)
+        c = coeffs[k]
+        return c[..., 0] + s * (c[..., 1] + s * (c[..., 2] + s * c[..., 3]))
+
+    return value
 
 
 def compile_function(fn: ir.Function) -> Compiled:

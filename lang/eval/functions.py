@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from lang import builtins, ir, syntax
 from lang.builtins import EvalError
 from lang.diagnostics import Span
+from lang.eval.splines import cubic_pieces, spline_piece_value
 from lang.values import ArrayValue, FunctionValue, MacroValue, SplineValue, Vec, describe
 
 if TYPE_CHECKING:
@@ -212,13 +213,18 @@ class _Builder:
         values = [self.expr(a) for a in node.args if not isinstance(a, syntax.Keyword)]
         return not all(isinstance(a, ir.FnNum) for a in values)
 
-    def unsupported_spline(self, node: syntax.Call) -> ir.FnNum:
-        self.it.unsupported("a spline of the function's parameters", node.span, ": it gives 0")
-        return ir.FnNum(0.0)
+    def spline_at(self, node: syntax.Call, component: int) -> ir.FnSpline:
+        """`S(t)` of a parameter: the spline's component as pieces."""
+        _, sp = self.it.lookup(node.name)
+        if len(node.args) != 1:
+            # POV-Ray: a spline read as another kind, S(t, kind), is for the scene language
+            raise self.it.error("E0232", "a spline in a function takes one parameter", node.span)
+        knots, coeffs = cubic_pieces(sp, component)
+        return ir.FnSpline(knots, coeffs, self.expr(node.args[0]))
 
     def call(self, node: syntax.Call) -> Any:
         if self.spline_of_parameters(node):
-            return self.unsupported_spline(node)
+            return self.spline_at(node, 0)
         args = tuple(self.expr(a) for a in node.args)
         if node.builtin:
             arity = FN_BUILTINS.get(node.name)
@@ -258,7 +264,10 @@ class _Builder:
     def member(self, node: syntax.Member) -> Any:
         target = node.target
         if isinstance(target, syntax.Call) and self.spline_of_parameters(target):
-            return self.unsupported_spline(target)
+            component = _SPLINE_COMPONENTS.get(node.name)
+            if component is None:
+                raise self.error(f"a spline's value has no `.{node.name}`", node.span)
+            return self.spline_at(target, component)
         if isinstance(target, syntax.Call) and not target.builtin:
             found, v = self.it.lookup(target.name)
             if found and isinstance(v, FunctionValue) and v.compiled is not None:
@@ -269,6 +278,14 @@ class _Builder:
                     call = self.call(target)
                     return _pigment_at(v.compiled, call.args, comp)
         return self.constant(node)
+
+
+# A spline's value is a float or a vector of up to five components (POV-Ray's x y z t,
+# u v as x y, and colours' red … transmit).
+_SPLINE_COMPONENTS = {
+    "x": 0, "u": 0, "red": 0, "y": 1, "v": 1, "green": 1, "z": 2, "blue": 2,
+    "t": 3, "filter": 3, "transmit": 4,
+}  # fmt: skip
 
 
 def _pigment_at(fn: ir.Function, args: tuple[Any, ...], component: int) -> ir.FnPigment:
@@ -299,6 +316,8 @@ def _operands(e: Any) -> tuple[Any, ...]:
         return (e.cond, e.then, e.other)
     if isinstance(e, ir.FnBuiltin | ir.FnCall):
         return e.args
+    if isinstance(e, ir.FnSpline):
+        return (e.arg,)
     return ()
 
 
@@ -338,6 +357,8 @@ def evaluate(e: Any, args: tuple[float, ...]) -> float:
         return float(builtins.call(e.name, vals, _NO_STATE))
     if t is ir.FnCall:
         return evaluate(e.fn.body, tuple(evaluate(a, args) for a in e.args))
+    if t is ir.FnSpline:
+        return spline_piece_value(e, evaluate(e.arg, args))
     if t is ir.FnInternal:
         raise Unevaluable(f"{e.name}()")
     if t is ir.FnPattern:

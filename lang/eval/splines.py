@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from lang import (
+    ir,
     schema,
     syntax,
 )
@@ -92,6 +93,47 @@ def evaluate_spline(sp: SplineValue, t: float) -> Any:
             + (y[i + 1] / h - m[i + 1] * h / 6) * b
         )
     return out(result)
+
+
+def cubic_pieces(
+    sp: SplineValue, component: int
+) -> tuple[tuple[float, ...], tuple[tuple[float, float, float, float], ...]]:
+    """The spline's `component` as ir.FnSpline's pieces (knots, per-segment cubic
+    coefficients), for functions that call it with their parameters. Every kind is a cubic
+    (or lower) polynomial between two points, so each piece is the cubic through four of its
+    values, taken from evaluate_spline: one algorithm for the scene language and the
+    renderer."""
+
+    def at(t: float) -> float:
+        v = evaluate_spline(sp, t)
+        if isinstance(v, float | int):
+            return float(v) if component == 0 else 0.0
+        return float(v[component]) if component < len(v) else 0.0
+
+    ts = [e[0] for e in sp.entries]
+    lo, hi = (1, len(ts) - 2) if sp.spline_type == "cubic_spline" else (0, len(ts) - 1)
+    if hi <= lo:  # one point in range: the spline is that value everywhere
+        t0 = ts[min(max(lo, 0), len(ts) - 1)]
+        return (t0, t0 + 1.0), ((at(t0), 0.0, 0.0, 0.0),)
+    knots = tuple(ts[lo : hi + 1])
+    coeffs = []
+    for a, b in zip(knots, knots[1:], strict=False):
+        # values at s = 0, 1/3, 2/3, 1; Newton's forward differences, then powers of s
+        y0, y1, y2, y3 = (at(a + (b - a) * k / 3) for k in range(4))
+        d1, d2, d3 = y1 - y0, y2 - 2 * y1 + y0, y3 - 3 * y2 + 3 * y1 - y0
+        coeffs.append((y0, 3 * (d1 - d2 / 2 + d3 / 3), 4.5 * (d2 - d3), 4.5 * d3))
+    return knots, tuple(coeffs)
+
+
+def spline_piece_value(e: ir.FnSpline, t: float) -> float:
+    """ir.FnSpline at t in plain floats (the runtime has the array form)."""
+    knots = e.knots
+    k = 0
+    while k < len(e.coeffs) - 1 and t >= knots[k + 1]:
+        k += 1
+    s = min(max((t - knots[k]) / (knots[k + 1] - knots[k]), 0.0), 1.0)
+    c0, c1, c2, c3 = e.coeffs[k]
+    return c0 + s * (c1 + s * (c2 + s * c3))
 
 
 def build_spline(it: BuildContext, node: syntax.Block) -> SplineValue:
