@@ -1107,15 +1107,16 @@ def _fallback(pigment: ir.Pigment, points: np.ndarray, gamma: float | None) -> n
 
 # --------------------------------------------------------------- properties
 def may_transmit(pigment: ir.Pigment) -> bool:
-    """Can any point of this pigment let light through (filter or transmit > 0)?"""
+    """Can any point of this pigment let light through (filter or transmit not 0: POV-Ray
+    traces behind a negative transmit too, which subtracts what is behind)?"""
     if pigment.pattern == "image_map":
         prm = pigment.params
         return bool(
             prm.get("once") or prm.get("use_alpha") or prm.get("filter") or prm.get("transmit")
         )
     if pigment.pattern == "solid":
-        return pigment.color[3] > 0 or pigment.color[4] > 0
-    if any(c[3] > 0 or c[4] > 0 for _, c in pigment.color_map):
+        return pigment.color[3] != 0 or pigment.color[4] != 0
+    if any(c[3] != 0 or c[4] != 0 for _, c in pigment.color_map):
         return True
     return any(may_transmit(q) for q in pigment.list) or any(
         may_transmit(q) for _, q in pigment.pigment_map

@@ -27,6 +27,7 @@ from runtime.camera import view_planes
 from runtime.functions import compile_xyz
 from runtime.inside import inside_node, object_matrix, singular, warn_once
 from runtime.occlusion import Occluders, lets_light_through
+from runtime.patterns import may_transmit
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
 
 FLAG_NAMES = ("no_image", "no_reflection", "no_shadow")
@@ -60,7 +61,7 @@ class Prepared:
 
     @functools.cached_property
     def has_refraction(self) -> bool:
-        """Some pigment colour lets light through (filter or transmit > 0)."""
+        """Some pigment colour lets light through (filter or transmit not 0)."""
         return any(texture_transparent(t) for o in self.objects for t in _textures(o))
 
 
@@ -586,19 +587,9 @@ def texture_reflects(tex: ir.Texture) -> bool:
 
 
 def texture_transparent(tex: ir.Texture) -> bool:
-    """Does some pigment colour of the texture let light through (filter or transmit > 0)?"""
+    """Does some pigment colour of the texture let light through (patterns.may_transmit)?"""
     return (
-        _pigment_transparent(tex.pigment)
+        may_transmit(tex.pigment)
         or any(texture_transparent(t) for t in tex.layers)
         or any(texture_transparent(t) for _, t in tex.map)
-    )
-
-
-def _pigment_transparent(p: ir.Pigment) -> bool:
-    if p.color[3] > 0 or p.color[4] > 0:
-        return True
-    if any(c[3] > 0 or c[4] > 0 for _, c in p.color_map):
-        return True
-    return any(_pigment_transparent(q) for q in p.list) or any(
-        _pigment_transparent(q) for _, q in p.pigment_map
     )
