@@ -817,8 +817,10 @@ BLOCKS: dict[str, BlockSpec] = {
                 "map_type int | 0 planar, 1 spherical, 2 cylindrical, 5 torus.",
                 "interpolate int | 2 bilinear, 4 normalised distance.",
                 "once | Do not repeat the image.",
-                "filter float float? | Filter for all (or one palette index).",
-                "transmit float float? | Transmit for all (or one palette index).",
+                "filter word? float float? | Filter for all (`filter all F`, or `filter F`) "
+                "or one palette index (`filter N, F`).",
+                "transmit word? float float? | Transmit for all (`transmit all T`, or "
+                "`transmit T`) or one palette index (`transmit N, T`).",
                 "use_alpha | Use the image's alpha channel.",
                 "gamma float | The image's gamma.",
                 "premultiplied bool? | The image's alpha is premultiplied.",

@@ -29,6 +29,16 @@ def working_gamma(settings: ir.Settings) -> float | None:
     return None
 
 
+def image_gamma(settings: ir.Settings) -> float | None:
+    """The gamma image files are decoded into, or None to take their values unchanged: a
+    scene before 3.7 (no #version, or one below 3.7) reads them unchanged even with an
+    assumed_gamma (POV-Ray's 3.6 gamma mode makes a file's default gamma the working
+    gamma)."""
+    if settings.version is None or settings.version < 3.7:
+        return None
+    return working_gamma(settings)
+
+
 def _signed_pow(x: np.ndarray, p: float) -> np.ndarray:
     # Negative working values (crand, negative light colours) keep their sign instead of
     # turning into NaN; POV-Ray's power-law curves do the same.

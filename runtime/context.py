@@ -207,7 +207,7 @@ class Context:
     ior: np.ndarray  # (n_obj,) interior ior
     interiors: list[ir.Interior]  # (n_obj,) interior of each object
     legacy_opacity: bool  # pre-3.7 transparency formula
-    gamma: float | None  # working gamma (None: legacy), for image files
+    gamma: float | None  # what image files are decoded into (color.image_gamma)
     background: np.ndarray  # (3,)
     radiosity: Radiosity | None = None  # runtime.radiosity.system.RadiosityResult
     plain: np.ndarray | None = None  # (n_tex,) bool: shades in the shared batch

@@ -187,7 +187,7 @@ def make_context(prepared) -> Context:
         ior=np.array([o.interior.ior for o in objs], dtype=np.float64),
         interiors=[o.interior for o in objs],
         legacy_opacity=legacy_rules(scene.settings),
-        gamma=color.working_gamma(scene.settings),
+        gamma=color.image_gamma(scene.settings),
         background=np.asarray(scene.background[:3], dtype=np.float64),
         media=media.build(prepared),
     )

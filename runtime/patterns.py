@@ -607,6 +607,22 @@ def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np
     # Image row 0 is the top (v = 1).
     fx = u * w
     fy = (1.0 - v) * h
+    # filter and transmit as two more channels: every colour's, then a palette entry's
+    ft = np.zeros((h, w, 2))
+    for col, key in enumerate(("filter", "transmit")):
+        if params.get(key) is not None:
+            ft[..., col] = float(params[key])
+    entries = [
+        (c, e) for c, k in enumerate(("filter", "transmit")) for e in params.get(f"{k}_entries", ())
+    ]
+    if entries:
+        index = bump_map.palette_indices(str(path))
+        if index is None or index.shape != (h, w):
+            _warn("image_map filter/transmit of a palette entry needs a palette PNG: ignored", span)
+        else:
+            for col, (entry, amount) in entries:
+                ft[index == entry, col] = amount
+    img = np.concatenate([img, ft], axis=2)
     if int(params.get("interpolate", 0)) in (2, 4):
         x0f = np.floor(fx - 0.5)
         y0f = np.floor(fy - 0.5)
@@ -628,14 +644,7 @@ def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np
         rgba = img[yi, xi]
     out = np.zeros((n, 5))
     out[:, :3] = rgba[:, :3]
-    for key, col in (("filter", 3), ("transmit", 4)):
-        val = params.get(key)
-        if val is None:
-            continue
-        if isinstance(val, tuple):  # (palette index, amount): no palettes here
-            _warn(f"image_map `{key}` for one palette entry is not supported: applied to all")
-            val = val[-1]
-        out[:, col] = float(val)
+    out[:, 3:5] = rgba[:, 4:6]
     if params.get("use_alpha"):
         out[:, 4] = np.maximum(out[:, 4], 1.0 - rgba[:, 3])
     if params.get("once"):
@@ -1112,7 +1121,11 @@ def may_transmit(pigment: ir.Pigment) -> bool:
     if pigment.pattern == "image_map":
         prm = pigment.params
         return bool(
-            prm.get("once") or prm.get("use_alpha") or prm.get("filter") or prm.get("transmit")
+            prm.get("once")
+            or prm.get("use_alpha")
+            or prm.get("filter")
+            or prm.get("transmit")
+            or any(a for _, a in prm.get("filter_entries", ()) + prm.get("transmit_entries", ()))
         )
     if pigment.pattern == "solid":
         return pigment.color[3] != 0 or pigment.color[4] != 0

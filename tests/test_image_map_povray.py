@@ -46,3 +46,59 @@ def test_image_map_types_render_as_povray(tmp_path, case):
     rmse, off = image_errors(ours, povray_image(text, tmp_path, 96, 72))
     # cell edges may fall on either side of a pixel's centre: a few pixels, no more
     assert rmse < 0.05 and off < 0.02, (rmse, off)
+
+
+def _write_palette_png(path, width=16, height=8) -> None:
+    """An 8-bit palette PNG (which image libraries do not write): index = column // 4 +
+    4 * (row // 4), eight entries of distinct colours."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    palette = bytes(
+        [255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 0, 0, 255, 255, 255, 0, 255, 90, 90, 90]
+        + [250, 250, 250]
+    )
+    rows = b"".join(
+        b"\x00" + bytes(x // 4 + 4 * (y // 4) for x in range(width)) for y in range(height)
+    )
+    header = struct.pack(">IIBBBBB", width, height, 8, 3, 0, 0, 0)
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"PLTE", palette)
+        + chunk(b"IDAT", zlib.compress(rows))
+        + chunk(b"IEND", b"")
+    )
+
+
+PALETTE = """#version {version};
+global_settings {{ assumed_gamma 1 }}
+camera {{ orthographic location <0.5, 0.5, -2> look_at <0.5, 0.5, 0> right x*4/3 up y }}
+background {{ rgb <0.2, 0.9, 0.3> }}
+plane {{ z, 0 pigment {{ image_map {{ png "pal.png" {items} }} }}
+  finish {{ ambient 1 diffuse 0 }} }}
+"""
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize(
+    "version, items",
+    [
+        ("3.7", "transmit 2, 1 filter 5, 0.6"),
+        ("3.7", "transmit all 0.3 transmit 6, 1"),
+        ("3.7", "interpolate 2 transmit 1, 0.8"),
+        # before 3.7, image files are read unchanged, even with an assumed_gamma
+        ("3.6", "transmit 3, 0.5"),
+    ],
+)
+def test_palette_entries_filter_and_transmit_as_povray(tmp_path, version, items):
+    _write_palette_png(tmp_path / "pal.png")
+    text = PALETTE.format(version=version, items=items)
+    ours, messages = strala_image(text, tmp_path, 96, 72)
+    assert messages == [], messages
+    rmse, off = image_errors(ours, povray_image(text, tmp_path, 96, 72))
+    assert rmse < 0.01 and off < 0.01, (rmse, off)

@@ -217,6 +217,9 @@ def _parse_args(
                 args.append(els[j].value)
                 i = j + 1
                 continue
+            if opt:
+                args.append(None)
+                continue
             raise it.error("E0211", f"`{item.name}` needs a keyword", span, f"`{item.signature}`")
         if j < n and els[j].kind == "val" and fits(k, els[j].value):
             try:

@@ -962,7 +962,14 @@ def _b_image_map(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment
     for name, args, _span in g.items:
         v: Any = args[0] if args else None
         if name in ("filter", "transmit"):
-            params[name] = v if args[1] is None else (v, args[1])
+            if v is not None and v != "all":
+                raise it.error("E0211", f"`{name}` takes `all` or a palette index", _span)
+            v = args[1]
+            if v == "all" or args[2] is None:
+                params[name] = v  # every colour's
+            else:  # one palette entry's (POV-Ray rounds the register: (int)(N + 0.01))
+                entry = (int(float(v) + 0.01), float(args[2]))
+                params[f"{name}_entries"] = params.get(f"{name}_entries", ()) + (entry,)
         elif name in ("use_alpha", "premultiplied"):
             params[name] = True
     _image_file(it, g, params, "image_map")
