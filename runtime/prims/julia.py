@@ -255,28 +255,37 @@ class JuliaPrim:
 
     # ------------------------------------------------------------------ the orbit
     def _start(self, p: np.ndarray, plain: bool) -> np.ndarray:
-        x, y, z = p[:, 0], p[:, 1], p[:, 2]
+        q = np.empty((4, len(p)))
+        q[:3] = p.T
         if plain and self.complex is not None:
-            z = y  # POV-Ray's Iteration_HCompl_Func reads y for z (w follows it)
-        sx, sy, sz, st = self.slice
-        w = (self.slice_d - sx * x - sy * y - sz * z) / st
-        return np.stack([x, y, z, w])
+            q[2] = q[1]  # POV-Ray's Iteration_HCompl_Func reads y for z (w follows it)
+        if self.slice == (0.0, 0.0, 0.0, 1.0) and self.slice_d == 0.0:
+            q[3] = 0.0
+        else:
+            sx, sy, sz, st = self.slice
+            q[3] = (self.slice_d - sx * q[0] - sy * q[1] - sz * q[2]) / st
+        return q
 
     def _step(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(|z|², f(z) + c): the norm POV-Ray tests against the escape bound, and the next
         point of the orbit."""
         x = s[0]
         if self.quaternion:
-            d = np.einsum("ij,ij->j", s[1:], s[1:])
+            y, z, w = s[1], s[2], s[3]
+            d = y * y
+            d += z * z
+            d += w * w
             x2 = x * x
+            out = np.empty_like(s)
             if self.function == "cube":
-                out = s * (3.0 * x2 - d)
-                out[0] = x * (x2 - 3.0 * d)
+                np.multiply(s[1:], 3.0 * x2 - d, out=out[1:])
+                np.multiply(x, x2 - 3.0 * d, out=out[0])
             else:
-                out = s * (2.0 * x)
-                out[0] = x2 - d
+                np.multiply(s[1:], 2.0 * x, out=out[1:])
+                np.subtract(x2, d, out=out[0])
             out += self.c
-            return d + x2, out
+            d += x2
+            return d, out
         f = np.einsum("ij,ij->j", s, s)
         if self.complex is not None:
             out = hfunc(s, self.complex, self.e)
@@ -286,10 +295,11 @@ class JuliaPrim:
             out = hsqr(s)  # POV-Ray 3.7's hypercomplex cube iterates z²
         else:
             y, z, w = s[1], s[2], s[3]
-            out = np.stack(
-                [(x * x + w * w) - (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z - w * y),
-                 2.0 * (x * w + y * z)]
-            )  # fmt: skip
+            out = np.empty_like(s)
+            out[0] = (x * x + w * w) - (y * y + z * z)
+            out[1] = 2.0 * (x * y - z * w)
+            out[2] = 2.0 * (x * z - w * y)
+            out[3] = 2.0 * (x * w + y * z)
         out += self.c
         return f, out
 
@@ -359,7 +369,9 @@ class JuliaPrim:
                     idx = idx[keep]
                     if not len(idx):
                         break
-                    s, ns, run = s[:, keep], ns[:, keep], run[..., keep]
+                    ns, run = ns[:, keep], run[..., keep]
+                    if not self.quaternion:
+                        s = s[:, keep]
                 if not self.quaternion and i >= 2:
                     run = hmul(run, self._factor(s, ns))
                 s = ns
@@ -422,7 +434,8 @@ class JuliaPrim:
         if not len(rows):
             return t, np.zeros((n, 1), dtype=np.int8)
         start = np.maximum(near[rows], JULIA_TOLERANCE)
-        ray, depth, normals = self._march(o[rows], u[rows], start, far[rows])
+        cut = tol.MIN_ISECT_DEPTH * length[rows]
+        ray, depth, normals = self._march(o[rows], u[rows], start, far[rows], cut)
         dist = depth / length[rows][ray]
         # POV-Ray drops a crossing this close to the ray's origin (and a lone fractal has
         # reported only that one)
@@ -441,7 +454,7 @@ class JuliaPrim:
         t[ray, col] = dist
         return t, np.zeros(t.shape, dtype=np.int8)
 
-    def _march(self, o, u, depth, dmax):
+    def _march(self, o, u, depth, dmax, cut):
         """(ray, depth, normals) of every crossing found along the unit rays (object
         distances); normals (points, normals) only where the orbit stack's history sets
         them (see _bisect_stack), else None."""
@@ -480,13 +493,14 @@ class JuliaPrim:
             return np.zeros(0, dtype=np.int64), np.zeros(0), None
         ray, o, u, depth, step, cur = (np.concatenate(c) for c in zip(*found, strict=True))
         if self.complex is None:
-            return ray, self._bisect(o, u, depth, step, cur), None
-        hit, nrm = self._bisect_stack(o, u, depth, step, cur)
+            return ray, self._bisect(o, u, depth, step, cur, cut[ray]), None
+        hit, nrm = self._bisect_stack(o, u, depth, step, cur, cut[ray])
         return ray, hit, (o + hit[:, None] * u, nrm)
 
-    def _bisect(self, o, u, a, s, inside) -> np.ndarray:
+    def _bisect(self, o, u, a, s, inside, cut) -> np.ndarray:
         """POV-Ray's polish of each bracket [a, a + s] to JULIA_TOLERANCE with the plain
-        iteration; the crossing is the inside end."""
+        iteration; the crossing is the inside end. A bracket that shrinks below `cut` (the
+        crossing will be dropped: a ray leaving the surface) stops there, at 0."""
         s = s.copy()
         a = a.copy()
         wide = np.nonzero(s > JULIA_TOLERANCE)[0]
@@ -495,10 +509,12 @@ class JuliaPrim:
             mid = a[wide] + s[wide]
             same = ~self.escapes(o[wide] + mid[:, None] * u[wide]) == inside[wide]
             a[wide[same]] = mid[same]
-            wide = wide[s[wide] > JULIA_TOLERANCE]
+            near = a[wide] + s[wide] < cut[wide]
+            a[wide[near]] = s[wide[near]] = 0.0
+            wide = wide[(s[wide] > JULIA_TOLERANCE) & ~near]
         return np.where(inside, a, a + s)
 
-    def _bisect_stack(self, o, u, a, s, inside) -> tuple[np.ndarray, np.ndarray]:
+    def _bisect_stack(self, o, u, a, s, inside, cut) -> tuple[np.ndarray, np.ndarray]:
         """_bisect, and the normal POV-Ray computes there, for the function iterations,
         whose plain iteration (starting from z = y) is not the one the march used: the
         bracket's inside end may escape it, and then POV-Ray's normal reads the orbit stack
@@ -519,7 +535,9 @@ class JuliaPrim:
             last[wide] = written == n1
             same = last[wide] == inside[wide]
             a[wide[same]] = mid[same]
-            wide = wide[s[wide] > JULIA_TOLERANCE]
+            near = a[wide] + s[wide] < cut[wide]
+            a[wide[near]] = s[wide[near]] = 0.0
+            wide = wide[(s[wide] > JULIA_TOLERANCE) & ~near]
         hit = np.where(inside, a, a + s)
         redo = np.nonzero(~inside | (last != inside))[0]
         if len(redo):
