@@ -39,6 +39,9 @@ SCENES = {
     "hypercomplex sin": f"julia_fractal {{ {F1} sin {WARM} scale 0.5 }}",
     "hypercomplex cos": f"julia_fractal {{ {F1} cos {WARM} scale 0.5 }}",
     "hypercomplex pwr": f"julia_fractal {{ {F1} pwr(2, 0.3) {WARM} scale 0.5 }}",
+    # each keeps the normals its own rays' histories set
+    "two functions": f"julia_fractal {{ {F1} sin {WARM} scale 0.3 translate -0.7*x }}\n"
+    f"julia_fractal {{ {F1} cos {BLUE} scale 0.3 translate 0.7*x }}",
     "hypercomplex ln, clipped": f"intersection {{ julia_fractal {{ {F1} ln {WARM} }} "
     f"box {{ -1, 1 {BLUE} }} rotate <30, 40, 0> }}",
     "reciprocal, clipped": "intersection { julia_fractal { <0.3, 0.2, -0.1, 0.1> hypercomplex"

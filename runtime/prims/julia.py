@@ -26,6 +26,7 @@ counts, as POV-Ray's child objects report them.
 from __future__ import annotations
 
 import threading
+import weakref
 from collections.abc import Callable
 
 import numpy as np
@@ -616,18 +617,19 @@ _NORMALS = threading.local()
 def _cache_normals(prim: JuliaPrim, points: np.ndarray, normals: np.ndarray) -> None:
     order = np.argsort(points[:, 0], kind="stable")
     cache = getattr(_NORMALS, "by_prim", None)
-    if cache is None:
-        cache = _NORMALS.by_prim = {}
-    cache[id(prim)] = (prim, points[order], normals[order])
+    if cache is None:  # weak: a finished render's primitives go
+        cache = _NORMALS.by_prim = weakref.WeakKeyDictionary()
+    cache[prim] = (points[order], normals[order])
 
 
 def _cached_normals(prim: JuliaPrim, p: np.ndarray) -> np.ndarray | None:
     """The cached normals of points p, or None unless every one of them is cached (a hit
     point comes back through the object's transform, off by rounding only)."""
-    entry = getattr(_NORMALS, "by_prim", {}).get(id(prim))
-    if entry is None or entry[0] is not prim or not len(entry[1]):
+    cache = getattr(_NORMALS, "by_prim", None)
+    entry = None if cache is None else cache.get(prim)
+    if entry is None or not len(entry[0]):
         return None
-    _, pts, nrm = entry
+    pts, nrm = entry
     near = tol.NORMAL_CACHE_REL * (1.0 + np.abs(p).max(axis=1))
     pos = np.searchsorted(pts[:, 0], p[:, 0] - near)
     best = np.full(len(p), -1)
