@@ -322,6 +322,12 @@ def _mod(args, state):
     return math.fmod(a, b)
 
 
+def _pwr(a: Sequence[Any], s: BuiltinState) -> Any:
+    raise EvalError(
+        "`pwr(X, Y)` is a julia_fractal's function, not a value", "use pow(A, B) for a power"
+    )
+
+
 def _pow(args, state):
     a, b = _f(args, 0, "pow"), _f(args, 1, "pow")
     _domain(not (a == 0.0 and b < 0), "pow(): zero to a negative power")
@@ -519,6 +525,7 @@ FUNCTIONS: dict[str, tuple[Builtin, int, int | None]] = {
     ),
     "sqr": (_unary_math("sqr", lambda a: a * a), 1, 1),
     "pow": (_pow, 2, 2),
+    "pwr": (_pwr, 2, 2),
     "div": (_div_fn, 2, 2),
     "mod": (_mod, 2, 2),
     "min": (_min, 1, None),

@@ -2,8 +2,8 @@
 shapes' object-space boxes, computed as POV-Ray computes its bounding boxes (the eight
 transformed corners, CSG by union, intersection or the first child of a difference,
 clipped_by narrowing). The data shapes whose extent takes more than their parameters'
-corners (lathe, sor, prism, superellipsoid, blob, text and the polynomial shapes) are
-bounded as POV-Ray bounds them. Pure Python: the evaluator runs without numpy.
+corners (lathe, sor, prism, superellipsoid, blob, text, julia_fractal and the polynomial
+shapes) are bounded as POV-Ray bounds them. Pure Python: the evaluator runs without numpy.
 """
 
 from __future__ import annotations
@@ -34,6 +34,21 @@ _WIDTH = {"linear_spline": 2, "quadratic_spline": 3, "cubic_spline": 4}
 _CLOSE_EPS = 1e-10
 
 
+# POV-Ray's Fractal_Tolerance, added to a quaternion julia's bounding radius (so a zero
+# parameter still bounds the unit ball the set then is).
+JULIA_TOLERANCE = 1e-7
+
+
+def julia_radius(shape: ir.JuliaFractal) -> float:
+    """The radius of the sphere about the origin that bounds a julia_fractal, as POV-Ray
+    sets it: 1 + |parameter| for quaternions, at most 2 (past it every orbit escapes), and
+    4 for the hypercomplex algebra."""
+    if shape.algebra != "quaternion":
+        return 4.0
+    r = 1.0 + math.sqrt(sum(c * c for c in shape.parameter)) + JULIA_TOLERANCE
+    return min(r, 2.0)
+
+
 def _data_shape_box(shape: object) -> Box3 | None:
     """The object-space box of one of the data shapes (see the module's docstring)."""
     if isinstance(shape, ir.Superellipsoid):
@@ -49,6 +64,9 @@ def _data_shape_box(shape: object) -> Box3 | None:
         return _sor_box(shape)
     if isinstance(shape, ir.Prism):
         return _prism_box(shape)
+    if isinstance(shape, ir.JuliaFractal):
+        r = julia_radius(shape)
+        return (-r, -r, -r), (r, r, r)
     if isinstance(shape, ir.Text):
         try:
             return font_metrics.text_box(shape.font, shape.string, shape.thickness, shape.offset)

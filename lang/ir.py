@@ -582,6 +582,27 @@ class Isosurface:
 
 
 @dataclass(frozen=True)
+class JuliaFractal:
+    """POV-Ray's julia_fractal: the 3-D slice of a 4-D Julia set, the points whose orbit under
+    z -> f(z) + `parameter` stays within the escape radius for `max_iteration` steps.
+    `algebra` is "quaternion" (f: sqr, cube) or "hypercomplex" (f: sqr, cube, reciprocal,
+    or a complex function applied to both halves of the number's duplex form: exp ln sin
+    asin cos acos tan atan sinh asinh cosh acosh tanh atanh pwr, with `exponent` for pwr).
+    A point (x, y, z) stands for the 4-D point whose fourth coordinate w puts it on the
+    hyperplane `slice` . (x, y, z, w) = `slice_distance` (`slice` unit, its w part not 0).
+    Rays march in steps of at least 1 / `precision`."""
+
+    parameter: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    algebra: str = "quaternion"
+    function: str = "sqr"
+    exponent: tuple[float, float] = (0.0, 0.0)
+    max_iteration: int = 20
+    precision: float = 20.0
+    slice: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    slice_distance: float = 0.0
+
+
+@dataclass(frozen=True)
 class CSG:
     """op: "union" | "merge" | "intersection" | "difference". Children carry their own
     (already composed, world-space) transforms and resolved textures."""
@@ -618,6 +639,7 @@ Shape = (
     | HeightField
     | SphereSweep
     | Isosurface
+    | JuliaFractal
     | CSG
     | Unsupported
 )

@@ -19,12 +19,12 @@ CONSTANTS = frozenset(
     """.split()
 )
 
-# Built-in functions: always called as `name(args)`.
+# Built-in functions: always called as `name(args)` (`pwr(X, Y)` only in a julia_fractal).
 FUNCTIONS = frozenset(
     """
     abs acos acosh asc asin asinh atan atan2 atanh bitwise_and bitwise_or bitwise_xor ceil
     chr concat cos cosh datetime defined degrees dimension_size dimensions div exp
-    file_exists floor inside int ln log max max_extent min min_extent mod pow prod radians
+    file_exists floor inside int ln log max max_extent min min_extent mod pow prod pwr radians
     rand seed select sin sinh sqr sqrt str strcmp strlen strlwr strupr substr sum tan tanh
     trace val vaxis_rotate vcross vdot vlength vnormalize vrotate vstr vturbulence
     """.split()

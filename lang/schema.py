@@ -382,7 +382,7 @@ SHAPES: dict[str, BlockSpec] = {
 }
 
 # POV-Ray shapes strala parses but does not render yet (an ir.Unsupported object + a warning).
-UNSUPPORTED_SHAPES = frozenset("""parametric julia_fractal polynomial ovus lemon""".split())
+UNSUPPORTED_SHAPES = frozenset("""parametric polynomial ovus lemon""".split())
 
 LIGHT_ITEMS = TRANSFORM_ITEMS + [
     "spotlight | A spotlight (with point_at, radius, falloff, tightness).",
@@ -1044,6 +1044,29 @@ for _spec in [
             "tolerance float | Depth tolerance of the intersection tests (default 1e-6).",
         ],
     ),
+    _data_shape(
+        "julia_fractal",
+        "A 3-D slice of a 4-D Julia set: the points whose orbit under z -> f(z) + <x, y, z, t> "
+        "stays bounded.",
+        "vector:parameter",
+        extra=[
+            "quaternion | Quaternion algebra (the default; functions sqr and cube).",
+            "hypercomplex | Hypercomplex algebra (every function).",
+            "sqr | z² (the default).",
+            "cube | z³ (a hypercomplex cube iterates z² in POV-Ray 3.7).",
+            "reciprocal | 1/z (hypercomplex).",
+            *(
+                f"{f} | The complex {f} of both duplex halves (hypercomplex)."
+                for f in "exp ln sin asin cos acos tan atan sinh asinh cosh acosh tanh "
+                "atanh".split()
+            ),
+            "pwr | pwr(X, Y): z to the complex power X + iY (hypercomplex).",
+            "max_iteration int | Iterations before a point counts as inside (default 20).",
+            "precision float | Rays step at least 1/precision (default 20).",
+            "slice vector float | The 4-D hyperplane, normal and distance, that the 3-D "
+            "shape is cut from (default <0, 0, 0, 1>, 0).",
+        ],
+    ),
     BlockSpec(
         "isosurface",
         "object",
@@ -1195,8 +1218,6 @@ OTHER_WORDS = frozenset(
             # photons, light groups, subsurface light transport (not rendered)
             "spacing target refraction autostop expand_thresholds gather global_lights",
             "translucency importance",
-            # the julia_fractal shape (not rendered)
-            "quaternion hypercomplex slice precision cube pwr reciprocal",
             # the subdivision schemes that are reserved (the others are soft words)
             "catmull_clark four_point",
             # more of POV-Ray's words that strala does not describe

@@ -286,12 +286,14 @@ class _Builder:
         inherited: dict[str, bool],
         merged: bool = False,
         inverted: bool = False,
+        child: bool = False,
     ):
         """An analytic node (Leaf or CsgNode) for obj, or None when nothing renders.
         `merged`: `inherited` already holds obj's own flags too. `inverted`: obj is inside
         an inverted CSG (a difference's subtracted child, an `inverse` one), where POV-Ray's
         Invert turns every union into an intersection of inverted children (CSG::Morph):
-        its children's surfaces inside one another are gone, as a merge's."""
+        its children's surfaces inside one another are gone, as a merge's. `child`: obj is
+        a CSG's child, whose every crossing counts (a lone julia_fractal reports its first)."""
         shape = obj.shape
         flags = (
             inherited if merged else {k: inherited[k] or bool(getattr(obj, k)) for k in FLAG_NAMES}
@@ -316,7 +318,9 @@ class _Builder:
         if isinstance(shape, ir.CSG):
             under = inverted or obj.inverse
             kids = (
-                self.node(ch, flags, inverted=under or (shape.op == "difference" and i > 0))
+                self.node(
+                    ch, flags, inverted=under or (shape.op == "difference" and i > 0), child=True
+                )
                 for i, ch in enumerate(shape.children)
             )
             children = [c for c in kids if c]
@@ -355,6 +359,10 @@ class _Builder:
         if prim is None:
             self.warn_once(f"shape {type(shape).__name__} is not supported by the tracer", obj.span)
             return None
+        if (child or obj.clipped_by) and hasattr(prim, "first_only"):
+            # POV-Ray's marching shapes report every crossing to a CSG, and look past the
+            # ones clipped away
+            prim.first_only = False
         index = self.add_leaf_object(obj, flags)
         leaf = Leaf(prim, object_matrix(obj), index, inverse=obj.inverse)
         self.sizes[index] = leaf.size

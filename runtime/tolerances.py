@@ -153,3 +153,15 @@ SUPERELLIPSOID_INSIDE: float = 1e-10
 # POV-Ray's blob counts a point as inside when its density exceeds threshold - 1e-6 (its
 # INSIDE_TOLERANCE): the surface itself is inside.
 BLOB_INSIDE: float = 1e-6
+
+# POV-Ray's MIN_ISECT_DEPTH: a crossing closer than this to the ray's origin is no hit. The
+# julia_fractal, which reports the crossings POV-Ray's marching finds, drops them the same way.
+MIN_ISECT_DEPTH: float = 1e-4
+
+# POV-Ray's hypercomplex julia_fractal takes its distance estimate only where the orbit's
+# normal slopes against the ray by more than this (hcmplx.cpp's Fractal_Tolerance).
+JULIA_SLOPE_TOLERANCE: float = 1e-8
+
+# A julia_fractal hit point handed back for its normal matches the point its crossing was
+# found at within this fraction of its size (transform round trips are off by ~1e-15).
+NORMAL_CACHE_REL: float = 1e-9

@@ -1,8 +1,8 @@
-"""min_extent/max_extent of lathe, sor, prism, superellipsoid, blob, polynomial shapes and
-text against POV-Ray 3.7's own figures (its #debug output). Every shape is within 1e-5 of
-POV-Ray, text within 2e-4: POV-Ray grows a glyph's header box to its outline points, which
-matters where the headers are wrong (timrom.ttf's and cyrvetic.ttf's xMax is the glyph's
-width: the box was a left bearing short, 0.032 on "Hello")."""
+"""min_extent/max_extent of lathe, sor, prism, superellipsoid, blob, polynomial shapes,
+julia_fractal and text against POV-Ray 3.7's own figures (its #debug output). Every shape is
+within 1e-5 of POV-Ray, text within 2e-4: POV-Ray grows a glyph's header box to its outline
+points, which matters where the headers are wrong (timrom.ttf's and cyrvetic.ttf's xMax is
+the glyph's width: the box was a left bearing short, 0.032 on "Hello")."""
 
 from __future__ import annotations
 
@@ -38,6 +38,10 @@ SHAPES = {
     "cubic": "cubic { <1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, -1> }",
     "crystal": f'text {{ ttf "{FONTS}/crystal.ttf" "Wave gyp" 1, <0.1, 0.05, 0> }}',
     "timrom": f'text {{ ttf "{FONTS}/timrom.ttf" "Hello AV" 0.5, 0 scale 2 }}',
+    "julia": "julia_fractal { <0.2, 0.1, -0.3, 0.1> }",
+    "julia0": "julia_fractal { <0, 0, 0, 0> translate x }",
+    "juliabig": "julia_fractal { <1, 1, 1, 1> cube }",
+    "juliah": "julia_fractal { <0.2, 0.1, -0.3, 0.1> hypercomplex sin scale 0.5 rotate y*30 }",
 }
 # POV-Ray truncates long #debug strings: print min and max on lines of their own
 MACRO = (

@@ -1,6 +1,6 @@
 """The shape data of POV-Ray's rarer shapes: `quadric cubic quartic poly superellipsoid
-blob lathe sor prism text height_field sphere_sweep`, read from their expanded elements
-into IR shapes.
+blob lathe sor prism text height_field sphere_sweep isosurface julia_fractal`, read from
+their expanded elements into IR shapes.
 
 These blocks are free-form lists (a spline word, a count, then points; a long coefficient
 vector; blob components), so they are read with a small cursor rather than through the
@@ -9,6 +9,7 @@ schema's positional slots. What follows the shape data is ordinary object modifi
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -16,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 from lang import ir, schema, syntax
 from lang.builtins import as_vec
 from lang.diagnostics import Span
-from lang.eval import grouping, surfaces
+from lang.eval import fractal_inversion, grouping, surfaces
 from lang.values import FunctionValue, ObjectValue, Vec
 
 if TYPE_CHECKING:
@@ -148,6 +149,9 @@ USAGE = {
     "sphere_sweep": "sphere_sweep { linear_spline N, <centre>, radius, … [tolerance T] }",
     "isosurface": "isosurface { function { … } [contained_by { box { <a>, <b> } }] "
     "[threshold T] [accuracy A] [max_gradient G] [open] [max_trace N | all_intersections] }",
+    "julia_fractal": "julia_fractal { <x, y, z, t> [quaternion | hypercomplex] "
+    "[sqr | cube | reciprocal | exp | … | pwr(X, Y)] [max_iteration N] [precision P] "
+    "[slice <x, y, z, t>, D] }",
 }
 
 
@@ -436,7 +440,7 @@ READERS: dict[str, Callable[[Cursor], Any]] = {
     "height_field": _height_field,
     "sphere_sweep": _sphere_sweep,
 }
-SHAPES = frozenset(READERS) | {"blob"}
+SHAPES = frozenset(READERS) | {"blob", "julia_fractal"}
 
 
 def object_spec(keyword: str, extra: list[str] | None = None) -> schema.BlockSpec:
@@ -456,6 +460,8 @@ def build(it: BuildContext, node: syntax.Block) -> ObjectValue:
             return _blob(it, node, spec)
         if kw == "isosurface":
             return _isosurface(it, node, spec)
+        if kw == "julia_fractal":
+            return _julia_fractal(it, node, spec)
         els = it.expand(node.body, spec)
     finally:
         it.loose_depth -= 1
@@ -655,3 +661,83 @@ def _container(it: BuildContext, node: syntax.Block) -> ir.Box | ir.Sphere | Non
     lo = tuple(min(p[r] for p in pts) for r in range(3))
     hi = tuple(max(p[r] for p in pts) for r in range(3))
     return ir.Box(lo, hi)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ julia_fractal
+# The functions of a hypercomplex julia_fractal (quaternions take sqr and cube only).
+JULIA_FUNCTIONS = frozenset(
+    "sqr cube reciprocal exp ln sin asin cos acos tan atan sinh asinh cosh acosh tanh atanh "
+    "pwr".split()
+)
+JULIA_ALGEBRAS = ("quaternion", "hypercomplex")
+# POV-Ray's EPSILON: a slice vector (or its t part) this small is refused.
+SLICE_EPS = 1e-10
+
+
+def _julia_fractal(it: BuildContext, node: syntax.Block, spec: schema.BlockSpec) -> ObjectValue:
+    """`julia_fractal { <parameter> quaternion|hypercomplex FUNCTION max_iteration N
+    precision P slice <normal>, distance  modifiers }`, its words in any order before the
+    modifiers, the last of each kind counting (as POV-Ray's Parse_Julia_Fractal reads them).
+    `pwr(X, Y)` is a call in the syntax: it is read here, in place, before expansion."""
+    where = node.keyword_span or node.span
+    body: list[syntax.Node] = []
+    powers: list[tuple[float, float]] = []
+    for n in node.body:
+        if isinstance(n, syntax.Call) and n.builtin and n.name == "pwr":
+            if len(n.args) != 2:
+                raise it.error("E0202", "`pwr` takes two numbers: pwr(X, Y)", n.span)
+            xy = [it.eval(a) for a in n.args]
+            if not all(isinstance(v, float | int | bool) for v in xy):
+                raise it.error("E0202", "`pwr` takes two numbers: pwr(X, Y)", n.span)
+            powers.append((float(xy[0]), float(xy[1])))
+            body.append(syntax.Keyword(n.span, "pwr"))
+        else:
+            body.append(n)
+    els = it.expand(body, spec)
+    cur = Cursor(it, els, where, "julia_fractal")
+    parameter = cur.vector(4, "the 4-D julia parameter <x, y, z, t>")
+    opts: dict[str, Any] = {}
+    function_at = where
+    while (e := cur.peek()) is not None and e.kind == "kw":
+        word = e.value
+        cur.i += 1
+        if word in JULIA_ALGEBRAS:
+            opts["algebra"] = word
+        elif word in JULIA_FUNCTIONS:
+            opts["function"], function_at = word, e.span
+            if word == "pwr":
+                opts["exponent"] = powers.pop(0)
+        elif word == "max_iteration":
+            opts["max_iteration"] = max(1, math.floor(cur.number("the iteration count")))
+        elif word == "precision":
+            opts["precision"] = max(1.0, cur.number("the precision"))
+        elif word == "slice":
+            at = cur.here()
+            normal = cur.vector(4, "the slice's 4-D normal")
+            opts["slice_distance"] = cur.number("the slice's distance")
+            length = math.sqrt(sum(c * c for c in normal))
+            if length < SLICE_EPS:
+                raise it.error("E0202", "the slice vector is zero", at)
+            if abs(normal[3]) < SLICE_EPS:
+                raise it.error("E0202", "the slice vector's t component is zero", at)
+            opts["slice"] = tuple(c / length for c in normal)
+        else:
+            cur.i -= 1
+            break
+    if opts.get("algebra", "quaternion") == "quaternion" and opts.get("function", "sqr") not in (
+        "sqr",
+        "cube",
+    ):
+        raise it.error(
+            "E0202", "a quaternion julia_fractal takes sqr or cube only", function_at,
+            "add `hypercomplex` for the other functions",
+        )  # fmt: skip
+    g = grouping.group(it, spec, els[cur.i :], node, loose=True)
+    shape = ir.JuliaFractal(parameter, **opts)  # type: ignore[arg-type]
+    obj = ObjectValue(shape, "julia_fractal", span=node.span, default=it.default_texture)
+    obj = surfaces.apply_object_items(it, obj, g)
+    # POV-Ray sets the fractal up after its modifiers, and that clears its inverse flag.
+    obj.flags.pop("inverse", None)
+    obj.flags.pop(fractal_inversion.PENDING, None)
+    obj.flags[fractal_inversion.MARK] = True
+    return obj

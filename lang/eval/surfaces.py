@@ -17,7 +17,7 @@ from lang import (
 )
 from lang.builtins import EvalError, as_float, as_vec
 from lang.diagnostics import Span
-from lang.eval import grouping
+from lang.eval import fractal_inversion, grouping
 from lang.eval.context import BuildContext, Builder
 from lang.eval.elements import (
     MAX_ITEM_ERRORS,
@@ -89,7 +89,8 @@ def apply_object_items(it: BuildContext, obj: ObjectValue, g: Grouped) -> Object
 
 def _apply_object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -> ObjectValue:
     if name in TRANSFORM_WORDS:
-        return transform_object(obj, item_matrix(name, args))
+        obj = transform_object(obj, item_matrix(name, args))
+        return fractal_inversion.transformed(obj) if fractal_inversion.holds_julia(obj) else obj
     if name in ("pigment", "finish", "normal"):
         obj.texture = _modified_texture(it, _obj_texture(it, obj), name, args[0])
     elif name == "texture":
@@ -113,6 +114,7 @@ def _apply_object_item(it, obj: ObjectValue, name: str, args: list[Any], span: S
         obj.flags[name] = bool(args[0]) if args and args[0] is not None else True
     elif name == "inverse":
         obj.flags["inverse"] = not obj.flags.get("inverse", False)
+        obj = fractal_inversion.inverted(obj)
     elif name == "clipped_by":
         clip: _Clip = args[0]
         obj.clipped_by.extend(obj.bounded_by if clip.use_other else clip.objects)
@@ -330,6 +332,10 @@ def _b_csg(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
             obj.lights.append(args[0])
         else:
             mods.append((name, args, span))
+    if any(fractal_inversion.holds_julia(c) for c in obj.children):
+        obj.flags[fractal_inversion.MARK] = True
+        if node.keyword == "difference":  # POV-Ray inverts the later children now
+            obj.children[1:] = [fractal_inversion.inverted(c) for c in obj.children[1:]]
     if not obj.children:
         it.sink.warning("W0304", f"`{node.keyword}` has no objects", g.span)
         obj.shape = ir.Unsupported(node.keyword)

@@ -28,6 +28,7 @@ _PRIMS: dict[type, tuple[str, str]] = {
     ir.Prism: ("prism", "PrismPrim"),
     ir.Text: ("text", "TextPrim"),
     ir.Isosurface: ("isosurface", "IsosurfacePrim"),
+    ir.JuliaFractal: ("julia", "JuliaPrim"),
 }
 # The primitives built from a compiled function as well as their shape.
 _TAKE_FUNCTIONS = frozenset({ir.Isosurface})
