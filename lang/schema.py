@@ -772,6 +772,7 @@ BLOCKS: dict[str, BlockSpec] = {
             {
                 "texture",
                 "tiles",
+                "material_map",
                 "pigment",
                 "finish",
                 "normal",
@@ -825,6 +826,28 @@ BLOCKS: dict[str, BlockSpec] = {
             ],
         ),
         frozenset({"string"}),
+        soft=frozenset({"gamma"}),
+    ),
+    "material_map": BlockSpec(
+        "material_map",
+        "material_map",
+        "An image whose palette index (or red value times 255) picks one of the textures "
+        'at each point: `texture { material_map { png "file" texture {…} texture {…} } }`.',
+        (),
+        items(
+            [
+                f"{t} string? | Image format {t}."
+                for t in "png jpeg tiff exr hdr gif tga iff ppm pgm sys".split()
+            ],
+            [
+                "map_type int | 0 planar, 1 spherical, 2 cylindrical, 5 torus.",
+                "interpolate int | 2 bilinear, 3 bicubic, 4 normalised distance (indices "
+                "blended, then truncated).",
+                "once | Do not repeat the image: off it, the first texture.",
+                "gamma float | The image's gamma (default: its values as they are).",
+            ],
+        ),
+        frozenset({"string", "texture", "unsupported"}),
         soft=frozenset({"gamma"}),
     ),
     "bump_map": BlockSpec(
@@ -1133,7 +1156,7 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
-    """photons subsurface material_map
+    """photons subsurface
     image_pattern""".split()
 )
 

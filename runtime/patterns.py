@@ -42,6 +42,7 @@ from runtime import bump_map
 from runtime import transform as tf
 from runtime.density import density_file
 from runtime.fractal_patterns import julia, magnet, mandel
+from runtime.material_map import material_index
 from runtime.noise import (
     DEFAULT_GENERATOR,
     dnoise,
@@ -469,7 +470,14 @@ def object_pattern(p: np.ndarray, params: dict) -> np.ndarray:
     return inside_points(obj, p, compile_xyz).astype(np.int64)
 
 
-LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick, "object": object_pattern}
+LIST_PATTERNS = {
+    "checker": checker,
+    "hexagon": hexagon,
+    "brick": brick,
+    "object": object_pattern,
+    # a texture's only: the image's index picks the texture (runtime.material_map)
+    "material_map": material_index,
+}
 
 
 def _select(
