@@ -619,6 +619,27 @@ BLOCKS: dict[str, BlockSpec] = {
         ),
         frozenset({"color", "transform"}),
     ),
+    "rainbow": BlockSpec(
+        "rainbow",
+        "rainbow",
+        "An atmospheric rainbow: a colour_map laid across a ring around `direction` (the "
+        "antisolar point), blended over what rays see beyond `distance`.",
+        (),
+        items(
+            [
+                "angle float | The ring's angle from the direction, in degrees.",
+                "width float | The ring's width, in degrees (the colour_map across it).",
+                "distance float | Distance at which 63% of the rainbow shows.",
+                "direction vector | The antisolar direction, the ring's centre.",
+                "jitter float | Random shift of the colour_map index.",
+                "up vector | The up of the rainbow's arc.",
+                "arc_angle float | The arc's extent, 0 to 360 degrees (default the whole ring).",
+                "falloff_angle float | Within the arc, where it starts to fade out (default "
+                "the arc angle).",
+            ]
+        ),
+        frozenset({"map"}),
+    ),
     "transform": BlockSpec(
         "transform",
         "transform",
