@@ -53,6 +53,7 @@ from runtime.noise import (
 )
 from runtime.noise import tables as noise_tables
 from runtime.slope import slope
+from runtime.tiling import tiling
 
 # POV-Ray adds a tiny epsilon to every coordinate before flooring, so a plane at an integer
 # coordinate (y = 0, the classic floor) does not flicker between cells. 1e-6 matches POV-Ray
@@ -1009,6 +1010,7 @@ CONTINUOUS_PATTERNS = {
     "spiral1": spiral1,
     "spiral2": spiral2,
     "ripples": ripples,
+    "tiling": tiling,
     "waves": waves,
     "dents": dents,
     "agate": agate,

@@ -206,6 +206,10 @@ def _magnet_form(it, params: dict[str, Any], name: str, args: list[Any], span: S
     return name
 
 
+# POV-Ray's tilings 1 to 27: the renderer draws the first ten so far
+_TILINGS_RENDERED = 10
+
+
 def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span: Span) -> bool:
     """Pattern keywords and their modifiers, shared by pigment, normal and texture."""
     params = st["params"]
@@ -277,6 +281,8 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
             params["iterations"] = args[0]
         elif name == "tiling":
             params["value"] = args[0]
+            if not 1 <= int(args[0]) <= _TILINGS_RENDERED:
+                it.unsupported(f"tiling {int(args[0])}", span, " (1 to 10 are rendered)")
         elif name == "julia":
             params["complex"], params["iterations"] = args[0], args[1]
         elif name == "slope":
@@ -293,7 +299,6 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
             "aoi",
             "facets",
             "pavement",
-            "tiling",
             "cubic",
             "triangular",
             "square",
