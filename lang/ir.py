@@ -780,6 +780,26 @@ class Fog:
 
 
 @dataclass(frozen=True)
+class Rainbow:
+    """POV-Ray's rainbow, set up as its parser leaves it: `direction` (antisolar), `up` and
+    `right` an orthonormal frame; `angle` the ring's inner edge and `width` its width, in
+    radians; `arc_angle` and `falloff_angle` half angles in radians (POV-Ray's defaults
+    are 180, unconverted: the whole ring, no falloff); `pigment` the colour_map as a
+    gradient along x (None: the rainbow draws nothing)."""
+
+    direction: Vec3
+    up: Vec3
+    right: Vec3
+    angle: float
+    width: float
+    distance: float = 1.0e7
+    jitter: float = 0.0
+    arc_angle: float = 180.0
+    falloff_angle: float = 180.0
+    pigment: Pigment | None = None
+
+
+@dataclass(frozen=True)
 class Settings:
     """`version` is the scene's `#version` at the end of parsing (None when no #version ran,
     in the scene or in a file it includes: POV-Ray counts both). `assumed_gamma` is None
@@ -811,4 +831,5 @@ class Scene:
     fog: Fog | None = None  # the first fog (the only one a scene usually has)
     fogs: tuple[Fog, ...] = ()  # every fog, `fog` first; empty: just `fog`
     media: tuple[Media, ...] = ()  # atmospheric media (outside non-hollow objects)
+    rainbows: tuple[Rainbow, ...] = ()  # in order (POV-Ray averages what they give)
     files: tuple[str, ...] = ()  # every source file read (for caches and dependency tracking)

@@ -619,6 +619,27 @@ BLOCKS: dict[str, BlockSpec] = {
         ),
         frozenset({"color", "transform"}),
     ),
+    "rainbow": BlockSpec(
+        "rainbow",
+        "rainbow",
+        "An atmospheric rainbow: a colour_map laid across a ring around `direction` (the "
+        "antisolar point), blended over what rays see beyond `distance`.",
+        (),
+        items(
+            [
+                "angle float | The ring's angle from the direction, in degrees.",
+                "width float | The ring's width, in degrees (the colour_map across it).",
+                "distance float | Distance at which 63% of the rainbow shows.",
+                "direction vector | The antisolar direction, the ring's centre.",
+                "jitter float | Random shift of the colour_map index.",
+                "up vector | The up of the rainbow's arc.",
+                "arc_angle float | The arc's extent, 0 to 360 degrees (default the whole ring).",
+                "falloff_angle float | Within the arc, where it starts to fade out (default "
+                "the arc angle).",
+            ]
+        ),
+        frozenset({"map"}),
+    ),
     "transform": BlockSpec(
         "transform",
         "transform",
@@ -772,6 +793,7 @@ BLOCKS: dict[str, BlockSpec] = {
             {
                 "texture",
                 "tiles",
+                "material_map",
                 "pigment",
                 "finish",
                 "normal",
@@ -827,6 +849,28 @@ BLOCKS: dict[str, BlockSpec] = {
             ],
         ),
         frozenset({"string"}),
+        soft=frozenset({"gamma"}),
+    ),
+    "material_map": BlockSpec(
+        "material_map",
+        "material_map",
+        "An image whose palette index (or red value times 255) picks one of the textures "
+        'at each point: `texture { material_map { png "file" texture {…} texture {…} } }`.',
+        (),
+        items(
+            [
+                f"{t} string? | Image format {t}."
+                for t in "png jpeg tiff exr hdr gif tga iff ppm pgm sys".split()
+            ],
+            [
+                "map_type int | 0 planar, 1 spherical, 2 cylindrical, 5 torus.",
+                "interpolate int | 2 bilinear, 3 bicubic, 4 normalised distance (indices "
+                "blended, then truncated).",
+                "once | Do not repeat the image: off it, the first texture.",
+                "gamma float | The image's gamma (default: its values as they are).",
+            ],
+        ),
+        frozenset({"string", "texture", "unsupported"}),
         soft=frozenset({"gamma"}),
     ),
     "bump_map": BlockSpec(
@@ -1158,7 +1202,7 @@ def ignored_reason(block: str, keyword: str) -> str | None:
 
 # Blocks accepted anywhere and ignored with a warning (the feature is not rendered yet).
 UNSUPPORTED_BLOCKS = frozenset(
-    """photons subsurface material_map
+    """photons subsurface
     image_pattern""".split()
 )
 

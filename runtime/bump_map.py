@@ -31,9 +31,11 @@ _PARALLEL = 1.0e-10
 
 
 class Heights(NamedTuple):
-    """An image's per-pixel grey values (H, W) and, for a palette image, its indices."""
+    """An image's per-pixel grey and red values (H, W) and, for a palette image, its
+    indices (material_map reads the red channel, runtime.material_map)."""
 
     grey: np.ndarray
+    red: np.ndarray
     indices: np.ndarray | None
 
 
@@ -46,7 +48,7 @@ def perturb(params: dict, amount: float, p: np.ndarray, n: np.ndarray) -> np.nda
         return n
     h, w = heights.grey.shape
     once = bool(params.get("once"))
-    x, y, ok = _map_pos(p, int(params.get("map_type", 0)), w, h, once)
+    x, y, ok = map_pos(p, int(params.get("map_type", 0)), w, h, once)
     out = n.copy()
     rows = np.nonzero(ok)[0]
     if not len(rows):
@@ -54,12 +56,13 @@ def perturb(params: dict, amount: float, p: np.ndarray, n: np.ndarray) -> np.nda
     x, y = x[rows], y[rows]
     interp = int(params.get("interpolate", 0))
     use_index = bool(params.get("use_index")) and heights.indices is not None
+    table = heights.indices if use_index and heights.indices is not None else heights.grey
     # the samples: at the point, then one pixel on (y grows downward) to either side
     x2 = _wrap_once(x - 1.0, w)
     y2 = _wrap_once(y + 1.0, h)
     x3 = _wrap_once(x2 + 2.0, w)
     h1, h2, h3 = (
-        amount * _sample(heights, sx, sy, interp, once, use_index)
+        amount * _height(table, sx, sy, interp, once, use_index)
         for sx, sy in ((x, y), (x2, y2), (x3, y2))
     )
     # the triangle (0, h1, 0), (-1, h2, 1), (1, h3, 1) and its normal
@@ -110,7 +113,7 @@ def _theta(x: np.ndarray, z: np.ndarray, length: np.ndarray) -> np.ndarray:
     return np.where(z == 0.0, np.where(x > 0, 0.0, math.pi), t)
 
 
-def _map_pos(p: np.ndarray, map_type: int, w: int, h: int, once: bool):
+def map_pos(p: np.ndarray, map_type: int, w: int, h: int, once: bool):
     """Pixel coordinates (x right, y down from the top row) of pattern-space points and
     which points map onto the image (POV-Ray's map_pos and its image mappers)."""
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
@@ -161,21 +164,27 @@ def _map_pos(p: np.ndarray, map_type: int, w: int, h: int, once: bool):
     return _wrap(u, float(w)), _wrap(-v, float(h)), ok
 
 
-def _pixels(heights: Heights, ix: np.ndarray, iy: np.ndarray, once: bool, use_index: bool):
+def _pixels(table: np.ndarray, ix: np.ndarray, iy: np.ndarray, once: bool):
     """Values at whole pixel coordinates: clamped to the edge for `once`, else wrapped."""
-    h, w = heights.grey.shape
+    h, w = table.shape
     if once:
         ix = np.clip(ix, 0, w - 1)
         iy = np.clip(iy, 0, h - 1)
     else:
         ix = np.mod(ix, w)
         iy = np.mod(iy, h)
-    table = heights.indices if use_index and heights.indices is not None else heights.grey
     return table[iy, ix]
 
 
-def _sample(heights: Heights, x, y, interp: int, once: bool, use_index: bool) -> np.ndarray:
-    """The grey value (or palette index) at pixel coordinates, interpolated as asked."""
+def _height(table: np.ndarray, x, y, interp: int, once: bool, use_index: bool) -> np.ndarray:
+    value = sample(table, x, y, interp, once)
+    # POV-Ray truncates a blended index to a whole one
+    return np.trunc(value) if use_index and interp in (2, 3, 4) else value
+
+
+def sample(table: np.ndarray, x, y, interp: int, once: bool) -> np.ndarray:
+    """The (H, W) table's value at pixel coordinates (map_pos's), interpolated as asked:
+    POV-Ray's image lookup, which blends a palette image's indices as it blends colours."""
     if interp in (2, 3, 4):
         x = x + 0.5
         y = y + 0.5
@@ -187,7 +196,7 @@ def _sample(heights: Heights, x, y, interp: int, once: bool, use_index: bool) ->
             fx, fy = cubic_weights(p), cubic_weights(q)
             for i in range(4):
                 for j in range(4):
-                    val = _pixels(heights, ix + i - 2, iy + j - 2, once, use_index)
+                    val = _pixels(table, ix + i - 2, iy + j - 2, once)
                     total += fx[i] * fy[j] * val
         else:
             corners = ((0, 0), (-1, 0), (0, -1), (-1, -1))
@@ -198,10 +207,9 @@ def _sample(heights: Heights, x, y, interp: int, once: bool, use_index: bool) ->
                 factors = norm_dist_weights(p, q)
             total = np.zeros(len(x))
             for (dx, dy), f in zip(corners, factors, strict=True):
-                total += f * _pixels(heights, ix + dx, iy + dy, once, use_index)
-        # POV-Ray truncates a blended index to a whole one
-        return np.trunc(total) if use_index else total
-    return _pixels(heights, x.astype(np.int64), y.astype(np.int64), once, use_index)
+                total += f * _pixels(table, ix + dx, iy + dy, once)
+        return total
+    return _pixels(table, x.astype(np.int64), y.astype(np.int64), once)
 
 
 def cubic_weights(p: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -256,10 +264,42 @@ def _load(path: str, gamma: float | None, use_index: bool) -> Heights:
     rgb = np.repeat(pixels[:, :, :1], 3, axis=2) if pixels.shape[2] < 3 else pixels[:, :, :3]
     if gamma is not None:  # the block's `gamma` decodes the file; without it, none
         rgb = np.clip(rgb, 0.0, None) ** gamma
+    depth = _grey_png_depth(path)
+    if depth:
+        rgb = _grey_levels(pixels[:, :, 0], depth, gamma)
     index = palette_indices(path) if use_index else None
     if index is not None and index.shape != rgb.shape[:2]:
         index = None
-    return Heights(rgb @ GREY, index)
+    return Heights(rgb @ GREY, rgb[:, :, 0], index)
+
+
+def _grey_png_depth(path: str) -> int:
+    """The bit depth of a grey PNG of 8 bits or fewer without alpha (0 for any other file)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(33)
+    except OSError:
+        return 0
+    if not head.startswith(b"\x89PNG\r\n\x1a\n") or head[12:16] != b"IHDR" or len(head) < 26:
+        return 0
+    depth, colour = head[24], head[25]
+    return depth if colour == 0 and depth <= 8 else 0
+
+
+def _grey_levels(values: np.ndarray, depth: int, gamma: float | None) -> np.ndarray:
+    """(H, W, 3) the grey PNG's levels as POV-Ray holds them: its reader makes each level a
+    colour (decoded by `gamma`), stores that colour's grey (0.297 r + 0.589 g + 0.114 b in
+    single precision, whose weights sum to a shade under 1) in a byte, truncated; so some
+    levels come out one step lower (3 of 255 reads as 2)."""
+    top = (1 << depth) - 1
+    f = np.float32
+    level = np.arange(top + 1, dtype=f) / f(top)
+    if gamma is not None:
+        level = (level.astype(np.float64) ** gamma).astype(f)
+    grey = level * f(0.297) + level * f(0.589) + level * f(0.114)
+    stored = np.trunc(np.clip(grey, 0, 1) * f(255)).astype(np.float64) / 255.0
+    codes = np.clip(np.rint(values * top), 0, top).astype(np.int64)
+    return np.repeat(stored[codes][:, :, None], 3, axis=2)
 
 
 def palette_indices(path: str) -> np.ndarray | None:

@@ -40,6 +40,7 @@ from runtime.context import (
 )
 from runtime.fog import apply_fogs, scene_fogs
 from runtime.lights import interior_fade, light_colours
+from runtime.rainbow import apply_rainbows
 from runtime.shading import GREY, Surface
 
 _warned: set[str] = set()
@@ -268,6 +269,8 @@ def trace(
             hits.t[rows],
             prim,
         )
+    if ctx.scene.rainbows:
+        col = apply_rainbows(ctx.scene.rainbows, d, hits.t, col)
     if ctx.media is not None:
         col = media.apply(ctx, o, d, hits.t, hits.obj, hits.normal, col)
     fogs = scene_fogs(ctx.scene)

@@ -42,6 +42,7 @@ from runtime import bump_map
 from runtime import transform as tf
 from runtime.density import density_file
 from runtime.fractal_patterns import julia, magnet, mandel
+from runtime.material_map import material_index
 from runtime.noise import (
     DEFAULT_GENERATOR,
     dnoise,
@@ -52,6 +53,7 @@ from runtime.noise import (
 )
 from runtime.noise import tables as noise_tables
 from runtime.slope import slope
+from runtime.tiling import tiling
 
 # POV-Ray adds a tiny epsilon to every coordinate before flooring, so a plane at an integer
 # coordinate (y = 0, the classic floor) does not flicker between cells. 1e-6 matches POV-Ray
@@ -469,7 +471,14 @@ def object_pattern(p: np.ndarray, params: dict) -> np.ndarray:
     return inside_points(obj, p, compile_xyz).astype(np.int64)
 
 
-LIST_PATTERNS = {"checker": checker, "hexagon": hexagon, "brick": brick, "object": object_pattern}
+LIST_PATTERNS = {
+    "checker": checker,
+    "hexagon": hexagon,
+    "brick": brick,
+    "object": object_pattern,
+    # a texture's only: the image's index picks the texture (runtime.material_map)
+    "material_map": material_index,
+}
 
 
 def _select(
@@ -1010,6 +1019,7 @@ CONTINUOUS_PATTERNS = {
     "spiral1": spiral1,
     "spiral2": spiral2,
     "ripples": ripples,
+    "tiling": tiling,
     "waves": waves,
     "dents": dents,
     "agate": agate,

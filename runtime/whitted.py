@@ -215,6 +215,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append("radiosity")
     if scene.fog is not None or scene.fogs or scene.media:
         out.append("fog or media")
+    if scene.rainbows:
+        out.append("rainbow")
     tracer = prepared.tracer
     if tracer.triangles is not None:
         out.append("meshes")

@@ -218,6 +218,7 @@ class Interpreter:
         self.sky_sphere: tuple[ir.Pigment, ...] | None = None
         self.fog: ir.Fog | None = None
         self.fogs: list[ir.Fog] = []  # every fog block, in order (POV-Ray applies them all)
+        self.rainbows: list[ir.Rainbow] = []
         self.media: list[ir.Media] = []  # atmospheric media blocks
         self.default_texture = ir.Texture()
         self.edits = Edits()  # blocks that modify what they are written into
@@ -312,6 +313,7 @@ class Interpreter:
             sky_sphere=self.sky_sphere,
             fog=self.fog,
             fogs=tuple(self.fogs),
+            rainbows=tuple(self.rainbows),
             media=tuple(self.media),
             files=tuple(self.files),
         )
@@ -460,6 +462,8 @@ class Interpreter:
                 if self.fog is None:
                     self.fog = v.value
                 self.fogs.append(v.value)
+            elif v.kind == "rainbow":
+                self.rainbows.append(v.value)
         elif isinstance(v, ir.Media):
             self.media.append(v)
         elif isinstance(v, UnsupportedValue):

@@ -3,6 +3,7 @@ global_settings and radiosity, background, sky_sphere, fog, and `transform { …
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -445,6 +446,85 @@ def _b_fog(it: BuildContext, g: Grouped, node: syntax.Block) -> Statement:
     return Statement("fog", ir.Fog(c, distance, up=up, **fields))
 
 
+# POV-Ray's EPSILON, below which a rainbow's vectors count as zero or parallel
+_RAINBOW_EPSILON = 1.0e-10
+
+
+def _b_rainbow(it: BuildContext, g: Grouped, node: syntax.Block) -> Statement:
+    """POV-Ray's Parse_Rainbow: the angles in degrees become radians (arc and falloff
+    halved), the angle is moved to the ring's inner edge, up is made perpendicular to the
+    direction. Without `falloff_angle` an `arc_angle` is also the falloff angle."""
+    f: dict[str, Any] = {"angle": 0.0, "width": 0.0, "distance": 1.0e7, "jitter": 0.0}
+    f.update(arc_angle=180.0, falloff_angle=180.0)
+    direction: tuple[float, ...] = (0.0, 0.0, 0.0)
+    up: tuple[float, ...] = (0.0, 1.0, 0.0)
+    pigment = None
+    arc = falloff = False
+    for name, args, span in g.items:
+        v: Any = args[0] if args else None
+        if name in ("angle", "width", "distance", "jitter"):
+            f[name] = float(v)
+        elif name in ("arc_angle", "falloff_angle"):
+            if not 0.0 <= float(v) <= 360.0:
+                what = "arc" if name == "arc_angle" else "falloff"
+                raise it.error(
+                    "E0211", f"illegal {what} angle in rainbow (use 0 to 360 degrees)", span
+                )
+            f[name] = float(v) * math.pi / 360.0
+            arc, falloff = arc or name == "arc_angle", falloff or name == "falloff_angle"
+        elif name == "direction":
+            direction = _fog_vec(v)
+        elif name == "up":
+            up = _fog_vec(v)
+        elif name == "map":
+            if v.map_kind in ("color_map", "colour_map"):
+                pigment = ir.Pigment(
+                    pattern="gradient",
+                    color_map=tuple((float(k), c.rgbft) for k, c in v.entries),
+                    params={"orientation": (1.0, 0.0, 0.0)},
+                    span=span,
+                )
+            else:
+                it.sink.error("E0212", f"a {v.map_kind} in a rainbow", span, "use color_map")
+    if arc and not falloff:
+        f["falloff_angle"] = f["arc_angle"]
+    where = node.keyword_span or node.span
+    if f["arc_angle"] < f["falloff_angle"]:
+        raise it.error("E0211", "the rainbow's arc angle is smaller than its falloff angle", where)
+    d, u = _unit(direction), _unit(up)
+    if d is None or u is None:
+        which = "direction" if d is None else "up"
+        raise it.error("E0211", f"the rainbow's {which} vector is zero", where)
+    if abs(1.0 - abs(_dot(d, u))) < _RAINBOW_EPSILON:
+        raise it.error("E0211", "the rainbow's up and direction vectors are parallel", where)
+    right = _unit(_cross(u, d))
+    assert right is not None  # u and d are not parallel
+    u = _unit(_cross(d, right)) or u
+    width = f.pop("width")
+    angle = (f.pop("angle") - 0.5 * width) * math.pi / 180.0
+    rainbow = ir.Rainbow(
+        direction=d, up=u, right=right, angle=angle, width=width * math.pi / 180.0,
+        pigment=pigment, **f,
+    )  # fmt: skip
+    return Statement("rainbow", rainbow)
+
+
+def _unit(v: tuple[float, ...]) -> tuple[float, float, float] | None:
+    n2 = _dot(v, v)
+    if abs(n2) < _RAINBOW_EPSILON:
+        return None
+    n = math.sqrt(n2)
+    return (v[0] / n, v[1] / n, v[2] / n)
+
+
+def _dot(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float]:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
 def _fog_vec(v: Any) -> tuple[float, float, float]:
     if isinstance(v, tuple):
         return (float(v[0]), float(v[1]), float(v[2]))
@@ -475,5 +555,6 @@ BUILDERS: dict[str, Builder] = {
     "background": _b_background,
     "sky_sphere": _b_sky_sphere,
     "fog": _b_fog,
+    "rainbow": _b_rainbow,
     "transform": _b_transform,
 }

@@ -80,6 +80,16 @@ class _Tiles:
 
 
 @dataclass(frozen=True)
+class _MaterialMap:
+    """A `material_map { png "file" … texture {…} … }` block: the image's settings (as an
+    image_map's params) and the textures its indices pick, in order."""
+
+    params: dict[str, Any]
+    textures: tuple[ir.Texture, ...]
+    kind: str = "material_map"
+
+
+@dataclass(frozen=True)
 class _Warp:
     """A `warp { … }` block: `data` is the warp as the runtime reads it (runtime.patterns)."""
 
@@ -196,6 +206,10 @@ def _magnet_form(it, params: dict[str, Any], name: str, args: list[Any], span: S
     return name
 
 
+# POV-Ray's tilings 1 to 27: the renderer draws the first ten so far
+_TILINGS_RENDERED = 10
+
+
 def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span: Span) -> bool:
     """Pattern keywords and their modifiers, shared by pigment, normal and texture."""
     params = st["params"]
@@ -267,6 +281,8 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
             params["iterations"] = args[0]
         elif name == "tiling":
             params["value"] = args[0]
+            if not 1 <= int(args[0]) <= _TILINGS_RENDERED:
+                it.unsupported(f"tiling {int(args[0])}", span, " (1 to 10 are rendered)")
         elif name == "julia":
             params["complex"], params["iterations"] = args[0], args[1]
         elif name == "slope":
@@ -283,7 +299,6 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
             "aoi",
             "facets",
             "pavement",
-            "tiling",
             "cubic",
             "triangular",
             "square",
@@ -774,6 +789,14 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
                 pattern=ir.Pigment(pattern="checker", span=span),
                 map=((0.0, v.second), (1.0, v.first)),
             )
+        elif name == "material_map":
+            # POV-Ray's Parse_Material_Map: the image's index picks a whole texture
+            params = dict(v.params, count=len(v.textures))
+            t = replace(
+                t,
+                pattern=ir.Pigment(pattern="material_map", span=span),
+                map=tuple((float(i), x) for i, x in enumerate(v.textures)),
+            )
         elif name == "no_bump_scale":
             t = replace(t, no_bump_scale=True)
         elif name == "texture":
@@ -991,6 +1014,25 @@ def _b_bump_map(it: BuildContext, g: Grouped, node: syntax.Block) -> BumpMapValu
     return BumpMapValue(params, size)
 
 
+def _b_material_map(it: BuildContext, g: Grouped, node: syntax.Block) -> _MaterialMap:
+    params: dict[str, Any] = {"map_type": 0, "interpolate": 0, "once": False}
+    textures: list[ir.Texture] = []
+    for name, args, span in g.items:
+        if name == "texture":
+            textures.append(args[0])
+        elif name == "unsupported":
+            it.unsupported(args[0].keyword, span, " in material_map")
+    _image_file(it, g, params, "material_map")
+    if not textures:
+        raise it.error(
+            "E0211",
+            "`material_map` needs at least one texture",
+            node.keyword_span or node.span,
+            'material_map { png "file" texture { … } texture { … } }',
+        )
+    return _MaterialMap(params, tuple(textures))
+
+
 def _image_file(it: BuildContext, g: Grouped, params: dict[str, Any], block: str) -> None:
     """The image items image_map and bump_map share (format and file, map_type,
     interpolate, once, gamma) into `params`, with the file found (its "path") or warned
@@ -1026,10 +1068,15 @@ def _image_file(it: BuildContext, g: Grouped, params: dict[str, Any], block: str
                 "W0307",
                 f"image `{params['file']}` cannot be read: {problem}",
                 g.span,
-                "the image renders black; check the file"
-                if block == "image_map"
-                else "the surface stays smooth; check the file",
+                _UNREADABLE_HINTS[block],
             )
+
+
+_UNREADABLE_HINTS = {
+    "image_map": "the image renders black; check the file",
+    "bump_map": "the surface stays smooth; check the file",
+    "material_map": "the first texture is used everywhere; check the file",
+}
 
 
 # How image files start, for formats that have a signature (TGA and IFF files are not checked).
@@ -1081,5 +1128,6 @@ BUILDERS: dict[str, Builder] = {
     "material": _b_material,
     "image_map": _b_image_map,
     "bump_map": _b_bump_map,
+    "material_map": _b_material_map,
     **{k: _b_map for k in schema.MAP_WORDS},
 }
