@@ -170,8 +170,10 @@ def pattern_defaults_in(value: _T, defaults: dict[str, Any]) -> _T:
             return memo[key]
         out = v
         if isinstance(v, tuple):
-            if v and _plain_data(v[0]):
-                return v  # a vector, a matrix row, a mesh's vertex list
+            if v and _plain_data(v[0]) and _plain_data(v[-1]):
+                # a vector, a matrix row, a mesh's vertex list; not a map's entries
+                # ((key, pigment) pairs), which start with a number too
+                return v
             items = [walk(x) for x in v]
             if any(a is not b for a, b in zip(items, v, strict=True)):
                 out = type(v)(items) if type(v) is not tuple else tuple(items)
@@ -204,7 +206,7 @@ def pattern_defaults_in(value: _T, defaults: dict[str, Any]) -> _T:
 
 
 def _plain_data(x: Any) -> bool:
-    """Numbers, strings, or tuples of numbers: values with no pattern inside."""
+    """Numbers, strings, or short tuples of numbers: values with no pattern inside."""
     if isinstance(x, int | float | str | bool) or x is None:
         return True
-    return isinstance(x, tuple) and (not x or isinstance(x[0], int | float))
+    return isinstance(x, tuple) and all(isinstance(e, int | float) for e in x)

@@ -18,6 +18,10 @@ plane { y, -1 pigment { bozo color_map { [0 rgb 0] [1 rgb 1] } scale 0.5 } }
 sphere { <-1, 0, 0>, 1 pigment { granite scale 2 } normal { dents 1 scale 0.3 } }
 sphere { <1.2, 0, 0>, 1 pigment { rgb 1 } normal { waves 0.6 scale 0.2 } }
 box { <-3, 1.2, 1>, <3, 3, 1.5> pigment { ripples color_map { [0 rgb x] [1 rgb y] } scale 0.3 } }
+box { <-3, -1, 2>, <3, 1.2, 2.5> pigment { rgb 1 }
+  normal { average normal_map { [waves 2 frequency 3 scale 0.3] [ripples 1 translate x] } } }
+plane { z, 3 pigment { pigment_pattern { bozo scale 0.4 }
+  pigment_map { [0 granite scale 0.5] [1 wrinkles color_map { [0 rgb 0] [1 rgb z] }] } } }
 sphere { <0, -0.5, -1.5>, 0.4 pigment { rgb 1 } normal { ripples 0.8 scale 0.1 } }
 """
 
