@@ -112,13 +112,11 @@ class BuildContext(Protocol):
         obj: ObjectValue,
         parent: ir.Matrix = ...,
         inherited: ir.Texture | None = None,
-        interior: ir.Interior | None = None,
-        flags: dict[str, bool] | None = None,
         placed: ir.Texture | None = None,
     ) -> ir.Object: ...
 
     # trace() and inside()
-    def scene_queries(self) -> Any: ...
+    def scene_queries(self, why: str = ...) -> Any: ...
 
     def query_object(self, obj: ObjectValue) -> ir.Object: ...
 
