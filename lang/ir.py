@@ -359,7 +359,10 @@ class Triangle:
 class Mesh:
     """Indexed triangles (mesh, mesh2, and later tessellated nurbs/subdivision).
     `vertices` is float64 (N,3), `faces` int32 (M,3), `normals` optional (N,3) per vertex,
-    `uvs` optional (N,2). `face_textures` optional per-face texture index into `textures`."""
+    `uvs` optional (N,2). `face_textures` optional per-face texture index into `textures`.
+    `inside_vector` (unit, world direction; None: the mesh has no inside) gives the mesh an
+    inside as POV-Ray's: a point is inside when a ray from it along the vector crosses the
+    triangles an odd number of times."""
 
     vertices: Any
     faces: Any
@@ -368,6 +371,7 @@ class Mesh:
     textures: tuple[Texture, ...] = ()
     face_textures: Any = None
     smooth: bool = False
+    inside_vector: Vec3 | None = None
 
 
 @dataclass(frozen=True)

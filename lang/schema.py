@@ -1178,7 +1178,6 @@ UNCOUNTED_LISTS = frozenset(("weights", "u_knots", "v_knots", "knots", "control_
 IGNORED_ITEMS: dict[str, tuple[frozenset[str] | None, str]] = {
     "uv_mapping": (None, "textures are mapped by position, not by the surface's uv coordinates"),
     "cutaway_textures": (None, "the cut faces of a CSG take the cutting object's texture"),
-    "inside_vector": (None, "a mesh has no inside in strala's CSG"),
     "irid_wavelength": (
         frozenset({"global_settings"}),
         "iridescence uses POV-Ray's default wavelengths <0.70, 0.52, 0.48>",

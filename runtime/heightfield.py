@@ -16,6 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 from lang import ir
+from runtime.prims import FunctionCompiler
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -112,12 +113,13 @@ def read_heights(path: str) -> np.ndarray:
     return px[..., 0]
 
 
-def function_heights(fn: ir.Function, size: tuple[int, int]) -> np.ndarray:
+def function_heights(
+    fn: ir.Function, size: tuple[int, int], compile_xyz: FunctionCompiler
+) -> np.ndarray:
     """The heights of a function image, as POV-Ray makes one: pixel (column j, row i) of a
     W×H image is the function at x = j/(W−1), y = i/(H−1), z = 0 (a pigment function: its
-    grey value), kept in 0..1 in steps of 1/65535 (POV-Ray's 16-bit image)."""
-    from runtime.functions import compile_xyz
-
+    grey value), kept in 0..1 in steps of 1/65535 (POV-Ray's 16-bit image). `compile_xyz`
+    compiles the function (runtime.functions.compile_xyz, handed in: see runtime.prims)."""
     w, h = size
     xs = np.arange(w) / (w - 1)
     ys = np.arange(h) / (h - 1)
@@ -128,15 +130,24 @@ def function_heights(fn: ir.Function, size: tuple[int, int]) -> np.ndarray:
     return np.round(values * 65535.0) / 65535.0
 
 
-def height_field_mesh(shape: ir.HeightField) -> ir.Mesh:
+def heights(shape: ir.HeightField, compile_xyz: FunctionCompiler | None = None) -> np.ndarray:
+    """The height field's heights 0..1 as (rows, columns), row 0 the image's top row
+    (`compile_xyz`: for a function image)."""
+    if shape.function is not None:
+        if compile_xyz is None:
+            raise HeightFieldError("a function height field needs a function compiler")
+        return function_heights(shape.function, shape.size, compile_xyz)
+    return read_heights(shape.source)
+
+
+def height_field_mesh(
+    shape: ir.HeightField, compile_xyz: FunctionCompiler | None = None
+) -> ir.Mesh:
     """The triangles of a height field: pixel (row, column) of an R×C image sits at
     x = column/(C−1), z = 1 − row/(R−1) (the image's top row at the back), y = height.
     Triangles wholly below `water_level` are left out (POV-Ray also cuts the ones that
     straddle it at the level; those stay whole here)."""
-    if shape.function is not None:
-        h = function_heights(shape.function, shape.size)
-    else:
-        h = read_heights(shape.source)
+    h = heights(shape, compile_xyz)
     R, C = h.shape
     if R < 2 or C < 2:
         raise HeightFieldError("a height field image needs at least 2×2 pixels")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -15,8 +16,10 @@ import numpy as np
 from lang import ir
 from runtime import prims, shapes
 from runtime import transform as tf
+from runtime.heightfield import height_field_mesh
 from runtime.prims import FunctionCompiler
 from runtime.trace import CsgNode, Leaf
+from runtime.triangle_solids import TriangleNode, triangle_node
 
 # What a builder of nodes reports a problem with: (message, the object's source span).
 Warn = Callable[[str, Any], None]
@@ -46,7 +49,9 @@ def singular(obj: ir.Object) -> str | None:
     return None
 
 
-def inside_node(obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler) -> CsgNode | Leaf | None:
+def inside_node(
+    obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler
+) -> CsgNode | Leaf | TriangleNode | None:
     """A node whose `inside(points)` is POV-Ray's inside test of obj (its leaves report no
     hits: index -1), or None when the shape has no inside (`warn` says so)."""
     shape = obj.shape
@@ -57,6 +62,10 @@ def inside_node(obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler) -> Cs
             if c is not None
         ]
         return CsgNode(shape.op, kids, inverse=obj.inverse) if kids else None
+    if isinstance(shape, ir.HeightField) or (
+        isinstance(shape, ir.Mesh) and shape.inside_vector is not None
+    ):
+        return _triangle_inside(obj, warn, compile_xyz)
     prim = (
         None
         if shapes.degenerate(shape) or singular(obj)
@@ -68,12 +77,32 @@ def inside_node(obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler) -> Cs
     return Leaf(prim, object_matrix(obj), -1, inverse=obj.inverse)
 
 
-_INSIDE_TESTS: dict[int, tuple[ir.Object, CsgNode | Leaf | None]] = {}
+def _triangle_inside(
+    obj: ir.Object, warn: Warn, compile_xyz: FunctionCompiler
+) -> TriangleNode | None:
+    """The inside test of a mesh with inside_vector or of a height field (a node over its
+    triangles, which its crossings need: projected_through asks them)."""
+    why = singular(obj)
+    if why:
+        warn(f"clipped_by {type(obj.shape).__name__}: {why}: ignored", obj.span)
+        return None
+    shape = obj.shape
+    try:
+        if isinstance(shape, ir.HeightField):
+            shape = height_field_mesh(shape, compile_xyz)
+    except (OSError, ValueError) as exc:  # an image that cannot be read
+        warn(f"clipped_by {type(shape).__name__} skipped: {exc}", obj.span)
+        return None
+    return triangle_node(replace(obj, shape=shape), -1, compile_xyz, source=obj)
+
+
+_INSIDE_TESTS: dict[int, tuple[ir.Object, CsgNode | Leaf | TriangleNode | None]] = {}
 
 
 def inside_points(obj: ir.Object, points: np.ndarray, compile_xyz: FunctionCompiler) -> np.ndarray:
-    """(N,) bool: which points are inside obj (a shape without an inside, such as a mesh,
-    has none). The test is built once per object (the object pattern, inside());
+    """(N,) bool: which points are inside obj (a shape without an inside, such as a mesh
+    without inside_vector, has none). The test is built once per object (the object
+    pattern, inside());
     `compile_xyz` compiles the functions of its isosurfaces (runtime.functions.compile_xyz,
     handed in: see runtime.prims)."""
     hit = _INSIDE_TESTS.get(id(obj))

@@ -2,7 +2,8 @@
 
 Unions flatten into their leaves (each child already carries its full world transform and
 resolved texture); intersection / difference / merge become CSG nodes over leaves; all
-triangle geometry goes into one Embree-backed TriangleSet, built only when there is some.
+triangle geometry goes into one Embree-backed TriangleSet, built only when there is some
+(a triangle object in CSG or clipped is a node of its own, runtime.triangle_solids).
 
 Also owned here: `Tessellator` (NURBS, subdivision and height fields to meshes at a
 tolerance from the camera; runtime.export uses it too), `Culler` (what the view cannot
@@ -29,6 +30,7 @@ from runtime.inside import inside_node, object_matrix, singular, warn_once
 from runtime.occlusion import Occluders, lets_light_through
 from runtime.patterns import may_transmit
 from runtime.trace import ClipNode, CsgNode, Leaf, Tracer
+from runtime.triangle_solids import triangle_node
 
 FLAG_NAMES = ("no_image", "no_reflection", "no_shadow")
 _NO_FLAGS = dict.fromkeys(FLAG_NAMES, False)
@@ -105,7 +107,7 @@ class Tessellator:
             if isinstance(shape, ir.HeightField):
                 from runtime.heightfield import height_field_mesh
 
-                return height_field_mesh(shape)
+                return height_field_mesh(shape, compile_xyz)
             if isinstance(shape, ir.Nurbs):
                 from runtime.tessellate import nurbs_mesh
 
@@ -164,6 +166,7 @@ class _Builder:
         self.sizes: list[float] = []
         self.nodes: list = []
         self.triangle_leaves: list[tuple[int, ir.Object]] = []
+        self.solid: set[int] = set()  # triangle leaves traced by their nodes (CSG, clipped)
         self.warnings: list[str] = []
         self.culled: list[str] = []
         self.curved: list[bool] = []
@@ -253,7 +256,7 @@ class _Builder:
         if self.hidden(obj, flags["no_shadow"]):
             self.culled.append(type(shape).__name__.lower())
             return
-        if _TESSELLATED and isinstance(shape, _TESSELLATED):
+        if _TESSELLATED and isinstance(shape, _TESSELLATED) and not obj.clipped_by:
             mesh = self.tessellator.tessellate(obj)
             if mesh is None:
                 return
@@ -261,20 +264,16 @@ class _Builder:
             shape = mesh
         if isinstance(shape, ir.Triangle) and shapes.flat_triangle(shape):
             return
-        if isinstance(shape, ir.Mesh | ir.Triangle):
+        if isinstance(shape, ir.Mesh | ir.Triangle) and not obj.clipped_by:
+            # the common case: into the scene's Embree scene, past the CSG machinery
+            # (`inverse` turns only the inside over, which prepare never asks of it)
             if singular(obj):
                 self.warn_once(
                     f"a {type(shape).__name__.lower()} is skipped: {singular(obj)}", obj.span
                 )
                 return
-            if obj.clipped_by:
-                self.warn_once(
-                    "clipped_by on triangle geometry is not supported yet: ignored", obj.span
-                )
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
-            if obj.inverse:
-                self.warn_once("inverse has no effect on triangle geometry", obj.span)
             return
         node = self.node(obj, flags, merged=True)
         if node is not None:
@@ -328,6 +327,7 @@ class _Builder:
                 return None
             op = "merge" if under and shape.op == "union" else shape.op
             return self.clipped(obj, CsgNode(op, children, inverse=obj.inverse))
+        source = obj
         if _TESSELLATED and isinstance(shape, _TESSELLATED):
             mesh = self.tessellator.tessellate(obj)
             if mesh is None:
@@ -335,14 +335,19 @@ class _Builder:
             obj = dataclasses.replace(obj, shape=mesh)
             shape = mesh
         if isinstance(shape, ir.Mesh):
-            # A mesh has no inside (no inside_vector yet): inside a CSG it acts as a plain
-            # surface, traced by Embree like a union member.
-            self.warn_once(
-                "a mesh inside intersection/difference/merge is treated as a union", obj.span
-            )
+            # Inside CSG or clipped: a node of its own with every crossing and the inside
+            # test of its kind (runtime.triangle_solids); its triangles stay in the
+            # TriangleSet for what a hit needs, out of its Embree scene.
+            why = singular(obj)
+            if why:
+                self.warn_once(f"a mesh is skipped: {why}", obj.span)
+                return None
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
-            return None
+            self.solid.add(index)
+            mesh_node = triangle_node(obj, index, compile_xyz, source)
+            self.sizes[index] = mesh_node.size
+            return self.clipped(obj, mesh_node)
         if isinstance(shape, ir.Triangle) and shapes.flat_triangle(shape):
             return None
         why = shapes.degenerate(shape) or singular(obj)
@@ -425,7 +430,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
         # Imported lazily so scenes without triangles never load Embree.
         from runtime.triangles import TriangleSet
 
-        triangles = TriangleSet(b.triangle_leaves)
+        triangles = TriangleSet(b.triangle_leaves, frozenset(b.solid))
         for index, size in triangles.sizes.items():
             b.sizes[index] = size
     flags = {k: np.array(v, dtype=bool) for k, v in b.flags.items()}

@@ -32,6 +32,17 @@ EMBREE_REL: float = 1e-5
 # through are refined, rejected and cast again (EMBREE_ROUNDS).
 EMBREE_START_REL: float = 1e-7
 
+# A triangle object inside CSG reports every crossing along a ray by casting again past
+# each one: the next cast starts this fraction of (|origin| + mesh size) beyond the last hit
+# (15x Embree's float32 rounding, so the same triangle is not met again); two crossings
+# closer than that count as one.
+EMBREE_NEXT_REL: float = 1e-6
+
+# At most this many crossings of one triangle object along one ray are reported (a ray
+# skimming a height field crosses it a few times per cell): beyond that the ray is taken to
+# meet no more.
+MAX_MESH_CROSSINGS: int = 256
+
 # Newton refinement steps for a float32 (Embree) or eigenvalue (torus) root: each step
 # doubles the correct digits, two take a 1e-7 guess to float64 precision.
 NEWTON_STEPS: int = 2

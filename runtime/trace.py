@@ -86,14 +86,24 @@ class Cands:
     leaf: np.ndarray  # int32 leaf (object) index
     face: np.ndarray  # int8 primitive-specific face id (box side, cylinder cap …)
     flip: np.ndarray  # bool: normal flipped (inverse, subtracted CSG part)
+    # int32 triangle of a triangle object's crossing (runtime.triangle_solids), -1 for the
+    # others; None: no crossing is a triangle's
+    prim: np.ndarray | None = None
 
     @staticmethod
     def concat(parts: list[Cands]) -> Cands:
+        prim = None
+        if any(p.prim is not None for p in parts):
+            prim = np.concatenate(
+                [np.full(p.t.shape, -1, np.int32) if p.prim is None else p.prim for p in parts],
+                axis=1,
+            )
         return Cands(
             np.concatenate([p.t for p in parts], axis=1),
             np.concatenate([p.leaf for p in parts], axis=1),
             np.concatenate([p.face for p in parts], axis=1),
             np.concatenate([p.flip for p in parts], axis=1),
+            prim,
         )
 
 
@@ -226,6 +236,13 @@ def _finite_box(lo: np.ndarray, hi: np.ndarray) -> bool:
     return bool(np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)))
 
 
+def _volume(lo: np.ndarray, hi: np.ndarray) -> float:
+    """A box's volume (inf for an unbounded one, 0 for an empty one)."""
+    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf: an unbounded box
+        sides = np.maximum(np.asarray(hi) - np.asarray(lo), 0.0)
+        return float(np.prod(np.nan_to_num(sides, nan=np.inf)))
+
+
 def _axis_aligned(m: np.ndarray) -> bool:
     """Only scaling (non-zero) and translation: an axis-aligned box stays one."""
     lin = m[:3, :3]
@@ -338,14 +355,23 @@ class ClipNode:
         self.clips = clips
         self.children = [inner]
         self.leaves = inner.leaves
-        self.lo, self.hi = inner.lo, inner.hi
+        lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
         for c in clips:
-            self.lo = np.maximum(self.lo, c.lo)
-            self.hi = np.minimum(self.hi, c.hi)
-        self.size = inner.size
-        self.bounded = _finite_box(self.lo, self.hi)
+            lo, hi = np.maximum(lo, c.lo), np.minimum(hi, c.hi)
         # as an intersection's (CsgNode): the crossings left lie in the clips' insides
         clips_boxed = all(c.boxes_inside for c in clips)
+        if clips_boxed:
+            self.lo, self.hi = np.maximum(inner.lo, lo), np.minimum(inner.hi, hi)
+        else:
+            # a clip's inside leaves its box (a height field's reaches down to -inf): the
+            # box is POV-Ray's then, the clips' box where it is smaller than the object's
+            # own (Parse_Object), so a short cylinder clipped by a wide height field keeps
+            # its part below the field
+            self.lo, self.hi = inner.lo, inner.hi
+            if _volume(lo, hi) < _volume(inner.lo, inner.hi):
+                self.lo, self.hi = lo, hi
+        self.size = inner.size
+        self.bounded = _finite_box(self.lo, self.hi)
         self.tight: bool = (inner.tight and clips_boxed) or not self.bounded
         self.boxes_inside: bool = (inner.boxes_inside and clips_boxed) or not self.bounded
 
@@ -538,7 +564,7 @@ class Tracer:
         return out
 
     def _register(self, node) -> None:
-        if isinstance(node, Leaf):
+        if not hasattr(node, "children"):  # a Leaf, or a triangle object's node
             self.leaf_by_index[node.index] = node
         else:
             for c in node.children:
@@ -616,6 +642,7 @@ class Tracer:
         skipped = self.flags.get(skip) if skip else None
         face = np.zeros(n, dtype=np.int8)
         flip = np.zeros(n, dtype=bool)
+        tri = np.full(n, -1, dtype=np.int32)  # the triangle of a triangle node's hit
 
         def limit_of(rows):
             if rows is None:
@@ -646,6 +673,7 @@ class Tracer:
             hits.obj[rb] = c.leaf[sel, kb]
             face[rb] = c.face[sel, kb]
             flip[rb] = c.flip[sel, kb]
+            tri[rb] = -1 if c.prim is None else c.prim[sel, kb]
         analytic = hits.obj >= 0
         if self.triangles is not None:
             self.triangles.closest(o, d, tmin_a, np.minimum(hits.t, tmax_a), skip, hits)
@@ -659,7 +687,11 @@ class Tracer:
             for leaf_id in np.unique(ids):
                 rows = rows_all[ids == leaf_id]
                 leaf = self.leaf_by_index[int(leaf_id)]
-                nrm = leaf.normals(o[rows], d[rows], hits.t[rows], face[rows])
+                if hasattr(leaf, "record"):  # a triangle object's node: normal, face, uv
+                    leaf.record(hits, rows, tri[rows], o[rows], d[rows])
+                    nrm = hits.normal[rows]
+                else:
+                    nrm = leaf.normals(o[rows], d[rows], hits.t[rows], face[rows])
                 hits.normal[rows] = np.where(flip[rows, None], -nrm, nrm)
         return hits
 

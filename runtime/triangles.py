@@ -24,7 +24,7 @@ from runtime.shapes import barycentric
 _FAR = np.float32(1e37)
 
 
-def _leaf_triangles(obj: ir.Object):
+def leaf_triangles(obj: ir.Object):
     """World-space (T,3,3) vertices and (T,3,3) vertex normals (or None) of a leaf."""
     m = tf.as_matrix(obj.transform)
     m_inv = tf.inverse(m)
@@ -66,13 +66,17 @@ def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 class TriangleSet:
-    """Every triangle of the scene; `leaves` is [(object index, ir.Object)]."""
+    """Every triangle of the scene; `leaves` is [(object index, ir.Object)]. The objects in
+    `solid` (parts of CSG, clipped ones) are traced by their own nodes
+    (runtime.triangle_solids): their triangles are kept here for what a hit on them needs
+    (textures, shadow-ray origins) but left out of the Embree scenes."""
 
-    def __init__(self, leaves: list[tuple[int, ir.Object]]):
+    def __init__(self, leaves: list[tuple[int, ir.Object]], solid: frozenset[int] = frozenset()):
+        self.solid = solid
         tris, vns, leaf_of, local = [], [], [], []
         self.sizes: dict[int, float] = {}
         for index, obj in leaves:
-            tri, vn = _leaf_triangles(obj)
+            tri, vn = leaf_triangles(obj)
             tris.append(tri)
             if vn is None:
                 vn = np.full_like(tri, np.nan)
@@ -119,6 +123,8 @@ class TriangleSet:
         left_out: tuple[int, ...] = ()
         if flag is not None and len(flag):
             left_out = tuple(int(i) for i in np.unique(self.leaf_of[flag[self.leaf_of]]))
+        if self.solid:
+            left_out = tuple(sorted(set(left_out) | self.solid))
         with self._lock:
             if left_out not in self.scenes:
                 # Degenerate (zero-area) triangles can never be hit: leave them out.

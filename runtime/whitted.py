@@ -397,7 +397,7 @@ def _uncovered(node) -> set[str]:
             return set()
         return {f"shape {type(node.prim).__name__.removesuffix('Prim').lower()}"}
     if not isinstance(node, CsgNode):
-        return {"clipped_by"}
+        return {"clipped_by"} if hasattr(node, "children") else {"triangle geometry in CSG"}
     out = set() if node.op in OPS else {f"CSG {node.op}"}
     for child in node.children:
         out |= _uncovered(child)

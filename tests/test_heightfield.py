@@ -12,6 +12,7 @@ from conftest import image_errors, povray_image, strala_image
 
 from lang import ir
 from runtime import heightfield as hf
+from runtime.functions import compile_xyz
 
 PLASMA = Path("/usr/share/povray-3.7/include/plasma3.png")
 needs_plasma = pytest.mark.skipif(not PLASMA.is_file(), reason="POV-Ray's include files absent")
@@ -103,7 +104,7 @@ def test_function_image_sizes_and_samples():
     z = 0 for pixel (j, i); the sizes may be names and round to the nearest whole number."""
     shape = _field("#declare N = 4.6; height_field { function N, 3 { x * 0.5 + y * 0.25 } }")
     assert shape.source == "" and shape.size == (5, 3)
-    h = hf.function_heights(shape.function, shape.size)
+    h = hf.function_heights(shape.function, shape.size, compile_xyz)
     assert h.shape == (3, 5)
     assert np.allclose(h[0], np.arange(5) / 4 * 0.5, atol=1e-4)
     assert np.allclose(h[:, 0], np.arange(3) / 2 * 0.25, atol=1e-4)
@@ -114,11 +115,13 @@ def test_function_image_of_a_pigment_is_its_grey_value_clipped_to_0_1():
         "height_field { function 5, 2 { pigment { gradient x color_map {"
         " [0 rgb 0] [1 rgb <1, 0.5, 0>] } } } }"
     )
-    h = hf.function_heights(shape.function, shape.size)
+    h = hf.function_heights(shape.function, shape.size, compile_xyz)
     grey = 0.297 + 0.5 * 0.589  # POV-Ray's grey of rgb <1, 0.5, 0>
     assert np.allclose(h[:, :4], np.arange(4) / 4 * grey, atol=2e-3)
     clipped = _field("height_field { function 2, 2 { x * 3 - 1 } }")
-    assert np.allclose(hf.function_heights(clipped.function, clipped.size), [[0, 1], [0, 1]])
+    assert np.allclose(
+        hf.function_heights(clipped.function, clipped.size, compile_xyz), [[0, 1], [0, 1]]
+    )
 
 
 FN_SCENE = """#version 3.7;

@@ -387,6 +387,21 @@ def _b_object(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue |
     return apply_object_items(it, obj, g)
 
 
+def _inside_vector(mods: list[tuple[str, list[Any], Span]]) -> ir.Vec3 | None:
+    """A mesh's `inside_vector`, normalised (the last one given), or None when it has none
+    or it is (nearly) the zero vector: POV-Ray's Parse_Mesh then leaves the mesh without an
+    inside, a surface only."""
+    vec = None
+    for name, args, _ in mods:
+        if name == "inside_vector":  # the schema made it a 3-tuple
+            x, y, z = (float(c) for c in args[0])
+            vec = (x, y, z)
+    if vec is None or all(abs(c) < 1e-5 for c in vec):  # POV-Ray's EPSILON
+        return None
+    length = math.sqrt(sum(c * c for c in vec))
+    return (vec[0] / length, vec[1] / length, vec[2] / length)
+
+
 def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     verts: list[ir.Vec3] = []
     normals: list[ir.Vec3] = []
@@ -464,6 +479,7 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
         textures=tuple(textures),
         face_textures=tuple(face_tex) if textures else None,
         smooth=smooth,
+        inside_vector=_inside_vector(mods),
     )
     if not faces:
         it.sink.warning("W0304", "`mesh` has no triangles", g.span)
@@ -541,6 +557,7 @@ def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
         textures=textures,
         face_textures=tuple(face_tex) if textures else None,
         smooth=normals is not None,
+        inside_vector=_inside_vector(mods),
     )
     obj = ObjectValue(shape, "mesh2", span=node.span, default=it.default_texture)
     return apply_object_items(it, obj, Grouped({}, mods, g.span))

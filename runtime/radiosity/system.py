@@ -481,7 +481,8 @@ def _meshable(prepared) -> list[int]:
     out = [n.index for n in prepared.tracer.nodes if isinstance(n, Leaf) and n.index >= 0]
     tri = prepared.tracer.triangles
     if tri is not None and len(getattr(tri, "leaf_of", ())):
-        out += [int(i) for i in np.unique(tri.leaf_of)]
+        solid: frozenset[int] = getattr(tri, "solid", frozenset())  # CSG parts, clipped
+        out += [int(i) for i in np.unique(tri.leaf_of) if int(i) not in solid]
     return sorted(set(out))
 
 
