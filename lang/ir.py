@@ -341,6 +341,8 @@ class Triangle:
     p2: Vec3
     p3: Vec3
     normals: tuple[Vec3, Vec3, Vec3] | None = None  # smooth_triangle
+    # a mesh triangle's `uv_vectors` (POV-Ray's Parse_Three_UVCoords; none: all <0,0>)
+    uvs: tuple[tuple[float, float], tuple[float, float], tuple[float, float]] | None = None
 
 
 @dataclass(frozen=True)

@@ -340,7 +340,7 @@ SHAPES: dict[str, BlockSpec] = {
                     "hierarchy bool? | Build a bounding hierarchy.",
                 ],
             ),
-            OBJECT_ACCEPTS | {"list"},
+            OBJECT_ACCEPTS | {"list", "object"},
         ),
         *(
             BlockSpec(
