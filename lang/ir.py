@@ -353,6 +353,8 @@ class Triangle:
     p2: Vec3
     p3: Vec3
     normals: tuple[Vec3, Vec3, Vec3] | None = None  # smooth_triangle
+    # a mesh triangle's `uv_vectors` (POV-Ray's Parse_Three_UVCoords; none: all <0,0>)
+    uvs: tuple[tuple[float, float], tuple[float, float], tuple[float, float]] | None = None
 
 
 @dataclass(frozen=True)
@@ -688,7 +690,7 @@ class Camera:
     scene sets `right x*image_width/image_height`, exactly as POV-Ray renders it)."""
 
     kind: str = "perspective"  # perspective orthographic fisheye omnimax panoramic
-    # ultra_wide_angle cylinder spherical (POV-Ray's projections; mesh_camera is not rendered)
+    # ultra_wide_angle cylinder spherical mesh_camera (POV-Ray's projections)
     cylinder: int = 0  # the cylinder camera's type, 1..4
     v_angle: float | None = None  # spherical: the vertical angle (angle is the horizontal)
     location: Vec3 = (0.0, 0.0, 0.0)
@@ -706,7 +708,32 @@ class Camera:
     # POV-Ray's `normal { … }` in the camera: a pattern evaluated at the screen point
     # <x0, y0, 0> of each ray (the projection's own coordinates) turns the ray's direction
     normal: Normal | None = None
+    mesh: MeshCamera | None = None  # kind "mesh_camera": its meshes and rules
     span: Span | None = None
+
+
+@dataclass(frozen=True)
+class CameraMesh:
+    """One mesh of a mesh_camera: its triangles in its own space, in POV-Ray's order (a
+    `mesh`'s degenerate triangles left out, as POV-Ray's parser drops them), and the
+    transformation from that space to the world."""
+
+    mesh: Mesh
+    transform: Matrix = IDENTITY
+
+
+@dataclass(frozen=True)
+class MeshCamera:
+    """POV-Ray 3.7's `mesh_camera { rays distribution [max_distance] meshes… [smooth] }`:
+    each pixel's rays start on faces of the meshes (their centroids, or for distribution 3
+    the point whose uv is the pixel's) and go along the face normals. The camera's
+    location z moves the start along the normal, a direction z below zero reverses it."""
+
+    rays_per_pixel: int
+    distribution: int  # 0: one mesh per ray; 1: faces summed; 2: meshes side by side; 3: uv
+    meshes: tuple[CameraMesh, ...]
+    max_distance: float = 0.0  # primary rays end there (0: no limit)
+    smooth: bool = False  # distribution 3: interpolate the vertex normals
 
 
 @dataclass(frozen=True)

@@ -340,7 +340,7 @@ SHAPES: dict[str, BlockSpec] = {
                     "hierarchy bool? | Build a bounding hierarchy.",
                 ],
             ),
-            OBJECT_ACCEPTS | {"list"},
+            OBJECT_ACCEPTS | {"list", "object"},
         ),
         *(
             BlockSpec(
@@ -506,7 +506,6 @@ BLOCKS: dict[str, BlockSpec] = {
                 "spherical | Longitude across, latitude up: `angle H, V` (default 360, 180).",
                 "cylinder float | Cylinder projection 1-4: the axis up (1, 3) or right (2, 4); "
                 "3 and 4 shift the origin along it.",
-                "mesh_camera | Mesh camera (not rendered yet).",
                 "location vector | Where the camera is (default <0,0,0>).",
                 "look_at vector | The point the camera looks at.",
                 "direction vector | The viewing direction (default <0,0,1>).",
@@ -522,7 +521,17 @@ BLOCKS: dict[str, BlockSpec] = {
                 "bokeh | Bokeh shape (ignored).",
             ],
         ),
-        frozenset({"transform", "unsupported", "normal"}),
+        frozenset({"transform", "unsupported", "normal", "mesh_camera"}),
+    ),
+    "mesh_camera": BlockSpec(
+        "mesh_camera",
+        "mesh_camera",
+        "Rays from the faces of meshes along their normals: rays per pixel, distribution "
+        "(0 a mesh per ray, 1 faces summed, 2 meshes side by side, 3 by uv), an optional "
+        "longest ray, then the meshes.",
+        _pos("float:rays_per_pixel", "float:distribution", "float?:max_distance"),
+        items(["smooth | Distribution 3: interpolate the vertex normals."]),
+        frozenset({"object"}),
     ),
     "global_settings": BlockSpec(
         "global_settings",

@@ -327,8 +327,8 @@ def view_planes(camera: ir.Camera, width: int, height: int) -> list[tuple[np.nda
     fwd = np.asarray(camera.direction, dtype=np.float64)
     right = np.asarray(camera.right, dtype=np.float64)
     up = np.asarray(camera.up, dtype=np.float64)
-    if camera.normal is not None:
-        return []  # a camera normal bends rays out of the view's pyramid
+    if camera.normal is not None or camera.mesh is not None:
+        return []  # a camera normal bends rays out of the view's pyramid; a mesh has none
     gx = 0.5 + VIEW_GROW_PIXELS / max(width, 1)
     gy = 0.5 + VIEW_GROW_PIXELS / max(height, 1)
     out = []

@@ -15,6 +15,7 @@ from lang import ir
 from runtime import patterns
 
 if TYPE_CHECKING:
+    from runtime.mesh_camera import MeshCameraRays
     from runtime.prepare import Prepared
 
 
@@ -218,6 +219,7 @@ class Context:
     finish_table: FinishTable | None = None
     media: Media | None = None  # participating media (None: the scene has none)
     kernel: TileKernel | None = None  # runtime.whitted.Kernel: the compiled path covers the scene
+    mesh_rays: MeshCameraRays | None = None  # a mesh_camera's faces, made at the first rays
     stats: dict[str, int] = field(default_factory=dict)
 
     @property

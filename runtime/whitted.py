@@ -205,7 +205,7 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     out: list[str] = []
     if not kernel_built():
         out.append("the compiled kernel is not built")
-    if camera.kind not in ("perspective", "orthographic"):
+    if camera.kind not in ("perspective", "orthographic") or camera.mesh is not None:
         out.append(f"{camera.kind} camera")
     if camera.aperture != 0.0 and camera.blur_samples > 0:
         out.append("focal blur")

@@ -600,13 +600,14 @@ def test_srgb_colours_use_working_gamma():
 def test_unsupported_features_warn_and_continue():
     r = ok("""ovus { 1, 0.5 pigment { rgb 1 } translate y }
 sphere { 0, 1 photons { target } }
-camera { mesh_camera { 1, 0 mesh { triangle { 0, x, y } } } }
+camera { mesh_camera { 1 0 mesh { triangle { 0, x, y } } } }
 sphere { 0, 1 }""")
     assert isinstance(r.scene.objects[0].shape, ir.Unsupported)
     assert r.scene.objects[0].texture.pigment.color[:3] == (1.0, 1.0, 1.0)
     warnings = [d.message for d in r.diagnostics if d.code == "W0300"]
     assert any("ovus" in w for w in warnings) and any("photons" in w for w in warnings)
-    assert any("mesh_camera" in w for w in warnings)  # the one camera not rendered
+    assert not any("mesh_camera" in w for w in warnings)  # rendered now
+    assert r.scene.camera.kind == "mesh_camera"
     assert len(r.scene.objects) == 3
 
 

@@ -47,8 +47,7 @@ class _ProjectedThrough:
 
 
 _CAMERA_KINDS = frozenset(
-    "perspective orthographic fisheye ultra_wide_angle omnimax panoramic spherical "
-    "cylinder mesh_camera".split()
+    "perspective orthographic fisheye ultra_wide_angle omnimax panoramic spherical cylinder".split()
 )
 
 
@@ -146,13 +145,15 @@ def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
         b.look_at_point = base.look_at
     b.camera = replace(b.camera, span=node.span)
     bumps: ir.Normal | None = b.camera.normal
+    meshes: ir.MeshCamera | None = b.camera.mesh
     for name, args, span in g.items:
         if name in TRANSFORM_WORDS:
             b.add_transform(item_matrix(name, args))
         elif name in _CAMERA_KINDS:
             b.set(name, args[0] if name == "cylinder" and args else None)
-            if name == "mesh_camera":
-                it.unsupported(f"{name} camera", span)
+        elif name == "mesh_camera":  # the block, built by _b_mesh_camera
+            b.set(name, None)
+            meshes = args[0].camera
         elif name in (
             "location",
             "look_at",
@@ -178,6 +179,8 @@ def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
         elif name == "unsupported":
             it.unsupported(args[0].keyword, span)
     cam = b.build()
+    if cam.kind == "mesh_camera":
+        cam = replace(cam, mesh=meshes)
     if bumps is not None:
         # the camera's transformations move its rays, never the pattern (screen space)
         cam = replace(cam, normal=bumps)
@@ -187,6 +190,64 @@ def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
     if not transforms.is_identity(b.transform):
         look = transforms.apply_point(b.transform, look)
     return CameraValue(cam, look)
+
+
+@dataclass(frozen=True)
+class _MeshCameraBlock:
+    camera: ir.MeshCamera
+    kind: str = "mesh_camera"
+
+
+def _b_mesh_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> _MeshCameraBlock:
+    """POV-Ray's Parse_Mesh_Camera: its checks, its errors and its one warning."""
+    p = g.positional
+    span = node.keyword_span or g.span
+    rays, method = int(p["rays_per_pixel"]), int(p["distribution"])
+    if rays <= 0:
+        raise it.error("E0202", "Rays per pixel may not be 0", span)
+    if not 0 <= method <= 3:
+        raise it.error("E0202", "Unrecognized distribution method", span)
+    if method in (2, 3) and rays != 1:
+        raise it.error("E0202", "Rays per pixel must be 1 for distribution method #2 or #3", span)
+    meshes: list[ir.CameraMesh] = []
+    smooth = False
+    for name, args, item_span in g.items:
+        if name == "smooth":
+            smooth = True
+        elif name == "object":
+            obj = args[0]
+            if not isinstance(obj.shape, ir.Mesh) or obj.children:
+                raise it.error("E0212", "a mesh_camera takes mesh or mesh2 objects", item_span)
+            meshes.append(ir.CameraMesh(obj.shape, obj.transform))
+    if smooth and method != 3:
+        raise it.error("E0202", "Smooth can only be used with distribution method #3", span)
+    if not meshes:
+        raise it.error("E0211", "mesh or mesh2 expected", span, "mesh_camera { 1 0 mesh { … } }")
+    if method == 0 and rays > len(meshes):
+        raise it.error(
+            "E0202",
+            "Rays per pixel must be <= number of meshes for distribution method #0",
+            span,
+        )
+    if p.get("max_distance"):
+        # primary rays have no end distance in strala yet: they go on to the background
+        it.unsupported("mesh_camera's longest ray", span)
+    if method == 3 and len(meshes) > 1:
+        it.sink.warning(
+            "W0312",
+            "Additional meshes after the first are ignored for distribution method #3",
+            span,
+        )
+        meshes = meshes[:1]
+    return _MeshCameraBlock(
+        ir.MeshCamera(
+            rays_per_pixel=rays,
+            distribution=method,
+            meshes=tuple(meshes),
+            max_distance=float(p.get("max_distance") or 0.0),
+            smooth=smooth,
+        )
+    )
 
 
 def _camera_copy(it: BuildContext, g: Grouped, node: syntax.Block, base) -> CameraValue:
@@ -550,6 +611,7 @@ BUILDERS: dict[str, Builder] = {
     "looks_like": _b_looks_like,
     "projected_through": _b_projected_through,
     "camera": _b_camera,
+    "mesh_camera": _b_mesh_camera,
     "global_settings": _b_global_settings,
     "radiosity": _b_radiosity,
     "background": _b_background,

@@ -258,15 +258,25 @@ def _b_shape(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
         shape = ir.Polygon(tuple(pts))
     elif kw == "triangle":
         _warn_degenerate_triangle(it, (p["p1"], p["p2"], p["p3"]), (), g.span)
-        shape = ir.Triangle(p["p1"], p["p2"], p["p3"])
+        shape = ir.Triangle(p["p1"], p["p2"], p["p3"], uvs=_corner_uvs(g))
     elif kw == "smooth_triangle":
         normals = (p["n1"], p["n2"], p["n3"])
         _warn_degenerate_triangle(it, (p["p1"], p["p2"], p["p3"]), normals, g.span)
-        shape = ir.Triangle(p["p1"], p["p2"], p["p3"], normals=normals)
+        shape = ir.Triangle(p["p1"], p["p2"], p["p3"], normals=normals, uvs=_corner_uvs(g))
     else:
         raise it.error("E0200", f"no builder for `{kw}`", g.span)
     obj = ObjectValue(shape, kw, span=node.span, default=it.default_texture)
     return apply_object_items(it, obj, g)
+
+
+def _corner_uvs(g: Grouped) -> tuple[ir.Vec2, ir.Vec2, ir.Vec2] | None:
+    """A triangle's last `uv_vectors <u,v>, <u,v>, <u,v>` (kept for its mesh)."""
+    uvs = None
+    for name, args, _span in g.items:
+        if name == "uv_vectors":
+            a, b, c = ((float(v[0]), float(v[1])) for v in args[:3])
+            uvs = (a, b, c)
+    return uvs
 
 
 def _polygon_closed(pts: list) -> bool:
@@ -403,12 +413,26 @@ def _inside_vector(mods: list[tuple[str, list[Any], Span]]) -> ir.Vec3 | None:
 
 
 def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
+    inner = [args[0] for name, args, _ in g.items if name == "object"]
+    if (
+        len(inner) == 1
+        and isinstance(inner[0].shape, ir.Mesh)
+        and not inner[0].children
+        and transforms.is_identity(inner[0].transform)
+    ):
+        # `mesh { Declared_Mesh … }`: its triangles as they are, not copied one by one (a
+        # mesh_camera may hold a hundred copies of a mesh of a triangle per pixel)
+        obj = ObjectValue(inner[0].shape, "mesh", span=node.span, default=it.default_texture)
+        rest = [(name, args, span) for name, args, span in g.items if name != "object"]
+        return apply_object_items(it, obj, Grouped({}, rest, g.span))
     verts: list[ir.Vec3] = []
     normals: list[ir.Vec3] = []
     faces: list[tuple[int, int, int]] = []
     face_tex: list[int] = []
     textures: list[ir.Texture] = []
     smooth = False
+    uvs: list[tuple[float, float]] = []
+    has_uvs = False
     mods = []
     _mesh_triangles_are_not_warned(it, node.span)
     zero_normal = False
@@ -434,13 +458,24 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
                 tri = replace(tri, shape=replace(tri.shape, normals=fixed))
         if isinstance(tri.shape, ir.Mesh) and not tri.children:  # `mesh { Declared_Mesh }`
             base = len(verts)
-            verts.extend(transforms.apply_point(tri.transform, q) for q in tri.shape.vertices)
+            moved = not transforms.is_identity(tri.transform)
+            src_v = tri.shape.vertices
+            verts.extend(
+                (transforms.apply_point(tri.transform, q) for q in src_v) if moved else src_v
+            )
             src_n = tri.shape.normals
             if src_n is not None:
                 smooth = True
-                normals.extend(transforms.apply_normal(tri.transform, q) for q in src_n)
+                normals.extend(
+                    (transforms.apply_normal(tri.transform, q) for q in src_n) if moved else src_n
+                )
             else:
-                normals.extend((0.0, 0.0, 0.0) for _ in tri.shape.vertices)
+                normals.extend((0.0, 0.0, 0.0) for _ in src_v)
+            if tri.shape.uvs is not None:
+                has_uvs = True
+                uvs.extend(tri.shape.uvs)
+            else:
+                uvs.extend((0.0, 0.0) for _ in src_v)
             for k, f in enumerate(tri.shape.faces):
                 faces.append((base + f[0], base + f[1], base + f[2]))
                 ft = tri.shape.face_textures
@@ -455,8 +490,15 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
             continue
         s = tri.shape
         pts = [transforms.apply_point(tri.transform, q) for q in (s.p1, s.p2, s.p3)]
+        if _degenerate(pts):
+            continue  # POV-Ray's Parse_Mesh leaves it out (and so does a mesh_camera)
         base = len(verts)
         verts.extend(pts)
+        if s.uvs is not None:
+            has_uvs = True
+            uvs.extend(s.uvs)
+        else:
+            uvs.extend([(0.0, 0.0)] * 3)
         if s.normals is not None:
             smooth = True
             normals.extend(transforms.apply_normal(tri.transform, nn) for nn in s.normals)
@@ -476,6 +518,7 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
         vertices=tuple(verts),
         faces=tuple(faces),
         normals=tuple(normals) if smooth else None,
+        uvs=tuple(uvs) if has_uvs else None,
         textures=tuple(textures),
         face_textures=tuple(face_tex) if textures else None,
         smooth=smooth,
@@ -487,14 +530,32 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     return apply_object_items(it, obj, Grouped({}, mods, g.span))
 
 
+def _degenerate(pts: list[tuple[float, float, float]]) -> bool:
+    """POV-Ray's Mesh::Degenerate: (p1 - p2) × (p3 - p2) has length zero."""
+    a, b, c = pts
+    u = (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+    v = (c[0] - b[0], c[1] - b[1], c[2] - b[2])
+    return transforms.cross(u, v) == (0.0, 0.0, 0.0)
+
+
 def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     lists: dict[str, ListValue] = {}
-    mods = []
+    mods: list[tuple[str, list[Any], Span]] = []
+    base: ObjectValue | None = None
     for name, args, span in g.items:
         if name == "list":
             lists[args[0].keyword] = args[0]
+        elif name == "object" and base is None and not lists and not mods:
+            base = args[0]
         else:
             mods.append((name, args, span))
+    if base is not None and not lists:
+        # `mesh2 { Declared_Mesh … }`: POV-Ray's Parse_Object_Id, a copy with more modifiers
+        if not isinstance(base.shape, ir.Mesh) or base.children:
+            raise it.error("E0212", f"`mesh2 {{ … }}` copies a mesh, not `{base.keyword}`", g.span)
+        obj = transform_object(base, ir.IDENTITY)
+        obj.span = node.span
+        return apply_object_items(it, obj, Grouped({}, mods, g.span))
     if "vertex_vectors" not in lists or "face_indices" not in lists:
         raise it.error("E0211", "`mesh2` needs vertex_vectors and face_indices", g.span)
     verts = [as_vec(v, 3).xyz for v in lists["vertex_vectors"].items]
@@ -523,37 +584,52 @@ def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
             "W0302", f"`face_indices` declares {declared} faces but lists {len(faces)}", g.span
         )
     textures = tuple(t for t in lists["texture_list"].items) if "texture_list" in lists else ()
-    normals = None
-    if "normal_vectors" in lists:
-        nvecs = [as_vec(v, 3).xyz for v in lists["normal_vectors"].items]
-        if "normal_indices" in lists:
-            # Different indexing for normals: unshare the vertices face by face.
-            nidx = [tuple(int(c) for c in v.padded(3)) for v in lists["normal_indices"].items]
-            if len(nidx) != len(faces):
-                raise it.error("E0202", "normal_indices needs one entry per face", g.span)
-            new_v: list[Any] = []
-            new_n: list[Any] = []
-            new_f: list[Any] = []
-            for f, nf in zip(faces, nidx, strict=True):
-                base = len(new_v)
-                new_v.extend(verts[c] for c in f)
-                new_n.extend(nvecs[c] for c in nf)
-                new_f.append((base, base + 1, base + 2))
-            verts, normals, faces = new_v, new_n, new_f
-        elif len(nvecs) == len(verts):
+    normals: list[Any] | None = None
+    nvecs = (
+        [as_vec(v, 3).xyz for v in lists["normal_vectors"].items]
+        if "normal_vectors" in lists
+        else None
+    )
+    uvecs = (
+        [(float(v[0]), float(v[1])) for v in lists["uv_vectors"].items]
+        if "uv_vectors" in lists
+        else None
+    )
+    nidx = _corner_indices(it, lists, "normal_indices", nvecs, len(faces), g)
+    uidx = _corner_indices(it, lists, "uv_indices", uvecs, len(faces), g)
+    uvs: list[Any] | None = None
+    if nidx is not None or uidx is not None:
+        # Normals or uvs indexed apart from the vertices: unshare the vertices face by face.
+        new_v: list[Any] = []
+        new_n: list[Any] = []
+        new_uv: list[Any] = []
+        new_f: list[Any] = []
+        # without its own indices a list serves only when it has one entry per vertex
+        use_n = nvecs is not None and (nidx is not None or len(nvecs) == nv)
+        use_uv = uvecs is not None and (uidx is not None or len(uvecs) == nv)
+        for k, f in enumerate(faces):
+            first = len(new_v)
+            new_v.extend(verts[c] for c in f)
+            if use_n:
+                new_n.extend(nvecs[c] for c in (nidx[k] if nidx is not None else f))  # type: ignore[index]
+            if use_uv:
+                new_uv.extend(uvecs[c] for c in (uidx[k] if uidx is not None else f))  # type: ignore[index]
+            new_f.append((first, first + 1, first + 2))
+        verts, faces = new_v, new_f
+        normals = new_n if new_n else None
+        uvs = new_uv if new_uv else None
+    else:
+        if nvecs is not None and len(nvecs) == nv:
             normals = nvecs
-    uvs = None
-    if "uv_vectors" in lists and "uv_indices" not in lists:
-        uvs = tuple((float(v[0]), float(v[1])) for v in lists["uv_vectors"].items)
-        if len(uvs) != len(verts):
-            uvs = None
+        if uvecs is not None and len(uvecs) == nv:
+            uvs = uvecs
     if any(t >= len(textures) for t in face_tex):
         raise it.error("E0202", "a face's texture index is outside texture_list", g.span)
     shape = ir.Mesh(
         vertices=tuple(verts),
         faces=tuple(faces),
         normals=tuple(normals) if normals is not None else None,
-        uvs=uvs,
+        uvs=tuple(uvs) if uvs is not None else None,
         textures=textures,
         face_textures=tuple(face_tex) if textures else None,
         smooth=normals is not None,
@@ -561,6 +637,25 @@ def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     )
     obj = ObjectValue(shape, "mesh2", span=node.span, default=it.default_texture)
     return apply_object_items(it, obj, Grouped({}, mods, g.span))
+
+
+def _corner_indices(
+    it: BuildContext,
+    lists: dict[str, ListValue],
+    name: str,
+    values: list[Any] | None,
+    n_faces: int,
+    g: Grouped,
+) -> list[tuple[int, int, int]] | None:
+    """A mesh2's `normal_indices` or `uv_indices`: one <a, b, c> per face into its list."""
+    if name not in lists or values is None:
+        return None
+    idx = [tuple(int(c) for c in v.padded(3)) for v in lists[name].items]
+    if len(idx) != n_faces:
+        raise it.error("E0202", f"{name} needs one entry per face", g.span)
+    if any(not 0 <= c < len(values) for f in idx for c in f):
+        raise it.error("E0202", f"{name} indexes outside 0..{len(values) - 1}", g.span)
+    return idx  # type: ignore[return-value]
 
 
 def _b_clip(it: BuildContext, g: Grouped, node: syntax.Block) -> _Clip:
