@@ -15,12 +15,13 @@ pixels (and indices, then truncated) as POV-Ray's image lookup does.
 from __future__ import annotations
 
 import math
-import struct
 import zlib
 from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
+
+from runtime.heightfield import png_palette_indices
 
 # POV-Ray's EPSILON, added to the pixel coordinates before they wrap
 _NUDGE = 1.0e-10
@@ -304,71 +305,15 @@ def _grey_levels(values: np.ndarray, depth: int, gamma: float | None) -> np.ndar
 
 def palette_indices(path: str) -> np.ndarray | None:
     """(H, W) palette indices of a palette PNG (colour type 3, not interlaced), as
-    float64; None for any other file. Image libraries hand out the colours only."""
+    float64; None for any other file. Image libraries hand out the colours only, so the
+    height field's PNG decoder reads them."""
     try:
         with open(path, "rb") as f:
             data = f.read()
     except OSError:
         return None
-    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
-        return None
-    pos, idat, head = 8, [], None
-    while pos + 8 <= len(data):
-        length, tag = struct.unpack(">I4s", data[pos : pos + 8])
-        body = data[pos + 8 : pos + 8 + length]
-        if tag == b"IHDR":
-            head = struct.unpack(">IIBBBBB", body)
-        elif tag == b"IDAT":
-            idat.append(body)
-        elif tag == b"IEND":
-            break
-        pos += 12 + length
-    if head is None:
-        return None
-    width, height, depth, colour, _, _, interlace = head
-    if colour != 3 or interlace != 0 or depth not in (1, 2, 4, 8):
-        return None
     try:
-        raw = zlib.decompress(b"".join(idat))
-    except zlib.error:
+        index = png_palette_indices(data)
+    except (ValueError, zlib.error):  # no header, interlaced, truncated or corrupt
         return None
-    stride = (width * depth + 7) // 8
-    if len(raw) < height * (stride + 1):
-        return None
-    rows = _unfilter(raw, height, stride, max(1, depth // 8))
-    bits = np.unpackbits(rows, axis=1) if depth < 8 else rows
-    if depth < 8:
-        bits = bits[:, : width * depth].reshape(height, width, depth)
-        weights = 1 << np.arange(depth - 1, -1, -1)
-        return (bits * weights).sum(axis=2).astype(np.float64)
-    return bits[:, :width].astype(np.float64)
-
-
-def _unfilter(raw: bytes, height: int, stride: int, bpp: int) -> np.ndarray:
-    """PNG scanlines with their filters undone (None, Sub, Up, Average, Paeth)."""
-    out = np.zeros((height, stride), dtype=np.uint8)
-    prev = np.zeros(stride, dtype=np.int64)
-    for r in range(height):
-        start = r * (stride + 1)
-        kind = raw[start]
-        line = np.frombuffer(raw, dtype=np.uint8, count=stride, offset=start + 1).astype(np.int64)
-        if kind == 0:
-            cur = line
-        elif kind == 2:
-            cur = (line + prev) & 0xFF
-        else:  # Sub, Average and Paeth run along the line
-            cur = np.zeros(stride, dtype=np.int64)
-            for i in range(stride):
-                a = cur[i - bpp] if i >= bpp else 0
-                if kind == 1:
-                    pred = a
-                elif kind == 3:
-                    pred = (a + prev[i]) >> 1
-                else:
-                    b, c = prev[i], prev[i - bpp] if i >= bpp else 0
-                    pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
-                    pred = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
-                cur[i] = (line[i] + pred) & 0xFF
-        out[r] = cur
-        prev = cur
-    return out
+    return None if index is None else index.astype(np.float64)
