@@ -332,16 +332,22 @@ def _refuse_degenerate_axis(it: BuildContext, base, cap, message: str, span) -> 
         raise it.error("E0290", message, span, "move the cap away from the base")
 
 
-def _b_csg(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
-    obj = ObjectValue(None, node.keyword, span=node.span, default=it.default_texture)
-    mods = []
+def _take_members(obj: ObjectValue, g: Grouped) -> list[tuple[str, list[Any], Span]]:
+    """A CSG's or light group's objects and lights into obj; the other items, in order."""
+    rest = []
     for name, args, span in g.items:
         if name == "object":
             obj.children.append(args[0])
         elif name == "light":
             obj.lights.append(args[0])
         else:
-            mods.append((name, args, span))
+            rest.append((name, args, span))
+    return rest
+
+
+def _b_csg(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
+    obj = ObjectValue(None, node.keyword, span=node.span, default=it.default_texture)
+    mods = _take_members(obj, g)
     if any(fractal_inversion.holds_julia(c) for c in obj.children):
         obj.flags[fractal_inversion.MARK] = True
         if node.keyword == "difference":  # POV-Ray inverts the later children now
@@ -368,12 +374,8 @@ def _b_light_group(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectVa
     obj = ObjectValue(None, "light_group", span=node.span, default=it.default_texture)
     obj.flags["global_lights"] = False
     mods = []
-    for name, args, span in g.items:
-        if name == "object":
-            obj.children.append(args[0])
-        elif name == "light":
-            obj.lights.append(args[0])
-        elif name == "global_lights":
+    for name, args, span in _take_members(obj, g):
+        if name == "global_lights":
             obj.flags["global_lights"] = bool(args[0]) if args and args[0] is not None else True
         else:
             mods.append((name, args, span))
