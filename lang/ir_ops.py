@@ -6,6 +6,7 @@ and lang.values; used by the evaluator and nothing it depends on."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable, Iterator
 from dataclasses import replace
 from typing import Any, TypeVar
 
@@ -133,6 +134,17 @@ def collect_lights(obj: ObjectValue, parent: ir.Matrix = ir.IDENTITY) -> list[ir
     for c in obj.children:
         out.extend(collect_lights(c, full))
     return out
+
+
+def every_object(objects: Iterable[ir.Object | None]) -> Iterator[ir.Object]:
+    """Every object, CSG children included (None entries, such as a light without a
+    looks_like object, are skipped)."""
+    for o in objects:
+        if o is None:
+            continue
+        yield o
+        if isinstance(o.shape, ir.CSG):
+            yield from every_object(o.shape.children)
 
 
 def group_lights(obj: ObjectValue, full: ir.Matrix) -> tuple[ir.Light, ...]:

@@ -14,12 +14,13 @@ import dataclasses
 import numpy as np
 
 from lang import ir
+from lang.ir_ops import every_object
 
 
 def with_group_lights(scene: ir.Scene) -> tuple[ir.Scene, int]:
     """(scene with every group light after its own lights, how many lights are the scene's)."""
     extra: list[ir.Light] = []
-    for obj in _walk(scene.objects):
+    for obj in every_object(scene.objects):
         for light in obj.local_lights:
             if not any(light is e or light == e for e in extra):
                 extra.append(light)
@@ -44,12 +45,3 @@ def receivers(
             )
         )
     return out
-
-
-def _walk(objects: tuple[ir.Object, ...]):
-    stack = list(objects)
-    while stack:
-        obj = stack.pop()
-        yield obj
-        if isinstance(obj.shape, ir.CSG):
-            stack.extend(obj.shape.children)

@@ -21,6 +21,7 @@ from typing import cast
 import numpy as np
 
 from lang import ir
+from lang.ir_ops import every_object
 from runtime import light_groups, prims, shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
@@ -482,7 +483,7 @@ class Culler:
         ):
             return False
         seen: set[int] = set()
-        for o in _walk(scene.objects + tuple(lt.looks_like for lt in scene.lights)):
+        for o in every_object(scene.objects + tuple(lt.looks_like for lt in scene.lights)):
             for t in _textures(o):
                 if id(t) not in seen:
                     seen.add(id(t))
@@ -571,16 +572,6 @@ def _bounding_points(obj: ir.Object) -> np.ndarray | None:
     if _TESSELLATED and isinstance(shape, _TESSELLATED):
         return Culler.hull(obj)
     return None
-
-
-def _walk(objects):
-    """Every object, CSG children and looks_like objects included."""
-    for o in objects:
-        if o is None:
-            continue
-        yield o
-        if isinstance(o.shape, ir.CSG):
-            yield from _walk(o.shape.children)
 
 
 def _textures(obj: ir.Object) -> list[ir.Texture]:
