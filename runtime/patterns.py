@@ -594,6 +594,31 @@ def image_uv(p: np.ndarray, map_type: int) -> tuple[np.ndarray, np.ndarray]:
     return x, y
 
 
+@lru_cache(maxsize=16)
+def _with_palette_entries(
+    path: str,
+    file_gamma: float | None,
+    gamma: float | None,
+    every: tuple[float | None, float | None],
+    entries: tuple,
+) -> np.ndarray | None:
+    """The image with two more channels, filter and transmit: every colour's (`every`),
+    then the palette entries' (`entries`: (channel, (index, amount))); None if it is no
+    palette PNG. Made once per image and settings."""
+    img = _load_image(path, file_gamma, gamma)
+    h, w = img.shape[:2]
+    index = bump_map.palette_indices(path)
+    if index is None or index.shape != (h, w):
+        return None
+    ft = np.zeros((h, w, 2))
+    for col, value in enumerate(every):
+        if value is not None:
+            ft[..., col] = float(value)
+    for col, (entry, amount) in entries:
+        ft[index == entry, col] = amount
+    return np.concatenate([img, ft], axis=2)
+
+
 def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np.ndarray:
     """(N,5) colours of an `image_map` pigment at pattern-space points; `span` (the
     pigment's source) is named when the image cannot be had."""
@@ -616,22 +641,17 @@ def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np
     # Image row 0 is the top (v = 1).
     fx = u * w
     fy = (1.0 - v) * h
-    # filter and transmit as two more channels: every colour's, then a palette entry's
-    ft = np.zeros((h, w, 2))
-    for col, key in enumerate(("filter", "transmit")):
-        if params.get(key) is not None:
-            ft[..., col] = float(params[key])
-    entries = [
+    entries = tuple(
         (c, e) for c, k in enumerate(("filter", "transmit")) for e in params.get(f"{k}_entries", ())
-    ]
+    )
     if entries:
-        index = bump_map.palette_indices(str(path))
-        if index is None or index.shape != (h, w):
+        fg = None if file_gamma is None else float(file_gamma)
+        every = (params.get("filter"), params.get("transmit"))
+        with_entries = _with_palette_entries(str(path), fg, gamma, every, entries)
+        if with_entries is None:
             _warn("image_map filter/transmit of a palette entry needs a palette PNG: ignored", span)
         else:
-            for col, (entry, amount) in entries:
-                ft[index == entry, col] = amount
-    img = np.concatenate([img, ft], axis=2)
+            img = with_entries
     if int(params.get("interpolate", 0)) in (2, 4):
         x0f = np.floor(fx - 0.5)
         y0f = np.floor(fy - 0.5)
@@ -653,7 +673,12 @@ def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np
         rgba = img[yi, xi]
     out = np.zeros((n, 5))
     out[:, :3] = rgba[:, :3]
-    out[:, 3:5] = rgba[:, 4:6]
+    if img.shape[2] == 6:  # per-pixel filter and transmit (palette entries)
+        out[:, 3:5] = rgba[:, 4:6]
+    else:
+        for col, key in ((3, "filter"), (4, "transmit")):
+            if params.get(key) is not None:
+                out[:, col] = float(params[key])
     if params.get("use_alpha"):
         out[:, 4] = np.maximum(out[:, 4], 1.0 - rgba[:, 3])
     if params.get("once"):
