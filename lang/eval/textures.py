@@ -731,13 +731,13 @@ def _b_tiles(it: BuildContext, g: Grouped, node: syntax.Block) -> _Tiles:
         )
     if not tiles[1]:
         raise it.error("E0211", "the texture after `tile2` is missing", where, _TILES_FORM)
-    return _Tiles(_layered(tiles[0]), _layered(tiles[1]))
+    return _Tiles(layered(tiles[0]), layered(tiles[1]))
 
 
 _TILES_FORM = "tiles { texture { … } tile2 texture { … } }"
 
 
-def _layered(textures: list[ir.Texture]) -> ir.Texture:
+def layered(textures: list[ir.Texture]) -> ir.Texture:
     """Textures written one after another, each layered over the ones before."""
     base, *rest = textures
     layers = list(base.layers)
