@@ -7,7 +7,7 @@ makes (the evaluator, the language server, translate). In order:
    by itself (povray_ini), then `$STRALA_LIBRARY_PATH`;
 3. strala's stdlib;
 4. POV-Ray's installed include folder, where POV-Ray is installed (for the files strala's
-   stdlib does not have, such as woods.inc: POV-Ray finds them there through the
+   stdlib does not have, such as stones.inc: POV-Ray finds them there through the
    Library_Path of its own povray.ini).
 
 Folders inside POV-Ray's installation, wherever they are named (by -L, by POV-Ray's own

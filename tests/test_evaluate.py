@@ -493,6 +493,31 @@ object { S texture { T1 } texture { T2 } }
     assert len(r.symbols["L"].layers) == 1
 
 
+def test_a_macro_giving_textures_declares_a_layered_texture():
+    # POV-Ray reads the macro's tokens in place: `#declare L = Two()` is `texture {…}
+    # texture {…}`, a layered texture (woods.inc builds its T_Wood* so)
+    r = ok("""#macro Two(C)
+   texture { pigment { rgb C } }
+   texture { pigment { rgbt <0, 0, 1, 0.5> } }
+#end
+#declare Three = texture { pigment { rgbt <0, 1, 0, 0.7> } } texture { pigment { rgbt 0.9 } }
+#macro Stack() Two(0.3) texture { Three } #end
+#declare L = Two(<1, 0, 0>)
+#declare M = Stack()
+#declare N = Two(0.5);
+#declare O = texture { pigment { rgb 1 } } texture { Three }
+""")
+    layered = r.symbols["L"]
+    assert layered.pigment.color[:3] == (1.0, 0.0, 0.0)
+    assert [t.pigment.color for t in layered.layers] == [(0.0, 0.0, 1.0, 0.0, 0.5)]
+    # a layered texture among them brings its layers along, bottom to top
+    m = r.symbols["M"]
+    assert m.pigment.color[:3] == (0.3, 0.3, 0.3)
+    assert [t.pigment.color[4] for t in m.layers] == [0.5, 0.7, 0.9]
+    assert r.symbols["N"].pigment.color[:3] == (0.5, 0.5, 0.5)
+    assert [t.pigment.color[4] for t in r.symbols["O"].layers] == [0.7, 0.9]
+
+
 def test_shapes_and_modifiers():
     r = ok("""box { <-1,-1,-1>, <1,1,1> no_shadow hollow }
 cylinder { 0, y, 0.5 open }

@@ -130,6 +130,8 @@ def test_stdlib_has_the_promised_files():
         "ior.inc",
         "stage1.inc",
         "shapes3.inc",
+        "woods.inc",
+        "woodmaps.inc",
     ):
         assert (STDLIB / name).is_file(), name
     assert (STDLIB / "README.md").is_file()
@@ -233,6 +235,8 @@ def _oracle_pairs():
         ("shapesq.inc", "shapesq.inc", "all", 19),
         ("rad_def.inc", "rad_def.inc", "all", 11),
         ("logo.inc", "logo.inc", "all", 3),
+        ("woodmaps.inc", "woodmaps.inc", "all", 38),
+        ("woods.inc", "woods.inc", "all", 112),  # with woodmaps.inc's maps
     ]
 
 

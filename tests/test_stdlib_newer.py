@@ -36,8 +36,6 @@ _DECLARED_NAME = re.compile(
 )
 # Files strala does not provide yet (scenes needing them can point -L at POV-Ray's folder).
 _FILES_NOT_PROVIDED = {
-    "woods.inc": "not written yet (layered wood textures, data only)",
-    "woodmaps.inc": "not written yet (wood colour maps, data only)",
     "stones.inc": "not written yet (includes stones1.inc and stones2.inc)",
     "stones1.inc": "not written yet (about 150 crackle and granite textures)",
     "stones2.inc": "not written yet (about 20 layered stone textures)",

@@ -117,6 +117,22 @@ box { <-1.5, 0, -0.5>, <1.5, 1.5, 0.5>
   texture { brick texture { pigment { rgbt <1, 1, 1, 0.8> } }
     texture { pigment { rgb <0.8, 0.3, 0> } } scale 0.1 } }
 """,
+    # colour maps with entries out of order: POV-Ray walks them as written (woods.inc's
+    # T_Wood32 has one); each band runs one map across x from -0.2 to 1.2
+    "colour_map_out_of_order": """#version 3.7;
+global_settings { assumed_gamma 1.0 }
+camera { orthographic location <0.5, 0, -5> look_at <0.5, 0, 0> right 1.4*x up 1.05*y }
+#macro Band(Y, Map)
+  box { <-0.2, Y - 0.1, 0>, <1.2, Y + 0.1, 1>
+    pigment { gradient x color_map { Map } }
+    finish { ambient 1 diffuse 0 } }
+#end
+Band(0.4, color_map { [0.3 rgb 0] [0.6 rgb 1] [0.45 rgb <1, 0, 0>] [0.9 rgb <0, 0, 1>] })
+Band(0.2, color_map { [0.5 rgb <0, 1, 0>] [0.2 rgb 1] [0.8 rgb <1, 0, 1>] })
+Band(0.0, color_map { [0.7 rgb 1] [0.1 rgb <1, 0.5, 0>] [0.4 rgb <0, 0, 1>] [0.3 rgb 0] })
+Band(-0.2, color_map { [0.2 rgb 0] [0.6 rgb 1] [0.6 rgb <1, 0, 0>] [0.4 rgb <0, 1, 0>] [1 rgb 1] })
+Band(-0.4, color_map { [0.8 rgb <1, 1, 0>] [0.9 rgb 0] [0.85 rgb <0, 1, 1>] [0.95 rgb 1] })
+""",
 }
 
 

@@ -40,6 +40,7 @@ from lang.eval import (
     grouping,
     splines,
     surfaces,
+    textures,
 )
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
@@ -485,10 +486,8 @@ class Interpreter:
                         layers.append(body[i])
                         i += 1
                     if layers:
-                        base = self.eval(node.value)
-                        extra = tuple(self.eval(b) for b in layers)
-                        base = replace(base, layers=base.layers + extra)
-                        self.declare(node.name, base, node.local)
+                        stack = [self.eval(node.value), *(self.eval(b) for b in layers)]
+                        self.declare(node.name, textures.layered(stack), node.local)
                         continue
                 start = len(out)
                 self.expand_node(node, out, cuts.spec_for(out, opens, spec) if opens else spec)
@@ -735,7 +734,7 @@ class Interpreter:
                 out.append(El(cuts.DECLARE, node, node.span))
                 out.extend(els)
                 return
-            value = self.single(els, node.span, "this declaration", since)
+            value = self.declared(els, node.span, since)
         else:
             value = self.eval_value(node.value)
         self.assign(node, value)
@@ -779,8 +778,16 @@ class Interpreter:
         ):
             since = len(self.sink.items)
             els = self.expand([node], None)
-            return self.single(els, node.span, "this declaration", since)
+            return self.declared(els, node.span, since)
         return self.eval(node)
+
+    def declared(self, els: list[El], span: Span, since: int) -> Any:
+        """The one value a #declare takes from a macro or directive; textures one after
+        another (a macro giving `texture {…} texture {…}`) make POV-Ray's layered texture."""
+        vals = [e for e in els if e.kind != "comma"]
+        if len(vals) > 1 and all(e.kind == "val" and isinstance(e.value, ir.Texture) for e in vals):
+            return textures.layered([e.value for e in vals])
+        return self.single(els, span, "this declaration", since)
 
     def single(self, els: list[El], span: Span, what: str, since: int | None = None) -> Any:
         vals = [e for e in els if e.kind != "comma"]

@@ -117,6 +117,45 @@ def _sorted_entries(entries: list[tuple[float, Any]]) -> tuple[tuple[float, Any]
     return tuple(sorted(entries, key=lambda e: e[0]))
 
 
+def _colour_map_entries(entries: list[tuple[float, ColorValue]]) -> tuple:
+    """A colour map's entries in ascending order, giving the colours POV-Ray gives. POV-Ray
+    keeps a map's entries as written and looks a value up by walking them from the first
+    (pattern.cpp's Search_Blend_Map: the first entry at or above the value, blended with
+    the one before it; at or past the last entry, the last). An out-of-order entry (woods.inc's
+    T_Wood32 has 0.95 before 0.90) so changes the colours near it; sorting would not."""
+    if all(a[0] <= b[0] for a, b in zip(entries, entries[1:], strict=False)):
+        return tuple(entries)
+    cols = [c.rgbft for _, c in entries]
+
+    def pair(v: float) -> tuple[int, int]:
+        if v >= entries[-1][0]:
+            return len(entries) - 1, len(entries) - 1
+        c = 0
+        while v > entries[c][0]:
+            c += 1
+        return (c, c) if c == 0 or v == entries[c][0] else (c - 1, c)
+
+    def colour(p: int, c: int, v: float) -> ColorValue:
+        if p == c:
+            return ColorValue(cols[c])
+        f = (v - entries[p][0]) / (entries[c][0] - entries[p][0])
+        mixed = tuple(a * (1.0 - f) + b * f for a, b in zip(cols[p], cols[c], strict=True))
+        return ColorValue(mixed)  # type: ignore[arg-type]
+
+    keys = sorted({v for v, _ in entries})
+    out = [(keys[0], colour(*pair(keys[0] - 1.0), keys[0]))]
+    # between two keys the same two entries blend: the ends of that ramp, key by key
+    for a, b in zip(keys, keys[1:], strict=False):
+        p, c = pair((a + b) / 2)
+        for v in (a, b):
+            if colour(p, c, v) != out[-1][1] or v != out[-1][0]:
+                out.append((v, colour(p, c, v)))
+    last = colour(*pair(keys[-1]), keys[-1])  # at the top key itself (the last entry's rule)
+    if last != out[-1][1]:
+        out.append((keys[-1], last))
+    return tuple(out)
+
+
 # Pattern default colours when a list pattern is given fewer colours than it takes: POV-Ray's
 # Parse_Blend_List (express.cpp) fills entry i from the default map's entry i (pigment.cpp:
 # checker takes Hex_Entries, so `checker Green` is all green in POV-Ray too). A list of
@@ -731,13 +770,13 @@ def _b_tiles(it: BuildContext, g: Grouped, node: syntax.Block) -> _Tiles:
         )
     if not tiles[1]:
         raise it.error("E0211", "the texture after `tile2` is missing", where, _TILES_FORM)
-    return _Tiles(_layered(tiles[0]), _layered(tiles[1]))
+    return _Tiles(layered(tiles[0]), layered(tiles[1]))
 
 
 _TILES_FORM = "tiles { texture { … } tile2 texture { … } }"
 
 
-def _layered(textures: list[ir.Texture]) -> ir.Texture:
+def layered(textures: list[ir.Texture]) -> ir.Texture:
     """Textures written one after another, each layered over the ones before."""
     base, *rest = textures
     layers = list(base.layers)
@@ -974,7 +1013,9 @@ def _b_map(it: BuildContext, g: Grouped, node: syntax.Block) -> MapValue:
         except (EvalError, IndexError) as e:
             msg = e.message if isinstance(e, EvalError) else "incomplete map entry"
             it.sink.error("E0202", msg, span)
-    return MapValue(kind if kind != "colour_map" else "color_map", _sorted_entries(entries))
+    if kind in ("color_map", "colour_map"):
+        return MapValue("color_map", _colour_map_entries(entries))
+    return MapValue(kind, _sorted_entries(entries))
 
 
 _IMAGE_FORMATS = frozenset("png jpeg tiff exr hdr gif tga iff ppm pgm sys".split())
