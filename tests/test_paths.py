@@ -1,6 +1,6 @@
 """Where includes are found (lang.paths): the including file's folder, the library folders
 in order, strala's stdlib, then POV-Ray's installed include folder, for the files strala's
-stdlib does not have (woods.inc, stones.inc …); a miss names every folder it searched."""
+stdlib does not have (woods.inc, chars.inc …); a miss names every folder it searched."""
 
 from __future__ import annotations
 

@@ -38,10 +38,6 @@ _DECLARED_NAME = re.compile(
 _FILES_NOT_PROVIDED = {
     "woods.inc": "not written yet (layered wood textures, data only)",
     "woodmaps.inc": "not written yet (wood colour maps, data only)",
-    "stones.inc": "not written yet (includes stones1.inc and stones2.inc)",
-    "stones1.inc": "not written yet (about 150 crackle and granite textures)",
-    "stones2.inc": "not written yet (about 20 layered stone textures)",
-    "stoneold.inc": "not written yet (the pre-3.0 stone textures)",
     "chars.inc": "not written yet (letters built from boxes and cylinders)",
     "makegrass.inc": "not written yet (grass meshes)",
     "meshmaker.inc": "not written yet (parametric mesh2 builders)",
