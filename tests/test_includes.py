@@ -3,7 +3,7 @@
 ~/.povray/3.7/povray.ini, the system one: the first that exists), $STRALA_LIBRARY_PATH,
 strala's stdlib, then POV-Ray's installed include folder, with every folder inside POV-Ray's
 installation after the stdlib (tests/test_paths.py has the search without INI files, and
-strala's woods.inc and POV-Ray's stones.inc rendered through it)."""
+strala's woods.inc and stones.inc rendered through it)."""
 
 from __future__ import annotations
 

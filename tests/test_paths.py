@@ -1,6 +1,6 @@
 """Where includes are found (lang.paths): the including file's folder, the library folders
 in order, strala's stdlib, then POV-Ray's installed include folder, for the files strala's
-stdlib does not have (stones.inc, chars.inc …); a miss names every folder it searched."""
+stdlib does not have (chars.inc, meshmaker.inc …); a miss names every folder it searched."""
 
 from __future__ import annotations
 
@@ -77,7 +77,7 @@ def test_a_miss_names_every_folder_searched(povray_folder, tmp_path):
 
 
 @pytest.mark.povray
-def test_stdlib_woods_and_povray_stones_render_as_povray(tmp_path):
+def test_stdlib_woods_and_stones_render_as_povray(tmp_path):
     if shutil.which("povray") is None or paths.povray_include() is None:
         pytest.skip("POV-Ray and its include files are not installed")
     scene = tmp_path / "w.pov"

@@ -132,6 +132,10 @@ def test_stdlib_has_the_promised_files():
         "shapes3.inc",
         "woods.inc",
         "woodmaps.inc",
+        "stones.inc",
+        "stones1.inc",
+        "stones2.inc",
+        "stoneold.inc",
     ):
         assert (STDLIB / name).is_file(), name
     assert (STDLIB / "README.md").is_file()
@@ -237,20 +241,52 @@ def _oracle_pairs():
         ("logo.inc", "logo.inc", "all", 3),
         ("woodmaps.inc", "woodmaps.inc", "all", 38),
         ("woods.inc", "woods.inc", "all", 112),  # with woodmaps.inc's maps
+        ("stones1.inc", "stones1.inc", "all", 87),
+        ("stones2.inc", "stones2.inc", "all", 20),
+        ("stones.inc", "stones.inc", "all", 107),
+        ("stoneold.inc", "stoneold.inc", "all", 148),
     ]
 
 
+# POV-Ray's stone files take colours from colors.inc by name (a scene includes it first),
+# and stones.inc and stoneold.inc include stones1.inc: they are read from a copy of the
+# four files, so POV-Ray's stones1.inc is the one included, not strala's (which the
+# stdlib-first search would find from POV-Ray's own folder).
+_READ_AFTER_COLORS = ("stones.inc", "stones1.inc", "stones2.inc", "stoneold.inc")
+
+
 @pytest.fixture(scope="module")
-def evaluated():
-    """Each file of the oracle pairs evaluated once, strala's and POV-Ray's."""
+def evaluated(tmp_path_factory):
+    """Each file of the oracle pairs evaluated once, strala's and POV-Ray's. The names of
+    a file read after colors.inc are those colors.inc does not give."""
     cache: dict[Path, Any] = {}
+    copies = tmp_path_factory.mktemp("povray_stones")
 
     def get(path: Path):
-        if path not in cache:
+        if path in cache:
+            return cache[path]
+        if path.parent != POV_INCLUDE or path.name not in _READ_AFTER_COLORS:
             cache[path] = compile_file(path)
-        return cache[path]
+            return cache[path]
+        for name in _READ_AFTER_COLORS:
+            shutil.copy(POV_INCLUDE / name, copies / name)
+        scene = copies / f"after_colors_{path.stem}.pov"
+        scene.write_text(f'#include "colors.inc"\n#include "{path.name}"\n')
+        result = compile_file(scene)
+        colours = evaluated_colours(copies).symbols
+        for name in colours:
+            result.symbols.pop(name, None)
+        cache[path] = result
+        return result
 
     return get
+
+
+def evaluated_colours(folder: Path):
+    """colors.inc alone, as the scenes above read it."""
+    scene = folder / "colors_only.pov"
+    scene.write_text('#include "colors.inc"\n')
+    return compile_file(scene)
 
 
 @needs_pov_includes
@@ -508,17 +544,21 @@ _VTRANSFORM_SHIM = """
 """
 
 
-def run_povray(folder: Path, scene: str, *, with_stdlib: bool, size=(8, 8)) -> str:
-    """Run POV-Ray on `scene` in `folder`. With `with_stdlib`, strala's include files are
-    copied beside the scene, where POV-Ray looks before its own include folder."""
+def run_povray(
+    folder: Path, scene: str, *, with_stdlib: bool, size=(8, 8), options: tuple[str, ...] = ()
+) -> str:
+    """Run POV-Ray on `scene` in `folder` (with further command-line `options`). With
+    `with_stdlib`, strala's include files are copied beside the scene, where POV-Ray looks
+    before its own include folder."""
     for old in folder.glob("*.inc"):
         old.unlink()
     if with_stdlib:
         for inc in STDLIB.glob("*.inc"):
             shutil.copy(inc, folder / inc.name)
     (folder / "scene.pov").write_text(scene)
+    size_options = (f"+W{size[0]}", f"+H{size[1]}")
     run = subprocess.run(
-        ["povray", "+Iscene.pov", "+Oscene.png", "-D", "-V", f"+W{size[0]}", f"+H{size[1]}"],
+        ["povray", "+Iscene.pov", "+Oscene.png", "-D", "-V", *size_options, *options],
         cwd=folder,
         capture_output=True,
         text=True,

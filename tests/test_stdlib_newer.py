@@ -36,10 +36,6 @@ _DECLARED_NAME = re.compile(
 )
 # Files strala does not provide yet (scenes needing them can point -L at POV-Ray's folder).
 _FILES_NOT_PROVIDED = {
-    "stones.inc": "not written yet (includes stones1.inc and stones2.inc)",
-    "stones1.inc": "not written yet (about 150 crackle and granite textures)",
-    "stones2.inc": "not written yet (about 20 layered stone textures)",
-    "stoneold.inc": "not written yet (the pre-3.0 stone textures)",
     "chars.inc": "not written yet (letters built from boxes and cylinders)",
     "makegrass.inc": "not written yet (grass meshes)",
     "meshmaker.inc": "not written yet (parametric mesh2 builders)",

@@ -188,8 +188,9 @@ def test_runner_on_a_tiny_corpus(tmp_path):
     (root / "users" / "good.pov").write_text(GOOD)
     (root / "users" / "strala_fails.pov").write_text(
         GOOD
-        + '#include "colors.inc"\n#include "stones.inc"\n'
-        + "box { -1, 1 texture { T_Stone8 } translate 5*x }\n"
+        # a colour map file of POV-Ray's include folder, which strala's stdlib lacks
+        + '#include "ash.map"\n'
+        + "box { -1, 1 pigment { wood color_map { M_Ash } } translate 5*x }\n"
     )
     (root / "users" / "broken.pov").write_text(BROKEN_FOR_BOTH)
     (root / "users" / "broken.inc").write_text("not a scene")
