@@ -130,6 +130,9 @@ def test_stdlib_has_the_promised_files():
         "ior.inc",
         "stage1.inc",
         "shapes3.inc",
+        "chars.inc",
+        "makegrass.inc",
+        "meshmaker.inc",
     ):
         assert (STDLIB / name).is_file(), name
     assert (STDLIB / "README.md").is_file()
@@ -233,6 +236,7 @@ def _oracle_pairs():
         ("shapesq.inc", "shapesq.inc", "all", 19),
         ("rad_def.inc", "rad_def.inc", "all", 11),
         ("logo.inc", "logo.inc", "all", 3),
+        ("chars.inc", "chars.inc", "all", 50),
     ]
 
 

@@ -42,9 +42,6 @@ _FILES_NOT_PROVIDED = {
     "stones1.inc": "not written yet (about 150 crackle and granite textures)",
     "stones2.inc": "not written yet (about 20 layered stone textures)",
     "stoneold.inc": "not written yet (the pre-3.0 stone textures)",
-    "chars.inc": "not written yet (letters built from boxes and cylinders)",
-    "makegrass.inc": "not written yet (grass meshes)",
-    "meshmaker.inc": "not written yet (parametric mesh2 builders)",
 }
 # Names a POV-Ray file declares that strala's file leaves out on purpose.
 _NAMES_LEFT_OUT = {
@@ -613,7 +610,7 @@ def test_povray_writes_the_same_files_with_the_stdlib(tmp_path):
 @needs_pov_includes
 def test_strala_writes_the_height_field_files_as_povray(tmp_path):
     # (not the df3 files: strala's #write has no uint8/uint16be yet). Compared without
-    # white space: POV-Ray writes a space after each vector, strala does not (yet).
+    # white space, numbers to 1e-6.
     scene = _WRITING.split("#declare G =")[0]
     for side in ("pov", "strala"):
         (tmp_path / side).mkdir()
