@@ -114,13 +114,16 @@ _ARITHMETIC: dict[str, Callable[[float, float], float]] = {
     "*": lambda p, q: p * q,
     "/": _div,
 }
+# As POV-Ray's parser: two floats at most EQUALITY_EPSILON apart are equal, so `<=` and
+# `>=` hold for them too (a loop `#while (T <= 1)` that adds 0.01 a hundred times, to
+# 1.0000000000000007, still runs its last step); `<` and `>` are exact.
 _COMPARISONS: dict[str, Callable[[float, float], float]] = {
     "<": lambda p, q: 1.0 if p < q else 0.0,
-    "<=": lambda p, q: 1.0 if p <= q else 0.0,
+    "<=": lambda p, q: 1.0 if p <= q or abs(p - q) <= EQUALITY_EPSILON else 0.0,
     ">": lambda p, q: 1.0 if p > q else 0.0,
-    ">=": lambda p, q: 1.0 if p >= q else 0.0,
-    "=": lambda p, q: 1.0 if abs(p - q) < EQUALITY_EPSILON else 0.0,
-    "!=": lambda p, q: 1.0 if abs(p - q) >= EQUALITY_EPSILON else 0.0,
+    ">=": lambda p, q: 1.0 if p >= q or abs(p - q) <= EQUALITY_EPSILON else 0.0,
+    "=": lambda p, q: 1.0 if abs(p - q) <= EQUALITY_EPSILON else 0.0,
+    "!=": lambda p, q: 1.0 if abs(p - q) > EQUALITY_EPSILON else 0.0,
 }
 _LOGIC: dict[str, Callable[[float, float], float]] = {
     "&": lambda p, q: 1.0 if p != 0.0 and q != 0.0 else 0.0,

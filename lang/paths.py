@@ -1,13 +1,15 @@
 """Where scene files find their includes and data files, and the one search every tool
 makes (the evaluator, the language server, translate). In order:
 
-1. the including file's folder;
+1. the including file's folder, then the main scene's folder (POV-Ray looks for a name
+   from where it runs, the scene's folder: so a file a stdlib macro writes and then
+   includes, as meshmaker.inc's do, is found);
 2. the library folders: `-L`/`+L` (and an INI file given on the command line), the Python
    API's `library_paths`, then the `Library_Path` entries of the INI file POV-Ray 3.7 reads
    by itself (povray_ini), then `$STRALA_LIBRARY_PATH`;
 3. strala's stdlib;
-4. POV-Ray's installed include folder, where POV-Ray is installed (for the files strala's
-   stdlib does not have, such as stones.inc: POV-Ray finds them there through the
+4. POV-Ray's installed include folder, where POV-Ray is installed (for the data files
+   strala's stdlib does not have, such as ash.map: POV-Ray finds them there through the
    Library_Path of its own povray.ini).
 
 Folders inside POV-Ray's installation, wherever they are named (by -L, by POV-Ray's own
@@ -112,19 +114,27 @@ def in_povray(folder: Path) -> bool:
 
 @dataclass(frozen=True, slots=True)
 class Found:
-    kind: str  # "absolute", "local" (the including file's folder), "library", "stdlib", "povray"
+    # "absolute", "local" (the including file's folder), "scene" (the main scene's folder),
+    # "library", "stdlib", "povray"
+    kind: str
     probed: str  # the path that was tried, as written
     path: str  # the same file, resolved
 
 
-def search_folders(folder: Path, libraries: Sequence[str]) -> list[tuple[str, Path]]:
-    """(kind, folder) in the order a name is looked up from a file in `folder` (the module's
-    docstring); a folder met twice is searched the first time."""
+def search_folders(
+    folder: Path, libraries: Sequence[str], scene: Path | None = None
+) -> list[tuple[str, Path]]:
+    """(kind, folder) in the order a name is looked up from a file in `folder` of the scene
+    in the folder `scene` (the module's docstring); a folder met twice is searched the
+    first time."""
     ours: list[tuple[str, Path]] = []
     theirs: list[tuple[str, Path]] = []
     seen: set[str] = set()
     installed = povray_include()
-    given = [("local", folder), *(("library", Path(p)) for p in libraries)]
+    given = [("local", folder)]
+    if scene is not None:
+        given.append(("scene", scene))
+    given += [("library", Path(p)) for p in libraries]
     if installed is not None:
         given.append(("povray", installed))
     left_out = povray_left_out()
@@ -135,16 +145,16 @@ def search_folders(folder: Path, libraries: Sequence[str]) -> list[tuple[str, Pa
         seen.add(key)
         if not in_povray(where):
             ours.append((kind, where))
-        elif kind == "local":  # a POV-Ray file's own folder, or a scene of POV-Ray's
+        elif kind in ("local", "scene"):  # a POV-Ray file's own folder, or a scene of POV-Ray's
             theirs.append((kind, where))
         elif not left_out:
             theirs.append(("povray", where))
     return [*ours, ("stdlib", STDLIB), *theirs]
 
 
-def searched(folder: Path, libraries: Sequence[str]) -> str:
+def searched(folder: Path, libraries: Sequence[str], scene: Path | None = None) -> str:
     """The folders a name was looked for in, in order, for a message."""
-    return ", ".join(str(where) for _, where in search_folders(folder, libraries))
+    return ", ".join(str(where) for _, where in search_folders(folder, libraries, scene))
 
 
 def find(
@@ -152,6 +162,7 @@ def find(
     folder: Path,
     libraries: Sequence[str],
     misses: MutableMapping[str, str | None] | None = None,
+    scene: Path | None = None,
 ) -> Found | None:
     """The file `name` names from a file in `folder`; an absolute name is itself. Every path
     tried in vain is recorded in `misses` (the scene store follows them: a file that appears
@@ -159,7 +170,7 @@ def find(
     if os.path.isabs(name):
         candidates = [("absolute", Path("/"))]
     else:
-        candidates = search_folders(folder, libraries)
+        candidates = search_folders(folder, libraries, scene)
     for kind, where in candidates:
         p = where / name
         if p.is_file():

@@ -646,7 +646,8 @@ def test_file_io(tmp_path):
 #fopen Bad "../escape.txt" write
 """)
     r = compile_file(str(main))
-    assert (tmp_path / "data.txt").read_text() == '1.5,<1,2,3>,"hi"\n'
+    # POV-Ray writes a vector with a space after it
+    assert (tmp_path / "data.txt").read_text() == '1.5,<1,2,3> ,"hi"\n'
     assert r.symbols["A"] == 1.5 and tuple(r.symbols["B"]) == (1, 2, 3) and r.symbols["C"] == "hi"
     (e,) = errors(r)
     assert "outside the scene's folder" in e.message
@@ -1031,3 +1032,19 @@ def test_macro_argument_after_an_object_ends_at_the_object():
     t = [o.transform for o in r.scene.objects]
     moved = [tuple(round(v, 9) for v in transforms.apply_point(m, (0, 0, 0))) for m in t]
     assert moved == [(0.0, -1.0, 1.0), (1.0, -1.0, 1.0), (3.0, 1.0, 2.0)]
+
+
+def test_comparisons_hold_within_povrays_epsilon():
+    """POV-Ray's parser takes floats at most 1e-10 apart as equal, for `=`, `!=`, `<=` and
+    `>=` (`<` and `>` are exact): a loop adding 0.01 up to `T <= 1` runs 101 times although
+    the sum passes 1 (POV-Ray 3.7 gives these values)."""
+    r = ok(
+        "#declare N = 0; #declare T = 0;\n"
+        "#while (T <= 1) #declare N = N + 1; #declare T = T + 0.01; #end\n"
+        "#declare A = (1 <= 1 - 5e-11); #declare B = (1 >= 1 + 5e-11);\n"
+        "#declare C = (1 < 1 + 5e-11); #declare D = (1 = 1 + 5e-11);\n"
+        "#declare E = (1 != 1 + 5e-11); #declare F = (1 <= 1 - 5e-10);\n"
+    )
+    s = r.symbols
+    assert s["N"] == 101.0
+    assert (s["A"], s["B"], s["C"], s["D"], s["E"], s["F"]) == (1.0, 1.0, 1.0, 1.0, 0.0, 0.0)

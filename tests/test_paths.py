@@ -1,6 +1,6 @@
 """Where includes are found (lang.paths): the including file's folder, the library folders
 in order, strala's stdlib, then POV-Ray's installed include folder, for the files strala's
-stdlib does not have (chars.inc, meshmaker.inc …); a miss names every folder it searched."""
+stdlib does not have (ash.map, fonts …); a miss names every folder it searched."""
 
 from __future__ import annotations
 
@@ -45,6 +45,40 @@ def test_search_order(povray_folder, tmp_path):
     assert paths.find("colors.inc", scene, []).kind == "stdlib"
     found = paths.find("only_povray.inc", scene, [])
     assert found.kind == "povray" and Path(found.path).parent == povray_folder.resolve()
+
+
+def test_the_scene_folder_comes_after_the_including_files(povray_folder, tmp_path):
+    scene, lib = tmp_path / "scene", tmp_path / "lib"
+    scene.mkdir()
+    lib.mkdir()
+    kinds = [k for k, _ in paths.search_folders(lib, [str(lib)], scene)]
+    assert kinds == ["local", "scene", "stdlib", "povray"]  # lib met twice: searched once
+    (scene / "x.inc").write_text("")
+    assert paths.find("x.inc", lib, [], scene=scene).kind == "scene"
+    (lib / "x.inc").write_text("")
+    assert paths.find("x.inc", lib, [], scene=scene).kind == "local"
+
+
+def test_an_include_file_finds_a_file_of_the_scenes_folder(povray_folder, tmp_path):
+    # POV-Ray looks for names where it runs (the scene's folder), so a library macro can
+    # #include a file the scene wrote or holds: meshmaker.inc's macros read their meshes back.
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "reader.inc").write_text('#macro Read() #include "data.inc" #end\n')
+    (tmp_path / "data.inc").write_text("#declare From_Scene = 3;\n")
+    r = compile_source('#include "reader.inc"\nRead()\n', str(tmp_path / "s.pov"), [str(lib)])
+    assert not [d for d in r.diagnostics if d.code == "E0220"]
+    assert r.symbols["From_Scene"] == 3.0
+
+
+@pytest.mark.parametrize("name", ["chars.inc", "makegrass.inc", "meshmaker.inc"])
+def test_the_stdlib_mesh_files_come_before_povrays_even_when_named(tmp_path, name):
+    installed = Path("/usr/share/povray-3.7/include")
+    if not (installed / name).is_file():
+        pytest.skip("POV-Ray's include files are not installed")
+    found = paths.find(name, tmp_path, [str(installed)])
+    assert found is not None and found.kind == "stdlib"
+    assert Path(found.path).parent == paths.STDLIB.resolve()
 
 
 def test_no_povray_folder_is_searched_where_none_is_installed(tmp_path, monkeypatch):

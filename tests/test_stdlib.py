@@ -136,6 +136,9 @@ def test_stdlib_has_the_promised_files():
         "stones1.inc",
         "stones2.inc",
         "stoneold.inc",
+        "chars.inc",
+        "makegrass.inc",
+        "meshmaker.inc",
     ):
         assert (STDLIB / name).is_file(), name
     assert (STDLIB / "README.md").is_file()
@@ -245,6 +248,7 @@ def _oracle_pairs():
         ("stones2.inc", "stones2.inc", "all", 20),
         ("stones.inc", "stones.inc", "all", 107),
         ("stoneold.inc", "stoneold.inc", "all", 148),
+        ("chars.inc", "chars.inc", "all", 50),
     ]
 
 

@@ -114,10 +114,11 @@ def _format_write(v: Any) -> str:
         return v
     if isinstance(v, float):
         return f"{v:g}"
+    # a vector or colour as POV-Ray writes it: %g components, then a space
     if isinstance(v, Vec):
-        return "<" + ",".join(f"{c:g}" for c in v) + ">"
+        return "<" + ",".join(f"{c:g}" for c in v) + "> "
     if isinstance(v, ColorValue):
-        return "<" + ",".join(f"{c:g}" for c in v.rgbft) + ">"
+        return "<" + ",".join(f"{c:g}" for c in v.rgbft) + "> "
     raise EvalError(f"#write cannot write {describe(v)}")
 
 

@@ -625,11 +625,9 @@ class Interpreter:
             raise self.error("E0202", "#include needs a file name string", node.span)
         found = self._find(name)
         if found is None:
+            where = paths.searched(self._folder(), self.library_paths, self._scene_folder())
             raise self.error(
-                "E0220",
-                f"include file `{name}` not found",
-                node.span,
-                f"searched {paths.searched(self._folder(), self.library_paths)}",
+                "E0220", f"include file `{name}` not found", node.span, f"searched {where}"
             )
         probed_at, path = found
         if path in self.file_stack:
@@ -701,7 +699,9 @@ class Interpreter:
         file's folder, the library paths, the stdlib (lang.paths). The misses are kept in
         `probed` (lang.scene_store follows them)."""
         try:
-            found = paths.find(name, self._folder(), self.library_paths, self.probed)
+            found = paths.find(
+                name, self._folder(), self.library_paths, self.probed, self._scene_folder()
+            )
         except OSError:  # a name the system cannot look up (too long): not found
             return None
         return None if found is None else (found.probed, found.path)
@@ -709,6 +709,10 @@ class Interpreter:
     def _folder(self) -> Path:
         """The folder of the file being read, where its includes are looked for first."""
         return Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()
+
+    def _scene_folder(self) -> Path | None:
+        """The main scene's folder, where includes are looked for next (lang.paths)."""
+        return Path(self.main_file).resolve().parent if self.main_file else None
 
     def standalone(self, result: Result) -> bool:
         """The result depends only on its files' text and the options, and has no errors:
