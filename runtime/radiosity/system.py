@@ -47,7 +47,8 @@ from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
 from runtime.radiosity.patches import Mesher, Patches, TooLarge, box_faces
 from runtime.radiosity.visibility import PatchVisibility
 
-CACHE_VERSION = 3  # 2: energy conservation, eye cell, budgeted refinement; 3: key inside
+CACHE_VERSION = 4  # 2: energy conservation, eye cell, budgeted refinement; 3: key inside;
+# 4: sky light and legacy ambient
 
 # A scene is "not closed" when more than this fraction of the light leaving its surfaces
 # (area-weighted row sums of F, visibility included) escapes to infinity.
@@ -295,8 +296,7 @@ class SceneMesher:
             self.warn("layered textures: radiosity uses the base layer's colour")
         fin = tex.finish
         rho = np.clip(rgb * fin.diffuse, 0.0, 0.999)
-        emis = rgb * np.asarray(fin.emission, dtype=np.float64)
-        return rho, emis
+        return rho, emitted(rgb, fin, self.prepared.scene.settings)
 
     def sides_of_plane(self, i: int, point: np.ndarray, normal: np.ndarray) -> tuple[bool, ...]:
         h = (self.witness[i] - point) @ normal
@@ -454,6 +454,20 @@ class SceneMesher:
         )
 
 
+def emitted(rgb: np.ndarray, fin: ir.Finish, settings: ir.Settings) -> np.ndarray:
+    """The light a surface of pigment `rgb` sends out by itself: pigment × emission, and,
+    before 3.7, pigment × ambient × ambient_light too: POV-Ray keeps `ambient` with
+    radiosity in legacy scenes and its radiosity rays see it like emission (an ambient
+    sky sphere lights the scene)."""
+    from runtime.context import legacy_rules
+
+    out = rgb * np.asarray(fin.emission, dtype=np.float64)
+    if legacy_rules(settings):
+        amb = np.asarray(fin.ambient, dtype=np.float64)
+        out = out + rgb * amb * np.asarray(settings.ambient_light, dtype=np.float64)
+    return out
+
+
 def _polygon_points(shape) -> np.ndarray:
     if isinstance(shape, ir.Disc):
         c = np.asarray(shape.center, dtype=np.float64)
@@ -486,11 +500,12 @@ def _meshable(prepared) -> list[int]:
     return sorted(set(out))
 
 
-def _gathered(F, B, patches: Patches, D) -> np.ndarray:
-    """G = F B, the light each patch gathers from the others; without a dense F, from the
-    patch's own equation B = E + ρ (D + G) (exact where ρ > 0; 0 on black patches)."""
+def _gathered(F, B, patches: Patches, D, S) -> np.ndarray:
+    """G = F B + S, the light each patch gathers from the others and the sky (S); without
+    a dense F, from the patch's own equation B = E + ρ (D + G) (exact where ρ > 0; 0 on
+    black patches)."""
     if F is not None:
-        return np.maximum(F @ B, 0.0)
+        return np.maximum(F @ B + S, 0.0)
     rho = patches.reflectance
     g = np.where(rho > 0, (B - patches.emission - rho * D) / np.maximum(rho, 1e-12), 0.0)
     return np.maximum(g, 0.0)
@@ -531,10 +546,33 @@ def hit_fraction(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays
     """(N,) the fraction of `rays` cosine-distributed rays from each patch's open points
     that hit a surface: 1 where the patch sees a closed scene (no sky through any
     opening); 1 − it estimates the patch's light that escapes. NaN when rays = 0."""
+    return closure(vis, pts, normal, rays, rng)[0]
+
+
+def closure(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays: int, rng,
+            sky=None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """`hit_fraction`, and (N,3) the sky's light arriving at each patch: the mean of
+    `sky(directions)` (the background or sky_sphere colour, None: black) over the
+    cosine-distributed rays that meet nothing — what POV-Ray's radiosity rays return
+    where they escape (POV units: a sky of colour c all around gives c)."""
     n = len(normal)
     if rays <= 0 or n == 0:
-        return np.full(n, np.nan)
+        return np.full(n, np.nan), np.zeros((n, 3))
     # Stratified cosine-weighted directions about each patch normal.
+    k = np.arange(rays)
+    d = cosine_directions(normal, rays, rng)
+    o = pts[:, k % pts.shape[1]]
+    hit, escaped = vis.hits_and_escapes(o.reshape(-1, 3), d.reshape(-1, 3))
+    light = np.zeros((n * rays, 3))
+    if sky is not None and escaped.any():
+        light[escaped] = sky(d.reshape(-1, 3)[escaped])
+    return hit.reshape(n, rays).mean(axis=1), light.reshape(n, rays, 3).mean(axis=1)
+
+
+def cosine_directions(normal: np.ndarray, rays: int, rng) -> np.ndarray:
+    """(N,rays,3) unit directions about each of the (N,3) unit normals, cosine-distributed
+    and stratified (rows and columns of a jittered grid, permuted: a Latin square)."""
+    n = len(normal)
     k = np.arange(rays)
     u1 = (k[None] + rng.random((n, rays))) / rays
     u2 = rng.permutation(rays)[None] / rays + rng.random((n, rays)) / rays
@@ -545,9 +583,7 @@ def hit_fraction(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays
     b = np.cross(normal, t)
     z = np.sqrt(np.maximum(0.0, 1 - u1))
     d = (r * np.cos(phi))[..., None] * t[:, None] + (r * np.sin(phi))[..., None] * b[:, None]
-    d += z[..., None] * normal[:, None]
-    o = pts[:, k % pts.shape[1]]
-    return vis.hits(o.reshape(-1, 3), d.reshape(-1, 3)).reshape(n, rays).mean(axis=1)
+    return d + z[..., None] * normal[:, None]
 
 
 def conserve(F: np.ndarray, closed: np.ndarray) -> None:
@@ -615,7 +651,7 @@ def _patterned_materials(prepared, patches: Patches, rng, samples: int = 8) -> N
         rgb = rgb.mean(axis=1)
         fin = obj.texture.finish
         patches.reflectance[rows] = np.clip(rgb * fin.diffuse, 0.0, 0.999)
-        patches.emission[rows] = rgb * np.asarray(fin.emission, dtype=np.float64)
+        patches.emission[rows] = emitted(rgb, fin, prepared.scene.settings)
 
 
 def unmeshed_tracer(prepared, meshed: set[int]):
@@ -744,7 +780,10 @@ def content_key(scene: ir.Scene, opts: Options, cell: EyeCell | None = None) -> 
     camera itself (viewer independence), not source positions (spans)."""
     h = hashlib.sha256()
     h.update(f"strala-radiosity-{CACHE_VERSION}".encode())
-    _hash_value(h, (scene.objects, scene.lights, opts))
+    st = scene.settings
+    # The sky lights the patches; before 3.7 so does every surface's ambient.
+    _hash_value(h, (scene.objects, scene.lights, opts, scene.sky_sphere, scene.background,
+                    st.version, st.ambient_light))  # fmt: skip
     if cell is not None and (cell.objects or cell.nodes):
         _hash_value(h, (sorted(cell.objects), sorted(cell.nodes)))
     return h.hexdigest()
@@ -838,6 +877,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     extra = unmeshed_tracer(prepared, set(sm.records))
     hollow = _hollow_solids(prepared, sm)
     rng = np.random.default_rng(opts.seed)
+    skyfn = sky_function(prepared)
     min_size = sm.mesher.size / 16
     threshold_rel = 0.02 * opts.error_bound
     sol = None
@@ -847,7 +887,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         n = len(patches)
         pts, beta = open_points(prepared, patches, opts.vis_samples, rng, sm.extent, hollow)
         vis = PatchVisibility(patches.verts, extra)
-        hit = hit_fraction(vis, pts, patches.normal, opts.closure_rays, rng)
+        hit, S = closure(vis, pts, patches.normal, opts.closure_rays, rng, skyfn)
         closed = hit == 1.0
         if solver.fits_dense(n, opts.dense_bytes):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
@@ -880,7 +920,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         _patterned_materials(prepared, patches, rng)
         # Shadow rays from the same open points (vis_samples per patch and light).
         D = direct_light(prepared, patches, opts.vis_samples, rng, points=pts)
-        E = patches.emission + patches.reflectance * D
+        E = patches.emission + patches.reflectance * (D + S)
         area = patches.area * np.maximum(1.0 - beta, 1e-6)
         sol = solver.solve(F, patches.reflectance, E, area, method=opts.method,
                            tol=_residual_tolerance(F, patches.reflectance, opts.tolerance),
@@ -892,7 +932,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
             break
         # Refine where the displayed quantity, the gathered light G, changes fast (not B:
         # a checker pigment makes B jump at every check while G stays smooth).
-        g = _gathered(F, sol.B, patches, D)
+        g = _gathered(F, sol.B, patches, D, S)
         field = VertexField(patches, g, weights=area, conform=False)
         mean = float((luminance(g) * area).sum() / area.sum())
         # A split adds three patches: within the budget, the worst patches go first.
@@ -904,7 +944,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         patches.subdivide(mask)
     assert sol is not None
     B = sol.B
-    G = _gathered(F, B, patches, D)
+    G = _gathered(F, B, patches, D, S)
     # The share of the light the surfaces reflect (power A·(B − E)) that hits nothing:
     # patches in the dark (a floor plane outside a room) or only emitting (an emitter's
     # back) are not openings that matter.
@@ -944,6 +984,18 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     return RadiosityResult(
         patches, B, G, sol, opts, sm.records, ambient, stats, sm.warnings, G_vertex, area
     )
+
+
+def sky_function(prepared):
+    """What a ray that escapes the scene sees (sky_sphere over the background), as a
+    function of unit directions; None when that is black everywhere."""
+    scene: ir.Scene = prepared.scene
+    if not scene.sky_sphere and not any(scene.background[:3]):
+        return None
+    from runtime import integrate
+
+    ctx = integrate.make_context(prepared)
+    return lambda dirs: integrate.sky(ctx, dirs)
 
 
 def _empty_result(sm, opts) -> RadiosityResult:
