@@ -779,7 +779,9 @@ class Radiosity:
 
     count: int = 35
     error_bound: float = 1.8
-    recursion_limit: int = 2
+    # POV-Ray's bounces of indirect light (its default is 2); None, when the scene does
+    # not say: every bounce, strala's converged solution.
+    recursion_limit: int | None = None
     brightness: float = 1.0
     gray_threshold: float = 0.0
     patch_size: float | None = None

@@ -42,6 +42,8 @@ class Radiosity(Protocol):
         self, obj: int, points: np.ndarray, ray_dir: np.ndarray, prim: np.ndarray | None = None
     ) -> np.ndarray: ...
 
+    def gather(self, ctx, points: np.ndarray, normals: np.ndarray) -> np.ndarray | None: ...
+
 
 class TileKernel(Protocol):
     """A compiled path that traces whole tiles (runtime.whitted.Kernel, which reads this

@@ -614,13 +614,22 @@ def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.
     pigment * (diffuse * G + emission) * opacity."""
     assert ctx.radiosity is not None  # called only when the scene's radiosity is solved
     g = np.zeros((len(rows), 3))
-    objs = hit.obj[rows]
-    for oid in np.unique(objs):
-        sel = np.nonzero(objs == oid)[0]
-        prim = hit.prim[rows][sel] if hit.prim is not None else None
-        g[sel] = ctx.radiosity.gathered(int(oid), hit.point[rows][sel], hit.dirs[rows][sel], prim)
     emis = np.asarray(fin.emission, dtype=np.float64)
     diffuse = np.reshape(np.asarray(fin.diffuse, dtype=np.float64), (-1, 1))
+    # POV-Ray gathers only where the result can show (its max_Radiosity_Contribution).
+    worth = np.broadcast_to((pig @ shading.GREY)[:, None] * diffuse, (len(rows), 1))[:, 0] * op
+    need = np.nonzero(worth > ctx.settings.adc_bailout)[0]
+    final = ctx.radiosity.gather(ctx, hit.point[rows][need], hit.normal[rows][need])
+    if final is not None:
+        g[need] = final
+    else:
+        objs = hit.obj[rows]
+        for oid in np.unique(objs):
+            sel = np.nonzero(objs == oid)[0]
+            prim = hit.prim[rows][sel] if hit.prim is not None else None
+            g[sel] = ctx.radiosity.gathered(
+                int(oid), hit.point[rows][sel], hit.dirs[rows][sel], prim
+            )
     out = pig * (diffuse * g + emis) * op[:, None]
     if ctx.legacy_opacity:
         amb = np.asarray(fin.ambient, dtype=np.float64)

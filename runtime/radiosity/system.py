@@ -47,6 +47,9 @@ from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
 from runtime.radiosity.patches import Mesher, Patches, TooLarge, box_faces
 from runtime.radiosity.visibility import PatchVisibility
 
+# POV-Ray's greyscale weights (its gray_threshold desaturates by them).
+GREY = np.array([0.297, 0.589, 0.114])
+
 CACHE_VERSION = 4  # 2: energy conservation, eye cell, budgeted refinement; 3: key inside;
 # 4: sky light and legacy ambient
 
@@ -81,6 +84,11 @@ class Options:
     vertex_gather: bool = False  # Gouraud from light gathered at the vertices (else averages)
     plane_scale: float = 8.0  # planes are clipped to the scene's box scaled by this
     seed: int = 0
+    # Bounces of indirect light (POV-Ray's recursion_limit); None: every bounce.
+    bounces: int | None = None
+    final_gather: bool = True  # the display traces one bounce per point (gather.py)
+    gather_rays: int = 35  # rays per point (POV-Ray's count) …
+    gather_cap: int = 64  # … at most, to bound the time
 
     @staticmethod
     def from_ir(r: ir.Radiosity, **extra) -> Options:
@@ -97,6 +105,8 @@ class Options:
             brightness=r.brightness,
             gray_threshold=r.gray_threshold,
             flat=r.display == "flat",
+            bounces=r.recursion_limit,
+            gather_rays=r.count,
             **extra,
         )
 
@@ -146,6 +156,25 @@ class RadiosityResult:
             )
         return self._field
 
+    def gather(self, ctx, points: np.ndarray, normals: np.ndarray) -> np.ndarray | None:
+        """(M,3) indirect light at points by a final gather over this solution (brightness
+        and gray_threshold applied), or None where the display reads the patches instead:
+        no final gather, or these points are themselves hit by gather rays."""
+        from runtime.radiosity import gather
+
+        if not self.options.final_gather or gather.gathering():
+            return None
+        rays = max(1, min(self.options.gather_rays, self.options.gather_cap))
+        return self._display(gather.final_gather(ctx, points, normals, rays))
+
+    def _display(self, g: np.ndarray) -> np.ndarray:
+        """POV-Ray's last steps on gathered light: toward grey by gray_threshold (its
+        greyscale weights), times brightness."""
+        t = self.options.gray_threshold
+        if t > 0:
+            g = (1 - t) * g + t * (g @ GREY)[:, None]
+        return g * self.options.brightness
+
     def gathered(
         self, obj: int, points: np.ndarray, ray_dir: np.ndarray, prim: np.ndarray | None = None
     ) -> np.ndarray:
@@ -163,11 +192,7 @@ class RadiosityResult:
             out[ok] = self.field.lookup(element[ok], points[ok])
         # The side facing the viewer was not meshed: nothing can light it.
         out[~ok] = 0.0
-        t = self.options.gray_threshold
-        if t > 0:
-            grey = luminance(out)[:, None]
-            out = (1 - t) * out + t * grey
-        return out * self.options.brightness
+        return self._display(out)
 
 
 # ------------------------------------------------------------------ building
@@ -826,7 +851,9 @@ def compute(
         r = scene.settings.radiosity or ir.Radiosity()
         opts = Options.from_ir(r)
     # The display (flat or Gouraud) reads the solution; it is not part of it.
-    key = content_key(scene, dataclasses.replace(opts, flat=False), eye_cell(prepared))
+    # So is the number of gather rays.
+    display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0)
+    key = content_key(scene, display, eye_cell(prepared))
     path = None if cache_dir is None else cache_path(Path(cache_dir), key)
     if path is not None and path.is_file():
         try:
@@ -862,9 +889,38 @@ def _print_warnings(res: RadiosityResult) -> None:
         print(f"strala: warning: {msg}", file=sys.stderr)
 
 
+def patch_levels(opts: Options) -> int | None:
+    """How many bounces the patches' G carries (None: all). With a final gather the
+    display traces the first bounce itself, so the patches carry one fewer."""
+    if opts.bounces is None:
+        return None
+    return max(0, opts.bounces - (1 if opts.final_gather else 0))
+
+
+def limited_gather(F: np.ndarray, patches: Patches, D: np.ndarray, S: np.ndarray,
+                   levels: int) -> np.ndarray:  # fmt: skip
+    """G after `levels` bounces, as POV-Ray's recursion_limit counts them: the deepest
+    surfaces show only emission and direct light, G_L = 0, and each level up gathers
+    G = S + F (E + ρ (D + G)) from the one below."""
+    G = np.zeros_like(D)
+    for _ in range(levels):
+        G = np.maximum(S + F @ (patches.emission + patches.reflectance * (D + G)), 0.0)
+    return G
+
+
 def _compute(prepared, opts: Options, log) -> RadiosityResult:
     t_start = time.perf_counter()
     say = log or (lambda msg: None)
+    if patch_levels(opts) == 0:
+        # recursion_limit 1 with a final gather: the gathered surfaces show no indirect
+        # light, so there is nothing for patches to carry.
+        z = np.zeros((0, 3))
+        m = Mesher(1.0)
+        none = solver.Solution(z, "none", 0, 0.0, True, 0.0)
+        keys = ("patches", "form_factor_seconds", "solve_seconds", "seconds", "iterations",
+                "residual")  # fmt: skip
+        return RadiosityResult(m.patches(), z, z, none, opts, {}, np.zeros(3),
+                               dict.fromkeys(keys, 0.0))  # fmt: skip
     sm = SceneMesher(prepared, opts)
     sm.run()
     stats: dict[str, float] = {}
@@ -945,6 +1001,9 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     assert sol is not None
     B = sol.B
     G = _gathered(F, B, patches, D, S)
+    levels = patch_levels(opts)
+    if levels is not None and F is not None:
+        G = limited_gather(F, patches, D, S, levels)
     # The share of the light the surfaces reflect (power A·(B − E)) that hits nothing:
     # patches in the dark (a floor plane outside a room) or only emitting (an emitter's
     # back) are not openings that matter.
