@@ -782,6 +782,7 @@ class Radiosity:
     # POV-Ray's bounces of indirect light (its default is 2); None, when the scene does
     # not say: every bounce, strala's converged solution.
     recursion_limit: int | None = None
+    media: bool = False  # POV-Ray's `media on`: radiosity rays see media (off: they pass)
     brightness: float = 1.0
     gray_threshold: float = 0.0
     patch_size: float | None = None

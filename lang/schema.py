@@ -576,7 +576,7 @@ BLOCKS: dict[str, BlockSpec] = {
                 "adc_bailout float | Accepted for POV-Ray; no meaning for the solver.",
                 "always_sample bool? | Accepted for POV-Ray; no meaning for the solver.",
                 "normal bool? | Use normal perturbation for radiosity.",
-                "media bool? | Radiosity through media.",
+                "media bool? | Radiosity rays see media (off by default: they pass through).",
                 "max_sample float | Clamp bright samples.",
                 "save_file string | Accepted for POV-Ray; no meaning for the solver.",
                 "load_file string | Accepted for POV-Ray; no meaning for the solver.",

@@ -6,6 +6,7 @@ makes the context (`make_context`) and shades with it; runtime.lights casts shad
 
 from __future__ import annotations
 
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol
 
@@ -32,6 +33,18 @@ class Media(Protocol):
         dist: np.ndarray,
         atmosphere: bool = True,
     ) -> np.ndarray: ...
+
+
+# Set while the rays of a radiosity final gather are traced (per thread: each tile's
+# thread traces its own rays). What they meet reads the patches instead of gathering
+# again, and shows no highlights (POV-Ray leaves phong and specular out of its radiosity
+# rays: a highlight seen by a few of them makes splotches).
+RADIOSITY_RAYS: ContextVar[bool] = ContextVar("strala_radiosity_rays", default=False)
+
+
+def radiosity_ray() -> bool:
+    """True while the rays being traced on this thread are radiosity gather rays."""
+    return RADIOSITY_RAYS.get()
 
 
 class Radiosity(Protocol):

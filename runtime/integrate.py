@@ -35,6 +35,7 @@ from runtime.context import (
     ReflectionRows,
     is_patterned,
     legacy_rules,
+    radiosity_ray,
     resolve_textures,
     texture_layers,
 )
@@ -271,13 +272,19 @@ def trace(
         )
     if ctx.scene.rainbows:
         col = apply_rainbows(ctx.scene.rainbows, d, hits.t, col)
-    if ctx.media is not None:
+    if ctx.media is not None and not (radiosity_ray() and not _radiosity_media(ctx)):
+        # POV-Ray's radiosity rays pass media unless the scene says `media on`.
         col = media.apply(ctx, o, d, hits.t, hits.obj, hits.normal, col)
     fogs = scene_fogs(ctx.scene)
     if fogs:
         col = apply_fogs(fogs, hits.t, col, o, d)
     out[alive] = col
     return out
+
+
+def _radiosity_media(ctx: Context) -> bool:
+    rad = ctx.settings.radiosity
+    return rad is not None and rad.media
 
 
 def _empty_like(h, n: int):
@@ -453,9 +460,11 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
     else:
         acc = radiosity_term(ctx, hit, rows, fin, pig, op)
     grain = shading.grain(pts) if np.any(fin.crand > 0) else None
+    gathered = radiosity_ray()
     for light, ldir, lcol in zip(ctx.scene.lights, lights.direction, lights.colour, strict=True):
+        highlights = not light.shadowless and not gathered
         acc += shading.light_terms(
-            fin, surf, pig, op, ldir[rows], lcol[rows], double, grain, not light.shadowless
+            fin, surf, pig, op, ldir[rows], lcol[rows], double, grain, highlights
         )
     result[rows] += acc
     r = fin.reflection
@@ -544,7 +553,7 @@ def shade_texture(
                     lcol[rows],
                     double,
                     shading.grain(pts) if fin.crand > 0 else None,
-                    not light.shadowless,
+                    not light.shadowless and not radiosity_ray(),
                 )
         result[rows] += np.where(active[:, None], acc * f, 0.0)
         # Reflection of this layer (POV-Ray: weighted by the translucency above it).

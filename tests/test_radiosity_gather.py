@@ -140,3 +140,15 @@ def test_limited_gather_converges_to_the_solution():
     one = system.limited_gather(F, p, D, S, 1)
     assert np.allclose(one, S + F @ (p.emission + rho * D))
     assert np.all(one <= G + 1e-12) and not np.allclose(one, G)
+
+
+def test_rays_per_point_follow_count_and_bound_the_work():
+    point = ir.Light((0.0, 5.0, 0.0))
+    area = ir.Light((0.0, 5.0, 0.0), area=ir.AreaLight((1, 0, 0), (0, 0, 1), 4, 4))
+    assert gather.rays_per_point(35, 64, [point]) == 35
+    assert gather.rays_per_point(400, 64, [point, point]) == 64
+    assert gather.rays_per_point(400, 64, []) == 64
+    # Two 4×4 area lights: 33 casts per gather ray; the floor of MIN_RAYS holds.
+    assert gather.rays_per_point(80, 64, [area, area]) == gather.MIN_RAYS
+    shadowless = ir.Light((0.0, 5.0, 0.0), shadowless=True, area=area.area)
+    assert gather.rays_per_point(80, 64, [shadowless] * 5) == 64

@@ -403,6 +403,8 @@ def _b_radiosity(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Radiosi
             fields[name] = int(args[0])
         elif name in ("error_bound", "brightness", "gray_threshold", "patch_size", "tolerance"):
             fields[name] = args[0]
+        elif name == "media":
+            fields["media"] = bool(args[0]) if args else True
         elif name == "method":
             if args[0] not in ("gauss_seidel", "progressive", "direct"):
                 it.sink.error(

@@ -11,18 +11,15 @@ where the patches cannot (ambient objects without patches, the sky through openi
 
 Deterministic: the ray pattern is a fixed lattice rotated per point by a hash of the
 point's coordinates, so an image does not depend on tiles, threads or batch order.
-Bounded: `rays` per point, capped by `Options.gather_cap`.
+Bounded: `rays` per point, capped by `Options.gather_cap` and by a budget of ray casts
+per point that counts the shadow rays each gather ray's hit sends (`rays_per_point`).
 """
 
 from __future__ import annotations
 
-from contextvars import ContextVar
-
 import numpy as np
 
-# Set while gather rays are traced: the surfaces they meet read the patches instead of
-# gathering again (one level, as each tile's thread traces its own rays).
-_GATHERING: ContextVar[bool] = ContextVar("strala_radiosity_gathering", default=False)
+from runtime.context import RADIOSITY_RAYS, radiosity_ray
 
 # POV-Ray's radiosity rays start one trace level down, at half the weight (its
 # recursion settings for the first bounce: trace level 1, weight 0.5 × brightness).
@@ -31,10 +28,26 @@ GATHER_WEIGHT = 0.5
 
 _GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 
+# Ray casts per shaded point the gather may spend (gather rays and their shadow rays):
+# 64 gather rays under two point lights. Never fewer than MIN_RAYS gather rays.
+WORK_PER_POINT = 192
+MIN_RAYS = 16
+
+
+def rays_per_point(count: int, cap: int, lights) -> int:
+    """Gather rays per point: the scene's count, at most `cap`, fewer where every hit
+    sends many shadow rays (area lights: one per grid sample, an upper bound)."""
+    cost = 1
+    for light in lights:
+        if light.shadowless:
+            continue
+        cost += light.area.size1 * light.area.size2 if light.area is not None else 1
+    return max(1, min(count, cap, max(MIN_RAYS, WORK_PER_POINT // cost)))
+
 
 def gathering() -> bool:
     """True while the rays of a final gather are being traced (on this thread)."""
-    return _GATHERING.get()
+    return radiosity_ray()
 
 
 def lattice(k: int) -> np.ndarray:
@@ -87,10 +100,10 @@ def final_gather(ctx, points: np.ndarray, normals: np.ndarray, rays: int) -> np.
         return np.zeros((m, 3))
     d = directions(points, normals, rays).reshape(-1, 3)
     o = np.repeat(points, rays, axis=0)
-    token = _GATHERING.set(True)
+    token = RADIOSITY_RAYS.set(True)
     try:
         col = integrate.trace(ctx, o, d, np.full(len(o), GATHER_WEIGHT), GATHER_LEVEL, None)
     finally:
-        _GATHERING.reset(token)
+        RADIOSITY_RAYS.reset(token)
     ctx.count("radiosity_rays", len(o))
     return col.reshape(m, rays, 3).mean(axis=1)

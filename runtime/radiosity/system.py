@@ -164,7 +164,8 @@ class RadiosityResult:
 
         if not self.options.final_gather or gather.gathering():
             return None
-        rays = max(1, min(self.options.gather_rays, self.options.gather_cap))
+        o = self.options
+        rays = gather.rays_per_point(o.gather_rays, o.gather_cap, ctx.scene.lights)
         return self._display(gather.final_gather(ctx, points, normals, rays))
 
     def _display(self, g: np.ndarray) -> np.ndarray:
