@@ -209,8 +209,10 @@ def trace(
     level: int | np.ndarray,
     skip: str | None | np.ndarray,
     continued: bool | np.ndarray = False,
+    depth: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(N,3) colours of rays.
+    """(N,3) colours of rays; `depth`, when given ((N,), inf at first), receives how far
+    each ray went before it met a surface (a final gather's records need it).
 
     level: the trace level of the surface that spawned each ray (0 for camera rays);
     `continued` rays (straight through ior-1 surfaces) stay at that level, the others are
@@ -245,6 +247,8 @@ def trace(
             hits = _empty_like(h, len(alive))
         _scatter_hits(hits, sel, h)
     assert hits is not None  # the alive rays hold at least one skip code
+    if depth is not None:
+        depth[alive] = hits.t
     hit = hits.obj >= 0
     col = np.zeros((len(alive), 3))
     miss = np.nonzero(~hit)[0]

@@ -93,17 +93,27 @@ def directions(points: np.ndarray, normals: np.ndarray, rays: int) -> np.ndarray
 def final_gather(ctx, points: np.ndarray, normals: np.ndarray, rays: int) -> np.ndarray:
     """(M,3) the light arriving at each point from the hemisphere about its normal (POV
     units: mean of the traced colours over cosine-distributed rays), before brightness."""
+    return gather_rays(ctx, points, normals, rays, depths=False)[0]
+
+
+def gather_rays(ctx, points: np.ndarray, normals: np.ndarray, rays: int, depths: bool = True):
+    """`final_gather`'s light, and the (M,rays,3) directions and (M,rays) distances (inf:
+    the ray escaped) of its rays, which an irradiance cache record needs; the distances
+    only when `depths` (None otherwise)."""
     from runtime import integrate  # the tracer; it imports nothing of radiosity
 
     m = len(points)
     if m == 0 or rays <= 0:
-        return np.zeros((m, 3))
-    d = directions(points, normals, rays).reshape(-1, 3)
+        return np.zeros((m, 3)), np.zeros((m, max(rays, 0), 3)), np.zeros((m, max(rays, 0)))
+    d = directions(points, normals, rays)
     o = np.repeat(points, rays, axis=0)
+    flat = d.reshape(-1, 3)
     token = RADIOSITY_RAYS.set(True)
     try:
-        col = integrate.trace(ctx, o, d, np.full(len(o), GATHER_WEIGHT), GATHER_LEVEL, None)
+        t = np.full(len(o), np.inf) if depths else None
+        col = integrate.trace(ctx, o, flat, np.full(len(o), GATHER_WEIGHT), GATHER_LEVEL, None,
+                              depth=t)  # fmt: skip
     finally:
         RADIOSITY_RAYS.reset(token)
     ctx.count("radiosity_rays", len(o))
-    return col.reshape(m, rays, 3).mean(axis=1)
+    return col.reshape(m, rays, 3).mean(axis=1), d, None if t is None else t.reshape(m, rays)

@@ -41,6 +41,7 @@ import numpy as np
 
 from lang import ir
 from runtime import transform as tf
+from runtime.radiosity import irradiance_cache
 from runtime.radiosity import solve as solver
 from runtime.radiosity.formfactor import form_factors, point_form_factors
 from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
@@ -89,6 +90,10 @@ class Options:
     final_gather: bool = True  # the display traces one bounce per point (gather.py)
     gather_rays: int = 35  # rays per point (POV-Ray's count) …
     gather_cap: int = 64  # … at most, to bound the time
+    # Gather at every shaded point (exact, slow) instead of at the irradiance cache's
+    # records with interpolation between them (POV-Ray's way, the default).
+    gather_every_point: bool = False
+    cache_rules: irradiance_cache.Rules = irradiance_cache.Rules()
 
     @staticmethod
     def from_ir(r: ir.Radiosity, **extra) -> Options:
@@ -96,6 +101,10 @@ class Options:
         # hour of form factors here; unless the scene asks for another number, use ours.
         default = ir.Radiosity.__dataclass_fields__["max_patches"].default
         budget = extra.pop("max_patches", Options.max_patches)
+        if extra.get("final_gather", True):
+            # The display gathers the first bounce itself; the patches carry the further
+            # ones, smooth enough for the first mesh: no refinement rounds.
+            extra.setdefault("max_rounds", 0)
         return Options(
             patch_size=r.patch_size,
             max_patches=budget if r.max_patches == default else r.max_patches,
@@ -107,6 +116,7 @@ class Options:
             flat=r.display == "flat",
             bounces=r.recursion_limit,
             gather_rays=r.count,
+            cache_rules=irradiance_cache.Rules.from_ir(r),
             **extra,
         )
 
@@ -143,6 +153,8 @@ class RadiosityResult:
     G_vertex: np.ndarray | None = None  # (V,3) gathered at the Gouraud vertices
     open_area: np.ndarray | None = None  # (N,) patch area outside other solids
     _field: VertexField | None = None
+    # The irradiance cache of the render in progress (its camera's; never saved).
+    cache: irradiance_cache.IrradianceCache | None = None
 
     @property
     def field(self) -> VertexField:
@@ -166,7 +178,35 @@ class RadiosityResult:
             return None
         o = self.options
         rays = gather.rays_per_point(o.gather_rays, o.gather_cap, ctx.scene.lights)
-        return self._display(gather.final_gather(ctx, points, normals, rays))
+        cache = self.cache
+        if cache is None or cache.reading is None:
+            ctx.count("radiosity_gathers", len(points))
+            return self._display(gather.final_gather(ctx, points, normals, rays))
+        how = cache.reading
+        wsum, out = cache.lookup(points, normals, how)
+        need = np.nonzero(~cache.served(wsum, how))[0]
+        if len(need):
+            p, n = points[need], normals[need]
+            light, dirs, depth = gather.gather_rays(ctx, p, n, rays, depths=how.record)
+            # Records in reach count with their weight, the new gather with one.
+            part = wsum[need][:, None]
+            out[need] = (out[need] * part + light) / (part + 1.0)
+            if how.record:
+                eye = ctx.scene.camera.location
+                cache.pending.append(
+                    irradiance_cache.samples_from_rays(p, n, light, dirs, depth, eye, cache.rules)
+                )
+        ctx.count("radiosity_gathers", len(need))
+        ctx.count("radiosity_reused", len(points) - len(need))
+        return self._display(out)
+
+    def pretrace(self, shoot, width: int, height: int, region) -> None:
+        """Fill the irradiance cache before the image is traced (irradiance_cache.py):
+        `shoot(xs, ys)` traces camera rays through pixel coordinates."""
+        if not self.options.final_gather or self.options.gather_every_point:
+            return
+        self.cache = irradiance_cache.IrradianceCache(self.options.cache_rules)
+        irradiance_cache.pretrace(self.cache, shoot, width, height, region)
 
     def _display(self, g: np.ndarray) -> np.ndarray:
         """POV-Ray's last steps on gathered light: toward grey by gray_threshold (its
@@ -853,7 +893,9 @@ def compute(
         opts = Options.from_ir(r)
     # The display (flat or Gouraud) reads the solution; it is not part of it.
     # So is the number of gather rays.
-    display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0)
+    display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
+                                  gather_every_point=False,
+                                  cache_rules=irradiance_cache.Rules())  # fmt: skip
     key = content_key(scene, display, eye_cell(prepared))
     path = None if cache_dir is None else cache_path(Path(cache_dir), key)
     if path is not None and path.is_file():
@@ -861,7 +903,7 @@ def compute(
             with path.open("rb") as f:
                 stored = pickle.load(f)
             if isinstance(stored, dict) and stored.get("key") == key:
-                res = dataclasses.replace(stored["result"], options=opts, _field=None)
+                res = dataclasses.replace(stored["result"], options=opts, _field=None, cache=None)
                 res.stats["cache_hit"] = 1.0
                 _print_warnings(res)
                 return res
@@ -873,7 +915,8 @@ def compute(
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp")
         with tmp.open("wb") as f:
-            pickle.dump({"key": key, "result": dataclasses.replace(res, _field=None)}, f)
+            kept = dataclasses.replace(res, _field=None, cache=None)
+            pickle.dump({"key": key, "result": kept}, f)
         tmp.replace(path)  # a reader never sees half a file
     return res
 
