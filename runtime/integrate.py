@@ -35,6 +35,7 @@ from runtime.context import (
     ReflectionRows,
     is_patterned,
     legacy_rules,
+    radiosity_ray,
     resolve_textures,
     texture_layers,
 )
@@ -208,8 +209,10 @@ def trace(
     level: int | np.ndarray,
     skip: str | None | np.ndarray,
     continued: bool | np.ndarray = False,
+    depth: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(N,3) colours of rays.
+    """(N,3) colours of rays; `depth`, when given ((N,), inf at first), receives how far
+    each ray went before it met a surface (a final gather's records need it).
 
     level: the trace level of the surface that spawned each ray (0 for camera rays);
     `continued` rays (straight through ior-1 surfaces) stay at that level, the others are
@@ -244,6 +247,8 @@ def trace(
             hits = _empty_like(h, len(alive))
         _scatter_hits(hits, sel, h)
     assert hits is not None  # the alive rays hold at least one skip code
+    if depth is not None:
+        depth[alive] = hits.t
     hit = hits.obj >= 0
     col = np.zeros((len(alive), 3))
     miss = np.nonzero(~hit)[0]
@@ -271,13 +276,19 @@ def trace(
         )
     if ctx.scene.rainbows:
         col = apply_rainbows(ctx.scene.rainbows, d, hits.t, col)
-    if ctx.media is not None:
+    if ctx.media is not None and not (radiosity_ray() and not _radiosity_media(ctx)):
+        # POV-Ray's radiosity rays pass media unless the scene says `media on`.
         col = media.apply(ctx, o, d, hits.t, hits.obj, hits.normal, col)
     fogs = scene_fogs(ctx.scene)
     if fogs:
         col = apply_fogs(fogs, hits.t, col, o, d)
     out[alive] = col
     return out
+
+
+def _radiosity_media(ctx: Context) -> bool:
+    rad = ctx.settings.radiosity
+    return rad is not None and rad.media
 
 
 def _empty_like(h, n: int):
@@ -453,9 +464,11 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
     else:
         acc = radiosity_term(ctx, hit, rows, fin, pig, op)
     grain = shading.grain(pts) if np.any(fin.crand > 0) else None
+    gathered = radiosity_ray()
     for light, ldir, lcol in zip(ctx.scene.lights, lights.direction, lights.colour, strict=True):
+        highlights = not light.shadowless and not gathered
         acc += shading.light_terms(
-            fin, surf, pig, op, ldir[rows], lcol[rows], double, grain, not light.shadowless
+            fin, surf, pig, op, ldir[rows], lcol[rows], double, grain, highlights
         )
     result[rows] += acc
     r = fin.reflection
@@ -544,7 +557,7 @@ def shade_texture(
                     lcol[rows],
                     double,
                     shading.grain(pts) if fin.crand > 0 else None,
-                    not light.shadowless,
+                    not light.shadowless and not radiosity_ray(),
                 )
         result[rows] += np.where(active[:, None], acc * f, 0.0)
         # Reflection of this layer (POV-Ray: weighted by the translucency above it).
@@ -614,13 +627,22 @@ def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.
     pigment * (diffuse * G + emission) * opacity."""
     assert ctx.radiosity is not None  # called only when the scene's radiosity is solved
     g = np.zeros((len(rows), 3))
-    objs = hit.obj[rows]
-    for oid in np.unique(objs):
-        sel = np.nonzero(objs == oid)[0]
-        prim = hit.prim[rows][sel] if hit.prim is not None else None
-        g[sel] = ctx.radiosity.gathered(int(oid), hit.point[rows][sel], hit.dirs[rows][sel], prim)
     emis = np.asarray(fin.emission, dtype=np.float64)
     diffuse = np.reshape(np.asarray(fin.diffuse, dtype=np.float64), (-1, 1))
+    # POV-Ray gathers only where the result can show (its max_Radiosity_Contribution).
+    worth = np.broadcast_to((pig @ shading.GREY)[:, None] * diffuse, (len(rows), 1))[:, 0] * op
+    need = np.nonzero(worth > ctx.settings.adc_bailout)[0]
+    final = ctx.radiosity.gather(ctx, hit.point[rows][need], hit.normal[rows][need])
+    if final is not None:
+        g[need] = final
+    else:
+        objs = hit.obj[rows]
+        for oid in np.unique(objs):
+            sel = np.nonzero(objs == oid)[0]
+            prim = hit.prim[rows][sel] if hit.prim is not None else None
+            g[sel] = ctx.radiosity.gathered(
+                int(oid), hit.point[rows][sel], hit.dirs[rows][sel], prim
+            )
     out = pig * (diffuse * g + emis) * op[:, None]
     if ctx.legacy_opacity:
         amb = np.asarray(fin.ambient, dtype=np.float64)
