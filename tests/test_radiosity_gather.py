@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -152,3 +154,18 @@ def test_rays_per_point_follow_count_and_bound_the_work():
     assert gather.rays_per_point(80, 64, [area, area]) == gather.MIN_RAYS
     shadowless = ir.Light((0.0, 5.0, 0.0), shadowless=True, area=area.area)
     assert gather.rays_per_point(80, 64, [shadowless] * 5) == 64
+
+
+def test_the_final_gather_is_taken_where_lights_or_the_sky_shine():
+    """Light only from emitting surfaces stays with the patches (exact form factors to the
+    emitter, where a gather's rays would have to find it); a light source or a sky brings
+    the final gather in."""
+    scene = _emitter_scene(1.0)
+    assert not system.gather_pays(scene)
+    lit = dataclasses.replace(scene, lights=(ir.Light((0.0, 2.0, 0.0)),))
+    assert system.gather_pays(lit)
+    blue = dataclasses.replace(scene, background=(0.2, 0.3, 0.9, 0.0, 0.0))
+    assert system.gather_pays(blue)
+    prepared = prepare(scene, 8, 8)
+    rad = system.compute(prepared)
+    assert not rad.options.final_gather and rad.options.max_rounds > 0

@@ -890,7 +890,7 @@ def compute(
     scene: ir.Scene = prepared.scene
     if opts is None:
         r = scene.settings.radiosity or ir.Radiosity()
-        opts = Options.from_ir(r)
+        opts = Options.from_ir(r, final_gather=gather_pays(scene))
     # The display (flat or Gouraud) reads the solution; it is not part of it.
     # So is the number of gather rays.
     display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
@@ -931,6 +931,15 @@ def _print_warnings(res: RadiosityResult) -> None:
     """On stderr, as prepare does with its own (one line each)."""
     for msg in res.warnings:
         print(f"strala: warning: {msg}", file=sys.stderr)
+
+
+def gather_pays(scene: ir.Scene) -> bool:
+    """Whether the display should take the first bounce by a final gather: where light
+    sources or the sky shine. Where all light comes from emitting surfaces (a Cornell box's
+    ceiling patch), the patches carry it better: their form factors to the emitters are
+    exact, while a gather's few dozen rays that must find a small emitter are noisy."""
+    sky = bool(scene.sky_sphere) or any(scene.background[:3])
+    return bool(scene.lights) or sky
 
 
 def patch_levels(opts: Options) -> int | None:
