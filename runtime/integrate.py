@@ -363,7 +363,7 @@ def shade(
     secondary = Secondary()
     resolved = resolve_textures(ctx, tex, point, raw)
     if resolved is None:
-        result, fil = _shade_groups(ctx, hit, lights, secondary, level)
+        result, fil, top = _shade_groups(ctx, hit, lights, secondary, level)
     else:
         # Shade every (hit, texture) pair of the patterned textures, then add them up by
         # weight: colour, filter and the rays each texture spawns (POV-Ray blends the fully
@@ -376,7 +376,9 @@ def shade(
             [d[src] for d in lights.direction], [c[src] for c in lights.colour]
         )
         sub_secondary = Secondary()
-        res, fl = _shade_groups(ctx, sub, sub_lights, sub_secondary, level[src])
+        # the textures' transmitted rays leave by the raw normal (each has its own top)
+        res, fl, _ = _shade_groups(ctx, sub, sub_lights, sub_secondary, level[src])
+        top = raw
         result = np.zeros((n, 3))
         fil = np.zeros((n, 3))
         np.add.at(result, src, w[:, None] * res)
@@ -388,35 +390,42 @@ def shade(
     trans = np.minimum(1.0, np.abs(fil @ GREY))
     through = np.nonzero((trans > ctx.settings.adc_bailout) & ctx.transmits[tex])[0]
     if len(through):
-        transmit(ctx, hit, level, skip, fil, through, secondary)
+        tir = transmit(ctx, hit, level, skip, fil, through, secondary, top)
+        if tir.any():
+            # POV-Ray: total internal reflection already carries the mirrored light, so
+            # the layers' own reflections about the same normal are not traced.
+            secondary.drop_top_reflections(through[tir])
     secondary.trace_into(ctx, point, result)
     return result
 
 
 def _shade_groups(ctx, hit: Hit, lights: LightColours, secondary: Secondary, level):
-    """(result, filter) of hits whose textures are plain or layered (not patterned)."""
+    """(result, filter, top normal: the top layer's perturbed normal) of hits whose
+    textures are plain or layered (not patterned)."""
     n = len(hit.obj)
     result = np.zeros((n, 3))
     fil = np.ones((n, 3))
+    top = hit.normal.copy()
     tex = hit.tex
     plain = ctx.plain[tex]
     if plain.any():
         shade_plain(ctx, np.nonzero(plain)[0], hit, lights, result, fil, secondary, level)
     for tid in np.unique(tex[~plain]):
         rows = np.nonzero(tex == tid)[0]
-        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, secondary, level)
-    return result, fil
+        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, secondary, level, top)
+    return result, fil, top
 
 
 @dataclass
 class Secondary:
     """The reflected and transmitted rays a wave spawns, traced together in one batch.
     Each request: rows of the wave, directions, colour multipliers, weights, trace levels,
-    continued flags, skip codes and the power (1/exponent) applied to what comes back."""
+    continued flags, skip codes, the power (1/exponent) applied to what comes back and
+    whether it is a reflection about the top layer's normal."""
 
     parts: list[tuple] = field(default_factory=list)
 
-    def add(self, rows, dirs, mult, weight, level, continued, skip, power=1.0) -> None:
+    def add(self, rows, dirs, mult, weight, level, continued, skip, power=1.0, top=False) -> None:
         k = len(rows)
         if k == 0:
             return
@@ -430,8 +439,19 @@ class Secondary:
                 np.broadcast_to(continued, (k,)),
                 np.broadcast_to(skip, (k,)),
                 np.broadcast_to(power, (k,)),
+                np.broadcast_to(top, (k,)),
             )
         )
+
+    def drop_top_reflections(self, rows: np.ndarray) -> None:
+        """Forget the reflections about the top normal queued for these rows of the wave."""
+        kept = []
+        for part in self.parts:
+            gone = part[8] & np.isin(part[0], rows)
+            if gone.any():
+                part = tuple(a[~gone] for a in part)
+            kept.append(part)
+        self.parts = [p for p in kept if len(p[0])]
 
     def trace_into(self, ctx: Context, point: np.ndarray, result: np.ndarray) -> None:
         if not self.parts:
@@ -502,6 +522,7 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
             False,
             SKIP_NO_REFLECTION,
             exp,
+            True,
         )
     f = shading.rgb_transmit(colour)
     conserve = fin.conserve_energy & reflects
@@ -510,9 +531,10 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
 
 
 def shade_texture(
-    ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, secondary: Secondary, level
+    ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, secondary: Secondary, level, top
 ):
-    """Accumulate the layers of texture `tid` at `rows` into result/fil; queue reflections."""
+    """Accumulate the layers of texture `tid` at `rows` into result/fil; queue reflections;
+    the top layer's perturbed normal into `top`."""
     s = ctx.settings
     pts = hit.point[rows]
     base_surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows], points=pts)
@@ -522,6 +544,7 @@ def shade_texture(
     # The normal a slope pigment reads: POV-Ray's PNormal, the last perturbed normal of the
     # layers so far (each layer's normal is perturbed before its pigment is evaluated).
     seen_normal = base_surf.normal
+    first = True
     for layer in ctx.textures[tid]:
         active = trans > s.adc_bailout
         if not active.any():
@@ -538,6 +561,10 @@ def shade_texture(
             seen_normal = surf.normal
         else:
             surf = base_surf
+        if first:
+            top[rows] = surf.normal
+            first = False
+        same_as_top = np.all(np.abs(surf.normal - top[rows]) <= shading.EPSILON, axis=1)
         colour = patterns.evaluate(layer.pigment, pts, ctx.gamma, seen_normal)
         pig = colour[:, :3]
         op = shading.opacity(colour, ctx.legacy_opacity)
@@ -588,6 +615,7 @@ def shade_texture(
                     False,
                     SKIP_NO_REFLECTION,
                     exp,
+                    same_as_top[use],
                 )
         f = f * shading.rgb_transmit(colour)
         if fin.conserve_energy and reflects:
@@ -596,12 +624,17 @@ def shade_texture(
     fil[rows] = f
 
 
-def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary) -> None:
+def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary, top) -> np.ndarray:
     """Queue rays through transparent surfaces: straight on where the ior is 1 (a continued
-    ray, same trace level), refracted otherwise (total internal reflection reflects instead
-    and is not filtered). Light that crossed the object's inside fades with the distance."""
+    ray, same trace level), refracted otherwise about the top layer's perturbed normal
+    (total internal reflection reflects instead and is not filtered). Light that crossed
+    the object's inside fades with the distance. Returns which rows reflected totally."""
     d = hit.dirs[rows]
-    n = hit.normal[rows]
+    raw = hit.normal[rows]
+    n = top[rows]
+    # POV-Ray refracts about the perturbed normal turned toward the ray
+    n = np.where((np.einsum("ij,ij->i", d, n) > 0)[:, None], -n, n)
+    tir_rows = np.zeros(len(rows), dtype=bool)
     w = hit.weight[rows] * np.abs(fil[rows]).max(axis=1)
     ior = ctx.ior[hit.obj[rows]]
     straight = np.abs(ior - 1.0) < shading.EPSILON
@@ -612,13 +645,15 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary) -> Non
         # Leaving the object (ray along its outward normal): ior → air, else air → ior.
         ratio = np.where(hit.leaving[rows[r_idx]], ior[r_idx], 1.0 / ior[r_idx])
         rd, tir = shading.refract(d[r_idx], n[r_idx], ratio)
-        rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], n[r_idx]), rd)
+        rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], raw[r_idx]), rd)
         out_dir[r_idx] = rd
         mult[r_idx[tir]] = 1.0
+        tir_rows[r_idx[tir]] = True
         ctx.count("refraction_rays", len(r_idx))
     if hit.depth is not None:
         mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], hit.leaving[rows], view=True)
     secondary.add(rows, out_dir, mult, w, level[rows], straight, skip[rows])
+    return tir_rows
 
 
 def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.ndarray:
