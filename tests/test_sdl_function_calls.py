@@ -48,9 +48,9 @@ def _values(text: str) -> dict[str, list[float]]:
 def _strala_values(text: str, tmp_path) -> dict[str, list[float]]:
     result = compile_source(text, str(tmp_path / "scene.pov"), queries=RuntimeQueries)
     assert result.scene is not None
-    assert not [d for d in result.diagnostics if d.severity.name == "WARNING"], [
-        d.message for d in result.diagnostics
-    ]
+    # probe scenes print values and hold no objects (POV-Ray's W0304 says so)
+    warned = [d for d in result.diagnostics if d.severity.name == "WARNING" and d.code != "W0304"]
+    assert not warned, [d.message for d in result.diagnostics]
     notes = "\n".join(d.message for d in result.diagnostics)
     return _values(notes)
 
@@ -101,7 +101,9 @@ def test_without_the_renderer_the_value_is_zero_and_said(tmp_path):
     text = VALUES.format(settings="")
     result = compile_source(text, str(tmp_path / "scene.pov"))
     assert result.scene is not None
-    warnings = [d.message for d in result.diagnostics if d.severity.name == "WARNING"]
+    warnings = [
+        d.message for d in result.diagnostics if d.severity.name == "WARNING" and d.code != "W0304"
+    ]
     assert "a pattern function called from the scene language gives 0 here" in warnings
     assert "a pigment function called from the scene language gives 0 here" in warnings
     assert "f_noise3d() called from the scene language gives 0 here" in warnings
@@ -134,7 +136,9 @@ def test_vturbulence_values_are_povrays(tmp_path):
 
 def test_vturbulence_without_the_renderer_is_zero_and_said(tmp_path):
     result = compile_source(TURBULENCE, str(tmp_path / "scene.pov"))
-    (warning,) = [d for d in result.diagnostics if d.severity.name == "WARNING"]
+    (warning,) = [
+        d for d in result.diagnostics if d.severity.name == "WARNING" and d.code != "W0304"
+    ]
     assert warning.message.startswith("vturbulence() called from the scene language")
     assert (warning.span.line, warning.span.col) == (5, 16)
     assert _values("\n".join(d.message for d in result.diagnostics))["T3"] == [0.0] * 3
