@@ -782,7 +782,18 @@ class Radiosity:
 
     count: int = 35
     error_bound: float = 1.8
-    recursion_limit: int = 2
+    # POV-Ray's bounces of indirect light (its default is 2); None, when the scene does
+    # not say: every bounce, strala's converged solution.
+    recursion_limit: int | None = None
+    media: bool = False  # POV-Ray's `media on`: radiosity rays see media (off: they pass)
+    # POV-Ray's irradiance cache: where the display gathers and how it interpolates.
+    nearest_count: int = 5
+    minimum_reuse: float = 0.015
+    maximum_reuse: float = 0.2
+    low_error_factor: float = 0.5
+    pretrace_start: float = 0.08
+    pretrace_end: float = 0.04
+    always_sample: bool = False
     brightness: float = 1.0
     gray_threshold: float = 0.0
     patch_size: float | None = None

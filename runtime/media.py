@@ -3,7 +3,7 @@
 Where a ray runs between its origin and its hit, each region it crosses adds its media:
 the inside of a hollow object whose interior holds media (found from the object's surface
 crossings along the ray and an inside test between them), and the atmosphere (the
-scene-wide `media`, everywhere but inside a non-hollow object). Every region is sampled at
+scene-wide `media`); none inside a non-hollow object. Every region is sampled at
 S stratified, jittered depths per piece; all samples of a ray are sorted by depth, so
 
     colour = colour_behind * exp(-tau(0, T)) + sum_k source_k * ds_k * exp(-tau(0, t_k))
@@ -143,7 +143,7 @@ def _pieces(region: Region, o, d, t_end, allowed, open_end: bool = False):
     t = np.sort(t, axis=1)
     bounds = np.concatenate([np.zeros((n, 1)), t, t_end[:, None]], axis=1)
     t0, t1 = bounds[:, :-1], bounds[:, 1:]
-    mask = t1 > t0 + 1e-9
+    mask = (t1 > t0 + 1e-9) & allowed[:, None]
     rows, cols = np.nonzero(mask)
     if len(rows):
         mid = 0.5 * (t0[rows, cols] + t1[rows, cols])
@@ -221,13 +221,15 @@ def apply(ctx, o, d, t_hit, hit_obj, normal, col) -> np.ndarray:
     t_end = np.where(np.isfinite(t_hit), t_hit, MAX_DISTANCE)
     hit = hit_obj >= 0
     leaving = hit & (np.einsum("ij,ij->i", normal, d) > 0)
-    # Atmospheric media stop inside non-hollow objects (a ray leaving one was inside it).
+    # No media at all inside a non-hollow object (a ray leaving one was inside it): POV-Ray
+    # computes a ray's media only while every object it is inside is hollow, so a solid
+    # object within a media container blanks the container's media too.
     in_solid = np.zeros(n, dtype=bool)
     in_solid[leaving] = ms.nonhollow[hit_obj[leaving]]
+    allowed = ~in_solid
     rng = _rng(d)
     parts = []
     for region in _all_regions(ms):
-        allowed = ~in_solid if region.node is None else np.ones(n, dtype=bool)
         s = _samples(region, o, d, t_end, allowed, _count(region, False), rng)
         if s is None:
             continue

@@ -154,6 +154,17 @@ sphere { 0, 1.5 pigment { rgbt 1 } hollow
     density { spherical color_map { [0 rgb 0] [0.5 rgb 0.3] [1 rgb 1] } }
     density { gradient x color_map { [0 rgb 1] [1 rgb 0.2] } scale 3 translate -1.5*x } } } }
 """,
+    # a non-hollow sphere (ior 1 and ior 1.1) inside each media sphere: no media inside it
+    "solid_inside_media": """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 0, -7> look_at 0 angle 45 }
+background { rgb <0.1, 0.15, 0.2> }
+sphere { <-1.3, 0, 0>, 1.2 pigment { rgbt 1 } hollow interior { media { emission 0.5 } } }
+sphere { <-1.3, 0, 0>, 0.8 pigment { rgbt 1 } }
+sphere { <1.3, 0, 0>, 1.2 pigment { rgbt 1 } hollow
+  interior { media { emission <0.6, 0.3, 0.1> absorption 0.3 } } }
+sphere { <1.3, 0, 0>, 0.8 pigment { rgbt 1 } interior { ior 1.1 } }
+""",
 }
 
 
@@ -164,7 +175,10 @@ def test_media_scenes_against_povray(name, tmp_path):
     ref = povray_image(SCENES[name], tmp_path, 160, 120)
     ours, messages = strala_image(SCENES[name], tmp_path, 160, 120)
     assert not [m for m in messages if "media" in m]
-    rmse, _ = image_errors(ours, ref)
+    rmse, off = image_errors(ours, ref)
+    if name == "solid_inside_media":
+        # measured 0.003 / 0% (0.064 / 15% with media inside the solid spheres)
+        assert rmse < 0.01 and off < 0.005, (rmse, off)
     assert rmse < 0.05, rmse
 
 

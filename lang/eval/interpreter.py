@@ -236,6 +236,10 @@ class Interpreter:
             self.file_stack.pop()
         for h in list(self.handles.values()):
             fileio.flush(self, h)
+        if not self.objects and not self.lights and not _is_include(filename):
+            # POV-Ray's Parse: a light source counts as an object there
+            lines = max(1, len(text.splitlines()))
+            self.sink.warning("W0304", "No objects in scene.", Span(filename, lines, 1, lines, 1))
         for name, span in self.main_declares.items():
             if name not in self.used:
                 self.sink.warning(
@@ -1390,3 +1394,9 @@ _DIRECTIVES: dict[type, Callable[..., None]] = {
     syntax.FileOp: Interpreter._d_fileop,
     syntax.Break: Interpreter._d_break,
 }
+
+
+def _is_include(filename: str) -> bool:
+    """An include file read on its own (the language server, `check` of a library): it
+    is not a scene, so an empty one is not worth POV-Ray's warning."""
+    return Path(filename).suffix.lower() in (".inc", ".mcr", ".map")
