@@ -62,10 +62,12 @@ def _look(tex: ir.Texture) -> ir.Texture:
 
 
 def coincident_faces(
-    objects: tuple[ir.Object, ...],
+    objects: tuple[ir.Object, ...], eye: ir.Vec3 | None = None
 ) -> list[tuple[ir.Object, ir.Object, str, float]]:
     """(first, second, axis, coordinate) for each pair of boxes with a shared face area
-    facing the same way, in different textures; `first` comes first in the scene."""
+    facing the same way, in different textures; `first` comes first in the scene. With
+    `eye` (the camera's location), only faces that look toward it: the others show at most
+    in reflections."""
     boxes = []
     for obj in _leaves(objects):
         box = _world_box(obj)
@@ -87,6 +89,10 @@ def coincident_faces(
     for (k, side, _), members in planes.items():
         if len(members) < 2:
             continue
+        _, lo0, hi0 = boxes[members[0]]
+        plane = hi0[k] if side else lo0[k]
+        if eye is not None and (eye[k] <= plane if side else eye[k] >= plane):
+            continue  # the face looks away from the camera
         a, b = [j for j in range(3) if j != k]
         # a sweep along axis a: each face meets only those whose extent along a overlaps
         members.sort(key=lambda n: boxes[n][1][a])

@@ -44,7 +44,7 @@ from lang.eval import (
 )
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
-from lang.eval.coincident import coincident_faces
+from lang.eval.coincident import MAX_PAIRS, coincident_faces
 from lang.eval.edits import Edits
 from lang.eval.elements import (
     LIST_KINDS,
@@ -304,14 +304,15 @@ class Interpreter:
     def _warn_coincident(self, scene: ir.Scene) -> None:
         """Boxes whose faces coincide in different textures: POV-Ray's pick between the two
         varies from pixel to pixel, strala's does not (lang.eval.coincident)."""
-        pairs = coincident_faces(scene.objects)
+        pairs = coincident_faces(scene.objects, scene.camera.location)
         if not pairs:
             return
         first, second, axis, coord = pairs[0]
         span = first.span or second.span
         if span is None:
             return
-        more = f" (and {len(pairs) - 1} more pairs)" if len(pairs) > 1 else ""
+        plus = "+" if len(pairs) >= MAX_PAIRS else ""  # the search stops there
+        more = f" (and {len(pairs) - 1}{plus} more pairs)" if len(pairs) > 1 else ""
         self.sink.warning(
             "W0315",
             f"this box's face and the box's at {second.span or 'another place'} lie in one"
