@@ -412,7 +412,9 @@ class Nurbs:
     """A NURBS surface (`nv > 0`), or a curve (`nv == 0`) rendered as a tube of `radius`.
     `points` are Euclidean, u varying fastest (index = j*nu + i); `weights` one per point.
     Knot vectors are complete (length n + degree + 1), validated by the evaluator.
-    `tolerance` is the chord-error bound in world units (None: from the camera)."""
+    `tolerance` is the chord-error bound in world units (None: from the camera). `patch`,
+    for POV-Ray's `bicubic_patch`, is its (u_steps, v_steps, flatness): the surface is then
+    cut into triangles as POV-Ray subdivides it, not to a tolerance."""
 
     u_degree: int
     v_degree: int
@@ -424,6 +426,7 @@ class Nurbs:
     v_knots: tuple[float, ...] = ()
     tolerance: float | None = None
     radius: float = 0.0
+    patch: tuple[int, int, float] | None = None
 
 
 @dataclass(frozen=True)

@@ -69,9 +69,11 @@ class MediaScene:
         return bool(self.regions) or self.atmosphere is not None
 
     def transmittance(self, ctx, points, dirs, dist, atmosphere: bool = True) -> np.ndarray:
-        """(N,3) share of light let through by the media between points and points + dist*dirs:
-        the media of objects always (as POV-Ray's shadow rays), the atmosphere's only when
-        `atmosphere` (the light's media_attenuation)."""
+        """(N,3) share of light let through by the media between points and points + dist*dirs.
+        As POV-Ray's shadow rays: an object's media up to the last of its surfaces the ray
+        crosses (each surface hit adds the media behind it); the stretch from there to the
+        light, and the atmosphere, only when `atmosphere` (the light's media_attenuation). A
+        light inside a media container is not dimmed by it by default."""
         n = len(points)
         tau = np.zeros((n, 3))
         t_end = np.minimum(dist, MAX_DISTANCE)
@@ -79,7 +81,8 @@ class MediaScene:
         allowed = np.ones(n, dtype=bool)
         regions = _all_regions(self) if atmosphere else self.regions
         for region in regions:
-            s = _samples(region, points, dirs, t_end, allowed, _count(region, True), rng)
+            count = _count(region, True)
+            s = _samples(region, points, dirs, t_end, allowed, count, rng, not atmosphere)
             if s is None:
                 continue
             r, t, ds = s
@@ -127,8 +130,9 @@ def coefficients(region: Region, points: np.ndarray, gamma) -> tuple[np.ndarray,
     return ext, emis, scat
 
 
-def _pieces(region: Region, o, d, t_end, allowed):
-    """(N,J) starts, ends and a mask of the pieces of each ray inside the region."""
+def _pieces(region: Region, o, d, t_end, allowed, open_end: bool = False):
+    """(N,J) starts, ends and a mask of the pieces of each ray inside the region; with
+    `open_end`, without the piece that reaches t_end inside the region (no surface there)."""
     n = len(o)
     if region.node is None:
         t0 = np.zeros((n, 1))
@@ -145,6 +149,8 @@ def _pieces(region: Region, o, d, t_end, allowed):
         mid = 0.5 * (t0[rows, cols] + t1[rows, cols])
         inside = region.node.inside(o[rows] + mid[:, None] * d[rows])
         mask[rows[~inside], cols[~inside]] = False
+    if open_end:
+        mask &= t1 < t_end[:, None]  # the others end at a crossing: crossings past t_end are t_end
     return t0, t1, mask
 
 
@@ -152,9 +158,9 @@ def _rng(d: np.ndarray) -> np.random.Generator:
     return np.random.default_rng(zlib.crc32(np.ascontiguousarray(d[:8]).tobytes()))
 
 
-def _samples(region: Region, o, d, t_end, allowed, count: int, rng):
+def _samples(region: Region, o, d, t_end, allowed, count: int, rng, open_end: bool = False):
     """Flat (ray, depth, ds) of `count` stratified jittered samples per piece."""
-    t0, t1, mask = _pieces(region, o, d, t_end, allowed)
+    t0, t1, mask = _pieces(region, o, d, t_end, allowed, open_end)
     rows, cols = np.nonzero(mask)
     if not len(rows):
         return None

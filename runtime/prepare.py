@@ -108,6 +108,15 @@ class Tessellator:
                 from runtime.heightfield import height_field_mesh
 
                 return height_field_mesh(shape, compile_xyz)
+            if isinstance(shape, ir.Nurbs) and shape.patch is not None:
+                # POV-Ray's own triangles: flat, with its interpolated normals, and shadow
+                # rays from the triangles (not the curved surface) as POV-Ray's
+                from runtime.bezier import bicubic_patch_mesh
+
+                net = shape.points  # u fastest; POV-Ray lists the points along v first
+                pov_order = [net[4 * (k % 4) + k // 4] for k in range(16)]
+                verts, faces, normals, uvs = bicubic_patch_mesh(pov_order, *shape.patch)
+                return ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
             if isinstance(shape, ir.Nurbs):
                 from runtime.tessellate import nurbs_mesh
 

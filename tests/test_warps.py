@@ -82,6 +82,22 @@ plane { y, 0 pigment { gradient x color_map { [0 rgb 0.2][1 rgb 0.9] } warp { pl
 box { -0.5, 0.5 rotate <30,40,0> translate <0, 0.6, -2.5>
   pigment { checker rgb 0 rgb 1 scale 0.05 warp { cubic } } }
 """,
+    # a pigment map's entries are evaluated at the outer pattern's warped point (measured
+    # 0.0036 and 0.0013 rmse at 96x72; before, 0.155 / 25% and 0.062 / 37%: the entries
+    # ignored the warps, and `average` composed two warps' transforms in the wrong order)
+    "pigment_map_warps": HEAD
+    + """#declare Stripes = pigment { gradient z color_map { [0.5 rgb <0.1,0.5,0.8>]
+  [0.5 rgb <1,0.9,0.7>] } frequency 3 }
+#declare Spots = pigment { bozo color_map { [0 rgb <0.8,0.2,0.1>] [1 rgb <0.2,0.7,0.2>] }
+  scale 0.3 }
+plane { y, 0 pigment { gradient x pigment_map { [0 Stripes] [0.5 Stripes] [0.5 Spots]
+  [1 Spots] } scale <2,1,1> warp { turbulence 0.3 } rotate 40*y
+  warp { turbulence <0.2,0,0.4> } scale <1,1,0.5> } }
+sphere { <0, 1, 0>, 1 pigment { average pigment_map { [1 Stripes] [1 Spots] }
+  scale <2,1,1> warp { turbulence 0.3 } rotate 40*y warp { turbulence <0.2,0,0.4> } } }
+box { <1.2,0,-1>, <2.6,1.4,0.4> pigment { bozo pigment_map { [0.5 Stripes] [0.5 Spots] }
+  turbulence 0.4 scale 1.5 rotate 20*y } }
+""",
 }
 
 

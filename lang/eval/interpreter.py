@@ -44,6 +44,7 @@ from lang.eval import (
 )
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
+from lang.eval.coincident import MAX_PAIRS, coincident_faces
 from lang.eval.edits import Edits
 from lang.eval.elements import (
     LIST_KINDS,
@@ -248,6 +249,7 @@ class Interpreter:
                     "remove the declaration, or use the name",
                 )
         scene = self._scene()
+        self._warn_coincident(scene)
         symbols = {k: v for k, v in self.scopes[0].items()}
         return Result(scene, _once(self.sink.items), symbols, list(self.files))
 
@@ -298,6 +300,26 @@ class Interpreter:
         )
         defaults = self._pattern_defaults()
         return with_pattern_defaults(scene, defaults) if defaults else scene
+
+    def _warn_coincident(self, scene: ir.Scene) -> None:
+        """Boxes whose faces coincide in different textures: POV-Ray's pick between the two
+        varies from pixel to pixel, strala's does not (lang.eval.coincident)."""
+        pairs = coincident_faces(scene.objects, scene.camera.location)
+        if not pairs:
+            return
+        first, second, axis, coord = pairs[0]
+        span = first.span or second.span
+        if span is None:
+            return
+        plus = "+" if len(pairs) >= MAX_PAIRS else ""  # the search stops there
+        more = f" (and {len(pairs) - 1}{plus} more pairs)" if len(pairs) > 1 else ""
+        self.sink.warning(
+            "W0315",
+            f"this box's face and the box's at {second.span or 'another place'} lie in one"
+            f" plane ({axis} = {coord:g}) in different textures{more}: POV-Ray shows either"
+            " texture from pixel to pixel there, strala always the first one",
+            span,
+        )
 
     def _pattern_defaults(self) -> dict[str, int]:
         """The scene-wide values POV-Ray's patterns read at render time, where they differ
