@@ -85,7 +85,8 @@ def test_spherical_covers_longitude_and_latitude():
 def test_camera_blocks_read_the_type_and_angles():
     def camera(body: str) -> ir.Camera:
         r = compile_source(f"camera {{ {body} location 0 look_at z }}", "c.pov")
-        assert not [d for d in r.diagnostics if d.severity != "hint"], r.diagnostics
+        said = [d for d in r.diagnostics if d.severity != "hint" and d.code != "W0304"]
+        assert not said, r.diagnostics  # W0304: a camera alone holds no objects
         return r.scene.camera
 
     c = camera("cylinder 3 angle 100")

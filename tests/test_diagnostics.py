@@ -227,7 +227,7 @@ def test_hints_say_how_to_call_and_what_the_range_is():
         "#declare D = <1, 2>.z;\n#declare E = 1 / 0;\n"
     )
     diags = compile_source(src, "h.pov").diagnostics
-    hints = {d.span.line: d.hint for d in diags if d.code != "W0400"}
+    hints = {d.span.line: d.hint for d in diags if d.code not in ("W0400", "W0304")}
     assert hints[1] == "call it as pow(A, B)"
     assert "3 element(s)" in hints[3]
     assert ".u .v" in hints[4]

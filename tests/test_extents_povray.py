@@ -118,7 +118,7 @@ def test_text_prefix_extents_match_povray(tmp_path) -> None:
     scene.write_text(text)
     theirs = _figures(povray_debug(scene))
     result = compile_source(text, str(scene))
-    assert not [d.message for d in result.diagnostics if d.code != "N0100"]
+    assert not [d.message for d in result.diagnostics if d.code not in ("N0100", "W0304")]
     ours = _figures("\n".join(d.message for d in result.diagnostics))
     assert set(theirs) == set(ours) and len(theirs) == 2 * 17
     for key, want in theirs.items():

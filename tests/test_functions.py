@@ -77,8 +77,15 @@ def substitute(expr: str, p: tuple[float, float, float]) -> str:
     return re.sub(r"\b[xyz]\b", lambda m: f"({p['xyz'.index(m.group())]!r})", expr)
 
 
+# Coordinates on a 1e-3 grid: the scene language compares with POV-Ray's parser tolerance
+# (1e-10) while function bodies compare exactly, as POV-Ray's function VM does, so the two
+# may part only on near-ties such as `x <= y` at x = 0, y = -5e-110; the grid keeps the
+# points away from those.
+COORD = st.floats(-2, 2).map(lambda v: round(v, 3))
+
+
 @settings(max_examples=60, deadline=None)
-@given(EXPRESSIONS, st.lists(st.tuples(*[st.floats(-2, 2)] * 3), min_size=1, max_size=4))
+@given(EXPRESSIONS, st.lists(st.tuples(*[COORD] * 3), min_size=1, max_size=4))
 def test_compiled_equals_interpreter(expr, points):
     f = compile_function(fn_of(f"#declare F = function {{ {expr} }}"))
     xs = np.array(points, dtype=np.float64)

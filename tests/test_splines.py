@@ -57,7 +57,8 @@ def _values(text: str) -> dict[str, list[float]]:
 
 def _strala(scene: str) -> dict[str, list[float]]:
     result = compile_source(scene, "splines.pov")
-    assert [d.message for d in result.diagnostics if d.severity.name != "NOTE"] == []
+    said = [d for d in result.diagnostics if d.severity.name != "NOTE" and d.code != "W0304"]
+    assert [d.message for d in said] == []  # W0304: the probe scenes hold no objects
     return _values("\n".join(d.message for d in result.diagnostics if d.code == "N0100"))
 
 
@@ -96,7 +97,8 @@ def test_a_spline_of_a_functions_parameter_is_computed():
         '#debug concat("@@h 1=", str(H(0.5), 0, 6), "\\n")\n'
     )
     result = compile_source(scene, "splines.pov")
-    assert not [d for d in result.diagnostics if d.severity.name in ("ERROR", "WARNING")]
+    bad = [d for d in result.diagnostics if d.severity.name in ("ERROR", "WARNING")]
+    assert [d for d in bad if d.code != "W0304"] == []
     assert any("@@h 1=1.000000" in d.message for d in result.diagnostics)
 
 
