@@ -299,7 +299,7 @@ class CsgNode:
     def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
         parts = []
         for i, child in enumerate(self.children):
-            c = child.crossings(o, d)
+            c = _culled_crossings(child, o, d)
             if self.op != "union":
                 keep = self._keep(i, c, o, d)
                 c.t = np.where(keep, c.t, np.inf)
@@ -313,24 +313,42 @@ class CsgNode:
 
     def _keep(self, i: int, c: Cands, o: np.ndarray, d: np.ndarray) -> np.ndarray:
         keep = np.isfinite(c.t)
-        for k in range(c.t.shape[1]):
-            col = keep[:, k]
-            if not col.any():
+        rows, cols = np.nonzero(keep)
+        if not len(rows):
+            return keep
+        # every crossing of the child at once, tested against the other children cheapest
+        # first and only where it still survives (a crossing outside a subtracted sphere
+        # is never evaluated against an isosurface's function)
+        p = o[rows] + c.t[rows, cols, None] * d[rows]
+        ok = np.ones(len(rows), dtype=bool)
+        live = np.arange(len(rows))
+        for j in self.test_order:
+            if j == i:
                 continue
-            rows = np.nonzero(col)[0]
-            p = o[rows] + c.t[rows, k, None] * d[rows]
-            ok = np.ones(len(rows), dtype=bool)
-            for j, other in enumerate(self.children):
-                if j == i:
-                    continue
-                if self.op == "merge":
-                    ok &= ~other.inside(p)
-                else:
-                    # intersection; a difference is the intersection with the inverses of
-                    # the subtracted children (as POV-Ray builds it).
-                    ok &= other.inside(p, inverted=self.op == "difference" and j > 0)
-            keep[rows, k] = ok
+            other = self.children[j]
+            if self.op == "merge":
+                res = ~other.inside(p[live])
+            else:
+                # intersection; a difference is the intersection with the inverses of
+                # the subtracted children (as POV-Ray builds it).
+                res = other.inside(p[live], inverted=self.op == "difference" and j > 0)
+            if not res.all():
+                ok[live[~res]] = False
+                live = live[res]
+                if not len(live):
+                    break
+        keep[rows, cols] = ok
         return keep
+
+    @property
+    def test_order(self) -> list[int]:
+        """The children by the cost of their inside test, cheapest first."""
+        order = self.__dict__.get("_order")
+        if order is None:
+            costs = [inside_cost(c) for c in self.children]
+            order = sorted(range(len(self.children)), key=lambda j: costs[j])
+            self.__dict__["_order"] = order
+        return order
 
     def inside(self, p: np.ndarray, inverted: bool = False) -> np.ndarray:
         """Inside the whole, or (inverted) inside its inverse: by De Morgan, the inverse of
@@ -377,13 +395,11 @@ class ClipNode:
 
     def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
         c = self.inner.crossings(o, d)
-        for k in range(c.t.shape[1]):
-            rows = np.nonzero(np.isfinite(c.t[:, k]))[0]
-            if len(rows) == 0:
-                continue
-            p = o[rows] + c.t[rows, k, None] * d[rows]
+        rows, cols = np.nonzero(np.isfinite(c.t))
+        if len(rows):
+            p = o[rows] + c.t[rows, cols, None] * d[rows]
             ok = np.logical_and.reduce([clip.inside(p) for clip in self.clips])
-            c.t[rows[~ok], k] = np.inf
+            c.t[rows[~ok], cols[~ok]] = np.inf
         return c
 
     def inside(self, p: np.ndarray, inverted: bool = False) -> np.ndarray:
@@ -391,6 +407,54 @@ class ClipNode:
         if inverted:
             return self.inner.inside(p, True) | ~clipped
         return self.inner.inside(p) & clipped
+
+
+def inside_cost(node) -> int:
+    """A rough cost of a node's inside test, to order CSG tests: 1 for a common shape's,
+    the primitive's INSIDE_COST for one evaluated numerically (a function, a mesh), the
+    sum of the parts for CSG and clipping."""
+    parts = getattr(node, "children", None)
+    if parts is not None:
+        return sum(inside_cost(c) for c in parts) + sum(
+            inside_cost(c) for c in getattr(node, "clips", ())
+        )
+    # a triangle object's node has its own; a leaf's primitive may
+    return int(getattr(node, "INSIDE_COST", getattr(getattr(node, "prim", None), "INSIDE_COST", 1)))
+
+
+def _culled_crossings(child, o: np.ndarray, d: np.ndarray) -> Cands:
+    """A CSG child's crossings, intersected only along the lines that meet its box (a
+    tight child's crossings lie in it): the rest get none. Small parts of a CSG (the
+    holes cut into a solid) are then not intersected on every ray of the whole."""
+    n = len(o)
+    if not (child.bounded and child.tight) or n == 0:
+        return child.crossings(o, d)
+    meets = slab_hits(o, d, child.lo, child.hi, -np.inf, np.inf)
+    if meets.all():
+        return child.crossings(o, d)
+    rows = np.nonzero(meets)[0]
+    if not len(rows):
+        return Cands(
+            np.full((n, 1), np.inf),
+            np.full((n, 1), child.leaves[0], dtype=np.int32),
+            np.zeros((n, 1), dtype=np.int8),
+            np.zeros((n, 1), dtype=bool),
+        )
+    sub = child.crossings(o[rows], d[rows])
+    k = sub.t.shape[1]
+    t = np.full((n, k), np.inf)
+    t[rows] = sub.t
+    leaf = np.full((n, k), child.leaves[0], dtype=np.int32)
+    leaf[rows] = sub.leaf
+    face = np.zeros((n, k), dtype=np.int8)
+    face[rows] = sub.face
+    flip = np.zeros((n, k), dtype=bool)
+    flip[rows] = sub.flip
+    prim = None
+    if sub.prim is not None:
+        prim = np.full((n, k), -1, dtype=np.int32)
+        prim[rows] = sub.prim
+    return Cands(t, leaf, face, flip, prim)
 
 
 # --------------------------------------------------------------------------- tracer
