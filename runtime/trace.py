@@ -472,6 +472,8 @@ def default_tmin(origins: np.ndarray) -> np.ndarray:
 def slab_hits(o, d, lo, hi, tmin, tmax, inv=None) -> np.ndarray:
     """(N,) bool: does the ray segment (tmin, tmax) touch the box [lo, hi]? `inv` = 1/d may
     be passed when the caller tests the same rays against many boxes."""
+    if len(o) == 1 and inv is not None:
+        return np.array([_slab_one(o[0].tolist(), lo, hi, tmin[0], tmax[0], inv[0].tolist())])
     if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)):
         # A half-infinite box still culls on its finite sides; keep it simple: no culling.
         return np.ones(len(o), dtype=bool)
@@ -489,6 +491,35 @@ def slab_hits(o, d, lo, hi, tmin, tmax, inv=None) -> np.ndarray:
         # Widen so that a hit exactly on the box surface is never culled.
         pad = tol.BOX_PAD_REL * (np.abs(tn) + np.abs(tf)) + tol.BOX_PAD_ABS
         return (tn - pad <= tf + pad) & (tf + pad >= tmin) & (tn - pad <= tmax)
+
+
+def _fmin(a: float, b: float) -> float:
+    """np.fmin of two floats: a NaN gives way to the other."""
+    return b if a != a else a if b != b or a <= b else b
+
+
+def _fmax(a: float, b: float) -> float:
+    """np.fmax of two floats: a NaN gives way to the other."""
+    return b if a != a else a if b != b or a >= b else b
+
+
+def _slab_one(o: list, lo, hi, tmin: float, tmax: float, inv: list) -> bool:
+    """slab_hits for one ray in plain floats, the same operations in the same order (a
+    `trace()` of the scene language asks one ray at a time; numpy's call overhead on
+    one-row arrays was most of its cost)."""
+    lv, hv = lo.tolist(), hi.tolist()
+    if not all(map(math.isfinite, lv + hv)):
+        return True
+    near, far = [], []
+    for a in range(3):
+        t1 = (lv[a] - o[a]) * inv[a]
+        t2 = (hv[a] - o[a]) * inv[a]
+        near.append(_fmin(t1, t2))
+        far.append(_fmax(t1, t2))
+    tn = _fmax(_fmax(near[0], near[1]), near[2])
+    tf = _fmin(_fmin(far[0], far[1]), far[2])
+    pad = tol.BOX_PAD_REL * (abs(tn) + abs(tf)) + tol.BOX_PAD_ABS
+    return bool((tn - pad <= tf + pad) and (tf + pad >= tmin) and (tn - pad <= tmax))
 
 
 class BoxTree:
