@@ -299,7 +299,7 @@ class CsgNode:
     def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
         parts = []
         for i, child in enumerate(self.children):
-            c = child.crossings(o, d)
+            c = _culled_crossings(child, o, d)
             if self.op != "union":
                 keep = self._keep(i, c, o, d)
                 c.t = np.where(keep, c.t, np.inf)
@@ -313,24 +313,42 @@ class CsgNode:
 
     def _keep(self, i: int, c: Cands, o: np.ndarray, d: np.ndarray) -> np.ndarray:
         keep = np.isfinite(c.t)
-        for k in range(c.t.shape[1]):
-            col = keep[:, k]
-            if not col.any():
+        rows, cols = np.nonzero(keep)
+        if not len(rows):
+            return keep
+        # every crossing of the child at once, tested against the other children cheapest
+        # first and only where it still survives (a crossing outside a subtracted sphere
+        # is never evaluated against an isosurface's function)
+        p = o[rows] + c.t[rows, cols, None] * d[rows]
+        ok = np.ones(len(rows), dtype=bool)
+        live = np.arange(len(rows))
+        for j in self.test_order:
+            if j == i:
                 continue
-            rows = np.nonzero(col)[0]
-            p = o[rows] + c.t[rows, k, None] * d[rows]
-            ok = np.ones(len(rows), dtype=bool)
-            for j, other in enumerate(self.children):
-                if j == i:
-                    continue
-                if self.op == "merge":
-                    ok &= ~other.inside(p)
-                else:
-                    # intersection; a difference is the intersection with the inverses of
-                    # the subtracted children (as POV-Ray builds it).
-                    ok &= other.inside(p, inverted=self.op == "difference" and j > 0)
-            keep[rows, k] = ok
+            other = self.children[j]
+            if self.op == "merge":
+                res = ~other.inside(p[live])
+            else:
+                # intersection; a difference is the intersection with the inverses of
+                # the subtracted children (as POV-Ray builds it).
+                res = other.inside(p[live], inverted=self.op == "difference" and j > 0)
+            if not res.all():
+                ok[live[~res]] = False
+                live = live[res]
+                if not len(live):
+                    break
+        keep[rows, cols] = ok
         return keep
+
+    @property
+    def test_order(self) -> list[int]:
+        """The children by the cost of their inside test, cheapest first."""
+        order = self.__dict__.get("_order")
+        if order is None:
+            costs = [inside_cost(c) for c in self.children]
+            order = sorted(range(len(self.children)), key=lambda j: costs[j])
+            self.__dict__["_order"] = order
+        return order
 
     def inside(self, p: np.ndarray, inverted: bool = False) -> np.ndarray:
         """Inside the whole, or (inverted) inside its inverse: by De Morgan, the inverse of
@@ -377,13 +395,11 @@ class ClipNode:
 
     def crossings(self, o: np.ndarray, d: np.ndarray) -> Cands:
         c = self.inner.crossings(o, d)
-        for k in range(c.t.shape[1]):
-            rows = np.nonzero(np.isfinite(c.t[:, k]))[0]
-            if len(rows) == 0:
-                continue
-            p = o[rows] + c.t[rows, k, None] * d[rows]
+        rows, cols = np.nonzero(np.isfinite(c.t))
+        if len(rows):
+            p = o[rows] + c.t[rows, cols, None] * d[rows]
             ok = np.logical_and.reduce([clip.inside(p) for clip in self.clips])
-            c.t[rows[~ok], k] = np.inf
+            c.t[rows[~ok], cols[~ok]] = np.inf
         return c
 
     def inside(self, p: np.ndarray, inverted: bool = False) -> np.ndarray:
@@ -391,6 +407,54 @@ class ClipNode:
         if inverted:
             return self.inner.inside(p, True) | ~clipped
         return self.inner.inside(p) & clipped
+
+
+def inside_cost(node) -> int:
+    """A rough cost of a node's inside test, to order CSG tests: 1 for a common shape's,
+    the primitive's INSIDE_COST for one evaluated numerically (a function, a mesh), the
+    sum of the parts for CSG and clipping."""
+    parts = getattr(node, "children", None)
+    if parts is not None:
+        return sum(inside_cost(c) for c in parts) + sum(
+            inside_cost(c) for c in getattr(node, "clips", ())
+        )
+    # a triangle object's node has its own; a leaf's primitive may
+    return int(getattr(node, "INSIDE_COST", getattr(getattr(node, "prim", None), "INSIDE_COST", 1)))
+
+
+def _culled_crossings(child, o: np.ndarray, d: np.ndarray) -> Cands:
+    """A CSG child's crossings, intersected only along the lines that meet its box (a
+    tight child's crossings lie in it): the rest get none. Small parts of a CSG (the
+    holes cut into a solid) are then not intersected on every ray of the whole."""
+    n = len(o)
+    if not (child.bounded and child.tight) or n == 0:
+        return child.crossings(o, d)
+    meets = slab_hits(o, d, child.lo, child.hi, -np.inf, np.inf)
+    if meets.all():
+        return child.crossings(o, d)
+    rows = np.nonzero(meets)[0]
+    if not len(rows):
+        return Cands(
+            np.full((n, 1), np.inf),
+            np.full((n, 1), child.leaves[0], dtype=np.int32),
+            np.zeros((n, 1), dtype=np.int8),
+            np.zeros((n, 1), dtype=bool),
+        )
+    sub = child.crossings(o[rows], d[rows])
+    k = sub.t.shape[1]
+    t = np.full((n, k), np.inf)
+    t[rows] = sub.t
+    leaf = np.full((n, k), child.leaves[0], dtype=np.int32)
+    leaf[rows] = sub.leaf
+    face = np.zeros((n, k), dtype=np.int8)
+    face[rows] = sub.face
+    flip = np.zeros((n, k), dtype=bool)
+    flip[rows] = sub.flip
+    prim = None
+    if sub.prim is not None:
+        prim = np.full((n, k), -1, dtype=np.int32)
+        prim[rows] = sub.prim
+    return Cands(t, leaf, face, flip, prim)
 
 
 # --------------------------------------------------------------------------- tracer
@@ -408,6 +472,8 @@ def default_tmin(origins: np.ndarray) -> np.ndarray:
 def slab_hits(o, d, lo, hi, tmin, tmax, inv=None) -> np.ndarray:
     """(N,) bool: does the ray segment (tmin, tmax) touch the box [lo, hi]? `inv` = 1/d may
     be passed when the caller tests the same rays against many boxes."""
+    if len(o) == 1 and inv is not None:
+        return np.array([_slab_one(o[0].tolist(), lo, hi, tmin[0], tmax[0], inv[0].tolist())])
     if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)):
         # A half-infinite box still culls on its finite sides; keep it simple: no culling.
         return np.ones(len(o), dtype=bool)
@@ -425,6 +491,35 @@ def slab_hits(o, d, lo, hi, tmin, tmax, inv=None) -> np.ndarray:
         # Widen so that a hit exactly on the box surface is never culled.
         pad = tol.BOX_PAD_REL * (np.abs(tn) + np.abs(tf)) + tol.BOX_PAD_ABS
         return (tn - pad <= tf + pad) & (tf + pad >= tmin) & (tn - pad <= tmax)
+
+
+def _fmin(a: float, b: float) -> float:
+    """np.fmin of two floats: a NaN gives way to the other."""
+    return b if a != a else a if b != b or a <= b else b
+
+
+def _fmax(a: float, b: float) -> float:
+    """np.fmax of two floats: a NaN gives way to the other."""
+    return b if a != a else a if b != b or a >= b else b
+
+
+def _slab_one(o: list, lo, hi, tmin: float, tmax: float, inv: list) -> bool:
+    """slab_hits for one ray in plain floats, the same operations in the same order (a
+    `trace()` of the scene language asks one ray at a time; numpy's call overhead on
+    one-row arrays was most of its cost)."""
+    lv, hv = lo.tolist(), hi.tolist()
+    if not all(map(math.isfinite, lv + hv)):
+        return True
+    near, far = [], []
+    for a in range(3):
+        t1 = (lv[a] - o[a]) * inv[a]
+        t2 = (hv[a] - o[a]) * inv[a]
+        near.append(_fmin(t1, t2))
+        far.append(_fmax(t1, t2))
+    tn = _fmax(_fmax(near[0], near[1]), near[2])
+    tf = _fmin(_fmin(far[0], far[1]), far[2])
+    pad = tol.BOX_PAD_REL * (abs(tn) + abs(tf)) + tol.BOX_PAD_ABS
+    return bool((tn - pad <= tf + pad) and (tf + pad >= tmin) and (tn - pad <= tmax))
 
 
 class BoxTree:

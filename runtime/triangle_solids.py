@@ -134,6 +134,8 @@ class TriangleNode:
 
     # the crossings lie on the triangles, inside its box
     tight = True
+    # its inside test casts rays through the triangles: CSG tests it after simple shapes
+    INSIDE_COST = 8
 
     def __init__(
         self,

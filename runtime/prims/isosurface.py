@@ -34,6 +34,9 @@ SURFACE, WALL = 0, 1
 
 
 class IsosurfacePrim:
+    # its inside test evaluates the function: CSG tests it after the common shapes
+    INSIDE_COST = 8
+
     def __init__(
         self,
         shape: ir.Isosurface,
@@ -185,7 +188,13 @@ class IsosurfacePrim:
         return n
 
     def inside(self, p):
-        return self.container.inside(p) & (self.value(p) < 0.0)
+        out = self.container.inside(p)
+        rows = np.nonzero(out)[0]
+        if len(rows) < len(p):  # the function only where the container holds the point
+            out[rows] = self.value(p[rows]) < 0.0
+        else:
+            out &= self.value(p) < 0.0
+        return out
 
     def outside(self, p):
         return ~self.inside(p)
