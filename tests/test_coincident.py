@@ -77,3 +77,12 @@ def test_many_flush_boxes_are_checked_quickly():
     (w,) = warnings_of(board)  # the tiles' tops on the board's top
     assert "(and 999+ more pairs)" in w.message  # the search stops at 1000 pairs
     assert time.perf_counter() - start < 60
+
+
+@pytest.mark.parametrize("far", ["scale <1, 1, 1e300> scale 1e300", "scale <1, 1, 0>"])
+def test_boxes_out_to_infinity_or_flattened_are_left_alone(far):
+    """A box whose bounds overflow (or a degenerate scale) is no face to tie with: no
+    warning and no crash (a hypothesis mutant of a scene found the NaN)."""
+    text = BOARD.format(board="", camera="") + f"box {{ -1, 1 pigment {{ rgb 1 }} {far} }}\n"
+    result = compile_source(text, "scene.pov")
+    assert not [d for d in result.diagnostics if d.code.startswith("E0000")]

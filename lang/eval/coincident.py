@@ -12,6 +12,7 @@ need faces in exactly the same plane, which rotated boxes rarely are.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections import defaultdict
 from collections.abc import Iterator
 
@@ -71,7 +72,8 @@ def coincident_faces(
     boxes = []
     for obj in _leaves(objects):
         box = _world_box(obj)
-        if box is not None:
+        # a box out to infinity (or NaN, from a degenerate transform) shares no face
+        if box is not None and all(math.isfinite(v) for v in (*box[0], *box[1])):
             boxes.append((obj, *box))
             if len(boxes) >= MAX_BOXES:
                 break
