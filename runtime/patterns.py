@@ -366,11 +366,16 @@ def evaluate(
     points: np.ndarray,
     gamma: float | None = 1.0,
     normals: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,5) float64 RGBFT colours of `pigment` at world points (N,3). `gamma` is the scene's
     working gamma (None: legacy, no gamma handling), used to bring image files into the
     working colour space. `normals` (N,3), the shaded surface's, are what the slope pattern
-    reads (None off a surface: slope is 0 there)."""
+    reads (None off a surface: slope is 0 there). `uv` (N,3), the surface's <u, v, 0>
+    (runtime.uvmap), is where a uv-mapped pigment (and all inside it) is evaluated instead
+    of the points (None: not on a surface, the points serve)."""
+    if uv is not None and pigment.params.get("uv_mapping"):
+        points = uv
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = len(points)
     kind = pigment.pattern
@@ -381,7 +386,7 @@ def evaluate(
         p = turbulence_warp(p, pigment.params)
     if kind in LIST_PATTERNS:
         index = LIST_PATTERNS[kind](p, pigment.params)
-        return _select(pigment, kind, index, points, gamma, normals)
+        return _select(pigment, kind, index, points, gamma, normals, uv)
     if kind == "image_map":
         return image_map(pigment.params, p, gamma, pigment.span)
     if kind == "average" and pigment.pigment_map:
@@ -395,17 +400,17 @@ def evaluate(
                 full = full @ np.asarray(before, dtype=np.float64)
             at = p @ full[:3, :3].T + full[:3, 3]
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
-        mean = sum(w * evaluate(q, at, gamma, normals) for w, q in pigment.pigment_map) / total
-        return np.asarray(mean)
+        mean = sum(w * evaluate(q, at, gamma, normals, uv) for w, q in pigment.pigment_map)
+        return np.asarray(mean) / total
     if kind == "slope":
         value = apply_wave(slope(p, points, normals, pigment.params), pigment.params, kind)
-        return _map(pigment, value, points, gamma, normals)
+        return _map(pigment, value, points, gamma, normals, uv)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
         return _fallback(pigment, points, gamma)
     value = apply_wave(fn(p, pigment.params), pigment.params, kind)
-    return _map(pigment, value, points, gamma, normals)
+    return _map(pigment, value, points, gamma, normals, uv)
 
 
 # --------------------------------------------------------------- list patterns
@@ -488,6 +493,7 @@ def _select(
     points: np.ndarray,
     gamma: float | None,
     normals: np.ndarray | None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     entries: tuple = pigment.list or tuple(ir.Pigment(color=c) for c in DEFAULT_LISTS[kind])
     out = np.zeros((len(points), 5))
@@ -495,7 +501,7 @@ def _select(
     for i, sub in enumerate(entries):
         rows = np.nonzero(index == i)[0]
         if len(rows):
-            out[rows] = evaluate(sub, points[rows], gamma, _rows(normals, rows))
+            out[rows] = evaluate(sub, points[rows], gamma, _rows(normals, rows), _rows(uv, rows))
     return out
 
 
@@ -1092,6 +1098,7 @@ def _map(
     points: np.ndarray,
     gamma: float | None,
     normals: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     if pigment.pigment_map:
         keys = np.array([k for k, _ in pigment.pigment_map], dtype=np.float64)
@@ -1103,7 +1110,7 @@ def _map(
             rows = np.nonzero(use_lo | use_hi)[0]
             if not len(rows):
                 continue
-            col = evaluate(sub, points[rows], gamma, _rows(normals, rows))
+            col = evaluate(sub, points[rows], gamma, _rows(normals, rows), _rows(uv, rows))
             w = np.where(use_lo[rows], 1.0 - frac[rows], 0.0) + np.where(
                 use_hi[rows], frac[rows], 0.0
             )
@@ -1201,6 +1208,7 @@ def perturb_normal(
     n_world: np.ndarray,
     no_bump_scale: bool = False,
     unit: bool = True,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,3) unit normals after a `normal { … }` pattern at world points. The perturbation
     happens in pattern space (so scaling a bump pattern scales its bumps), then the normal
@@ -1210,7 +1218,10 @@ def perturb_normal(
     a normal_map passes it to its entries) is POV-Ray's DONT_SCALE_BUMPS_FLAG: Warp_Normal
     and UnWarp_Normal then leave the normal's length alone, so a pattern scaled up by s
     perturbs it 1/s as much. `unit` False (a normal_map's entry with the flag) returns the
-    perturbed normal unnormalised, as POV-Ray's Perturb_Normal leaves it to the blend."""
+    perturbed normal unnormalised, as POV-Ray's Perturb_Normal leaves it to the blend.
+    `uv`: the surface's <u, v, 0>, where a uv-mapped normal is evaluated instead."""
+    if uv is not None and normal.params.get("uv_mapping"):
+        points = uv
     keep = no_bump_scale or bool(normal.params.get("no_bump_scale"))
     p = pattern_points(normal, points)
     lin = pattern_linear(normal)
