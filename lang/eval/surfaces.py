@@ -623,6 +623,9 @@ def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     )
     nidx = _corner_indices(it, lists, "normal_indices", nvecs, len(faces), g)
     uidx = _corner_indices(it, lists, "uv_indices", uvecs, len(faces), g)
+    if uvecs is not None and len(uvecs) == 1 and uidx is None and nv != 1:
+        # POV-Ray's mesh2: a lone uv vector without uv_indices serves every corner
+        uvecs = uvecs * nv
     uvs: list[Any] | None = None
     if nidx is not None or uidx is not None:
         # Normals or uvs indexed apart from the vertices: unshare the vertices face by face.
