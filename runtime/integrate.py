@@ -277,7 +277,7 @@ def trace(
             codes[rows],
             hits.t[rows],
             prim,
-            hit_uv(ctx, hits.obj[rows], tex, hits.point[rows], prim, bary),
+            uvmap.hit_uv(ctx, hits.obj[rows], tex, hits.point[rows], prim, bary),
         )
     if ctx.scene.rainbows:
         col = apply_rainbows(ctx.scene.rainbows, d, hits.t, col)
@@ -287,33 +287,6 @@ def trace(
     if fogs:
         col = apply_fogs(fogs, hits.t, col, o, d)
     out[alive] = col
-    return out
-
-
-def hit_uv(
-    ctx: Context,
-    obj: np.ndarray,
-    tex: np.ndarray,
-    point: np.ndarray,
-    prim: np.ndarray | None,
-    bary: np.ndarray | None,
-) -> np.ndarray | None:
-    """(N,3) surface <u, v, 0> of the hits whose texture is uv-mapped somewhere (the others'
-    rows stay 0), None when no hit's is: computed only where something reads it."""
-    if ctx.needs_uv is None or not len(tex):
-        return None
-    need = np.nonzero(ctx.needs_uv[tex])[0]
-    if not len(need):
-        return None
-    out = np.zeros((len(obj), 3))
-    out[need] = uvmap.surface_uv(
-        ctx.prepared.objects,
-        obj[need],
-        point[need],
-        None if prim is None else prim[need],
-        None if bary is None else bary[need],
-        ctx.prepared.world_uv,
-    )
     return out
 
 

@@ -20,6 +20,7 @@ All but the last work in the shape's own space (the object's transformations und
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,8 +29,38 @@ from runtime import transform as tf
 from runtime.prims import spline2d as sp
 from runtime.prims.lathe import SorPrim
 
+if TYPE_CHECKING:
+    from runtime.context import Context
+
 # POV-Ray's EPSILON: closer to the y axis than this (squared), the angle about it is 0.
 AXIS_EPSILON: float = 1e-10
+
+
+def hit_uv(
+    ctx: Context,
+    obj: np.ndarray,
+    tex: np.ndarray,
+    point: np.ndarray,
+    prim: np.ndarray | None,
+    bary: np.ndarray | None,
+) -> np.ndarray | None:
+    """(N,3) surface <u, v, 0> of the hits whose texture is uv-mapped somewhere (the others'
+    rows stay 0), None when no hit's is: computed only where something reads it."""
+    if ctx.needs_uv is None or not len(tex):
+        return None
+    need = np.nonzero(ctx.needs_uv[tex])[0]
+    if not len(need):
+        return None
+    out = np.zeros((len(obj), 3))
+    out[need] = surface_uv(
+        ctx.prepared.objects,
+        obj[need],
+        point[need],
+        None if prim is None else prim[need],
+        None if bary is None else bary[need],
+        ctx.prepared.world_uv,
+    )
+    return out
 
 
 def surface_uv(
