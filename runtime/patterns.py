@@ -1238,7 +1238,7 @@ def perturb_normal(
         p = turbulence_warp(p, normal.params)
     nmap = normal.params.get("normal_map")
     if nmap:
-        n = _normal_map(normal, nmap, p, n, keep, (points, n_world))
+        n = _normal_map(normal, nmap, p, n, keep, (points, n_world), uv)
         # POV-Ray normalises a normal_map's blend whatever the flag says
         unit = unit or kind != "average"
     elif kind == "bumps":
@@ -1293,20 +1293,22 @@ def _normal_map(
     n: np.ndarray,
     keep: bool = False,
     at: _Surface | None = None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     """A normal_map (POV-Ray's Perturb_Normal): the normals of the two entries around the
     pattern's value, each perturbing the normal at the pattern-space point, blended by
     weight; with `average`, every entry's normal weighted by its value (Do_Average_Normals).
     The entries live in this normal's pattern space (their transforms come on top); `keep`
     (no_bump_scale) passes on to them, as POV-Ray's NormalBlendMap::Post does. `at`: the
-    world points and normals, for a slope pattern."""
+    world points and normals, for a slope pattern; `uv` the surface's, for a uv-mapped
+    entry."""
     keys = np.array([k for k, _ in entries], dtype=np.float64)
     kind = normal.pattern
     if kind == "average":
         total = float(keys.sum()) or 1.0
         out = np.zeros_like(n)
         for k, sub in entries:
-            out += (k / total) * perturb_normal(sub, p, n, keep, unit=False)
+            out += (k / total) * perturb_normal(sub, p, n, keep, unit=False, uv=uv)
         return out
     if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS and kind != "slope":
         _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
@@ -1320,7 +1322,9 @@ def _normal_map(
             continue
         f = frac[rows]
         w = np.where(lo[rows] == i, 1.0 - f, 0.0) + np.where(hi[rows] == i, f, 0.0)
-        out[rows] += w[:, None] * perturb_normal(sub, p[rows], n[rows], keep, unit=False)
+        out[rows] += w[:, None] * perturb_normal(
+            sub, p[rows], n[rows], keep, unit=False, uv=_rows(uv, rows)
+        )
     return out
 
 

@@ -66,6 +66,9 @@ SCENES = {
     # Post_Process passes the flag down with the interior_texture)
     "csg_children": "union { sphere { 0, 1 } sphere { x*1.2, 0.6 texture { pigment { C } } }"
     " uv_mapping texture { pigment { C } } translate -x*0.5 rotate y*20 }",
+    "in_normal_map": "sphere { 0, 1 pigment { rgb 0.8 } normal { gradient x normal_map {"
+    " [0.5 uv_mapping bumps 0.8 scale 0.05] [0.5 uv_mapping checker 0.5 scale 0.1] } }"
+    " rotate y*30 }",
     # light through a uv-mapped filtering checker: the shadow rays read it at uv too
     "shadow_through": "plane { z, 1.5 pigment { rgb 1 } } sphere { 0, 1 uv_mapping pigment {"
     " checker rgbf <1,0.3,0.2,0.8> rgb <0.1,0.2,0.9> scale <0.125, 0.25, 1> } rotate y*30 }",
