@@ -431,8 +431,9 @@ class Nurbs:
     v_knots: tuple[float, ...] = ()
     tolerance: float | None = None
     radius: float = 0.0
-    # made from POV-Ray's bicubic_patch, whose uv_mapping reads the patch's (v, u)
-    bicubic: bool = False
+    # made from POV-Ray's bicubic_patch: its uv_mapping reads the patch's (v, u) mixed
+    # bilinearly between these four corners (the patch's `uv_vectors`); None: not one
+    bicubic_uv: tuple[Vec2, Vec2, Vec2, Vec2] | None = None
 
 
 @dataclass(frozen=True)

@@ -136,3 +136,15 @@ def bicubic_mesh(shape):
         getattr(shape, "v_steps", 0),
         getattr(shape, "flatness", 0.0),
     )
+
+
+def bicubic_uvs(uvs: np.ndarray, corners) -> np.ndarray:
+    """(N,2) uv_mapping uvs of a bicubic patch's tessellation from its NURBS parameters
+    (N,2) (u along POV-Ray's first point index, v along the second): POV-Ray's
+    Compute_Texture_UV mixes its four `uv_vectors` corners bilinearly by (v, u)."""
+    st = np.asarray(corners, dtype=np.float64).reshape(4, 2)
+    a = uvs[:, 1:2]  # POV-Ray's first uv parameter: the patch's v
+    b = uvs[:, 0:1]
+    low = st[0] + a * (st[1] - st[0])
+    high = st[3] + a * (st[2] - st[3])
+    return np.ascontiguousarray(low + b * (high - low))

@@ -120,8 +120,10 @@ class Tessellator:
 
                 tolerance = shape.tolerance or self.auto_tolerance(obj)
                 verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
-                if shape.bicubic:  # POV-Ray's bicubic_patch gives uv_mapping (v, u)
-                    uvs = np.ascontiguousarray(np.asarray(uvs)[:, ::-1])
+                if shape.bicubic_uv is not None:
+                    from runtime.bezier import bicubic_uvs
+
+                    uvs = bicubic_uvs(np.asarray(uvs), shape.bicubic_uv)
             else:
                 if not isinstance(shape, ir.Subdivision):
                     raise TypeError(f"{name} is not a tessellated shape")

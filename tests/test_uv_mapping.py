@@ -74,6 +74,7 @@ SCENES = {
     " checker rgbf <1,0.3,0.2,0.8> rgb <0.1,0.2,0.9> scale <0.125, 0.25, 1> } rotate y*30 }",
 }
 # The bicubic patch is triangulated finer than POV-Ray's own subdivision: a few edge pixels.
+# Its `uv_vectors` place the corners of its (v, u) square in uv.
 BICUBIC = (
     "bicubic_patch { type 1 flatness 0.01 u_steps 4 v_steps 4"
     " <-1,0,-1>, <-0.3,0.5,-1>, <0.3,-0.5,-1>, <1,0,-1>,"
@@ -95,9 +96,11 @@ def test_uv_mapping_renders_like_povray(tmp_path, name):
 
 
 @pytest.mark.povray
-def test_bicubic_patch_uv_mapping_renders_like_povray(tmp_path):
-    text = HEAD + BICUBIC + "\n"
-    ours, _ = strala_image(text, tmp_path, 96, 72)
+@pytest.mark.parametrize("corners", ["", "uv_vectors <0,0>, <2,0.5>, <3,3>, <0,1>"])
+def test_bicubic_patch_uv_mapping_renders_like_povray(tmp_path, corners):
+    text = HEAD + BICUBIC.replace("v_steps 4", "v_steps 4 " + corners) + "\n"
+    ours, messages = strala_image(text, tmp_path, 96, 72)
+    assert not [m for m in messages if "uv" in m], messages
     rmse, off = image_errors(ours, povray_image(text, tmp_path, 96, 72))
     assert rmse < 0.03 and off < 0.01, (rmse, off)
 

@@ -174,6 +174,7 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
     finally:
         it.loose_depth -= 1
     points: list[tuple[float, float, float]] = []
+    corners: list[tuple[float, float]] = []
     i, n = 0, len(els)
     while i < n:
         e = els[i]
@@ -181,6 +182,15 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
             i += 1
         elif e.kind == "kw" and e.value in ("type", "flatness", "u_steps", "v_steps"):
             i += 2  # the setting's number: tessellation follows the tolerance instead
+        elif e.kind == "kw" and e.value == "uv_vectors" and not points:
+            # POV-Ray's ST corners: where the patch's (v, u) = (0,0), (1,0), (1,1), (0,1) sit
+            # in uv_mapping's uv
+            i += 1
+            while i < n and len(corners) < 4 and els[i].kind in ("val", "comma"):
+                if els[i].kind == "val":
+                    c = as_vec(els[i].value, 2)
+                    corners.append((c[0], c[1]))
+                i += 1
         elif e.kind == "val" and len(points) < 16 and isinstance(e.value, Vec):
             points.append(as_vec(e.value, 3).xyz)
             i += 1
@@ -196,7 +206,10 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
     knots = (0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0)
     # POV-Ray lists the points row by row along v; the IR wants u varying fastest.
     net = tuple(points[4 * u + v] for v in range(4) for u in range(4))
-    shape = ir.Nurbs(3, 3, 4, 4, net, (1.0,) * 16, knots, knots, bicubic=True)
+    if len(corners) != 4:
+        corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+    st = (corners[0], corners[1], corners[2], corners[3])
+    shape = ir.Nurbs(3, 3, 4, 4, net, (1.0,) * 16, knots, knots, bicubic_uv=st)
     g = grouping.group(it, spec, els[i:], node, loose=True)
     obj = ObjectValue(shape, node.keyword, span=node.span, default=it.default_texture)
     return apply_object_items(it, obj, g)
