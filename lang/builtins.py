@@ -411,52 +411,18 @@ def _file_exists(args, state):
     return 1.0 if os.path.exists(os.path.join(state.folder, name)) else 0.0
 
 
-# -- noise: POV-Ray's own noise tables are not reproduced; this is a smooth, deterministic
-# gradient noise of the same range, so vturbulence gives plausible (not identical) values.
-def _hash3(ix: int, iy: int, iz: int) -> tuple[float, float, float]:
-    h = (ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)
-    h = (h * 1103515245 + 12345) & 0x7FFFFFFF
-    a = ((h >> 3) % 1000) / 500.0 - 1.0
-    b = ((h >> 11) % 1000) / 500.0 - 1.0
-    c = ((h >> 19) % 1000) / 500.0 - 1.0
-    return a, b, c
-
-
-def _noise3(p: Sequence[float]) -> float:
-    ix, iy, iz = (math.floor(c) for c in p)
-    fx, fy, fz = p[0] - ix, p[1] - iy, p[2] - iz
-
-    def fade(t: float) -> float:
-        return t * t * t * (t * (t * 6 - 15) + 10)
-
-    total = 0.0
-    for dx in (0, 1):
-        for dy in (0, 1):
-            for dz in (0, 1):
-                g = _hash3(ix + dx, iy + dy, iz + dz)
-                dot = g[0] * (fx - dx) + g[1] * (fy - dy) + g[2] * (fz - dz)
-                w = (fade(fx) if dx else 1 - fade(fx)) * (fade(fy) if dy else 1 - fade(fy))
-                w *= fade(fz) if dz else 1 - fade(fz)
-                total += w * dot
-    return total
-
-
-def vturbulence(lam: float, omega: float, octaves: int, p: Sequence[float]) -> Vec:
-    out = [0.0, 0.0, 0.0]
-    amp, freq = 1.0, 1.0
-    for _ in range(max(1, octaves)):
-        for k in range(3):
-            q = [c * freq + 17.0 * k for c in p]
-            out[k] += amp * _noise3(q)
-        amp *= omega
-        freq *= lam
-    return Vec(out)
-
-
-def _vturbulence(args, state):
+def vturbulence_args(args: Sequence[Any]) -> tuple[float, float, int, Vec]:
+    """vturbulence(lambda, omega, octaves, point) read as POV-Ray's parser does (octaves
+    kept within 1..10). The value is POV-Ray's DTurbulence, the renderer's noise: the
+    evaluator asks for it (lang.queries)."""
+    if len(args) != 4:
+        raise EvalError(
+            f"vturbulence() takes 4 argument(s), got {len(args)}",
+            "call it as vturbulence(Lambda, Omega, Octaves, <Point>)",
+        )
     lam, omega = _f(args, 0, "vturbulence"), _f(args, 1, "vturbulence")
-    octaves = int(_f(args, 2, "vturbulence"))
-    return vturbulence(lam, omega, octaves, _v(args, 3, "vturbulence"))
+    octaves = min(max(int(_f(args, 2, "vturbulence")), 1), 10)
+    return lam, omega, octaves, _v(args, 3, "vturbulence")
 
 
 def _strcmp(args, state):
@@ -545,7 +511,6 @@ FUNCTIONS: dict[str, tuple[Builtin, int, int | None]] = {
     "vcross": (_vcross, 2, 2),
     "vrotate": (_vrotate, 2, 2),
     "vaxis_rotate": (_vaxis_rotate, 3, 3),
-    "vturbulence": (_vturbulence, 4, 4),
     "str": (_str, 3, 3),
     "vstr": (_vstr, 5, 5),
     "concat": (lambda a, s: _capped("".join(_s(a, i, "concat") for i in range(len(a)))), 1, None),

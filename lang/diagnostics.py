@@ -111,6 +111,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "W0312": "POV-Ray ignores it the same way; remove it, or move it where it takes effect",
     "W0313": "POV-Ray renders it as written; check the value meant",
     "W0314": "POV-Ray reads it there the same way; move it into its block",
+    "W0315": "move one surface a little (e.g. 0.001) off the other, or give both one texture",
     "W0330": "remove the `#`",
     "W0400": "remove the declaration, or use the name",
     "W0401": "rename one of them if the other was meant",

@@ -419,7 +419,9 @@ class Nurbs:
     """A NURBS surface (`nv > 0`), or a curve (`nv == 0`) rendered as a tube of `radius`.
     `points` are Euclidean, u varying fastest (index = j*nu + i); `weights` one per point.
     Knot vectors are complete (length n + degree + 1), validated by the evaluator.
-    `tolerance` is the chord-error bound in world units (None: from the camera)."""
+    `tolerance` is the chord-error bound in world units (None: from the camera). `patch`,
+    for POV-Ray's `bicubic_patch`, is its (u_steps, v_steps, flatness): the surface is then
+    cut into triangles as POV-Ray subdivides it, not to a tolerance."""
 
     u_degree: int
     v_degree: int
@@ -431,6 +433,7 @@ class Nurbs:
     v_knots: tuple[float, ...] = ()
     tolerance: float | None = None
     radius: float = 0.0
+    patch: tuple[int, int, float] | None = None
     # made from POV-Ray's bicubic_patch: its uv_mapping reads the patch's (v, u) mixed
     # bilinearly between these four corners (the patch's `uv_vectors`); None: not one
     bicubic_uv: tuple[Vec2, Vec2, Vec2, Vec2] | None = None
@@ -789,7 +792,18 @@ class Radiosity:
 
     count: int = 35
     error_bound: float = 1.8
-    recursion_limit: int = 2
+    # POV-Ray's bounces of indirect light (its default is 2); None, when the scene does
+    # not say: every bounce, strala's converged solution.
+    recursion_limit: int | None = None
+    media: bool = False  # POV-Ray's `media on`: radiosity rays see media (off: they pass)
+    # POV-Ray's irradiance cache: where the display gathers and how it interpolates.
+    nearest_count: int = 5
+    minimum_reuse: float = 0.015
+    maximum_reuse: float = 0.2
+    low_error_factor: float = 0.5
+    pretrace_start: float = 0.08
+    pretrace_end: float = 0.04
+    always_sample: bool = False
     brightness: float = 1.0
     gray_threshold: float = 0.0
     patch_size: float | None = None

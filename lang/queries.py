@@ -1,13 +1,13 @@
 """What the evaluator may ask the renderer while it runs: POV-Ray's `trace()` and
 `inside()` are evaluated at parse time, on the objects declared so far, and a function
 whose body needs the renderer (a pattern, a pigment, an internal `f_*` function) may be
-called from the scene language.
+called from the scene language, and so may `vturbulence()` (the renderer's noise).
 
 lang knows no intersection code (it never imports the runtime or numpy), so whoever
 compiles a scene for rendering hands the evaluator an implementation of `SceneQueries`
 (runtime.queries has the renderer's). Without one, as in `strala check`, `trace()`
 reports a miss and `inside()` says outside: the values a scene sees when it hits nothing;
-such a function call gives 0 with a warning.
+such a function call gives 0 with a warning (vturbulence <0, 0, 0>).
 """
 
 from __future__ import annotations
@@ -37,6 +37,10 @@ class SceneQueries(Protocol):
 
     def pigment(self, pigment: ir.Pigment, point: ir.Vec3) -> tuple[float, ...]:
         """The pigment's colour at point, as five floats (red green blue filter transmit)."""
+        ...
+
+    def vturbulence(self, lam: float, omega: float, octaves: int, point: ir.Vec3) -> ir.Vec3:
+        """POV-Ray's DTurbulence at point (the vector noise turbulence warps use)."""
         ...
 
 

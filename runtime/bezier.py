@@ -124,7 +124,47 @@ def bicubic_patch_mesh(points16, u_steps: int = 0, v_steps: int = 0, flatness: f
     us = np.linspace(0.0, 1.0, (1 << lu) + 1)
     vs = np.linspace(0.0, 1.0, (1 << lv) + 1)
     m = assemble(surf, us, vs, float("nan"), False)
-    return m.vertices, m.faces, m.normals, np.ascontiguousarray(m.uvs[:, ::-1])
+    normals = patch_normals(points16, m.uvs[:, 0], m.uvs[:, 1])
+    return m.vertices, m.faces, normals, np.ascontiguousarray(m.uvs[:, ::-1])
+
+
+def patch_normals(points16, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(N,3) POV-Ray's vertex normals of a patch at (u, v) (its bezier_value): the unit cross
+    product of the u and v tangents, and <1, 0, 0> where they are (nearly) parallel or
+    vanish, as at a pole of the teapot's lid and bottom. POV-Ray interpolates these across
+    each triangle, so the pole's <1, 0, 0> shows; the sums run in POV-Ray's order so that a
+    pole's tangents come out as small (or zero) as its own do."""
+    cp = np.asarray(points16, dtype=np.float64).reshape(4, 4, 3)  # [u][v]
+    u = np.asarray(u, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    one = np.ones_like(u)
+    pu, qu, pv, qv = [one], [one], [one], [one]  # u^i, (1-u)^i, v^j, (1-v)^j
+    du, dqu, dv, dqv = [0 * u], [0 * u], [0 * v], [0 * v]
+    for i in range(1, 4):
+        pu.append(pu[i - 1] * u)
+        qu.append(qu[i - 1] * (1.0 - u))
+        pv.append(pv[i - 1] * v)
+        qv.append(qv[i - 1] * (1.0 - v))
+        du.append(i * pu[i - 1])
+        dqu.append(-i * qu[i - 1])
+        dv.append(i * pv[i - 1])
+        dqv.append(-i * qv[i - 1])
+    binomial = (1.0, 3.0, 3.0, 1.0)
+    tu = np.zeros((len(u), 3))
+    tv = np.zeros((len(u), 3))
+    for i in range(4):
+        for j in range(4):
+            c = binomial[i] * binomial[j]
+            ut = pu[i] * qu[3 - i]
+            vt = pv[j] * qv[3 - j]
+            tu += (c * vt * (du[i] * qu[3 - i] + pu[i] * dqu[3 - i]))[:, None] * cp[i, j]
+            tv += (c * ut * (dv[j] * qv[3 - j] + pv[j] * dqv[3 - j]))[:, None] * cp[i, j]
+    n = np.cross(tu, tv)
+    t = np.sum(n * n, axis=1)
+    ok = t > BEZIER_EPSILON * np.sum(tu * tu, axis=1) * np.sum(tv * tv, axis=1)
+    out = np.tile([1.0, 0.0, 0.0], (len(u), 1))
+    out[ok] = n[ok] / np.sqrt(t[ok])[:, None]
+    return out
 
 
 def bicubic_mesh(shape):
@@ -139,12 +179,11 @@ def bicubic_mesh(shape):
 
 
 def bicubic_uvs(uvs: np.ndarray, corners) -> np.ndarray:
-    """(N,2) uv_mapping uvs of a bicubic patch's tessellation from its NURBS parameters
-    (N,2) (u along POV-Ray's first point index, v along the second): POV-Ray's
-    Compute_Texture_UV mixes its four `uv_vectors` corners bilinearly by (v, u)."""
+    """(N,2) uv_mapping uvs of a bicubic patch from its (v, u) parameters (N,2), as
+    `bicubic_patch_mesh` gives them: POV-Ray's Compute_Texture_UV mixes the patch's four
+    `uv_vectors` corners bilinearly by them."""
     st = np.asarray(corners, dtype=np.float64).reshape(4, 2)
-    a = uvs[:, 1:2]  # POV-Ray's first uv parameter: the patch's v
-    b = uvs[:, 0:1]
+    a, b = uvs[:, 0:1], uvs[:, 1:2]
     low = st[0] + a * (st[1] - st[0])
     high = st[3] + a * (st[2] - st[3])
     return np.ascontiguousarray(low + b * (high - low))

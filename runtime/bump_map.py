@@ -21,6 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from runtime.gif import gif_indices
 from runtime.heightfield import png_palette_indices
 
 # POV-Ray's EPSILON, added to the pixel coordinates before they wrap
@@ -304,8 +305,8 @@ def _grey_levels(values: np.ndarray, depth: int, gamma: float | None) -> np.ndar
 
 
 def palette_indices(path: str) -> np.ndarray | None:
-    """(H, W) palette indices of a palette PNG (colour type 3, not interlaced), as
-    float64; None for any other file. Image libraries hand out the colours only, so the
+    """(H, W) palette indices of a palette PNG (colour type 3, not interlaced) or a GIF,
+    as float64; None for any other file. Image libraries hand out the colours only, so the
     height field's PNG decoder reads them."""
     try:
         with open(path, "rb") as f:
@@ -314,6 +315,8 @@ def palette_indices(path: str) -> np.ndarray | None:
         return None
     try:
         index = png_palette_indices(data)
+        if index is None:
+            index = gif_indices(data)
     except (ValueError, zlib.error):  # no header, interlaced, truncated or corrupt
         return None
     return None if index is None else index.astype(np.float64)

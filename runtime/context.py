@@ -6,6 +6,7 @@ makes the context (`make_context`) and shades with it; runtime.lights casts shad
 
 from __future__ import annotations
 
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol
 
@@ -34,6 +35,18 @@ class Media(Protocol):
     ) -> np.ndarray: ...
 
 
+# Set while the rays of a radiosity final gather are traced (per thread: each tile's
+# thread traces its own rays). What they meet reads the patches instead of gathering
+# again, and shows no highlights (POV-Ray leaves phong and specular out of its radiosity
+# rays: a highlight seen by a few of them makes splotches).
+RADIOSITY_RAYS: ContextVar[bool] = ContextVar("strala_radiosity_rays", default=False)
+
+
+def radiosity_ray() -> bool:
+    """True while the rays being traced on this thread are radiosity gather rays."""
+    return RADIOSITY_RAYS.get()
+
+
 class Radiosity(Protocol):
     """What shading asks of a solved radiosity (runtime.radiosity.system.RadiosityResult,
     not imported: it shades its patches with runtime.shading, which reads this module)."""
@@ -41,6 +54,8 @@ class Radiosity(Protocol):
     def gathered(
         self, obj: int, points: np.ndarray, ray_dir: np.ndarray, prim: np.ndarray | None = None
     ) -> np.ndarray: ...
+
+    def gather(self, ctx, points: np.ndarray, normals: np.ndarray) -> np.ndarray | None: ...
 
 
 class TileKernel(Protocol):

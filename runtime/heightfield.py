@@ -16,6 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 from lang import ir
+from runtime.gif import GifError, gif_indices
 from runtime.prims import FunctionCompiler
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -92,13 +93,28 @@ def _unfilter(rows: np.ndarray, stride: int) -> np.ndarray:
 
 
 @lru_cache(maxsize=16)
-def read_heights(path: str) -> np.ndarray:
-    """Heights 0..1 as (rows, columns), row 0 the image's top row."""
+def read_heights(path: str, kind: str = "") -> np.ndarray:
+    """Heights 0..1 as (rows, columns), row 0 the image's top row, as POV-Ray reads them:
+    16-bit values over 65536 (its box is 65536 high), a palette image's index times 256,
+    an 8-bit colour image's red as the high byte and green as the low byte, a grey or a
+    deeper colour image its grey value times 65535 (whole numbers). A `pot` file is a GIF
+    whose left half holds the high bytes of the indices and the right half the low."""
     with open(path, "rb") as f:
         data = f.read()
     index = png_palette_indices(data)
+    if index is None:
+        try:
+            index = gif_indices(data)
+        except GifError as e:
+            raise HeightFieldError(f"cannot read `{path}`: {e}") from None
     if index is not None:
-        return index.astype(np.float64) / 255.0
+        if kind == "pot":
+            if index.shape[1] % 2:
+                raise HeightFieldError(f"`{path}`: a pot file's width must be even")
+            half = index.shape[1] // 2
+            wide = index.astype(np.int64)
+            return (wide[:, :half] * 256 + wide[:, half:]) / HF_TOP
+        return index.astype(np.float64) * 256.0 / HF_TOP
     import OpenImageIO as oiio
 
     buf = oiio.ImageBuf(path)
@@ -106,11 +122,22 @@ def read_heights(path: str) -> np.ndarray:
         raise HeightFieldError(f"cannot read `{path}`: {buf.geterror()}")
     px = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float64)
     if px.ndim == 2:
-        return px
-    if px.shape[2] >= 3 and not np.allclose(px[..., 0], px[..., 1]):
-        # a colour image: its grey value, as POV-Ray converts colours to grey
-        return px[..., 0] * 0.297 + px[..., 1] * 0.589 + px[..., 2] * 0.114
-    return px[..., 0]
+        px = px[:, :, None]
+    if px.shape[2] >= 3 and str(buf.spec().format) == "uint8":
+        r, g = np.round(px[..., 0] * 255.0), np.round(px[..., 1] * 255.0)
+        return (r * 256.0 + g) / HF_TOP
+    # grey, or colour of more than 8 bits: the grey value in POV-Ray's single precision
+    one = px.astype(np.float32)
+    if px.shape[2] >= 3:
+        grey = one[..., 0] * np.float32(0.297) + one[..., 1] * np.float32(0.589)
+        value = grey + one[..., 2] * np.float32(0.114)
+    else:
+        value = one[..., 0]
+    return np.floor(np.clip(value, 0.0, 1.0) * np.float32(65535.0)).astype(np.float64) / HF_TOP
+
+
+# POV-Ray's height field box is 65536 units high: a 16-bit value v is height v/65536
+HF_TOP = 65536.0
 
 
 def function_heights(
@@ -136,8 +163,10 @@ def heights(shape: ir.HeightField, compile_xyz: FunctionCompiler | None = None) 
     if shape.function is not None:
         if compile_xyz is None:
             raise HeightFieldError("a function height field needs a function compiler")
-        return function_heights(shape.function, shape.size, compile_xyz)
-    return read_heights(shape.source)
+        # POV-Ray keeps the samples as a 16-bit grey image, then reads it as any other
+        values = function_heights(shape.function, shape.size, compile_xyz)
+        return np.round(values * 65535.0) / HF_TOP
+    return read_heights(shape.source, shape.kind)
 
 
 def height_field_mesh(

@@ -35,6 +35,7 @@ from runtime.context import (
     ReflectionRows,
     is_patterned,
     legacy_rules,
+    radiosity_ray,
     resolve_textures,
     texture_layers,
 )
@@ -216,8 +217,10 @@ def trace(
     level: int | np.ndarray,
     skip: str | None | np.ndarray,
     continued: bool | np.ndarray = False,
+    depth: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(N,3) colours of rays.
+    """(N,3) colours of rays; `depth`, when given ((N,), inf at first), receives how far
+    each ray went before it met a surface (a final gather's records need it).
 
     level: the trace level of the surface that spawned each ray (0 for camera rays);
     `continued` rays (straight through ior-1 surfaces) stay at that level, the others are
@@ -252,6 +255,8 @@ def trace(
             hits = _empty_like(h, len(alive))
         _scatter_hits(hits, sel, h)
     assert hits is not None  # the alive rays hold at least one skip code
+    if depth is not None:
+        depth[alive] = hits.t
     hit = hits.obj >= 0
     col = np.zeros((len(alive), 3))
     miss = np.nonzero(~hit)[0]
@@ -281,13 +286,19 @@ def trace(
         )
     if ctx.scene.rainbows:
         col = apply_rainbows(ctx.scene.rainbows, d, hits.t, col)
-    if ctx.media is not None:
+    if ctx.media is not None and not (radiosity_ray() and not _radiosity_media(ctx)):
+        # POV-Ray's radiosity rays pass media unless the scene says `media on`.
         col = media.apply(ctx, o, d, hits.t, hits.obj, hits.normal, col)
     fogs = scene_fogs(ctx.scene)
     if fogs:
         col = apply_fogs(fogs, hits.t, col, o, d)
     out[alive] = col
     return out
+
+
+def _radiosity_media(ctx: Context) -> bool:
+    rad = ctx.settings.radiosity
+    return rad is not None and rad.media
 
 
 def _empty_like(h, n: int):
@@ -368,7 +379,7 @@ def shade(
     secondary = Secondary()
     resolved = resolve_textures(ctx, tex, point, raw, uv)
     if resolved is None:
-        result, fil = _shade_groups(ctx, hit, lights, secondary, level)
+        result, fil, top = _shade_groups(ctx, hit, lights, secondary, level)
     else:
         # Shade every (hit, texture) pair of the patterned textures, then add them up by
         # weight: colour, filter and the rays each texture spawns (POV-Ray blends the fully
@@ -381,7 +392,9 @@ def shade(
             [d[src] for d in lights.direction], [c[src] for c in lights.colour]
         )
         sub_secondary = Secondary()
-        res, fl = _shade_groups(ctx, sub, sub_lights, sub_secondary, level[src])
+        # the textures' transmitted rays leave by the raw normal (each has its own top)
+        res, fl, _ = _shade_groups(ctx, sub, sub_lights, sub_secondary, level[src])
+        top = raw
         result = np.zeros((n, 3))
         fil = np.zeros((n, 3))
         np.add.at(result, src, w[:, None] * res)
@@ -393,35 +406,42 @@ def shade(
     trans = np.minimum(1.0, np.abs(fil @ GREY))
     through = np.nonzero((trans > ctx.settings.adc_bailout) & ctx.transmits[tex])[0]
     if len(through):
-        transmit(ctx, hit, level, skip, fil, through, secondary)
+        tir = transmit(ctx, hit, level, skip, fil, through, secondary, top)
+        if tir.any():
+            # POV-Ray: total internal reflection already carries the mirrored light, so
+            # the layers' own reflections about the same normal are not traced.
+            secondary.drop_top_reflections(through[tir])
     secondary.trace_into(ctx, point, result)
     return result
 
 
 def _shade_groups(ctx, hit: Hit, lights: LightColours, secondary: Secondary, level):
-    """(result, filter) of hits whose textures are plain or layered (not patterned)."""
+    """(result, filter, top normal: the top layer's perturbed normal) of hits whose
+    textures are plain or layered (not patterned)."""
     n = len(hit.obj)
     result = np.zeros((n, 3))
     fil = np.ones((n, 3))
+    top = hit.normal.copy()
     tex = hit.tex
     plain = ctx.plain[tex]
     if plain.any():
         shade_plain(ctx, np.nonzero(plain)[0], hit, lights, result, fil, secondary, level)
     for tid in np.unique(tex[~plain]):
         rows = np.nonzero(tex == tid)[0]
-        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, secondary, level)
-    return result, fil
+        shade_texture(ctx, int(tid), rows, hit, lights, result, fil, secondary, level, top)
+    return result, fil, top
 
 
 @dataclass
 class Secondary:
     """The reflected and transmitted rays a wave spawns, traced together in one batch.
     Each request: rows of the wave, directions, colour multipliers, weights, trace levels,
-    continued flags, skip codes and the power (1/exponent) applied to what comes back."""
+    continued flags, skip codes, the power (1/exponent) applied to what comes back and
+    whether it is a reflection about the top layer's normal."""
 
     parts: list[tuple] = field(default_factory=list)
 
-    def add(self, rows, dirs, mult, weight, level, continued, skip, power=1.0) -> None:
+    def add(self, rows, dirs, mult, weight, level, continued, skip, power=1.0, top=False) -> None:
         k = len(rows)
         if k == 0:
             return
@@ -435,8 +455,19 @@ class Secondary:
                 np.broadcast_to(continued, (k,)),
                 np.broadcast_to(skip, (k,)),
                 np.broadcast_to(power, (k,)),
+                np.broadcast_to(top, (k,)),
             )
         )
+
+    def drop_top_reflections(self, rows: np.ndarray) -> None:
+        """Forget the reflections about the top normal queued for these rows of the wave."""
+        kept = []
+        for part in self.parts:
+            gone = part[8] & np.isin(part[0], rows)
+            if gone.any():
+                part = tuple(a[~gone] for a in part)
+            kept.append(part)
+        self.parts = [p for p in kept if len(p[0])]
 
     def trace_into(self, ctx: Context, point: np.ndarray, result: np.ndarray) -> None:
         if not self.parts:
@@ -469,9 +500,11 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
     else:
         acc = radiosity_term(ctx, hit, rows, fin, pig, op)
     grain = shading.grain(pts) if np.any(fin.crand > 0) else None
+    gathered = radiosity_ray()
     for light, ldir, lcol in zip(ctx.scene.lights, lights.direction, lights.colour, strict=True):
+        highlights = not light.shadowless and not gathered
         acc += shading.light_terms(
-            fin, surf, pig, op, ldir[rows], lcol[rows], double, grain, not light.shadowless
+            fin, surf, pig, op, ldir[rows], lcol[rows], double, grain, highlights
         )
     result[rows] += acc
     r = fin.reflection
@@ -505,6 +538,7 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
             False,
             SKIP_NO_REFLECTION,
             exp,
+            True,
         )
     f = shading.rgb_transmit(colour)
     conserve = fin.conserve_energy & reflects
@@ -513,9 +547,10 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
 
 
 def shade_texture(
-    ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, secondary: Secondary, level
+    ctx, tid, rows, hit: Hit, lights: LightColours, result, fil, secondary: Secondary, level, top
 ):
-    """Accumulate the layers of texture `tid` at `rows` into result/fil; queue reflections."""
+    """Accumulate the layers of texture `tid` at `rows` into result/fil; queue reflections;
+    the top layer's perturbed normal into `top`."""
     s = ctx.settings
     pts = hit.point[rows]
     base_surf = Surface(normal=hit.normal[rows], ray_dir=hit.dirs[rows], points=pts)
@@ -526,6 +561,7 @@ def shade_texture(
     # layers so far (each layer's normal is perturbed before its pigment is evaluated).
     seen_normal = base_surf.normal
     uv = None if hit.uv is None else hit.uv[rows]
+    first = True
     for layer in ctx.textures[tid]:
         active = trans > s.adc_bailout
         if not active.any():
@@ -544,6 +580,10 @@ def shade_texture(
             seen_normal = surf.normal
         else:
             surf = base_surf
+        if first:
+            top[rows] = surf.normal
+            first = False
+        same_as_top = np.all(np.abs(surf.normal - top[rows]) <= shading.EPSILON, axis=1)
         colour = patterns.evaluate(layer.pigment, at, ctx.gamma, seen_normal, uv=uv)
         pig = colour[:, :3]
         op = shading.opacity(colour, ctx.legacy_opacity)
@@ -563,7 +603,7 @@ def shade_texture(
                     lcol[rows],
                     double,
                     shading.grain(pts) if fin.crand > 0 else None,
-                    not light.shadowless,
+                    not light.shadowless and not radiosity_ray(),
                 )
         result[rows] += np.where(active[:, None], acc * f, 0.0)
         # Reflection of this layer (POV-Ray: weighted by the translucency above it).
@@ -594,6 +634,7 @@ def shade_texture(
                     False,
                     SKIP_NO_REFLECTION,
                     exp,
+                    same_as_top[use],
                 )
         f = f * shading.rgb_transmit(colour)
         if fin.conserve_energy and reflects:
@@ -602,12 +643,17 @@ def shade_texture(
     fil[rows] = f
 
 
-def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary) -> None:
+def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary, top) -> np.ndarray:
     """Queue rays through transparent surfaces: straight on where the ior is 1 (a continued
-    ray, same trace level), refracted otherwise (total internal reflection reflects instead
-    and is not filtered). Light that crossed the object's inside fades with the distance."""
+    ray, same trace level), refracted otherwise about the top layer's perturbed normal
+    (total internal reflection reflects instead and is not filtered). Light that crossed
+    the object's inside fades with the distance. Returns which rows reflected totally."""
     d = hit.dirs[rows]
-    n = hit.normal[rows]
+    raw = hit.normal[rows]
+    n = top[rows]
+    # POV-Ray refracts about the perturbed normal turned toward the ray
+    n = np.where((np.einsum("ij,ij->i", d, n) > 0)[:, None], -n, n)
+    tir_rows = np.zeros(len(rows), dtype=bool)
     w = hit.weight[rows] * np.abs(fil[rows]).max(axis=1)
     ior = ctx.ior[hit.obj[rows]]
     straight = np.abs(ior - 1.0) < shading.EPSILON
@@ -618,13 +664,15 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary) -> Non
         # Leaving the object (ray along its outward normal): ior → air, else air → ior.
         ratio = np.where(hit.leaving[rows[r_idx]], ior[r_idx], 1.0 / ior[r_idx])
         rd, tir = shading.refract(d[r_idx], n[r_idx], ratio)
-        rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], n[r_idx]), rd)
+        rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], raw[r_idx]), rd)
         out_dir[r_idx] = rd
         mult[r_idx[tir]] = 1.0
+        tir_rows[r_idx[tir]] = True
         ctx.count("refraction_rays", len(r_idx))
     if hit.depth is not None:
         mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], hit.leaving[rows], view=True)
     secondary.add(rows, out_dir, mult, w, level[rows], straight, skip[rows])
+    return tir_rows
 
 
 def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.ndarray:
@@ -633,13 +681,22 @@ def radiosity_term(ctx: Context, hit: Hit, rows, fin: ir.Finish, pig, op) -> np.
     pigment * (diffuse * G + emission) * opacity."""
     assert ctx.radiosity is not None  # called only when the scene's radiosity is solved
     g = np.zeros((len(rows), 3))
-    objs = hit.obj[rows]
-    for oid in np.unique(objs):
-        sel = np.nonzero(objs == oid)[0]
-        prim = hit.prim[rows][sel] if hit.prim is not None else None
-        g[sel] = ctx.radiosity.gathered(int(oid), hit.point[rows][sel], hit.dirs[rows][sel], prim)
     emis = np.asarray(fin.emission, dtype=np.float64)
     diffuse = np.reshape(np.asarray(fin.diffuse, dtype=np.float64), (-1, 1))
+    # POV-Ray gathers only where the result can show (its max_Radiosity_Contribution).
+    worth = np.broadcast_to((pig @ shading.GREY)[:, None] * diffuse, (len(rows), 1))[:, 0] * op
+    need = np.nonzero(worth > ctx.settings.adc_bailout)[0]
+    final = ctx.radiosity.gather(ctx, hit.point[rows][need], hit.normal[rows][need])
+    if final is not None:
+        g[need] = final
+    else:
+        objs = hit.obj[rows]
+        for oid in np.unique(objs):
+            sel = np.nonzero(objs == oid)[0]
+            prim = hit.prim[rows][sel] if hit.prim is not None else None
+            g[sel] = ctx.radiosity.gathered(
+                int(oid), hit.point[rows][sel], hit.dirs[rows][sel], prim
+            )
     out = pig * (diffuse * g + emis) * op[:, None]
     if ctx.legacy_opacity:
         amb = np.asarray(fin.ambient, dtype=np.float64)

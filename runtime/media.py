@@ -3,7 +3,7 @@
 Where a ray runs between its origin and its hit, each region it crosses adds its media:
 the inside of a hollow object whose interior holds media (found from the object's surface
 crossings along the ray and an inside test between them), and the atmosphere (the
-scene-wide `media`, everywhere but inside a non-hollow object). Every region is sampled at
+scene-wide `media`); none inside a non-hollow object. Every region is sampled at
 S stratified, jittered depths per piece; all samples of a ray are sorted by depth, so
 
     colour = colour_behind * exp(-tau(0, T)) + sum_k source_k * ds_k * exp(-tau(0, t_k))
@@ -69,9 +69,11 @@ class MediaScene:
         return bool(self.regions) or self.atmosphere is not None
 
     def transmittance(self, ctx, points, dirs, dist, atmosphere: bool = True) -> np.ndarray:
-        """(N,3) share of light let through by the media between points and points + dist*dirs:
-        the media of objects always (as POV-Ray's shadow rays), the atmosphere's only when
-        `atmosphere` (the light's media_attenuation)."""
+        """(N,3) share of light let through by the media between points and points + dist*dirs.
+        As POV-Ray's shadow rays: an object's media up to the last of its surfaces the ray
+        crosses (each surface hit adds the media behind it); the stretch from there to the
+        light, and the atmosphere, only when `atmosphere` (the light's media_attenuation). A
+        light inside a media container is not dimmed by it by default."""
         n = len(points)
         tau = np.zeros((n, 3))
         t_end = np.minimum(dist, MAX_DISTANCE)
@@ -79,7 +81,8 @@ class MediaScene:
         allowed = np.ones(n, dtype=bool)
         regions = _all_regions(self) if atmosphere else self.regions
         for region in regions:
-            s = _samples(region, points, dirs, t_end, allowed, _count(region, True), rng)
+            count = _count(region, True)
+            s = _samples(region, points, dirs, t_end, allowed, count, rng, not atmosphere)
             if s is None:
                 continue
             r, t, ds = s
@@ -127,8 +130,9 @@ def coefficients(region: Region, points: np.ndarray, gamma) -> tuple[np.ndarray,
     return ext, emis, scat
 
 
-def _pieces(region: Region, o, d, t_end, allowed):
-    """(N,J) starts, ends and a mask of the pieces of each ray inside the region."""
+def _pieces(region: Region, o, d, t_end, allowed, open_end: bool = False):
+    """(N,J) starts, ends and a mask of the pieces of each ray inside the region; with
+    `open_end`, without the piece that reaches t_end inside the region (no surface there)."""
     n = len(o)
     if region.node is None:
         t0 = np.zeros((n, 1))
@@ -139,12 +143,14 @@ def _pieces(region: Region, o, d, t_end, allowed):
     t = np.sort(t, axis=1)
     bounds = np.concatenate([np.zeros((n, 1)), t, t_end[:, None]], axis=1)
     t0, t1 = bounds[:, :-1], bounds[:, 1:]
-    mask = t1 > t0 + 1e-9
+    mask = (t1 > t0 + 1e-9) & allowed[:, None]
     rows, cols = np.nonzero(mask)
     if len(rows):
         mid = 0.5 * (t0[rows, cols] + t1[rows, cols])
         inside = region.node.inside(o[rows] + mid[:, None] * d[rows])
         mask[rows[~inside], cols[~inside]] = False
+    if open_end:
+        mask &= t1 < t_end[:, None]  # the others end at a crossing: crossings past t_end are t_end
     return t0, t1, mask
 
 
@@ -152,9 +158,9 @@ def _rng(d: np.ndarray) -> np.random.Generator:
     return np.random.default_rng(zlib.crc32(np.ascontiguousarray(d[:8]).tobytes()))
 
 
-def _samples(region: Region, o, d, t_end, allowed, count: int, rng):
+def _samples(region: Region, o, d, t_end, allowed, count: int, rng, open_end: bool = False):
     """Flat (ray, depth, ds) of `count` stratified jittered samples per piece."""
-    t0, t1, mask = _pieces(region, o, d, t_end, allowed)
+    t0, t1, mask = _pieces(region, o, d, t_end, allowed, open_end)
     rows, cols = np.nonzero(mask)
     if not len(rows):
         return None
@@ -215,13 +221,15 @@ def apply(ctx, o, d, t_hit, hit_obj, normal, col) -> np.ndarray:
     t_end = np.where(np.isfinite(t_hit), t_hit, MAX_DISTANCE)
     hit = hit_obj >= 0
     leaving = hit & (np.einsum("ij,ij->i", normal, d) > 0)
-    # Atmospheric media stop inside non-hollow objects (a ray leaving one was inside it).
+    # No media at all inside a non-hollow object (a ray leaving one was inside it): POV-Ray
+    # computes a ray's media only while every object it is inside is hollow, so a solid
+    # object within a media container blanks the container's media too.
     in_solid = np.zeros(n, dtype=bool)
     in_solid[leaving] = ms.nonhollow[hit_obj[leaving]]
+    allowed = ~in_solid
     rng = _rng(d)
     parts = []
     for region in _all_regions(ms):
-        allowed = ~in_solid if region.node is None else np.ones(n, dtype=bool)
         s = _samples(region, o, d, t_end, allowed, _count(region, False), rng)
         if s is None:
             continue

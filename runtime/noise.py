@@ -251,13 +251,19 @@ def _octave_noise(p: np.ndarray, generator: int, first: bool) -> np.ndarray:
     return np.clip(n, 0.0, 1.0) if first else n
 
 
+def _single(v: float) -> float:
+    """POV-Ray keeps a turbulence's lambda and omega in single precision: at the finest
+    octaves (coordinates scaled by lambda^9) the rounding moves the noise visibly."""
+    return float(np.float32(v))
+
+
 def turbulence(
     p: np.ndarray, octaves: int, omega: float, lam: float, generator: int = DEFAULT_GENERATOR
 ) -> np.ndarray:
     """(N,) POV-Ray's Turbulence(): noise summed over octaves, each `lam` times finer and
     `omega` times weaker than the last."""
     value = _octave_noise(p, generator, True)
-    scale, amp = lam, omega
+    scale, amp = lam, omega = _single(lam), _single(omega)
     for _ in range(2, octaves + 1):
         value = value + amp * _octave_noise(p * scale, generator, False)
         scale *= lam
@@ -268,7 +274,7 @@ def turbulence(
 def dturbulence(p: np.ndarray, octaves: int, omega: float, lam: float) -> np.ndarray:
     """(N,3) POV-Ray's DTurbulence(): DNoise summed over octaves."""
     value = dnoise(p)
-    scale, amp = lam, omega
+    scale, amp = lam, omega = _single(lam), _single(omega)
     for _ in range(2, octaves + 1):
         value = value + amp * dnoise(p * scale)
         scale *= lam

@@ -393,24 +393,34 @@ def evaluate(
         # The weighted mean of the map's pigments (their map values are the weights), at
         # the point after the average's own warps (POV-Ray averages at the warped point; the
         # entries already carry the average's transforms, so only the warps are added).
-        at = points
-        if pigment.params.get("warps") or turb_params(pigment.params)[0] is not None:
-            full = np.asarray(pigment.transform, dtype=np.float64)
-            for _, before in pigment.params.get("warps", ()):
-                full = full @ np.asarray(before, dtype=np.float64)
-            at = p @ full[:3, :3].T + full[:3, 3]
+        at = map_points(pigment, points, p)
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
         mean = sum(w * evaluate(q, at, gamma, normals, uv) for w, q in pigment.pigment_map)
         return np.asarray(mean) / total
+    at = map_points(pigment, points, p) if pigment.pigment_map else points
     if kind == "slope":
         value = apply_wave(slope(p, points, normals, pigment.params), pigment.params, kind)
-        return _map(pigment, value, points, gamma, normals, uv)
+        return _map(pigment, value, at, gamma, normals, uv)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
         return _fallback(pigment, points, gamma)
     value = apply_wave(fn(p, pigment.params), pigment.params, kind)
-    return _map(pigment, value, points, gamma, normals, uv)
+    return _map(pigment, value, at, gamma, normals, uv)
+
+
+def map_points(pigment: ir.Pigment, points: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Where a pigment map's entries are evaluated: POV-Ray hands them the point after
+    the outer pattern's warps (its turbulence too), `p`. The entries already carry the outer
+    pattern's transforms, so `p` goes back through them to world space; without warps or
+    turbulence that is `points` itself."""
+    if not pigment.params.get("warps") and turb_params(pigment.params)[0] is None:
+        return points
+    # pattern_points undoes the transform, then each warp's `before` from the last warp
+    full = np.asarray(pigment.transform, dtype=np.float64)
+    for _, before in reversed(pigment.params.get("warps", ())):
+        full = full @ np.asarray(before, dtype=np.float64)
+    return p @ full[:3, :3].T + full[:3, 3]
 
 
 # --------------------------------------------------------------- list patterns

@@ -16,7 +16,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass, field
-from typing import cast
 
 import numpy as np
 
@@ -115,15 +114,26 @@ class Tessellator:
                 hf = height_field_mesh(shape, compile_xyz)
                 self.world_uv_ids.add(id(hf))
                 return hf
+            if isinstance(shape, ir.Nurbs) and shape.patch is not None:
+                # POV-Ray's own triangles: flat, with its interpolated normals, and shadow
+                # rays from the triangles (not the curved surface) as POV-Ray's
+                from runtime.bezier import bicubic_patch_mesh, bicubic_uvs
+
+                net = shape.points  # u fastest; POV-Ray lists the points along v first
+                pov_order = [net[4 * (k % 4) + k // 4] for k in range(16)]
+                verts, faces, normals, uvs = bicubic_patch_mesh(pov_order, *shape.patch)
+                if shape.bicubic_uv is not None:
+                    uvs = bicubic_uvs(uvs, shape.bicubic_uv)
+                return ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
             if isinstance(shape, ir.Nurbs):
                 from runtime.tessellate import nurbs_mesh
 
                 tolerance = shape.tolerance or self.auto_tolerance(obj)
                 verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
-                if shape.bicubic_uv is not None:
+                if shape.bicubic_uv is not None:  # its (v, u), as bicubic_patch_mesh's
                     from runtime.bezier import bicubic_uvs
 
-                    uvs = bicubic_uvs(np.asarray(uvs), shape.bicubic_uv)
+                    uvs = bicubic_uvs(np.asarray(uvs)[:, ::-1], shape.bicubic_uv)
             else:
                 if not isinstance(shape, ir.Subdivision):
                     raise TypeError(f"{name} is not a tessellated shape")
@@ -421,8 +431,8 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     """width/height are the image size (they set the automatic tessellation tolerance);
     `cull` off keeps surfaces the camera cannot see (trace() asks before there is one).
 
-    A light's `looks_like` object is taken as modelled around the origin (as written in
-    POV-Ray) and is moved to the light's position here, with `no_shadow`."""
+    A light's `looks_like` object arrives at the light's position (the evaluator moves it
+    there, as POV-Ray's parser does) and is traced here with `no_shadow`."""
     scene, own_lights = light_groups.with_group_lights(scene)
     b = _Builder(scene.camera, width)
     b.cull = Culler(scene, width, height) if cull else None
@@ -433,13 +443,8 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
     b.place_spheres()
     for light in scene.lights:
         if light.looks_like is not None:
-            # POV-Ray moves a looks_like object (modelled around the origin) to the light and
-            # lets the light shine through it: it casts no shadows.
-            shape_obj = light.looks_like
-            moved = tf.translation(light.position) @ tf.as_matrix(shape_obj.transform)
-            # four rows of four: a length the type of a comprehension cannot say
-            matrix = cast(ir.Matrix, tuple(tuple(float(x) for x in row) for row in moved))
-            b.top(dataclasses.replace(shape_obj, transform=matrix, no_shadow=True), _NO_FLAGS)
+            # POV-Ray lets the light shine through its looks_like object: it casts no shadows.
+            b.top(dataclasses.replace(light.looks_like, no_shadow=True), _NO_FLAGS)
     triangles = None
     if b.triangle_leaves:
         # Imported lazily so scenes without triangles never load Embree.

@@ -1,7 +1,8 @@
 """The renderer's answers to the evaluator's questions (lang.queries): `trace()` on one
 object with the tracer the render itself uses (runtime.prepare), `inside()` with its inside
 test (runtime.inside), and function and pigment values with the render's own compiled
-functions and patterns, so the scene language sees what the surfaces will."""
+functions and patterns (and noise, for vturbulence()), so the scene language sees what the
+surfaces will."""
 
 from __future__ import annotations
 
@@ -51,6 +52,12 @@ class RuntimeQueries:
 
         colour = evaluate(pigment, np.asarray([point], dtype=np.float64))
         return tuple(float(v) for v in colour[0])
+
+    def vturbulence(self, lam: float, omega: float, octaves: int, point: ir.Vec3) -> ir.Vec3:
+        from runtime.noise import dturbulence
+
+        v = dturbulence(np.asarray([point], dtype=np.float64), octaves, omega, lam)[0]
+        return float(v[0]), float(v[1]), float(v[2])
 
     def _tracer(self, obj: ir.Object):
         from runtime.prepare import prepare

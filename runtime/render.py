@@ -79,6 +79,14 @@ def render_scene(
     left, top, right, bottom = region if region is not None else (0, 0, width, height)
     left, top = max(0, left), max(0, top)
     right, bottom = min(width, right), min(height, bottom)
+    if radiosity is not None and hasattr(radiosity, "pretrace"):
+        # The final gather's records, from coarse passes of camera rays (one thread: a
+        # pass's records depend on no tile order).
+        def shoot(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+            with np.errstate(over="ignore", invalid="ignore"):
+                return trace_pixels(ctx, scene.camera, width, height, xs, ys)
+
+        radiosity.pretrace(shoot, width, height, (left, top, right, bottom))
     image = np.zeros((height, width, 3), dtype=np.float32)
     tiles = [
         (x, y, min(x + TILE, right), min(y + TILE, bottom))

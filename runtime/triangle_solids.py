@@ -29,7 +29,7 @@ from runtime.heightfield import heights
 from runtime.prims import FunctionCompiler
 from runtime.shapes import barycentric
 from runtime.trace import Cands, Hits
-from runtime.triangles import leaf_triangles
+from runtime.triangles import leaf_triangles, normal_sign
 
 # Embree's "no hit" distance in embreex; its float32 tfar must stay finite.
 _FAR = 1e37
@@ -152,7 +152,7 @@ class TriangleNode:
         self.e1 = tri[:, 1] - tri[:, 0]
         self.e2 = tri[:, 2] - tri[:, 0]
         cross = np.cross(self.e1, self.e2)
-        self.ng = tf.normalize(cross)
+        self.ng = tf.normalize(cross) * normal_sign(obj)
         self.vn = vn
         self.tri = tri
         self.ids = np.nonzero(np.linalg.norm(cross, axis=1) > 0)[0]  # degenerate: never hit

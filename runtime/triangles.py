@@ -56,6 +56,16 @@ def leaf_triangles(obj: ir.Object):
     return tri, vn
 
 
+def normal_sign(obj: ir.Object) -> float:
+    """-1 for a mesh (mesh, mesh2, height field) under a mirroring transform, else 1. The
+    world-space edges' cross product turns over under a mirror; POV-Ray keeps a mesh's
+    normal in its own space and carries it out through the inverse transpose, which does
+    not (trace() reports it). A lone triangle is moved vertex by vertex: it turns over."""
+    if not isinstance(obj.shape, ir.Mesh):
+        return 1.0
+    return -1.0 if np.linalg.det(tf.as_matrix(obj.transform)[:3, :3]) < 0 else 1.0
+
+
 def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Area-weighted vertex normals (for `smooth` meshes that give none)."""
     fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
@@ -73,11 +83,12 @@ class TriangleSet:
 
     def __init__(self, leaves: list[tuple[int, ir.Object]], solid: frozenset[int] = frozenset()):
         self.solid = solid
-        tris, vns, leaf_of, local = [], [], [], []
+        tris, vns, leaf_of, local, signs = [], [], [], [], []
         self.sizes: dict[int, float] = {}
         for index, obj in leaves:
             tri, vn = leaf_triangles(obj)
             tris.append(tri)
+            signs.append(np.full(len(tri), normal_sign(obj)))
             if vn is None:
                 vn = np.full_like(tri, np.nan)
             vns.append(vn)
@@ -105,6 +116,8 @@ class TriangleSet:
         self.e1 = self.tri[:, 1] - self.tri[:, 0]
         self.e2 = self.tri[:, 2] - self.tri[:, 0]
         self.ng = tf.normalize(np.cross(self.e1, self.e2))
+        if signs:
+            self.ng *= np.concatenate(signs)[:, None]
         flat = self.tri.reshape(-1, 3)
         lo = flat.min(axis=0) if len(flat) else np.zeros(3)
         hi = flat.max(axis=0) if len(flat) else np.zeros(3)

@@ -149,10 +149,14 @@ def test_min_max_any_arity(xs):
     assert call("max", *xs) == max(xs) and call("min", *xs) == min(xs)
 
 
-def test_vturbulence_is_deterministic_and_bounded():
-    a = call("vturbulence", 2.0, 0.5, 6.0, Vec((0.3, 0.2, 0.1)))
-    assert a == call("vturbulence", 2.0, 0.5, 6.0, Vec((0.3, 0.2, 0.1)))
-    assert all(abs(c) < 4 for c in a)
+def test_vturbulence_arguments_are_read_as_povray_reads_them():
+    # the value is the renderer's noise (tests/test_sdl_function_calls.py); octaves 1..10
+    p = Vec((0.3, 0.2, 0.1))
+    assert B.vturbulence_args([2.0, 0.5, 6.7, p]) == (2.0, 0.5, 6, p)
+    assert B.vturbulence_args([2.0, 0.5, 0.0, p])[2] == 1
+    assert B.vturbulence_args([2.0, 0.5, 40.0, p])[2] == 10
+    with pytest.raises(B.EvalError):
+        B.vturbulence_args([2.0, 0.5, p])
 
 
 # ------------------------------------------------------------------ oracle

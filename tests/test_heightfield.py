@@ -55,8 +55,10 @@ def test_mesh_layout_and_water_level(tmp_path):
     v = mesh.vertices
     assert len(v) == 6 and len(mesh.faces) == 2 * (3 - 1) * (2 - 1)
     # top image row at the back (z = 1), columns along x
-    assert np.allclose(v[:3], [[0, 0, 1], [0.5, 0.5, 1], [1, 1, 1]])
-    assert np.allclose(v[3:], [[0, 0.25, 0], [0.5, 0.25, 0], [1, 0.25, 0]])
+    # heights as POV-Ray's: the grey value times 65535, whole, over 65536
+    assert np.allclose(v[:3], [[0, 0, 1], [0.5, 32767 / 65536, 1], [1, 65535 / 65536, 1]])
+    q = 16383 / 65536
+    assert np.allclose(v[3:], [[0, q, 0], [0.5, q, 0], [1, q, 0]])
     wet = hf.height_field_mesh(ir.HeightField(str(tmp_path / "h.exr"), water_level=0.3))
     # triangles wholly under the water go (POV-Ray cuts straddling ones at the level)
     assert len(wet.faces) == 3

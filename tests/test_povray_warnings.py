@@ -148,6 +148,25 @@ CASES = [
         line=2,
         head=False,
     ),
+    # parse.cpp, Parse: a scene without objects (a light source counts as one) renders
+    # its background; located at the file's last line, as POV-Ray locates it
+    Case(
+        "no-objects",
+        "#version 3.7;\nglobal_settings { assumed_gamma 1 }\nbackground { rgb <0.2, 0.4, 0.8> }\n"
+        "camera { location <0, 1, -4> look_at 0 }",
+        "W0304",
+        "No objects in scene.",
+        line=3,
+        head=False,
+    ),
+    Case(
+        "light-is-an-object",
+        "#version 3.7;\nglobal_settings { assumed_gamma 1 }\nbackground { rgb <0.2, 0.4, 0.8> }\n"
+        "camera { location <0, 1, -4> look_at 0 }\nlight_source { <2, 10, -3> rgb 1 }",
+        "",
+        "",
+        head=False,
+    ),
 ]
 
 

@@ -248,7 +248,8 @@ def test_brightness_and_gray_threshold_shape_the_gathered_light():
     opts = dataclasses.replace(r.options, gray_threshold=1.0, brightness=2.0)
     grey = dataclasses.replace(r, options=opts, _field=None)
     gg = grey.gathered(0, pts, view)[0]
-    assert np.allclose(gg, 2.0 * (g @ [0.2126, 0.7152, 0.0722]))
+    # POV-Ray's greyscale weights (base/types.h), not Rec. 709's.
+    assert np.allclose(gg, 2.0 * (g @ [0.297, 0.589, 0.114]))
 
 
 def test_camera_inside_a_lone_sphere_meshes_its_inner_side():

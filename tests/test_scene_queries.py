@@ -105,3 +105,47 @@ def test_bad_calls_are_diagnostics(call, code):
     errors = [d for d in compile_source(text, "b.pov", queries=RuntimeQueries).diagnostics
               if d.severity == "error"]  # fmt: skip
     assert [d.code for d in errors] == [code] and errors[0].span.line == 2
+
+
+# trace() on height fields under transforms that mirror (negative determinant) and that
+# do not: POV-Ray carries the height field's up normal out through the inverse transpose,
+# so it never turns over (landscape.pov plants its trees where it points up)
+MIRRORS = """#version 3.7;
+#declare F = height_field { function 40, 40 { 0.5 + 0.3 * sin(x * 6) * cos(y * 5) } }
+#declare H = array[4] { object { F scale <2, 1, 2> translate <-1, 0, -1> },
+  object { F rotate -90*x scale <6, 6, -0.4> translate <-3, -3, 0> },
+  object { F scale <-2, 1, 2> translate <1, 0, -1> },
+  object { F scale <2, -1, 2> rotate 30*y translate <-1, 2, -1> } }
+#declare D = array[4] { -y, -z, -y, -y }
+#declare N = <9, 9, 9>;
+#for (I, 0, 3)
+  #declare P = trace(H[I], <0.13, 0.21, 0.17> + 5 * (-D[I]), D[I], N);
+  #debug concat("p", str(I, 0, 0), " ", vstr(3, P, ",", 0, 5), "\\n")
+  #debug concat("n", str(I, 0, 0), " ", vstr(3, N, ",", 0, 5), "\\n")
+#end
+"""
+
+
+def test_a_mirrored_mesh_keeps_its_normal_through_the_inverse_transpose():
+    mesh = "mesh { triangle { <-1, -1, 2>, <1, -1, 2>, <0, 1, 2> } }"
+    text = f"""#declare N = 0;
+#declare P = trace(object {{ {mesh} }}, <0.1, -0.2, -3>, z, N);
+#debug concat("plain ", vstr(3, N, ",", 0, 5), "\\n")
+#declare P = trace(object {{ {mesh} scale <1, 1, -1> }}, <0.1, -0.2, -3>, z, N);
+#debug concat("mirror ", vstr(3, N, ",", 0, 5), "\\n")
+"""
+    got = _strala_probes(text)
+    # the inverse transpose of scale <1, 1, -1> turns z over: the normal's z flips with it
+    assert got["plain"][2] != 0 and got["mirror"][2] == -got["plain"][2]
+
+
+@pytest.mark.povray
+def test_height_field_normals_under_mirrors_agree_with_povray(tmp_path):
+    scene = tmp_path / "mirrors.pov"
+    scene.write_text(MIRRORS)
+    ref = _probes(povray_debug(scene))
+    assert len(ref) == 8, ref
+    got = _strala_probes(MIRRORS)
+    for name, value in ref.items():
+        # the mesh's flat triangles against POV-Ray's own height field intersection
+        assert got[name] == pytest.approx(value, abs=0.02), (name, got[name], value)

@@ -315,6 +315,35 @@ def test_patch_steps_set_the_grid(us, vs):
     assert np.all(np.isfinite(N))
 
 
+@given(st.floats(0, 1), st.floats(0, 1))
+def test_patch_normals_are_the_unit_cross_of_the_tangents(u, v):
+    """POV-Ray's bezier_value normal: dP/du x dP/dv, made unit length."""
+    cp = np.array(PATCH, float).reshape(4, 4, 3)
+    h = 1e-6
+    uu = min(max(u, h), 1 - h)
+    vv = min(max(v, h), 1 - h)
+    du = (
+        np.einsum("i,j,ijc->c", _bernstein(uu + h), _bernstein(vv), cp)
+        - np.einsum("i,j,ijc->c", _bernstein(uu - h), _bernstein(vv), cp)
+    ) / (2 * h)
+    dv = (
+        np.einsum("i,j,ijc->c", _bernstein(uu), _bernstein(vv + h), cp)
+        - np.einsum("i,j,ijc->c", _bernstein(uu), _bernstein(vv - h), cp)
+    ) / (2 * h)
+    ref = np.cross(du, dv)
+    got = bz.patch_normals(PATCH, np.array([uu]), np.array([vv]))[0]
+    assert np.abs(got - ref / np.linalg.norm(ref)).max() < 1e-5
+
+
+def test_patch_normals_at_a_pole_are_povrays_x():
+    """Where a row of control points is one point the u tangent vanishes there: POV-Ray's
+    normal is <1, 0, 0> (not the surface's limit normal)."""
+    pole = [(0.0, 1.0, 0.0)] * 4 + PATCH[4:]
+    n = bz.patch_normals(pole, np.array([0.0, 0.0, 0.5]), np.array([0.0, 0.7, 0.5]))
+    assert np.array_equal(n[:2], [[1, 0, 0], [1, 0, 0]])
+    assert abs(np.linalg.norm(n[2]) - 1) < 1e-12 and not np.array_equal(n[2], [1, 0, 0])
+
+
 def test_patch_flatness_stops_early():
     flat = [(i % 4, i // 4, 0.0) for i in range(16)]
     V, F, _, _ = bz.bicubic_patch_mesh(flat, 4, 4, 0.01)

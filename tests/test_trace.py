@@ -417,8 +417,9 @@ def test_plain_spheres_keep_the_scene_order():
     assert prep.tracer.sizes[3] == pytest.approx(4 * np.sqrt(3))
 
 
-def test_looks_like_object_moves_to_the_light_and_casts_no_shadow():
-    bulb = ir.Object(ir.Sphere((0, 0, 0), 0.5))
+def test_looks_like_object_is_traced_where_it_is_and_casts_no_shadow():
+    # the evaluator has moved it to the light already; prepare must not move it again
+    bulb = ir.Object(ir.Sphere((0, 10, 0), 0.5))
     light = ir.Light(position=(0, 10, 0), looks_like=bulb)
     scene = ir.Scene(camera=ir.Camera(), lights=(light,), objects=())
     prep = prepare(scene, 8, 8)

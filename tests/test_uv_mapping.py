@@ -174,7 +174,8 @@ def test_angle_about_y_is_the_angle_from_x_toward_z(x, z):
     assert 0.0 <= u <= 1.0
     if x * x + z * z > 1e-6:
         expect = (math.atan2(z, x) % (2 * math.pi)) / (2 * math.pi)
-        assert min(abs(u - expect), 1 - abs(u - expect)) < 1e-9
+        # POV-Ray's acos loses digits near the x axis (about 1e-8 of a turn)
+        assert min(abs(u - expect), 1 - abs(u - expect)) < 1e-7
 
 
 @given(

@@ -198,6 +198,8 @@ def _e_call(it: BuildContext, node: syntax.Call) -> Any:
             return Vec(box[0] if node.name == "min_extent" else box[1])
         if node.name in ("inside", "trace"):
             return _geometry_call(it, node)
+        if node.name == "vturbulence":
+            return _vturbulence_call(it, node)
         if node.name in ("prod", "sum"):
             it.unsupported(f"{node.name}()", node.span)
             return 0.0
@@ -388,6 +390,24 @@ EXPRESSIONS: dict[type, Callable[[BuildContext, Any], Any]] = {
 }
 
 
+def _vturbulence_call(it: BuildContext, node) -> Vec:
+    """POV-Ray's DTurbulence at a point, from the renderer's noise (lang cannot compute it)."""
+    try:
+        lam, omega, octaves, point = builtins.vturbulence_args([it.eval(a) for a in node.args])
+    except EvalError as e:
+        raise it.error("E0203", e.message, node.span, e.hint) from None
+    queries = it.scene_queries("vturbulence()")
+    if queries is None:
+        it.warn_once(
+            "no-renderer:vturbulence()",
+            "vturbulence() called from the scene language gives <0, 0, 0> here",
+            node.span,
+            "its value needs the renderer's noise: `strala render` computes it",
+        )
+        return Vec((0.0, 0.0, 0.0))
+    return Vec(queries.vturbulence(lam, omega, octaves, (point[0], point[1], point[2])))
+
+
 def _lenient(it: BuildContext, e: EvalError, span, repaired: Callable[[], Any]) -> Any:
     """An evaluation error that POV-Ray repairs with a warning gives its repair; any other
     is the located error E0203. A zero divisor gives infinity (express.cpp,
@@ -425,9 +445,10 @@ def _clamped_domain(it: BuildContext, node: syntax.Call, v: Any) -> Any:
 # operands' errors at theirs); kinds without a closure of their own go through it.eval.
 Compiled = Callable[[BuildContext], Any]
 # built-ins that look at their arguments' syntax or the scene, not only at their values,
-# or warn (acos and asin outside [-1, 1]): the tree walk evaluates them
+# or warn (acos and asin outside [-1, 1]), or ask the renderer (vturbulence): the tree walk
+# evaluates them
 _SPECIAL_CALLS = frozenset(
-    {"defined", "min_extent", "max_extent", "inside", "trace", "prod", "sum", "acos", "asin"}
+    "defined min_extent max_extent inside trace prod sum acos asin vturbulence".split()
 )
 
 

@@ -44,6 +44,7 @@ from lang.eval import (
 )
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
+from lang.eval.coincident import MAX_PAIRS, coincident_faces
 from lang.eval.edits import Edits
 from lang.eval.elements import (
     LIST_KINDS,
@@ -235,6 +236,10 @@ class Interpreter:
             self.file_stack.pop()
         for h in list(self.handles.values()):
             fileio.flush(self, h)
+        if not self.objects and not self.lights and not _is_include(filename):
+            # POV-Ray's Parse: a light source counts as an object there
+            lines = max(1, len(text.splitlines()))
+            self.sink.warning("W0304", "No objects in scene.", Span(filename, lines, 1, lines, 1))
         for name, span in self.main_declares.items():
             if name not in self.used:
                 self.sink.warning(
@@ -244,6 +249,7 @@ class Interpreter:
                     "remove the declaration, or use the name",
                 )
         scene = self._scene()
+        self._warn_coincident(scene)
         symbols = {k: v for k, v in self.scopes[0].items()}
         return Result(scene, _once(self.sink.items), symbols, list(self.files))
 
@@ -294,6 +300,26 @@ class Interpreter:
         )
         defaults = self._pattern_defaults()
         return with_pattern_defaults(scene, defaults) if defaults else scene
+
+    def _warn_coincident(self, scene: ir.Scene) -> None:
+        """Boxes whose faces coincide in different textures: POV-Ray's pick between the two
+        varies from pixel to pixel, strala's does not (lang.eval.coincident)."""
+        pairs = coincident_faces(scene.objects, scene.camera.location)
+        if not pairs:
+            return
+        first, second, axis, coord = pairs[0]
+        span = first.span or second.span
+        if span is None:
+            return
+        plus = "+" if len(pairs) >= MAX_PAIRS else ""  # the search stops there
+        more = f" (and {len(pairs) - 1}{plus} more pairs)" if len(pairs) > 1 else ""
+        self.sink.warning(
+            "W0315",
+            f"this box's face and the box's at {second.span or 'another place'} lie in one"
+            f" plane ({axis} = {coord:g}) in different textures{more}: POV-Ray shows either"
+            " texture from pixel to pixel there, strala always the first one",
+            span,
+        )
 
     def _pattern_defaults(self) -> dict[str, int]:
         """The scene-wide values POV-Ray's patterns read at render time, where they differ
@@ -1369,3 +1395,9 @@ _DIRECTIVES: dict[type, Callable[..., None]] = {
     syntax.FileOp: Interpreter._d_fileop,
     syntax.Break: Interpreter._d_break,
 }
+
+
+def _is_include(filename: str) -> bool:
+    """An include file read on its own (the language server, `check` of a library): it
+    is not a scene, so an empty one is not worth POV-Ray's warning."""
+    return Path(filename).suffix.lower() in (".inc", ".mcr", ".map")

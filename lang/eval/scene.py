@@ -403,6 +403,16 @@ def _b_radiosity(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Radiosi
             fields[name] = int(args[0])
         elif name in ("error_bound", "brightness", "gray_threshold", "patch_size", "tolerance"):
             fields[name] = args[0]
+        elif name == "media":
+            fields["media"] = bool(args[0]) if args else True
+        elif name == "always_sample":
+            fields["always_sample"] = bool(args[0]) if args else True
+        elif name == "nearest_count":
+            # POV-Ray 3.7 takes 1..20 (a second value is 3.7's adaptive pretrace count)
+            fields["nearest_count"] = max(1, min(20, int(args[0])))
+        elif name in ("minimum_reuse", "maximum_reuse", "low_error_factor", "pretrace_start",
+                      "pretrace_end"):  # fmt: skip
+            fields[name] = float(args[0])
         elif name == "method":
             if args[0] not in ("gauss_seidel", "progressive", "direct"):
                 it.sink.error(
@@ -421,14 +431,7 @@ def _b_radiosity(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Radiosi
             else:
                 fields["display"] = args[0]
         elif name in (
-            "pretrace_start",
-            "pretrace_end",
-            "nearest_count",
-            "low_error_factor",
-            "minimum_reuse",
-            "maximum_reuse",
             "adc_bailout",
-            "always_sample",
             "save_file",
             "load_file",
             "max_sample",

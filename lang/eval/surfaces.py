@@ -162,8 +162,9 @@ def _object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -
 
 def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
     """POV-Ray's `bicubic_patch { type N flatness F u_steps U v_steps V <p1> … <p16> … }`
-    becomes the equal NURBS (degree 3×3, Bézier knots, unit weights), so it is tessellated
-    to the scene's tolerance like every NURBS surface."""
+    becomes the equal NURBS (degree 3×3, Bézier knots, unit weights) carrying its steps and
+    flatness, so the renderer cuts it into POV-Ray's triangles (`type` changes only POV-Ray's
+    memory use)."""
     spec = schema.BlockSpec(
         node.keyword, "object", "", (), schema.items(schema.OBJECT_ITEMS),
         schema.OBJECT_ACCEPTS,
@@ -175,13 +176,17 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
         it.loose_depth -= 1
     points: list[tuple[float, float, float]] = []
     corners: list[tuple[float, float]] = []
+    settings = {"u_steps": 0.0, "v_steps": 0.0, "flatness": 0.0}  # POV-Ray's defaults
     i, n = 0, len(els)
     while i < n:
         e = els[i]
         if e.kind == "comma":
             i += 1
         elif e.kind == "kw" and e.value in ("type", "flatness", "u_steps", "v_steps"):
-            i += 2  # the setting's number: tessellation follows the tolerance instead
+            value = els[i + 1].value if i + 1 < n else None
+            if e.value in settings and isinstance(value, int | float):
+                settings[e.value] = float(value)
+            i += 2
         elif e.kind == "kw" and e.value == "uv_vectors" and not points:
             # POV-Ray's ST corners: where the patch's (v, u) = (0,0), (1,0), (1,1), (0,1) sit
             # in uv_mapping's uv
@@ -206,10 +211,11 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
     knots = (0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0)
     # POV-Ray lists the points row by row along v; the IR wants u varying fastest.
     net = tuple(points[4 * u + v] for v in range(4) for u in range(4))
+    patch = (int(settings["u_steps"]), int(settings["v_steps"]), settings["flatness"])
     if len(corners) != 4:
         corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
     st = (corners[0], corners[1], corners[2], corners[3])
-    shape = ir.Nurbs(3, 3, 4, 4, net, (1.0,) * 16, knots, knots, bicubic_uv=st)
+    shape = ir.Nurbs(3, 3, 4, 4, net, (1.0,) * 16, knots, knots, patch=patch, bicubic_uv=st)
     g = grouping.group(it, spec, els[i:], node, loose=True)
     obj = ObjectValue(shape, node.keyword, span=node.span, default=it.default_texture)
     return apply_object_items(it, obj, g)

@@ -723,12 +723,55 @@ def _b_warp(it: BuildContext, g: Grouped, node: syntax.Block) -> _Warp:
             w[name] = v
     if kind is None:
         kind = "repeat" if "repeat" in w else "turbulence"
+    if kind == "black_hole":
+        _fit_black_hole_repeat(it, w, g)
     if kind == "repeat":
         axes = [i for i, c in enumerate(w["repeat"]) if c != 0.0]
         if len(axes) != 1:
             raise it.error("E0202", "a repeat warp repeats along one axis", g.span, "`repeat x*2`")
     w["warp"] = kind
     return _Warp(w)
+
+
+def _three(v: Any) -> list[float]:
+    """A warp's vector value; a float stands for all three components, as POV-Ray promotes."""
+    if isinstance(v, (int, float)):
+        return [float(v)] * 3
+    return [float(c) for c in v]
+
+
+def _fit_black_hole_repeat(it: BuildContext, w: dict[str, Any], g: Grouped) -> None:
+    """POV-Ray fits a repeated black hole into its cell as it parses `repeat` and
+    `turbulence` (in the order written): along each repeated axis the centre is at least
+    the radius from 0, and the cell grows to hold centre + radius + jitter."""
+    centre = list(w["center"])
+    radius = float(w["radius"])
+    repeat: list[float] | None = None
+    jitter = [0.0, 0.0, 0.0]
+    for name, args, span in g.items:
+        if name == "repeat":
+            repeat = _three(args[0])
+        elif name == "turbulence":
+            jitter = _three(args[0])
+        else:
+            continue
+        if repeat is None:
+            continue
+        for i in range(3):
+            if repeat[i] <= 0.0:
+                continue
+            centre[i] = max(centre[i], radius)
+            need = centre[i] + radius + jitter[i]
+            if repeat[i] < need:
+                repeat[i] = need
+                it.sink.warning(
+                    "W0309",
+                    f"black hole repeat vector {'xyz'[i]} too small: increased to {need:g}",
+                    span,
+                )
+    if repeat is not None:
+        w["repeat"] = tuple(repeat)
+    w["center"] = tuple(centre)
 
 
 def _b_irid(it: BuildContext, g: Grouped, node: syntax.Block) -> _Irid:

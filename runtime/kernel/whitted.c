@@ -901,6 +901,11 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
 static void trace(Scene *s, const double *o, const double *d, double weight, int level,
                   int skip, int continued, int cls, double *out);
 
+static int transmit(Scene *s, const double *p, const double *d, const double *n,
+                    const double *tx, const double *ob, const double *col, const double *refl,
+                    int reflects, const Hit *h, double weight, int level, int skip, int leaving,
+                    int cls, double *out);
+
 /* The colour of a hit (integrate.shade for one plain, one-layer texture). */
 static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
                   int level, int skip, int cls, double *out) {
@@ -994,6 +999,8 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     const double *rmin = tx + T_RMIN, *rmax = tx + T_RMAX;
     double refl[3] = {0.0, 0.0, 0.0};
     int reflects = 0;
+    int mirrored = 0; /* a reflected ray to trace, after the transmitted one */
+    double rweight = 0.0;
     for (int i = 0; i < 3; i++) reflects |= rmax[i] > 0 || rmin[i] > 0;
     if (reflects) {
         double cos_i = -dot(d, n);
@@ -1011,23 +1018,36 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
             if (rm != 0.0) refl[i] *= 1.0 + rm * (1.0 - fm) * (pig[i] - 1.0);
             if (fabs(refl[i]) > big) big = fabs(refl[i]);
         }
-        if (big > 0) {
-            double rd[3];
-            mirror(d, n, rd);
-            /* shading.reflect's guard for bumpy normals never applies: raw = normal */
-            normalize3(rd);
-            double rc[3];
-            trace(s, p, rd, weight * wfac, level, SKIP_NO_REFLECTION, 0, -1, rc);
-            double ex = tx[T_REXP];
-            if (ex != 0.0 && 1.0 / ex != 1.0) {
-                for (int i = 0; i < 3; i++) rc[i] = pow(rc[i] < 0 ? 0 : rc[i], 1.0 / ex);
-            }
-            for (int i = 0; i < 3; i++) out[i] += refl[i] * rc[i];
-        }
+        mirrored = big > 0;
+        rweight = weight * wfac;
     }
 
-    /* transmission */
-    if (!(int)tx[T_TRANS]) return;
+    /* transmission; total internal reflection carries the mirrored light itself, so the
+     * reflection (about the same normal: one layer, no normal) is then not traced (POV-Ray) */
+    if (!transmit(s, p, d, n, tx, ob, col, refl, reflects, h, weight, level, skip, leaving,
+                  cls, out) &&
+        mirrored) {
+        double rd[3];
+        mirror(d, n, rd);
+        /* shading.reflect's guard for bumpy normals never applies: raw = normal */
+        normalize3(rd);
+        double rc[3];
+        trace(s, p, rd, rweight, level, SKIP_NO_REFLECTION, 0, -1, rc);
+        double ex = tx[T_REXP];
+        if (ex != 0.0 && 1.0 / ex != 1.0) {
+            for (int i = 0; i < 3; i++) rc[i] = pow(rc[i] < 0 ? 0 : rc[i], 1.0 / ex);
+        }
+        for (int i = 0; i < 3; i++) out[i] += refl[i] * rc[i];
+    }
+}
+
+/* The ray through a transparent surface, added to out: straight on where the ior is 1,
+ * refracted otherwise; returns 1 where it reflected totally instead. */
+static int transmit(Scene *s, const double *p, const double *d, const double *n,
+                    const double *tx, const double *ob, const double *col, const double *refl,
+                    int reflects, const Hit *h, double weight, int level, int skip, int leaving,
+                    int cls, double *out) {
+    if (!(int)tx[T_TRANS]) return 0;
     double fil[3];
     for (int i = 0; i < 3; i++) {
         fil[i] = col[3] * col[i] + col[4];
@@ -1035,13 +1055,14 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     }
     double trans = fabs(dot(fil, GREY));
     if (trans > 1.0) trans = 1.0;
-    if (!(trans > s->bailout)) return;
+    if (!(trans > s->bailout)) return 0;
     double big = fabs(fil[0]);
     if (fabs(fil[1]) > big) big = fabs(fil[1]);
     if (fabs(fil[2]) > big) big = fabs(fil[2]);
     double w = weight * big, ior = ob[O_IOR];
     int straight = fabs(ior - 1.0) < EPSILON;
     double td[3] = {d[0], d[1], d[2]}, mult[3] = {fil[0], fil[1], fil[2]};
+    int tir = 0;
     if (!straight) {
         double ratio = leaving ? ior : 1.0 / ior;
         double n_cos = -dot(d, n);
@@ -1050,6 +1071,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
             mirror(d, n, td);
             normalize3(td);
             mult[0] = mult[1] = mult[2] = 1.0;
+            tir = 1;
         } else {
             double t2 = ratio * n_cos - sqrt(tt);
             for (int i = 0; i < 3; i++) td[i] = ratio * d[i] + t2 * n[i];
@@ -1063,6 +1085,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     double tc[3];
     trace(s, p, td, w, level, skip, straight, straight ? cls : -1, tc);
     for (int i = 0; i < 3; i++) out[i] += mult[i] * tc[i];
+    return tir;
 }
 
 /* The colour of one ray (integrate.trace): `level` is the trace level of the surface that

@@ -42,13 +42,18 @@ import numpy as np
 from lang import ir
 from runtime import transform as tf
 from runtime import uvmap
+from runtime.radiosity import irradiance_cache
 from runtime.radiosity import solve as solver
 from runtime.radiosity.formfactor import form_factors, point_form_factors
 from runtime.radiosity.gouraud import VertexField, luminance, refine_mask
 from runtime.radiosity.patches import Mesher, Patches, TooLarge, box_faces
 from runtime.radiosity.visibility import PatchVisibility
 
-CACHE_VERSION = 3  # 2: energy conservation, eye cell, budgeted refinement; 3: key inside
+# POV-Ray's greyscale weights (its gray_threshold desaturates by them).
+GREY = np.array([0.297, 0.589, 0.114])
+
+CACHE_VERSION = 4  # 2: energy conservation, eye cell, budgeted refinement; 3: key inside;
+# 4: sky light and legacy ambient
 
 # A scene is "not closed" when more than this fraction of the light leaving its surfaces
 # (area-weighted row sums of F, visibility included) escapes to infinity.
@@ -81,6 +86,15 @@ class Options:
     vertex_gather: bool = False  # Gouraud from light gathered at the vertices (else averages)
     plane_scale: float = 8.0  # planes are clipped to the scene's box scaled by this
     seed: int = 0
+    # Bounces of indirect light (POV-Ray's recursion_limit); None: every bounce.
+    bounces: int | None = None
+    final_gather: bool = True  # the display traces one bounce per point (gather.py)
+    gather_rays: int = 35  # rays per point (POV-Ray's count) …
+    gather_cap: int = 64  # … at most, to bound the time
+    # Gather at every shaded point (exact, slow) instead of at the irradiance cache's
+    # records with interpolation between them (POV-Ray's way, the default).
+    gather_every_point: bool = False
+    cache_rules: irradiance_cache.Rules = irradiance_cache.Rules()
 
     @staticmethod
     def from_ir(r: ir.Radiosity, **extra) -> Options:
@@ -88,6 +102,10 @@ class Options:
         # hour of form factors here; unless the scene asks for another number, use ours.
         default = ir.Radiosity.__dataclass_fields__["max_patches"].default
         budget = extra.pop("max_patches", Options.max_patches)
+        if extra.get("final_gather", True):
+            # The display gathers the first bounce itself; the patches carry the further
+            # ones, smooth enough for the first mesh: no refinement rounds.
+            extra.setdefault("max_rounds", 0)
         return Options(
             patch_size=r.patch_size,
             max_patches=budget if r.max_patches == default else r.max_patches,
@@ -97,6 +115,9 @@ class Options:
             brightness=r.brightness,
             gray_threshold=r.gray_threshold,
             flat=r.display == "flat",
+            bounces=r.recursion_limit,
+            gather_rays=r.count,
+            cache_rules=irradiance_cache.Rules.from_ir(r),
             **extra,
         )
 
@@ -133,6 +154,8 @@ class RadiosityResult:
     G_vertex: np.ndarray | None = None  # (V,3) gathered at the Gouraud vertices
     open_area: np.ndarray | None = None  # (N,) patch area outside other solids
     _field: VertexField | None = None
+    # The irradiance cache of the render in progress (its camera's; never saved).
+    cache: irradiance_cache.IrradianceCache | None = None
 
     @property
     def field(self) -> VertexField:
@@ -145,6 +168,54 @@ class RadiosityResult:
                 weights=self.open_area,
             )
         return self._field
+
+    def gather(self, ctx, points: np.ndarray, normals: np.ndarray) -> np.ndarray | None:
+        """(M,3) indirect light at points by a final gather over this solution (brightness
+        and gray_threshold applied), or None where the display reads the patches instead:
+        no final gather, or these points are themselves hit by gather rays."""
+        from runtime.radiosity import gather
+
+        if not self.options.final_gather or gather.gathering():
+            return None
+        o = self.options
+        rays = gather.rays_per_point(o.gather_rays, o.gather_cap, ctx.scene.lights)
+        cache = self.cache
+        if cache is None or cache.reading is None:
+            ctx.count("radiosity_gathers", len(points))
+            return self._display(gather.final_gather(ctx, points, normals, rays))
+        how = cache.reading
+        wsum, out = cache.lookup(points, normals, how)
+        need = np.nonzero(~cache.served(wsum, how))[0]
+        if len(need):
+            p, n = points[need], normals[need]
+            light, dirs, depth = gather.gather_rays(ctx, p, n, rays, depths=how.record)
+            # Records in reach count with their weight, the new gather with one.
+            part = wsum[need][:, None]
+            out[need] = (out[need] * part + light) / (part + 1.0)
+            if how.record:
+                eye = ctx.scene.camera.location
+                cache.pending.append(
+                    irradiance_cache.samples_from_rays(p, n, light, dirs, depth, eye, cache.rules)
+                )
+        ctx.count("radiosity_gathers", len(need))
+        ctx.count("radiosity_reused", len(points) - len(need))
+        return self._display(out)
+
+    def pretrace(self, shoot, width: int, height: int, region) -> None:
+        """Fill the irradiance cache before the image is traced (irradiance_cache.py):
+        `shoot(xs, ys)` traces camera rays through pixel coordinates."""
+        if not self.options.final_gather or self.options.gather_every_point:
+            return
+        self.cache = irradiance_cache.IrradianceCache(self.options.cache_rules)
+        irradiance_cache.pretrace(self.cache, shoot, width, height, region)
+
+    def _display(self, g: np.ndarray) -> np.ndarray:
+        """POV-Ray's last steps on gathered light: toward grey by gray_threshold (its
+        greyscale weights), times brightness."""
+        t = self.options.gray_threshold
+        if t > 0:
+            g = (1 - t) * g + t * (g @ GREY)[:, None]
+        return g * self.options.brightness
 
     def gathered(
         self, obj: int, points: np.ndarray, ray_dir: np.ndarray, prim: np.ndarray | None = None
@@ -163,11 +234,7 @@ class RadiosityResult:
             out[ok] = self.field.lookup(element[ok], points[ok])
         # The side facing the viewer was not meshed: nothing can light it.
         out[~ok] = 0.0
-        t = self.options.gray_threshold
-        if t > 0:
-            grey = luminance(out)[:, None]
-            out = (1 - t) * out + t * grey
-        return out * self.options.brightness
+        return self._display(out)
 
 
 # ------------------------------------------------------------------ building
@@ -299,8 +366,7 @@ class SceneMesher:
             self.warn(f"{where_from}uv_mapping: radiosity reads this texture's colour by position")
         fin = tex.finish
         rho = np.clip(rgb * fin.diffuse, 0.0, 0.999)
-        emis = rgb * np.asarray(fin.emission, dtype=np.float64)
-        return rho, emis
+        return rho, emitted(rgb, fin, self.prepared.scene.settings)
 
     def sides_of_plane(self, i: int, point: np.ndarray, normal: np.ndarray) -> tuple[bool, ...]:
         h = (self.witness[i] - point) @ normal
@@ -458,6 +524,20 @@ class SceneMesher:
         )
 
 
+def emitted(rgb: np.ndarray, fin: ir.Finish, settings: ir.Settings) -> np.ndarray:
+    """The light a surface of pigment `rgb` sends out by itself: pigment × emission, and,
+    before 3.7, pigment × ambient × ambient_light too: POV-Ray keeps `ambient` with
+    radiosity in legacy scenes and its radiosity rays see it like emission (an ambient
+    sky sphere lights the scene)."""
+    from runtime.context import legacy_rules
+
+    out = rgb * np.asarray(fin.emission, dtype=np.float64)
+    if legacy_rules(settings):
+        amb = np.asarray(fin.ambient, dtype=np.float64)
+        out = out + rgb * amb * np.asarray(settings.ambient_light, dtype=np.float64)
+    return out
+
+
 def _polygon_points(shape) -> np.ndarray:
     if isinstance(shape, ir.Disc):
         c = np.asarray(shape.center, dtype=np.float64)
@@ -490,11 +570,12 @@ def _meshable(prepared) -> list[int]:
     return sorted(set(out))
 
 
-def _gathered(F, B, patches: Patches, D) -> np.ndarray:
-    """G = F B, the light each patch gathers from the others; without a dense F, from the
-    patch's own equation B = E + ρ (D + G) (exact where ρ > 0; 0 on black patches)."""
+def _gathered(F, B, patches: Patches, D, S) -> np.ndarray:
+    """G = F B + S, the light each patch gathers from the others and the sky (S); without
+    a dense F, from the patch's own equation B = E + ρ (D + G) (exact where ρ > 0; 0 on
+    black patches)."""
     if F is not None:
-        return np.maximum(F @ B, 0.0)
+        return np.maximum(F @ B + S, 0.0)
     rho = patches.reflectance
     g = np.where(rho > 0, (B - patches.emission - rho * D) / np.maximum(rho, 1e-12), 0.0)
     return np.maximum(g, 0.0)
@@ -535,10 +616,33 @@ def hit_fraction(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays
     """(N,) the fraction of `rays` cosine-distributed rays from each patch's open points
     that hit a surface: 1 where the patch sees a closed scene (no sky through any
     opening); 1 − it estimates the patch's light that escapes. NaN when rays = 0."""
+    return closure(vis, pts, normal, rays, rng)[0]
+
+
+def closure(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays: int, rng,
+            sky=None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """`hit_fraction`, and (N,3) the sky's light arriving at each patch: the mean of
+    `sky(directions)` (the background or sky_sphere colour, None: black) over the
+    cosine-distributed rays that meet nothing — what POV-Ray's radiosity rays return
+    where they escape (POV units: a sky of colour c all around gives c)."""
     n = len(normal)
     if rays <= 0 or n == 0:
-        return np.full(n, np.nan)
+        return np.full(n, np.nan), np.zeros((n, 3))
     # Stratified cosine-weighted directions about each patch normal.
+    k = np.arange(rays)
+    d = cosine_directions(normal, rays, rng)
+    o = pts[:, k % pts.shape[1]]
+    hit, escaped = vis.hits_and_escapes(o.reshape(-1, 3), d.reshape(-1, 3))
+    light = np.zeros((n * rays, 3))
+    if sky is not None and escaped.any():
+        light[escaped] = sky(d.reshape(-1, 3)[escaped])
+    return hit.reshape(n, rays).mean(axis=1), light.reshape(n, rays, 3).mean(axis=1)
+
+
+def cosine_directions(normal: np.ndarray, rays: int, rng) -> np.ndarray:
+    """(N,rays,3) unit directions about each of the (N,3) unit normals, cosine-distributed
+    and stratified (rows and columns of a jittered grid, permuted: a Latin square)."""
+    n = len(normal)
     k = np.arange(rays)
     u1 = (k[None] + rng.random((n, rays))) / rays
     u2 = rng.permutation(rays)[None] / rays + rng.random((n, rays)) / rays
@@ -549,9 +653,7 @@ def hit_fraction(vis: PatchVisibility, pts: np.ndarray, normal: np.ndarray, rays
     b = np.cross(normal, t)
     z = np.sqrt(np.maximum(0.0, 1 - u1))
     d = (r * np.cos(phi))[..., None] * t[:, None] + (r * np.sin(phi))[..., None] * b[:, None]
-    d += z[..., None] * normal[:, None]
-    o = pts[:, k % pts.shape[1]]
-    return vis.hits(o.reshape(-1, 3), d.reshape(-1, 3)).reshape(n, rays).mean(axis=1)
+    return d + z[..., None] * normal[:, None]
 
 
 def conserve(F: np.ndarray, closed: np.ndarray) -> None:
@@ -619,7 +721,7 @@ def _patterned_materials(prepared, patches: Patches, rng, samples: int = 8) -> N
         rgb = rgb.mean(axis=1)
         fin = obj.texture.finish
         patches.reflectance[rows] = np.clip(rgb * fin.diffuse, 0.0, 0.999)
-        patches.emission[rows] = rgb * np.asarray(fin.emission, dtype=np.float64)
+        patches.emission[rows] = emitted(rgb, fin, prepared.scene.settings)
 
 
 def unmeshed_tracer(prepared, meshed: set[int]):
@@ -748,7 +850,10 @@ def content_key(scene: ir.Scene, opts: Options, cell: EyeCell | None = None) -> 
     camera itself (viewer independence), not source positions (spans)."""
     h = hashlib.sha256()
     h.update(f"strala-radiosity-{CACHE_VERSION}".encode())
-    _hash_value(h, (scene.objects, scene.lights, opts))
+    st = scene.settings
+    # The sky lights the patches; before 3.7 so does every surface's ambient.
+    _hash_value(h, (scene.objects, scene.lights, opts, scene.sky_sphere, scene.background,
+                    st.version, st.ambient_light))  # fmt: skip
     if cell is not None and (cell.objects or cell.nodes):
         _hash_value(h, (sorted(cell.objects), sorted(cell.nodes)))
     return h.hexdigest()
@@ -789,16 +894,20 @@ def compute(
     scene: ir.Scene = prepared.scene
     if opts is None:
         r = scene.settings.radiosity or ir.Radiosity()
-        opts = Options.from_ir(r)
+        opts = Options.from_ir(r, final_gather=gather_pays(scene))
     # The display (flat or Gouraud) reads the solution; it is not part of it.
-    key = content_key(scene, dataclasses.replace(opts, flat=False), eye_cell(prepared))
+    # So is the number of gather rays.
+    display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
+                                  gather_every_point=False,
+                                  cache_rules=irradiance_cache.Rules())  # fmt: skip
+    key = content_key(scene, display, eye_cell(prepared))
     path = None if cache_dir is None else cache_path(Path(cache_dir), key)
     if path is not None and path.is_file():
         try:
             with path.open("rb") as f:
                 stored = pickle.load(f)
             if isinstance(stored, dict) and stored.get("key") == key:
-                res = dataclasses.replace(stored["result"], options=opts, _field=None)
+                res = dataclasses.replace(stored["result"], options=opts, _field=None, cache=None)
                 res.stats["cache_hit"] = 1.0
                 _print_warnings(res)
                 return res
@@ -810,7 +919,8 @@ def compute(
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp")
         with tmp.open("wb") as f:
-            pickle.dump({"key": key, "result": dataclasses.replace(res, _field=None)}, f)
+            kept = dataclasses.replace(res, _field=None, cache=None)
+            pickle.dump({"key": key, "result": kept}, f)
         tmp.replace(path)  # a reader never sees half a file
     return res
 
@@ -827,9 +937,47 @@ def _print_warnings(res: RadiosityResult) -> None:
         print(f"strala: warning: {msg}", file=sys.stderr)
 
 
+def gather_pays(scene: ir.Scene) -> bool:
+    """Whether the display should take the first bounce by a final gather: where light
+    sources or the sky shine. Where all light comes from emitting surfaces (a Cornell box's
+    ceiling patch), the patches carry it better: their form factors to the emitters are
+    exact, while a gather's few dozen rays that must find a small emitter are noisy."""
+    sky = bool(scene.sky_sphere) or any(scene.background[:3])
+    return bool(scene.lights) or sky
+
+
+def patch_levels(opts: Options) -> int | None:
+    """How many bounces the patches' G carries (None: all). With a final gather the
+    display traces the first bounce itself, so the patches carry one fewer."""
+    if opts.bounces is None:
+        return None
+    return max(0, opts.bounces - (1 if opts.final_gather else 0))
+
+
+def limited_gather(F: np.ndarray, patches: Patches, D: np.ndarray, S: np.ndarray,
+                   levels: int) -> np.ndarray:  # fmt: skip
+    """G after `levels` bounces, as POV-Ray's recursion_limit counts them: the deepest
+    surfaces show only emission and direct light, G_L = 0, and each level up gathers
+    G = S + F (E + ρ (D + G)) from the one below."""
+    G = np.zeros_like(D)
+    for _ in range(levels):
+        G = np.maximum(S + F @ (patches.emission + patches.reflectance * (D + G)), 0.0)
+    return G
+
+
 def _compute(prepared, opts: Options, log) -> RadiosityResult:
     t_start = time.perf_counter()
     say = log or (lambda msg: None)
+    if patch_levels(opts) == 0:
+        # recursion_limit 1 with a final gather: the gathered surfaces show no indirect
+        # light, so there is nothing for patches to carry.
+        z = np.zeros((0, 3))
+        m = Mesher(1.0)
+        none = solver.Solution(z, "none", 0, 0.0, True, 0.0)
+        keys = ("patches", "form_factor_seconds", "solve_seconds", "seconds", "iterations",
+                "residual")  # fmt: skip
+        return RadiosityResult(m.patches(), z, z, none, opts, {}, np.zeros(3),
+                               dict.fromkeys(keys, 0.0))  # fmt: skip
     sm = SceneMesher(prepared, opts)
     sm.run()
     stats: dict[str, float] = {}
@@ -842,6 +990,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     extra = unmeshed_tracer(prepared, set(sm.records))
     hollow = _hollow_solids(prepared, sm)
     rng = np.random.default_rng(opts.seed)
+    skyfn = sky_function(prepared)
     min_size = sm.mesher.size / 16
     threshold_rel = 0.02 * opts.error_bound
     sol = None
@@ -851,7 +1000,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         n = len(patches)
         pts, beta = open_points(prepared, patches, opts.vis_samples, rng, sm.extent, hollow)
         vis = PatchVisibility(patches.verts, extra)
-        hit = hit_fraction(vis, pts, patches.normal, opts.closure_rays, rng)
+        hit, S = closure(vis, pts, patches.normal, opts.closure_rays, rng, skyfn)
         closed = hit == 1.0
         if solver.fits_dense(n, opts.dense_bytes):
             F = form_factors(patches.verts, order=opts.order, far_order=opts.far_order,
@@ -884,7 +1033,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         _patterned_materials(prepared, patches, rng)
         # Shadow rays from the same open points (vis_samples per patch and light).
         D = direct_light(prepared, patches, opts.vis_samples, rng, points=pts)
-        E = patches.emission + patches.reflectance * D
+        E = patches.emission + patches.reflectance * (D + S)
         area = patches.area * np.maximum(1.0 - beta, 1e-6)
         sol = solver.solve(F, patches.reflectance, E, area, method=opts.method,
                            tol=_residual_tolerance(F, patches.reflectance, opts.tolerance),
@@ -896,7 +1045,7 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
             break
         # Refine where the displayed quantity, the gathered light G, changes fast (not B:
         # a checker pigment makes B jump at every check while G stays smooth).
-        g = _gathered(F, sol.B, patches, D)
+        g = _gathered(F, sol.B, patches, D, S)
         field = VertexField(patches, g, weights=area, conform=False)
         mean = float((luminance(g) * area).sum() / area.sum())
         # A split adds three patches: within the budget, the worst patches go first.
@@ -908,7 +1057,10 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
         patches.subdivide(mask)
     assert sol is not None
     B = sol.B
-    G = _gathered(F, B, patches, D)
+    G = _gathered(F, B, patches, D, S)
+    levels = patch_levels(opts)
+    if levels is not None and F is not None:
+        G = limited_gather(F, patches, D, S, levels)
     # The share of the light the surfaces reflect (power A·(B − E)) that hits nothing:
     # patches in the dark (a floor plane outside a room) or only emitting (an emitter's
     # back) are not openings that matter.
@@ -948,6 +1100,18 @@ def _compute(prepared, opts: Options, log) -> RadiosityResult:
     return RadiosityResult(
         patches, B, G, sol, opts, sm.records, ambient, stats, sm.warnings, G_vertex, area
     )
+
+
+def sky_function(prepared):
+    """What a ray that escapes the scene sees (sky_sphere over the background), as a
+    function of unit directions; None when that is black everywhere."""
+    scene: ir.Scene = prepared.scene
+    if not scene.sky_sphere and not any(scene.background[:3]):
+        return None
+    from runtime import integrate
+
+    ctx = integrate.make_context(prepared)
+    return lambda dirs: integrate.sky(ctx, dirs)
 
 
 def _empty_result(sm, opts) -> RadiosityResult:

@@ -90,6 +90,13 @@ class PatchVisibility:
         """(N,) bool: does the ray from each origin (on a surface) along its unit direction
         hit a patch first? A ray that escapes, or meets an unmeshed object (light the
         patch system does not carry) before any patch, does not."""
+        return self.hits_and_escapes(origins, directions)[0]
+
+    def hits_and_escapes(
+        self, origins: np.ndarray, directions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(N,) bool twice: the ray hits a patch first (see `hits`); the ray meets nothing
+        at all and sees the sky."""
         o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
         d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
         gap = REL_GAP * self.extent
@@ -107,10 +114,9 @@ class PatchVisibility:
                 got = np.asarray(res["geomID"]) != -1
                 far[sl] = np.where(got, np.asarray(res["tfar"], dtype=np.float64) + gap, np.inf)
         hit = np.isfinite(far)
-        if self.extra is not None:
-            rows = np.nonzero(hit)[0]
-            if len(rows):
-                hit[rows] = ~self.extra.occluded(
-                    o[rows], d[rows], tmax=far[rows], tmin=np.full(len(rows), gap)
-                )
-        return hit
+        escaped = ~hit
+        if self.extra is not None and len(o):
+            blocked = self.extra.occluded(o, d, tmax=far, tmin=np.full(len(o), gap))
+            hit &= ~blocked
+            escaped &= ~blocked
+        return hit, escaped
