@@ -171,7 +171,13 @@ class Texture:
     `no_bump_scale` is POV-Ray's flag on the texture: the evaluator passes it to the
     texture's normal and to its map's textures (POV-Ray's Post_Textures), where the
     renderer reads it (the normal's params); it is kept here for a texture that gets its
-    normal later (`texture { T normal { … } }`)."""
+    normal later (`texture { T normal { … } }`).
+
+    `uv_mapping` (POV-Ray's `texture { uv_mapping … }`, or the object's `uv_mapping`, which
+    marks every texture it gets): the texture and all it holds are evaluated at the hit's
+    surface <u, v, 0> instead of its position, and transformations applied to it from
+    outside (the object's) leave it alone. A pigment's or normal's own `uv_mapping` is
+    `params["uv_mapping"]`, with the same meaning for it."""
 
     pigment: Pigment = field(default_factory=Pigment)
     finish: Finish = field(default_factory=Finish)
@@ -181,6 +187,7 @@ class Texture:
     pattern: Pigment | None = None
     map: tuple[tuple[float, Texture], ...] = ()
     no_bump_scale: bool = False
+    uv_mapping: bool = False
 
 
 def plain_solid(tex: Texture) -> bool:
@@ -427,6 +434,9 @@ class Nurbs:
     tolerance: float | None = None
     radius: float = 0.0
     patch: tuple[int, int, float] | None = None
+    # made from POV-Ray's bicubic_patch: its uv_mapping reads the patch's (v, u) mixed
+    # bilinearly between these four corners (the patch's `uv_vectors`); None: not one
+    bicubic_uv: tuple[Vec2, Vec2, Vec2, Vec2] | None = None
 
 
 @dataclass(frozen=True)

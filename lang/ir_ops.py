@@ -16,8 +16,12 @@ from lang.values import ObjectValue
 _T = TypeVar("_T")
 
 
-def transform_pigment(p: ir.Pigment, m: ir.Matrix) -> ir.Pigment:
-    """Move a pigment and (fully composed, like CSG children) its sub-pigments."""
+def transform_pigment(p: ir.Pigment, m: ir.Matrix, own: bool = False) -> ir.Pigment:
+    """Move a pigment and (fully composed, like CSG children) its sub-pigments. A uv-mapped
+    pigment stays as it is (POV-Ray moves only its outer pattern, which uv_mapping never
+    reads) unless `own`: a transformation written inside its block."""
+    if p.params.get("uv_mapping") and not own:
+        return p
     return replace(
         p,
         transform=transforms.compose(m, p.transform),
@@ -27,21 +31,37 @@ def transform_pigment(p: ir.Pigment, m: ir.Matrix) -> ir.Pigment:
 
 
 def transform_normal(n: ir.Normal | None, m: ir.Matrix) -> ir.Normal | None:
-    if n is None:
-        return None
+    if n is None or n.params.get("uv_mapping"):
+        return n
     return replace(n, transform=transforms.compose(m, n.transform))
 
 
-def transform_texture(t: ir.Texture, m: ir.Matrix) -> ir.Texture:
+def transform_texture(t: ir.Texture, m: ir.Matrix, own: bool = False) -> ir.Texture:
     """Move a texture: its pigment and normal, its layers and, for a patterned texture, its
-    pattern and every texture of its map (POV-Ray's Transform_Textures)."""
+    pattern and every texture of its map (POV-Ray's Transform_Textures). A uv-mapped
+    texture keeps all it holds unless `own` (a transformation inside its block); its
+    layers on top still move, each by its own flag."""
+    layers = tuple(transform_texture(layer, m) for layer in t.layers)
+    if t.uv_mapping and not own:
+        return replace(t, layers=layers)
     return replace(
         t,
         pigment=transform_pigment(t.pigment, m),
         normal=transform_normal(t.normal, m),
-        layers=tuple(transform_texture(layer, m) for layer in t.layers),
+        layers=layers,
         pattern=None if t.pattern is None else transform_pigment(t.pattern, m),
         map=tuple((k, transform_texture(sub, m)) for k, sub in t.map),
+    )
+
+
+def uv_mapped(t: ir.Texture) -> ir.Texture:
+    """`t` with every layer and map entry marked uv_mapping (POV-Ray's UV_FLAG on an
+    object, or `uv_mapping` in a texture: the whole texture is read at the surface's uv)."""
+    return replace(
+        t,
+        uv_mapping=True,
+        layers=tuple(uv_mapped(layer) for layer in t.layers),
+        map=tuple((k, uv_mapped(sub)) for k, sub in t.map),
     )
 
 

@@ -1185,7 +1185,6 @@ UNCOUNTED_LISTS = frozenset(("weights", "u_knots", "v_knots", "knots", "control_
 # (sturm, hierarchy, split_union, max_intersections, quick_color, hf_gray_16) are ignored
 # without a word: they leave the image as it is.
 IGNORED_ITEMS: dict[str, tuple[frozenset[str] | None, str]] = {
-    "uv_mapping": (None, "textures are mapped by position, not by the surface's uv coordinates"),
     "cutaway_textures": (None, "the cut faces of a CSG take the cutting object's texture"),
     "irid_wavelength": (
         frozenset({"global_settings"}),

@@ -176,3 +176,14 @@ def bicubic_mesh(shape):
         getattr(shape, "v_steps", 0),
         getattr(shape, "flatness", 0.0),
     )
+
+
+def bicubic_uvs(uvs: np.ndarray, corners) -> np.ndarray:
+    """(N,2) uv_mapping uvs of a bicubic patch from its (v, u) parameters (N,2), as
+    `bicubic_patch_mesh` gives them: POV-Ray's Compute_Texture_UV mixes the patch's four
+    `uv_vectors` corners bilinearly by them."""
+    st = np.asarray(corners, dtype=np.float64).reshape(4, 2)
+    a, b = uvs[:, 0:1], uvs[:, 1:2]
+    low = st[0] + a * (st[1] - st[0])
+    high = st[3] + a * (st[2] - st[3])
+    return np.ascontiguousarray(low + b * (high - low))

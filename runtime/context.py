@@ -77,14 +77,21 @@ def is_patterned(tex: ir.Texture) -> bool:
     return tex.pattern is not None and bool(tex.map)
 
 
-def resolve_textures(ctx, tex: np.ndarray, points: np.ndarray, normals: np.ndarray | None = None):
+def resolve_textures(
+    ctx,
+    tex: np.ndarray,
+    points: np.ndarray,
+    normals: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
+):
     """Hits of patterned textures resolved to the plain textures they show, as POV-Ray's
     ComputeOneTextureColour does: a list pattern picks one texture, a texture_map blends
     the two around the pattern's value, `average` weighs them all (nested maps recurse).
     `normals` are the hits' surface normals turned toward the ray (the slope pattern's;
-    None: not on a surface). Returns None when no hit has a patterned texture, else (src,
-    leaf, weight): for every (hit, texture) pair its hit row, texture index and weight (a
-    hit's weights sum to 1)."""
+    None: not on a surface), `uv` their surface <u, v, 0> (runtime.uvmap), which a
+    uv-mapped texture's pattern reads (None: its position). Returns None when no hit has a
+    patterned texture, else (src, leaf, weight): for every (hit, texture) pair its hit row,
+    texture index and weight (a hit's weights sum to 1)."""
     if ctx.patterned is None or not ctx.patterned[tex].any():
         return None
     pat = ctx.patterned[tex]
@@ -92,7 +99,9 @@ def resolve_textures(ctx, tex: np.ndarray, points: np.ndarray, normals: np.ndarr
     src, leaf, weight = [keep], [tex[keep]], [np.ones(len(keep))]
     for tid in np.unique(tex[pat]):
         rows = np.nonzero(tex == tid)[0]
-        r, lf, w = _resolve(ctx, ctx.tree[int(tid)], points[rows], _rows(normals, rows))
+        r, lf, w = _resolve(
+            ctx, ctx.tree[int(tid)], points[rows], _rows(normals, rows), _rows(uv, rows)
+        )
         src.append(rows[r])
         leaf.append(lf)
         weight.append(w)
@@ -103,19 +112,22 @@ def _rows(normals: np.ndarray | None, rows: np.ndarray) -> np.ndarray | None:
     return None if normals is None else normals[rows]
 
 
-def _resolve(ctx, tex: ir.Texture, points: np.ndarray, normals: np.ndarray | None):
+def _resolve(
+    ctx, tex: ir.Texture, points: np.ndarray, normals: np.ndarray | None, uv: np.ndarray | None
+):
     n = len(points)
     if not is_patterned(tex):
         return np.arange(n), np.full(n, ctx.leaf_id[id(tex)], dtype=np.int64), np.ones(n)
     keys = np.array([k for k, _ in tex.map], dtype=np.float64)
     assert tex.pattern is not None  # is_patterned
-    weights = patterns.entry_weights(tex.pattern, keys, points, normals)
+    at = uv if tex.uv_mapping and uv is not None else points
+    weights = patterns.entry_weights(tex.pattern, keys, at, normals)
     src, leaf, weight = [], [], []
     for k, (_, sub) in enumerate(tex.map):
         rows = np.nonzero(weights[:, k] > 0.0)[0]
         if not len(rows):
             continue
-        r, lf, w = _resolve(ctx, sub, points[rows], _rows(normals, rows))
+        r, lf, w = _resolve(ctx, sub, points[rows], _rows(normals, rows), _rows(uv, rows))
         src.append(rows[r])
         leaf.append(lf)
         weight.append(w * weights[rows[r], k])
@@ -228,6 +240,7 @@ class Context:
     radiosity: Radiosity | None = None  # runtime.radiosity.system.RadiosityResult
     plain: np.ndarray | None = None  # (n_tex,) bool: shades in the shared batch
     patterned: np.ndarray | None = None  # (n_tex,) bool: a patterned texture (resolve first)
+    needs_uv: np.ndarray | None = None  # (n_tex,) bool: something in it is uv-mapped
     tree: dict[int, ir.Texture] = field(default_factory=dict)  # patterned id -> its texture
     leaf_id: dict[int, int] = field(default_factory=dict)  # id(texture) -> texture index
     plain_colour: np.ndarray | None = None  # (n_tex,5) solid colour of plain textures
@@ -286,6 +299,7 @@ class Hit:
     weight: np.ndarray  # (N,) largest possible contribution to the pixel
     depth: np.ndarray | None = None  # (N,) distance from the ray's origin to the hit
     prim: np.ndarray | None = None  # (N,) mesh face of each hit (-1: not a mesh)
+    uv: np.ndarray | None = None  # (N,3) surface <u, v, 0> where a texture is uv-mapped
 
 
 @dataclass

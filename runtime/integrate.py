@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lang import ir
-from runtime import color, media, patterns, shading
+from runtime import color, media, patterns, shading, uvmap
 from runtime.context import (
     FINISH_FLOATS,
     Context,
@@ -153,6 +153,13 @@ def make_context(prepared) -> Context:
         return np.array([any(pred(t) for t in ls) for ls in textures], dtype=bool)
 
     patterned = np.array([i in tree for i in range(len(textures))], dtype=bool)
+    needs_uv = np.array(
+        [
+            uvmap.uses_uv(tree[i]) if i in tree else any(uvmap.uses_uv(t) for t in ls)
+            for i, ls in enumerate(textures)
+        ],
+        dtype=bool,
+    )
     plain = np.array([_plain(ls) for ls in textures], dtype=bool) & ~patterned
     plain_colour = np.array(
         [ls[0].pigment.color if p else (0.0,) * 5 for ls, p in zip(textures, plain, strict=True)],
@@ -164,6 +171,7 @@ def make_context(prepared) -> Context:
     return Context(
         plain=plain,
         patterned=patterned,
+        needs_uv=needs_uv,
         tree=tree,
         leaf_id=index,
         plain_colour=plain_colour,
@@ -261,6 +269,7 @@ def trace(
         # POV-Ray picks the interior_texture by the raw normal against the ray
         leaving = np.einsum("ij,ij->i", hits.normal[rows], d[rows]) > 0
         tex = ctx.texture_of(hits.obj[rows], prim, leaving)
+        bary = hits.bary[rows] if hits.bary is not None else None
         col[rows] = shade(
             ctx,
             hits.obj[rows],
@@ -273,6 +282,7 @@ def trace(
             codes[rows],
             hits.t[rows],
             prim,
+            uvmap.hit_uv(ctx, hits.obj[rows], tex, hits.point[rows], prim, bary),
         )
     if ctx.scene.rainbows:
         col = apply_rainbows(ctx.scene.rainbows, d, hits.t, col)
@@ -297,6 +307,8 @@ def _empty_like(h, n: int):
     e = empty_hits(n)
     if h.prim is None:
         e.prim = None
+    if h.bary is None:
+        e.bary = None
     return e
 
 
@@ -307,6 +319,8 @@ def _scatter_hits(dst, rows: np.ndarray, src) -> None:
     dst.normal[rows] = src.normal
     if dst.prim is not None and src.prim is not None:
         dst.prim[rows] = src.prim
+    if dst.bary is not None and src.bary is not None:
+        dst.bary[rows] = src.bary
 
 
 def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
@@ -349,19 +363,21 @@ def shade(
     skip: np.ndarray,
     depth: np.ndarray | None = None,
     prim: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,3) colours of N hits (tex: texture index of each hit; level: each hit's trace
     level; skip: each incoming ray's skip code; depth: how far each ray travelled to its
-    hit, for interior fading). Reflected and transmitted rays are gathered and traced
-    together in one batch."""
+    hit, for interior fading; uv: the surface <u, v, 0> uv-mapped textures read, see
+    `hit_uv`). Reflected and transmitted rays are gathered and traced together in one
+    batch."""
     n = len(obj)
     # POV-Ray turns the normal toward the viewer before shading.
     leaving = np.einsum("ij,ij->i", normal, dirs) > 0
     raw = np.where(leaving[:, None], -normal, normal)
-    hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim)
+    hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim, uv)
     lights = light_colours(ctx, hit)
     secondary = Secondary()
-    resolved = resolve_textures(ctx, tex, point, raw)
+    resolved = resolve_textures(ctx, tex, point, raw, uv)
     if resolved is None:
         result, fil, top = _shade_groups(ctx, hit, lights, secondary, level)
     else:
@@ -371,7 +387,7 @@ def shade(
         src, leaf, w = resolved
         opt = lambda a: None if a is None else a[src]  # noqa: E731
         sub = Hit(obj[src], leaf, point[src], raw[src], leaving[src], dirs[src],
-                  weight[src] * w, opt(depth), opt(prim))  # fmt: skip
+                  weight[src] * w, opt(depth), opt(prim), opt(uv))  # fmt: skip
         sub_lights = LightColours(
             [d[src] for d in lights.direction], [c[src] for c in lights.colour]
         )
@@ -544,16 +560,19 @@ def shade_texture(
     # The normal a slope pigment reads: POV-Ray's PNormal, the last perturbed normal of the
     # layers so far (each layer's normal is perturbed before its pigment is evaluated).
     seen_normal = base_surf.normal
+    uv = None if hit.uv is None else hit.uv[rows]
     first = True
     for layer in ctx.textures[tid]:
         active = trans > s.adc_bailout
         if not active.any():
             break
         fin = layer.finish
+        # a uv-mapped texture reads its pigment and normal at the surface's <u, v, 0>
+        at = uv if layer.uv_mapping and uv is not None else pts
         if layer.normal is not None:
             surf = Surface(
                 normal=patterns.perturb_normal(
-                    layer.normal, pts, hit.normal[rows], layer.no_bump_scale
+                    layer.normal, at, hit.normal[rows], layer.no_bump_scale, uv=uv
                 ),
                 ray_dir=hit.dirs[rows],
                 points=pts,
@@ -565,7 +584,7 @@ def shade_texture(
             top[rows] = surf.normal
             first = False
         same_as_top = np.all(np.abs(surf.normal - top[rows]) <= shading.EPSILON, axis=1)
-        colour = patterns.evaluate(layer.pigment, pts, ctx.gamma, seen_normal)
+        colour = patterns.evaluate(layer.pigment, at, ctx.gamma, seen_normal, uv=uv)
         pig = colour[:, :3]
         op = shading.opacity(colour, ctx.legacy_opacity)
         if ctx.radiosity is None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from lang import ir
-from runtime import patterns, shading
+from runtime import patterns, shading, uvmap
 from runtime.context import Context, Hit, LightColours, resolve_textures
 from runtime.fog import apply_fogs, scene_fogs
 
@@ -250,7 +250,10 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
         # POV-Ray turns the normal against the shadow ray (for slope patterns)
         nrm_all = h.normal[hit]
         nrm_all = np.where((np.einsum("ij,ij->i", nrm_all, rd) > 0)[:, None], -nrm_all, nrm_all)
-        resolved = resolve_textures(ctx, tex, pts, nrm_all)
+        prim = h.prim[hit] if h.prim is not None else None
+        bary = h.bary[hit] if h.bary is not None else None
+        uv = uvmap.hit_uv(ctx, objs, tex, pts, prim, bary)
+        resolved = resolve_textures(ctx, tex, pts, nrm_all, uv)
         if resolved is None:
             src, leaf, share = np.arange(len(tex)), tex, np.ones(len(tex))
         else:
@@ -263,14 +266,16 @@ def shadow_filter(ctx: Context, points, ldir, ldist) -> np.ndarray:
             t = np.ones((len(sel), 3))
             caustics = np.array([ctx.interiors[int(o)].caustics for o in objs[sel]])
             nrm = nrm_all[sel]  # for faked caustics and slope patterns
+            uv_sel = None if uv is None else uv[sel]
             for layer in ctx.textures[tid]:
-                colour = patterns.evaluate(layer.pigment, pts[sel], ctx.gamma, nrm)
+                at = uv_sel if layer.uv_mapping and uv_sel is not None else pts[sel]
+                colour = patterns.evaluate(layer.pigment, at, ctx.gamma, nrm, uv=uv_sel)
                 t *= shading.rgb_transmit(colour)
                 if (caustics != 0).any():
                     ln = nrm
                     if layer.normal is not None:
                         ln = patterns.perturb_normal(
-                            layer.normal, pts[sel], nrm, layer.no_bump_scale
+                            layer.normal, at, nrm, layer.no_bump_scale, uv=uv_sel
                         )
                     cdot = np.abs(np.einsum("ij,ij->i", ln, rd[sel]))
                     # POV-Ray stores `caustics c` as the exponent 45 c.

@@ -366,11 +366,16 @@ def evaluate(
     points: np.ndarray,
     gamma: float | None = 1.0,
     normals: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,5) float64 RGBFT colours of `pigment` at world points (N,3). `gamma` is the scene's
     working gamma (None: legacy, no gamma handling), used to bring image files into the
     working colour space. `normals` (N,3), the shaded surface's, are what the slope pattern
-    reads (None off a surface: slope is 0 there)."""
+    reads (None off a surface: slope is 0 there). `uv` (N,3), the surface's <u, v, 0>
+    (runtime.uvmap), is where a uv-mapped pigment (and all inside it) is evaluated instead
+    of the points (None: not on a surface, the points serve)."""
+    if uv is not None and pigment.params.get("uv_mapping"):
+        points = uv
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = len(points)
     kind = pigment.pattern
@@ -381,7 +386,7 @@ def evaluate(
         p = turbulence_warp(p, pigment.params)
     if kind in LIST_PATTERNS:
         index = LIST_PATTERNS[kind](p, pigment.params)
-        return _select(pigment, kind, index, points, gamma, normals)
+        return _select(pigment, kind, index, points, gamma, normals, uv)
     if kind == "image_map":
         return image_map(pigment.params, p, gamma, pigment.span)
     if kind == "average" and pigment.pigment_map:
@@ -390,18 +395,18 @@ def evaluate(
         # entries already carry the average's transforms, so only the warps are added).
         at = map_points(pigment, points, p)
         total = sum(w for w, _ in pigment.pigment_map) or 1.0
-        mean = sum(w * evaluate(q, at, gamma, normals) for w, q in pigment.pigment_map) / total
-        return np.asarray(mean)
+        mean = sum(w * evaluate(q, at, gamma, normals, uv) for w, q in pigment.pigment_map)
+        return np.asarray(mean) / total
     at = map_points(pigment, points, p) if pigment.pigment_map else points
     if kind == "slope":
         value = apply_wave(slope(p, points, normals, pigment.params), pigment.params, kind)
-        return _map(pigment, value, at, gamma, normals)
+        return _map(pigment, value, at, gamma, normals, uv)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
         _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
         return _fallback(pigment, points, gamma)
     value = apply_wave(fn(p, pigment.params), pigment.params, kind)
-    return _map(pigment, value, at, gamma, normals)
+    return _map(pigment, value, at, gamma, normals, uv)
 
 
 def map_points(pigment: ir.Pigment, points: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -498,6 +503,7 @@ def _select(
     points: np.ndarray,
     gamma: float | None,
     normals: np.ndarray | None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     entries: tuple = pigment.list or tuple(ir.Pigment(color=c) for c in DEFAULT_LISTS[kind])
     out = np.zeros((len(points), 5))
@@ -505,7 +511,7 @@ def _select(
     for i, sub in enumerate(entries):
         rows = np.nonzero(index == i)[0]
         if len(rows):
-            out[rows] = evaluate(sub, points[rows], gamma, _rows(normals, rows))
+            out[rows] = evaluate(sub, points[rows], gamma, _rows(normals, rows), _rows(uv, rows))
     return out
 
 
@@ -1102,6 +1108,7 @@ def _map(
     points: np.ndarray,
     gamma: float | None,
     normals: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     if pigment.pigment_map:
         keys = np.array([k for k, _ in pigment.pigment_map], dtype=np.float64)
@@ -1113,7 +1120,7 @@ def _map(
             rows = np.nonzero(use_lo | use_hi)[0]
             if not len(rows):
                 continue
-            col = evaluate(sub, points[rows], gamma, _rows(normals, rows))
+            col = evaluate(sub, points[rows], gamma, _rows(normals, rows), _rows(uv, rows))
             w = np.where(use_lo[rows], 1.0 - frac[rows], 0.0) + np.where(
                 use_hi[rows], frac[rows], 0.0
             )
@@ -1211,6 +1218,7 @@ def perturb_normal(
     n_world: np.ndarray,
     no_bump_scale: bool = False,
     unit: bool = True,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,3) unit normals after a `normal { … }` pattern at world points. The perturbation
     happens in pattern space (so scaling a bump pattern scales its bumps), then the normal
@@ -1220,7 +1228,10 @@ def perturb_normal(
     a normal_map passes it to its entries) is POV-Ray's DONT_SCALE_BUMPS_FLAG: Warp_Normal
     and UnWarp_Normal then leave the normal's length alone, so a pattern scaled up by s
     perturbs it 1/s as much. `unit` False (a normal_map's entry with the flag) returns the
-    perturbed normal unnormalised, as POV-Ray's Perturb_Normal leaves it to the blend."""
+    perturbed normal unnormalised, as POV-Ray's Perturb_Normal leaves it to the blend.
+    `uv`: the surface's <u, v, 0>, where a uv-mapped normal is evaluated instead."""
+    if uv is not None and normal.params.get("uv_mapping"):
+        points = uv
     keep = no_bump_scale or bool(normal.params.get("no_bump_scale"))
     p = pattern_points(normal, points)
     lin = pattern_linear(normal)
@@ -1237,7 +1248,7 @@ def perturb_normal(
         p = turbulence_warp(p, normal.params)
     nmap = normal.params.get("normal_map")
     if nmap:
-        n = _normal_map(normal, nmap, p, n, keep, (points, n_world))
+        n = _normal_map(normal, nmap, p, n, keep, (points, n_world), uv)
         # POV-Ray normalises a normal_map's blend whatever the flag says
         unit = unit or kind != "average"
     elif kind == "bumps":
@@ -1292,20 +1303,22 @@ def _normal_map(
     n: np.ndarray,
     keep: bool = False,
     at: _Surface | None = None,
+    uv: np.ndarray | None = None,
 ) -> np.ndarray:
     """A normal_map (POV-Ray's Perturb_Normal): the normals of the two entries around the
     pattern's value, each perturbing the normal at the pattern-space point, blended by
     weight; with `average`, every entry's normal weighted by its value (Do_Average_Normals).
     The entries live in this normal's pattern space (their transforms come on top); `keep`
     (no_bump_scale) passes on to them, as POV-Ray's NormalBlendMap::Post does. `at`: the
-    world points and normals, for a slope pattern."""
+    world points and normals, for a slope pattern; `uv` the surface's, for a uv-mapped
+    entry."""
     keys = np.array([k for k, _ in entries], dtype=np.float64)
     kind = normal.pattern
     if kind == "average":
         total = float(keys.sum()) or 1.0
         out = np.zeros_like(n)
         for k, sub in entries:
-            out += (k / total) * perturb_normal(sub, p, n, keep, unit=False)
+            out += (k / total) * perturb_normal(sub, p, n, keep, unit=False, uv=uv)
         return out
     if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS and kind != "slope":
         _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
@@ -1319,7 +1332,9 @@ def _normal_map(
             continue
         f = frac[rows]
         w = np.where(lo[rows] == i, 1.0 - f, 0.0) + np.where(hi[rows] == i, f, 0.0)
-        out[rows] += w[:, None] * perturb_normal(sub, p[rows], n[rows], keep, unit=False)
+        out[rows] += w[:, None] * perturb_normal(
+            sub, p[rows], n[rows], keep, unit=False, uv=_rows(uv, rows)
+        )
     return out
 
 

@@ -48,6 +48,9 @@ class Prepared:
     # (n_objects,) bool: a mesh tessellated from a curved surface (nurbs, subdivision), whose
     # shadow rays start from the curved surface its normals describe (see integrate)
     curved: np.ndarray | None = None
+    # (n_objects,) bool: a mesh tessellated from a shape without uvs of its own (height
+    # field, subdivision), whose uv_mapping reads world x, y (runtime.uvmap)
+    world_uv: np.ndarray | None = None
     # per scene light: the inside node of its projected_through object, or None
     projected: list = field(default_factory=list)
     # per light, (n_objects,) bool of the objects it lights (None: all); the scene's own
@@ -93,6 +96,7 @@ class Tessellator:
         self.width = max(int(width), 1)
         self.warnings: list[str] = [] if warnings is None else warnings
         self.curved_ids: set[int] = set()  # id() of the meshes tessellated from curved shapes
+        self.world_uv_ids: set[int] = set()  # id() of those whose shape has no uvs
 
     def warn_once(self, msg: str, span=None) -> None:
         """One line per distinct problem, on stderr, blaming the object's source when known."""
@@ -107,21 +111,29 @@ class Tessellator:
             if isinstance(shape, ir.HeightField):
                 from runtime.heightfield import height_field_mesh
 
-                return height_field_mesh(shape, compile_xyz)
+                hf = height_field_mesh(shape, compile_xyz)
+                self.world_uv_ids.add(id(hf))
+                return hf
             if isinstance(shape, ir.Nurbs) and shape.patch is not None:
                 # POV-Ray's own triangles: flat, with its interpolated normals, and shadow
                 # rays from the triangles (not the curved surface) as POV-Ray's
-                from runtime.bezier import bicubic_patch_mesh
+                from runtime.bezier import bicubic_patch_mesh, bicubic_uvs
 
                 net = shape.points  # u fastest; POV-Ray lists the points along v first
                 pov_order = [net[4 * (k % 4) + k // 4] for k in range(16)]
                 verts, faces, normals, uvs = bicubic_patch_mesh(pov_order, *shape.patch)
+                if shape.bicubic_uv is not None:
+                    uvs = bicubic_uvs(uvs, shape.bicubic_uv)
                 return ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
             if isinstance(shape, ir.Nurbs):
                 from runtime.tessellate import nurbs_mesh
 
                 tolerance = shape.tolerance or self.auto_tolerance(obj)
                 verts, faces, normals, uvs = nurbs_mesh(shape, tolerance)
+                if shape.bicubic_uv is not None:  # its (v, u), as bicubic_patch_mesh's
+                    from runtime.bezier import bicubic_uvs
+
+                    uvs = bicubic_uvs(np.asarray(uvs)[:, ::-1], shape.bicubic_uv)
             else:
                 if not isinstance(shape, ir.Subdivision):
                     raise TypeError(f"{name} is not a tessellated shape")
@@ -144,6 +156,8 @@ class Tessellator:
             return None
         mesh = ir.Mesh(vertices=verts, faces=faces, normals=normals, uvs=uvs, smooth=True)
         self.curved_ids.add(id(mesh))
+        if uvs is None:
+            self.world_uv_ids.add(id(mesh))
         return mesh
 
     def auto_tolerance(self, obj: ir.Object) -> float:
@@ -179,6 +193,7 @@ class _Builder:
         self.warnings: list[str] = []
         self.culled: list[str] = []
         self.curved: list[bool] = []
+        self.world_uv: list[bool] = []
         self.tessellator = Tessellator(camera, width, self.warnings)
         self.curved_ids = self.tessellator.curved_ids  # id() of the meshes from curved shapes
         self.cull: Culler | None = None
@@ -195,6 +210,7 @@ class _Builder:
         index = len(self.objects)
         self.objects.append(obj)
         self.curved.append(id(obj.shape) in self.curved_ids)
+        self.world_uv.append(id(obj.shape) in self.tessellator.world_uv_ids)
         for k in FLAG_NAMES:
             self.flags[k].append(flags[k])
         self.sizes.append(0.0)
@@ -452,6 +468,7 @@ def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prep
         warnings=b.warnings,
         culled=b.culled,
         curved=np.array(b.curved, dtype=bool),
+        world_uv=np.array(b.world_uv, dtype=bool),
         projected=projected,
         receivers=light_groups.receivers(scene.lights, own_lights, b.objects),
         scene_lights=own_lights,

@@ -35,7 +35,7 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, context, patterns, shading, shapes
+from runtime import color, context, patterns, shading, shapes, uvmap
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
@@ -187,6 +187,8 @@ def _colour_map(pig: ir.Pigment):
 def _texture_reasons(tex: ir.Texture) -> list[str]:
     if tex.layers or (tex.pattern is not None and tex.map):
         return ["layered or patterned texture"]
+    if uvmap.uses_uv(tex):
+        return ["uv_mapping"]
     f = tex.finish
     out = _pigment_reasons(tex.pigment)
     if tex.normal is not None:

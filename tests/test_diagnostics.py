@@ -151,7 +151,6 @@ WARNINGS = [
         19,
     ),
     ("unsupported_block", "sphere { 0, 1 photons { target } }\n", "W0300", 1, 15),
-    ("ignored_uv_mapping", "sphere { 0, 1 uv_mapping pigment { rgb 1 } }\n", "W0308", 1, 15),
     ("ignored_irid_waves", "global_settings { irid_wavelength <0.7, 0.5, 0.4> }\n", "W0308", 1, 19),
     ("waves_at_least_one", "global_settings { number_of_waves -2 }\n", "W0309", 1, 19),
     ("ignored_albedo", "sphere { 0, 1 finish { diffuse albedo 0.7 } }\n", "W0308", 1, 32),
@@ -243,9 +242,9 @@ def test_ignored_keywords_warn_once_per_feature_and_not_for_rendered_ones():
     )
     warns = [d for d in compile_source(src, "i.pov").diagnostics if d.code == "W0308"]
     assert [(d.span.line, d.message) for d in warns] == [
-        (2, "`uv_mapping` is accepted but ignored"),
         (3, "`cutaway_textures` is accepted but ignored"),
-    ]  # focal blur (line 1) renders; sturm and max_intersections change no pixel
+    ]  # focal blur (line 1) and uv_mapping (line 2) render; sturm and max_intersections
+    # change no pixel
 
 
 @pytest.mark.parametrize(

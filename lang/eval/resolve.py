@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from lang import ir, transforms
-from lang.ir_ops import group_lights, transform_interior, transform_texture
+from lang.ir_ops import group_lights, transform_interior, transform_texture, uv_mapped
 from lang.values import ObjectValue
 
 # The interior of every object that names none: one (frozen) value, not one each (a stored
@@ -85,6 +85,15 @@ class ObjectResolver:
             own_inside = transform_texture(own_inside, parent)
         inside = own_inside or inside
         tex = self.shared_texture(own or inherited or placed or obj.default or default)
+        # POV-Ray's Post_Process gives a CSG's UV_FLAG to every child that takes its texture
+        # and, as it passes the interior_texture down, to every child without an
+        # interior_texture of its own, so such a child's own texture is uv-mapped too
+        parent_uv = bool(flags and flags.get("uv_mapping"))
+        uv = bool(obj.flags.get("uv_mapping")) or (
+            parent_uv and (own is None or obj.interior_texture is None)
+        )
+        if uv and not tex.uv_mapping and not ir.plain_solid(tex):
+            tex = uv_mapped(tex)
         own_interior = obj.interior
         if has_parent:
             own_interior = transform_interior(own_interior, parent)
@@ -96,6 +105,7 @@ class ObjectResolver:
         for k in _INHERITED_FLAGS:
             if obj.flags.get(k):
                 merged[k] = True
+        merged["uv_mapping"] = uv
         if obj.keyword == "light_group":
             # a nested group's objects get its own lights only (POV-Ray's
             # Promote_Local_Lights gives the outer lights to the inner group, not its
@@ -125,6 +135,8 @@ class ObjectResolver:
                 shape = replace(
                     shape, textures=tuple(transform_texture(t, parent) for t in shape.textures)
                 )
+            if uv and shape.textures:
+                shape = replace(shape, textures=tuple(uv_mapped(t) for t in shape.textures))
             if shape.face_textures is not None:
                 textures = list(shape.textures)
                 faces = list(shape.face_textures)

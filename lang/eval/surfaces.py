@@ -30,6 +30,7 @@ from lang.ir_ops import (
     top_layer,
     transform_light,
     transform_object,
+    uv_mapped,
     with_top_layer,
 )
 from lang.values import (
@@ -52,7 +53,7 @@ _OBJECT_FLAGS = frozenset(
     "no_shadow no_reflection no_image no_radiosity hollow double_illuminate".split()
 )
 _IGNORED_OBJECT_ITEMS = frozenset(
-    "sturm uv_mapping split_union cutaway_textures open inside_vector hierarchy".split()
+    "sturm split_union cutaway_textures open inside_vector hierarchy".split()
 )
 
 
@@ -88,6 +89,22 @@ def apply_object_items(it: BuildContext, obj: ObjectValue, g: Grouped) -> Object
 
 
 def _apply_object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -> ObjectValue:
+    obj = _object_item(it, obj, name, args, span)
+    if obj.flags.get("uv_mapping") and name in _TEXTURING:
+        # POV-Ray's UV_FLAG: every texture the object has is read at the surface's uv, and
+        # the object's transformations after it leave those textures alone
+        if obj.texture is not None:
+            obj.texture = uv_mapped(obj.texture)
+        if obj.interior_texture is not None:
+            obj.interior_texture = uv_mapped(obj.interior_texture)
+    return obj
+
+
+# Object items that give the object a texture (uv_mapping marks it).
+_TEXTURING = frozenset("pigment finish normal texture material interior_texture uv_mapping".split())
+
+
+def _object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -> ObjectValue:
     if name in TRANSFORM_WORDS:
         obj = transform_object(obj, item_matrix(name, args))
         return fractal_inversion.transformed(obj) if fractal_inversion.holds_julia(obj) else obj
@@ -131,6 +148,13 @@ def _apply_object_item(it, obj: ObjectValue, name: str, args: list[Any], span: S
         )
     elif name == "unsupported":
         it.unsupported(args[0].keyword, span)
+    elif name == "uv_mapping":
+        if obj.texture is not None:
+            raise EvalError("uv_mapping must be specified before texture.")
+        obj.flags["uv_mapping"] = True
+        if isinstance(obj.shape, ir.Mesh) and obj.shape.textures:
+            shape = replace(obj.shape, textures=tuple(uv_mapped(t) for t in obj.shape.textures))
+            obj = replace(obj, shape=shape)
     elif name in _IGNORED_OBJECT_ITEMS:
         pass
     return obj
@@ -151,6 +175,7 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
     finally:
         it.loose_depth -= 1
     points: list[tuple[float, float, float]] = []
+    corners: list[tuple[float, float]] = []
     settings = {"u_steps": 0.0, "v_steps": 0.0, "flatness": 0.0}  # POV-Ray's defaults
     i, n = 0, len(els)
     while i < n:
@@ -162,6 +187,15 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
             if e.value in settings and isinstance(value, int | float):
                 settings[e.value] = float(value)
             i += 2
+        elif e.kind == "kw" and e.value == "uv_vectors" and not points:
+            # POV-Ray's ST corners: where the patch's (v, u) = (0,0), (1,0), (1,1), (0,1) sit
+            # in uv_mapping's uv
+            i += 1
+            while i < n and len(corners) < 4 and els[i].kind in ("val", "comma"):
+                if els[i].kind == "val":
+                    c = as_vec(els[i].value, 2)
+                    corners.append((c[0], c[1]))
+                i += 1
         elif e.kind == "val" and len(points) < 16 and isinstance(e.value, Vec):
             points.append(as_vec(e.value, 3).xyz)
             i += 1
@@ -178,7 +212,10 @@ def bicubic_patch(it: BuildContext, node: syntax.Block) -> ObjectValue:
     # POV-Ray lists the points row by row along v; the IR wants u varying fastest.
     net = tuple(points[4 * u + v] for v in range(4) for u in range(4))
     patch = (int(settings["u_steps"]), int(settings["v_steps"]), settings["flatness"])
-    shape = ir.Nurbs(3, 3, 4, 4, net, (1.0,) * 16, knots, knots, patch=patch)
+    if len(corners) != 4:
+        corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+    st = (corners[0], corners[1], corners[2], corners[3])
+    shape = ir.Nurbs(3, 3, 4, 4, net, (1.0,) * 16, knots, knots, patch=patch, bicubic_uv=st)
     g = grouping.group(it, spec, els[i:], node, loose=True)
     obj = ObjectValue(shape, node.keyword, span=node.span, default=it.default_texture)
     return apply_object_items(it, obj, g)
@@ -605,6 +642,9 @@ def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     )
     nidx = _corner_indices(it, lists, "normal_indices", nvecs, len(faces), g)
     uidx = _corner_indices(it, lists, "uv_indices", uvecs, len(faces), g)
+    if uvecs is not None and len(uvecs) == 1 and uidx is None and nv != 1:
+        # POV-Ray's mesh2: a lone uv vector without uv_indices serves every corner
+        uvecs = uvecs * nv
     uvs: list[Any] | None = None
     if nidx is not None or uidx is not None:
         # Normals or uvs indexed apart from the vertices: unshare the vertices face by face.

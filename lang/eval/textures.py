@@ -31,6 +31,7 @@ from lang.ir_ops import (
     top_layer,
     transform_pigment,
     transform_texture,
+    uv_mapped,
     with_top_layer,
 )
 from lang.values import (
@@ -376,6 +377,12 @@ def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment
         if name == "pigment":
             pig = replace(v, span=pig.span)
             params = dict(v.params)
+        elif name == "uv_mapping":
+            # POV-Ray parses the rest of the block as a new pigment (from the default one)
+            # that is evaluated at the surface's <u, v, 0>
+            base = it.default_texture.pigment
+            pig = replace(base, span=pig.span)
+            params = {**base.params, "uv_mapping": True}
         elif name == "color":
             pig = replace(pig, pattern="solid", color=_shared_colour(as_color(v).rgbft))
         elif name in schema.COMPONENT_WORDS:
@@ -384,7 +391,8 @@ def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment
                 c[k] = v
             pig = replace(pig, pattern="solid", color=_shared_colour(tuple(c)))
         elif name in TRANSFORM_WORDS:
-            pig = transform_pigment(pig, item_matrix(name, args))
+            own = bool(params.get("uv_mapping"))  # inside a uv-mapped block: it moves
+            pig = transform_pigment(pig, item_matrix(name, args), own=own)
         elif name == "map":
             pig = _with_map(it, pig, v, span)
         elif name == "warp":
@@ -449,6 +457,11 @@ def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
         if name == "normal":
             nrm = replace(v, span=nrm.span)
             params = dict(v.params)
+        elif name == "uv_mapping":
+            # the rest of the block is a new normal, evaluated at the surface's <u, v, 0>
+            base = it.default_texture.normal
+            nrm = ir.Normal("none", span=nrm.span) if base is None else replace(base, span=nrm.span)
+            params = {**nrm.params, "uv_mapping": True}
         elif name in TRANSFORM_WORDS:
             nrm = replace(nrm, transform=transforms.compose(item_matrix(name, args), nrm.transform))
         elif name in ("bump_size", "float"):
@@ -862,6 +875,7 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
             misplaced[1],
             "POV-Ray takes `tiles { … }` as the whole texture, with only transformations after it",
         )
+    uv = False
     for name, args, span in g.items:
         v: Any = args[0] if args else None
         if name == "tiles":
@@ -918,7 +932,11 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
                 continue
             t = replace(t, pattern=ir.Pigment(pattern=name, span=span), map=entries)
         elif name == "uv_mapping":
-            pass
+            # POV-Ray parses the rest of the block as a new texture, evaluated at the
+            # surface's <u, v, 0>; transformations inside it still move it
+            t = replace(it.default_texture, layers=(), span=node.span)
+            params = {}
+            uv = True
         elif name == "warp":
             if t.pattern is None:
                 it.unsupported("warp of a plain texture", span, " (warp its pigment instead)")
@@ -935,7 +953,7 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
         t = replace(t, pattern=replace(t.pattern, params=params))
     if t.no_bump_scale and t.map:
         t = _no_bump_scale(t)
-    return t
+    return uv_mapped(t) if uv else t
 
 
 def _b_interior_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> InteriorTextureValue:

@@ -41,6 +41,7 @@ import numpy as np
 
 from lang import ir
 from runtime import transform as tf
+from runtime import uvmap
 from runtime.radiosity import irradiance_cache
 from runtime.radiosity import solve as solver
 from runtime.radiosity.formfactor import form_factors, point_form_factors
@@ -360,6 +361,9 @@ class SceneMesher:
         rgb = patterns.evaluate(tex.pigment, where)[:, :3].mean(axis=0)
         if tex.layers:
             self.warn("layered textures: radiosity uses the base layer's colour")
+        if uvmap.uses_uv(tex):
+            where_from = f"{obj.span}: " if obj.span is not None else ""
+            self.warn(f"{where_from}uv_mapping: radiosity reads this texture's colour by position")
         fin = tex.finish
         rho = np.clip(rgb * fin.diffuse, 0.0, 0.999)
         return rho, emitted(rgb, fin, self.prepared.scene.settings)
