@@ -169,3 +169,20 @@ def test_the_final_gather_is_taken_where_lights_or_the_sky_shine():
     prepared = prepare(scene, 8, 8)
     rad = system.compute(prepared)
     assert not rad.options.final_gather and rad.options.max_rounds > 0
+
+
+def test_a_large_emitter_around_the_scene_brings_the_gather_in():
+    """A glowing dome (POV-Ray's radiosity3: an emitting sphere around everything) is
+    easy for gather rays to find; a small emitting patch (2% of the scene's box) is not."""
+    scene = _emitter_scene(1.0)
+    assert system.emitter_share(scene.objects) < 0.05
+    dome = ir.Object(
+        ir.Sphere((0.0, 0.0, 0.0), 50.0),
+        texture=ir.Texture(
+            pigment=ir.Pigment(color=(0.8, 0.9, 1.0, 0.0, 0.0)),
+            finish=ir.Finish(ambient=(0.0,) * 3, diffuse=0.0, emission=(1.4,) * 3),
+        ),
+    )
+    domed = dataclasses.replace(scene, objects=(*scene.objects[1:], dome))
+    assert system.emitter_share(domed.objects) >= 1.0
+    assert system.gather_pays(domed)

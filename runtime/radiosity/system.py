@@ -894,7 +894,7 @@ def compute(
     scene: ir.Scene = prepared.scene
     if opts is None:
         r = scene.settings.radiosity or ir.Radiosity()
-        opts = Options.from_ir(r, final_gather=gather_pays(scene))
+        opts = Options.from_ir(r, final_gather=gather_pays(scene, prepared.objects))
     # The display (flat or Gouraud) reads the solution; it is not part of it.
     # So is the number of gather rays.
     display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
@@ -937,13 +937,45 @@ def _print_warnings(res: RadiosityResult) -> None:
         print(f"strala: warning: {msg}", file=sys.stderr)
 
 
-def gather_pays(scene: ir.Scene) -> bool:
+def gather_pays(scene: ir.Scene, objects=None) -> bool:
     """Whether the display should take the first bounce by a final gather: where light
-    sources or the sky shine. Where all light comes from emitting surfaces (a Cornell box's
-    ceiling patch), the patches carry it better: their form factors to the emitters are
-    exact, while a gather's few dozen rays that must find a small emitter are noisy."""
+    sources or the sky shine, or where the emitting surfaces are large (a glowing dome
+    around the scene). Where the light comes from small emitting surfaces only (a Cornell
+    box's ceiling patch), the patches carry it better: their form factors to the emitters
+    are exact, while a gather's few dozen rays that must find a small emitter are noisy."""
     sky = bool(scene.sky_sphere) or any(scene.background[:3])
-    return bool(scene.lights) or sky
+    if scene.lights or sky:
+        return True
+    return emitter_share(scene.objects if objects is None else objects) >= LARGE_EMITTERS
+
+
+# The emitters' bounding boxes' surface area, as a share of the scene's box's, from which
+# gather rays find them easily.
+LARGE_EMITTERS = 0.25
+
+
+def emitter_share(objects) -> float:
+    """Surface area of the emitting objects' world boxes over that of the whole scene's
+    box (1 or more: the emitters surround the scene)."""
+
+    def emits(obj: ir.Object) -> bool:
+        tex = obj.texture
+        return tex is not None and any(c > 0 for c in np.atleast_1d(tex.finish.emission))
+
+    def area(lo: np.ndarray, hi: np.ndarray) -> float:
+        if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)):
+            return np.inf
+        d = np.maximum(hi - lo, 0.0)
+        return float(2 * (d[0] * d[1] + d[1] * d[2] + d[0] * d[2]))
+
+    lit = [o for o in objects if emits(o)]
+    if not lit:
+        return 0.0
+    whole = area(*scene_bounds(list(objects), []))
+    part = area(*scene_bounds(lit, []))
+    if not np.isfinite(part):
+        return 1.0  # an emitting plane: it surrounds half the scene
+    return part / whole if whole > 0 and np.isfinite(whole) else 1.0
 
 
 def patch_levels(opts: Options) -> int | None:
