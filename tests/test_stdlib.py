@@ -572,6 +572,22 @@ def run_povray(
     return run.stderr
 
 
+def povray_both_ways(
+    folder: Path, scene: str, size, options: tuple[str, ...] = ()
+) -> tuple[Any, Any]:
+    """POV-Ray's renders of `scene` with its own include files and with strala's, as int
+    arrays of the 8-bit PNGs it writes (each in a subfolder of `folder`)."""
+    from OpenImageIO import UINT8, ImageBuf
+
+    images = []
+    for with_stdlib in (False, True):
+        sub = folder / ("stdlib" if with_stdlib else "pov")
+        sub.mkdir(parents=True)
+        run_povray(sub, scene, with_stdlib=with_stdlib, size=size, options=options)
+        images.append(ImageBuf(str(sub / "scene.png")).get_pixels(UINT8).astype(int))
+    return images[0], images[1]
+
+
 def _read_probes(folder: Path) -> dict[int, list[float]]:
     written = (folder / "probes.txt").read_text()
     found = {}
@@ -653,18 +669,11 @@ def _gallery_scene(blocks: list[tuple[str, str]]) -> str:
 def test_povray_renders_stdlib_textures_exactly_like_its_own(tmp_path):
     # Independent of strala's evaluator: every finish, texture, pigment, material and
     # interior, rendered by POV-Ray with strala's files, gives the very same pixels.
-    from OpenImageIO import UINT8, ImageBuf
-
     blocks = _declared_blocks()
     assert len(blocks) > 250
     size = (16 * _CELL, -(-len(blocks) // 16) * _CELL)
-    images = []
-    for with_stdlib in (False, True):
-        folder = tmp_path / ("stdlib" if with_stdlib else "pov")
-        folder.mkdir()
-        run_povray(folder, _gallery_scene(blocks), with_stdlib=with_stdlib, size=size)
-        images.append(ImageBuf(str(folder / "scene.png")).get_pixels(UINT8).astype(int))
-    changed = abs(images[0] - images[1]).max(axis=2)
+    theirs, ours = povray_both_ways(tmp_path, _gallery_scene(blocks), size)
+    changed = abs(theirs - ours).max(axis=2)
     # Name the spheres that differ (reflections spread a difference to the neighbours).
     cells = {(y // _CELL) * 16 + x // _CELL for y, x in zip(*changed.nonzero(), strict=True)}
     assert changed.max() == 0, [blocks[c][0] for c in sorted(cells) if c < len(blocks)][:20]
@@ -845,18 +854,11 @@ def _shape_gallery(shapes: list[str]) -> str:
 def test_povray_renders_stdlib_shapes_exactly_like_its_own(tmp_path):
     # Independent of strala's evaluator: POV-Ray builds every shape and macro result from
     # strala's shapes files and from its own, and the pictures are the same pixels.
-    from OpenImageIO import UINT8, ImageBuf
-
     cell = 32
     size = (8 * cell, -(-len(_SHAPES) // 8) * cell)
-    images = []
-    for with_stdlib in (False, True):
-        folder = tmp_path / ("stdlib" if with_stdlib else "pov")
-        folder.mkdir()
-        run_povray(folder, _shape_gallery(_SHAPES), with_stdlib=with_stdlib, size=size)
-        images.append(ImageBuf(str(folder / "scene.png")).get_pixels(UINT8).astype(int))
-    changed = abs(images[0] - images[1]).max(axis=2)
-    assert images[0].std() > 10  # the gallery shows something
+    theirs, ours = povray_both_ways(tmp_path, _shape_gallery(_SHAPES), size)
+    changed = abs(theirs - ours).max(axis=2)
+    assert theirs.std() > 10  # the gallery shows something
     cells = {(y // cell) * 8 + x // cell for y, x in zip(*changed.nonzero(), strict=True)}
     assert changed.max() == 0, [_SHAPES[c] for c in sorted(cells) if c < len(_SHAPES)]
 
@@ -893,17 +895,10 @@ def _sky_scene(body: str) -> str:
 @pytest.mark.povray
 @needs_pov_includes
 def test_povray_renders_stdlib_skies_exactly_like_its_own(tmp_path):
-    from OpenImageIO import UINT8, ImageBuf
-
     for i, body in enumerate(_SKY_SCENES):
-        images = []
-        for with_stdlib in (False, True):
-            folder = tmp_path / f"{i}-{with_stdlib}"
-            folder.mkdir()
-            run_povray(folder, _sky_scene(body), with_stdlib=with_stdlib, size=(80, 60))
-            images.append(ImageBuf(str(folder / "scene.png")).get_pixels(UINT8).astype(int))
-        assert images[0].std() > 5, body  # clouds, not a flat colour
-        assert abs(images[0] - images[1]).max() == 0, body
+        theirs, ours = povray_both_ways(tmp_path / str(i), _sky_scene(body), (80, 60))
+        assert theirs.std() > 5, body  # clouds, not a flat colour
+        assert abs(theirs - ours).max() == 0, body
 
 
 @pytest.mark.parametrize("body", _SKY_SCENES, ids=[*(f"S_Cloud{i}" for i in range(1, 6)), "rest"])
@@ -1001,16 +996,9 @@ sphere { <0, 0.5, 0>, 0.5 pigment { rgb <1, 0.8, 0.2> } }
 @pytest.mark.povray
 @needs_pov_includes
 def test_povray_renders_the_stdcam_stage_exactly_like_its_own(tmp_path):
-    from OpenImageIO import UINT8, ImageBuf
-
-    images = []
-    for with_stdlib in (False, True):
-        folder = tmp_path / str(with_stdlib)
-        folder.mkdir()
-        run_povray(folder, _STAGE, with_stdlib=with_stdlib, size=(80, 60))
-        images.append(ImageBuf(str(folder / "scene.png")).get_pixels(UINT8).astype(int))
-    assert images[0].std() > 10
-    assert abs(images[0] - images[1]).max() == 0
+    theirs, ours = povray_both_ways(tmp_path, _STAGE, (80, 60))
+    assert theirs.std() > 10
+    assert abs(theirs - ours).max() == 0
 
 
 def test_stdinc_brings_the_everyday_names(tmp_path):

@@ -11,10 +11,17 @@ Oracles (each skipped where POV-Ray or its include files are not installed):
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import pytest
-from test_stdlib import POV_INCLUDE, STDLIB, compile_file, errors, needs_pov_includes, run_povray
+from test_stdlib import (
+    POV_INCLUDE,
+    STDLIB,
+    compile_file,
+    errors,
+    needs_pov_includes,
+    povray_both_ways,
+    run_povray,
+)
 
 _HEAD = "#version 3.7;\nglobal_settings { assumed_gamma 1.0 }\n"
 _LIGHT = "light_source { <-20, 30, -40> rgb 1 }\nbackground { rgb <0.1, 0.2, 0.3> }\n"
@@ -178,12 +185,6 @@ _GALLERIES = {
 }
 
 
-def _pixels(path: Path):
-    from OpenImageIO import UINT8, ImageBuf
-
-    return ImageBuf(str(path)).get_pixels(UINT8).astype(int)
-
-
 def test_the_gallery_shows_every_glyph_povray_declares():
     theirs = set(re.findall(r"#declare (char_\w+)", (POV_INCLUDE / "chars.inc").read_text()))
     if not theirs:
@@ -198,14 +199,9 @@ def test_the_gallery_shows_every_glyph_povray_declares():
 def test_povray_renders_the_mesh_files_exactly_like_its_own(tmp_path, gallery):
     # Independent of strala's evaluator: the same pixels from POV-Ray's files and strala's.
     scene, size = _GALLERIES[gallery]
-    images = []
-    for with_stdlib in (False, True):
-        folder = tmp_path / ("stdlib" if with_stdlib else "pov")
-        folder.mkdir()
-        run_povray(folder, scene, with_stdlib=with_stdlib, size=size)
-        images.append(_pixels(folder / "scene.png"))
-    assert images[0].std() > 10  # the gallery shows something
-    assert abs(images[0] - images[1]).max() == 0
+    theirs, ours = povray_both_ways(tmp_path, scene, size)
+    assert theirs.std() > 10  # the gallery shows something
+    assert abs(theirs - ours).max() == 0
 
 
 @pytest.mark.parametrize("gallery", sorted(_GALLERIES))

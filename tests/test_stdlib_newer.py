@@ -25,6 +25,7 @@ from test_stdlib import (
     differences,
     errors,
     needs_pov_includes,
+    povray_both_ways,
     run_povray,
 )
 
@@ -510,17 +511,10 @@ _NEW_GALLERIES = {
 @pytest.mark.parametrize("gallery", sorted(_NEW_GALLERIES))
 def test_povray_renders_the_newer_stdlib_files_exactly_like_its_own(tmp_path, gallery):
     # Independent of strala's evaluator: the same pixels from POV-Ray's files and strala's.
-    from OpenImageIO import UINT8, ImageBuf
-
     scene, size = _NEW_GALLERIES[gallery]
-    images = []
-    for with_stdlib in (False, True):
-        folder = tmp_path / ("stdlib" if with_stdlib else "pov")
-        folder.mkdir()
-        run_povray(folder, scene, with_stdlib=with_stdlib, size=size)
-        images.append(ImageBuf(str(folder / "scene.png")).get_pixels(UINT8).astype(int))
-    assert images[0].std() > 10  # the gallery shows something
-    assert abs(images[0] - images[1]).max() == 0
+    theirs, ours = povray_both_ways(tmp_path, scene, size)
+    assert theirs.std() > 10  # the gallery shows something
+    assert abs(theirs - ours).max() == 0
 
 
 @pytest.mark.parametrize("gallery", sorted(_NEW_GALLERIES))

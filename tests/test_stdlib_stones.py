@@ -24,7 +24,7 @@ from test_stdlib import (
     differences,
     errors,
     needs_pov_includes,
-    run_povray,
+    povray_both_ways,
 )
 
 from lang import ir, paths, values
@@ -70,20 +70,12 @@ def _gallery(names: list[str], columns: int = 16) -> str:
 @needs_pov_includes
 def test_povray_renders_every_stone_exactly_like_its_own(tmp_path):
     # Independent of strala's evaluator: all 164 stone textures of the four files.
-    from OpenImageIO import UINT8, ImageBuf
-
     names = _stone_textures()
     assert len(names) == 83 + 20 + 61  # stones1 (not g1..g4), stones2, stoneold
     size = (16 * _CELL, -(-len(names) // 16) * _CELL)
-    images = []
-    for with_stdlib in (False, True):
-        folder = tmp_path / ("stdlib" if with_stdlib else "pov")
-        folder.mkdir()
-        scene = _gallery(names)
-        run_povray(folder, scene, with_stdlib=with_stdlib, size=size, options=("+WT1",))
-        images.append(ImageBuf(str(folder / "scene.png")).get_pixels(UINT8).astype(int))
-    assert images[0].std() > 10
-    changed = abs(images[0] - images[1]).max(axis=2)
+    theirs, ours = povray_both_ways(tmp_path, _gallery(names), size, options=("+WT1",))
+    assert theirs.std() > 10
+    changed = abs(theirs - ours).max(axis=2)
     cells = {(y // _CELL) * 16 + x // _CELL for y, x in zip(*changed.nonzero(), strict=True)}
     assert changed.max() == 0, [names[c] for c in sorted(cells) if c < len(names)][:20]
 

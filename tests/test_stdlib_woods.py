@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 
 import pytest
-from test_stdlib import POV_INCLUDE, compile_text, errors, needs_pov_includes, run_povray
+from test_stdlib import POV_INCLUDE, compile_text, errors, needs_pov_includes, povray_both_ways
 
 _DECLARED = re.compile(r"#declare\s+(\w+)\s*=\s*(texture|pigment|colou?r_map)\b")
 _COLUMNS = 16
@@ -59,19 +59,12 @@ def _gallery(cells: list[str], columns: int = _COLUMNS) -> str:
 @pytest.mark.povray
 @needs_pov_includes
 def test_povray_renders_the_stdlib_woods_exactly_like_its_own(tmp_path):
-    from OpenImageIO import UINT8, ImageBuf
-
     cells = _cells()
     assert len(cells) == 35 + 38 + 38  # textures, grain pigments, colour maps
     size = (_COLUMNS * _CELL, -(-len(cells) // _COLUMNS) * _CELL)
-    images = []
-    for with_stdlib in (False, True):
-        folder = tmp_path / ("stdlib" if with_stdlib else "pov")
-        folder.mkdir()
-        run_povray(folder, _gallery(cells), with_stdlib=with_stdlib, size=size)
-        images.append(ImageBuf(str(folder / "scene.png")).get_pixels(UINT8).astype(int))
-    assert images[0].std() > 10  # the gallery shows something
-    changed = abs(images[0] - images[1]).max(axis=2)
+    theirs, ours = povray_both_ways(tmp_path, _gallery(cells), size)
+    assert theirs.std() > 10  # the gallery shows something
+    changed = abs(theirs - ours).max(axis=2)
     spots = {(y // _CELL) * _COLUMNS + x // _CELL for y, x in zip(*changed.nonzero(), strict=True)}
     assert changed.max() == 0, [cells[c] for c in sorted(spots) if c < len(cells)][:10]
 
