@@ -98,6 +98,16 @@ def image_errors(ours, ref, threshold: float = 0.1) -> tuple[float, float]:
     return rmse(ours, ref), off_share(ours, ref, threshold)
 
 
+def strala_against_povray(scene_text: str, folder: Path, width: int, height: int):
+    """(RMSE, share of pixels off, POV-Ray's image) of strala's render of a scene against
+    POV-Ray's; strala must render all of it (no "not supported" warning)."""
+    ref = povray_image(scene_text, folder, width, height)
+    ours, messages = strala_image(scene_text, folder, width, height)
+    assert not [m for m in messages if "not supported" in m], messages
+    rmse, off = image_errors(ours, ref)
+    return rmse, off, ref
+
+
 def povray_debug(scene: Path) -> str:
     """What POV-Ray prints (its #debug stream goes to stderr) parsing a scene at 1×1 pixel."""
     return subprocess.run(

@@ -553,13 +553,9 @@ _STRALA_GOLDEN = {
 @needs_pov_includes
 @pytest.mark.parametrize("gallery", sorted(_STRALA_GOLDEN))
 def test_strala_renders_the_newer_files_like_povray(tmp_path, gallery):
-    from conftest import image_errors, povray_image, strala_image
+    from conftest import strala_against_povray
 
-    scene = _STRALA_GOLDEN[gallery]
-    ref = povray_image(scene, tmp_path, 120, 80)
-    ours, messages = strala_image(scene, tmp_path, 120, 80)
-    assert not [m for m in messages if "not supported" in m], messages
-    rmse, off = image_errors(ours, ref)
+    rmse, off, ref = strala_against_povray(_STRALA_GOLDEN[gallery], tmp_path, 120, 80)
     assert ref.std() > 0.05
     assert rmse < 0.01 and off < 0.005, (rmse, off)
 

@@ -150,13 +150,10 @@ _STRALA_STONES = (
 @pytest.mark.povray
 @needs_pov_includes
 def test_strala_renders_stones_like_povray(tmp_path):
-    from conftest import image_errors, povray_image, strala_image
+    from conftest import strala_against_povray
 
     scene = _gallery(list(_STRALA_STONES), columns=5)
-    ref = povray_image(scene, tmp_path, 150, 60)
-    ours, messages = strala_image(scene, tmp_path, 150, 60)
-    assert not [m for m in messages if "not supported" in m], messages
-    rmse, off = image_errors(ours, ref)
+    rmse, off, ref = strala_against_povray(scene, tmp_path, 150, 60)
     assert ref.std() > 0.05
     # granite, crackle, agate, onion and wrinkles layers as POV-Ray draws them
     assert rmse < 0.01 and off < 0.005, (rmse, off)  # measured 0.0024 and 0

@@ -84,13 +84,10 @@ def test_strala_builds_the_woods_gallery(tmp_path):
 def test_strala_renders_the_woods_like_povray(tmp_path):
     # the whole gallery, strala with its stdlib against POV-Ray with its own files
     # (measured: RMSE 0.0014, 0.02% of pixels off by more than 0.1)
-    from conftest import image_errors, povray_image, strala_image
+    from conftest import strala_against_povray
 
     cells = _cells()
     size = (_COLUMNS * _CELL, -(-len(cells) // _COLUMNS) * _CELL)
-    ref = povray_image(_gallery(cells), tmp_path, *size)
-    ours, messages = strala_image(_gallery(cells), tmp_path, *size)
-    assert not [m for m in messages if "not supported" in m], messages
-    rmse, off = image_errors(ours, ref)
+    rmse, off, ref = strala_against_povray(_gallery(cells), tmp_path, *size)
     assert ref.std() > 0.05
     assert rmse < 0.01 and off < 0.003, (rmse, off)
