@@ -15,9 +15,9 @@ from lang import ir
 from runtime.radiosity import irradiance_cache as ic
 
 
-def _cache(points, normals, reach, rules: ic.Rules | None = None) -> ic.IrradianceCache:
+def _cache(points, normals, reach, rules: ir.Radiosity | None = None) -> ic.IrradianceCache:
     n = len(points)
-    cache = ic.IrradianceCache(rules or ic.Rules())
+    cache = ic.IrradianceCache(rules or ir.Radiosity())
     cache.add(
         ic.Samples(
             np.asarray(points, dtype=np.float64),
@@ -60,7 +60,7 @@ def test_the_final_rule_takes_any_record_the_pretrace_needs_enough():
     pre = ic.Pass(0.9, pretrace=True, record=True)
     assert cache.served(w, FINAL).tolist() == [False, True, True, True]
     assert cache.served(w, pre).tolist() == [False, False, True, True]  # 4w ≥ 5
-    strict = _cache([[0, 0, 0]], [[0, 1, 0]], [1.0], ic.Rules(always_sample=True))
+    strict = _cache([[0, 0, 0]], [[0, 1, 0]], [1.0], ir.Radiosity(always_sample=True))
     assert strict.served(w, FINAL).tolist() == [False, False, True, True]
 
 
@@ -93,7 +93,7 @@ def test_grid_lookup_finds_what_a_search_over_every_record_finds(seed, k, scale)
 def test_records_reach_between_the_reuse_limits():
     """The harmonic mean distance of the rays, clamped to [minimum_reuse, maximum_reuse]
     times the distance to the camera; a gather whose ray grazed a surface is not kept."""
-    rules = ic.Rules()
+    rules = ir.Radiosity()
     eye = (0.0, 0.0, -10.0)
     pts = np.zeros((3, 3))
     nrm = np.tile([0.0, 0.0, -1.0], (3, 1))
@@ -107,12 +107,12 @@ def test_records_reach_between_the_reuse_limits():
 
 def test_passes_follow_povrays_pretrace_sizes():
     # 160 px: 0.08 → 12.8 px, 0.04 → 6.4 px; then 3.2 px (the last above 2 px).
-    assert ic.pass_steps(ic.Rules(), 160, 120) == [(12.8, True), (6.4, True), (3.2, False)]
+    assert ic.pass_steps(ir.Radiosity(), 160, 120) == [(12.8, True), (6.4, True), (3.2, False)]
     # pretrace_end 0.02 of 160 px: three POV-Ray passes (12.8, 6.4, 3.2).
-    three = ic.pass_steps(ic.Rules(pretrace_end=0.02), 160, 120)
+    three = ic.pass_steps(ir.Radiosity(pretrace_end=0.02), 160, 120)
     assert [p for _, p in three] == [True, True, True]
     # An end below one pixel stops at one pixel, as POV-Ray's pretrace does.
-    tiny = ic.pass_steps(ic.Rules(pretrace_start=0.01, pretrace_end=0.001), 100, 50)
+    tiny = ic.pass_steps(ir.Radiosity(pretrace_start=0.01, pretrace_end=0.001), 100, 50)
     assert tiny == [(1.0, True)]
 
 
@@ -180,7 +180,9 @@ def test_room_matches_povray(tmp_path, extra):
 
 def test_rules_come_from_the_scene():
     r = ir.Radiosity(nearest_count=7, minimum_reuse=0.02, always_sample=True, pretrace_end=0.01)
-    rules = ic.Rules.from_ir(r)
+    from runtime.radiosity import system
+
+    rules = system.Options.from_ir(r).cache_rules
     assert (rules.nearest_count, rules.minimum_reuse, rules.always_sample, rules.pretrace_end) == (
         7,
         0.02,

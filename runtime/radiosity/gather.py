@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from runtime.context import RADIOSITY_RAYS, radiosity_ray
+from runtime.context import RADIOSITY_RAYS
 
 # POV-Ray's radiosity rays start one trace level down, at half the weight (its
 # recursion settings for the first bounce: trace level 1, weight 0.5 × brightness).
@@ -43,11 +43,6 @@ def rays_per_point(count: int, cap: int, lights) -> int:
             continue
         cost += light.area.size1 * light.area.size2 if light.area is not None else 1
     return max(1, min(count, cap, max(MIN_RAYS, WORK_PER_POINT // cost)))
-
-
-def gathering() -> bool:
-    """True while the rays of a final gather are being traced (on this thread)."""
-    return radiosity_ray()
 
 
 def lattice(k: int) -> np.ndarray:

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -33,26 +33,6 @@ IN_FRONT_LIMIT = -0.05  # an older point this far in front may shadow the new on
 WEIGHT_EPSILON = 0.001  # weights below this are rounding noise
 FINEST_STEP = 2.0  # pixels between the camera rays of the last pass
 _NEAR = 1e-6  # two points this close are the same point
-
-
-@dataclass(frozen=True)
-class Rules:
-    """The radiosity block's settings for the cache (POV-Ray's defaults)."""
-
-    error_bound: float = 1.8
-    nearest_count: int = 5
-    minimum_reuse: float = 0.015
-    maximum_reuse: float = 0.2
-    low_error_factor: float = 0.5
-    pretrace_start: float = 0.08
-    pretrace_end: float = 0.04
-    always_sample: bool = False
-
-    @staticmethod
-    def from_ir(r: ir.Radiosity) -> Rules:
-        return Rules(r.error_bound, r.nearest_count, r.minimum_reuse, r.maximum_reuse,
-                     r.low_error_factor, r.pretrace_start, r.pretrace_end,
-                     r.always_sample)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -77,7 +57,7 @@ class Samples:
     ok: np.ndarray  # (M,) bool: worth keeping (the rays did not graze a second surface)
 
 
-def samples_from_rays(points, normals, light, dirs, depth, eye, rules: Rules) -> Samples:
+def samples_from_rays(points, normals, light, dirs, depth, eye, rules: ir.Radiosity) -> Samples:
     """Records of gathers at `points`: `dirs` (M,K,3) their rays, `depth` (M,K) how far
     each went (inf: it escaped), `eye` the camera's location (the reuse limits are parts
     of the distance to it, as in POV-Ray)."""
@@ -92,6 +72,11 @@ def samples_from_rays(points, normals, light, dirs, depth, eye, rules: Rules) ->
     nearest = depth[rows, j]
     ok = nearest > hi * 1e-4
     return Samples(points, normals, light, np.clip(mean, lo, hi), nearest, dirs[rows, j], ok)
+
+
+_FIELDS = [f.name for f in fields(Samples)]
+# a cell and its 26 neighbours, as offsets
+_NEIGHBOURS = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), -1).reshape(-1, 3)
 
 
 @dataclass
@@ -109,7 +94,7 @@ class _Level:
 class IrradianceCache:
     """The records, searchable by where they reach."""
 
-    rules: Rules
+    rules: ir.Radiosity  # the scene's radiosity block: error_bound, nearest_count, reuse …
     point: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     normal: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     light: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -134,9 +119,10 @@ class IrradianceCache:
         self._index()
 
     def commit(self) -> None:
-        """The records the last pass made join the cache."""
-        for s in self.pending:
-            self.add(s)
+        """The records the last pass made join the cache (indexed once for the pass)."""
+        if self.pending:
+            p = self.pending
+            self.add(Samples(*(np.concatenate([getattr(s, f) for s in p]) for f in _FIELDS)))
         self.pending.clear()
 
     def _index(self) -> None:
@@ -175,10 +161,9 @@ class IrradianceCache:
 
     def _pairs(self, points: np.ndarray):
         """(query, record) index pairs of records in the points' neighbouring cells."""
-        offsets = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), -1).reshape(-1, 3)
         for lv in self.levels:
             base = np.floor(points / lv.cell).astype(np.int64)
-            for off in offsets:
+            for off in _NEIGHBOURS:
                 keys = _cell_keys(base + off)
                 pos = np.minimum(np.searchsorted(lv.keys, keys), len(lv.keys) - 1)
                 q = np.nonzero(lv.keys[pos] == keys)[0]
@@ -233,7 +218,7 @@ def _cell_keys(cells: np.ndarray) -> np.ndarray:
     return (c[:, 0] << 42) | (c[:, 1] << 21) | c[:, 2]
 
 
-def pass_steps(rules: Rules, width: int, height: int) -> list[tuple[float, bool]]:
+def pass_steps(rules: ir.Radiosity, width: int, height: int) -> list[tuple[float, bool]]:
     """(pixel step, POV-Ray pretrace?) of each pass: POV-Ray's from pretrace_start halving
     to pretrace_end (at least one pixel), then halving on to FINEST_STEP."""
     size = float(max(width, height))

@@ -42,6 +42,7 @@ import numpy as np
 from lang import ir
 from runtime import transform as tf
 from runtime import uvmap
+from runtime.context import radiosity_ray
 from runtime.radiosity import irradiance_cache
 from runtime.radiosity import solve as solver
 from runtime.radiosity.formfactor import form_factors, point_form_factors
@@ -94,7 +95,8 @@ class Options:
     # Gather at every shaded point (exact, slow) instead of at the irradiance cache's
     # records with interpolation between them (POV-Ray's way, the default).
     gather_every_point: bool = False
-    cache_rules: irradiance_cache.Rules = irradiance_cache.Rules()
+    # the scene's radiosity block, which the irradiance cache reads its settings from
+    cache_rules: ir.Radiosity = ir.Radiosity()
 
     @staticmethod
     def from_ir(r: ir.Radiosity, **extra) -> Options:
@@ -117,7 +119,7 @@ class Options:
             flat=r.display == "flat",
             bounces=r.recursion_limit,
             gather_rays=r.count,
-            cache_rules=irradiance_cache.Rules.from_ir(r),
+            cache_rules=r,
             **extra,
         )
 
@@ -175,7 +177,7 @@ class RadiosityResult:
         no final gather, or these points are themselves hit by gather rays."""
         from runtime.radiosity import gather
 
-        if not self.options.final_gather or gather.gathering():
+        if not self.options.final_gather or radiosity_ray():
             return None
         o = self.options
         rays = gather.rays_per_point(o.gather_rays, o.gather_cap, ctx.scene.lights)
@@ -899,7 +901,7 @@ def compute(
     # So is the number of gather rays.
     display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
                                   gather_every_point=False,
-                                  cache_rules=irradiance_cache.Rules())  # fmt: skip
+                                  cache_rules=ir.Radiosity())  # fmt: skip
     key = content_key(scene, display, eye_cell(prepared))
     path = None if cache_dir is None else cache_path(Path(cache_dir), key)
     if path is not None and path.is_file():
