@@ -57,6 +57,8 @@ class Radiosity(Protocol):
 
     def gather(self, ctx, points: np.ndarray, normals: np.ndarray) -> np.ndarray | None: ...
 
+    def pretrace(self, shoot, width: int, height: int, region) -> None: ...
+
 
 class TileKernel(Protocol):
     """A compiled path that traces whole tiles (runtime.whitted.Kernel, which reads this

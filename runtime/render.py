@@ -79,7 +79,7 @@ def render_scene(
     left, top, right, bottom = region if region is not None else (0, 0, width, height)
     left, top = max(0, left), max(0, top)
     right, bottom = min(width, right), min(height, bottom)
-    if radiosity is not None and hasattr(radiosity, "pretrace"):
+    if radiosity is not None:
         # The final gather's records, from coarse passes of camera rays (one thread: a
         # pass's records depend on no tile order).
         def shoot(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:

@@ -237,6 +237,9 @@ class _FlatRadiosity:
     def gather(self, ctx, points, normals):
         return None  # no final gather: the display reads `gathered`
 
+    def pretrace(self, shoot, width, height, region):
+        pass  # no final gather: nothing to fill before the image
+
 
 def test_radiosity_replaces_ambient_with_gathered_light_times_diffuse():
     tex = ir.Texture(
