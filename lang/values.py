@@ -197,6 +197,9 @@ class MacroValue:
     span: Span | None = None
     kind: str = "macro"
     optional: frozenset[str] = frozenset()  # parameters that may be left out (POV-Ray 3.7)
+    # A body read as tokens (lang/eval/streamed.py), for one that is not whole elements
+    # (`#macro Half() 2 * #end`); `body` is empty then.
+    tokens: tuple[Any, ...] | None = None
 
 
 @dataclass(frozen=True)
