@@ -146,6 +146,21 @@ def _read_as_tokens(first: tuple[Token, Token | None], clean: str, start: int, e
     return not braces.unmatched_close and not braces.unclosed_open
 
 
+def _macro_body(clean: str, file: str, pos: int) -> Span | None:
+    """The span of the body of the `#macro` at `pos`: after its parameters, up to its `#end`."""
+    open_at = clean.find("(", pos)
+    close_at = clean.find(")", open_at)
+    end = macro_end(clean, pos)
+    if open_at < 0 or close_at < 0 or end is None:
+        return None
+    end_at = clean.rfind("#", close_at, end)
+    if end_at <= close_at + 1:
+        return None
+    line, col = line_col(clean, close_at + 1)
+    end_line, end_col = line_col(clean, end_at)
+    return Span(file, line, col, end_line, end_col)
+
+
 _NAME_BEFORE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*[ \t\n]*$")
 
 
@@ -279,8 +294,8 @@ class _ChunkErrors:
         self._braces: BraceReport | None = None
         self._braces_end = -1
         self.before: Token | None = None  # the token fed before the one being fed
-        # the first unexpected token, and the one before it
-        self.first: tuple[Token, Token | None] | None = None
+        # the unexpected tokens (the first ones), each with the token before it
+        self.bad: list[tuple[Token, Token | None]] = []
 
     def braces_to(self, end: int) -> BraceReport:
         """Braces from the chunk's start to `end`: a `}` unmatched there has no `{` before it
@@ -339,8 +354,8 @@ class _ChunkErrors:
         drop it, except a reserved word where a name belongs, which is read as the name."""
         pos = tok.start_pos
         assert pos is not None  # a lexed token
-        if self.first is None:
-            self.first = tok, self.before
+        if len(self.bad) < MAX_SYNTAX_ERRORS:
+            self.bad.append((tok, self.before))
         if state is not None and "IDENT" in expected and tok.type in RESERVED_TYPES:
             self.report(
                 "E0102",
@@ -555,13 +570,16 @@ class ChunkParser:
             follow_end = follow.end_pos
         else:
             end = follow_end = len(self.clean)
-        if errors.first is not None and _read_as_tokens(errors.first, self.clean, start, end):
-            # Not a syntax error: directives that cut across an expression. The evaluator
-            # reads this text token by token, as POV-Ray does (lang/eval/streamed.py).
-            where = span or Span(self.file, line, 1, line, 1)
-            nodes, span = [syntax.Tokens(where)], where
-            errors.sink.items = [d for d in errors.sink.items if d.code not in _COUNTED]
-            errors.reported, errors.strays = 0, []
+        if errors.bad:
+            # Not syntax errors: directives that cut across an expression. The evaluator
+            # reads such text token by token, as POV-Ray does (lang/eval/streamed.py).
+            if self._cut_macros(errors, nodes, start) and _read_as_tokens(
+                errors.bad[0], self.clean, start, end
+            ):
+                where = span or Span(self.file, line, 1, line, 1)
+                nodes, span = [syntax.Tokens(where)], where
+                errors.sink.items = [d for d in errors.sink.items if d.code not in _COUNTED]
+                errors.reported, errors.strays = 0, []
         chunk = Chunk(
             start,
             self.clean[start:end],
@@ -576,6 +594,37 @@ class ChunkParser:
             self._pieces,
         )
         return chunk, follow
+
+    def _cut_macros(self, errors: _ChunkErrors, nodes: list, start: int) -> bool:
+        """Macros whose bodies are cut across expressions (their first syntax error is one)
+        keep their body's text to be read as tokens, and their errors are dropped; returns
+        whether syntax errors are left outside them."""
+        lines = [0, *(m.end() for m in re.finditer("\n", self.clean))]
+
+        def offset(line: int, col: int) -> int:
+            return lines[line - 1] + col - 1
+
+        for m in syntax.walk(nodes):
+            if type(m) is not syntax.MacroDef:
+                continue
+            s = m.span
+            lo, hi = offset(s.line, s.col), offset(s.end_line, s.end_col)
+            inside = [b for b in errors.bad if lo <= cast(int, b[0].start_pos) < hi]
+            if not inside or not _read_as_tokens(inside[0], self.clean, lo, lo):
+                continue
+            body = _macro_body(self.clean, self.file, lo)
+            if body is None:
+                continue
+            m.body = [syntax.Tokens(body)]
+            errors.bad = [b for b in errors.bad if b not in inside]
+            errors.sink.items = [
+                d
+                for d in errors.sink.items
+                if d.code not in _COUNTED or not lo <= offset(d.span.line, d.span.col) < hi
+            ]
+            errors.strays = [r for r in errors.strays if not lo <= start + r < hi]
+        errors.reported = sum(1 for d in errors.sink.items if d.code in _COUNTED)
+        return bool(errors.bad)
 
     def _absorb(self, state: ParserState, ttype: str, piece: Chunk) -> bool:
         """Feed an earlier chunk's elements into the open construct, if the parser stands

@@ -662,7 +662,7 @@ class Interpreter:
             held = self._called[id(node)] = (node, names)
         for name in held[1] & self.token_macros:
             found, v = self.lookup(name)
-            if found and isinstance(v, MacroValue) and v.tokens is not None:
+            if found and isinstance(v, MacroValue) and v.read_as_tokens:
                 return True
         return False
 
@@ -998,6 +998,8 @@ class Interpreter:
             self.break_targets -= 1
 
     def _d_macro(self, node: syntax.MacroDef, out, spec) -> None:
+        if len(node.body) == 1 and type(node.body[0]) is syntax.Tokens:
+            self.token_macros.add(node.name)
         self.scopes[0][node.name] = MacroValue(
             node.name,
             tuple(node.params),
@@ -1107,10 +1109,7 @@ class Interpreter:
     def call_macro(self, node: syntax.Call) -> list[El]:
         macro, scope, refs = self.enter_macro(node)
         try:
-            if macro.tokens is not None:
-                els = streamed.macro_body(self, macro)
-            else:
-                els = self.expand(macro.body, None)
+            els = self.expand(macro.body, None)
         except _Break as e:  # POV-Ray: #break in a macro ends the macro
             els = _Els(e.partial)
         finally:

@@ -18,8 +18,9 @@ reading goes back to the tree.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from lark import Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedToken
@@ -36,8 +37,45 @@ from lang.values import MacroValue
 
 if TYPE_CHECKING:
     from lang.eval.elements import El
-    from lang.eval.interpreter import Interpreter
 
+
+class Interpreter(Protocol):
+    """What the token reader needs of the evaluator (lang/eval/interpreter.py)."""
+
+    sink: DiagnosticSink
+    token_macros: set[str]
+
+    @property
+    def scopes(self) -> Sequence[dict[str, Any]]: ...
+
+    def error(self, code: str, message: str, span: Span, hint: str | None = None) -> SceneError: ...
+
+    def lookup(self, name: str) -> tuple[bool, Any]: ...
+
+    def scope_of(self, name: str) -> dict[str, Any] | None: ...
+
+    def eval(self, node: syntax.Node) -> Any: ...
+
+    def expand(self, body: Sequence[syntax.Node], spec: Any, top: bool = False) -> list[El]: ...
+
+    def expand_node(self, node: syntax.Node, out: list[El], spec: Any) -> None: ...
+
+    def enter_macro(self, node: syntax.Call) -> tuple[MacroValue, Any, dict]: ...
+
+    def leave_macro(self, scope: Any, refs: dict) -> None: ...
+
+    def is_defined(self, node: syntax.IfDef) -> bool: ...
+
+    def source_text(self, file: str) -> str: ...
+
+    def token_call(self, node: syntax.Node) -> bool: ...
+
+
+# Directives that are statements of their own: run where they stand, even inside an
+# unfinished expression.
+_STATEMENTS = frozenset(
+    {"DECLARE", "UNDEF", "VERSION", "MESSAGE", "INCLUDE", "FOPEN", "FCLOSE", "FILEIO"}
+)
 # Directives that open a construct a `#end` closes.
 _OPENERS = frozenset({"IF", "IFDEF", "SWITCH", "WHILE", "FOR", "MACRO"})
 # Blocks whose elements are evaluated as they complete: those built from their elements.
@@ -86,7 +124,7 @@ class _Stop(Exception):
         self.index = index
 
 
-def read(it: Interpreter, body: list, i: int, out: list[El], spec) -> int:
+def read(it: Interpreter, body: Sequence[syntax.Node], i: int, out: list[El], spec) -> int:
     """Read body[i:] as tokens (from body[i]'s first character in its file), evaluating into
     `out`, up to the first statement boundary where a later node of `body` starts that needs
     no token reading; returns that node's index (len(body) when it read to the end)."""
@@ -118,16 +156,6 @@ def read(it: Interpreter, body: list, i: int, out: list[El], spec) -> int:
     except _Stop as stop:
         return stop.index
     return len(body)
-
-
-def macro_body(it: Interpreter, macro: MacroValue) -> list[El]:
-    """The elements of a macro read as tokens, called where a whole value or element is
-    read (its scope is entered by the caller)."""
-    out: list = []
-    stream = _Stream(it, macro.file, None, out)
-    stream.sources.append(_Source(list(macro.tokens or ()), macro.file, macro=True))
-    stream.run(lambda pos: None)
-    return out
 
 
 def _line_starts(text: str) -> list[int]:
@@ -179,11 +207,14 @@ class _Stream:
         self.it = it
         self.file = file
         self.sources: list[_Source] = []
-        self.reader = _Reader(it, file, spec, out)
+        # the parser of the statements read, and above it one for each directive statement
+        # met inside an unfinished one (`Half() #local M = 2; M`), run where it stands
+        self.readers = [_Reader(it, file, spec, out)]
         self.closing: list[_Call] = []  # macros read to their end, their scope still open
         self.renamed: list[str] = []  # names bound for a macro's values read as tokens
         self.counts: dict[tuple[int, int], int] = {}  # #while passes, by (source, index)
         self.before: Token | None = None  # the last token given to the parser
+        self.lexed: dict[tuple[str, int, int], list[Token]] = {}  # macro bodies, by place
 
     # ------------------------------------------------------------ the loop
     def run(self, resume) -> None:
@@ -192,28 +223,42 @@ class _Stream:
                 tok = self._next()
                 if tok is None:
                     break
-                src = self.sources[-1]
-                self.reader.settle(tok.type)
-                self._close_calls()
+                src = self.sources[-1] if self.sources else None
+                self._settle(tok.type)
                 if (
-                    src.file_level
+                    src is not None
+                    and src.file_level
                     and not src.frames
-                    and self.reader.fresh
                     and len(self.sources) == 1
+                    and len(self.readers) == 1
+                    and self.readers[0].fresh
                     and (j := resume(tok.start_pos)) is not None
                 ):
                     raise _Stop(j)
-                self.reader.feed(self._named(tok))
+                self.readers[-1].feed(self._named(tok))
                 self.before = tok
-            self.reader.settle("$END")
-            self._close_calls()
-            self.reader.finish()
+            self._settle("$END")
+            for reader in reversed(self.readers):
+                reader.finish()
         finally:
             for call in self.closing:
                 self.it.leave_macro(call.scope, call.refs)
             self.closing = []
             for name in self.renamed:
                 self.it.scopes[0].pop(name, None)
+
+    def _settle(self, ttype: str) -> None:
+        """Before a token of type `ttype`: what it completes is evaluated (a directive
+        statement read inside another is run and its parser dropped), then the macros whose
+        text has been read are left."""
+        while True:
+            reader = self.readers[-1]
+            reader.settle(ttype)
+            if len(self.readers) > 1 and reader.fresh and reader.used:
+                self.readers.pop()
+                continue
+            break
+        self._close_calls()
 
     def _close_calls(self) -> None:
         """Leave the macros whose last element has been read (and evaluated)."""
@@ -232,17 +277,21 @@ class _Stream:
             src.pos += 1
             t = tok.type
             if t in chunks.STEERING:
-                self.reader.settle(t)
-                self._close_calls()
+                self._settle(t)
                 self._directive(src, tok)
                 continue
             if t == "IDENT" and self._peek(src) == "LPAR":
                 macro = self._token_macro(str(tok))
                 if macro is not None:
-                    self.reader.settle(t)
-                    self._close_calls()
+                    self._settle(t)
                     self._call(src, tok, macro)
                     continue
+            if t in _STATEMENTS:
+                self._settle(t)
+                outer = self.readers[-1]
+                if not outer.fresh and outer.refuses(t):
+                    # POV-Ray runs a directive wherever it stands
+                    self.readers.append(_Reader(self.it, src.file, None, outer.out))
             return tok
         return None
 
@@ -267,7 +316,7 @@ class _Stream:
         if name not in self.it.token_macros:
             return None
         found, v = self.it.lookup(name)
-        return v if found and isinstance(v, MacroValue) and v.tokens is not None else None
+        return v if found and isinstance(v, MacroValue) and v.read_as_tokens else None
 
     def _named(self, tok: Token) -> Token:
         """A name read inside a macro read as tokens, bound there (a parameter, a #local):
@@ -474,16 +523,16 @@ class _Stream:
             self.it.expand_node(node, [], None)
             return
         span = tok_span(src.file, tok)
+        body: tuple[syntax.Node, ...] = ()
+        if body_at < len(toks) - 1:
+            first, end = toks[body_at], toks[-1]
+            assert first.line is not None and first.column is not None  # lexed
+            assert end.line is not None and end.column is not None
+            body = (syntax.Tokens(Span(src.file, first.line, first.column, end.line, end.column)),)
+            self.it.token_macros.add(name)
         self.it.scopes[0][name] = MacroValue(
-            name,
-            tuple(params),
-            (),
-            src.file,
-            span,
-            optional=frozenset(optional),
-            tokens=tuple(toks[body_at:-1]),
+            name, tuple(params), body, src.file, span, optional=frozenset(optional)
         )
-        self.it.token_macros.add(name)
 
     def _as_tree(self, file: str, toks: list[Token]) -> syntax.Node | None:
         """The tokens' one node when they parse as it without a syntax error (positions kept:
@@ -513,8 +562,21 @@ class _Stream:
                 tok_span(self.sources[-1].file if self.sources else self.file, tok),
             )
         _, scope, refs = self.it.enter_macro(nodes[0])
-        body = _Source(list(macro.tokens or ()), macro.file, call=_Call(scope, refs), macro=True)
+        body = _Source(self._body_tokens(macro), macro.file, call=_Call(scope, refs), macro=True)
         self.sources.append(body)
+
+    def _body_tokens(self, macro: MacroValue) -> list[Token]:
+        """The tokens of a macro's body read as tokens (lexed once per reading)."""
+        span = macro.body[0].span
+        key = (span.file, span.line, span.col)
+        toks = self.lexed.get(key)
+        if toks is None:
+            text = self.it.source_text(span.file)
+            lines = _line_starts(text)
+            start = _offset(lines, span.line, span.col)
+            end = _offset(lines, span.end_line, span.end_col)
+            toks = self.lexed[key] = _lex(self.it, text, span.file, start, span.line, end)
+        return toks
 
     # ------------------------------------------------------------ reading
     def _skip(self, src: _Source, stops: frozenset[str]) -> Token | None:
@@ -668,6 +730,11 @@ class _Reader:
         self.fresh = True
         self.skipping = False  # after a syntax error, until a token can start a statement
         self.last: Token | None = None
+        self.used = False  # a token was fed
+
+    def refuses(self, ttype: str) -> bool:
+        """Whether a token of type `ttype` is a syntax error where this parser stands."""
+        return chunks.verdict_of(self.table, self.state.state_stack, ttype) is chunks.ERROR
 
     def _fresh(self) -> ParserState:
         return ParserState(self.table.conf, None)  # type: ignore[arg-type]  # fed, never lexing
@@ -704,12 +771,13 @@ class _Reader:
                 self._builder()
                 self.state.feed_token(tok)
             self.fresh = False
+            self.used = True
             self.last = tok
         except UnexpectedToken as e:
             self.it.sink.error(
                 "E0002",
                 f"unexpected {describe_token(tok)}",
-                tok_span(self.sources[-1].file if self.sources else self.file, tok),
+                tok_span(self.file, tok),
                 "check the punctuation just before this: a missing `,`, `}`, `)` or `>`",
             )
             del e
