@@ -576,7 +576,7 @@ class ChunkParser:
             if self._cut_macros(errors, nodes, start) and _read_as_tokens(
                 errors.bad[0], self.clean, start, end
             ):
-                where = span or Span(self.file, line, 1, line, 1)
+                where = span or Span(self.file, line, 1, *line_col(self.clean, end))
                 nodes, span = [syntax.Tokens(where)], where
                 errors.sink.items = [d for d in errors.sink.items if d.code not in _COUNTED]
                 errors.reported, errors.strays = 0, []
@@ -608,7 +608,8 @@ class ChunkParser:
             if type(m) is not syntax.MacroDef:
                 continue
             s = m.span
-            lo, hi = offset(s.line, s.col), offset(s.end_line, s.end_col)
+            lo = offset(s.line, s.col)
+            hi = macro_end(self.clean, lo) or offset(s.end_line, s.end_col)
             inside = [b for b in errors.bad if lo <= cast(int, b[0].start_pos) < hi]
             if not inside or not _read_as_tokens(inside[0], self.clean, lo, lo):
                 continue
@@ -801,8 +802,14 @@ class _MacroExtent:
         for _ in range(64):
             if self.closed(table, state):
                 break
+            # a made-up operand is harmless here: a macro with errors is never evaluated (its
+            # body is read as tokens, or calling it is an error)
             closer = next(
-                (f for f in FILLERS if verdict_of(table, state.state_stack, f[0]) is not ERROR),
+                (
+                    f
+                    for f in (*FILLERS, ("NUMBER", "0"))
+                    if verdict_of(table, state.state_stack, f[0]) is not ERROR
+                ),
                 None,
             )
             if closer is None:
