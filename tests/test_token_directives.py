@@ -43,7 +43,8 @@ CASES = {
     #declare P = P + 1;
   #end
 }
-#debug concat("Q ", vstr(3, max_extent(U), ",", 0, 2), " ", vstr(3, min_extent(U), ",", 0, 2), "\\n")
+#debug concat("Q ", vstr(3, max_extent(U), ",", 0, 2), " ")
+#debug concat(vstr(3, min_extent(U), ",", 0, 2), "\\n")
 """,
     "half_macros": """#macro Times(N) N * #end
 #macro Add(N) #local M = N + 1; M + #end
@@ -72,7 +73,9 @@ CASES = {
 #for (I, 1, 3) #declare L = L + (Poly(I) 1); #end
 #debug concat("Q ", str(R,0,0), " ", str(L,0,0), "\\n")
 """,
-    "switch_in_macro": """#macro Pick(N) #switch (N) #case (0) 10 #break #case (1) 20 + #break #else 30 * #end #end
+    "switch_in_macro": """#macro Pick(N)
+  #switch (N) #case (0) 10 #break #case (1) 20 + #break #else 30 * #end
+#end
 #declare A = (Pick(0));
 #declare B = (Pick(1) 1);
 #declare C = (Pick(5) 2);
