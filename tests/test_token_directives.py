@@ -43,8 +43,8 @@ CASES = {
     #declare P = P + 1;
   #end
 }
-#debug concat("Q ", vstr(3, max_extent(U), ",", 0, 2), " ")
-#debug concat(vstr(3, min_extent(U), ",", 0, 2), "\\n")
+#declare Hi = max_extent(U); #declare Lo = min_extent(U);
+#debug concat("Q ", vstr(3, Hi, ",", 0, 2), " ", vstr(3, Lo, ",", 0, 2), "\\n")
 """,
     "half_macros": """#macro Times(N) N * #end
 #macro Add(N) #local M = N + 1; M + #end
