@@ -43,7 +43,7 @@ from lang.lexical import BraceReport, block_head, line_col, scan_braces
 # A runaway error cascade in a badly broken file stops being reported after this many.
 MAX_SYNTAX_ERRORS = 50
 
-_NEW, _CONTINUES, _ERROR = "new", "continues", "error"
+NEW, CONTINUES, ERROR = "new", "continues", "error"
 
 _DIRECTIVE_WORD = re.compile(r"#[ \t]*[A-Za-z_]")
 
@@ -122,6 +122,64 @@ class Chunk:
         return out
 
 
+# Directives that steer the token stream: a syntax error at one of them (or just after an
+# `#end`) is a cut across an expression, not a mistake.
+STEERING = frozenset(
+    {"IF", "IFDEF", "ELSEIF", "ELSE", "END", "SWITCH", "CASE", "RANGE", "BREAK"}
+    | {"WHILE", "FOR", "MACRO"}
+)
+
+
+def _read_as_tokens(first: tuple[Token, Token | None], clean: str, start: int, end: int) -> bool:
+    """Whether a chunk (clean[start:end]) whose first syntax error is at `first` (the token,
+    and the one before it) is text to read token by token: the error is at a steering
+    directive, right after an `#end`, or right after a call `Name( … )` (a macro's text may
+    be half an expression: `Half() 3`), and the chunk's braces pair up (a missing `}` stays a
+    syntax error)."""
+    tok, before = first
+    if tok.type not in STEERING and (
+        before is None
+        or (before.type != "END" and not (before.type == "RPAR" and _closes_call(clean, before)))
+    ):
+        return False
+    braces = scan_braces(clean[start:end])
+    return not braces.unmatched_close and not braces.unclosed_open
+
+
+def _macro_body(clean: str, file: str, pos: int) -> Span | None:
+    """The span of the body of the `#macro` at `pos`: after its parameters, up to its `#end`."""
+    open_at = clean.find("(", pos)
+    close_at = clean.find(")", open_at)
+    end = macro_end(clean, pos)
+    if open_at < 0 or close_at < 0 or end is None:
+        return None
+    end_at = clean.rfind("#", close_at, end)
+    if end_at <= close_at + 1:
+        return None
+    line, col = line_col(clean, close_at + 1)
+    end_line, end_col = line_col(clean, end_at)
+    return Span(file, line, col, end_line, end_col)
+
+
+_NAME_BEFORE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*[ \t\n]*$")
+
+
+def _closes_call(clean: str, rpar: Token) -> bool:
+    """Whether the `)` closes a call of a name (`Name(…)`)."""
+    pos = rpar.start_pos
+    assert pos is not None  # lexed
+    depth = 0
+    for k in range(pos, max(pos - 4000, -1), -1):
+        c = clean[k]
+        if c == ")":
+            depth += 1
+        elif c == "(":
+            depth -= 1
+            if depth == 0:
+                return _NAME_BEFORE.search(clean, max(0, k - 64), k) is not None
+    return False
+
+
 def _moved(s: Span, lines: int) -> Span:
     """`s` moved down by `lines` lines."""
     return Span(s.file, s.line + lines, s.col, s.end_line + lines, s.end_col)
@@ -176,7 +234,7 @@ def shift_lines(items: list, lines: int, skip: set[int] | None = None) -> None:
 
 
 @dataclass
-class _Table:
+class Table:
     """The LALR table, read once: enough to ask what a token would do without feeding it."""
 
     conf: ParseConf
@@ -186,28 +244,28 @@ class _Table:
     starters: frozenset[str]  # terminals that can begin a top-level element
 
 
-_table: _Table | None = None
+_table: Table | None = None
 
 
-def _get_table() -> _Table:
+def parse_table() -> Table:
     global _table
     if _table is None:
         conf = get_parser().parse_interactive("").parser_state.parse_conf
         s0 = conf.start_state
         star = conf.states[s0]["__start_star_0"][1]  # `start: element*`, one element read
         starters = frozenset(t for t in conf.states[s0] if t.isupper() and t != "$END")
-        _table = _Table(conf, conf.states, s0, frozenset({(s0,), (s0, star)}), starters)
+        _table = Table(conf, conf.states, s0, frozenset({(s0,), (s0, star)}), starters)
     return _table
 
 
-def _verdict(table: _Table, stack: list[int], ttype: str) -> str:
+def verdict_of(table: Table, stack: list[int], ttype: str) -> str:
     """What a token of type `ttype` would do in this state: start a new top-level element,
     continue the construct in progress, or be an error. Simulates the reductions on a copy of
     the state stack; nothing is built."""
     states = table.states
     action = states[stack[-1]].get(ttype)
     if action is None:
-        return _ERROR
+        return ERROR
     if action[0] is not Shift:
         stack = stack[:]
         while action[0] is not Shift:
@@ -218,8 +276,8 @@ def _verdict(table: _Table, stack: list[int], ttype: str) -> str:
             stack.append(states[stack[-1]][rule.origin.name][1])
             action = states[stack[-1]].get(ttype)
             if action is None:
-                return _ERROR
-    return _NEW if tuple(stack) in table.top else _CONTINUES
+                return ERROR
+    return NEW if tuple(stack) in table.top else CONTINUES
 
 
 class _ChunkErrors:
@@ -235,6 +293,9 @@ class _ChunkErrors:
         self.strays: list[int] = []
         self._braces: BraceReport | None = None
         self._braces_end = -1
+        self.before: Token | None = None  # the token fed before the one being fed
+        # the unexpected tokens (the first ones), each with the token before it
+        self.bad: list[tuple[Token, Token | None]] = []
 
     def braces_to(self, end: int) -> BraceReport:
         """Braces from the chunk's start to `end`: a `}` unmatched there has no `{` before it
@@ -293,6 +354,8 @@ class _ChunkErrors:
         drop it, except a reserved word where a name belongs, which is read as the name."""
         pos = tok.start_pos
         assert pos is not None  # a lexed token
+        if len(self.bad) < MAX_SYNTAX_ERRORS:
+            self.bad.append((tok, self.before))
         if state is not None and "IDENT" in expected and tok.type in RESERVED_TYPES:
             self.report(
                 "E0102",
@@ -330,7 +393,7 @@ class _ChunkErrors:
                 )
         self.last_error_end = tok.end_pos if tok.end_pos is not None else pos + len(tok)
 
-    def close(self, table: _Table, state: ParserState, end: Token, report: bool):
+    def close(self, table: Table, state: ParserState, end: Token, report: bool):
         """Feed the end of input, first closing whatever is still open (`}`, `#end`, `)` …)
         so the tree is usable. Says what was left open when `report` (the end of the file,
         not a chunk closed after an error)."""
@@ -342,8 +405,8 @@ class _ChunkErrors:
             except UnexpectedToken as e:
                 expected = e.expected
             filler = None
-            for kind, text in _FILLERS:
-                if kind in expected and _verdict(table, state.state_stack, kind) != _ERROR:
+            for kind, text in FILLERS:
+                if kind in expected and verdict_of(table, state.state_stack, kind) != ERROR:
                     filler = kind, text
                     break
             if attempt == 0 and report:
@@ -383,7 +446,7 @@ _CLOSER_TEXT = {"RPAR": ")", "RSQB": "]", "MORETHAN": ">"}
 # What `close` (and `_close_until`) may add, in order. No operand is made up for an unfinished
 # expression: the statement is dropped instead (a made-up `0` would be evaluated, and could
 # give a second, misleading error).
-_FILLERS = (
+FILLERS = (
     ("RBRACE", "}"),
     ("END", "#end"),
     ("RPAR", ")"),
@@ -405,7 +468,7 @@ def _stray_hint(clean: str, base: int, last: tuple[int, int] | None) -> str:
     )
 
 
-_PARSING = threading.Lock()
+PARSING = threading.Lock()
 
 
 class ChunkParser:
@@ -430,7 +493,7 @@ class ChunkParser:
         self.file = file
         self.split = split
         self.reusable = reusable or {}
-        self.table = _get_table()
+        self.table = parse_table()
         self.thread = get_parser().parse_interactive(clean).lexer_thread
         # the lexer's position, kept here too: the thread's attribute is typed optional
         self.lexer_state = LexerState(TextSlice(clean, 0, len(clean)), LineCounter("\n"))
@@ -456,7 +519,7 @@ class ChunkParser:
         """Chunks from `pos` (a line start, on line `line`) to the end of the text, or up to
         the first chunk boundary in `stop_at`; returns them, and the offset and line where it
         stopped (None at the end of the text)."""
-        with _PARSING:  # the node builder is one object, shared by every parse
+        with PARSING:  # the node builder is one object, shared by every parse
             return self._run(pos, line, stop_at)
 
     def _run(
@@ -507,6 +570,16 @@ class ChunkParser:
             follow_end = follow.end_pos
         else:
             end = follow_end = len(self.clean)
+        if errors.bad:
+            # Not syntax errors: directives that cut across an expression. The evaluator
+            # reads such text token by token, as POV-Ray does (lang/eval/streamed.py).
+            if self._cut_macros(errors, nodes, start) and _read_as_tokens(
+                errors.bad[0], self.clean, start, end
+            ):
+                where = span or Span(self.file, line, 1, *line_col(self.clean, end))
+                nodes, span = [syntax.Tokens(where)], where
+                errors.sink.items = [d for d in errors.sink.items if d.code not in _COUNTED]
+                errors.reported, errors.strays = 0, []
         chunk = Chunk(
             start,
             self.clean[start:end],
@@ -522,19 +595,51 @@ class ChunkParser:
         )
         return chunk, follow
 
+    def _cut_macros(self, errors: _ChunkErrors, nodes: list, start: int) -> bool:
+        """Macros whose bodies are cut across expressions (their first syntax error is one)
+        keep their body's text to be read as tokens, and their errors are dropped; returns
+        whether syntax errors are left outside them."""
+        lines = [0, *(m.end() for m in re.finditer("\n", self.clean))]
+
+        def offset(line: int, col: int) -> int:
+            return lines[line - 1] + col - 1
+
+        for m in syntax.walk(nodes):
+            if type(m) is not syntax.MacroDef:
+                continue
+            s = m.span
+            lo = offset(s.line, s.col)
+            hi = macro_end(self.clean, lo) or offset(s.end_line, s.end_col)
+            inside = [b for b in errors.bad if lo <= cast(int, b[0].start_pos) < hi]
+            if not inside or not _read_as_tokens(inside[0], self.clean, lo, lo):
+                continue
+            body = _macro_body(self.clean, self.file, lo)
+            if body is None:
+                continue
+            m.body = [syntax.Tokens(body)]
+            errors.bad = [b for b in errors.bad if b not in inside]
+            errors.sink.items = [
+                d
+                for d in errors.sink.items
+                if d.code not in _COUNTED or not lo <= offset(d.span.line, d.span.col) < hi
+            ]
+            errors.strays = [r for r in errors.strays if not lo <= start + r < hi]
+        errors.reported = sum(1 for d in errors.sink.items if d.code in _COUNTED)
+        return bool(errors.bad)
+
     def _absorb(self, state: ParserState, ttype: str, piece: Chunk) -> bool:
         """Feed an earlier chunk's elements into the open construct, if the parser stands
         between two elements of a list there (the piece's first token, of type `ttype`, would
         start a new element)."""
         states = self.table.states
-        stack, action = _reduced_for(states, state.state_stack, ttype)
+        stack, action = reduced_for(states, state.state_stack, ttype)
         if action is None or "element" not in states[stack[-1]]:
             return False
-        _reduce(state, ttype)
+        reduce_before(state, ttype)
         for node in piece.nodes:
             state.state_stack.append(states[state.state_stack[-1]]["element"][1])
             state.value_stack.append(node)
-            _reduce(state, ttype)  # fold it into the list, as the next element's start would
+            reduce_before(state, ttype)  # fold it into the list, as the next element's start would
         return True
 
     def _read(
@@ -577,11 +682,11 @@ class ChunkParser:
                                 or not self.clean[line_start : tok.start_pos].strip()
                             )
                         ):
-                            verdict = _verdict(table, state.state_stack, tok.type)
-                            if verdict is _NEW:
+                            verdict = verdict_of(table, state.state_stack, tok.type)
+                            if verdict is NEW:
                                 follow = tok
                                 break
-                            if verdict is _ERROR and tok.type in table.starters:
+                            if verdict is ERROR and tok.type in table.starters:
                                 # A new statement the open construct cannot take: report it,
                                 # then close the innermost constructs (a vector, a bracket)
                                 # until it fits, in the enclosing block or at the top level;
@@ -591,7 +696,7 @@ class ChunkParser:
                                 expected = {t for t in table.states[stack[-1]] if t.isupper()}
                                 errors.unexpected(tok, expected, None)
                                 verdict = _close_until(table, state, tok.type, last)
-                                if verdict is not _CONTINUES:
+                                if verdict is not CONTINUES:
                                     follow = tok
                                     break
                             piece = self.reusable.get(line_start)
@@ -602,6 +707,7 @@ class ChunkParser:
                                 cur_line = -1
                                 jumped = True
                                 break
+                    errors.before = last
                     last = tok
                     try:
                         state.feed_token(tok)
@@ -671,7 +777,7 @@ class _MacroExtent:
 
     @classmethod
     def at(
-        cls, table: _Table, clean: str, tok: Token, state: ParserState, errors: int
+        cls, table: Table, clean: str, tok: Token, state: ParserState, errors: int
     ) -> _MacroExtent | None:
         assert tok.start_pos is not None  # a lexed token
         end = macro_end(clean, tok.start_pos)
@@ -681,7 +787,7 @@ class _MacroExtent:
         return None if depth is None else cls(end, depth - 1, errors)
 
     def step(
-        self, table: _Table, state: ParserState, tok: Token, errors: int, last: Token | None
+        self, table: Table, state: ParserState, tok: Token, errors: int, last: Token | None
     ) -> bool:
         """Before `tok` is fed: False when it must be dropped."""
         start = tok.start_pos
@@ -696,8 +802,14 @@ class _MacroExtent:
         for _ in range(64):
             if self.closed(table, state):
                 break
+            # a made-up operand is harmless here: a macro with errors is never evaluated (its
+            # body is read as tokens, or calling it is an error)
             closer = next(
-                (f for f in _FILLERS if _verdict(table, state.state_stack, f[0]) is not _ERROR),
+                (
+                    f
+                    for f in (*FILLERS, ("NUMBER", "0"))
+                    if verdict_of(table, state.state_stack, f[0]) is not ERROR
+                ),
                 None,
             )
             if closer is None:
@@ -706,19 +818,19 @@ class _MacroExtent:
             state.feed_token(Token.new_borrow_pos(closer[0], closer[1], where))
         return True
 
-    def closed(self, table: _Table, state: ParserState) -> bool:
+    def closed(self, table: Table, state: ParserState) -> bool:
         """Whether the macro is complete: a new statement would go beside it, not in it."""
         depth = _depth_after(table, state.state_stack, "DECLARE")
         return depth is not None and depth <= self.depth + 3
 
 
-def _depth_after(table: _Table, stack: list[int], ttype: str) -> int | None:
+def _depth_after(table: Table, stack: list[int], ttype: str) -> int | None:
     """The parser's stack depth once a token of type `ttype` is shifted (None: an error)."""
-    stack, action = _reduced_for(table.states, stack, ttype)
+    stack, action = reduced_for(table.states, stack, ttype)
     return None if action is None else len(stack) + 1
 
 
-def _reduced_for(states, stack: list[int], ttype: str):
+def reduced_for(states, stack: list[int], ttype: str):
     """A copy of the state stack after the reductions a token of type `ttype` triggers, and
     the action that token meets then (a shift, or None for an error)."""
     stack = stack[:]
@@ -732,33 +844,33 @@ def _reduced_for(states, stack: list[int], ttype: str):
     return stack, action
 
 
-def _close_until(table: _Table, state: ParserState, ttype: str, last: Token | None) -> str:
+def _close_until(table: Table, state: ParserState, ttype: str, last: Token | None) -> str:
     """Feed closers (`>`, `)`, `]`, `}`, `#end`, innermost first: the state accepts only
     those of constructs still open) until a token of type `ttype` is no longer an error;
     returns its verdict then (still an error if no closer helps)."""
-    verdict = _ERROR
+    verdict = ERROR
     for _ in range(64):
         closer = next(
             (
                 (kind, text)
-                for kind, text in _FILLERS
-                if _verdict(table, state.state_stack, kind) is not _ERROR
+                for kind, text in FILLERS
+                if verdict_of(table, state.state_stack, kind) is not ERROR
             ),
             None,
         )
         if closer is None:
-            return _ERROR
+            return ERROR
         if last is None:
             state.feed_token(Token(closer[0], closer[1]))
         else:
             state.feed_token(Token.new_borrow_pos(closer[0], closer[1], last))
-        verdict = _verdict(table, state.state_stack, ttype)
-        if verdict is not _ERROR:
+        verdict = verdict_of(table, state.state_stack, ttype)
+        if verdict is not ERROR:
             return verdict
     return verdict
 
 
-def _reduce(state: ParserState, ttype: str) -> None:
+def reduce_before(state: ParserState, ttype: str) -> None:
     """Make the reductions a token of type `ttype` would cause, without shifting it (the
     reduce half of lark's `ParserState.feed_token`)."""
     states = state.parse_conf.states

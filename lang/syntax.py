@@ -142,6 +142,14 @@ class Expanded(Node):
     els: list
 
 
+@dataclass(slots=True, eq=False)
+class Tokens(Node):
+    """Text whose directives cut across an expression or a macro whose body is half of one
+    (`(1 + #if (A) 10 #else 20 #end)`, `#macro Half() 2 * #end`): no tree holds it, so the
+    evaluator reads it token by token from its span on, as POV-Ray's parser reads every file
+    (lang/eval/streamed.py)."""
+
+
 @dataclass(slots=True)
 class ArrayLit(Node):
     """`array[d1][d2] { items }`; `items` is None when no initialiser is given.

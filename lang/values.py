@@ -198,6 +198,12 @@ class MacroValue:
     kind: str = "macro"
     optional: frozenset[str] = frozenset()  # parameters that may be left out (POV-Ray 3.7)
 
+    @property
+    def read_as_tokens(self) -> bool:
+        """Whether its body is text read as tokens (lang/eval/streamed.py): one that is not
+        whole elements (`#macro Half() 2 * #end`)."""
+        return len(self.body) == 1 and type(self.body[0]).__name__ == "Tokens"
+
 
 @dataclass(frozen=True)
 class SplineValue:

@@ -24,6 +24,7 @@ from typing import Any
 from lang import (
     builtins,
     ir,
+    lexical,
     paths,
     scene_store,
     schema,
@@ -39,6 +40,7 @@ from lang.eval import (
     functions,
     grouping,
     splines,
+    streamed,
     surfaces,
     textures,
 )
@@ -173,7 +175,7 @@ class Interpreter:
         self.deprecated: dict[str, list] = {}
         self.macro_depth = 0
         self.cut_braces = False  # a brace paired across directives was read (lang.eval.cuts)
-        self._break_targets = 0  # the #while, #for, #switch and macros a #break may leave
+        self.break_targets = 0  # the #while, #for, #switch and macros a #break may leave
         self.loose_depth = 0
         self.blob_depth = 0  # inside a blob body, `sphere`/`cylinder` are components
         self.state = builtins.BuiltinState()
@@ -212,10 +214,16 @@ class Interpreter:
         self._compiled: dict[int, expressions.Compiled] = {}
         self._compiled_nodes: list[syntax.Node] = []
         self._evaluated: set[int] = set()  # ids of the nodes of those kinds evaluated once
+        # Macros whose body is read as tokens (lang/eval/streamed.py): a statement that calls
+        # one is read as tokens too, so that the macro's text joins the caller's.
+        self.token_macros: set[str] = set()
+        self._called: dict[int, tuple[syntax.Node, frozenset[str]]] = {}
+        self._texts: dict[str, str] = {}  # file -> its text, comments blanked out
 
     # ------------------------------------------------------------ running
     def run(self, text: str, filename: str) -> Result:
         self.main_file = filename
+        self._texts[filename] = lexical.strip_comments(text, filename, DiagnosticSink())
         self.state.folder = str(Path(filename).resolve().parent)
         self.files.append(filename)
         tree, diags = self._parse_stored(text, filename)
@@ -379,7 +387,7 @@ class Interpreter:
                 return True, scope[name]
         return False, None
 
-    def _scope_of(self, name: str) -> _Scope | None:
+    def scope_of(self, name: str) -> _Scope | None:
         for scope in reversed(self.scopes):
             if name in scope:
                 return scope
@@ -392,7 +400,7 @@ class Interpreter:
         if local:
             self.scopes[-1][name] = value
             return
-        scope = self._scope_of(name)
+        scope = self.scope_of(name)
         (scope if scope is not None else self.scopes[0])[name] = value
 
     def unknown_ident(self, name: str, span: Span) -> SceneError:
@@ -516,7 +524,11 @@ class Interpreter:
                         self.declare(node.name, textures.layered(stack), node.local)
                         continue
                 start = len(out)
-                self.expand_node(node, out, cuts.spec_for(out, opens, spec) if opens else spec)
+                if type(node) is syntax.Tokens or (self.token_macros and self.token_call(node)):
+                    # read as tokens from here on, to the next statement of the tree
+                    i = streamed.read(self, body, i - 1, out, spec)
+                else:
+                    self.expand_node(node, out, cuts.spec_for(out, opens, spec) if opens else spec)
                 if self.cut_braces:
                     cuts.pair(self, out, start, opens)
                 self._stamp_default(out, start)
@@ -639,6 +651,28 @@ class Interpreter:
             return False
         item = spec.items.get(out[-1].value)
         return item is not None and item.args[:1] == ("word",)
+
+    def token_call(self, node: syntax.Node) -> bool:
+        """Whether `node` calls a macro whose body is read as tokens."""
+        held = self._called.get(id(node))
+        if held is None or held[0] is not node:
+            names = frozenset(
+                n.name for n in syntax.walk(node) if type(n) is syntax.Call and not n.builtin
+            )
+            held = self._called[id(node)] = (node, names)
+        for name in held[1] & self.token_macros:
+            found, v = self.lookup(name)
+            if found and isinstance(v, MacroValue) and v.read_as_tokens:
+                return True
+        return False
+
+    def source_text(self, file: str) -> str:
+        """A file's text with its comments blanked out (positions as its syntax tree's)."""
+        text = self._texts.get(file)
+        if text is None:
+            raw = Path(file).read_text(encoding="utf-8", errors="replace")
+            text = self._texts[file] = lexical.strip_comments(raw, file, DiagnosticSink())
+        return text
 
     def _is_macro(self, name: str) -> bool:
         found, v = self.lookup(name)
@@ -835,7 +869,7 @@ class Interpreter:
         )
 
     def _d_undef(self, node: syntax.Undef, out, spec) -> None:
-        scope = self._scope_of(node.name)
+        scope = self.scope_of(node.name)
         if scope is not None:
             del scope[node.name]
 
@@ -846,6 +880,13 @@ class Interpreter:
                 return
 
     def _d_ifdef(self, node: syntax.IfDef, out, spec) -> None:
+        if self.is_defined(node) != node.negate:
+            out.extend(self.expand(node.then, spec))
+        elif node.other is not None:
+            out.extend(self.expand(node.other, spec))
+
+    def is_defined(self, node: syntax.IfDef) -> bool:
+        """Whether #ifdef's name (or array element) is defined."""
         found, v = self.lookup(node.name)
         if found and node.indices and isinstance(v, ArrayValue):
             try:
@@ -857,15 +898,12 @@ class Interpreter:
                 found = v.data[v.flat_index(idx)] is not None
             except SceneError:
                 found = False
-        if found != node.negate:
-            out.extend(self.expand(node.then, spec))
-        elif node.other is not None:
-            out.extend(self.expand(node.other, spec))
+        return found
 
     def _d_switch(self, node: syntax.Switch, out, spec) -> None:
         value = as_float(self.eval(node.value), "#switch value")
         running = False
-        self._break_targets += 1
+        self.break_targets += 1
         try:
             for case in node.cases:
                 if not running:
@@ -884,12 +922,12 @@ class Interpreter:
         except _Break as e:
             out.extend(e.partial)
         finally:
-            self._break_targets -= 1
+            self.break_targets -= 1
 
     def _d_while(self, node: syntax.While, out, spec) -> None:
         n = 0
         watched = _loop_watch(node)
-        self._break_targets += 1
+        self.break_targets += 1
         try:
             while builtins.truth(self.eval(node.cond)):
                 n += 1
@@ -919,7 +957,7 @@ class Interpreter:
         except _Break as e:
             out.extend(e.partial)
         finally:
-            self._break_targets -= 1
+            self.break_targets -= 1
 
     def _errors_since(self, mark: int) -> bool:
         return any(d.severity is Severity.ERROR for d in self.sink.items[mark:])
@@ -939,7 +977,7 @@ class Interpreter:
                 "check the loop's bounds and step",
             )
         i, n = start, 0
-        self._break_targets += 1
+        self.break_targets += 1
         try:
             while (i <= end + 1e-10) if step > 0 else (i >= end - 1e-10):
                 n += 1
@@ -947,7 +985,7 @@ class Interpreter:
                     raise self.error(
                         "E0230", f"#for ran past {MAX_LOOP_ITERATIONS} iterations", node.span
                     )
-                (self._scope_of(node.var) or self.scopes[-1])[node.var] = i
+                (self.scope_of(node.var) or self.scopes[-1])[node.var] = i
                 mark = len(self.sink.items)
                 out.extend(self.expand(node.body, spec))
                 if self._errors_since(mark):
@@ -957,9 +995,11 @@ class Interpreter:
         except _Break as e:
             out.extend(e.partial)
         finally:
-            self._break_targets -= 1
+            self.break_targets -= 1
 
     def _d_macro(self, node: syntax.MacroDef, out, spec) -> None:
+        if len(node.body) == 1 and type(node.body[0]) is syntax.Tokens:
+            self.token_macros.add(node.name)
         self.scopes[0][node.name] = MacroValue(
             node.name,
             tuple(node.params),
@@ -1011,7 +1051,7 @@ class Interpreter:
                 )
 
     def _d_break(self, node: syntax.Break, out, spec) -> None:
-        if not self._break_targets:
+        if not self.break_targets:
             raise self.error(
                 "E0234", "`#break` outside a #while, #for, #switch or macro", node.span
             )  # POV-Ray: "Invalid context for #break", and it stops
@@ -1023,7 +1063,7 @@ class Interpreter:
 
     def undeclare(self, name: str) -> None:
         """Remove the innermost binding of `name`, if any."""
-        scope = self._scope_of(name)
+        scope = self.scope_of(name)
         if scope is not None:
             del scope[name]
 
@@ -1067,6 +1107,18 @@ class Interpreter:
         return out
 
     def call_macro(self, node: syntax.Call) -> list[El]:
+        macro, scope, refs = self.enter_macro(node)
+        try:
+            els = self.expand(macro.body, None)
+        except _Break as e:  # POV-Ray: #break in a macro ends the macro
+            els = _Els(e.partial)
+        finally:
+            self.leave_macro(scope, refs)
+        return els
+
+    def enter_macro(self, node: syntax.Call) -> tuple[MacroValue, _Scope, dict]:
+        """Check a macro call's arguments, evaluate them and enter the macro's scope;
+        returns the macro, its scope and its by-reference parameters (for leave_macro)."""
         _, macro = self.lookup(node.name)
         required = len([p for p in macro.params if p not in macro.optional])
         if len(node.args) < required:
@@ -1107,27 +1159,24 @@ class Interpreter:
         for name, node_arg, value in zip(macro.params, node.args, args, strict=False):
             scope[name] = value
             if isinstance(node_arg, syntax.Ident):
-                owner = self._scope_of(node_arg.name)
+                owner = self.scope_of(node_arg.name)
                 if owner is not None:
                     refs[name] = (owner, node_arg.name, value)
         self.scopes.append(scope)
         self.file_stack.append(macro.file)
         self.macro_depth += 1
-        self._break_targets += 1
-        try:
-            els = self.expand(macro.body, None)
-        except _Break as e:  # POV-Ray: #break in a macro ends the macro
-            els = _Els(e.partial)
-        finally:
-            self._break_targets -= 1
-            self.macro_depth -= 1
-            self.file_stack.pop()
-            self.scopes.pop()
+        self.break_targets += 1
+        return macro, scope, refs
+
+    def leave_macro(self, scope: _Scope, refs: dict) -> None:
+        self.break_targets -= 1
+        self.macro_depth -= 1
+        self.file_stack.pop()
+        self.scopes.pop()
         # By-reference parameters: an assignment to a parameter reaches the caller's name.
         for name, (owner, target, old) in refs.items():
             if name in scope and scope[name] is not old:
                 owner[target] = scope[name]
-        return els
 
     def call_function(self, fn: FunctionValue, args: list[Any], span: Span) -> float | ColorValue:
         if len(args) != len(fn.params):
