@@ -787,7 +787,21 @@ def cmd_render(args: argparse.Namespace) -> int:
             raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
         from runtime import render_job
 
-        return render_job.run(args, jobs, numbers)
+        width, height = image_size(args)
+        region = resolve_region(
+            width, height, args.start_col, args.end_col, args.start_row, args.end_row
+        )
+        try:
+            return render_job.run(
+                args,
+                jobs,
+                numbers,
+                (width, height),
+                region,
+                lambda diags: print_diagnostics(diags, sys.stderr, summary=False),
+            )
+        except render_job.JobError as exc:
+            raise UsageError(str(exc)) from None
     size = image_size(args)
     for (target, clock, label), number in zip(jobs, numbers, strict=True):
         if args.resume and not to_stdout and image.size_of(target) == size:

@@ -13,32 +13,38 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from lang import paths
 from lang.diagnostics import Diagnostic, Severity
 from runtime import bundle as bundles
 from runtime import image
-from runtime.cli import UsageError, image_size, print_diagnostics, resolve_region
 from runtime.progress import Progress
 
 
+class JobError(ValueError):
+    """The job cannot start (no Dask, no scene file): the command line's fault."""
+
+
 def run(
-    args: argparse.Namespace, jobs: Sequence[tuple[Path, float, str]], numbers: Sequence
+    args: argparse.Namespace,
+    jobs: Sequence[tuple[Path, float, str]],
+    numbers: Sequence,
+    size: tuple[int, int],
+    region: tuple[int, int, int, int] | None,
+    show: Callable[[Sequence[Diagnostic]], None],
 ) -> int:
     """Render `jobs` ((output, clock, label) per frame, as cli.frame_jobs gives them) with
-    frame `numbers` on the cluster `args.cluster` (default `local`)."""
+    frame `numbers` at `size` on the cluster `args.cluster` (default `local`); `show`
+    prints diagnostics."""
     try:
         from runtime import cluster
     except ImportError as exc:
-        raise UsageError(str(exc)) from None
+        raise JobError(str(exc)) from None
     from lang.evaluate import animation_values
 
-    width, height = image_size(args)
-    region = resolve_region(
-        width, height, args.start_col, args.end_col, args.start_row, args.end_row
-    )
+    width, height = size
     frames = []
     skipped = 0
     for (target, clock, label), number in zip(jobs, numbers, strict=True):
@@ -79,7 +85,7 @@ def run(
                 said.update(new)
                 if new or not outcome.ok:
                     _clear(bar)
-                    print_diagnostics(new, sys.stderr, summary=False)
+                    show(new)
                 if not outcome.ok:
                     why = outcome.error or "the scene has errors"
                     print(f"strala: {frame.label or 'the image'} failed: {why}", file=sys.stderr)
@@ -117,9 +123,9 @@ def _bundle(args: argparse.Namespace, first, size: tuple[int, int]) -> bundles.B
         try:
             return bundles.of_scene(serialize.loads(Path(args.file).read_text(encoding="utf-8")))
         except (OSError, serialize.IRFormatError) as exc:
-            raise UsageError(f"cannot read {args.file}: {exc}") from None
+            raise JobError(f"cannot read {args.file}: {exc}") from None
     if not Path(args.file).is_file():
-        raise UsageError(f"no such scene file: {args.file}")
+        raise JobError(f"no such scene file: {args.file}")
     from lang.evaluate import compile_file
     from runtime.queries import RuntimeQueries
 
