@@ -45,6 +45,13 @@ except ImportError as exc:  # the optional extra is not installed
 
 # Compiled frames a worker keeps (the tiles of a frame arrive together).
 KEEP_COMPILED = 4
+# glibc's malloc on a worker (mallopt): Dask's nanny starts workers with
+# MALLOC_TRIM_THRESHOLD_=65536, which also fixes the mmap threshold, so every large numpy
+# array of a render was mapped and unmapped anew (page faults: a 160x120 frame took 1.7x
+# as long as in one process). These are glibc's own dynamic ceilings.
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+MALLOC_TRIM = 64 << 20
+MALLOC_MMAP = 32 << 20
 
 
 @dataclass(frozen=True)
@@ -108,14 +115,23 @@ def connect(spec: str, *, quiet: bool = True) -> Iterator[distributed.Client]:
         if count and (not count.isdigit() or int(count) < 1):
             raise ValueError(f"--cluster local:N needs a positive N, got {count!r}")
         n = int(count) if count else os.cpu_count() or 1
+        import dask
+
+        # our workers without the nanny's malloc setting (see _tune_malloc)
+        environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
+        environ.pop("MALLOC_TRIM_THRESHOLD_", None)
         # a free dashboard port: several jobs (or sessions) may run on one machine
-        with distributed.LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            silence_logs=50 if quiet else 30,
-        ) as cluster, distributed.Client(cluster) as client:  # fmt: skip
+        with (
+            dask.config.set({"distributed.nanny.pre-spawn-environ": environ}),
+            distributed.LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+                silence_logs=50 if quiet else 30,
+            ) as cluster,
+            distributed.Client(cluster) as client,
+        ):
             yield client
         return
     with distributed.Client(spec) as client:
@@ -228,6 +244,7 @@ def render_task(
     """Run on a worker: the pixels of `tile` of `frame` (or the scene's diagnostics)."""
     from runtime.render import render_scene
 
+    _tune_malloc()
     start = time.perf_counter()
     root = bundles.materialise(scene)
     compiled, diagnostics, compile_s = _compile(scene, root, options, frame)
@@ -288,6 +305,26 @@ def _compile(scene: bundles.Bundle, root: Path, options: Options, frame: Frame):
     while len(_compiled) > KEEP_COMPILED:
         _compiled.popitem(last=False)
     return result.scene, diags, time.perf_counter() - start
+
+
+_tuned = False
+
+
+def _tune_malloc() -> None:
+    """Once per worker process: glibc's thresholds back at its dynamic ceilings (workers
+    a nanny started with MALLOC_TRIM_THRESHOLD_, `dask worker`'s default)."""
+    global _tuned
+    if _tuned:
+        return
+    _tuned = True
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(_M_MMAP_THRESHOLD, MALLOC_MMAP)
+        libc.mallopt(_M_TRIM_THRESHOLD, MALLOC_TRIM)
+    except (OSError, AttributeError):  # not glibc: nothing to undo
+        pass
 
 
 def _worker_address() -> str:
