@@ -15,14 +15,18 @@ processes, so the speed-up is that of the processes alone. Not part of the defau
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
 
-from lang.evaluate import animation_values, compile_file
-from runtime import bundle, cluster
-from runtime.queries import RuntimeQueries
-from runtime.render import render_scene
+# as `strala render` and Dask's workers run numpy: OpenBLAS without its own threads
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+from lang.evaluate import animation_values, compile_file  # noqa: E402
+from runtime import bundle, cluster  # noqa: E402
+from runtime.queries import RuntimeQueries  # noqa: E402
+from runtime.render import render_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 EX3 = ROOT / "examples" / "ex3.scene"
