@@ -275,3 +275,14 @@ def test_a_killed_workers_task_runs_again(client, scenes):
                              queries=RuntimeQueries).scene  # fmt: skip
         assert again is not None
         assert np.array_equal(outcome.image, render_scene(again, w, h, antialias=0.3))
+
+
+def test_resume_works_without_a_cluster_too(scenes, tmp_path, capsys):
+    argv = ["render", str(scenes / "anim.pov"), "-o", str(tmp_path / "l.png"), "-W", "8",
+            "-H", "6", "--frames", "1..2"]  # fmt: skip
+    assert _render([*argv, "-q"], capsys)[0] == 0
+    (tmp_path / "l1.png").unlink()
+    kept = (tmp_path / "l2.png").stat().st_mtime_ns
+    code, err = _render([*argv, "--resume"], capsys)
+    assert code == 0 and "l2.png is there, skipped" in err and "l1.png (8x6" in err
+    assert (tmp_path / "l2.png").stat().st_mtime_ns == kept
