@@ -75,9 +75,18 @@ sphere { <0, 0.8, 0>, 0.8 pigment { rgb <1, 0.3, 0.2> } }
 
 
 @pytest.fixture(scope="module")
-def client():
-    with cluster.connect("local:2") as c:
-        yield c
+def client(tmp_path_factory):
+    # the workers (started now, with this environment) keep their bundles in pytest's folder
+    before = os.environ.get(bundle.BUNDLE_DIR_VARIABLE)
+    os.environ[bundle.BUNDLE_DIR_VARIABLE] = str(tmp_path_factory.mktemp("bundles"))
+    try:
+        with cluster.connect("local:2") as c:
+            yield c
+    finally:
+        if before is None:
+            os.environ.pop(bundle.BUNDLE_DIR_VARIABLE, None)
+        else:
+            os.environ[bundle.BUNDLE_DIR_VARIABLE] = before
 
 
 @pytest.fixture(scope="module")
