@@ -9,6 +9,9 @@
 
 The options are the command line's: width, height, aa (the +A threshold; None for one ray
 per pixel), aa_depth, threads, clock, library paths (-L), region, radiosity cache.
+With `client=` (a dask.distributed.Client, `strala[cluster]`) the work runs on its
+cluster: `render(..., client=c, tiles=8)` in 8 tasks, `render_frames(..., client=c)` a task
+per frame; the pixels are the same as a local render's.
 Scenes with errors raise `CompileError`, whose message lists every diagnostic as the
 command line prints them; warnings stay readable on the compiled scene.
 """
@@ -142,6 +145,8 @@ def render(
     region: tuple[int, int, int, int] | None = None,
     radiosity_cache: PathLike | None = None,
     linear: bool = False,
+    client=None,
+    tiles: int = 1,
 ) -> np.ndarray:
     """Render to an (height, width, 3) float32 array.
 
@@ -149,7 +154,9 @@ def render(
     what an 8/16-bit image file would hold (the scene's gamma applied, clipped to [0, 1]);
     with linear=True, linear light, unclipped (what an EXR holds). The size defaults to the
     compiled scene's, else 320x240; `clock` and `library_paths` apply to a path only.
-    region=(left, top, right, bottom) renders part of the image (the rest stays black)."""
+    region=(left, top, right, bottom) renders part of the image (the rest stays black).
+    client: a dask.distributed.Client to render on, in `tiles` bands of rows (the radiosity
+    cache is then each worker's own)."""
     from runtime import color
     from runtime.render import render_scene
 
@@ -162,12 +169,28 @@ def render(
         raise ValueError(f"the anti-aliasing threshold must lie in [0, 3], got {aa}")
     if not 1 <= aa_depth <= 9:
         raise ValueError(f"aa_depth must lie in 1..9, got {aa_depth}")
+    source = scene if isinstance(scene, str | os.PathLike) else None
     if isinstance(scene, str | os.PathLike):
         scene = compile_file(
             scene, library_paths=library_paths, clock=clock, width=width, height=height
         )
     if isinstance(scene, Compiled):
         scene = scene.scene
+    if client is not None:
+        from runtime import bundle, cluster
+
+        opts = cluster.Options(width, height, aa, aa_depth, threads, region)
+        # a scene file travels with the files it reads; a compiled scene as its IR
+        libraries = paths.library_paths(library_paths)
+        shipped = (
+            bundle.of_scene(scene)
+            if source is None
+            else bundle.of_files(source, scene.files, scene, libraries)
+        )
+        frame = cluster.Frame(None, clock)
+        return next(_on_client(client, shipped, opts, [frame], tiles, linear))
+    if tiles != 1:
+        raise ValueError("tiles are tasks of a cluster: give client= too")
     try:
         working = render_scene(
             scene,
@@ -196,15 +219,70 @@ def render_frames(
     **options,
 ) -> Iterator[tuple[float, np.ndarray]]:
     """An animation, frame by frame, as `--frames first..last`: (clock, image) with the
-    clock running from 0 at the first frame to 1 at the last. `options` as for `render`."""
+    clock running from 0 at the first frame to 1 at the last. `options` as for `render`;
+    with client= (and tiles=) the frames are rendered on its cluster, all at once, and
+    yielded in order as they come in."""
     if last < first:
         raise ValueError(f"the last frame ({last}) comes before the first ({first})")
+    if options.get("client") is not None:
+        yield from _frames_on_client(path, first, last, width, height, library_paths, options)
+        return
     for frame in range(first, last + 1):
         t = 0.0 if last == first else (frame - first) / (last - first)
         compiled = compile_file(
             path, library_paths=library_paths, clock=t, width=width, height=height
         )
         yield t, render(compiled, **options)
+
+
+def _frames_on_client(path, first, last, width, height, library_paths, options):
+    from runtime import bundle, cluster
+
+    options = dict(options)
+    client, tiles, linear = (
+        options.pop("client"),
+        options.pop("tiles", 1),
+        options.pop("linear", False),
+    )
+    known = {"aa", "aa_depth", "threads", "region"}
+    if set(options) - known:
+        raise TypeError(f"not an option on a cluster: {', '.join(sorted(set(options) - known))}")
+    opts = cluster.Options(width, height, **options)
+    clocks = [
+        0.0 if last == first else (n - first) / (last - first) for n in range(first, last + 1)
+    ]
+    from lang.evaluate import compile_file as _compile_file
+
+    libraries = paths.library_paths(library_paths)
+    probe = _compile_file(
+        str(path), libraries, clock=0.0, image_width=width, image_height=height, queries=_queries
+    )
+    shipped = bundle.of_files(path, probe.files, probe.scene, libraries)
+    frames = [cluster.Frame(n, t) for n, t in zip(range(first, last + 1), clocks, strict=True)]
+    images = _on_client(client, shipped, opts, frames, tiles, linear)
+    yield from zip(clocks, images, strict=True)
+
+
+def _on_client(client, shipped, opts, frames, tiles: int, linear: bool) -> Iterator[np.ndarray]:
+    """The frames' images rendered on the client's cluster, yielded in order as they come
+    in; a frame that failed raises when its turn comes (CompileError for the scene's)."""
+    from runtime import cluster, color
+
+    got: dict = {}
+    upcoming = iter(frames)
+    want = next(upcoming, None)
+    for frame, outcome in cluster.run(client, shipped, opts, frames, tiles=tiles):
+        got[frame] = outcome
+        while want is not None and want in got:
+            outcome = got.pop(want)
+            if not outcome.ok:
+                if outcome.error:
+                    raise RuntimeError(f"frame {want.number}: {outcome.error}")
+                raise CompileError(outcome.diagnostics)
+            assert outcome.image is not None and outcome.settings is not None
+            convert = color.to_linear if linear else color.to_display
+            yield np.ascontiguousarray(convert(outcome.image, outcome.settings), np.float32)
+            want = next(upcoming, None)
 
 
 def save_image(path: PathLike, image: np.ndarray, bits: int | None = None) -> None:

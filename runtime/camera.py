@@ -7,6 +7,7 @@ from statistics import NormalDist
 import numpy as np
 
 from lang import ir
+from runtime import ray_random
 from runtime import transform as tf
 from runtime.patterns import perturb_normal
 
@@ -110,14 +111,14 @@ class FocalBlur:
         self.n = n = max(1, int(camera.blur_samples))
         xs = np.asarray(xs, dtype=np.float64)
         ys = np.asarray(ys, dtype=np.float64)
-        rng = np.random.default_rng(_blur_seed(xs, ys))
         # Kronecker sequences: every prefix covers its square evenly, so a point that stops
         # after a few rounds is not biased toward part of the lens. The lens takes R2
         # (frequencies 1/g, 1/g^2, g the plastic number), the sub-pixel position two more
         # of Roberts' R_d frequencies; a random shift per point decorrelates neighbours
         # (Cranley-Patterson rotation).
         k = np.arange(n, dtype=np.float64)[None, :]
-        shift = rng.uniform(0.0, 1.0, (len(xs), 4, 1))
+        # the shift is the point's own (a hash of its position): tiles and threads agree
+        shift = ray_random.uniforms(ray_random.keys(xs, ys), 4)[:, :, None]
         freq = (1 / 1.324717957244746, 1 / 1.324717957244746**2, 1 / 1.1673039782614187**3,
                 1 / 1.1673039782614187**4)  # fmt: skip
         u, v, jx, jy = ((shift[:, i] + k * freq[i]) % 1.0 for i in range(4))
@@ -177,13 +178,6 @@ def blur_thresholds(n: int, variance: float, confidence: float) -> np.ndarray:
     chi = df * np.maximum(1.0 - 2.0 / (9.0 * df) + z * np.sqrt(2.0 / (9.0 * df)), 0.0) ** 3
     last = chi[n - 2]  # X(n - 1)
     return variance * chi / last if last > 0 else np.zeros(n)
-
-
-def _blur_seed(xs: np.ndarray, ys: np.ndarray) -> int:
-    """The same pixels get the same samples on every run (and on every thread)."""
-    if len(xs) == 0:
-        return 0
-    return int(abs(hash((float(xs[0]), float(ys[0]), len(xs), float(xs[-1]), float(ys[-1])))))
 
 
 def _angle(camera: ir.Camera) -> float:

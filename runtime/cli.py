@@ -48,7 +48,7 @@ class UsageError(Exception):
 # Options that take a separate value: the token after them is never translated.
 _VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
 _VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height", "--frames"}
-_VALUE_OPTIONS |= {"--frame"}
+_VALUE_OPTIONS |= {"--frame", "--cluster", "--tiles"}
 _VALUE_OPTIONS |= {"--indent", "--output-type", "--radiosity-cache"}
 # Display, verbosity, pause and statistics switches change nothing in a file render.
 _IGNORED = ("D", "V", "P", "X", "GA", "GD", "GF", "GR", "GS", "GW", "GI", "GP", "UA", "UD")
@@ -260,6 +260,23 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="say how the image was traced: rays, shadow rays, supersampled pixels, the time "
         "preparing and tracing, and why the numpy path traced it if the compiled one did not",
+    )
+    r.add_argument(
+        "--cluster",
+        metavar="local[:N]|ADDRESS",
+        help="render frames (and tiles) on Dask: `local` starts N worker processes (default: "
+        "the cores), `tcp://HOST:PORT` uses a running scheduler (needs strala[cluster])",
+    )
+    r.add_argument(
+        "--tiles",
+        type=_positive_int,
+        metavar="N",
+        help="split each image into N bands of rows, one task each (implies --cluster local)",
+    )
+    r.add_argument(
+        "--resume",
+        action="store_true",
+        help="skip frames whose image is already written at this size",
     )
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     r.set_defaults(func=cmd_render)
@@ -765,7 +782,32 @@ def cmd_render(args: argparse.Namespace) -> int:
             )
         at = numbers.index(args.frame)
         jobs, numbers = [(out, jobs[at][1], jobs[at][2])], [args.frame]
+    if args.cluster is not None or args.tiles is not None:
+        if to_stdout or args.preview:
+            raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
+        from runtime import render_job
+
+        width, height = image_size(args)
+        region = resolve_region(
+            width, height, args.start_col, args.end_col, args.start_row, args.end_row
+        )
+        try:
+            return render_job.run(
+                args,
+                jobs,
+                numbers,
+                (width, height),
+                region,
+                lambda diags: print_diagnostics(diags, sys.stderr, summary=False),
+            )
+        except render_job.JobError as exc:
+            raise UsageError(str(exc)) from None
+    size = image_size(args)
     for (target, clock, label), number in zip(jobs, numbers, strict=True):
+        if args.resume and not to_stdout and image.size_of(target) == size:
+            if not args.quiet:
+                print(f"{target} is there, skipped (--resume)", file=sys.stderr)
+            continue
         args.animation = animation_values(clock, args.frames, number)
         # runtime modules print their warnings; on stderr they never mix into an image
         # written to standard output

@@ -133,6 +133,30 @@ def _write_oiio(tmp: Path, target: Path, fmt: Format, depth: int, data: np.ndarr
         raise OSError(f"cannot write {target}: {err}")
 
 
+def size_of(path: str | os.PathLike) -> tuple[int, int] | None:
+    """(width, height) of an image file, None when there is none or it cannot be read.
+
+    Images are renamed into place only once written (write_pixels), so a file that opens is
+    complete; `--resume` compares its size with the render's. A PNG's header is read here
+    (no OpenImageIO for the common case)."""
+    target = Path(path)
+    try:
+        with target.open("rb") as f:
+            head = f.read(24)
+    except OSError:
+        return None
+    if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+        return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(str(target))
+    if inp is None:
+        return None
+    spec = inp.spec()
+    inp.close()
+    return int(spec.width), int(spec.height)
+
+
 def read_image(path: str | os.PathLike) -> np.ndarray:
     """Read any image OpenImageIO knows as float32 (H, W, C); integer files scale to [0, 1]."""
     import OpenImageIO as oiio

@@ -22,12 +22,10 @@ only through the context: `ctx.media.transmittance` dims light by the media on i
 
 from __future__ import annotations
 
-import zlib
-
 import numpy as np
 
 from lang import ir
-from runtime import patterns, shading
+from runtime import patterns, ray_random, shading
 from runtime.lights import shadow
 
 # Rays that hit nothing cross this much atmosphere (POV-Ray's MAX_DISTANCE).
@@ -77,12 +75,12 @@ class MediaScene:
         n = len(points)
         tau = np.zeros((n, 3))
         t_end = np.minimum(dist, MAX_DISTANCE)
-        rng = _rng(dirs)
+        key = ray_random.keys(points, dirs, salt=_SHADOW_SALT)
         allowed = np.ones(n, dtype=bool)
         regions = _all_regions(self) if atmosphere else self.regions
-        for region in regions:
+        for i, region in enumerate(regions):
             count = _count(region, True)
-            s = _samples(region, points, dirs, t_end, allowed, count, rng, not atmosphere)
+            s = _samples(region, points, dirs, t_end, allowed, count, key, i, not atmosphere)
             if s is None:
                 continue
             r, t, ds = s
@@ -154,19 +152,24 @@ def _pieces(region: Region, o, d, t_end, allowed, open_end: bool = False):
     return t0, t1, mask
 
 
-def _rng(d: np.ndarray) -> np.random.Generator:
-    return np.random.default_rng(zlib.crc32(np.ascontiguousarray(d[:8]).tobytes()))
+# Shadow rays and eye rays may coincide (a point lit along the way it was seen): their
+# jitter streams stay apart.
+_SHADOW_SALT = 1
 
 
-def _samples(region: Region, o, d, t_end, allowed, count: int, rng, open_end: bool = False):
-    """Flat (ray, depth, ds) of `count` stratified jittered samples per piece."""
+def _samples(region: Region, o, d, t_end, allowed, count: int, key: np.ndarray, which: int,
+             open_end: bool = False):  # fmt: skip
+    """Flat (ray, depth, ds) of `count` stratified jittered samples per piece; the jitter
+    of a piece comes from its ray's `key`, the region's number `which` and the piece's
+    (runtime.ray_random), never from the batch the ray is in."""
     t0, t1, mask = _pieces(region, o, d, t_end, allowed, open_end)
     rows, cols = np.nonzero(mask)
     if not len(rows):
         return None
     a, b = t0[rows, cols], t1[rows, cols]
     ds = (b - a) / count
-    u = (np.arange(count)[None, :] + rng.random((len(rows), count))) * ds[:, None]
+    piece = ray_random.derive(key[rows], cols.astype(np.uint64) * np.uint64(1 << 16) + which)
+    u = (np.arange(count)[None, :] + ray_random.uniforms(piece, count)) * ds[:, None]
     t = (a[:, None] + u).ravel()
     return np.repeat(rows, count), t, np.repeat(ds, count)
 
@@ -227,10 +230,10 @@ def apply(ctx, o, d, t_hit, hit_obj, normal, col) -> np.ndarray:
     in_solid = np.zeros(n, dtype=bool)
     in_solid[leaving] = ms.nonhollow[hit_obj[leaving]]
     allowed = ~in_solid
-    rng = _rng(d)
+    key = ray_random.keys(o, d)
     parts = []
-    for region in _all_regions(ms):
-        s = _samples(region, o, d, t_end, allowed, _count(region, False), rng)
+    for i, region in enumerate(_all_regions(ms)):
+        s = _samples(region, o, d, t_end, allowed, _count(region, False), key, i)
         if s is None:
             continue
         r, t, ds = s

@@ -45,6 +45,7 @@ def render_scene(
     stats: dict | None = None,
     radiosity=None,
     radiosity_cache: str | os.PathLike | None = None,
+    pretrace_region: tuple[int, int, int, int] | None = None,
 ) -> np.ndarray:
     """Render `scene` at width×height; returns (H, W, 3) float32 working-space colours.
 
@@ -55,7 +56,9 @@ def render_scene(
     (rays, shadow_rays, supersampled pixels …).
     radiosity: a precomputed `RadiosityResult` to use; otherwise a scene with
     `global_settings { radiosity {} }` is solved here first (cached in the folder or
-    file `radiosity_cache` when given)."""
+    file `radiosity_cache` when given). pretrace_region: the part of the image whose camera
+    rays fill the radiosity's irradiance cache (default: region); a tile of a larger image
+    passes the image's own, so every tile reads the same records (runtime.cluster)."""
     from runtime.prepare import prepare
 
     started = time.perf_counter()
@@ -86,7 +89,7 @@ def render_scene(
             with np.errstate(over="ignore", invalid="ignore"):
                 return trace_pixels(ctx, scene.camera, width, height, xs, ys)
 
-        radiosity.pretrace(shoot, width, height, (left, top, right, bottom))
+        radiosity.pretrace(shoot, width, height, pretrace_region or (left, top, right, bottom))
     image = np.zeros((height, width, 3), dtype=np.float32)
     tiles = [
         (x, y, min(x + TILE, right), min(y + TILE, bottom))

@@ -1,0 +1,152 @@
+"""`strala render --cluster …` / `--tiles N`: the command line's frames rendered on Dask.
+
+The client compiles the first frame once, to learn which files the scene reads (they travel
+to the workers in a bundle: runtime.bundle), then runtime.cluster renders every frame,
+tile by tile, on the workers; each frame is written as soon as its last tile is in, under
+the name a local render gives it. A frame whose scene has errors is reported with its
+diagnostics and the others go on (exit 1 at the end); `--resume` leaves out the frames
+already written at this size.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from lang import paths
+from lang.diagnostics import Diagnostic, Severity
+from runtime import bundle as bundles
+from runtime import image
+from runtime.progress import Progress
+
+
+class JobError(ValueError):
+    """The job cannot start (no Dask, no scene file): the command line's fault."""
+
+
+def run(
+    args: argparse.Namespace,
+    jobs: Sequence[tuple[Path, float, str]],
+    numbers: Sequence,
+    size: tuple[int, int],
+    region: tuple[int, int, int, int] | None,
+    show: Callable[[Sequence[Diagnostic]], None],
+) -> int:
+    """Render `jobs` ((output, clock, label) per frame, as cli.frame_jobs gives them) with
+    frame `numbers` at `size` on the cluster `args.cluster` (default `local`); `show`
+    prints diagnostics."""
+    try:
+        from runtime import cluster
+    except ImportError as exc:
+        raise JobError(str(exc)) from None
+    from lang.evaluate import animation_values
+
+    width, height = size
+    frames = []
+    skipped = 0
+    for (target, clock, label), number in zip(jobs, numbers, strict=True):
+        if args.resume and image.size_of(target) == (width, height):
+            skipped += 1
+            continue
+        values = animation_values(clock, args.frames, number)
+        frames.append(cluster.Frame(number, clock, tuple(values.items()), str(target), label))
+    if skipped and not args.quiet:
+        print(f"{skipped} frame(s) already written, skipped (--resume)", file=sys.stderr)
+    if not frames:
+        return 0
+    scene = _bundle(args, frames[0], (width, height))
+    options = cluster.Options(width, height, args.aa, args.aa_depth, args.threads, region)
+    tiles = args.tiles or 1
+    start = time.perf_counter()
+    try:
+        connection = cluster.connect(args.cluster or "local", quiet=True)
+        client = connection.__enter__()
+    except (OSError, TimeoutError, ValueError) as exc:
+        print(f"strala: error: cannot reach the cluster {args.cluster}: {exc}", file=sys.stderr)
+        return 1
+    status = 0
+    written = 0
+    try:
+        workers = len(client.scheduler_info().get("workers", {}))
+        if not args.quiet:
+            where = cluster.dashboard(client)
+            board = f"; dashboard {where}" if where else ""
+            print(f"cluster: {workers} worker(s){board}", file=sys.stderr)
+        label = f"{len(frames)} frame(s) x {tiles} tile(s)"
+        said: set[Diagnostic] = set()
+        with Progress(label, enabled=False if args.quiet else None) as bar:
+            for frame, outcome in cluster.run(
+                client, scene, options, frames, tiles=tiles, progress=bar
+            ):
+                new = [d for d in outcome.diagnostics if d not in said]
+                said.update(new)
+                if new or not outcome.ok:
+                    _clear(bar)
+                    show(new)
+                if not outcome.ok:
+                    why = outcome.error or "the scene has errors"
+                    print(f"strala: {frame.label or 'the image'} failed: {why}", file=sys.stderr)
+                    status = 1
+                    continue
+                assert outcome.image is not None and outcome.settings is not None
+                try:
+                    image.save_render(frame.output, outcome.image, outcome.settings, args.bits)
+                except OSError as exc:
+                    _clear(bar)
+                    print(f"strala: error: {exc}", file=sys.stderr)
+                    status = 1
+                    continue
+                written += 1
+    finally:
+        connection.__exit__(None, None, None)
+    if not args.quiet:
+        took = time.perf_counter() - start
+        failed = len(frames) - written
+        tail = f", {failed} failed" if failed else ""
+        print(
+            f"wrote {written} image(s) ({width}x{height}, {tiles} tile(s) each, {took:.2f} s on "
+            f"{workers} worker(s)){tail}",
+            file=sys.stderr,
+        )
+    return status
+
+
+def _bundle(args: argparse.Namespace, first, size: tuple[int, int]) -> bundles.Bundle:
+    """What the workers need: a compiled IR as it is, or the scene's files (those the
+    first frame reads and names)."""
+    if args.file.lower().endswith(".json"):
+        from lang import serialize
+
+        try:
+            return bundles.of_scene(serialize.loads(Path(args.file).read_text(encoding="utf-8")))
+        except (OSError, serialize.IRFormatError) as exc:
+            raise JobError(f"cannot read {args.file}: {exc}") from None
+    if not Path(args.file).is_file():
+        raise JobError(f"no such scene file: {args.file}")
+    from lang.evaluate import compile_file
+    from runtime.queries import RuntimeQueries
+
+    libraries = paths.library_paths(args.library)
+    result = compile_file(
+        args.file,
+        libraries,
+        clock=first.clock,
+        image_width=size[0],
+        image_height=size[1],
+        animation=dict(first.animation),
+        queries=RuntimeQueries,
+    )
+    ok = result.scene is not None and not any(
+        d.severity is Severity.ERROR for d in result.diagnostics
+    )
+    return bundles.of_files(args.file, result.files, result.scene if ok else None, libraries)
+
+
+def _clear(bar: Progress) -> None:
+    """Room for a message on the bar's line (it is redrawn on the next tile)."""
+    if bar.enabled:
+        bar.stream.write("\r\x1b[K")
+        bar.stream.flush()
