@@ -183,6 +183,8 @@ FILE_ACCESS = {
     ("evaluate", "compile_file"): "the main file: its text is part of the key",
     ("eval.interpreter", "_find_declaring_include"): "a hint for an error: errors are not stored",
     ("eval.interpreter", "_d_include"): "an include: its text's digest is kept",
+    ("eval.interpreter", "source_text"): "a file already read (the main file, an include "
+    "whose digest is kept), read again for its tokens",
     ("paths", "find"): "include probes are kept; resolve (other files) depends_outside",
     ("paths", "povray_include"): "searched last: a stored scene found its files before it",
     ("paths", "povray_ini"): "read before evaluating: its library folders are in the key",

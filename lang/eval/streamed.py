@@ -215,6 +215,7 @@ class _Stream:
         self.counts: dict[tuple[int, int], int] = {}  # #while passes, by (source, index)
         self.before: Token | None = None  # the last token given to the parser
         self.lexed: dict[tuple[str, int, int], list[Token]] = {}  # macro bodies, by place
+        self.tok_file = file  # the file the last token read comes from
 
     # ------------------------------------------------------------ the loop
     def run(self, resume) -> None:
@@ -235,7 +236,7 @@ class _Stream:
                     and (j := resume(tok.start_pos)) is not None
                 ):
                     raise _Stop(j)
-                self.readers[-1].feed(self._named(tok))
+                self.readers[-1].feed(self._named(tok), self.tok_file)
                 self.before = tok
             self._settle("$END")
             for reader in reversed(self.readers):
@@ -275,6 +276,7 @@ class _Stream:
                 continue
             tok = src.toks[src.pos]
             src.pos += 1
+            self.tok_file = src.file
             t = tok.type
             if t in chunks.STEERING:
                 self._settle(t)
@@ -761,7 +763,9 @@ class _Reader:
             chunks.reduce_before(self.state, ttype)
         self._evaluate_complete()
 
-    def feed(self, tok: Token) -> None:
+    def feed(self, tok: Token, file: str) -> None:
+        """Feed a token of `file` (a macro's text may come from another file)."""
+        self.file = file
         if self.skipping:
             if tok.type not in self.table.starters:
                 return
