@@ -66,6 +66,7 @@ def compile_file(
     animation: Mapping[str, float] | None = None,
     queries: QueriesFactory | None = None,
     store: bool = False,
+    declares: Mapping[str, float] | None = None,
 ) -> Result:
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -85,6 +86,7 @@ def compile_file(
         animation=animation,
         queries=queries,
         store=store,
+        declares=declares,
     )
 
 
@@ -101,11 +103,13 @@ def compile_source(
     animation: Mapping[str, float] | None = None,
     queries: QueriesFactory | None = None,
     store: bool = False,
+    declares: Mapping[str, float] | None = None,
 ) -> Result:
     """`queries` answers trace() and inside() (see lang.queries); without it they miss.
 
     store: keep the result in `lang.scene_store` and take it from there while nothing it
-    read has changed (the command line does; `symbols` is then empty)."""
+    read has changed (the command line does; `symbols` is then empty). declares: names
+    declared before the scene is read (POV-Ray's `Declare=Name=Value` option)."""
     name = ""
     if store:
         options = (
@@ -117,6 +121,7 @@ def compile_source(
             debug_to_stderr,
             tuple(sorted((animation or {}).items())),
             queries is not None,
+            tuple(sorted((declares or {}).items())),
         )
         name = scene_store.key(text, filename, options)
         entry = scene_store.load(name)
@@ -133,6 +138,7 @@ def compile_source(
         debug_to_stderr=debug_to_stderr,
         animation=animation,
         queries=queries,
+        declares=declares,
     )
     result = interp.run(text, filename)
     if store and result.scene is not None and interp.standalone(result):

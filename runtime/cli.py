@@ -30,7 +30,7 @@ from typing import TextIO
 
 from lang import paths
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
-from lang.ini import ini_tokens
+from runtime.povray_options import OptionError, parse_declare, translate_povray_args
 
 # Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
 COMMANDS = ("render", "check", "translate", "compile", "export", "fmt", "bench", "lsp")
@@ -45,100 +45,8 @@ class UsageError(Exception):
 
 
 # ------------------------------------------------------------ POV-Ray options
-# Options that take a separate value: the token after them is never translated.
-_VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
-_VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height", "--frames"}
-_VALUE_OPTIONS |= {"--frame", "--cluster", "--tiles"}
-_VALUE_OPTIONS |= {"--indent", "--output-type", "--radiosity-cache"}
-# Display, verbosity, pause and statistics switches change nothing in a file render.
-_IGNORED = ("D", "V", "P", "X", "GA", "GD", "GF", "GR", "GS", "GW", "GI", "GP", "UA", "UD")
-_FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
 _REGION = {"SC": "--start-col", "EC": "--end-col", "SR": "--start-row", "ER": "--end-row"}
-_OWN_SHORT = {"-o", "-W", "-H", "-L", "-q", "-h"}
-
-
-def _ini_tokens(path: Path) -> list[str]:
-    """POV-Ray INI file → command-line tokens (lang.ini reads it)."""
-    try:
-        return ini_tokens(path)
-    except OSError as exc:
-        raise UsageError(f"cannot read {path}: {exc.strerror}") from None
-
-
-def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
-    """Rewrite POV-Ray style switches (`+W512 +A0.3 +Oout.png +Iscene.pov -D`) and INI
-    files into strala options. Unknown `+X` switches are dropped with a warning."""
-    out: list[str] = []
-    frames: dict[str, int] = {}
-    after_value_option = False
-    pending = list(argv)
-    while pending:
-        tok = pending.pop(0)
-        if after_value_option:
-            out.append(tok)
-            after_value_option = False
-            continue
-        if tok in _VALUE_OPTIONS:
-            out.append(tok)
-            after_value_option = True
-            continue
-        if tok.lower().endswith(".ini") and not tok.startswith(("+", "-")):
-            pending[:0] = _ini_tokens(Path(tok))
-            continue
-        if len(tok) < 2 or tok[0] not in "+-" or tok.startswith("--"):
-            out.append(tok)
-            continue
-        sign, body = tok[0], tok[1:]
-        if sign == "-" and tok[:2] in _OWN_SHORT:
-            out.append(tok)  # strala's own short option (-W512, -q…): argparse judges it
-            continue
-        upper = body.upper()
-        head, rest = upper[:1], body[1:]
-        if upper in _IGNORED or (head == "G" and len(upper) <= 3):
-            continue
-        if sign == "-":
-            out.append("--no-aa" if head == "A" else tok)
-        elif upper.startswith("WT") and rest[1:].isdigit():
-            out += ["--threads", rest[1:]]
-        elif head in "WH" and rest:
-            out += ["-" + head, rest]
-        elif head == "A":
-            out += ["--aa", rest] if rest else ["--aa"]
-        elif head == "R" and rest:
-            out += ["--aa-depth", rest]
-        elif head in "OIL":
-            value = rest or (pending.pop(0) if pending else "")
-            if not value:
-                raise UsageError(f"{tok} needs a value")
-            out += {"O": ["-o", value], "I": [value], "L": ["-L", value]}[head]
-        elif upper[:2] in _REGION and _is_number(body[2:]):
-            out += [_REGION[upper[:2]], body[2:]]
-        elif upper.startswith(("KFI", "KFF")) and body[3:].isdigit():
-            frames[upper[:3]] = int(body[3:])
-        elif upper.startswith("SF") and body[2:].isdigit():
-            out += ["--frame", body[2:]]  # the first frame of a subset (+EF: the same one)
-        elif upper.startswith("EF") and body[2:].isdigit():
-            pass
-        elif head == "K" and rest and rest[0] in "0123456789.-":
-            out += ["--clock", rest]
-        elif head == "F" and rest[:1].upper() in _FILE_TYPES:
-            out += ["--output-type", _FILE_TYPES[rest[0].upper()]]
-            if rest[1:].isdigit():
-                out += ["--bits", rest[1:]]
-        else:
-            warn.append(f"ignoring POV-Ray option {tok}")
-    if frames:
-        first = frames.get("KFI", 1)
-        out += ["--frames", f"{first}..{frames.get('KFF', first)}"]
-    return out
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+_FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
 
 
 def resolve_region(
@@ -206,6 +114,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         metavar="DIR",
         help="extra #include search folder (repeatable)",
+    )
+    common.add_argument(
+        "--declare",
+        action="append",
+        type=_declare,
+        default=[],
+        metavar="NAME=VALUE",
+        help="declare a float before the scene is read (POV-Ray's Declare=NAME=VALUE)",
     )
 
     r = sub.add_parser("render", parents=[common], help="render a scene to an image")
@@ -419,6 +335,17 @@ def _threshold(text: str) -> float:
     return value
 
 
+def _declare(text: str) -> tuple[str, float]:
+    try:
+        return parse_declare(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _declares(args: argparse.Namespace) -> dict[str, float]:
+    return dict(getattr(args, "declare", None) or ())
+
+
 def _aa_depth(text: str) -> int:
     value = _positive_int(text)
     if value > 9:
@@ -517,6 +444,7 @@ def _compile(
     debug_output: bool = False,
     animation: Mapping[str, float] | None = None,
     geometry: bool = True,
+    declares: Mapping[str, float] | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -541,6 +469,7 @@ def _compile(
         animation=animation,
         queries=_runtime_queries if geometry else None,
         store=True,
+        declares=declares,
     )
     return result.scene, list(result.diagnostics)
 
@@ -558,7 +487,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     for file in args.files:
         diags += _compile(
             file, args.library, image_size(args), clock=clock, file_io=False,
-            animation=animation, geometry=False,
+            animation=animation, geometry=False, declares=_declares(args),
         )[1]  # fmt: skip
     errors, warnings = _counts(diags)
     if args.format == "json":
@@ -602,7 +531,7 @@ def cmd_translate(args: argparse.Namespace) -> int:
             d
             for d in _compile(
                 str(target), args.library, (width, height), clock=clock, file_io=False,
-                animation=animation, geometry=False,
+                animation=animation, geometry=False, declares=_declares(args),
             )[1]
             if d.severity is Severity.ERROR
         ]  # fmt: skip
@@ -703,6 +632,7 @@ def _load_scene(args: argparse.Namespace, clock: float):
         clock=clock,
         debug_output=not args.quiet,
         animation=getattr(args, "animation", None),
+        declares=_declares(args),
     )
 
 
@@ -1007,8 +937,9 @@ def cmd_compile(args: argparse.Namespace) -> int:
     from lang import serialize
 
     scene, diags = _compile(
-        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet
-    )
+        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet,
+        declares=_declares(args),
+    )  # fmt: skip
     print_diagnostics(diags, sys.stderr, summary=False)
     if scene is None or _counts(diags)[0]:
         return 1
@@ -1031,8 +962,9 @@ def cmd_compile(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     scene, diags = _compile(
-        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet
-    )
+        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet,
+        declares=_declares(args),
+    )  # fmt: skip
     print_diagnostics(diags, sys.stderr, summary=False)
     if scene is None or _counts(diags)[0]:
         return 1
@@ -1141,7 +1073,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings: list[str] = []
     try:
         argv = translate_povray_args(argv, warnings)
-    except UsageError as exc:
+    except OptionError as exc:
         parser.error(str(exc))
     args = parser.parse_args(argv)  # exits 2 on a bad command line
     # The evaluator allocates many small objects and few cycles: collecting every 700

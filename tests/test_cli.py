@@ -74,7 +74,49 @@ def test_ini_file_becomes_options(tmp_path):
         "Antialias_Threshold=0.2\n+Oout.png\n[other]\nWidth=9999\n"
     )
     out, _ = _translate(str(ini))
-    assert out == ["scene.pov", "-W", "64", "-H", "48", "--aa", "--aa", "0.2", "-o", "out.png"]
+    assert out == ["scene.pov", "-W", "64", "-H", "48", "--aa", "0.2", "-o", "out.png"]
+
+
+def test_a_threshold_alone_does_not_turn_anti_aliasing_on():
+    # POV-Ray: Antialias_Threshold without Antialias=on renders one ray per pixel
+    out, warnings = _translate("Antialias_Threshold=0.1", "s.pov")
+    assert out == ["s.pov"] and "not turned on" in warnings[0]
+    assert _translate("Antialias_Threshold=0.1", "Antialias=on")[0] == ["--aa", "0.1"]
+    assert _translate("+A0.1", "-A")[0] == ["--no-aa"]
+
+
+def test_declare_on_the_command_line_and_in_ini_files(tmp_path):
+    ini = tmp_path / "d.ini"
+    ini.write_text("Declare=Size=2.5\ndeclare=Other=-1e-2 ; a comment\n")
+    out, warnings = _translate("Declare=Rad=1.2", str(ini), "s.pov")
+    assert out == ["s.pov", "--declare", "Rad=1.2", "--declare", "Size=2.5", "--declare",
+                   "Other=-1e-2"]  # fmt: skip
+    assert warnings == []
+    args = cli.build_parser().parse_args(["render", *out])
+    assert args.declare == [("Rad", 1.2), ("Size", 2.5), ("Other", -0.01)]
+
+
+@pytest.mark.parametrize(
+    ("text", "value"), [("R=1.2", 1.2), ("R=2*3", 2.0), ("R=abc", 0.0), ("R= .5e1x", 5.0)]
+)
+def test_declared_values_are_read_as_povray_reads_them(text, value):
+    # POV-Ray 3.7 reads the value as C's atof: `Declare=R=2*3` declares 2, `R=abc` 0
+    assert cli.parse_declare(text) == ("R", value)
+
+
+@pytest.mark.povray
+def test_declare_sets_the_name_as_in_povray(tmp_path):
+    scene = tmp_path / "d.pov"
+    scene.write_text('#debug concat("Rad=", str(Rad, 0, 4), "\\n")\nsphere { 0, 1 }\n')
+    (tmp_path / "d.ini").write_text("Declare=Rad=3.25\n")
+    pov = subprocess.run(
+        ["povray", "+Id.pov", "-D", "-F", "+W8", "+H8", "Declare=Rad=1.2"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=60,
+    ).stderr  # fmt: skip
+    assert "Rad=1.2000" in pov
+    for argv, want in (("Declare=Rad=1.2", "Rad=1.2000"), ("d.ini", "Rad=3.25")):
+        r = run_cli("check", "d.pov", argv, cwd=tmp_path)
+        assert want in r.stdout and r.returncode == 0, r.stdout + r.stderr
 
 
 @given(st.lists(st.sampled_from(["+D", "-D", "+V", "-V", "+P", "-P", "+GA", "-GA", "+X"])))
