@@ -27,6 +27,7 @@ class OptionError(Exception):
 # Switch → (the INI key its parameter sets, the INI key a bare +/- turns on or off), in
 # POV-Ray's matching order: a longer name before a shorter one it starts with.
 SWITCHES: tuple[tuple[str, str | None, str | None], ...] = (
+    ("AC", "antialias_confidence", None),  # POV-Ray 3.8's
     ("AG", "antialias_gamma", None),
     ("AM", "sampling_method", None),
     ("A", "antialias_threshold", "antialias"),
@@ -102,6 +103,7 @@ HANDLED = {
     "antialias_threshold", "antialias_depth", "library_path", "clock", "work_threads",
     "initial_frame", "final_frame", "subset_start_frame", "subset_end_frame",
     "start_column", "end_column", "start_row", "end_row", "output_file_type", "declare",
+    "sampling_method", "jitter", "jitter_amount", "antialias_gamma",
 }  # fmt: skip
 REPEATED = {"library_path", "declare"}
 
@@ -126,9 +128,14 @@ KNOWN |= {
     "include_ini", "post_frame_command", "post_frame_return", "post_scene_command",
     "post_scene_return", "pre_frame_command", "pre_frame_return", "pre_scene_command",
     "pre_scene_return", "user_abort_command", "user_abort_return", "grayscale_output",
-    "sampling_method", "jitter", "jitter_amount", "antialias_gamma", "cyclic_animation",
-    "initial_clock", "final_clock", "frame_step",
+    "cyclic_animation", "initial_clock", "final_clock", "frame_step",
 }  # fmt: skip
+
+# POV-Ray 3.8's keys: not 3.7's, and what strala does instead
+NEWER = {
+    "antialias_confidence": "POV-Ray 3.8's, for anti-aliasing method 3; strala renders "
+    "method 3 as method 2, which has no confidence",
+}
 
 _FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
 _REGION = {
@@ -143,7 +150,8 @@ _SETTING = re.compile(r"[A-Za-z][A-Za-z0-9_]*=")  # `Width=512` on the command l
 # Options that take a separate value: the token after them is never translated.
 VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
 VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height", "--frames"}
-VALUE_OPTIONS |= {"--frame", "--cluster", "--tiles", "--declare"}
+VALUE_OPTIONS |= {"--frame", "--cluster", "--tiles", "--declare", "--aa-method"}
+VALUE_OPTIONS |= {"--jitter", "--aa-gamma", "-r", "--recursive"}
 VALUE_OPTIONS |= {"--indent", "--output-type", "--radiosity-cache", "--reference"}
 _OWN_SHORT = {"-o", "-W", "-H", "-L", "-q", "-h", "-r"}  # strala's own short options
 
@@ -186,6 +194,9 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
     def setting(key: str, value: str, written: str) -> None:
         key = key.lower()
         if key in QUIET:
+            return
+        if key in NEWER:
+            note(f"ignoring {written}: {NEWER[key]}")
             return
         if key not in KNOWN:
             note(f"ignoring {written}: not a POV-Ray 3.7 option")
@@ -259,6 +270,14 @@ def _strala_options(
             note(f"ignoring POV-Ray option {origin[key]}: anti-aliasing is not turned on")
         elif key == "antialias_depth":
             out += ["--aa-depth", value]
+        elif key == "sampling_method":
+            out += ["--aa-method", value]
+        elif key == "antialias_gamma":
+            out += ["--aa-gamma", value]
+        elif key == "jitter" and value.lower() not in _TRUE:
+            out += ["--jitter", "0"]
+        elif key == "jitter_amount" and settings.get("jitter", ["on"])[-1].lower() in _TRUE:
+            out += ["--jitter", value]
         elif key == "library_path":
             for v in values:
                 out += ["-L", _unquote(v)]

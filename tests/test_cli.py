@@ -756,3 +756,24 @@ def test_an_image_too_large_for_the_machine_is_refused_before_any_work(tmp_path)
         assert f"an image of {w}×{h} needs about" in done.stderr and "GiB" in done.stderr
         assert "internal error" not in done.stderr
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".*"))
+
+
+def test_anti_aliasing_methods_jitter_and_gamma_switches():
+    assert _translate("+AM2", "+A0.2", "+R4", "-J", "+AG1.8")[0] == [
+        "--aa-method", "2", "--aa", "0.2", "--aa-depth", "4", "--jitter", "0",
+        "--aa-gamma", "1.8",
+    ]  # fmt: skip
+    assert _translate("Sampling_Method=2", "Jitter_Amount=0.5")[0] == [
+        "--aa-method", "2", "--jitter", "0.5",
+    ]  # fmt: skip
+    assert _translate("Jitter=off", "Jitter_Amount=0.5")[0] == ["--jitter", "0"]
+    out, warnings = _translate("Antialias_Confidence=0.9", "+AC0.9")
+    assert out == [] and len(warnings) == 2 and all("method 3" in w for w in warnings)
+
+
+def test_method_3_renders_as_method_2_with_a_warning(tmp_path):
+    scene = tmp_path / "s.pov"
+    scene.write_text("sphere { 0, 1 pigment { rgb 1 } }\n")
+    r = run_cli("render", str(scene), "+A", "+AM3", "-W8", "-H8", "-o", str(tmp_path / "a.png"))
+    assert r.returncode == 0, r.stderr
+    assert "method 3 is POV-Ray 3.8's: rendering with method 2" in r.stderr
