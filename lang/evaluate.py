@@ -9,6 +9,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from lang import scene_store
+from lang.animation import NAMES, Animation
 from lang.diagnostics import Diagnostic, Severity, Span
 from lang.eval.interpreter import Interpreter, Result
 from lang.queries import QueriesFactory
@@ -22,36 +23,18 @@ def animation_values(
     """The identifiers an animation sets, as POV-Ray sets them: a still image (no frame range,
     or one of a single frame) sees 0 for all but `clock_on` (1 when a clock is given); frame
     `frame` of `frames` (first, last), with the clock running from 0 to 1, sees its number,
-    the range, and the clock's step per frame."""
-    if frames is not None and frames[0] == frames[1]:
-        frame = None  # POV-Ray: an animation of one frame is a still image
-    if frames is None or frames[0] == frames[1]:
-        values = dict.fromkeys(_ANIMATION_NAMES, 0.0)
-        values["clock_on"] = 1.0 if clock or frame is not None else 0.0
-        if frame is not None:
-            values["frame_number"] = float(frame)
-        return values
-    first, last = frames
-    return {
-        "frame_number": float(first if frame is None else frame),
-        "initial_frame": float(first),
-        "final_frame": float(last),
-        "initial_clock": 0.0,
-        "final_clock": 1.0,
-        "clock_delta": 1.0 / (last - first),
-        "clock_on": 1.0,
-    }
+    the range, and the clock's step per frame (lang.animation for the other settings)."""
+    if frames is not None and frames[0] != frames[1]:
+        first, last = frames
+        return Animation(first, last).values(first if frame is None else frame)
+    values = dict.fromkeys(_ANIMATION_NAMES, 0.0)
+    values["clock_on"] = 1.0 if clock or (frame is not None and frames is None) else 0.0
+    if frame is not None and frames is None:
+        values["frame_number"] = float(frame)
+    return values
 
 
-_ANIMATION_NAMES = (
-    "frame_number",
-    "initial_frame",
-    "final_frame",
-    "initial_clock",
-    "final_clock",
-    "clock_delta",
-    "clock_on",
-)
+_ANIMATION_NAMES = NAMES
 
 
 def compile_file(

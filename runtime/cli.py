@@ -174,6 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the frame number the scene sees (frame_number); with --frames, render only "
         "frame N of them, to the image named as is",
     )
+    _animation_arguments(r)
     r.add_argument(
         "--radiosity-cache",
         metavar="DIR|FILE",
@@ -316,20 +317,58 @@ def _frame_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
     p.add_argument("--frames", type=parse_frames, metavar="A..B", help="the animation's frames")
     p.add_argument("--frame", type=int, metavar="N", help="the frame evaluated (frame_number)")
+    _animation_arguments(p)
+
+
+def _animation_arguments(p: argparse.ArgumentParser) -> None:
+    """The rest of POV-Ray's animation options (+KI +KF +KC +SF +EF +STP)."""
+    p.add_argument("--initial-clock", type=float, default=0.0, help="clock at the first frame")
+    p.add_argument("--final-clock", type=float, default=1.0, help="clock at the last frame")
+    p.add_argument(
+        "--cyclic",
+        action="store_true",
+        help="the last frame is one step before the first again (POV-Ray's +KC)",
+    )
+    for end in ("start", "end"):
+        p.add_argument(
+            f"--subset-{end}",
+            type=float,
+            metavar="F",
+            help=f"the subset's {end} frame: a frame number, or a fraction of the frames "
+            "in (0, 1) (POV-Ray's +SF/+EF)",
+        )
+    p.add_argument("--frame-step", type=_positive_int, default=1, metavar="N", help="+STP")
+
+
+def animation_of(args: argparse.Namespace):
+    """The animation --frames and the other animation options describe (None: a still)."""
+    from lang.animation import Animation
+
+    if args.frames is None:
+        return None
+    return Animation(
+        args.frames[0],
+        args.frames[1],
+        args.initial_clock,
+        args.final_clock,
+        args.cyclic,
+        args.subset_start,
+        args.subset_end,
+        args.frame_step,
+    )
 
 
 def _frame_of(args: argparse.Namespace) -> tuple[float, dict[str, float]]:
     """(clock, animation values) for --clock/--frames/--frame, as `render` sets them."""
     from lang.evaluate import animation_values
 
-    clock, frames, number = args.clock, args.frames, args.frame
-    if frames is not None:
-        first, last = frames
-        number = first if number is None else number
-        if not first <= number <= last:
-            raise UsageError(f"--frame {number} is not in --frames {first}..{last}")
-        clock = 0.0 if last == first else (number - first) / (last - first)
-    return clock, animation_values(clock, frames, number)
+    plan = animation_of(args)
+    if plan is None:
+        return args.clock, animation_values(args.clock, None, args.frame)
+    number = plan.frames()[0] if args.frame is None else args.frame
+    if not plan.first <= number <= plan.last:
+        raise UsageError(f"--frame {number} is not in --frames {plan.first}..{plan.last}")
+    return plan.clock(number), plan.values(number)
 
 
 def _positive_int(text: str) -> int:
@@ -699,21 +738,21 @@ def parse_frames(text: str) -> tuple[int, int]:
     raise argparse.ArgumentTypeError(f"expected FIRST..LAST frame numbers, got {text!r}")
 
 
-def frame_jobs(
-    out: Path, clock: float, frames: tuple[int, int] | None
-) -> list[tuple[Path, float, str]]:
-    """(output, clock, label) per frame. POV-Ray's animation rules: the clock runs from 0
-    at the first frame to 1 at the last, and the frame number, zero-padded to the width of
-    the last one, is appended to the image name."""
+def frame_jobs(out: Path, clock: float, frames) -> list[tuple[Path, float, str]]:
+    """(output, clock, label) per frame of `frames` (a lang.animation.Animation, or
+    (first, last)). POV-Ray's animation rules: the clock runs from the initial clock at
+    the first frame to the final one at the last, and the frame number, zero-padded to the
+    width of the last one, is appended to the image name."""
+    from lang.animation import Animation
+
     if frames is None:
         return [(out, clock, "rendering")]
-    first, last = frames
-    digits = len(str(last))
+    plan = frames if isinstance(frames, Animation) else Animation(*frames)
+    numbers = plan.frames()
     jobs = []
-    for frame in range(first, last + 1):
-        t = 0.0 if last == first else (frame - first) / (last - first)
-        name = out.with_name(f"{out.stem}{frame:0{digits}d}{out.suffix}")
-        jobs.append((name, t, f"frame {frame}/{last}"))
+    for frame in numbers:
+        name = out.with_name(f"{out.stem}{frame:0{plan.digits}d}{out.suffix}")
+        jobs.append((name, plan.clock(frame), f"frame {frame}/{numbers[-1]}"))
     return jobs
 
 
@@ -741,15 +780,14 @@ def cmd_render(args: argparse.Namespace) -> int:
     from lang.evaluate import animation_values
 
     stdout = sys.stdout
-    jobs = frame_jobs(out, args.clock, args.frames)
-    numbers = list(range(args.frames[0], args.frames[1] + 1)) if args.frames else [args.frame]
-    if args.frame is not None and args.frames is not None:
-        if args.frame not in numbers:
-            raise UsageError(
-                f"--frame {args.frame} is not in --frames {args.frames[0]}..{args.frames[1]}"
-            )
-        at = numbers.index(args.frame)
-        jobs, numbers = [(out, jobs[at][1], jobs[at][2])], [args.frame]
+    args.plan = plan = animation_of(args)
+    jobs = frame_jobs(out, args.clock, plan)
+    numbers = plan.frames() if plan is not None else [args.frame]
+    if args.frame is not None and plan is not None:
+        if not plan.first <= args.frame <= plan.last:
+            raise UsageError(f"--frame {args.frame} is not in --frames {plan.first}..{plan.last}")
+        label = f"frame {args.frame}/{plan.last}"
+        jobs, numbers = [(out, plan.clock(args.frame), label)], [args.frame]
     if args.cluster is not None or args.tiles is not None:
         if to_stdout or args.preview:
             raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
@@ -776,7 +814,9 @@ def cmd_render(args: argparse.Namespace) -> int:
             if not args.quiet:
                 print(f"{target} is there, skipped (--resume)", file=sys.stderr)
             continue
-        args.animation = animation_values(clock, args.frames, number)
+        args.animation = (
+            plan.values(number) if plan is not None else animation_values(clock, None, number)
+        )
         # runtime modules print their warnings; on stderr they never mix into an image
         # written to standard output
         with redirect_stdout(sys.stderr):

@@ -103,7 +103,8 @@ HANDLED = {
     "antialias_threshold", "antialias_depth", "library_path", "clock", "work_threads",
     "initial_frame", "final_frame", "subset_start_frame", "subset_end_frame",
     "start_column", "end_column", "start_row", "end_row", "output_file_type", "declare",
-    "sampling_method", "jitter", "jitter_amount", "antialias_gamma",
+    "sampling_method", "jitter", "jitter_amount", "antialias_gamma", "cyclic_animation",
+    "initial_clock", "final_clock", "frame_step",
 }  # fmt: skip
 REPEATED = {"library_path", "declare"}
 
@@ -128,7 +129,6 @@ KNOWN |= {
     "include_ini", "post_frame_command", "post_frame_return", "post_scene_command",
     "post_scene_return", "pre_frame_command", "pre_frame_return", "pre_scene_command",
     "pre_scene_return", "user_abort_command", "user_abort_return", "grayscale_output",
-    "cyclic_animation", "initial_clock", "final_clock", "frame_step",
 }  # fmt: skip
 
 # POV-Ray 3.8's keys: not 3.7's, and what strala does instead
@@ -144,6 +144,13 @@ _REGION = {
     "start_row": "--start-row",
     "end_row": "--end-row",
 }
+_ANIMATION = {
+    "initial_clock": "--initial-clock",
+    "final_clock": "--final-clock",
+    "subset_start_frame": "--subset-start",
+    "subset_end_frame": "--subset-end",
+    "frame_step": "--frame-step",
+}
 _TRUE = {"on", "true", "yes", "1"}
 _SETTING = re.compile(r"[A-Za-z][A-Za-z0-9_]*=")  # `Width=512` on the command line
 
@@ -151,7 +158,8 @@ _SETTING = re.compile(r"[A-Za-z][A-Za-z0-9_]*=")  # `Width=512` on the command l
 VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
 VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height", "--frames"}
 VALUE_OPTIONS |= {"--frame", "--cluster", "--tiles", "--declare", "--aa-method"}
-VALUE_OPTIONS |= {"--jitter", "--aa-gamma", "-r", "--recursive"}
+VALUE_OPTIONS |= {"--jitter", "--aa-gamma", "-r", "--recursive", "--frame-step"}
+VALUE_OPTIONS |= {"--initial-clock", "--final-clock", "--subset-start", "--subset-end"}
 VALUE_OPTIONS |= {"--indent", "--output-type", "--radiosity-cache", "--reference"}
 _OWN_SHORT = {"-o", "-W", "-H", "-L", "-q", "-h", "-r"}  # strala's own short options
 
@@ -303,15 +311,18 @@ def _strala_options(
 
 
 def _frame_options(settings: dict[str, list[str]]) -> list[str]:
-    """--frames from Initial_Frame/Final_Frame; --frame from a subset's first frame."""
+    """--frames from Initial_Frame/Final_Frame, and the other animation settings."""
     out: list[str] = []
     first_last = [settings.get(k) for k in ("initial_frame", "final_frame")]
     if any(first_last):
         first = first_last[0][-1] if first_last[0] else "1"
         last = first_last[1][-1] if first_last[1] else first
         out += ["--frames", f"{first}..{last}"]
-    if "subset_start_frame" in settings:
-        out += ["--frame", settings["subset_start_frame"][-1]]
+    for key, option in _ANIMATION.items():
+        if key in settings:
+            out += [option, _unquote(settings[key][-1])]
+    if settings.get("cyclic_animation", ["off"])[-1].lower() in _TRUE:
+        out.append("--cyclic")
     return out
 
 

@@ -777,3 +777,11 @@ def test_method_3_renders_as_method_2_with_a_warning(tmp_path):
     r = run_cli("render", str(scene), "+A", "+AM3", "-W8", "-H8", "-o", str(tmp_path / "a.png"))
     assert r.returncode == 0, r.stderr
     assert "method 3 is POV-Ray 3.8's: rendering with method 2" in r.stderr
+
+
+def test_animation_switches_and_settings():
+    out, warnings = _translate("+KFI1", "+KFF4", "+KC", "+KI2", "+KF3", "+SF0.5", "+EF3")
+    assert out == ["--frames", "1..4", "--initial-clock", "2", "--final-clock", "3",
+                   "--subset-start", "0.5", "--subset-end", "3", "--cyclic"]  # fmt: skip
+    assert warnings == []
+    assert _translate("Cyclic_Animation=on", "Frame_Step=2")[0] == ["--frame-step", "2", "--cyclic"]
