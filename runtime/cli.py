@@ -102,6 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action=_VersionAction, nargs=0, help="show the version")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    # each command's own parser, to say an unknown option with that command's usage line
+    parser.set_defaults(parsers=sub.choices)
 
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument(
@@ -322,8 +324,8 @@ def _frame_arguments(p: argparse.ArgumentParser) -> None:
 
 def _animation_arguments(p: argparse.ArgumentParser) -> None:
     """The rest of POV-Ray's animation options (+KI +KF +KC +SF +EF +STP)."""
-    p.add_argument("--initial-clock", type=float, default=0.0, help="clock at the first frame")
-    p.add_argument("--final-clock", type=float, default=1.0, help="clock at the last frame")
+    p.add_argument("--initial-clock", type=float, default=0.0, metavar="T", help="+KI")
+    p.add_argument("--final-clock", type=float, default=1.0, metavar="T", help="+KF")
     p.add_argument(
         "--cyclic",
         action="store_true",
@@ -1156,7 +1158,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         argv = translate_povray_args(argv, warnings)
     except OptionError as exc:
         parser.error(str(exc))
-    args = parser.parse_args(argv)  # exits 2 on a bad command line
+    args, unknown = parser.parse_known_args(argv)  # exits 2 on a bad command line
+    if unknown:  # said with the command's usage line, not the top level's
+        args.parsers[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
     # The evaluator allocates many small objects and few cycles: collecting every 700
     # allocations cost a few percent of a short render for nothing.
     gc.set_threshold(20000, 20, 20)

@@ -199,10 +199,14 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
         if message not in warn:
             warn.append(message)
 
+    warned: set[str] = set()  # one warning a key, however often it is given
+
     def setting(key: str, value: str, written: str) -> None:
         key = key.lower()
-        if key in QUIET:
+        if key in QUIET or (key in warned and key not in HANDLED):
             return
+        if key not in HANDLED:
+            warned.add(key)
         if key in NEWER:
             note(f"ignoring {written}: {NEWER[key]}")
             return
@@ -239,7 +243,7 @@ def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
             setting(key, value.strip(), tok)
         elif len(tok) < 2 or tok[0] not in "+-" or tok.startswith("--"):
             out.append(tok)
-        elif tok[0] == "-" and tok[:2] in _OWN_SHORT:
+        elif _own_short(tok):
             out.append(tok)  # strala's own short option (-W512, -q…): argparse judges it
         else:
             found = switch_settings(tok)
@@ -324,6 +328,16 @@ def _frame_options(settings: dict[str, list[str]]) -> list[str]:
     if settings.get("cyclic_animation", ["off"])[-1].lower() in _TRUE:
         out.append("--cyclic")
     return out
+
+
+def _own_short(tok: str) -> bool:
+    """strala's -W512, -o out.png, -q…, which POV-Ray's -WT2, -HR, -Q9 only start like."""
+    head, rest = tok[:2], tok[2:]
+    if head in ("-W", "-H"):
+        return not rest or rest.isdigit()
+    if head in ("-q", "-h", "-r"):
+        return not rest
+    return head in _OWN_SHORT
 
 
 def _unquote(text: str) -> str:

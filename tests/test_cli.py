@@ -17,7 +17,7 @@ from conftest import EXAMPLES, ROOT, run_cli
 from hypothesis import given
 from hypothesis import strategies as st
 
-from runtime import cli
+from runtime import cli, povray_options
 from runtime.progress import Progress, format_seconds
 
 EX3 = EXAMPLES / "ex3.scene"
@@ -768,7 +768,7 @@ def test_anti_aliasing_methods_jitter_and_gamma_switches():
     ]  # fmt: skip
     assert _translate("Jitter=off", "Jitter_Amount=0.5")[0] == ["--jitter", "0"]
     out, warnings = _translate("Antialias_Confidence=0.9", "+AC0.9")
-    assert out == [] and len(warnings) == 2 and all("method 3" in w for w in warnings)
+    assert out == [] and len(warnings) == 1 and "method 3" in warnings[0]  # one a key
 
 
 def test_method_3_renders_as_method_2_with_a_warning(tmp_path):
@@ -785,3 +785,38 @@ def test_animation_switches_and_settings():
                    "--subset-start", "0.5", "--subset-end", "3", "--cyclic"]  # fmt: skip
     assert warnings == []
     assert _translate("Cyclic_Animation=on", "Frame_Step=2")[0] == ["--frame-step", "2", "--cyclic"]
+
+
+_TAKES_A_NAME = {"input_file_name", "output_file_name", "library_path", "declare"}
+
+
+_VALUED = [s for s in povray_options.SWITCHES if s[1] not in _TAKES_A_NAME]
+
+
+@pytest.mark.parametrize("switch", _VALUED)
+@pytest.mark.parametrize("sign", ["+", "-"])
+def test_every_povray_switch_is_done_or_warned_never_a_usage_error(switch, sign):
+    name, value_key, _ = switch
+    tok = sign + name + ("1" if value_key else "")
+    out, warnings = _translate(tok, "s.pov")
+    cli.build_parser().parse_args(["render", *out])  # raises SystemExit on a usage error
+    assert len(warnings) <= 1 and all(w.count(tok) == 1 for w in warnings)
+
+
+@pytest.mark.parametrize("key", sorted(povray_options.KNOWN - _TAKES_A_NAME))
+def test_every_povray_ini_key_is_done_or_warned_never_a_usage_error(key):
+    out, warnings = _translate(f"{key.title()}=1", f"{key}=1", "s.pov")
+    cli.build_parser().parse_args(["render", *out])
+    assert len(warnings) <= 1  # the same key twice: one warning
+
+
+def test_an_unknown_option_is_told_with_the_commands_usage(tmp_path):
+    r = run_cli("render", "x.scene", "--bogus")
+    assert r.returncode == 2
+    assert r.stderr.startswith("usage: strala render ")
+    assert "strala render: error: unrecognized arguments: --bogus" in r.stderr
+    r = run_cli("check", "x.scene", "+ZZ9", "Foo_Bar=3", "-UV", cwd=tmp_path)
+    assert r.returncode == 1  # x.scene is missing; the options only warn
+    assert "ignoring +ZZ9: not a POV-Ray 3.7 option" in r.stderr
+    assert "ignoring Foo_Bar=3: not a POV-Ray 3.7 option" in r.stderr
+    assert "ignoring POV-Ray option -UV" in r.stderr
