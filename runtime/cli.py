@@ -506,6 +506,21 @@ def check_image_size(width: int, height: int) -> None:
         )
 
 
+def check_writable(out: Path) -> None:
+    """Refuse, before any work, an output whose folder is missing or cannot take a new
+    file (read-only, no permission): images are written beside the target and renamed."""
+    import tempfile
+
+    folder = out.parent
+    if not folder.is_dir():
+        raise UsageError(f"cannot write {out}: folder {folder} does not exist")
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".strala-probe-"):
+            pass
+    except OSError as exc:
+        raise UsageError(f"cannot write {out}: {exc.strerror.lower()} in {folder}") from None
+
+
 def image_size(args: argparse.Namespace) -> tuple[int, int]:
     """As POV-Ray: a side not given keeps its default (320×240), whatever the other one is."""
     width = getattr(args, "width", None) or POVRAY_DEFAULT_SIZE[0]
@@ -654,8 +669,7 @@ def _translate_jobs(args: argparse.Namespace) -> list[tuple[Path, Path]]:
     target = output_path(args.file, args.output, ".scene")
     if target.resolve() == source.resolve():
         raise UsageError(f"the translation would overwrite {source}; name another with -o")
-    if not target.parent.is_dir():
-        raise UsageError(f"cannot write {target}: folder {target.parent} does not exist")
+    check_writable(target)
     return [(source, target)]
 
 
@@ -773,8 +787,8 @@ def cmd_render(args: argparse.Namespace) -> int:
         image.output_format(out, args.bits)
     except image.ImageFormatError as exc:
         raise UsageError(str(exc)) from None
-    if not to_stdout and not out.parent.is_dir():
-        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    if not to_stdout:
+        check_writable(out)
     if args.frames is not None and args.file.lower().endswith(".json"):
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
     check_image_size(*image_size(args))
@@ -1031,8 +1045,7 @@ def cmd_compile(args: argparse.Namespace) -> int:
         sys.stdout.write(text + "\n")
         return 0
     out = output_path(args.file, args.output, ".json")
-    if not out.parent.is_dir():
-        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    check_writable(out)
     try:
         _write_text_atomically(out, text + "\n")
     except OSError as exc:
@@ -1054,8 +1067,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     out = output_path(args.file, args.output, ".obj")
     if out.suffix.lower() not in (".obj", ".ply"):
         raise UsageError(f"cannot export to `{out.suffix}`: use .obj or .ply")
-    if not out.parent.is_dir():
-        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    check_writable(out)
     from runtime import export
 
     mesh = export.collect(scene, (args.width or 320))

@@ -243,6 +243,31 @@ def test_unwritable_output_is_a_usage_error_before_rendering(tmp_path, capsys):
     assert "cannot write `.bmpx` images" in capsys.readouterr().err
     assert cli.main(["render", str(scene), "-o", str(tmp_path / "no" / "x.png")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def _read_only_folders(tmp_path):
+    """Folders no new file can go into: /sys refuses even root; a chmod'd one others."""
+    folders = [Path("/sys")] if Path("/sys").is_dir() else []
+    if os.geteuid() != 0:
+        locked = tmp_path / "locked"
+        locked.mkdir()
+        locked.chmod(0o555)
+        folders.append(locked)
+    return folders
+
+
+def test_a_read_only_output_folder_is_refused_at_once(tmp_path, capsys):
+    # the scene is broken: reaching it would exit 1, not 2
+    scene = tmp_path / "s.pov"
+    scene.write_text("sphere { 0, 1 \n")
+    folders = _read_only_folders(tmp_path)
+    assert folders
+    for folder in folders:
+        for extra in ([], ["--frames", "1..3"]):
+            assert cli.main(["render", str(scene), "-o", str(folder / "x.png"), *extra]) == 2
+            err = capsys.readouterr().err
+            assert err.count("\n") == 1 and f"cannot write {folder / 'x.png'}" in err, err
+            assert "tmp" not in err.replace(str(tmp_path), "")  # no hidden temporary file
     assert cli.main(["render", str(scene), "-o", str(tmp_path / "x.jpg"), "--bits", "16"]) == 2
 
 
