@@ -518,7 +518,9 @@ def check_writable(out: Path) -> None:
         with tempfile.NamedTemporaryFile(dir=folder, prefix=".strala-probe-"):
             pass
     except OSError as exc:
-        raise UsageError(f"cannot write {out}: {exc.strerror.lower()} in {folder}") from None
+        raise UsageError(
+            f"cannot write {out}: {(exc.strerror or str(exc)).lower()} in {folder}"
+        ) from None
 
 
 def image_size(args: argparse.Namespace) -> tuple[int, int]:
