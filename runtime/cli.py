@@ -189,7 +189,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--preview",
         action="store_true",
-        help="write coarse passes (1/8, 1/4, 1/2 size) to the output before the final image",
+        help="write coarse passes (1/8, 1/4, 1/2 size) to SCENE.preview.png beside the output "
+        "while the final image renders (the output is replaced only by the final image)",
     )
     r.add_argument(
         "--stats",
@@ -901,13 +902,14 @@ def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | N
 
 
 @contextmanager
-def _quick_interrupt() -> Iterator[None]:
+def _quick_interrupt(cleanup: Path | None = None) -> Iterator[None]:
     """^C during a render stops the process at once.
 
     A KeyboardInterrupt would have to unwind through the render's thread pool, which
     finishes every queued tile before it lets go; nothing is on disk yet while pixels are
     being computed, so leaving immediately loses nothing. Outside this block (writing the
-    image) ^C is an ordinary KeyboardInterrupt, so the temporary file is cleaned up."""
+    image) ^C is an ordinary KeyboardInterrupt, so the temporary file is cleaned up.
+    `cleanup`: a file to remove before leaving (the preview's)."""
     import signal
     import threading
 
@@ -920,6 +922,8 @@ def _quick_interrupt() -> Iterator[None]:
         return
 
     def stop(signum, frame):
+        if cleanup is not None:
+            cleanup.unlink(missing_ok=True)
         sys.stderr.write("\nstrala: interrupted\n")
         sys.stderr.flush()
         os._exit(130)
@@ -950,32 +954,43 @@ def _render_one(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
     stats: dict = {}
+    preview = None
     if getattr(args, "preview", False) and out.stem != "-":
-        try:
-            _preview_passes(args, scene, out, width, height, region)
-        except (SceneError, OSError) as exc:
-            print(f"strala: preview skipped: {exc}", file=sys.stderr)
-    with Progress(label, enabled=False if args.quiet else None) as bar, _quick_interrupt():
-        try:
-            pixels = render_scene(
-                scene,
-                width,
-                height,
-                antialias=args.aa,
-                aa_depth=args.aa_depth,
-                aa_method=min(args.aa_method, 2),
-                jitter=args.jitter,
-                aa_gamma=args.aa_gamma,
-                threads=args.threads,
-                progress=bar,
-                region=region,
-                stats=stats,
-                **_radiosity_options(args),
-            )
-        except SceneError as exc:
-            bar.close()
-            print_diagnostics([exc.diagnostic], sys.stderr, summary=False)
-            return 1
+        preview = preview_path(out)
+    try:
+        with _quick_interrupt(preview):  # ^C in a preview pass too: only the preview goes
+            if preview is not None:
+                try:
+                    _preview_passes(args, scene, preview, width, height, region)
+                except (SceneError, OSError) as exc:
+                    print(f"strala: preview skipped: {exc}", file=sys.stderr)
+        with (
+            Progress(label, enabled=False if args.quiet else None) as bar,
+            _quick_interrupt(preview),
+        ):
+            try:
+                pixels = render_scene(
+                    scene,
+                    width,
+                    height,
+                    antialias=args.aa,
+                    aa_depth=args.aa_depth,
+                    aa_method=min(args.aa_method, 2),
+                    jitter=args.jitter,
+                    aa_gamma=args.aa_gamma,
+                    threads=args.threads,
+                    progress=bar,
+                    region=region,
+                    stats=stats,
+                    **_radiosity_options(args),
+                )
+            except SceneError as exc:
+                bar.close()
+                print_diagnostics([exc.diagnostic], sys.stderr, summary=False)
+                return 1
+    finally:  # the preview never outlives the render, finished or not
+        if preview is not None:
+            preview.unlink(missing_ok=True)
     try:
         if out.stem == "-":
             _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
@@ -1008,9 +1023,15 @@ PREVIEW_FACTORS = (8, 4, 2)
 PREVIEW_MIN_SIZE = 16  # a pass narrower or lower than this is not worth writing
 
 
+def preview_path(out: Path) -> Path:
+    """Where --preview writes its passes: beside the output (SCENE.preview.png), so a
+    finished image is never replaced by a coarse one; removed when the render ends."""
+    return out.with_name(f"{out.stem}.preview{out.suffix}")
+
+
 def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> None:
-    """Coarse passes written to `out` (atomically, each replacing the last) before the
-    final render: blocky first, sharper each time, no anti-aliasing."""
+    """Coarse passes written to `out` (the preview file; atomically, each replacing the
+    last) before the final render: blocky first, sharper each time, no anti-aliasing."""
     import numpy as np
 
     from runtime import image

@@ -580,6 +580,32 @@ def test_interrupted_render_stops_at_once_and_leaves_no_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_interrupting_a_preview_leaves_the_earlier_image_as_it_was(tmp_path):
+    import signal
+    import time
+
+    out = tmp_path / "ex3.png"
+    assert run_cli("render", str(EX3), "-W", "32", "-H", "24", "-o", str(out)).returncode == 0
+    earlier = out.read_bytes()
+    preview = cli.preview_path(out)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "runtime.cli", "render", str(EX3), "-W", "3000", "-H", "3000",
+         "--aa", "0", "--aa-depth", "6", "--preview", "-o", str(out)],
+        cwd=ROOT, stdin=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
+    deadline = time.monotonic() + 60
+    while not preview.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    assert preview.exists(), "no preview pass was written"
+    time.sleep(0.5)
+    os.kill(proc.pid, signal.SIGINT)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 130, err
+    assert out.read_bytes() == earlier  # the finished image, untouched
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ex3.png"]  # no preview left
+
+
 def test_render_from_compiled_ir_matches_render_from_source(tmp_path):
     from runtime.image import read_image
 
@@ -674,6 +700,8 @@ def test_preview_writes_coarse_passes_then_the_same_final_image(tmp_path):
     r = run_cli("render", str(scene), "-W", "128", "-H", "96", "--preview", "-o", str(a))
     assert r.returncode == 0, r.stderr
     passes = [line for line in r.stderr.splitlines() if line.startswith("preview")]
+    assert all(str(cli.preview_path(a)) in p for p in passes) and passes
+    assert not cli.preview_path(a).exists()  # gone once the final image is written
     # 1/8 would be 16x12, under the 16-pixel minimum: two passes
     assert [p.split()[1] for p in passes] == ["32x24", "64x48"]
     assert (
