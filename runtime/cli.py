@@ -470,6 +470,19 @@ def print_diagnostics(diags: Sequence[Diagnostic], stream: TextIO, summary: bool
         print(f"{_plural(errors, 'error')}, {_plural(warnings, 'warning')}", file=stream)
 
 
+# Advice on how a scene is written, not on what it renders: `strala check` says it.
+CHECK_ONLY = frozenset({"W0400", "W0401"})
+DEBUG_NOTE = "N0100"  # a #debug message: render prints its text as it is, not as a note
+
+
+def render_diagnostics(diags: Sequence[Diagnostic], quiet: bool) -> list[Diagnostic]:
+    """What `render` says of a scene: errors always; warnings unless quiet, but not the
+    check-only advice; #debug text is printed as the scene runs, so not again as notes."""
+    if quiet:
+        return [d for d in diags if d.severity is Severity.ERROR]
+    return [d for d in diags if d.code not in CHECK_ONLY and d.code != DEBUG_NOTE]
+
+
 def _missing(path: str) -> Diagnostic | None:
     """A diagnostic when the input file cannot be read (never a traceback)."""
     p = Path(path)
@@ -823,7 +836,9 @@ def cmd_render(args: argparse.Namespace) -> int:
                 numbers,
                 (width, height),
                 region,
-                lambda diags: print_diagnostics(diags, sys.stderr, summary=False),
+                lambda diags: print_diagnostics(
+                    render_diagnostics(diags, args.quiet), sys.stderr, summary=False
+                ),
             )
         except render_job.JobError as exc:
             raise UsageError(str(exc)) from None
@@ -943,7 +958,7 @@ def _render_one(
 
     start = time.perf_counter()
     scene, diags = _load_scene(args, clock)
-    print_diagnostics(diags, sys.stderr, summary=False)
+    print_diagnostics(render_diagnostics(diags, args.quiet), sys.stderr, summary=False)
     if scene is None or _counts(diags)[0]:
         return 1
 

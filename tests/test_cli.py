@@ -873,3 +873,19 @@ def test_an_unknown_option_is_told_with_the_commands_usage(tmp_path):
     assert "ignoring +ZZ9: not a POV-Ray 3.7 option" in r.stderr
     assert "ignoring Foo_Bar=3: not a POV-Ray 3.7 option" in r.stderr
     assert "ignoring POV-Ray option -UV" in r.stderr
+
+
+def test_render_leaves_advice_to_check_and_quiet_leaves_only_errors(tmp_path):
+    scene = tmp_path / "s.pov"
+    scene.write_text(
+        '#declare Unused = 1;\n#debug "hello\\n"\n#warning "careful"\n'
+        "camera { location -3*z look_at 0 }\nsphere { 0, 1 pigment { rgb 1 } }\n"
+    )
+    out = str(tmp_path / "s.png")
+    r = run_cli("render", str(scene), "-W", "8", "-H", "8", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert "never used" not in r.stderr and "careful" in r.stderr
+    assert r.stderr.count("hello") == 1  # the #debug text, not again as a note
+    quiet = run_cli("render", str(scene), "-W", "8", "-H", "8", "-o", out, "-q", "+Q9")
+    assert quiet.returncode == 0 and quiet.stderr == ""
+    assert "`Unused` is declared but never used" in run_cli("check", str(scene)).stdout
