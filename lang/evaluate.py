@@ -9,6 +9,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from lang import scene_store
+from lang.animation import NAMES, Animation
 from lang.diagnostics import Diagnostic, Severity, Span
 from lang.eval.interpreter import Interpreter, Result
 from lang.queries import QueriesFactory
@@ -22,36 +23,18 @@ def animation_values(
     """The identifiers an animation sets, as POV-Ray sets them: a still image (no frame range,
     or one of a single frame) sees 0 for all but `clock_on` (1 when a clock is given); frame
     `frame` of `frames` (first, last), with the clock running from 0 to 1, sees its number,
-    the range, and the clock's step per frame."""
-    if frames is not None and frames[0] == frames[1]:
-        frame = None  # POV-Ray: an animation of one frame is a still image
-    if frames is None or frames[0] == frames[1]:
-        values = dict.fromkeys(_ANIMATION_NAMES, 0.0)
-        values["clock_on"] = 1.0 if clock or frame is not None else 0.0
-        if frame is not None:
-            values["frame_number"] = float(frame)
-        return values
-    first, last = frames
-    return {
-        "frame_number": float(first if frame is None else frame),
-        "initial_frame": float(first),
-        "final_frame": float(last),
-        "initial_clock": 0.0,
-        "final_clock": 1.0,
-        "clock_delta": 1.0 / (last - first),
-        "clock_on": 1.0,
-    }
+    the range, and the clock's step per frame (lang.animation for the other settings)."""
+    if frames is not None and frames[0] != frames[1]:
+        first, last = frames
+        return Animation(first, last).values(first if frame is None else frame)
+    values = dict.fromkeys(_ANIMATION_NAMES, 0.0)
+    values["clock_on"] = 1.0 if clock or (frame is not None and frames is None) else 0.0
+    if frame is not None and frames is None:
+        values["frame_number"] = float(frame)
+    return values
 
 
-_ANIMATION_NAMES = (
-    "frame_number",
-    "initial_frame",
-    "final_frame",
-    "initial_clock",
-    "final_clock",
-    "clock_delta",
-    "clock_on",
-)
+_ANIMATION_NAMES = NAMES
 
 
 def compile_file(
@@ -66,6 +49,7 @@ def compile_file(
     animation: Mapping[str, float] | None = None,
     queries: QueriesFactory | None = None,
     store: bool = False,
+    declares: Mapping[str, float] | None = None,
 ) -> Result:
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -85,6 +69,7 @@ def compile_file(
         animation=animation,
         queries=queries,
         store=store,
+        declares=declares,
     )
 
 
@@ -101,11 +86,13 @@ def compile_source(
     animation: Mapping[str, float] | None = None,
     queries: QueriesFactory | None = None,
     store: bool = False,
+    declares: Mapping[str, float] | None = None,
 ) -> Result:
     """`queries` answers trace() and inside() (see lang.queries); without it they miss.
 
     store: keep the result in `lang.scene_store` and take it from there while nothing it
-    read has changed (the command line does; `symbols` is then empty)."""
+    read has changed (the command line does; `symbols` is then empty). declares: names
+    declared before the scene is read (POV-Ray's `Declare=Name=Value` option)."""
     name = ""
     if store:
         options = (
@@ -117,6 +104,7 @@ def compile_source(
             debug_to_stderr,
             tuple(sorted((animation or {}).items())),
             queries is not None,
+            tuple(sorted((declares or {}).items())),
         )
         name = scene_store.key(text, filename, options)
         entry = scene_store.load(name)
@@ -133,6 +121,7 @@ def compile_source(
         debug_to_stderr=debug_to_stderr,
         animation=animation,
         queries=queries,
+        declares=declares,
     )
     result = interp.run(text, filename)
     if store and result.scene is not None and interp.standalone(result):

@@ -1,34 +1,16 @@
 """POV-Ray INI files: the one reader (the command line turns an INI file into POV-Ray
-switches with it; lang.paths takes the `Library_Path` entries of the INI file POV-Ray reads
+options with it; lang.paths takes the `Library_Path` entries of the INI file POV-Ray reads
 by default from it)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-# INI keys → the POV-Ray switch each one stands for (the value follows the switch)
-KEYS = {
-    "input_file_name": "+I",
-    "output_file_name": "+O",
-    "width": "+W",
-    "height": "+H",
-    "antialias_threshold": "+A",
-    "antialias_depth": "+R",
-    "library_path": "+L",
-    "clock": "+K",
-    "work_threads": "+WT",
-    "initial_frame": "+KFI",
-    "final_frame": "+KFF",
-    "start_column": "+SC",
-    "end_column": "+EC",
-    "start_row": "+SR",
-    "end_row": "+ER",
-}
-
 
 def ini_tokens(path: Path) -> list[str]:
-    """POV-Ray INI file → command-line tokens (the main section only; `;` comments).
-    OSError when the file cannot be read."""
+    """POV-Ray INI file → command-line tokens (the main section only; `;` comments): a
+    switch line gives its switches, a `Key=Value` line the token `Key=Value` (the form
+    POV-Ray's command line takes too). OSError when the file cannot be read."""
     tokens: list[str] = []
     text = path.read_text(encoding="utf-8", errors="replace")
     for raw in text.splitlines():
@@ -41,13 +23,8 @@ def ini_tokens(path: Path) -> list[str]:
             tokens.extend(line.split())
             continue
         key, sep, value = line.partition("=")
-        key, value = key.strip().lower(), value.strip().strip('"')
-        if not sep:
-            continue
-        if key == "antialias":
-            tokens.append("+A" if value.lower() in ("on", "true", "yes", "1") else "-A")
-        elif key in KEYS:
-            tokens.append(KEYS[key] + value)
+        if sep and key.strip():
+            tokens.append(f"{key.strip()}={value.strip()}")
     return tokens
 
 
@@ -58,4 +35,11 @@ def library_paths_of(path: Path) -> list[str]:
         tokens = ini_tokens(path)
     except OSError:
         return []
-    return [t[2:] for t in tokens if t[:2] in ("+L", "+l") and len(t) > 2]
+    found = []
+    for t in tokens:
+        key, sep, value = t.partition("=")
+        if sep and key.lower() == "library_path":
+            found.append(value.strip('"'))
+        elif t[:2] in ("+L", "+l") and len(t) > 2:
+            found.append(t[2:])
+    return found

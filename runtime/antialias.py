@@ -15,6 +15,7 @@ of tiling and vectorises (the supersampled set differs only in rare order-depend
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,6 +24,18 @@ from runtime import color
 
 DEFAULT_THRESHOLD: float = 0.3
 DEFAULT_DEPTH: int = 3
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How a render samples its pixels: POV-Ray's +AM (0: one ray per pixel, 1 or 2), +A,
+    +R, +J (None: POV-Ray's default) and +AG."""
+
+    method: int = 0
+    threshold: float = DEFAULT_THRESHOLD
+    depth: int = DEFAULT_DEPTH
+    jitter: float | None = None
+    gamma: float = color.AA_GAMMA
 
 
 def grid_offsets(depth: int) -> np.ndarray:
@@ -63,6 +76,7 @@ def antialias_tile(
     inner: tuple[slice, slice],
     pixel_xy: tuple[np.ndarray, np.ndarray],
     shoot: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    gamma: float = color.AA_GAMMA,
 ) -> tuple[np.ndarray, int]:
     """Supersample the inner part of an extended tile.
 
@@ -70,7 +84,7 @@ def antialias_tile(
     it; pixel_xy: (H_ext, W_ext) integer pixel coordinates; shoot(xs, ys) traces rays
     through continuous pixel coordinates. Returns the tile's (h, w, 3) colours and the number
     of supersampled pixels."""
-    metric = color.aa_metric_space(first, settings)
+    metric = color.aa_metric_space(first, settings, gamma)
     mask = edge_mask(metric, threshold)[inner]
     out = first[inner].copy()
     rows, cols = np.nonzero(mask)

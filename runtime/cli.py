@@ -30,7 +30,7 @@ from typing import TextIO
 
 from lang import paths
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
-from lang.ini import ini_tokens
+from runtime.povray_options import OptionError, parse_declare, translate_povray_args
 
 # Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
 COMMANDS = ("render", "check", "translate", "compile", "export", "fmt", "bench", "lsp")
@@ -45,100 +45,8 @@ class UsageError(Exception):
 
 
 # ------------------------------------------------------------ POV-Ray options
-# Options that take a separate value: the token after them is never translated.
-_VALUE_OPTIONS = {"-o", "-W", "-H", "--aa-depth", "-L", "--library", "--threads", "--bits"}
-_VALUE_OPTIONS |= {"--clock", "--format", "--output", "--width", "--height", "--frames"}
-_VALUE_OPTIONS |= {"--frame", "--cluster", "--tiles"}
-_VALUE_OPTIONS |= {"--indent", "--output-type", "--radiosity-cache"}
-# Display, verbosity, pause and statistics switches change nothing in a file render.
-_IGNORED = ("D", "V", "P", "X", "GA", "GD", "GF", "GR", "GS", "GW", "GI", "GP", "UA", "UD")
-_FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
 _REGION = {"SC": "--start-col", "EC": "--end-col", "SR": "--start-row", "ER": "--end-row"}
-_OWN_SHORT = {"-o", "-W", "-H", "-L", "-q", "-h"}
-
-
-def _ini_tokens(path: Path) -> list[str]:
-    """POV-Ray INI file → command-line tokens (lang.ini reads it)."""
-    try:
-        return ini_tokens(path)
-    except OSError as exc:
-        raise UsageError(f"cannot read {path}: {exc.strerror}") from None
-
-
-def translate_povray_args(argv: Sequence[str], warn: list[str]) -> list[str]:
-    """Rewrite POV-Ray style switches (`+W512 +A0.3 +Oout.png +Iscene.pov -D`) and INI
-    files into strala options. Unknown `+X` switches are dropped with a warning."""
-    out: list[str] = []
-    frames: dict[str, int] = {}
-    after_value_option = False
-    pending = list(argv)
-    while pending:
-        tok = pending.pop(0)
-        if after_value_option:
-            out.append(tok)
-            after_value_option = False
-            continue
-        if tok in _VALUE_OPTIONS:
-            out.append(tok)
-            after_value_option = True
-            continue
-        if tok.lower().endswith(".ini") and not tok.startswith(("+", "-")):
-            pending[:0] = _ini_tokens(Path(tok))
-            continue
-        if len(tok) < 2 or tok[0] not in "+-" or tok.startswith("--"):
-            out.append(tok)
-            continue
-        sign, body = tok[0], tok[1:]
-        if sign == "-" and tok[:2] in _OWN_SHORT:
-            out.append(tok)  # strala's own short option (-W512, -q…): argparse judges it
-            continue
-        upper = body.upper()
-        head, rest = upper[:1], body[1:]
-        if upper in _IGNORED or (head == "G" and len(upper) <= 3):
-            continue
-        if sign == "-":
-            out.append("--no-aa" if head == "A" else tok)
-        elif upper.startswith("WT") and rest[1:].isdigit():
-            out += ["--threads", rest[1:]]
-        elif head in "WH" and rest:
-            out += ["-" + head, rest]
-        elif head == "A":
-            out += ["--aa", rest] if rest else ["--aa"]
-        elif head == "R" and rest:
-            out += ["--aa-depth", rest]
-        elif head in "OIL":
-            value = rest or (pending.pop(0) if pending else "")
-            if not value:
-                raise UsageError(f"{tok} needs a value")
-            out += {"O": ["-o", value], "I": [value], "L": ["-L", value]}[head]
-        elif upper[:2] in _REGION and _is_number(body[2:]):
-            out += [_REGION[upper[:2]], body[2:]]
-        elif upper.startswith(("KFI", "KFF")) and body[3:].isdigit():
-            frames[upper[:3]] = int(body[3:])
-        elif upper.startswith("SF") and body[2:].isdigit():
-            out += ["--frame", body[2:]]  # the first frame of a subset (+EF: the same one)
-        elif upper.startswith("EF") and body[2:].isdigit():
-            pass
-        elif head == "K" and rest and rest[0] in "0123456789.-":
-            out += ["--clock", rest]
-        elif head == "F" and rest[:1].upper() in _FILE_TYPES:
-            out += ["--output-type", _FILE_TYPES[rest[0].upper()]]
-            if rest[1:].isdigit():
-                out += ["--bits", rest[1:]]
-        else:
-            warn.append(f"ignoring POV-Ray option {tok}")
-    if frames:
-        first = frames.get("KFI", 1)
-        out += ["--frames", f"{first}..{frames.get('KFF', first)}"]
-    return out
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+_FILE_TYPES = {"N": ".png", "E": ".exr", "J": ".jpg"}
 
 
 def resolve_region(
@@ -194,6 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action=_VersionAction, nargs=0, help="show the version")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    # each command's own parser, to say an unknown option with that command's usage line
+    parser.set_defaults(parsers=sub.choices)
 
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument(
@@ -206,6 +116,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         metavar="DIR",
         help="extra #include search folder (repeatable)",
+    )
+    common.add_argument(
+        "--declare",
+        action="append",
+        type=_declare,
+        default=[],
+        metavar="NAME=VALUE",
+        help="declare a float before the scene is read (POV-Ray's Declare=NAME=VALUE)",
     )
 
     r = sub.add_parser("render", parents=[common], help="render a scene to an image")
@@ -225,6 +143,23 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--no-aa", dest="aa", action="store_const", const=None, help="no anti-aliasing")
     r.add_argument("--aa-depth", type=_aa_depth, default=3, metavar="N", help="1..9 (default 3)")
+    r.add_argument(
+        "--aa-method",
+        type=int,
+        choices=(1, 2, 3),
+        default=1,
+        help="POV-Ray's +AM: 1 supersamples edges on a grid, 2 subdivides pixels "
+        "recursively (3, POV-Ray 3.8's, is rendered as 2)",
+    )
+    r.add_argument(
+        "--jitter",
+        type=_jitter,
+        metavar="J",
+        help="+J: how far method 2 jitters its rays, 0..1 (default 1; 0 off)",
+    )
+    r.add_argument(
+        "--aa-gamma", type=float, default=2.5, metavar="G", help="+AG: gamma of the comparison"
+    )
     r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
     r.add_argument("--bits", type=int, choices=(8, 16, 32), help="PNG/TIFF 8|16, EXR 16|32")
     r.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
@@ -241,6 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the frame number the scene sees (frame_number); with --frames, render only "
         "frame N of them, to the image named as is",
     )
+    _animation_arguments(r)
     r.add_argument(
         "--radiosity-cache",
         metavar="DIR|FILE",
@@ -253,7 +189,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--preview",
         action="store_true",
-        help="write coarse passes (1/8, 1/4, 1/2 size) to the output before the final image",
+        help="write coarse passes (1/8, 1/4, 1/2 size) to SCENE.preview.png beside the output "
+        "while the final image renders (the output is replaced only by the final image)",
     )
     r.add_argument(
         "--stats",
@@ -383,20 +320,58 @@ def _frame_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
     p.add_argument("--frames", type=parse_frames, metavar="A..B", help="the animation's frames")
     p.add_argument("--frame", type=int, metavar="N", help="the frame evaluated (frame_number)")
+    _animation_arguments(p)
+
+
+def _animation_arguments(p: argparse.ArgumentParser) -> None:
+    """The rest of POV-Ray's animation options (+KI +KF +KC +SF +EF +STP)."""
+    p.add_argument("--initial-clock", type=float, default=0.0, metavar="T", help="+KI")
+    p.add_argument("--final-clock", type=float, default=1.0, metavar="T", help="+KF")
+    p.add_argument(
+        "--cyclic",
+        action="store_true",
+        help="the last frame is one step before the first again (POV-Ray's +KC)",
+    )
+    for end in ("start", "end"):
+        p.add_argument(
+            f"--subset-{end}",
+            type=float,
+            metavar="F",
+            help=f"the subset's {end} frame: a frame number, or a fraction of the frames "
+            "in (0, 1) (POV-Ray's +SF/+EF)",
+        )
+    p.add_argument("--frame-step", type=_positive_int, default=1, metavar="N", help="+STP")
+
+
+def animation_of(args: argparse.Namespace):
+    """The animation --frames and the other animation options describe (None: a still)."""
+    from lang.animation import Animation
+
+    if args.frames is None:
+        return None
+    return Animation(
+        args.frames[0],
+        args.frames[1],
+        args.initial_clock,
+        args.final_clock,
+        args.cyclic,
+        args.subset_start,
+        args.subset_end,
+        args.frame_step,
+    )
 
 
 def _frame_of(args: argparse.Namespace) -> tuple[float, dict[str, float]]:
     """(clock, animation values) for --clock/--frames/--frame, as `render` sets them."""
     from lang.evaluate import animation_values
 
-    clock, frames, number = args.clock, args.frames, args.frame
-    if frames is not None:
-        first, last = frames
-        number = first if number is None else number
-        if not first <= number <= last:
-            raise UsageError(f"--frame {number} is not in --frames {first}..{last}")
-        clock = 0.0 if last == first else (number - first) / (last - first)
-    return clock, animation_values(clock, frames, number)
+    plan = animation_of(args)
+    if plan is None:
+        return args.clock, animation_values(args.clock, None, args.frame)
+    number = plan.frames()[0] if args.frame is None else args.frame
+    if not plan.first <= number <= plan.last:
+        raise UsageError(f"--frame {number} is not in --frames {plan.first}..{plan.last}")
+    return plan.clock(number), plan.values(number)
 
 
 def _positive_int(text: str) -> int:
@@ -417,6 +392,38 @@ def _threshold(text: str) -> float:
     if not 0.0 <= value <= 3.0:
         raise argparse.ArgumentTypeError(f"threshold must lie in [0, 3], got {value}")
     return value
+
+
+def _sampling_warnings(args: argparse.Namespace) -> list[str]:
+    """What a render does instead of the anti-aliasing asked for."""
+    if getattr(args, "command", None) != "render" or args.aa is None:
+        return []
+    if args.aa_method >= 2 and (args.cluster is not None or args.tiles is not None):
+        return ["--cluster and --tiles render with anti-aliasing method 1 (not method 2 yet)"]
+    if args.aa_method == 3:
+        return ["anti-aliasing method 3 is POV-Ray 3.8's: rendering with method 2 (recursive)"]
+    if args.aa_method == 1 and args.jitter:
+        return ["ignoring --jitter: method 1 samples a regular grid (method 2 jitters)"]
+    return []
+
+
+def _jitter(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    return min(max(value, 0.0), 1.0)  # as POV-Ray clips it
+
+
+def _declare(text: str) -> tuple[str, float]:
+    try:
+        return parse_declare(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _declares(args: argparse.Namespace) -> dict[str, float]:
+    return dict(getattr(args, "declare", None) or ())
 
 
 def _aa_depth(text: str) -> int:
@@ -463,6 +470,19 @@ def print_diagnostics(diags: Sequence[Diagnostic], stream: TextIO, summary: bool
         print(f"{_plural(errors, 'error')}, {_plural(warnings, 'warning')}", file=stream)
 
 
+# Advice on how a scene is written, not on what it renders: `strala check` says it.
+CHECK_ONLY = frozenset({"W0400", "W0401"})
+DEBUG_NOTE = "N0100"  # a #debug message: render prints its text as it is, not as a note
+
+
+def render_diagnostics(diags: Sequence[Diagnostic], quiet: bool) -> list[Diagnostic]:
+    """What `render` says of a scene: errors always; warnings unless quiet, but not the
+    check-only advice; #debug text is printed as the scene runs, so not again as notes."""
+    if quiet:
+        return [d for d in diags if d.severity is Severity.ERROR]
+    return [d for d in diags if d.code not in CHECK_ONLY and d.code != DEBUG_NOTE]
+
+
 def _missing(path: str) -> Diagnostic | None:
     """A diagnostic when the input file cannot be read (never a traceback)."""
     p = Path(path)
@@ -500,6 +520,23 @@ def check_image_size(width: int, height: int) -> None:
         )
 
 
+def check_writable(out: Path) -> None:
+    """Refuse, before any work, an output whose folder is missing or cannot take a new
+    file (read-only, no permission): images are written beside the target and renamed."""
+    import tempfile
+
+    folder = out.parent
+    if not folder.is_dir():
+        raise UsageError(f"cannot write {out}: folder {folder} does not exist")
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".strala-probe-"):
+            pass
+    except OSError as exc:
+        raise UsageError(
+            f"cannot write {out}: {(exc.strerror or str(exc)).lower()} in {folder}"
+        ) from None
+
+
 def image_size(args: argparse.Namespace) -> tuple[int, int]:
     """As POV-Ray: a side not given keeps its default (320×240), whatever the other one is."""
     width = getattr(args, "width", None) or POVRAY_DEFAULT_SIZE[0]
@@ -517,6 +554,7 @@ def _compile(
     debug_output: bool = False,
     animation: Mapping[str, float] | None = None,
     geometry: bool = True,
+    declares: Mapping[str, float] | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -541,6 +579,7 @@ def _compile(
         animation=animation,
         queries=_runtime_queries if geometry else None,
         store=True,
+        declares=declares,
     )
     return result.scene, list(result.diagnostics)
 
@@ -558,7 +597,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     for file in args.files:
         diags += _compile(
             file, args.library, image_size(args), clock=clock, file_io=False,
-            animation=animation, geometry=False,
+            animation=animation, geometry=False, declares=_declares(args),
         )[1]  # fmt: skip
     errors, warnings = _counts(diags)
     if args.format == "json":
@@ -602,7 +641,7 @@ def cmd_translate(args: argparse.Namespace) -> int:
             d
             for d in _compile(
                 str(target), args.library, (width, height), clock=clock, file_io=False,
-                animation=animation, geometry=False,
+                animation=animation, geometry=False, declares=_declares(args),
             )[1]
             if d.severity is Severity.ERROR
         ]  # fmt: skip
@@ -646,8 +685,7 @@ def _translate_jobs(args: argparse.Namespace) -> list[tuple[Path, Path]]:
     target = output_path(args.file, args.output, ".scene")
     if target.resolve() == source.resolve():
         raise UsageError(f"the translation would overwrite {source}; name another with -o")
-    if not target.parent.is_dir():
-        raise UsageError(f"cannot write {target}: folder {target.parent} does not exist")
+    check_writable(target)
     return [(source, target)]
 
 
@@ -703,6 +741,7 @@ def _load_scene(args: argparse.Namespace, clock: float):
         clock=clock,
         debug_output=not args.quiet,
         animation=getattr(args, "animation", None),
+        declares=_declares(args),
     )
 
 
@@ -731,21 +770,21 @@ def parse_frames(text: str) -> tuple[int, int]:
     raise argparse.ArgumentTypeError(f"expected FIRST..LAST frame numbers, got {text!r}")
 
 
-def frame_jobs(
-    out: Path, clock: float, frames: tuple[int, int] | None
-) -> list[tuple[Path, float, str]]:
-    """(output, clock, label) per frame. POV-Ray's animation rules: the clock runs from 0
-    at the first frame to 1 at the last, and the frame number, zero-padded to the width of
-    the last one, is appended to the image name."""
+def frame_jobs(out: Path, clock: float, frames) -> list[tuple[Path, float, str]]:
+    """(output, clock, label) per frame of `frames` (a lang.animation.Animation, or
+    (first, last)). POV-Ray's animation rules: the clock runs from the initial clock at
+    the first frame to the final one at the last, and the frame number, zero-padded to the
+    width of the last one, is appended to the image name."""
+    from lang.animation import Animation
+
     if frames is None:
         return [(out, clock, "rendering")]
-    first, last = frames
-    digits = len(str(last))
+    plan = frames if isinstance(frames, Animation) else Animation(*frames)
+    numbers = plan.frames()
     jobs = []
-    for frame in range(first, last + 1):
-        t = 0.0 if last == first else (frame - first) / (last - first)
-        name = out.with_name(f"{out.stem}{frame:0{digits}d}{out.suffix}")
-        jobs.append((name, t, f"frame {frame}/{last}"))
+    for frame in numbers:
+        name = out.with_name(f"{out.stem}{frame:0{plan.digits}d}{out.suffix}")
+        jobs.append((name, plan.clock(frame), f"frame {frame}/{numbers[-1]}"))
     return jobs
 
 
@@ -764,8 +803,8 @@ def cmd_render(args: argparse.Namespace) -> int:
         image.output_format(out, args.bits)
     except image.ImageFormatError as exc:
         raise UsageError(str(exc)) from None
-    if not to_stdout and not out.parent.is_dir():
-        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    if not to_stdout:
+        check_writable(out)
     if args.frames is not None and args.file.lower().endswith(".json"):
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
     check_image_size(*image_size(args))
@@ -773,15 +812,14 @@ def cmd_render(args: argparse.Namespace) -> int:
     from lang.evaluate import animation_values
 
     stdout = sys.stdout
-    jobs = frame_jobs(out, args.clock, args.frames)
-    numbers = list(range(args.frames[0], args.frames[1] + 1)) if args.frames else [args.frame]
-    if args.frame is not None and args.frames is not None:
-        if args.frame not in numbers:
-            raise UsageError(
-                f"--frame {args.frame} is not in --frames {args.frames[0]}..{args.frames[1]}"
-            )
-        at = numbers.index(args.frame)
-        jobs, numbers = [(out, jobs[at][1], jobs[at][2])], [args.frame]
+    args.plan = plan = animation_of(args)
+    jobs = frame_jobs(out, args.clock, plan)
+    numbers = plan.frames() if plan is not None else [args.frame]
+    if args.frame is not None and plan is not None:
+        if not plan.first <= args.frame <= plan.last:
+            raise UsageError(f"--frame {args.frame} is not in --frames {plan.first}..{plan.last}")
+        label = f"frame {args.frame}/{plan.last}"
+        jobs, numbers = [(out, plan.clock(args.frame), label)], [args.frame]
     if args.cluster is not None or args.tiles is not None:
         if to_stdout or args.preview:
             raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
@@ -798,7 +836,9 @@ def cmd_render(args: argparse.Namespace) -> int:
                 numbers,
                 (width, height),
                 region,
-                lambda diags: print_diagnostics(diags, sys.stderr, summary=False),
+                lambda diags: print_diagnostics(
+                    render_diagnostics(diags, args.quiet), sys.stderr, summary=False
+                ),
             )
         except render_job.JobError as exc:
             raise UsageError(str(exc)) from None
@@ -808,7 +848,9 @@ def cmd_render(args: argparse.Namespace) -> int:
             if not args.quiet:
                 print(f"{target} is there, skipped (--resume)", file=sys.stderr)
             continue
-        args.animation = animation_values(clock, args.frames, number)
+        args.animation = (
+            plan.values(number) if plan is not None else animation_values(clock, None, number)
+        )
         # runtime modules print their warnings; on stderr they never mix into an image
         # written to standard output
         with redirect_stdout(sys.stderr):
@@ -875,13 +917,14 @@ def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | N
 
 
 @contextmanager
-def _quick_interrupt() -> Iterator[None]:
+def _quick_interrupt(cleanup: Path | None = None) -> Iterator[None]:
     """^C during a render stops the process at once.
 
     A KeyboardInterrupt would have to unwind through the render's thread pool, which
     finishes every queued tile before it lets go; nothing is on disk yet while pixels are
     being computed, so leaving immediately loses nothing. Outside this block (writing the
-    image) ^C is an ordinary KeyboardInterrupt, so the temporary file is cleaned up."""
+    image) ^C is an ordinary KeyboardInterrupt, so the temporary file is cleaned up.
+    `cleanup`: a file to remove before leaving (the preview's)."""
     import signal
     import threading
 
@@ -894,6 +937,8 @@ def _quick_interrupt() -> Iterator[None]:
         return
 
     def stop(signum, frame):
+        if cleanup is not None:
+            cleanup.unlink(missing_ok=True)
         sys.stderr.write("\nstrala: interrupted\n")
         sys.stderr.flush()
         os._exit(130)
@@ -913,7 +958,7 @@ def _render_one(
 
     start = time.perf_counter()
     scene, diags = _load_scene(args, clock)
-    print_diagnostics(diags, sys.stderr, summary=False)
+    print_diagnostics(render_diagnostics(diags, args.quiet), sys.stderr, summary=False)
     if scene is None or _counts(diags)[0]:
         return 1
 
@@ -924,29 +969,43 @@ def _render_one(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
     stats: dict = {}
+    preview = None
     if getattr(args, "preview", False) and out.stem != "-":
-        try:
-            _preview_passes(args, scene, out, width, height, region)
-        except (SceneError, OSError) as exc:
-            print(f"strala: preview skipped: {exc}", file=sys.stderr)
-    with Progress(label, enabled=False if args.quiet else None) as bar, _quick_interrupt():
-        try:
-            pixels = render_scene(
-                scene,
-                width,
-                height,
-                antialias=args.aa,
-                aa_depth=args.aa_depth,
-                threads=args.threads,
-                progress=bar,
-                region=region,
-                stats=stats,
-                **_radiosity_options(args),
-            )
-        except SceneError as exc:
-            bar.close()
-            print_diagnostics([exc.diagnostic], sys.stderr, summary=False)
-            return 1
+        preview = preview_path(out)
+    try:
+        with _quick_interrupt(preview):  # ^C in a preview pass too: only the preview goes
+            if preview is not None:
+                try:
+                    _preview_passes(args, scene, preview, width, height, region)
+                except (SceneError, OSError) as exc:
+                    print(f"strala: preview skipped: {exc}", file=sys.stderr)
+        with (
+            Progress(label, enabled=False if args.quiet else None) as bar,
+            _quick_interrupt(preview),
+        ):
+            try:
+                pixels = render_scene(
+                    scene,
+                    width,
+                    height,
+                    antialias=args.aa,
+                    aa_depth=args.aa_depth,
+                    aa_method=min(args.aa_method, 2),
+                    jitter=args.jitter,
+                    aa_gamma=args.aa_gamma,
+                    threads=args.threads,
+                    progress=bar,
+                    region=region,
+                    stats=stats,
+                    **_radiosity_options(args),
+                )
+            except SceneError as exc:
+                bar.close()
+                print_diagnostics([exc.diagnostic], sys.stderr, summary=False)
+                return 1
+    finally:  # the preview never outlives the render, finished or not
+        if preview is not None:
+            preview.unlink(missing_ok=True)
     try:
         if out.stem == "-":
             _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
@@ -979,9 +1038,15 @@ PREVIEW_FACTORS = (8, 4, 2)
 PREVIEW_MIN_SIZE = 16  # a pass narrower or lower than this is not worth writing
 
 
+def preview_path(out: Path) -> Path:
+    """Where --preview writes its passes: beside the output (SCENE.preview.png), so a
+    finished image is never replaced by a coarse one; removed when the render ends."""
+    return out.with_name(f"{out.stem}.preview{out.suffix}")
+
+
 def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> None:
-    """Coarse passes written to `out` (atomically, each replacing the last) before the
-    final render: blocky first, sharper each time, no anti-aliasing."""
+    """Coarse passes written to `out` (the preview file; atomically, each replacing the
+    last) before the final render: blocky first, sharper each time, no anti-aliasing."""
     import numpy as np
 
     from runtime import image
@@ -1007,8 +1072,9 @@ def cmd_compile(args: argparse.Namespace) -> int:
     from lang import serialize
 
     scene, diags = _compile(
-        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet
-    )
+        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet,
+        declares=_declares(args),
+    )  # fmt: skip
     print_diagnostics(diags, sys.stderr, summary=False)
     if scene is None or _counts(diags)[0]:
         return 1
@@ -1017,8 +1083,7 @@ def cmd_compile(args: argparse.Namespace) -> int:
         sys.stdout.write(text + "\n")
         return 0
     out = output_path(args.file, args.output, ".json")
-    if not out.parent.is_dir():
-        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    check_writable(out)
     try:
         _write_text_atomically(out, text + "\n")
     except OSError as exc:
@@ -1031,16 +1096,16 @@ def cmd_compile(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     scene, diags = _compile(
-        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet
-    )
+        args.file, args.library, image_size(args), clock=args.clock, debug_output=not args.quiet,
+        declares=_declares(args),
+    )  # fmt: skip
     print_diagnostics(diags, sys.stderr, summary=False)
     if scene is None or _counts(diags)[0]:
         return 1
     out = output_path(args.file, args.output, ".obj")
     if out.suffix.lower() not in (".obj", ".ply"):
         raise UsageError(f"cannot export to `{out.suffix}`: use .obj or .ply")
-    if not out.parent.is_dir():
-        raise UsageError(f"cannot write {out}: folder {out.parent} does not exist")
+    check_writable(out)
     from runtime import export
 
     mesh = export.collect(scene, (args.width or 320))
@@ -1141,12 +1206,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings: list[str] = []
     try:
         argv = translate_povray_args(argv, warnings)
-    except UsageError as exc:
+    except OptionError as exc:
         parser.error(str(exc))
-    args = parser.parse_args(argv)  # exits 2 on a bad command line
+    args, unknown = parser.parse_known_args(argv)  # exits 2 on a bad command line
+    if unknown:  # said with the command's usage line, not the top level's
+        args.parsers[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
     # The evaluator allocates many small objects and few cycles: collecting every 700
     # allocations cost a few percent of a short render for nothing.
     gc.set_threshold(20000, 20, 20)
+    warnings += _sampling_warnings(args)
     if not getattr(args, "quiet", False):
         for w in warnings:
             print(f"strala: warning: {w}", file=sys.stderr)

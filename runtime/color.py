@@ -120,18 +120,21 @@ def to_display8(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
     return out
 
 
-def aa_metric_power(settings: ir.Settings) -> float:
+def aa_metric_power(settings: ir.Settings, gamma: float = AA_GAMMA) -> float:
     """The one power that takes a (clipped) working value to the anti-aliasing metric
-    space: through the working gamma to linear, then encoded with 1/AA_GAMMA."""
+    space: through the working gamma to linear, then encoded with 1/gamma (+AG, POV-Ray's
+    Antialias_Gamma; 0 or less: compared linear, as POV-Ray then has no curve)."""
     g = working_gamma(settings)
-    return (1.0 if g is None else g) / AA_GAMMA
+    return (1.0 if g is None else g) / (gamma if gamma > 0.0 else 1.0)
 
 
-def aa_metric_space(working: np.ndarray, settings: ir.Settings) -> np.ndarray:
+def aa_metric_space(
+    working: np.ndarray, settings: ir.Settings, gamma: float = AA_GAMMA
+) -> np.ndarray:
     """Colours as POV-Ray compares them for anti-aliasing: working → linear (through the
-    working gamma, skipped for legacy scenes) → encoded with 1/AA_GAMMA, in one power."""
+    working gamma, skipped for legacy scenes) → encoded with 1/gamma, in one power."""
     w = np.clip(np.asarray(working, dtype=np.float64), 0.0, None)
-    return w ** aa_metric_power(settings)
+    return w ** aa_metric_power(settings, gamma)
 
 
 def colour_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -65,7 +65,11 @@ class TileKernel(Protocol):
     module)."""
 
     def render_tile(
-        self, tile: tuple[int, int, int, int], threshold: float | None, depth: int
+        self,
+        tile: tuple[int, int, int, int],
+        threshold: float | None,
+        depth: int,
+        gamma: float = ...,
     ) -> tuple[np.ndarray, int]: ...
 
 

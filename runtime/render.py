@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from lang import ir
-from runtime import antialias, integrate
+from runtime import adaptive_antialias, antialias, color, integrate
+from runtime.antialias import Sampling
 from runtime.camera import FocalBlur, blur_rounds, blur_thresholds, camera_rays, has_focal_blur
 from runtime.context import Context
 from runtime.mesh_camera import MeshCameraRays
@@ -46,10 +47,15 @@ def render_scene(
     radiosity=None,
     radiosity_cache: str | os.PathLike | None = None,
     pretrace_region: tuple[int, int, int, int] | None = None,
+    aa_method: int = 1,
+    jitter: float | None = None,
+    aa_gamma: float = color.AA_GAMMA,
 ) -> np.ndarray:
     """Render `scene` at width×height; returns (H, W, 3) float32 working-space colours.
 
-    antialias: POV-Ray's +A threshold (None: one ray per pixel); aa_depth: +R.
+    antialias: POV-Ray's +A threshold (None: one ray per pixel); aa_depth: +R;
+    aa_method: +AM, 1 (runtime.antialias) or 2 (runtime.adaptive_antialias); jitter: +J
+    (None: POV-Ray's default; method 2 only); aa_gamma: +AG, the comparison's gamma.
     region: (left, top, right, bottom) pixel bounds, right/bottom exclusive, to render only
     part of the image (the rest stays black). progress(done, total) is called with pixel
     counts after each tile, from the calling thread. stats, when given, receives counters
@@ -76,6 +82,11 @@ def render_scene(
     numpy_because = (
         ["radiosity"] if radiosity is not None else whitted.why_not(prepared, scene.camera, ctx)
     )
+    sampling = Sampling(
+        aa_method if antialias is not None else 0, antialias or 0.0, aa_depth, jitter, aa_gamma
+    )
+    if sampling.method == 2 and not numpy_because:
+        numpy_because = ["anti-aliasing method 2"]  # the kernel samples pixel centres only
     if not numpy_because:
         ctx.kernel = whitted.Kernel(ctx, scene.camera, width, height)
     traced = time.perf_counter()
@@ -107,7 +118,7 @@ def render_scene(
         nonlocal nonfinite
         # an overflow or undefined value is repaired and counted below, not printed
         with np.errstate(over="ignore", invalid="ignore"):
-            pix, ss = render_tile(ctx, scene.camera, width, height, tile, antialias, aa_depth)
+            pix, ss = render_tile(ctx, scene.camera, width, height, tile, sampling)
         pix, bad = finite_pixels(pix)
         nonfinite += bad
         return tile, (pix, ss)
@@ -262,17 +273,25 @@ def render_tile(
     width: int,
     height: int,
     tile: tuple[int, int, int, int],
-    threshold: float | None,
-    depth: int,
+    sampling: antialias.Sampling,
 ) -> tuple[np.ndarray, int]:
     """(h, w, 3) colours of one tile and the number of supersampled pixels."""
+    threshold = sampling.threshold if sampling.method else None
+    depth = sampling.depth
     if ctx.kernel is not None:
-        return ctx.kernel.render_tile(tile, threshold, depth)
+        return ctx.kernel.render_tile(tile, threshold, depth, sampling.gamma)
     x0, y0, x1, y1 = tile
 
     def shoot(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         return trace_pixels(ctx, camera, width, height, xs, ys)
 
+    if threshold is not None and sampling.method == 2:
+        return adaptive_antialias.antialias_tile(
+            tile, ctx.settings, threshold, depth, shoot,
+            jitter=adaptive_antialias.DEFAULT_JITTER if sampling.jitter is None
+            else sampling.jitter,
+            gamma=sampling.gamma,
+        )  # fmt: skip
     if threshold is None:
         ys, xs = np.mgrid[y0:y1, x0:x1]
         col = shoot(xs.ravel() + 0.5, ys.ravel() + 0.5)
@@ -284,5 +303,7 @@ def render_tile(
     ys, xs = np.mgrid[y0 - 1 : ey1, x0 - 1 : ex1]
     first = shoot(xs.ravel() + 0.5, ys.ravel() + 0.5).reshape(*xs.shape, 3)
     inner = (slice(1, 1 + y1 - y0), slice(1, 1 + x1 - x0))
-    pix, n = antialias.antialias_tile(first, ctx.settings, threshold, depth, inner, (xs, ys), shoot)
+    pix, n = antialias.antialias_tile(
+        first, ctx.settings, threshold, depth, inner, (xs, ys), shoot, sampling.gamma
+    )
     return pix, n

@@ -608,13 +608,17 @@ class Kernel:
         self.buf = pack(ctx, camera, width, height)
 
     def render_tile(
-        self, tile: tuple[int, int, int, int], threshold: float | None, depth: int
+        self,
+        tile: tuple[int, int, int, int],
+        threshold: float | None,
+        depth: int,
+        gamma: float = color.AA_GAMMA,
     ) -> tuple[np.ndarray, int]:
         """(h, w, 3) colours of one tile and its number of supersampled pixels, anti-aliased
         as `runtime.antialias` does (threshold None: one ray per pixel)."""
         x0, y0, x1, y1 = tile
         out = np.empty((y1 - y0, x1 - x0, 3))
-        power = color.aa_metric_power(self.ctx.settings)
+        power = color.aa_metric_power(self.ctx.settings, gamma)
         thr = -1.0 if threshold is None else float(threshold)
         rays, shadow_rays, n = trace_packed(
             self.buf, x0, y0, x1, y1, thr, power, max(1, int(depth)), out

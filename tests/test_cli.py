@@ -17,7 +17,7 @@ from conftest import EXAMPLES, ROOT, run_cli
 from hypothesis import given
 from hypothesis import strategies as st
 
-from runtime import cli
+from runtime import cli, povray_options
 from runtime.progress import Progress, format_seconds
 
 EX3 = EXAMPLES / "ex3.scene"
@@ -74,7 +74,49 @@ def test_ini_file_becomes_options(tmp_path):
         "Antialias_Threshold=0.2\n+Oout.png\n[other]\nWidth=9999\n"
     )
     out, _ = _translate(str(ini))
-    assert out == ["scene.pov", "-W", "64", "-H", "48", "--aa", "--aa", "0.2", "-o", "out.png"]
+    assert out == ["scene.pov", "-W", "64", "-H", "48", "--aa", "0.2", "-o", "out.png"]
+
+
+def test_a_threshold_alone_does_not_turn_anti_aliasing_on():
+    # POV-Ray: Antialias_Threshold without Antialias=on renders one ray per pixel
+    out, warnings = _translate("Antialias_Threshold=0.1", "s.pov")
+    assert out == ["s.pov"] and "not turned on" in warnings[0]
+    assert _translate("Antialias_Threshold=0.1", "Antialias=on")[0] == ["--aa", "0.1"]
+    assert _translate("+A0.1", "-A")[0] == ["--no-aa"]
+
+
+def test_declare_on_the_command_line_and_in_ini_files(tmp_path):
+    ini = tmp_path / "d.ini"
+    ini.write_text("Declare=Size=2.5\ndeclare=Other=-1e-2 ; a comment\n")
+    out, warnings = _translate("Declare=Rad=1.2", str(ini), "s.pov")
+    assert out == ["s.pov", "--declare", "Rad=1.2", "--declare", "Size=2.5", "--declare",
+                   "Other=-1e-2"]  # fmt: skip
+    assert warnings == []
+    args = cli.build_parser().parse_args(["render", *out])
+    assert args.declare == [("Rad", 1.2), ("Size", 2.5), ("Other", -0.01)]
+
+
+@pytest.mark.parametrize(
+    ("text", "value"), [("R=1.2", 1.2), ("R=2*3", 2.0), ("R=abc", 0.0), ("R= .5e1x", 5.0)]
+)
+def test_declared_values_are_read_as_povray_reads_them(text, value):
+    # POV-Ray 3.7 reads the value as C's atof: `Declare=R=2*3` declares 2, `R=abc` 0
+    assert cli.parse_declare(text) == ("R", value)
+
+
+@pytest.mark.povray
+def test_declare_sets_the_name_as_in_povray(tmp_path):
+    scene = tmp_path / "d.pov"
+    scene.write_text('#debug concat("Rad=", str(Rad, 0, 4), "\\n")\nsphere { 0, 1 }\n')
+    (tmp_path / "d.ini").write_text("Declare=Rad=3.25\n")
+    pov = subprocess.run(
+        ["povray", "+Id.pov", "-D", "-F", "+W8", "+H8", "Declare=Rad=1.2"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=60,
+    ).stderr  # fmt: skip
+    assert "Rad=1.2000" in pov
+    for argv, want in (("Declare=Rad=1.2", "Rad=1.2000"), ("d.ini", "Rad=3.25")):
+        r = run_cli("check", "d.pov", argv, cwd=tmp_path)
+        assert want in r.stdout and r.returncode == 0, r.stdout + r.stderr
 
 
 @given(st.lists(st.sampled_from(["+D", "-D", "+V", "-V", "+P", "-P", "+GA", "-GA", "+X"])))
@@ -201,6 +243,31 @@ def test_unwritable_output_is_a_usage_error_before_rendering(tmp_path, capsys):
     assert "cannot write `.bmpx` images" in capsys.readouterr().err
     assert cli.main(["render", str(scene), "-o", str(tmp_path / "no" / "x.png")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def _read_only_folders(tmp_path):
+    """Folders no new file can go into: /sys refuses even root; a chmod'd one others."""
+    folders = [Path("/sys")] if Path("/sys").is_dir() else []
+    if os.geteuid() != 0:
+        locked = tmp_path / "locked"
+        locked.mkdir()
+        locked.chmod(0o555)
+        folders.append(locked)
+    return folders
+
+
+def test_a_read_only_output_folder_is_refused_at_once(tmp_path, capsys):
+    # the scene is broken: reaching it would exit 1, not 2
+    scene = tmp_path / "s.pov"
+    scene.write_text("sphere { 0, 1 \n")
+    folders = _read_only_folders(tmp_path)
+    assert folders
+    for folder in folders:
+        for extra in ([], ["--frames", "1..3"]):
+            assert cli.main(["render", str(scene), "-o", str(folder / "x.png"), *extra]) == 2
+            err = capsys.readouterr().err
+            assert err.count("\n") == 1 and f"cannot write {folder / 'x.png'}" in err, err
+            assert "tmp" not in err.replace(str(tmp_path), "")  # no hidden temporary file
     assert cli.main(["render", str(scene), "-o", str(tmp_path / "x.jpg"), "--bits", "16"]) == 2
 
 
@@ -513,6 +580,32 @@ def test_interrupted_render_stops_at_once_and_leaves_no_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_interrupting_a_preview_leaves_the_earlier_image_as_it_was(tmp_path):
+    import signal
+    import time
+
+    out = tmp_path / "ex3.png"
+    assert run_cli("render", str(EX3), "-W", "32", "-H", "24", "-o", str(out)).returncode == 0
+    earlier = out.read_bytes()
+    preview = cli.preview_path(out)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "runtime.cli", "render", str(EX3), "-W", "3000", "-H", "3000",
+         "--aa", "0", "--aa-depth", "6", "--preview", "-o", str(out)],
+        cwd=ROOT, stdin=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
+    deadline = time.monotonic() + 60
+    while not preview.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    assert preview.exists(), "no preview pass was written"
+    time.sleep(0.5)
+    os.kill(proc.pid, signal.SIGINT)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 130, err
+    assert out.read_bytes() == earlier  # the finished image, untouched
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ex3.png"]  # no preview left
+
+
 def test_render_from_compiled_ir_matches_render_from_source(tmp_path):
     from runtime.image import read_image
 
@@ -607,6 +700,8 @@ def test_preview_writes_coarse_passes_then_the_same_final_image(tmp_path):
     r = run_cli("render", str(scene), "-W", "128", "-H", "96", "--preview", "-o", str(a))
     assert r.returncode == 0, r.stderr
     passes = [line for line in r.stderr.splitlines() if line.startswith("preview")]
+    assert all(str(cli.preview_path(a)) in p for p in passes) and passes
+    assert not cli.preview_path(a).exists()  # gone once the final image is written
     # 1/8 would be 16x12, under the 16-pixel minimum: two passes
     assert [p.split()[1] for p in passes] == ["32x24", "64x48"]
     assert (
@@ -714,3 +809,83 @@ def test_an_image_too_large_for_the_machine_is_refused_before_any_work(tmp_path)
         assert f"an image of {w}×{h} needs about" in done.stderr and "GiB" in done.stderr
         assert "internal error" not in done.stderr
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".*"))
+
+
+def test_anti_aliasing_methods_jitter_and_gamma_switches():
+    assert _translate("+AM2", "+A0.2", "+R4", "-J", "+AG1.8")[0] == [
+        "--aa-method", "2", "--aa", "0.2", "--aa-depth", "4", "--jitter", "0",
+        "--aa-gamma", "1.8",
+    ]  # fmt: skip
+    assert _translate("Sampling_Method=2", "Jitter_Amount=0.5")[0] == [
+        "--aa-method", "2", "--jitter", "0.5",
+    ]  # fmt: skip
+    assert _translate("Jitter=off", "Jitter_Amount=0.5")[0] == ["--jitter", "0"]
+    out, warnings = _translate("Antialias_Confidence=0.9", "+AC0.9")
+    assert out == [] and len(warnings) == 1 and "method 3" in warnings[0]  # one a key
+
+
+def test_method_3_renders_as_method_2_with_a_warning(tmp_path):
+    scene = tmp_path / "s.pov"
+    scene.write_text("sphere { 0, 1 pigment { rgb 1 } }\n")
+    r = run_cli("render", str(scene), "+A", "+AM3", "-W8", "-H8", "-o", str(tmp_path / "a.png"))
+    assert r.returncode == 0, r.stderr
+    assert "method 3 is POV-Ray 3.8's: rendering with method 2" in r.stderr
+
+
+def test_animation_switches_and_settings():
+    out, warnings = _translate("+KFI1", "+KFF4", "+KC", "+KI2", "+KF3", "+SF0.5", "+EF3")
+    assert out == ["--frames", "1..4", "--initial-clock", "2", "--final-clock", "3",
+                   "--subset-start", "0.5", "--subset-end", "3", "--cyclic"]  # fmt: skip
+    assert warnings == []
+    assert _translate("Cyclic_Animation=on", "Frame_Step=2")[0] == ["--frame-step", "2", "--cyclic"]
+
+
+_TAKES_A_NAME = {"input_file_name", "output_file_name", "library_path", "declare"}
+
+
+_VALUED = [s for s in povray_options.SWITCHES if s[1] not in _TAKES_A_NAME]
+
+
+@pytest.mark.parametrize("switch", _VALUED)
+@pytest.mark.parametrize("sign", ["+", "-"])
+def test_every_povray_switch_is_done_or_warned_never_a_usage_error(switch, sign):
+    name, value_key, _ = switch
+    tok = sign + name + ("1" if value_key else "")
+    out, warnings = _translate(tok, "s.pov")
+    cli.build_parser().parse_args(["render", *out])  # raises SystemExit on a usage error
+    assert len(warnings) <= 1 and all(w.count(tok) == 1 for w in warnings)
+
+
+@pytest.mark.parametrize("key", sorted(povray_options.KNOWN - _TAKES_A_NAME))
+def test_every_povray_ini_key_is_done_or_warned_never_a_usage_error(key):
+    out, warnings = _translate(f"{key.title()}=1", f"{key}=1", "s.pov")
+    cli.build_parser().parse_args(["render", *out])
+    assert len(warnings) <= 1  # the same key twice: one warning
+
+
+def test_an_unknown_option_is_told_with_the_commands_usage(tmp_path):
+    r = run_cli("render", "x.scene", "--bogus")
+    assert r.returncode == 2
+    assert r.stderr.startswith("usage: strala render ")
+    assert "strala render: error: unrecognized arguments: --bogus" in r.stderr
+    r = run_cli("check", "x.scene", "+ZZ9", "Foo_Bar=3", "-UV", cwd=tmp_path)
+    assert r.returncode == 1  # x.scene is missing; the options only warn
+    assert "ignoring +ZZ9: not a POV-Ray 3.7 option" in r.stderr
+    assert "ignoring Foo_Bar=3: not a POV-Ray 3.7 option" in r.stderr
+    assert "ignoring POV-Ray option -UV" in r.stderr
+
+
+def test_render_leaves_advice_to_check_and_quiet_leaves_only_errors(tmp_path):
+    scene = tmp_path / "s.pov"
+    scene.write_text(
+        '#declare Unused = 1;\n#debug "hello\\n"\n#warning "careful"\n'
+        "camera { location -3*z look_at 0 }\nsphere { 0, 1 pigment { rgb 1 } }\n"
+    )
+    out = str(tmp_path / "s.png")
+    r = run_cli("render", str(scene), "-W", "8", "-H", "8", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert "never used" not in r.stderr and "careful" in r.stderr
+    assert r.stderr.count("hello") == 1  # the #debug text, not again as a note
+    quiet = run_cli("render", str(scene), "-W", "8", "-H", "8", "-o", out, "-q", "+Q9")
+    assert quiet.returncode == 0 and quiet.stderr == ""
+    assert "`Unused` is declared but never used" in run_cli("check", str(scene)).stdout

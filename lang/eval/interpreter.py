@@ -146,6 +146,7 @@ class Interpreter:
         debug_to_stderr: bool = False,
         animation: Mapping[str, float] | None = None,
         queries: QueriesFactory | None = None,
+        declares: Mapping[str, float] | None = None,
     ):
         self.sink = DiagnosticSink()
         self._queries_factory = queries
@@ -165,6 +166,8 @@ class Interpreter:
         self.image_height = image_height
         self.debug_to_stderr = debug_to_stderr
         self.scopes: list[_Scope] = [_Scope("global")]
+        # POV-Ray's Declare=Name=Value options: global floats before the first line is read
+        self.scopes[0].update({name: float(v) for name, v in (declares or {}).items()})
         self.file_stack: list[str] = []
         self.files: list[str] = []
         self.parse_cache: dict[str, syntax.SourceFile] = {}
