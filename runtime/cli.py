@@ -227,7 +227,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--aa-depth", type=_aa_depth, default=3, metavar="N", help="1..9 (default 3)")
     r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
     r.add_argument("--bits", type=int, choices=(8, 16, 32), help="PNG/TIFF 8|16, EXR 16|32")
-    r.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
+    r.add_argument(
+        "--clock", type=float, default=0.0, action=_ClockGiven, help="value of `clock` (default 0)"
+    )
     r.add_argument(
         "--frames",
         type=parse_frames,
@@ -380,9 +382,24 @@ def _version() -> str:
 def _frame_arguments(p: argparse.ArgumentParser) -> None:
     """The frame a scene is evaluated at (as `render` takes it): animations often fail at
     clock 0 only (an index of frame_number - 1)."""
-    p.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
+    p.add_argument(
+        "--clock", type=float, default=0.0, action=_ClockGiven, help="value of `clock` (default 0)"
+    )
     p.add_argument("--frames", type=parse_frames, metavar="A..B", help="the animation's frames")
     p.add_argument("--frame", type=int, metavar="N", help="the frame evaluated (frame_number)")
+
+
+class _ClockGiven(argparse.Action):
+    """`--clock T` (POV-Ray's `+KT`), remembered as given: POV-Ray's clock_on is 1 then, even
+    for `+K0`."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        namespace.clock = values
+        namespace.clock_given = True
+
+
+def clock_given(args: argparse.Namespace) -> bool:
+    return getattr(args, "clock_given", False)
 
 
 def _frame_of(args: argparse.Namespace) -> tuple[float, dict[str, float]]:
@@ -396,7 +413,7 @@ def _frame_of(args: argparse.Namespace) -> tuple[float, dict[str, float]]:
         if not first <= number <= last:
             raise UsageError(f"--frame {number} is not in --frames {first}..{last}")
         clock = 0.0 if last == first else (number - first) / (last - first)
-    return clock, animation_values(clock, frames, number)
+    return clock, animation_values(clock, frames, number, clock_given=clock_given(args))
 
 
 def _positive_int(text: str) -> int:
@@ -808,7 +825,7 @@ def cmd_render(args: argparse.Namespace) -> int:
             if not args.quiet:
                 print(f"{target} is there, skipped (--resume)", file=sys.stderr)
             continue
-        args.animation = animation_values(clock, args.frames, number)
+        args.animation = animation_values(clock, args.frames, number, clock_given=clock_given(args))
         # runtime modules print their warnings; on stderr they never mix into an image
         # written to standard output
         with redirect_stdout(sys.stderr):

@@ -51,7 +51,9 @@ def run(
         if args.resume and image.size_of(target) == (width, height):
             skipped += 1
             continue
-        values = animation_values(clock, args.frames, number)
+        values = animation_values(
+            clock, args.frames, number, clock_given=getattr(args, "clock_given", False)
+        )
         frames.append(cluster.Frame(number, clock, tuple(values.items()), str(target), label))
     if skipped and not args.quiet:
         print(f"{skipped} frame(s) already written, skipped (--resume)", file=sys.stderr)
