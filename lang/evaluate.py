@@ -18,17 +18,24 @@ __all__ = ["Result", "animation_values", "compile_file", "compile_source"]
 
 
 def animation_values(
-    clock: float, frames: tuple[int, int] | None = None, frame: int | None = None
+    clock: float,
+    frames: tuple[int, int] | None = None,
+    frame: int | None = None,
+    *,
+    clock_given: bool = False,
 ) -> dict[str, float]:
     """The identifiers an animation sets, as POV-Ray sets them: a still image (no frame range,
-    or one of a single frame) sees 0 for all but `clock_on` (1 when a clock is given); frame
+    or one of a single frame) sees 0 for all but `clock_on` (1 when a clock is given, even
+    `+K0`); frame
     `frame` of `frames` (first, last), with the clock running from 0 to 1, sees its number,
     the range, and the clock's step per frame (lang.animation for the other settings)."""
     if frames is not None and frames[0] != frames[1]:
         first, last = frames
         return Animation(first, last).values(first if frame is None else frame)
     values = dict.fromkeys(_ANIMATION_NAMES, 0.0)
-    values["clock_on"] = 1.0 if clock or (frame is not None and frames is None) else 0.0
+    values["clock_on"] = (
+        1.0 if clock_given or clock or (frame is not None and frames is None) else 0.0
+    )
     if frame is not None and frames is None:
         values["frame_number"] = float(frame)
     return values

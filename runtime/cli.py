@@ -162,7 +162,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
     r.add_argument("--bits", type=int, choices=(8, 16, 32), help="PNG/TIFF 8|16, EXR 16|32")
-    r.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
+    r.add_argument(
+        "--clock", type=float, default=0.0, action=_ClockGiven, help="value of `clock` (default 0)"
+    )
     r.add_argument(
         "--frames",
         type=parse_frames,
@@ -317,7 +319,9 @@ def _version() -> str:
 def _frame_arguments(p: argparse.ArgumentParser) -> None:
     """The frame a scene is evaluated at (as `render` takes it): animations often fail at
     clock 0 only (an index of frame_number - 1)."""
-    p.add_argument("--clock", type=float, default=0.0, help="value of `clock` (default 0)")
+    p.add_argument(
+        "--clock", type=float, default=0.0, action=_ClockGiven, help="value of `clock` (default 0)"
+    )
     p.add_argument("--frames", type=parse_frames, metavar="A..B", help="the animation's frames")
     p.add_argument("--frame", type=int, metavar="N", help="the frame evaluated (frame_number)")
     _animation_arguments(p)
@@ -361,13 +365,27 @@ def animation_of(args: argparse.Namespace):
     )
 
 
+class _ClockGiven(argparse.Action):
+    """`--clock T` (POV-Ray's `+KT`), remembered as given: POV-Ray's clock_on is 1 then, even
+    for `+K0`."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        namespace.clock = values
+        namespace.clock_given = True
+
+
+def clock_given(args: argparse.Namespace) -> bool:
+    return getattr(args, "clock_given", False)
+
+
 def _frame_of(args: argparse.Namespace) -> tuple[float, dict[str, float]]:
     """(clock, animation values) for --clock/--frames/--frame, as `render` sets them."""
     from lang.evaluate import animation_values
 
     plan = animation_of(args)
     if plan is None:
-        return args.clock, animation_values(args.clock, None, args.frame)
+        values = animation_values(args.clock, None, args.frame, clock_given=clock_given(args))
+        return args.clock, values
     number = plan.frames()[0] if args.frame is None else args.frame
     if not plan.first <= number <= plan.last:
         raise UsageError(f"--frame {number} is not in --frames {plan.first}..{plan.last}")
@@ -849,7 +867,9 @@ def cmd_render(args: argparse.Namespace) -> int:
                 print(f"{target} is there, skipped (--resume)", file=sys.stderr)
             continue
         args.animation = (
-            plan.values(number) if plan is not None else animation_values(clock, None, number)
+            plan.values(number)
+            if plan is not None
+            else animation_values(clock, None, number, clock_given=clock_given(args))
         )
         # runtime modules print their warnings; on stderr they never mix into an image
         # written to standard output

@@ -52,7 +52,13 @@ def run(
             skipped += 1
             continue
         plan = getattr(args, "plan", None)
-        values = plan.values(number) if plan else animation_values(clock, args.frames, number)
+        values = (
+            plan.values(number)
+            if plan
+            else animation_values(
+                clock, args.frames, number, clock_given=getattr(args, "clock_given", False)
+            )
+        )
         frames.append(cluster.Frame(number, clock, tuple(values.items()), str(target), label))
     if skipped and not args.quiet:
         print(f"{skipped} frame(s) already written, skipped (--resume)", file=sys.stderr)

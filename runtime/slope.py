@@ -61,4 +61,5 @@ def _rescale(value: np.ndarray, low_width) -> np.ndarray:
 def _wrap(value: np.ndarray) -> np.ndarray:
     # C's fmod keeps the sign: a negative value wraps to 1 + fmod(v, 1)
     f = np.fmod(value, 1.0)
-    return np.where(value < 0.0, 1.0 + f, f)
+    # 1 + fmod of a tiny negative value rounds to 1: kept below the map's top, as at 1 itself
+    return np.where(value < 0.0, np.minimum(1.0 + f, 1.0 - TOP_EPSILON), f)

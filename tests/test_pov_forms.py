@@ -157,6 +157,8 @@ FRAME_DEBUG = (
     [
         ((), "F 0 0 0 0.000 0 0.00"),
         (("--clock", "0.5"), "F 0 0 0 0.000 1 0.50"),
+        (("--clock", "0"), "F 0 0 0 0.000 1 0.00"),  # a clock given, even 0: clock_on
+        (("+K0",), "F 0 0 0 0.000 1 0.00"),
         (("--frames", "1..5", "--frame", "3"), "F 3 1 5 0.250 1 0.50"),
         (("+KFI1", "+KFF5", "+SF3", "+EF3"), "F 3 1 5 0.250 1 0.50"),
         (("--frames", "2..2"), "F 0 0 0 0.000 0 0.00"),
@@ -170,7 +172,7 @@ def test_animation_identifiers_as_povray_sets_them(tmp_path, options, want):
     scene = tmp_path / "f.pov"
     scene.write_text(FRAME_DEBUG + "camera { location -z look_at 0 }\n")
     r = run_cli(
-        "render", str(scene), "-W", "4", "-H", "4", "-q", "-o", str(tmp_path / "o.png"), *options
+        "render", str(scene), "-W", "4", "-H", "4", "-o", str(tmp_path / "o.png"), *options
     )
     assert r.returncode == 0, r.stderr
     assert want in r.stderr
