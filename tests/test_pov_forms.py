@@ -171,9 +171,7 @@ def test_animation_identifiers_as_povray_sets_them(tmp_path, options, want):
 
     scene = tmp_path / "f.pov"
     scene.write_text(FRAME_DEBUG + "camera { location -z look_at 0 }\n")
-    r = run_cli(
-        "render", str(scene), "-W", "4", "-H", "4", "-o", str(tmp_path / "o.png"), *options
-    )
+    r = run_cli("render", str(scene), "-W", "4", "-H", "4", "-o", str(tmp_path / "o.png"), *options)
     assert r.returncode == 0, r.stderr
     assert want in r.stderr
     assert len(list(tmp_path.glob("o*.png"))) == 1  # one frame: one image
