@@ -43,7 +43,7 @@ from lang.lexical import BraceReport, block_head, line_col, scan_braces
 # A runaway error cascade in a badly broken file stops being reported after this many.
 MAX_SYNTAX_ERRORS = 50
 
-NEW, CONTINUES, ERROR = "new", "continues", "error"
+NEW, _CONTINUES, ERROR = "new", "continues", "error"
 
 _DIRECTIVE_WORD = re.compile(r"#[ \t]*[A-Za-z_]")
 
@@ -277,7 +277,7 @@ def verdict_of(table: Table, stack: list[int], ttype: str) -> str:
             action = states[stack[-1]].get(ttype)
             if action is None:
                 return ERROR
-    return NEW if tuple(stack) in table.top else CONTINUES
+    return NEW if tuple(stack) in table.top else _CONTINUES
 
 
 class _ChunkErrors:
@@ -405,7 +405,7 @@ class _ChunkErrors:
             except UnexpectedToken as e:
                 expected = e.expected
             filler = None
-            for kind, text in FILLERS:
+            for kind, text in _FILLERS:
                 if kind in expected and verdict_of(table, state.state_stack, kind) != ERROR:
                     filler = kind, text
                     break
@@ -446,7 +446,7 @@ _CLOSER_TEXT = {"RPAR": ")", "RSQB": "]", "MORETHAN": ">"}
 # What `close` (and `_close_until`) may add, in order. No operand is made up for an unfinished
 # expression: the statement is dropped instead (a made-up `0` would be evaluated, and could
 # give a second, misleading error).
-FILLERS = (
+_FILLERS = (
     ("RBRACE", "}"),
     ("END", "#end"),
     ("RPAR", ")"),
@@ -599,10 +599,10 @@ class ChunkParser:
         """Macros whose bodies are cut across expressions (their first syntax error is one)
         keep their body's text to be read as tokens, and their errors are dropped; returns
         whether syntax errors are left outside them."""
-        lines = [0, *(m.end() for m in re.finditer("\n", self.clean))]
+        starts = lexical.line_starts(self.clean)
 
         def offset(line: int, col: int) -> int:
-            return lines[line - 1] + col - 1
+            return lexical.offset_of(starts, line, col)
 
         for m in syntax.walk(nodes):
             if type(m) is not syntax.MacroDef:
@@ -696,7 +696,7 @@ class ChunkParser:
                                 expected = {t for t in table.states[stack[-1]] if t.isupper()}
                                 errors.unexpected(tok, expected, None)
                                 verdict = _close_until(table, state, tok.type, last)
-                                if verdict is not CONTINUES:
+                                if verdict is not _CONTINUES:
                                     follow = tok
                                     break
                             piece = self.reusable.get(line_start)
@@ -807,7 +807,7 @@ class _MacroExtent:
             closer = next(
                 (
                     f
-                    for f in (*FILLERS, ("NUMBER", "0"))
+                    for f in (*_FILLERS, ("NUMBER", "0"))
                     if verdict_of(table, state.state_stack, f[0]) is not ERROR
                 ),
                 None,
@@ -853,7 +853,7 @@ def _close_until(table: Table, state: ParserState, ttype: str, last: Token | Non
         closer = next(
             (
                 (kind, text)
-                for kind, text in FILLERS
+                for kind, text in _FILLERS
                 if verdict_of(table, state.state_stack, kind) is not ERROR
             ),
             None,

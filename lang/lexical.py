@@ -10,6 +10,7 @@ formatter, the outline and the translator find comments and open blocks the same
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -22,6 +23,18 @@ STRING = r'"(?:[^"\\\n]|\\.)*"'
 _COMMENT_OR_STRING = re.compile(r'"|//|/\*')
 _STRING_BODY = re.compile(STRING)
 _NESTED = re.compile(r"/\*|\*/")
+
+
+@functools.lru_cache(maxsize=8)
+def line_starts(text: str) -> tuple[int, ...]:
+    """The offset of every line's first character (kept for the few texts in use: a
+    statement read as tokens in a loop asks again on every pass)."""
+    return (0, *(m.end() for m in re.finditer("\n", text)))
+
+
+def offset_of(starts: tuple[int, ...], line: int, col: int) -> int:
+    """The character offset of a 1-based line and column (`starts` from line_starts)."""
+    return starts[min(line, len(starts)) - 1] + col - 1
 
 
 def line_col(text: str, pos: int) -> tuple[int, int]:

@@ -222,11 +222,12 @@ class Interpreter:
         self.token_macros: set[str] = set()
         self._called: dict[int, tuple[syntax.Node, frozenset[str]]] = {}
         self._texts: dict[str, str] = {}  # file -> its text, comments blanked out
+        self._raw_texts: dict[str, str] = {}  # texts given, not read from a file
 
     # ------------------------------------------------------------ running
     def run(self, text: str, filename: str) -> Result:
         self.main_file = filename
-        self._texts[filename] = lexical.strip_comments(text, filename, DiagnosticSink())
+        self._raw_texts[filename] = text  # blanked only if a statement is read as tokens
         self.state.folder = str(Path(filename).resolve().parent)
         self.files.append(filename)
         tree, diags = self._parse_stored(text, filename)
@@ -673,7 +674,9 @@ class Interpreter:
         """A file's text with its comments blanked out (positions as its syntax tree's)."""
         text = self._texts.get(file)
         if text is None:
-            raw = Path(file).read_text(encoding="utf-8", errors="replace")
+            raw = self._raw_texts.get(file)
+            if raw is None:
+                raw = Path(file).read_text(encoding="utf-8", errors="replace")
             text = self._texts[file] = lexical.strip_comments(raw, file, DiagnosticSink())
         return text
 

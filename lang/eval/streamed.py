@@ -17,7 +17,6 @@ reading goes back to the tree.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
@@ -32,7 +31,7 @@ from lang import builtins, chunks, schema, syntax
 from lang.builtins import as_float
 from lang.diagnostics import DiagnosticSink, SceneError, Span
 from lang.grammar import BUILDER, describe_token, get_parser, tok_span
-from lang.lexical import blank
+from lang.lexical import blank, line_starts, offset_of
 from lang.values import MacroValue
 
 if TYPE_CHECKING:
@@ -130,17 +129,18 @@ def read(it: Interpreter, body: Sequence[syntax.Node], i: int, out: list[El], sp
     no token reading; returns that node's index (len(body) when it read to the end)."""
     first = body[i].span
     text = it.source_text(first.file)
-    lines = _line_starts(text)
-    start = _offset(lines, first.line, first.col)
+    lines = line_starts(text)
+    start = offset_of(lines, first.line, first.col)
     last = body[-1].span
     end = max(
-        _offset(lines, last.end_line, last.end_col), _offset(lines, first.end_line, first.end_col)
+        offset_of(lines, last.end_line, last.end_col),
+        offset_of(lines, first.end_line, first.end_col),
     )
     starts: dict[int, int] = {}
     for j in range(i + 1, len(body)):
         s = body[j].span
         if s.file == first.file:
-            starts.setdefault(_offset(lines, s.line, s.col), j)
+            starts.setdefault(offset_of(lines, s.line, s.col), j)
 
     def resume(pos: int) -> int | None:
         j = starts.get(pos)
@@ -156,14 +156,6 @@ def read(it: Interpreter, body: Sequence[syntax.Node], i: int, out: list[El], sp
     except _Stop as stop:
         return stop.index
     return len(body)
-
-
-def _line_starts(text: str) -> list[int]:
-    return [0, *(m.end() for m in re.finditer("\n", text))]
-
-
-def _offset(lines: list[int], line: int, col: int) -> int:
-    return lines[min(line, len(lines)) - 1] + col - 1
 
 
 def _lex(it: Interpreter, text: str, file: str, pos: int, line: int, end: int) -> list[Token]:
@@ -574,9 +566,9 @@ class _Stream:
         toks = self.lexed.get(key)
         if toks is None:
             text = self.it.source_text(span.file)
-            lines = _line_starts(text)
-            start = _offset(lines, span.line, span.col)
-            end = _offset(lines, span.end_line, span.end_col)
+            lines = line_starts(text)
+            start = offset_of(lines, span.line, span.col)
+            end = offset_of(lines, span.end_line, span.end_col)
             toks = self.lexed[key] = _lex(self.it, text, span.file, start, span.line, end)
         return toks
 
@@ -777,14 +769,13 @@ class _Reader:
             self.fresh = False
             self.used = True
             self.last = tok
-        except UnexpectedToken as e:
+        except UnexpectedToken:
             self.it.sink.error(
                 "E0002",
                 f"unexpected {describe_token(tok)}",
                 tok_span(self.file, tok),
                 "check the punctuation just before this: a missing `,`, `}`, `)` or `>`",
             )
-            del e
             self.state, self.fresh, self.skipping = self._fresh(), True, True
 
     def finish(self) -> None:
