@@ -338,7 +338,7 @@ class _ChunkErrors:
                     "E0004",
                     "unterminated string",
                     self.span_at(pos),
-                    'a string ends with `"` on the same line',
+                    'no `"` closes this string before the end of the file (or `\\` ends a line)',
                 )
             else:
                 self.report(

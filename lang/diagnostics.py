@@ -53,7 +53,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "E0001": "a construct is cut off by the end of the file",
     "E0002": "check the punctuation just before this: a missing `,`, `}`, `)` or `>`",
     "E0003": "close it with `*/`",
-    "E0004": 'close the string with `"` on the same line',
+    "E0004": 'close the string with `"` (a string may run over lines; a `\\` may not end one)',
     "E0005": "remove it; it is not part of the scene language",
     "E0006": "numbers go up to about 1.8e308",
     "E0101": "remove it, or open the block it was meant to close",

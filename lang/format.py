@@ -21,8 +21,10 @@ INDENT = "  "
 _OPENERS = {"if", "ifdef", "ifndef", "while", "for", "macro", "switch"}
 _MIDDLES = {"else", "elseif", "case", "range"}
 # One token of interest at a time: strings, comments, brackets, directives, commas.
-# A string not closed on its line runs to the line's end.
+# A string not closed on its line runs to the line's end (and on over the next lines, as
+# POV-Ray reads it, up to the line with its closing quote).
 _SCAN = re.compile(lexical.STRING + r"?|//[^\n]*|/\*|\*/|[{}\[\]]|#[ \t]*[A-Za-z_]+|,")
+_STRING_END = re.compile(r'(?:[^"\\]|\\.)*"')
 
 
 def format_source(text: str) -> str:
@@ -31,7 +33,18 @@ def format_source(text: str) -> str:
     state = _State()
     comment_depth = 0  # nesting of /* */ carried across lines
     blank_run = 0
+    in_string = False  # a string opened on an earlier line is still open
     for raw in lines:
+        if in_string:
+            # A string's lines are its text: kept exactly, white space included.
+            closed = _STRING_END.match(raw)
+            if closed is None:
+                out.append(raw)
+                continue
+            rest, _, comment_depth, in_string = _scan_line(raw[closed.end() :], state)
+            out.append(raw[: closed.end()] + rest)
+            blank_run = 0
+            continue
         if comment_depth > 0:
             # Inside a block comment: keep the line as written (minus trailing blanks).
             # (the rest of a line that closes it is code again, but re-indents nothing)
@@ -46,7 +59,7 @@ def format_source(text: str) -> str:
                 out.append("")
             continue
         blank_run = 0
-        body, indent, comment_depth = _scan_line(stripped, state)
+        body, indent, comment_depth, in_string = _scan_line(raw.lstrip(), state)
         out.append(INDENT * indent + body)
     while out and out[-1] == "":
         out.pop()
@@ -62,9 +75,10 @@ class _State:
         self.frames: list[int] = []
 
 
-def _scan_line(line: str, state: _State) -> tuple[str, int, int]:
+def _scan_line(line: str, state: _State) -> tuple[str, int, int, bool]:
     """Returns the re-spaced line, its indentation (from its first token: a closing `}`,
-    `#end` or `#else` steps out), and the open block-comment depth at its end.
+    `#end` or `#else` steps out), the open block-comment depth at its end, and whether a
+    string is still open there (its trailing white space is then the string's).
 
     Each branch of a directive starts at the depth of the directive's body, so a branch that
     opens a block's `{` for a shared body (`#if (A) merge { #else union { #end … }`, a "cut"
@@ -88,6 +102,9 @@ def _scan_line(line: str, state: _State) -> tuple[str, int, int]:
         first = at_start and not line[: m.start()].strip()
         at_start = False
         if tok.startswith('"'):
+            if _STRING_END.fullmatch(tok, 1) is None:
+                pieces.append(line[pos:])
+                return "".join(pieces), indent, comment, True
             continue
         if tok == ",":
             pieces.append(line[pos : m.start()].rstrip())
@@ -120,4 +137,4 @@ def _scan_line(line: str, state: _State) -> tuple[str, int, int]:
                     indent = max(level - 1, 0)
     pieces.append(line[pos:])
     text = "".join(pieces).rstrip()
-    return text, indent, comment
+    return text, indent, comment, False

@@ -71,6 +71,13 @@ def test_comments_and_strings_are_kept_verbatim():
     assert out.splitlines()[0] == "plane {y, 0} // a,b  {"
 
 
+def test_a_string_over_several_lines_is_kept_exactly():
+    src = '#declare S = "ab  \n   cd,{\n\n  x" ;\n   sphere{0,1}\n'
+    out = format_source(src)
+    assert '"ab  \n   cd,{\n\n  x"' in out
+    assert out.endswith('x" ;\nsphere{0, 1}\n')
+
+
 def test_blank_lines_collapse_and_file_ends_with_one_newline():
     assert format_source("a\n\n\n\nb\n\n\n") == "a\n\nb\n"
 
@@ -90,6 +97,8 @@ _PIECES = st.sampled_from(
         "/*",
         "*/",
         '"s,{"',
+        '"s\n   ,{  \n',  # a string open over lines (POV-Ray reads to the next quote)
+        '"',
         "\n",
         "\n\n\n",
         "   ",

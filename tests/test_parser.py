@@ -227,6 +227,37 @@ def test_unterminated_comment_and_string():
     assert errors('#debug "abc\nsphere {0,1}')[0].code == "E0004"
 
 
+MULTILINE = """#declare S = "ab
+cd";
+#declare T = "x\\"y
+z";
+#debug concat("Q [", S, "] ", str(strlen(S), 0, 0), " ", str(strlen(T), 0, 0), "\\n")
+"""
+
+
+def test_a_string_runs_to_its_closing_quote_across_lines():
+    """POV-Ray's tokenizer ends a string at the next unescaped `"`, newlines included
+    (shapes3.inc has such strings); only a backslash before the newline is an error."""
+    (s, t, _) = ok(MULTILINE)
+    assert isinstance(s, S.Declare) and "\n" in str(s.value.value)
+    assert errors('#declare S = "ab\\\ncd";')[0].code == "E0004"
+
+
+@pytest.mark.povray
+def test_multiline_strings_print_as_povray_prints_them(tmp_path):
+    import re
+
+    from lang.evaluate import compile_source
+    from tests.conftest import povray_debug
+
+    scene = tmp_path / "s.pov"
+    scene.write_text(MULTILINE)
+    (want,) = re.findall(r"Q \[[^]]*\] \d+ \d+", povray_debug(scene))
+    r = compile_source(MULTILINE, str(scene))
+    notes = [d.message for d in r.diagnostics if d.code == "N0100"]
+    assert notes and notes[0].strip() == want, (notes, want)
+
+
 def test_missing_end():
     errs = errors("#if (1) sphere { 0, 1 }\n")
     assert errs and errs[0].code == "E0107"
