@@ -259,6 +259,11 @@ def _format_float(v: float, length: int, precision: int) -> str:
     if precision < 0:
         precision = 6
     zero = "0" if length < 0 else ""
+    if abs(length) > MAX_STRING_LENGTH or precision > MAX_STRING_LENGTH:
+        raise EvalError(
+            f"str() of width {length:,} and precision {precision:,} is too long",
+            f"strings hold at most {MAX_STRING_LENGTH:,} characters",
+        )
     return f"{v:{zero}{abs(length)}.{precision}f}"
 
 

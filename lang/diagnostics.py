@@ -79,6 +79,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "E0235": "give every path through the directives the `}` that closes the block",
     "E0236": "remove the `}`, or open the block on the path that closes it",
     "E0237": "keep the block's braces inside one directive branch",
+    "E0238": "a loop or a recursive macro runs far longer than meant; check its bounds",
     "E0240": "raised by #error",
     "E0250": "indices start at 0 and stop one before the declared size",
     "E0260": "file I/O reads and writes only inside the scene's folder",

@@ -11,6 +11,7 @@ from pathlib import Path
 from lang import scene_store
 from lang.animation import NAMES, Animation
 from lang.diagnostics import Diagnostic, Severity, Span
+from lang.eval.budget import RENDER, Budget
 from lang.eval.interpreter import Interpreter, Result
 from lang.queries import QueriesFactory
 
@@ -57,6 +58,7 @@ def compile_file(
     queries: QueriesFactory | None = None,
     store: bool = False,
     declares: Mapping[str, float] | None = None,
+    budget: Budget = RENDER,
 ) -> Result:
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -77,6 +79,7 @@ def compile_file(
         queries=queries,
         store=store,
         declares=declares,
+        budget=budget,
     )
 
 
@@ -94,12 +97,14 @@ def compile_source(
     queries: QueriesFactory | None = None,
     store: bool = False,
     declares: Mapping[str, float] | None = None,
+    budget: Budget = RENDER,
 ) -> Result:
     """`queries` answers trace() and inside() (see lang.queries); without it they miss.
 
     store: keep the result in `lang.scene_store` and take it from there while nothing it
     read has changed (the command line does; `symbols` is then empty). declares: names
-    declared before the scene is read (POV-Ray's `Declare=Name=Value` option)."""
+    declared before the scene is read (POV-Ray's `Declare=Name=Value` option). budget: the
+    evaluation's total steps and memory (lang.eval.budget: small for check and editors)."""
     name = ""
     if store:
         options = (
@@ -112,6 +117,7 @@ def compile_source(
             tuple(sorted((animation or {}).items())),
             queries is not None,
             tuple(sorted((declares or {}).items())),
+            budget,
         )
         name = scene_store.key(text, filename, options)
         entry = scene_store.load(name)
@@ -129,6 +135,7 @@ def compile_source(
         animation=animation,
         queries=queries,
         declares=declares,
+        budget=budget,
     )
     result = interp.run(text, filename)
     if store and result.scene is not None and interp.standalone(result):

@@ -30,6 +30,7 @@ from typing import TextIO
 
 from lang import paths
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
+from lang.eval.budget import CHECK, RENDER, Budget
 from runtime.povray_options import OptionError, parse_declare, translate_povray_args
 
 # Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
@@ -573,6 +574,7 @@ def _compile(
     animation: Mapping[str, float] | None = None,
     geometry: bool = True,
     declares: Mapping[str, float] | None = None,
+    budget: Budget | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -598,6 +600,7 @@ def _compile(
         queries=_runtime_queries if geometry else None,
         store=True,
         declares=declares,
+        budget=budget or RENDER,
     )
     return result.scene, list(result.diagnostics)
 
@@ -615,7 +618,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     for file in args.files:
         diags += _compile(
             file, args.library, image_size(args), clock=clock, file_io=False,
-            animation=animation, geometry=False, declares=_declares(args),
+            animation=animation, geometry=False, declares=_declares(args), budget=CHECK,
         )[1]  # fmt: skip
     errors, warnings = _counts(diags)
     if args.format == "json":

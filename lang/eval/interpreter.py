@@ -44,6 +44,7 @@ from lang.eval import (
     surfaces,
     textures,
 )
+from lang.eval.budget import RENDER, Budget, Exceeded, Meter
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
 from lang.eval.coincident import MAX_PAIRS, coincident_faces
@@ -147,8 +148,10 @@ class Interpreter:
         animation: Mapping[str, float] | None = None,
         queries: QueriesFactory | None = None,
         declares: Mapping[str, float] | None = None,
+        budget: Budget = RENDER,
     ):
         self.sink = DiagnosticSink()
+        self.meter = Meter(budget)  # the evaluation's total work (lang.eval.budget)
         self._queries_factory = queries
         self._queries: SceneQueries | None = None
         # functions called from the scene, with the scene's pattern defaults (the original
@@ -177,6 +180,7 @@ class Interpreter:
         # `#declare deprecated [once] "message" NAME`: NAME → [message, once, warned yet]
         self.deprecated: dict[str, list] = {}
         self.macro_depth = 0
+        self.exhausted = False  # the budget ran out: the evaluation stops
         self.cut_braces = False  # a brace paired across directives was read (lang.eval.cuts)
         self.break_targets = 0  # the #while, #for, #switch and macros a #break may leave
         self.loose_depth = 0
@@ -226,6 +230,18 @@ class Interpreter:
 
     # ------------------------------------------------------------ running
     def run(self, text: str, filename: str) -> Result:
+        # Scenes recurse through macros (trees, fractals) and nest blocks; each level costs a
+        # few dozen Python frames, so give the interpreter room (MAX_MACRO_DEPTH still bounds
+        # it), and the passes over the finished scene too (a union nested a thousand deep
+        # was read, then the coincidence check ran out of frames: an internal error).
+        old_limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(old_limit, RECURSION_LIMIT))
+        try:
+            return self._run(text, filename)
+        finally:
+            sys.setrecursionlimit(old_limit)
+
+    def _run(self, text: str, filename: str) -> Result:
         self.main_file = filename
         self._raw_texts[filename] = text  # blanked only if a statement is read as tokens
         self.state.folder = str(Path(filename).resolve().parent)
@@ -233,10 +249,6 @@ class Interpreter:
         tree, diags = self._parse_stored(text, filename)
         self.sink.items.extend(diags)
         self.file_stack.append(filename)
-        # Scenes recurse through macros (trees, fractals); each macro level costs a few dozen
-        # Python frames, so give the interpreter room (MAX_MACRO_DEPTH still bounds it).
-        old_limit = sys.getrecursionlimit()
-        sys.setrecursionlimit(max(old_limit, RECURSION_LIMIT))
         try:
             els = self.expand(tree.body, None, top=True)
             if self.cut_braces:
@@ -244,7 +256,6 @@ class Interpreter:
             for el in settings_at_top(self, els):
                 self._top_level(el)
         finally:
-            sys.setrecursionlimit(old_limit)
             self.file_stack.pop()
         for h in list(self.handles.values()):
             fileio.flush(self, h)
@@ -261,7 +272,10 @@ class Interpreter:
                     "remove the declaration, or use the name",
                 )
         scene = self._scene()
-        self._warn_coincident(scene)
+        try:
+            self._warn_coincident(scene)
+        except RecursionError:
+            pass  # objects nested deeper than the frames allow: the warning is left out
         symbols = {k: v for k, v in self.scopes[0].items()}
         return Result(scene, _once(self.sink.items), symbols, list(self.files))
 
@@ -508,6 +522,7 @@ class Interpreter:
             node = body[i]
             i += 1
             try:
+                self.meter.step()
                 if (
                     isinstance(node, syntax.Declare)
                     and isinstance(node.value, syntax.Block)
@@ -547,6 +562,13 @@ class Interpreter:
             except Quiet:
                 pass
             except _Halt:
+                if top:
+                    return out
+                raise
+            except Exceeded as e:
+                if not self.exhausted:  # said once, at the statement that went past it
+                    self.exhausted = True
+                    self.sink.error("E0238", e.message, node.span, e.hint)
                 if top:
                     return out
                 raise
@@ -937,6 +959,7 @@ class Interpreter:
         try:
             while builtins.truth(self.eval(node.cond)):
                 n += 1
+                self.meter.step()
                 if n > MAX_LOOP_ITERATIONS:
                     raise self.error(
                         "E0230",
@@ -987,6 +1010,7 @@ class Interpreter:
         try:
             while (i <= end + 1e-10) if step > 0 else (i >= end - 1e-10):
                 n += 1
+                self.meter.step()
                 if n > MAX_LOOP_ITERATIONS:
                     raise self.error(
                         "E0230", f"#for ran past {MAX_LOOP_ITERATIONS} iterations", node.span
@@ -1147,6 +1171,7 @@ class Interpreter:
                 node.span,
                 f"#macro {macro.name}({', '.join(macro.params)})",
             )
+        self.meter.step()
         if self.macro_depth >= MAX_MACRO_DEPTH:
             raise self.error("E0231", f"macro `{macro.name}` recursed too deeply", node.span)
         if macro.span is not None and macro.span in self.broken_macros:
