@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from lang.diagnostics import DiagnosticSink, Span
 
 # A string literal: `"`, then anything but a quote, backslash or newline, or an escape.
-STRING = r'"(?:[^"\\]|\\.)*"'
+STRING = r'"[^"\\]*(?:\\.[^"\\]*)*"'  # unrolled: a repeated group costs memory per character
 
 _COMMENT_OR_STRING = re.compile(r'"|//|/\*')
 _STRING_BODY = re.compile(STRING)

@@ -1,0 +1,28 @@
+"""Hand-made inputs that broke the checker or the renderer (issue 22's list): each costs
+bounded time and memory and ends in diagnostics, never an internal error."""
+
+from __future__ import annotations
+
+import resource
+import subprocess
+import sys
+
+
+def _peak_mb_of(code: str) -> float:
+    """The peak resident size of a fresh interpreter running `code`, in MB."""
+    out = subprocess.run(
+        [sys.executable, "-c", code + "\nimport resource\n"
+         "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"],
+        capture_output=True, text=True, check=True, timeout=300,
+    )  # fmt: skip
+    return int(out.stdout.split()[-1]) / 1024
+
+
+def test_a_long_string_literal_costs_memory_in_proportion():
+    # a 1 MB literal took 1 GB: the string pattern's repeated group kept state per character
+    base = _peak_mb_of("from lang.parser import parse; parse('#declare S = \"a\";', 's.pov')")
+    peak = _peak_mb_of(
+        "from lang.parser import parse\nparse('#declare S = \"' + 'a' * 1_000_000 + '\";', 's.pov')"
+    )
+    assert peak - base < 100, (base, peak)
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss > 0
