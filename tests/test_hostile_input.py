@@ -6,6 +6,11 @@ from __future__ import annotations
 import resource
 import subprocess
 import sys
+import time
+
+import pytest
+
+from lang.parser import parse
 
 
 def _peak_mb_of(code: str) -> float:
@@ -26,3 +31,16 @@ def test_a_long_string_literal_costs_memory_in_proportion():
     )
     assert peak - base < 100, (base, peak)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss > 0
+
+
+@pytest.mark.parametrize("flood", ["} ", ") ", "#end ", "#else ", "> "])
+def test_syntax_recovery_is_linear(flood):
+    # 8,000 unmatched `}` took 31 s: each one rescanned the braces from the chunk's start
+    def took(n: int) -> float:
+        start = time.perf_counter()
+        parse(flood * n, "f.pov")
+        return time.perf_counter() - start
+
+    took(500)  # warm the parser
+    small, large = took(2_000), took(16_000)
+    assert large < 12 * max(small, 0.02), (small, large)  # 8 times the input
