@@ -296,7 +296,12 @@ def cut_braces(text: str) -> frozenset[int]:
                 stack[:] = outs[0]
         return stack
 
-    left = run(_constructs(text), [], root, False)
+    try:
+        left = run(_constructs(text), [], root, False)
+    except RecursionError:
+        # directives nested thousands deep (a fuzzer's, never a scene's): no cut braces
+        # are looked for; the parser and the evaluator report the nesting
+        return frozenset()
     for o in left:
         if o.cut or macro_closes:
             cuts.add(o.pos)

@@ -10,7 +10,11 @@ import time
 
 import pytest
 
+from lang.diagnostics import Severity
+from lang.evaluate import compile_source
 from lang.parser import parse
+from runtime import api
+from runtime.render import MAX_NESTING, render_scene
 
 
 def _peak_mb_of(code: str) -> float:
@@ -44,3 +48,31 @@ def test_syntax_recovery_is_linear(flood):
     took(500)  # warm the parser
     small, large = took(2_000), took(16_000)
     assert large < 12 * max(small, 0.02), (small, large)  # 8 times the input
+
+
+def test_directives_nested_thousands_deep_are_diagnostics():
+    # 4,000 nested `#if` overflowed the cut-brace analysis (RecursionError, exit 3)
+    r = compile_source("#if (1) " * 4000, "d.pov")
+    assert not [d for d in r.diagnostics if d.code == "E0200"]
+    assert [d.code for d in r.diagnostics if d.severity is Severity.ERROR] == ["E0107"]
+
+
+def test_a_deeply_nested_union_is_read_and_its_checks_do_not_run_out_of_frames():
+    # read within the interpreter's frames, then the coincidence check ran out (exit 3)
+    src = "union { " * 1000 + "sphere { 0, 1 }" + " }" * 1000
+    r = compile_source(src, "d.pov")
+    assert not [d for d in r.diagnostics if d.code == "E0200"]
+    assert r.scene is not None and len(r.scene.objects) == 1
+
+
+def test_rendering_csg_nested_too_deep_is_a_located_error():
+    head = "camera { location -5*z look_at 0 } light_source { <5, 5, -5> rgb 1 }\n"
+    deep = "union { " * (MAX_NESTING + 1) + "sphere { 0, 1 }" + " }" * (MAX_NESTING + 1)
+    scene = api.compile_string(head + deep).scene
+    from lang.diagnostics import SceneError
+
+    with pytest.raises(SceneError) as e:
+        render_scene(scene, 8, 6)
+    assert e.value.diagnostic.code == "E0231" and e.value.diagnostic.span.line == 2
+    shallow = "union { " * 50 + "sphere { 0, 1 }" + " }" * 50
+    assert render_scene(api.compile_string(head + shallow).scene, 8, 6).shape == (6, 8, 3)
