@@ -45,7 +45,7 @@ BREAKERS = (
     "#switch (1)",
     "#case (",
     "#version 1e9;",
-    "#fopen F \"nodir/x.txt\" write",
+    '#fopen F "nodir/x.txt" write',
     "function {",
     "spline {",
     "array[9999999]",

@@ -140,6 +140,11 @@ class _Worker:
         self.proc.wait()
 
 
+# an input's outcome -> the tally it counts in
+_TALLIES = {"internal": "internal", "hang": "hangs", "nonfinite": "nonfinite", "leak": "leaks",
+            "memory": "memory", "crash": "crash"}  # fmt: skip
+
+
 def campaign(
     command: str, count: int, seed: int, timeout: float, out: Path | None, budget_s: float
 ) -> dict:
@@ -172,8 +177,7 @@ def campaign(
                        "seconds": timeout, "peak_mb": 0.0}  # fmt: skip
             elif res["outcome"] == "crash":
                 w = _Worker(folder)
-            key = {"internal": "internal", "hang": "hangs", "nonfinite": "nonfinite",
-                   "leak": "leaks", "memory": "memory", "crash": "crash"}.get(res["outcome"])  # fmt: skip
+            key = _TALLIES.get(res["outcome"])
             if res.get("repaired"):
                 tally["repaired_images"] += 1
             tally["peak_mb"] = max(tally["peak_mb"], res.get("peak_mb", 0.0))
