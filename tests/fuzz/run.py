@@ -133,7 +133,9 @@ class _Worker:
         if not sel.select(timeout):
             return None
         line = self.proc.stdout.readline()
-        return json.loads(line) if line else {"outcome": "crash", "detail": "worker died"}
+        if not line:
+            return {"outcome": "crash", "detail": "worker died", "seconds": 0.0, "peak_mb": 0.0}
+        return json.loads(line)
 
     def stop(self) -> None:
         self.proc.kill()
