@@ -12,6 +12,7 @@ Exit codes: 0 ok, 1 the scene (or an input file) has errors, 2 bad command line,
 from __future__ import annotations
 
 import argparse
+import errno
 import gc
 import json
 import math
@@ -775,6 +776,12 @@ def output_path(scene_file: str, output: str | None, suffix: str) -> Path:
     if output.endswith(("/", os.sep)) or Path(output).is_dir():
         return Path(output) / (stem + suffix)
     if not Path(output).suffix:
+        if Path(output).exists() and not Path(output).is_file():
+            # `-o /dev/full` wrote /dev/full.png and said nothing
+            raise UsageError(
+                f"-o {output}: not a file or a folder (a device?); give an image name, "
+                "or -o - for standard output"
+            )
         return Path(output + suffix)
     return Path(output)
 
@@ -941,36 +948,15 @@ def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | N
 
 @contextmanager
 def _quick_interrupt(cleanup: Path | None = None) -> Iterator[None]:
-    """^C during a render stops the process at once.
-
-    A KeyboardInterrupt would have to unwind through the render's thread pool, which
-    finishes every queued tile before it lets go; nothing is on disk yet while pixels are
-    being computed, so leaving immediately loses nothing. Outside this block (writing the
-    image) ^C is an ordinary KeyboardInterrupt, so the temporary file is cleaned up.
-    `cleanup`: a file to remove before leaving (the preview's)."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
+    """A stop (^C, SIGTERM) while the block runs removes `cleanup` (the preview's file) as
+    it ends the process at once (runtime.signals)."""
+    if cleanup is None:
         yield
         return
-    previous = signal.getsignal(signal.SIGINT)
-    if previous is not signal.default_int_handler:  # ignored, or someone else's: leave it
-        yield
-        return
+    from runtime import signals
 
-    def stop(signum, frame):
-        if cleanup is not None:
-            cleanup.unlink(missing_ok=True)
-        sys.stderr.write("\nstrala: interrupted\n")
-        sys.stderr.flush()
-        os._exit(130)
-
-    signal.signal(signal.SIGINT, stop)
-    try:
+    with signals.removed_if_stopped(cleanup):
         yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 def _render_one(
@@ -1211,10 +1197,13 @@ def cmd_lsp(args: argparse.Namespace) -> int:
 
 
 def _write_text_atomically(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    from runtime import signals
+
+    tmp = signals.temporary_name(path, ".tmp")
     try:
-        tmp.write_text(text, encoding="utf-8", errors="surrogateescape")
-        os.replace(tmp, path)
+        with signals.removed_if_stopped(tmp):
+            tmp.write_text(text, encoding="utf-8", errors="surrogateescape")
+            os.replace(tmp, path)
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -1234,6 +1223,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args, unknown = parser.parse_known_args(argv)  # exits 2 on a bad command line
     if unknown:  # said with the command's usage line, not the top level's
         args.parsers[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
+    from runtime import signals
+
+    signals.install()  # a stop removes what is being written and exits 130/143/129 at once
     # The evaluator allocates many small objects and few cycles: collecting every 700
     # allocations cost a few percent of a short render for nothing.
     gc.set_threshold(20000, 20, 20)
@@ -1254,6 +1246,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 141  # what a shell reports for SIGPIPE
+    except OSError as exc:
+        if exc.errno not in _OUTPUT_FAILURES:
+            raise
+        # standard output on a full disk (`> /dev/full`): said, never exit 0 or a traceback
+        _drop_stdout()
+        print(f"strala {args.command}: error: cannot write: {exc.strerror}", file=sys.stderr)
+        return 1
     except Exception as exc:  # the last line of defence: never a bare traceback
         print(f"internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
         if args.debug:
@@ -1263,6 +1262,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             print("(run with --debug for the traceback)", file=sys.stderr)
         return 3
+
+
+# errors of a write that failed for want of room or a working device, not a bug
+_OUTPUT_FAILURES = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG})
+
+
+def _drop_stdout() -> None:
+    """What is left in standard output's buffer would fail again at exit: drop it."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
 
 
 def run() -> None:
@@ -1282,11 +1291,19 @@ def run() -> None:
     code = 0 if code is None else int(code)
     if sys.gettrace() is not None or sys.getprofile() is not None:
         sys.exit(code)
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):  # a closed pipe or stream: nothing more to say
-            pass
+    try:
+        sys.stdout.flush()
+    except OSError as exc:  # a full disk: the output is incomplete, so the command failed
+        if exc.errno in _OUTPUT_FAILURES:
+            _drop_stdout()
+            print(f"strala: error: cannot write: {exc.strerror}", file=sys.stderr)
+            code = code or 1
+    except ValueError:  # a closed stream: nothing more to say
+        pass
+    try:
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
     os._exit(code)
 
 
