@@ -76,3 +76,36 @@ def test_rendering_csg_nested_too_deep_is_a_located_error():
     assert e.value.diagnostic.code == "E0231" and e.value.diagnostic.span.line == 2
     shallow = "union { " * 50 + "sphere { 0, 1 }" + " }" * 50
     assert render_scene(api.compile_string(head + shallow).scene, 8, 6).shape == (6, 8, 3)
+
+
+@pytest.mark.parametrize("item", ["rotate <1e308 * 10, 0, 0>", "rotate <0, 0/0 + 1e308 * 10, 0>",
+                                  "translate <1, 0, -1e308 * 10>", "scale 1e308 * 10"])  # fmt: skip
+def test_a_transform_by_an_infinite_amount_is_an_error_at_it(item):
+    # the fuzzer's: rotate of an overflowed angle was a math domain error (E0200)
+    r = compile_source(f"sphere {{ 0, 1\n  {item}\n}}\n", "t.pov")
+    errors = [d for d in r.diagnostics if d.severity is Severity.ERROR]
+    assert [(d.code, d.span.line) for d in errors] == [("E0203", 2)], errors
+    assert "infinite or undefined" in errors[0].message
+
+
+@pytest.mark.parametrize("entry", ["texture { pigment { rgb 1 } }", "1"])
+def test_a_mesh2_index_list_with_a_non_vector_is_an_error(entry):
+    # the fuzzer's swap of mesh2.pov: AttributeError 'Texture' object has no attribute 'padded'
+    src = (
+        "mesh2 { vertex_vectors { 3, <0,0,0>, <1,0,0>, <0,1,0> }\n"
+        "  normal_vectors { 1, <0,0,-1> }\n"
+        "  face_indices { 1, <0, 1, 2> }\n"
+        f"  normal_indices {{ 1, {entry} }}\n}}\n"
+    )
+    r = compile_source(src, "m.pov")
+    errors = [d for d in r.diagnostics if d.severity is Severity.ERROR]
+    assert [d.code for d in errors] == ["E0202"] and "index vectors" in errors[0].message
+
+
+@pytest.mark.parametrize("item", ["falloff 1e308 * 10", "radius 0/0 + 1e308 * 10",
+                                  "point_at <0, -1e308 * 10, 0>"])  # fmt: skip
+def test_a_spotlight_of_an_infinite_angle_is_an_error_at_it(item):
+    # the fuzzer's lights/soft.pov: math domain error while rendering (exit 3)
+    src = f"light_source {{ <0, 5, 0> rgb 1 spotlight\n  {item}\n}}\n"
+    errors = [d for d in compile_source(src, "l.pov").diagnostics if d.severity is Severity.ERROR]
+    assert [(d.code, d.span.line) for d in errors] == [("E0203", 2)], errors
