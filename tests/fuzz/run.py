@@ -48,17 +48,20 @@ def _peak_mb() -> float:
 def one(command: str, text: str, folder: str) -> dict:
     """What one input did: outcome (ok, internal, nonfinite, leak, memory), detail."""
     from lang.diagnostics import Severity
+    from lang.eval.budget import CHECK
     from lang.evaluate import compile_source
 
     name = os.path.join(folder, "fuzz.pov")
     out: dict = {"outcome": "ok", "detail": ""}
     try:
         if command == "check":
-            r = compile_source(text, name, allow_file_io=False)
+            r = compile_source(text, name, allow_file_io=False, budget=CHECK)  # as `check`
         else:
             from runtime.queries import RuntimeQueries
 
-            r = compile_source(text, name, queries=RuntimeQueries)
+            # the renderer is what is fuzzed here: its scenes are evaluated within check's
+            # budget (a render's allows minutes of evaluation, tested in test_budget.py)
+            r = compile_source(text, name, queries=RuntimeQueries, budget=CHECK)
         shown = "\n".join(d.format(text.splitlines()) for d in r.diagnostics)
         internal = [d for d in r.diagnostics if d.code in ("E0000", "E0200")]
         if internal:
