@@ -83,6 +83,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "E0240": "raised by #error",
     "E0250": "indices start at 0 and stop one before the declared size",
     "E0260": "file I/O reads and writes only inside the scene's folder",
+    "E0261": "keep included files in the scene's folder or a library folder (-L)",
     "E0270": "check the camera's vectors",
     "E0280": "a knot vector has n + degree + 1 values that never decrease",
     "E0281": "control_points { nu, nv, <x,y,z>, … } lists nu × nv points",

@@ -14,6 +14,7 @@ from lang.diagnostics import Diagnostic, Severity, Span
 from lang.eval.budget import RENDER, Budget
 from lang.eval.interpreter import Interpreter, Result
 from lang.queries import QueriesFactory
+from lang.read_access import UNRESTRICTED, ReadAccess
 
 __all__ = ["Result", "animation_values", "compile_file", "compile_source"]
 
@@ -59,6 +60,9 @@ def compile_file(
     store: bool = False,
     declares: Mapping[str, float] | None = None,
     budget: Budget = RENDER,
+    reads: ReadAccess = UNRESTRICTED,
+    confine_reads: str | None = None,
+    stores: bool = True,
 ) -> Result:
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -80,6 +84,9 @@ def compile_file(
         store=store,
         declares=declares,
         budget=budget,
+        reads=reads,
+        confine_reads=confine_reads,
+        stores=stores,
     )
 
 
@@ -98,13 +105,19 @@ def compile_source(
     store: bool = False,
     declares: Mapping[str, float] | None = None,
     budget: Budget = RENDER,
+    reads: ReadAccess = UNRESTRICTED,
+    confine_reads: str | None = None,
+    stores: bool = True,
 ) -> Result:
     """`queries` answers trace() and inside() (see lang.queries); without it they miss.
 
     store: keep the result in `lang.scene_store` and take it from there while nothing it
     read has changed (the command line does; `symbols` is then empty). declares: names
     declared before the scene is read (POV-Ray's `Declare=Name=Value` option). budget: the
-    evaluation's total steps and memory (lang.eval.budget: small for check and editors)."""
+    evaluation's total steps and memory (lang.eval.budget: small for check and editors).
+    reads, confine_reads: which files may be read (lang.read_access; confine_reads names the
+    tool that reads only the scene's and the library folders). stores=False: nothing is kept
+    between runs, not even parses (check and the editor write nothing)."""
     name = ""
     if store:
         options = (
@@ -118,6 +131,8 @@ def compile_source(
             queries is not None,
             tuple(sorted((declares or {}).items())),
             budget,
+            reads,
+            confine_reads,
         )
         name = scene_store.key(text, filename, options)
         entry = scene_store.load(name)
@@ -136,6 +151,9 @@ def compile_source(
         queries=queries,
         declares=declares,
         budget=budget,
+        reads=reads,
+        confine_reads=confine_reads,
+        stores=stores,
     )
     result = interp.run(text, filename)
     if store and result.scene is not None and interp.standalone(result):

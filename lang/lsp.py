@@ -124,7 +124,9 @@ def analyse(text: str, path: str) -> list[Diagnostic]:
                 return doc.parse(text_)
             return parse_include(text_, filename)
 
-    result = Analysis(paths.library_paths(), allow_file_io=False, budget=EDITOR).run(text, path)
+    result = Analysis(
+        paths.library_paths(), allow_file_io=False, budget=EDITOR, confine_reads="the editor"
+    ).run(text, path)
     doc.values = result.symbols
     return [d for d in result.diagnostics if d.span.file == path] or [
         d for d in result.diagnostics if d.severity is Severity.ERROR

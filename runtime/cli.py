@@ -29,7 +29,7 @@ from contextlib import contextmanager, redirect_stdout
 from pathlib import Path
 from typing import TextIO
 
-from lang import paths
+from lang import paths, read_access
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 from lang.eval.budget import CHECK, RENDER, Budget
 from runtime.povray_options import OptionError, parse_declare, translate_povray_args
@@ -576,6 +576,7 @@ def _compile(
     geometry: bool = True,
     declares: Mapping[str, float] | None = None,
     budget: Budget | None = None,
+    confine_reads: str | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -599,9 +600,14 @@ def _compile(
         debug_to_stderr=debug_output,
         animation=animation,
         queries=_runtime_queries if geometry else None,
-        store=True,
+        store=confine_reads is None,  # check keeps nothing between runs: it writes nothing
+        stores=confine_reads is None,
         declares=declares,
         budget=budget or RENDER,
+        confine_reads=confine_reads,
+        reads=read_access.from_povray_conf(
+            read_access.povray_conf(), Path(path).resolve().parent, libraries
+        ),
     )
     return result.scene, list(result.diagnostics)
 
@@ -620,6 +626,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         diags += _compile(
             file, args.library, image_size(args), clock=clock, file_io=False,
             animation=animation, geometry=False, declares=_declares(args), budget=CHECK,
+            confine_reads="check",
         )[1]  # fmt: skip
     errors, warnings = _counts(diags)
     if args.format == "json":

@@ -26,6 +26,7 @@ from lang import (
     ir,
     lexical,
     paths,
+    read_access,
     scene_store,
     schema,
     syntax,
@@ -39,6 +40,7 @@ from lang.eval import (
     fileio,
     functions,
     grouping,
+    loop_watch,
     splines,
     streamed,
     surfaces,
@@ -65,6 +67,7 @@ from lang.ir_ops import (
 )
 from lang.keywords import ALL_WORDS
 from lang.queries import QueriesFactory, SceneQueries
+from lang.read_access import UNRESTRICTED, ReadAccess
 from lang.values import (
     ArrayValue,
     CameraValue,
@@ -76,7 +79,6 @@ from lang.values import (
     ObjectPattern,
     ObjectValue,
     UnsupportedValue,
-    Vec,
     describe,
     kind_of,
 )
@@ -149,8 +151,17 @@ class Interpreter:
         queries: QueriesFactory | None = None,
         declares: Mapping[str, float] | None = None,
         budget: Budget = RENDER,
+        reads: ReadAccess = UNRESTRICTED,
+        confine_reads: str | None = None,
+        stores: bool = True,
     ):
         self.sink = DiagnosticSink()
+        # which files may be read (lang.read_access); confine_reads names who reads only the
+        # scene's folder and the library folders (check, the editor); stores: parses may be
+        # kept between runs (lang.parse_store: off for tools that must write nothing)
+        self.reads = reads
+        self.confine_reads = confine_reads
+        self.stores = stores
         self.meter = Meter(budget)  # the evaluation's total work (lang.eval.budget)
         self._queries_factory = queries
         self._queries: SceneQueries | None = None
@@ -243,6 +254,11 @@ class Interpreter:
 
     def _run(self, text: str, filename: str) -> Result:
         self.main_file = filename
+        if self.confine_reads is not None:
+            self.reads = read_access.confined(
+                Path(filename).resolve().parent, self.library_paths, self.confine_reads
+            )
+        self.state.readable = self.reads.allows
         self._raw_texts[filename] = text  # blanked only if a statement is read as tokens
         self.state.folder = str(Path(filename).resolve().parent)
         self.files.append(filename)
@@ -290,7 +306,11 @@ class Interpreter:
         """A file's parse, from `lang.parse_store` when it holds it. Subclasses that parse
         in their own way (the language server, translate) keep theirs; text without a file
         name is parsed."""
-        if type(self).parse_source is not Interpreter.parse_source or filename.startswith("<"):
+        if (
+            type(self).parse_source is not Interpreter.parse_source
+            or filename.startswith("<")
+            or not self.stores
+        ):
             return self.parse_source(text, filename)
         from lang import parse_store
 
@@ -718,6 +738,15 @@ class Interpreter:
                 "E0220", f"include file `{name}` not found", node.span, f"searched {where}"
             )
         probed_at, path = found
+        if not self.reads.allows(path):
+            # `#include "/etc/passwd"` printed its lines in the diagnostics
+            who = self.confine_reads or self.reads.why
+            raise self.error(
+                "E0261",
+                f"`{name}` is outside the folders that may be read ({who})",
+                node.span,
+                "keep included files in the scene's folder or a library folder (-L)",
+            )
         if path in self.file_stack:
             raise self.error(
                 "E0221",
@@ -780,7 +809,9 @@ class Interpreter:
         not, makes the result depend on a file whose text is not followed."""
         self.depends_outside(f"the file {name}")
         found = self._find(name)
-        return None if found is None else found[1]
+        if found is None or not self.reads.allows(found[1]):
+            return None  # a file outside the folders that may be read is not there
+        return found[1]
 
     def _find(self, name: str) -> tuple[str, str] | None:
         """(the path probed, the resolved path) of the file `name` names: in the current
@@ -954,7 +985,7 @@ class Interpreter:
 
     def _d_while(self, node: syntax.While, out, spec) -> None:
         n = 0
-        watched = _loop_watch(node)
+        watched = loop_watch.watched_names(node)
         self.break_targets += 1
         try:
             while builtins.truth(self.eval(node.cond)):
@@ -975,7 +1006,7 @@ class Interpreter:
                 if (
                     before is not None
                     and watched is not None
-                    and _same_values(before, [self.lookup(v) for v in watched])
+                    and loop_watch.same_values(before, [self.lookup(v) for v in watched])
                 ):
                     raise self.error(
                         "E0230",
@@ -1400,45 +1431,6 @@ def _takes_object_pattern(spec: schema.BlockSpec | None) -> bool:
     """Whether `object { … }` in this block is the object pattern (pigment, normal …)."""
     item = spec.items.get("object") if spec is not None else None
     return item is not None and item.args == ("object_pattern",)
-
-
-def _loop_watch(node: syntax.While) -> list[str] | None:
-    """The names a #while's condition reads, when nothing but them can end the loop and the
-    body cannot change them: the condition calls no function (a call may read a file, a
-    random stream, `defined()`), the body has no #break, and it neither assigns nor
-    #undefs those names, calls no macro (a macro may #declare them) and includes no file.
-    After one pass with the same values the loop cannot end. None: it cannot be judged
-    (a body that sets `Continue = 0`, then back to 1 while a counter runs down, is a loop
-    that ends: tracevines.pov)."""
-    cond = list(syntax.walk(node.cond))
-    if any(isinstance(n, syntax.Call) for n in cond):
-        return None
-    body = list(syntax.walk(node.body))
-    if any(isinstance(n, syntax.Break | syntax.FileOp) for n in body):
-        return None
-    names = sorted({n.name for n in cond if isinstance(n, syntax.Ident)})
-    for n in body if names else ():
-        if (
-            (isinstance(n, syntax.Declare | syntax.Undef) and n.name in names)
-            or (isinstance(n, syntax.For) and n.var in names)
-            or isinstance(n, syntax.Include)
-            or (isinstance(n, syntax.Call) and not n.builtin)
-        ):
-            return None
-    return names
-
-
-def _same_values(a: list[tuple[bool, Any]], b: list[tuple[bool, Any]]) -> bool:
-    """Whether two snapshots of (found, value) pairs are the same (numbers, vectors,
-    strings compared by value; anything else by identity)."""
-    for (fa, va), (fb, vb) in zip(a, b, strict=True):
-        if fa != fb:
-            return False
-        if va is vb:
-            continue
-        if not isinstance(va, float | int | str | Vec) or type(va) is not type(vb) or va != vb:
-            return False
-    return True
 
 
 def _once(diags: list[Diagnostic]) -> list[Diagnostic]:
