@@ -132,7 +132,7 @@ def item_matrix(name: str, args: list[Any]) -> ir.Matrix:
     if isinstance(v, TransformValue):
         return v.matrix
     comps = (v,) if isinstance(v, float | int) else tuple(v)
-    if name != "matrix" and not all(math.isfinite(c) for c in comps):
+    if name != "matrix" and not all(math.isfinite(c) for c in comps if isinstance(c, float | int)):
         # `rotate <1e308 * 10, 0, 0>`: no angle (a math domain error), no place to move to
         raise EvalError(
             f"`{name}` by an infinite or undefined amount",
