@@ -12,6 +12,7 @@ Exit codes: 0 ok, 1 the scene (or an input file) has errors, 2 bad command line,
 from __future__ import annotations
 
 import argparse
+import errno
 import gc
 import json
 import math
@@ -28,8 +29,9 @@ from contextlib import contextmanager, redirect_stdout
 from pathlib import Path
 from typing import TextIO
 
-from lang import paths
+from lang import paths, read_access
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
+from lang.eval.budget import CHECK, RENDER, Budget
 from runtime.povray_options import OptionError, parse_declare, translate_povray_args
 
 # Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
@@ -573,6 +575,8 @@ def _compile(
     animation: Mapping[str, float] | None = None,
     geometry: bool = True,
     declares: Mapping[str, float] | None = None,
+    budget: Budget | None = None,
+    confine_reads: str | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -596,8 +600,14 @@ def _compile(
         debug_to_stderr=debug_output,
         animation=animation,
         queries=_runtime_queries if geometry else None,
-        store=True,
+        store=confine_reads is None,  # check keeps nothing between runs: it writes nothing
+        stores=confine_reads is None,
         declares=declares,
+        budget=budget or RENDER,
+        confine_reads=confine_reads,
+        reads=read_access.from_povray_conf(
+            read_access.povray_conf(), Path(path).resolve().parent, libraries
+        ),
     )
     return result.scene, list(result.diagnostics)
 
@@ -615,7 +625,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     for file in args.files:
         diags += _compile(
             file, args.library, image_size(args), clock=clock, file_io=False,
-            animation=animation, geometry=False, declares=_declares(args),
+            animation=animation, geometry=False, declares=_declares(args), budget=CHECK,
+            confine_reads="check",
         )[1]  # fmt: skip
     errors, warnings = _counts(diags)
     if args.format == "json":
@@ -772,6 +783,12 @@ def output_path(scene_file: str, output: str | None, suffix: str) -> Path:
     if output.endswith(("/", os.sep)) or Path(output).is_dir():
         return Path(output) / (stem + suffix)
     if not Path(output).suffix:
+        if Path(output).exists() and not Path(output).is_file():
+            # `-o /dev/full` wrote /dev/full.png and said nothing
+            raise UsageError(
+                f"-o {output}: not a file or a folder (a device?); give an image name, "
+                "or -o - for standard output"
+            )
         return Path(output + suffix)
     return Path(output)
 
@@ -938,36 +955,15 @@ def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | N
 
 @contextmanager
 def _quick_interrupt(cleanup: Path | None = None) -> Iterator[None]:
-    """^C during a render stops the process at once.
-
-    A KeyboardInterrupt would have to unwind through the render's thread pool, which
-    finishes every queued tile before it lets go; nothing is on disk yet while pixels are
-    being computed, so leaving immediately loses nothing. Outside this block (writing the
-    image) ^C is an ordinary KeyboardInterrupt, so the temporary file is cleaned up.
-    `cleanup`: a file to remove before leaving (the preview's)."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
+    """A stop (^C, SIGTERM) while the block runs removes `cleanup` (the preview's file) as
+    it ends the process at once (runtime.signals)."""
+    if cleanup is None:
         yield
         return
-    previous = signal.getsignal(signal.SIGINT)
-    if previous is not signal.default_int_handler:  # ignored, or someone else's: leave it
-        yield
-        return
+    from runtime import signals
 
-    def stop(signum, frame):
-        if cleanup is not None:
-            cleanup.unlink(missing_ok=True)
-        sys.stderr.write("\nstrala: interrupted\n")
-        sys.stderr.flush()
-        os._exit(130)
-
-    signal.signal(signal.SIGINT, stop)
-    try:
+    with signals.removed_if_stopped(cleanup):
         yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 def _render_one(
@@ -1208,10 +1204,13 @@ def cmd_lsp(args: argparse.Namespace) -> int:
 
 
 def _write_text_atomically(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    from runtime import signals
+
+    tmp = signals.temporary_name(path, ".tmp")
     try:
-        tmp.write_text(text, encoding="utf-8", errors="surrogateescape")
-        os.replace(tmp, path)
+        with signals.removed_if_stopped(tmp):
+            tmp.write_text(text, encoding="utf-8", errors="surrogateescape")
+            os.replace(tmp, path)
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -1231,6 +1230,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args, unknown = parser.parse_known_args(argv)  # exits 2 on a bad command line
     if unknown:  # said with the command's usage line, not the top level's
         args.parsers[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
+    from runtime import signals
+
+    signals.install()  # a stop removes what is being written and exits 130/143/129 at once
     # The evaluator allocates many small objects and few cycles: collecting every 700
     # allocations cost a few percent of a short render for nothing.
     gc.set_threshold(20000, 20, 20)
@@ -1251,6 +1253,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 141  # what a shell reports for SIGPIPE
+    except OSError as exc:
+        if exc.errno not in _OUTPUT_FAILURES:
+            raise
+        # standard output on a full disk (`> /dev/full`): said, never exit 0 or a traceback
+        _drop_stdout()
+        print(f"strala {args.command}: error: cannot write: {exc.strerror}", file=sys.stderr)
+        return 1
     except Exception as exc:  # the last line of defence: never a bare traceback
         print(f"internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
         if args.debug:
@@ -1260,6 +1269,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             print("(run with --debug for the traceback)", file=sys.stderr)
         return 3
+
+
+# errors of a write that failed for want of room or a working device, not a bug
+_OUTPUT_FAILURES = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG})
+
+
+def _drop_stdout() -> None:
+    """What is left in standard output's buffer would fail again at exit: drop it."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
 
 
 def run() -> None:
@@ -1279,11 +1298,19 @@ def run() -> None:
     code = 0 if code is None else int(code)
     if sys.gettrace() is not None or sys.getprofile() is not None:
         sys.exit(code)
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):  # a closed pipe or stream: nothing more to say
-            pass
+    try:
+        sys.stdout.flush()
+    except OSError as exc:  # a full disk: the output is incomplete, so the command failed
+        if exc.errno in _OUTPUT_FAILURES:
+            _drop_stdout()
+            print(f"strala: error: cannot write: {exc.strerror}", file=sys.stderr)
+            code = code or 1
+    except ValueError:  # a closed stream: nothing more to say
+        pass
+    try:
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
     os._exit(code)
 
 

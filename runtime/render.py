@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from lang import ir
+from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 from runtime import adaptive_antialias, antialias, color, integrate
 from runtime.antialias import Sampling
 from runtime.camera import FocalBlur, blur_rounds, blur_thresholds, camera_rays, has_focal_blur
@@ -31,6 +32,34 @@ TILE: int = 128
 BLUR_BATCH: int = 1 << 18
 # Rays traced at once for a mesh camera's several rays per pixel.
 MESH_BATCH: int = 1 << 17
+
+
+# CSG nested deeper than this is refused before rendering: the passes over the scene recurse
+# once per level, and Python's frames run out near a thousand (an internal error, not a
+# message). A scene's own nesting, even a recursive macro's tree, stays far below it.
+MAX_NESTING = 400
+
+
+def check_nesting(scene: ir.Scene) -> None:
+    """A located error when objects are nested deeper than MAX_NESTING (walked without
+    recursion, so the check itself cannot run out of frames)."""
+    for top in scene.objects:
+        todo = [(top, 1)]
+        while todo:
+            obj, depth = todo.pop()
+            if depth > MAX_NESTING:
+                span = top.span or Span("<scene>", 1, 1, 1, 1)
+                raise SceneError(
+                    Diagnostic(
+                        Severity.ERROR,
+                        "E0231",
+                        f"objects nested more than {MAX_NESTING} deep cannot be rendered",
+                        span,
+                        "flatten the CSG: a union of many children needs no nesting",
+                    )
+                )
+            if isinstance(obj.shape, ir.CSG):
+                todo.extend((c, depth + 1) for c in obj.shape.children)
 
 
 def render_scene(
@@ -67,6 +96,7 @@ def render_scene(
     passes the image's own, so every tile reads the same records (runtime.cluster)."""
     from runtime.prepare import prepare
 
+    check_nesting(scene)
     started = time.perf_counter()
     prepared = prepare(scene, width, height)
     ctx = integrate.make_context(prepared)
