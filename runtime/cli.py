@@ -195,6 +195,20 @@ def build_parser() -> argparse.ArgumentParser:
         "while the final image renders (the output is replaced only by the final image)",
     )
     r.add_argument(
+        "--display",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="show the image in a window as it renders (POV-Ray's +D); in the window s saves "
+        "what is shown (SCENE.shown.png), q or closing it stops the render (exit 130)",
+    )
+    r.add_argument(
+        "--pause",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="keep the display window open when the render is done, until it is closed "
+        "(POV-Ray's +P)",
+    )
+    r.add_argument(
         "--stats",
         action="store_true",
         help="say how the image was traced: rays, shadow rays, supersampled pixels, the time "
@@ -861,23 +875,48 @@ def cmd_render(args: argparse.Namespace) -> int:
         except render_job.JobError as exc:
             raise UsageError(str(exc)) from None
     size = image_size(args)
-    for (target, clock, label), number in zip(jobs, numbers, strict=True):
-        if args.resume and not to_stdout and image.size_of(target) == size:
-            if not args.quiet:
-                print(f"{target} is there, skipped (--resume)", file=sys.stderr)
-            continue
-        args.animation = (
-            plan.values(number)
-            if plan is not None
-            else animation_values(clock, None, number, clock_given=clock_given(args))
-        )
-        # runtime modules print their warnings; on stderr they never mix into an image
-        # written to standard output
-        with redirect_stdout(sys.stderr):
-            status = _render_one(args, target, clock, label, stdout)
-        if status:
-            return status
+    args.window = _open_window(args.file) if args.display else None
+    try:
+        for (target, clock, label), number in zip(jobs, numbers, strict=True):
+            if args.resume and not to_stdout and image.size_of(target) == size:
+                if not args.quiet:
+                    print(f"{target} is there, skipped (--resume)", file=sys.stderr)
+                continue
+            args.animation = (
+                plan.values(number)
+                if plan is not None
+                else animation_values(clock, None, number, clock_given=clock_given(args))
+            )
+            # runtime modules print their warnings; on stderr they never mix into an image
+            # written to standard output
+            with redirect_stdout(sys.stderr):
+                status = _render_one(args, target, clock, label, stdout)
+            if status:
+                return status
+        if args.window is not None:
+            args.window.finish(pause=args.pause)
+    finally:
+        if args.window is not None:
+            args.window.close()
     return 0
+
+
+def _open_window(scene_file: str):
+    """The display window (--display, +D), opening beside the scene's compilation; None,
+    said in one line, where none can open."""
+    from runtime import display
+
+    why = display.unavailable()
+    if why is not None:
+        print(f"strala: no display window: {why}; rendering on", file=sys.stderr)
+        return None
+    return display.Window(Path(scene_file).name, lambda: _STOPPING.now("stopped from the window"))
+
+
+def _shown_path(scene_file: str, out: Path) -> Path:
+    """Where the window's `s` saves what it shows: beside the output, never over it."""
+    base = Path(scene_file).with_name(Path(scene_file).stem + ".png") if out.stem == "-" else out
+    return base.with_name(f"{base.stem}.shown.png")
 
 
 def render_stats(stats: dict) -> str:
@@ -936,6 +975,30 @@ def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | N
         stdout.buffer.flush()
 
 
+class _Stopping:
+    """How a render stops at once: ^C while it computes pixels, the display window's q at
+    any time. The preview file is removed, a line said, and the process leaves (130).
+    Image files are written holding `lock`, so a stop waits for the file being written
+    rather than leave half of it."""
+
+    def __init__(self) -> None:
+        import threading
+
+        self.lock = threading.RLock()  # re-entered by a ^C on the thread that writes
+        self.cleanup: Path | None = None
+
+    def now(self, message: str) -> None:
+        with self.lock:
+            if self.cleanup is not None:
+                self.cleanup.unlink(missing_ok=True)
+            sys.stderr.write(f"\nstrala: {message}\n")
+            sys.stderr.flush()
+            os._exit(130)
+
+
+_STOPPING = _Stopping()
+
+
 @contextmanager
 def _quick_interrupt(cleanup: Path | None = None) -> Iterator[None]:
     """^C during a render stops the process at once.
@@ -948,26 +1011,23 @@ def _quick_interrupt(cleanup: Path | None = None) -> Iterator[None]:
     import signal
     import threading
 
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+    _STOPPING.cleanup = cleanup
     previous = signal.getsignal(signal.SIGINT)
-    if previous is not signal.default_int_handler:  # ignored, or someone else's: leave it
-        yield
+    if threading.current_thread() is not threading.main_thread() or (
+        previous is not signal.default_int_handler  # ignored, or someone else's: leave it
+    ):
+        try:
+            yield
+        finally:
+            _STOPPING.cleanup = None
         return
 
-    def stop(signum, frame):
-        if cleanup is not None:
-            cleanup.unlink(missing_ok=True)
-        sys.stderr.write("\nstrala: interrupted\n")
-        sys.stderr.flush()
-        os._exit(130)
-
-    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGINT, lambda signum, frame: _STOPPING.now("interrupted"))
     try:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+        _STOPPING.cleanup = None
 
 
 def _render_one(
@@ -989,6 +1049,12 @@ def _render_one(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
     stats: dict = {}
+    window = getattr(args, "window", None)
+    if window is not None and not window.opened():
+        print(f"strala: no display window: {window.problem}; rendering on", file=sys.stderr)
+        window = args.window = None
+    if window is not None:
+        window.frame(width, height, scene.settings, label, _shown_path(args.file, out))
     preview = None
     if getattr(args, "preview", False) and out.stem != "-":
         preview = preview_path(out)
@@ -996,7 +1062,7 @@ def _render_one(
         with _quick_interrupt(preview):  # ^C in a preview pass too: only the preview goes
             if preview is not None:
                 try:
-                    _preview_passes(args, scene, preview, width, height, region)
+                    _preview_passes(args, scene, preview, width, height, region, window)
                 except (SceneError, OSError) as exc:
                     print(f"strala: preview skipped: {exc}", file=sys.stderr)
         with (
@@ -1014,7 +1080,8 @@ def _render_one(
                     jitter=args.jitter,
                     aa_gamma=args.aa_gamma,
                     threads=args.threads,
-                    progress=bar,
+                    progress=bar if window is None else _both(bar, window.progress),
+                    on_tile=None if window is None else window.tile,
                     region=region,
                     stats=stats,
                     **_radiosity_options(args),
@@ -1027,10 +1094,11 @@ def _render_one(
         if preview is not None:
             preview.unlink(missing_ok=True)
     try:
-        if out.stem == "-":
-            _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
-        else:
-            image.save_render(out, pixels, scene.settings, args.bits)
+        with _STOPPING.lock:  # the display window's q waits for the file being written
+            if out.stem == "-":
+                _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
+            else:
+                image.save_render(out, pixels, scene.settings, args.bits)
     except OSError as exc:
         print(f"strala: error: {exc}", file=sys.stderr)
         return 1
@@ -1064,9 +1132,20 @@ def preview_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.preview{out.suffix}")
 
 
-def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> None:
+def _both(first, second):
+    """One progress callback that calls two."""
+
+    def both(done: float, total: float) -> None:
+        first(done, total)
+        second(done, total)
+
+    return both
+
+
+def _preview_passes(args, scene, out: Path, width: int, height: int, region, window=None) -> None:
     """Coarse passes written to `out` (the preview file; atomically, each replacing the
-    last) before the final render: blocky first, sharper each time, no anti-aliasing."""
+    last) before the final render: blocky first, sharper each time, no anti-aliasing;
+    shown in the display `window` too, when there is one."""
     import numpy as np
 
     from runtime import image
@@ -1084,6 +1163,8 @@ def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> 
             mask[top:bottom, left:right] = True
             full = np.where(mask[..., None], full, 0.0)
         image.save_render(out, full, scene.settings, args.bits)
+        if window is not None:
+            window.whole(full, f"preview {w}x{h}")
         if not args.quiet:
             print(f"preview {w}x{h} written to {out}", file=sys.stderr)
 
