@@ -191,12 +191,15 @@ class _Screen:
             elif item[0] == "whole":
                 self.clear()
                 self.draw((0, 0, item[2].shape[1], item[2].shape[0]), item[2])
+                self.root.update_idletasks()
                 self.set_title(f"{self.window.name} — {item[1]}")
             elif item[0] == "done":
                 self.done, self.pause = True, item[1]
             elif item[0] == "close":
                 self.root.quit()
                 return
+        # drawn before the title changes, so a title never speaks of what is not shown
+        self.root.update_idletasks()
         self.update_title()
         self.root.after(POLL_MS, self.poll)
 

@@ -29,13 +29,19 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "strala"))
 
 
 def pytest_collection_modifyitems(config, items):
-    """`povray`-marked tests need the oracle; skip them (visibly) where it is not installed."""
-    if shutil.which("povray"):
-        return
-    skip = pytest.mark.skip(reason="POV-Ray is not installed (apt-get install povray)")
-    for item in items:
-        if "povray" in item.keywords:
-            item.add_marker(skip)
+    """`povray`-marked tests need the oracle, `xvfb`-marked ones a virtual X screen; skip
+    them (visibly) where it is not installed (.ci/run installs both)."""
+    needs = {
+        "povray": ("povray", "POV-Ray is not installed (apt-get install povray)"),
+        "xvfb": ("Xvfb", "Xvfb is not installed (apt-get install xvfb python3-tk)"),
+    }
+    for marker, (program, reason) in needs.items():
+        if shutil.which(program):
+            continue
+        skip = pytest.mark.skip(reason=reason)
+        for item in items:
+            if marker in item.keywords:
+                item.add_marker(skip)
 
 
 def run_cli(*args: str, cwd: Path | None = None, extra: tuple[str, ...] = ()):
