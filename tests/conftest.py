@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -32,11 +33,14 @@ def pytest_collection_modifyitems(config, items):
     """`povray`-marked tests need the oracle, `xvfb`-marked ones a virtual X screen; skip
     them (visibly) where it is not installed (.ci/run installs both)."""
     needs = {
-        "povray": ("povray", "POV-Ray is not installed (apt-get install povray)"),
-        "xvfb": ("Xvfb", "Xvfb is not installed (apt-get install xvfb python3-tk)"),
+        "povray": (shutil.which("povray"), "POV-Ray is not installed (apt-get install povray)"),
+        "xvfb": (
+            shutil.which("Xvfb") and importlib.util.find_spec("tkinter"),
+            "Xvfb or Tk is not installed (apt-get install xvfb python3-tk)",
+        ),
     }
-    for marker, (program, reason) in needs.items():
-        if shutil.which(program):
+    for marker, (there, reason) in needs.items():
+        if there:
             continue
         skip = pytest.mark.skip(reason=reason)
         for item in items:

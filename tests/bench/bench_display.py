@@ -1,0 +1,135 @@
+"""Benchmark: what the display window costs, strala's beside POV-Ray's own `+D`, in one run.
+
+    python tests/bench/bench_display.py [--rounds N] [--size 1280x960] [--aa 0.3]
+    python -m pytest tests/bench/bench_display.py -s   (asserts the 3% budget)
+
+Ex3 is rendered by fresh processes with and without the window, on a virtual X screen
+(Xvfb) of its own; the four commands run in turn each round, in an order that rotates
+from round to round so that neither side always follows the other, and the medians are
+compared: the overhead is median(with) / median(without) - 1. Wall times, interpreter
+start-up and the PNG included, because that is what a user waits for; CPU time (all
+threads, the X server's not counted) is reported beside it. Not part of the default run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tests"))
+from xwindow import VirtualScreen  # noqa: E402  (the tests' own X screen)
+
+EX3 = ROOT / "examples" / "ex3.scene"
+SIZE = (1280, 960)
+BUDGET = 0.03  # the window may cost at most 3% of the wall time at 1280x960
+
+
+def _env(display: str) -> dict[str, str]:
+    env = dict(os.environ, DISPLAY=display)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # as an installed program runs: bytecode cached
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+def _timed(cmd: list[str], cwd: Path, env: dict[str, str]) -> tuple[float, float]:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu0, start = usage.ru_utime + usage.ru_stime, time.perf_counter()
+    proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True)
+    took = time.perf_counter() - start
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+    if "no display window" in proc.stderr:
+        raise RuntimeError(f"the window did not open: {proc.stderr.strip()}")
+    return took, usage.ru_utime + usage.ru_stime - cpu0
+
+
+def commands(width: int, height: int, aa: float, work: Path) -> dict[str, list[str]]:
+    strala = [sys.executable, "-m", "runtime.cli", "render", str(EX3), "-q"]
+    strala += ["-W", str(width), "-H", str(height), "--aa", str(aa), "-o", str(work / "s.png")]
+    out = {"strala": [*strala, "--no-display"], "strala +D": [*strala, "--display"]}
+    if shutil.which("povray"):
+        pov = ["povray", "+Iex3.pov", "+Op.png", f"+W{width}", f"+H{height}", f"+A{aa}", "-V"]
+        out |= {"povray": [*pov, "-D"], "povray +D": [*pov, "+D", "-P"]}
+    return out
+
+
+def bench(size=SIZE, aa: float = 0.3, rounds: int = 7) -> dict[str, list[tuple[float, float]]]:
+    """(wall, CPU) seconds of every run, by command."""
+    screen = VirtualScreen(1600, 1200)
+    try:
+        env = _env(screen.name)
+        with tempfile.TemporaryDirectory(prefix="strala-bench-") as tmp:
+            work = Path(tmp)
+            shutil.copyfile(EX3, work / "ex3.pov")
+            cmds = commands(*size, aa, work)
+            names = list(cmds)
+            for name in names:  # warm the caches (bytecode, parse store, page cache)
+                _timed(cmds[name], work, env)
+            runs: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
+            for r in range(rounds):
+                for name in names[r % len(names) :] + names[: r % len(names)]:
+                    runs[name].append(_timed(cmds[name], work, env))
+    finally:
+        screen.stop()
+    return runs
+
+
+def overhead(runs: dict[str, list[tuple[float, float]]], who: str) -> float | None:
+    if who not in runs or f"{who} +D" not in runs:
+        return None
+    plain = statistics.median(w for w, _ in runs[who])
+    return statistics.median(w for w, _ in runs[f"{who} +D"]) / plain - 1.0
+
+
+def format_table(runs: dict[str, list[tuple[float, float]]], size, aa: float) -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    lines = [
+        f"ex3 {size[0]}x{size[1]} +A{aa:g}, {len(next(iter(runs.values())))} rounds; "
+        f"{os.cpu_count()} CPUs, load average {load:.1f}",
+        f"{'':>10} {'median s':>9} {'min s':>7} {'max s':>7} {'cpu s':>7}",
+    ]
+    for name, got in runs.items():
+        walls = [w for w, _ in got]
+        cpu = statistics.median(c for _, c in got)
+        lines.append(
+            f"{name:>10} {statistics.median(walls):9.3f} {min(walls):7.3f} {max(walls):7.3f} "
+            f"{cpu:7.3f}"
+        )
+    for who in ("strala", "povray"):
+        o = overhead(runs, who)
+        if o is not None:
+            lines.append(f"{who} display window: {o * 100:+.1f}% wall (ratio of medians)")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--size", default=f"{SIZE[0]}x{SIZE[1]}")
+    parser.add_argument("--aa", type=float, default=0.3)
+    args = parser.parse_args(argv)
+    size = tuple(int(v) for v in args.size.split("x"))
+    runs = bench(size, args.aa, args.rounds)
+    print(format_table(runs, size, args.aa))
+    return 0
+
+
+def test_bench_display():
+    runs = bench()
+    print("\n" + format_table(runs, SIZE, 0.3))
+    o = overhead(runs, "strala")
+    assert o is not None and o < BUDGET, f"the window costs {o:.1%} of the wall time"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
