@@ -841,8 +841,6 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
     check_image_size(*image_size(args))
 
-    from lang.evaluate import animation_values
-
     stdout = sys.stdout
     args.plan = plan = animation_of(args)
     jobs = frame_jobs(out, args.clock, plan)
@@ -852,52 +850,68 @@ def cmd_render(args: argparse.Namespace) -> int:
             raise UsageError(f"--frame {args.frame} is not in --frames {plan.first}..{plan.last}")
         label = f"frame {args.frame}/{plan.last}"
         jobs, numbers = [(out, plan.clock(args.frame), label)], [args.frame]
-    if args.cluster is not None or args.tiles is not None:
-        if to_stdout or args.preview:
-            raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
-        from runtime import render_job
-
-        width, height = image_size(args)
-        region = resolve_region(
-            width, height, args.start_col, args.end_col, args.start_row, args.end_row
-        )
-        try:
-            return render_job.run(
-                args,
-                jobs,
-                numbers,
-                (width, height),
-                region,
-                lambda diags: print_diagnostics(
-                    render_diagnostics(diags, args.quiet), sys.stderr, summary=False
-                ),
-            )
-        except render_job.JobError as exc:
-            raise UsageError(str(exc)) from None
-    size = image_size(args)
+    if (args.cluster is not None or args.tiles is not None) and (to_stdout or args.preview):
+        raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
     args.window = _open_window(args.file) if args.display else None
     try:
-        for (target, clock, label), number in zip(jobs, numbers, strict=True):
-            if args.resume and not to_stdout and image.size_of(target) == size:
-                if not args.quiet:
-                    print(f"{target} is there, skipped (--resume)", file=sys.stderr)
-                continue
-            args.animation = (
-                plan.values(number)
-                if plan is not None
-                else animation_values(clock, None, number, clock_given=clock_given(args))
-            )
-            # runtime modules print their warnings; on stderr they never mix into an image
-            # written to standard output
-            with redirect_stdout(sys.stderr):
-                status = _render_one(args, target, clock, label, stdout)
-            if status:
-                return status
-        if args.window is not None:
+        if args.cluster is not None or args.tiles is not None:
+            status = _render_on_cluster(args, jobs, numbers)
+        else:
+            status = _render_here(args, jobs, numbers, to_stdout, stdout)
+        if status == 0 and args.window is not None:
             args.window.finish(pause=args.pause)
+        return status
     finally:
         if args.window is not None:
             args.window.close()
+
+
+def _render_on_cluster(args: argparse.Namespace, jobs, numbers) -> int:
+    from runtime import render_job
+
+    width, height = image_size(args)
+    region = resolve_region(
+        width, height, args.start_col, args.end_col, args.start_row, args.end_row
+    )
+    try:
+        return render_job.run(
+            args,
+            jobs,
+            numbers,
+            (width, height),
+            region,
+            lambda diags: print_diagnostics(
+                render_diagnostics(diags, args.quiet), sys.stderr, summary=False
+            ),
+            window=_ready_window(args),
+            writing=_STOPPING.lock,
+        )
+    except render_job.JobError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _render_here(args: argparse.Namespace, jobs, numbers, to_stdout: bool, stdout) -> int:
+    from lang.evaluate import animation_values
+    from runtime import image
+
+    size = image_size(args)
+    plan = args.plan
+    for (target, clock, label), number in zip(jobs, numbers, strict=True):
+        if args.resume and not to_stdout and image.size_of(target) == size:
+            if not args.quiet:
+                print(f"{target} is there, skipped (--resume)", file=sys.stderr)
+            continue
+        args.animation = (
+            plan.values(number)
+            if plan is not None
+            else animation_values(clock, None, number, clock_given=clock_given(args))
+        )
+        # runtime modules print their warnings; on stderr they never mix into an image
+        # written to standard output
+        with redirect_stdout(sys.stderr):
+            status = _render_one(args, target, clock, label, stdout)
+        if status:
+            return status
     return 0
 
 
@@ -913,10 +927,13 @@ def _open_window(scene_file: str):
     return display.Window(Path(scene_file).name, lambda: _STOPPING.now("stopped from the window"))
 
 
-def _shown_path(scene_file: str, out: Path) -> Path:
-    """Where the window's `s` saves what it shows: beside the output, never over it."""
-    base = Path(scene_file).with_name(Path(scene_file).stem + ".png") if out.stem == "-" else out
-    return base.with_name(f"{base.stem}.shown.png")
+def _ready_window(args: argparse.Namespace):
+    """The display window once Tk has reached the display, or None (said in one line)."""
+    window = getattr(args, "window", None)
+    if window is not None and not window.opened():
+        print(f"strala: no display window: {window.problem}; rendering on", file=sys.stderr)
+        window = args.window = None
+    return window
 
 
 def render_stats(stats: dict) -> str:
@@ -1049,12 +1066,12 @@ def _render_one(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
     stats: dict = {}
-    window = getattr(args, "window", None)
-    if window is not None and not window.opened():
-        print(f"strala: no display window: {window.problem}; rendering on", file=sys.stderr)
-        window = args.window = None
+    window = _ready_window(args)
     if window is not None:
-        window.frame(width, height, scene.settings, label, _shown_path(args.file, out))
+        from runtime import display
+
+        beside = Path(args.file).with_suffix(".png") if out.stem == "-" else out
+        window.frame(width, height, scene.settings, label, display.shown_path(beside))
     preview = None
     if getattr(args, "preview", False) and out.stem != "-":
         preview = preview_path(out)

@@ -148,6 +148,53 @@ class Window:
             gc.collect()  # Tk objects in cycles must go on this thread, not at some later one
 
 
+def shown_path(output: Path) -> Path:
+    """Where `s` saves what the window shows: beside the output, never over it."""
+    return output.with_name(f"{output.stem}.shown.png")
+
+
+class Frames:
+    """The window fed with the tiles of many frames at once (a cluster renders them side by
+    side, runtime.render_job): it shows one frame at a time, the first to have a tile in;
+    the tiles of the others wait until it is complete (or failed), then the next one in is
+    shown with all it has so far. `key` tells the frames apart."""
+
+    def __init__(self, window: Window, width: int, height: int):
+        self.window = window
+        self.size = (width, height)
+        self.current: object = None
+        self.waiting: dict[object, tuple[str, Path, ir.Settings, list]] = {}
+
+    def tile(
+        self,
+        key: object,
+        label: str,
+        output: Path,
+        rect: tuple[int, int, int, int],
+        pixels: np.ndarray,
+        settings: ir.Settings,
+    ) -> None:
+        if self.current is None:
+            self.current = key
+            self.window.frame(*self.size, settings, label, shown_path(output))
+        if key == self.current:
+            self.window.tile(rect, pixels)
+        else:
+            self.waiting.setdefault(key, (label, output, settings, []))[3].append((rect, pixels))
+
+    def ended(self, key: object) -> None:
+        """The frame `key` is written (or failed): the next one in takes the window."""
+        self.waiting.pop(key, None)
+        if key != self.current:
+            return
+        self.current = None
+        if self.waiting:
+            after = next(iter(self.waiting))
+            label, output, settings, tiles = self.waiting.pop(after)
+            for rect, pixels in tiles:
+                self.tile(after, label, output, rect, pixels, settings)
+
+
 class _Screen:
     """The Tk side: a canvas of tile photos, the title, the keys. Lives on the window's
     thread only."""

@@ -108,6 +108,31 @@ def test_an_image_larger_than_the_screen_is_shown_subsampled(tmp_path):
     assert np.array_equal(shot, _png8(out)[::2, ::2])
 
 
+@pytest.mark.xvfb
+@pytest.mark.parametrize("where", ["here", "cluster"])
+def test_an_animation_shows_its_frames_in_turn(xscreen, tmp_path, where):
+    screen, name = xscreen
+    scene = tmp_path / "turn.pov"
+    scene.write_text(EX3.read_text(encoding="utf-8"), encoding="utf-8")
+    args = [str(scene), "--display", "--pause", "--frames", "1..2", "-W", "96", "-H", "72"]
+    if where == "cluster":  # the tiles come from the workers as they finish
+        args += ["--tiles", "2", "--cluster", "local:2"]
+    proc = _strala(name, *args, cwd=tmp_path)
+    try:
+        win = screen.wait_for("turn.pov", contains="done", timeout=120)
+        title = screen.title(win)
+        shot = screen.pixels(win)
+        screen.close_window(win)
+        code, err = _finish(proc)
+    finally:
+        proc.kill()
+    assert code == 0, err
+    assert title is not None
+    number = title.split("frame ")[1].split("/")[0]
+    assert number in ("1", "2") and "/2 done" in title
+    assert np.array_equal(shot, _png8(tmp_path / f"turn{number}.png"))
+
+
 # ~5 s here: the window is closed at its first tiles, long before the end
 SLOW = ("-W", "800", "-H", "600", "--aa", "0", "--aa-depth", "4", "--threads", "1")
 
@@ -170,11 +195,10 @@ def test_preview_passes_are_shown_before_the_final_one(xscreen, tmp_path):
     assert code == 130, err
     previews = [(t, px) for t, px in seen if "preview" in t]
     assert previews, [t for t, _ in seen]
-    # a pass at 1/f of the size is shown enlarged: blocks of f x f pixels of one colour
-    title, px = previews[0]
-    w = int(title.split("preview ")[1].split("x")[0])
-    f = 800 // w
-    blocks = px[: 600 // f * f, :].reshape(600 // f, f, 800 // f, f, 3)
+    # a pass at 1/8, 1/4 or 1/2 of the size is shown enlarged: blocks of 2 x 2 pixels of one
+    # colour at least (the window may be a pass ahead of the title read before the shot)
+    _, px = previews[0]
+    blocks = px.reshape(300, 2, 400, 2, 3)
     assert np.all(blocks == blocks[:, :1, :, :1, :])
     assert px.max() > 0  # not the black of an empty window
 
