@@ -222,6 +222,17 @@ def test_without_a_display_one_line_and_the_render_goes_on(tmp_path):
     assert out.exists() and "window" not in plain.stderr
 
 
+def test_what_is_missing_is_named(monkeypatch):
+    from runtime import display
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.setenv("WAYLAND_DISPLAY", "wayland-0")
+    assert "$DISPLAY is not set" in display.unavailable() and "Wayland" in display.unavailable()
+    monkeypatch.setenv("DISPLAY", ":5")
+    monkeypatch.setitem(sys.modules, "tkinter", None)  # as where python3-tk is not installed
+    assert display.unavailable() == "Tk is not installed (Debian: apt-get install python3-tk)"
+
+
 def test_a_display_that_refuses_the_connection_is_said_in_one_line(tmp_path):
     out = tmp_path / "a.png"
     # a display number no server listens on: Tk's own words, in one line
