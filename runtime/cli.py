@@ -1179,7 +1179,8 @@ def _preview_passes(args, scene, out: Path, width: int, height: int, region, win
             mask = np.zeros(full.shape[:2], dtype=bool)
             mask[top:bottom, left:right] = True
             full = np.where(mask[..., None], full, 0.0)
-        image.save_render(out, full, scene.settings, args.bits)
+        with _STOPPING.lock:  # a stop from the window waits for the file, as for the image
+            image.save_render(out, full, scene.settings, args.bits)
         if window is not None:
             window.whole(full, f"preview {w}x{h}")
         if not args.quiet:
