@@ -1114,6 +1114,9 @@ def _render_one(
         with _STOPPING.lock:  # the display window's q waits for the file being written
             if out.stem == "-":
                 _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
+            elif window is not None and _eight_bit(image.output_format(out, args.bits)):
+                # the file's 8-bit values, made tile by tile for the window: not twice
+                image.write_pixels(out, window.file_values(), 8)
             else:
                 image.save_render(out, pixels, scene.settings, args.bits)
     except OSError as exc:
@@ -1147,6 +1150,11 @@ def preview_path(out: Path) -> Path:
     """Where --preview writes its passes: beside the output (SCENE.preview.png), so a
     finished image is never replaced by a coarse one; removed when the render ends."""
     return out.with_name(f"{out.stem}.preview{out.suffix}")
+
+
+def _eight_bit(chosen) -> bool:
+    fmt, depth = chosen
+    return not fmt.linear and depth == 8
 
 
 def _both(first, second):

@@ -116,6 +116,12 @@ class Window:
             head = struct.pack(">IIII", x0, y0, w, h)
             self._put(b"T", head + np.ascontiguousarray(values).tobytes())
 
+    def file_values(self) -> np.ndarray:
+        """The frame's 8-bit file values (`color.to_display8`), once the render has given
+        the window every tile (black where none was: outside a partial render's region);
+        what `image.save_render` would compute again for an 8-bit file."""
+        return self.shown
+
     def whole(self, working: np.ndarray, label: str) -> None:
         """A whole image at once (a preview pass, already enlarged to the frame's size)."""
         self.tile((0, 0, working.shape[1], working.shape[0]), working)

@@ -82,6 +82,10 @@ def test_the_window_shows_the_pixels_of_the_written_png(xscreen, tmp_path):
     assert int(np.abs(shot.astype(int) - written.astype(int)).max()) == 0
     assert np.array_equal(_png8(shown), written)
     assert "saved what the window shows" in err
+    # the file written from the window's values is the one a render without it writes
+    alone = tmp_path / "alone.png"
+    assert run_cli(str(EX3), "--aa", "-o", str(alone), "-q").returncode == 0
+    assert np.array_equal(_png8(alone), written)
 
 
 @pytest.mark.xvfb
@@ -90,7 +94,8 @@ def test_an_image_larger_than_the_screen_is_shown_subsampled(tmp_path):
     screen = Screen(vs.name)
     try:
         out = tmp_path / "big.png"
-        args = (str(EX3), "+D", "+P", "-W", "1000", "-H", "750", "-A", "-o", str(out))
+        part = ("+SC0.1", "+EC0.75", "+SR0.2", "+ER0.9")  # a partial render: black around
+        args = (str(EX3), "+D", "+P", "-W", "1000", "-H", "750", "-A", *part, "-o", str(out))
         proc = _strala(vs.name, *args, cwd=tmp_path)
         try:
             win = screen.wait_for("ex3.scene", contains="done")
@@ -106,6 +111,11 @@ def test_an_image_larger_than_the_screen_is_shown_subsampled(tmp_path):
     # 1000x750 on 90% of 800x600 needs every other pixel: 500x375, each the image's own
     assert shot.shape == (375, 500, 3)
     assert np.array_equal(shot, _png8(out)[::2, ::2])
+    alone = tmp_path / "alone.png"
+    r = run_cli(str(EX3), "-W", "1000", "-H", "750", "-A", *part, "-o", str(alone), "-q")
+    assert r.returncode == 0, r.stderr
+    assert np.array_equal(_png8(alone), _png8(out))
+    assert _png8(out)[:100].max() == 0 and _png8(out)[200:600, 200:600].max() > 0
 
 
 @pytest.mark.xvfb
