@@ -14,7 +14,9 @@ threads, the X server's not counted) is reported beside it. Not part of the defa
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import re
 import resource
 import shutil
 import statistics
@@ -40,7 +42,9 @@ def _env(display: str) -> dict[str, str]:
     return env
 
 
-def _timed(cmd: list[str], cwd: Path, env: dict[str, str]) -> tuple[float, float]:
+def _timed(cmd: list[str], cwd: Path, env: dict[str, str]) -> tuple[float, float, float]:
+    """(wall, CPU, tracing) seconds of one run; tracing is strala's own figure for the
+    pixels (`--stats`), the part of the run the window competes with (NaN for POV-Ray)."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu0, start = usage.ru_utime + usage.ru_stime, time.perf_counter()
     proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True)
@@ -50,11 +54,13 @@ def _timed(cmd: list[str], cwd: Path, env: dict[str, str]) -> tuple[float, float
         raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
     if "no display window" in proc.stderr:
         raise RuntimeError(f"the window did not open: {proc.stderr.strip()}")
-    return took, usage.ru_utime + usage.ru_stime - cpu0
+    traced = re.search(r"trace ([0-9.]+) s", proc.stderr)
+    tracing = float(traced.group(1)) if traced else math.nan
+    return took, usage.ru_utime + usage.ru_stime - cpu0, tracing
 
 
 def commands(width: int, height: int, aa: float, work: Path) -> dict[str, list[str]]:
-    strala = [sys.executable, "-m", "runtime.cli", "render", str(EX3), "-q"]
+    strala = [sys.executable, "-m", "runtime.cli", "render", str(EX3), "-q", "--stats"]
     strala += ["-W", str(width), "-H", str(height), "--aa", str(aa), "-o", str(work / "s.png")]
     out = {"strala": [*strala, "--no-display"], "strala +D": [*strala, "--display"]}
     if shutil.which("povray"):
@@ -63,7 +69,9 @@ def commands(width: int, height: int, aa: float, work: Path) -> dict[str, list[s
     return out
 
 
-def bench(size=SIZE, aa: float = 0.3, rounds: int = 7) -> dict[str, list[tuple[float, float]]]:
+def bench(
+    size=SIZE, aa: float = 0.3, rounds: int = 7
+) -> dict[str, list[tuple[float, float, float]]]:
     """(wall, CPU) seconds of every run, by command."""
     screen = VirtualScreen(1600, 1200)
     try:
@@ -75,7 +83,7 @@ def bench(size=SIZE, aa: float = 0.3, rounds: int = 7) -> dict[str, list[tuple[f
             names = list(cmds)
             for name in names:  # warm the caches (bytecode, parse store, page cache)
                 _timed(cmds[name], work, env)
-            runs: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
+            runs: dict[str, list[tuple[float, float, float]]] = {n: [] for n in names}
             for r in range(rounds):
                 for name in names[r % len(names) :] + names[: r % len(names)]:
                     runs[name].append(_timed(cmds[name], work, env))
@@ -84,14 +92,14 @@ def bench(size=SIZE, aa: float = 0.3, rounds: int = 7) -> dict[str, list[tuple[f
     return runs
 
 
-def overhead(runs: dict[str, list[tuple[float, float]]], who: str) -> float | None:
+def overhead(runs: dict[str, list[tuple[float, float, float]]], who: str) -> float | None:
     if who not in runs or f"{who} +D" not in runs:
         return None
-    plain = statistics.median(w for w, _ in runs[who])
-    return statistics.median(w for w, _ in runs[f"{who} +D"]) / plain - 1.0
+    plain = statistics.median(w for w, *_ in runs[who])
+    return statistics.median(w for w, *_ in runs[f"{who} +D"]) / plain - 1.0
 
 
-def format_table(runs: dict[str, list[tuple[float, float]]], size, aa: float) -> str:
+def format_table(runs: dict[str, list[tuple[float, float, float]]], size, aa: float) -> str:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     lines = [
         f"ex3 {size[0]}x{size[1]} +A{aa:g}, {len(next(iter(runs.values())))} rounds; "
@@ -99,8 +107,8 @@ def format_table(runs: dict[str, list[tuple[float, float]]], size, aa: float) ->
         f"{'':>10} {'median s':>9} {'min s':>7} {'max s':>7} {'cpu s':>7}",
     ]
     for name, got in runs.items():
-        walls = [w for w, _ in got]
-        cpu = statistics.median(c for _, c in got)
+        walls = [w for w, *_ in got]
+        cpu = statistics.median(c for _, c, _ in got)
         lines.append(
             f"{name:>10} {statistics.median(walls):9.3f} {min(walls):7.3f} {max(walls):7.3f} "
             f"{cpu:7.3f}"
@@ -108,14 +116,20 @@ def format_table(runs: dict[str, list[tuple[float, float]]], size, aa: float) ->
     for who in ("strala", "povray"):
         o = overhead(runs, who)
         if o is not None:
-            best = min(w for w, _ in runs[f"{who} +D"]) / min(w for w, _ in runs[who]) - 1.0
-            cpu = statistics.median(c for _, c in runs[f"{who} +D"]) - statistics.median(
-                c for _, c in runs[who]
+            best = min(w for w, *_ in runs[f"{who} +D"]) / min(w for w, *_ in runs[who]) - 1.0
+            cpu = statistics.median(c for _, c, _ in runs[f"{who} +D"]) - statistics.median(
+                c for _, c, _ in runs[who]
             )
             lines.append(
                 f"{who} display window: {o * 100:+.1f}% wall (ratio of medians; of the "
                 f"fastest runs {best * 100:+.1f}%), {cpu * 1000:+.0f} ms CPU"
             )
+            traced = [statistics.median(t for *_, t in runs[n]) for n in (who, f"{who} +D")]
+            if not math.isnan(traced[0]):
+                lines.append(
+                    f"{who} tracing the pixels: {traced[0]:.3f} s alone, {traced[1]:.3f} s "
+                    f"beside the window ({(traced[1] / traced[0] - 1) * 100:+.1f}%, medians)"
+                )
     return "\n".join(lines)
 
 
