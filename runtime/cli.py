@@ -883,7 +883,7 @@ def _render_on_cluster(args: argparse.Namespace, jobs, numbers) -> int:
             lambda diags: print_diagnostics(
                 render_diagnostics(diags, args.quiet), sys.stderr, summary=False
             ),
-            window=_ready_window(args),
+            window=args.window,
             writing=_STOPPING.lock,
         )
     except render_job.JobError as exc:
@@ -924,16 +924,13 @@ def _open_window(scene_file: str):
     if why is not None:
         print(f"strala: no display window: {why}; rendering on", file=sys.stderr)
         return None
-    return display.Window(Path(scene_file).name, lambda: _STOPPING.now("stopped from the window"))
-
-
-def _ready_window(args: argparse.Namespace):
-    """The display window once Tk has reached the display, or None (said in one line)."""
-    window = getattr(args, "window", None)
-    if window is not None and not window.opened():
-        print(f"strala: no display window: {window.problem}; rendering on", file=sys.stderr)
-        window = args.window = None
-    return window
+    return display.Window(
+        Path(scene_file).name,
+        lambda: _STOPPING.now("stopped from the window"),
+        lambda problem: print(
+            f"strala: no display window: {problem}; rendering on", file=sys.stderr
+        ),
+    )
 
 
 def render_stats(stats: dict) -> str:
@@ -1066,7 +1063,7 @@ def _render_one(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
     stats: dict = {}
-    window = _ready_window(args)
+    window = getattr(args, "window", None)
     if window is not None:
         from runtime import display
 

@@ -31,7 +31,6 @@ import numpy as np
 from lang import ir
 from runtime import color
 
-OPEN_TIMEOUT = 10.0  # seconds to wait for Tk to reach the display before rendering without
 SCREEN_SHARE = 0.9  # an image larger than this share of the screen is shown subsampled
 
 
@@ -55,15 +54,17 @@ class Window:
     """A window showing one image at a time (an animation's frames in turn).
 
     `name` heads the title (the scene's file name); `on_stop` is called (from a thread of
-    this module's) when the user presses q or closes the window before `finish`."""
+    this module's) when the user presses q or closes the window before `finish`;
+    `on_problem(why)` if the window cannot open. Nothing here waits for the window: the
+    render starts as soon as it can, and what it hands over is sent once the window is up."""
 
-    def __init__(self, name: str, on_stop: Callable[[], None]):
+    def __init__(self, name: str, on_stop: Callable[[], None], on_problem: Callable[[str], None]):
         self.name = name
         self.on_stop = on_stop
+        self.on_problem = on_problem
         self.problem: str | None = None  # why the window could not open, once it tried
         self.screen = (0, 0)
-        self.step = 1  # 1 pixel shown for step x step of the image
-        self.shown = np.zeros((1, 1, 3), dtype=np.uint8)  # the file values sent so far
+        self.shown = np.zeros((1, 1, 3), dtype=np.uint8)  # this frame's file values so far
         self.settings: ir.Settings | None = None
         self.save_to: Path | None = None
         self._ready = threading.Event()
@@ -81,40 +82,21 @@ class Window:
         threading.Thread(target=self._send, name="strala-display-out", daemon=True).start()
 
     # ------------------------------------------------------------------ the render's side
-    def opened(self, timeout: float = OPEN_TIMEOUT) -> bool:
-        """Wait until Tk has reached the display; False (and `problem` says why) if not."""
-        if not self._ready.wait(timeout):
-            self.problem = self.problem or f"the display did not answer in {timeout:.0f} s"
-        return self.problem is None
-
     def frame(
         self, width: int, height: int, settings: ir.Settings, label: str, save_to: Path
     ) -> None:
         """Start showing a new image (black), of which `label` says what it is."""
-        screen_w, screen_h = self.screen
-        fits = max(width / (screen_w * SCREEN_SHARE), height / (screen_h * SCREEN_SHARE))
-        self.step = max(1, math.ceil(fits)) if screen_w and screen_h else 1
         self.shown = np.zeros((height, width, 3), dtype=np.uint8)
         self.settings, self.save_to = settings, save_to
-        size = {"width": -(-width // self.step), "height": -(-height // self.step)}
-        self._put(b"F", json.dumps({**size, "label": label}).encode())
+        self._outbox.put(("frame", self.shown, label))
 
     def tile(self, rect: tuple[int, int, int, int], working: np.ndarray) -> None:
         """A finished tile's working-space colours at rect (x0, y0, x1, y1)."""
         if self.settings is None:
             return
         x0, y0, x1, y1 = rect
-        values = color.to_display8(working, self.settings)
-        self.shown[y0:y1, x0:x1] = values
-        k = self.step
-        if k > 1:  # the pixels on the grid of every k-th, where this tile has any
-            fx, fy = -(-x0 // k) * k, -(-y0 // k) * k
-            values = values[fy - y0 :: k, fx - x0 :: k]
-            x0, y0 = fx // k, fy // k
-        h, w = values.shape[:2]
-        if w and h:
-            head = struct.pack(">IIII", x0, y0, w, h)
-            self._put(b"T", head + np.ascontiguousarray(values).tobytes())
+        self.shown[y0:y1, x0:x1] = color.to_display8(working, self.settings)
+        self._outbox.put(("tile", self.shown, rect))
 
     def file_values(self) -> np.ndarray:
         """The frame's 8-bit file values (`color.to_display8`), once the render has given
@@ -124,11 +106,38 @@ class Window:
 
     def whole(self, working: np.ndarray, label: str) -> None:
         """A whole image at once (a preview pass, already enlarged to the frame's size)."""
-        self.tile((0, 0, working.shape[1], working.shape[0]), working)
+        if self.settings is None:
+            return
+        self.shown[:] = color.to_display8(working, self.settings)
+        # as it is now: the final pass' tiles overwrite `shown` before a late window draws
+        self._outbox.put(("tile", self.shown.copy(), (0, 0, *working.shape[1::-1])))
         self._put(b"L", label.encode())
 
     def progress(self, done: float, total: float) -> None:
         self._put(b"P", struct.pack(">dd", done, total))
+
+    def _message(self, item, step: int) -> tuple[bytes, int]:
+        """The bytes for the viewer of an item of the outbox, and the frame's step (1 pixel
+        shown for step x step of an image larger than the screen)."""
+        if isinstance(item, bytes):
+            return item, step
+        kind, shown, *rest = item
+        if kind == "frame":
+            height, width = shown.shape[:2]
+            screen_w, screen_h = self.screen
+            fits = max(width / (screen_w * SCREEN_SHARE), height / (screen_h * SCREEN_SHARE))
+            step = max(1, math.ceil(fits))
+            size = {"width": -(-width // step), "height": -(-height // step)}
+            return _framed(b"F", json.dumps({**size, "label": rest[0]}).encode()), step
+        x0, y0, x1, y1 = rest[0]
+        # the pixels on the grid of every step-th, where this tile has any
+        fx, fy = -(-x0 // step) * step, -(-y0 // step) * step
+        values = shown[fy:y1:step, fx:x1:step]
+        h, w = values.shape[:2]
+        if not w or not h:
+            return b"", step
+        head = struct.pack(">IIII", fx // step, fy // step, w, h)
+        return _framed(b"T", head + np.ascontiguousarray(values).tobytes()), step
 
     def finish(self, pause: bool) -> None:
         """The render is done: q and closing now only close. With `pause` wait until the
@@ -141,7 +150,10 @@ class Window:
         self.close()
 
     def close(self) -> None:
+        """Close the window now (its drawing may lag the render: it is not waited for)."""
         self._outbox.put(None)
+        if self._proc.poll() is None:
+            self._proc.terminate()
         try:
             self._proc.wait(timeout=2.0)
         except subprocess.TimeoutExpired:
@@ -153,18 +165,24 @@ class Window:
 
     # -------------------------------------------------------------------- the pipes
     def _put(self, kind: bytes, payload: bytes) -> None:
-        self._outbox.put(struct.pack(">cI", kind, len(payload)) + payload)
+        self._outbox.put(_framed(kind, payload))
 
     def _send(self) -> None:
+        """The outbox down the pipe, once the window is up (it says the screen's size)."""
         pipe = self._proc.stdin
         assert pipe is not None
+        self._ready.wait()
+        step = 1
         while True:
-            message = self._outbox.get()
+            item = self._outbox.get()
+            if self.problem is not None:
+                continue  # no window: the render goes on, what it hands over is dropped
             try:
-                if message is None:
-                    pipe.write(struct.pack(">cI", b"C", 0))
+                if item is None:
+                    pipe.write(_framed(b"C", b""))
                     pipe.close()
                     return
+                message, step = self._message(item, step)
                 pipe.write(message)
                 pipe.flush()
             except (BrokenPipeError, OSError, ValueError):  # the window has gone
@@ -181,13 +199,15 @@ class Window:
             elif word == "error":
                 self.problem = rest
                 self._ready.set()
+                self.on_problem(rest)
             elif word == "save":
                 self._save()
             elif word == "stop" and not self._finished:
                 self.on_stop()  # the command line leaves here (exit 130) while rendering
         if not self._ready.is_set():
-            self.problem = self.problem or "the window's process ended before it opened"
+            self.problem = "the window's process ended before it opened"
             self._ready.set()
+            self.on_problem(self.problem)
         self._closed.set()
 
     def _save(self) -> None:
@@ -248,3 +268,8 @@ class Frames:
             label, output, settings, tiles = self.waiting.pop(after)
             for rect, pixels in tiles:
                 self.tile(after, label, output, rect, pixels, settings)
+
+
+def _framed(kind: bytes, payload: bytes) -> bytes:
+    """A message for runtime.viewer: its kind, its length, itself."""
+    return struct.pack(">cI", kind, len(payload)) + payload
