@@ -70,6 +70,7 @@ class Window:
         self._ready = threading.Event()
         self._closed = threading.Event()
         self._finished = False
+        self._closing = False
         self._outbox: queue.SimpleQueue = queue.SimpleQueue()
         viewer = Path(__file__).with_name("viewer.py")
         # -I: the standard library only, not this folder's modules named as some of it
@@ -151,6 +152,7 @@ class Window:
 
     def close(self) -> None:
         """Close the window now (its drawing may lag the render: it is not waited for)."""
+        self._closing = True  # its end now is no problem to report
         self._outbox.put(None)
         if self._proc.poll() is None:
             self._proc.terminate()
@@ -207,7 +209,8 @@ class Window:
         if not self._ready.is_set():
             self.problem = "the window's process ended before it opened"
             self._ready.set()
-            self.on_problem(self.problem)
+            if not self._closing:
+                self.on_problem(self.problem)
         self._closed.set()
 
     def _save(self) -> None:
