@@ -197,6 +197,20 @@ def build_parser() -> argparse.ArgumentParser:
         "while the final image renders (the output is replaced only by the final image)",
     )
     r.add_argument(
+        "--display",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="show the image in a window as it renders (POV-Ray's +D); in the window s saves "
+        "what is shown (SCENE.shown.png), q or closing it stops the render (exit 130)",
+    )
+    r.add_argument(
+        "--pause",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="keep the display window open when the render is done, until it is closed "
+        "(POV-Ray's +P)",
+    )
+    r.add_argument(
         "--stats",
         action="store_true",
         help="say how the image was traced: rays, shadow rays, supersampled pixels, the time "
@@ -844,8 +858,6 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
     check_image_size(*image_size(args))
 
-    from lang.evaluate import animation_values
-
     stdout = sys.stdout
     args.plan = plan = animation_of(args)
     jobs = frame_jobs(out, args.clock, plan)
@@ -855,29 +867,52 @@ def cmd_render(args: argparse.Namespace) -> int:
             raise UsageError(f"--frame {args.frame} is not in --frames {plan.first}..{plan.last}")
         label = f"frame {args.frame}/{plan.last}"
         jobs, numbers = [(out, plan.clock(args.frame), label)], [args.frame]
-    if args.cluster is not None or args.tiles is not None:
-        if to_stdout or args.preview:
-            raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
-        from runtime import render_job
+    if (args.cluster is not None or args.tiles is not None) and (to_stdout or args.preview):
+        raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
+    args.window = _open_window(args.file) if args.display else None
+    try:
+        if args.cluster is not None or args.tiles is not None:
+            status = _render_on_cluster(args, jobs, numbers)
+        else:
+            status = _render_here(args, jobs, numbers, to_stdout, stdout)
+        if status == 0 and args.window is not None:
+            args.window.finish(pause=args.pause)
+        return status
+    finally:
+        if args.window is not None:
+            args.window.close()
 
-        width, height = image_size(args)
-        region = resolve_region(
-            width, height, args.start_col, args.end_col, args.start_row, args.end_row
+
+def _render_on_cluster(args: argparse.Namespace, jobs, numbers) -> int:
+    from runtime import render_job
+
+    width, height = image_size(args)
+    region = resolve_region(
+        width, height, args.start_col, args.end_col, args.start_row, args.end_row
+    )
+    try:
+        return render_job.run(
+            args,
+            jobs,
+            numbers,
+            (width, height),
+            region,
+            lambda diags: print_diagnostics(
+                render_diagnostics(diags, args.quiet), sys.stderr, summary=False
+            ),
+            window=args.window,
+            writing=_STOPPING.lock,
         )
-        try:
-            return render_job.run(
-                args,
-                jobs,
-                numbers,
-                (width, height),
-                region,
-                lambda diags: print_diagnostics(
-                    render_diagnostics(diags, args.quiet), sys.stderr, summary=False
-                ),
-            )
-        except render_job.JobError as exc:
-            raise UsageError(str(exc)) from None
+    except render_job.JobError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _render_here(args: argparse.Namespace, jobs, numbers, to_stdout: bool, stdout) -> int:
+    from lang.evaluate import animation_values
+    from runtime import image
+
     size = image_size(args)
+    plan = args.plan
     for (target, clock, label), number in zip(jobs, numbers, strict=True):
         if args.resume and not to_stdout and image.size_of(target) == size:
             if not args.quiet:
@@ -895,6 +930,24 @@ def cmd_render(args: argparse.Namespace) -> int:
         if status:
             return status
     return 0
+
+
+def _open_window(scene_file: str):
+    """The display window (--display, +D), opening beside the scene's compilation; None,
+    said in one line, where none can open."""
+    from runtime import display
+
+    why = display.unavailable()
+    if why is not None:
+        print(f"strala: no display window: {why}; rendering on", file=sys.stderr)
+        return None
+    return display.Window(
+        Path(scene_file).name,
+        lambda: _STOPPING.now("stopped from the window"),
+        lambda problem: print(
+            f"strala: no display window: {problem}; rendering on", file=sys.stderr
+        ),
+    )
 
 
 def render_stats(stats: dict) -> str:
@@ -953,6 +1006,27 @@ def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | N
         stdout.buffer.flush()
 
 
+class _Stopping:
+    """How a render stops at once: ^C while it computes pixels, the display window's q at
+    any time. The preview file is removed, a line said, and the process leaves (130).
+    Image files are written holding `lock`, so a stop waits for the file being written
+    rather than leave half of it."""
+
+    def __init__(self) -> None:
+        import threading
+
+        self.lock = threading.RLock()  # re-entered by a ^C on the thread that writes
+
+    def now(self, message: str) -> None:
+        from runtime import signals
+
+        with self.lock:
+            signals.stop(message, 130)  # the preview's file goes too (registered there)
+
+
+_STOPPING = _Stopping()
+
+
 @contextmanager
 def _quick_interrupt(cleanup: Path | None = None) -> Iterator[None]:
     """A stop (^C, SIGTERM) while the block runs removes `cleanup` (the preview's file) as
@@ -985,6 +1059,12 @@ def _render_one(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
     stats: dict = {}
+    window = getattr(args, "window", None)
+    if window is not None:
+        from runtime import display
+
+        beside = Path(args.file).with_suffix(".png") if out.stem == "-" else out
+        window.frame(width, height, scene.settings, label, display.shown_path(beside))
     preview = None
     if getattr(args, "preview", False) and out.stem != "-":
         preview = preview_path(out)
@@ -992,7 +1072,7 @@ def _render_one(
         with _quick_interrupt(preview):  # ^C in a preview pass too: only the preview goes
             if preview is not None:
                 try:
-                    _preview_passes(args, scene, preview, width, height, region)
+                    _preview_passes(args, scene, preview, width, height, region, window)
                 except (SceneError, OSError) as exc:
                     print(f"strala: preview skipped: {exc}", file=sys.stderr)
         with (
@@ -1010,7 +1090,8 @@ def _render_one(
                     jitter=args.jitter,
                     aa_gamma=args.aa_gamma,
                     threads=args.threads,
-                    progress=bar,
+                    progress=bar if window is None else _both(bar, window.progress),
+                    on_tile=None if window is None else window.tile,
                     region=region,
                     stats=stats,
                     **_radiosity_options(args),
@@ -1023,10 +1104,14 @@ def _render_one(
         if preview is not None:
             preview.unlink(missing_ok=True)
     try:
-        if out.stem == "-":
-            _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
-        else:
-            image.save_render(out, pixels, scene.settings, args.bits)
+        with _STOPPING.lock:  # the display window's q waits for the file being written
+            if out.stem == "-":
+                _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
+            elif window is not None and _eight_bit(image.output_format(out, args.bits)):
+                # the file's 8-bit values, made tile by tile for the window: not twice
+                image.write_pixels(out, window.file_values(), 8)
+            else:
+                image.save_render(out, pixels, scene.settings, args.bits)
     except OSError as exc:
         print(f"strala: error: {exc}", file=sys.stderr)
         return 1
@@ -1060,9 +1145,25 @@ def preview_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.preview{out.suffix}")
 
 
-def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> None:
+def _eight_bit(chosen) -> bool:
+    fmt, depth = chosen
+    return not fmt.linear and depth == 8
+
+
+def _both(first, second):
+    """One progress callback that calls two."""
+
+    def both(done: float, total: float) -> None:
+        first(done, total)
+        second(done, total)
+
+    return both
+
+
+def _preview_passes(args, scene, out: Path, width: int, height: int, region, window=None) -> None:
     """Coarse passes written to `out` (the preview file; atomically, each replacing the
-    last) before the final render: blocky first, sharper each time, no anti-aliasing."""
+    last) before the final render: blocky first, sharper each time, no anti-aliasing;
+    shown in the display `window` too, when there is one."""
     import numpy as np
 
     from runtime import image
@@ -1079,7 +1180,10 @@ def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> 
             mask = np.zeros(full.shape[:2], dtype=bool)
             mask[top:bottom, left:right] = True
             full = np.where(mask[..., None], full, 0.0)
-        image.save_render(out, full, scene.settings, args.bits)
+        with _STOPPING.lock:  # a stop from the window waits for the file, as for the image
+            image.save_render(out, full, scene.settings, args.bits)
+        if window is not None:
+            window.whole(full, f"preview {w}x{h}")
         if not args.quiet:
             print(f"preview {w}x{h} written to {out}", file=sys.stderr)
 

@@ -71,6 +71,7 @@ def render_scene(
     aa_depth: int = 3,
     threads: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    on_tile: Callable[[tuple[int, int, int, int], np.ndarray], None] | None = None,
     region: tuple[int, int, int, int] | None = None,
     stats: dict | None = None,
     radiosity=None,
@@ -87,7 +88,9 @@ def render_scene(
     (None: POV-Ray's default; method 2 only); aa_gamma: +AG, the comparison's gamma.
     region: (left, top, right, bottom) pixel bounds, right/bottom exclusive, to render only
     part of the image (the rest stays black). progress(done, total) is called with pixel
-    counts after each tile, from the calling thread. stats, when given, receives counters
+    counts after each tile, from the calling thread; on_tile((x0, y0, x1, y1), pixels) too,
+    with the tile's finished working-space colours (the display window's feed: it must not
+    keep the calling thread long). stats, when given, receives counters
     (rays, shadow_rays, supersampled pixels …).
     radiosity: a precomputed `RadiosityResult` to use; otherwise a scene with
     `global_settings { radiosity {} }` is solved here first (cached in the folder or
@@ -159,6 +162,8 @@ def render_scene(
             image[y0:y1, x0:x1] = pix
             supersampled += ss
             done += (x1 - x0) * (y1 - y0)
+            if on_tile:
+                on_tile((x0, y0, x1, y1), image[y0:y1, x0:x1])
             if progress:
                 progress(done, total)
     else:
@@ -169,6 +174,8 @@ def render_scene(
                 image[y0:y1, x0:x1] = pix
                 supersampled += ss
                 done += (x1 - x0) * (y1 - y0)
+                if on_tile:
+                    on_tile((x0, y0, x1, y1), image[y0:y1, x0:x1])
                 if progress:
                     progress(done, total)
     if stats is not None:

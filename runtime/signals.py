@@ -38,7 +38,9 @@ def removed_if_stopped(path: Path) -> Iterator[Path]:
             _pending.discard(path)
 
 
-def _stop(signum: int, frame) -> None:
+def stop(message: str, code: int) -> None:
+    """End the process at once, as a signal does: the registered files removed, one line
+    said (the display window's q uses it too)."""
     with _lock:
         for path in list(_pending):
             try:
@@ -46,11 +48,16 @@ def _stop(signum: int, frame) -> None:
             except OSError:
                 pass
     try:
-        sys.stderr.write(f"\nstrala: {_NAMES.get(signal.Signals(signum), 'stopped')}\n")
+        sys.stderr.write(f"\nstrala: {message}\n")
         sys.stderr.flush()
     except (OSError, ValueError):
         pass
-    os._exit(EXIT_CODES.get(signal.Signals(signum), 128 + signum))
+    os._exit(code)
+
+
+def _stop(signum: int, frame) -> None:
+    sig = signal.Signals(signum)
+    stop(_NAMES.get(sig, "stopped"), EXIT_CODES.get(sig, 128 + signum))
 
 
 def install() -> None:
