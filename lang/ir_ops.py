@@ -16,14 +16,27 @@ from lang.values import ObjectValue
 _T = TypeVar("_T")
 
 
+# class → its fields when replaced() may copy its instances' dict, else an empty dict
+_COPYABLE: dict[type, dict[str, Any]] = {}
+
+
+def _copyable(cls: type) -> dict[str, Any]:
+    fields = getattr(cls, "__dataclass_fields__", None)
+    if fields is None or hasattr(cls, "__post_init__") or hasattr(cls, "__slots__"):
+        return {}
+    return fields
+
+
 def replaced(obj: _T, **changes: Any) -> _T:
     """dataclasses.replace, without running __init__ for the IR's frozen dataclasses (no
     __post_init__, no slots): a copy of the fields with the changes. Building the objects
     of a scene replaces a texture's parts several times per object, and __init__ over all
     of a texture's fields was a third of a plain sphere's evaluation."""
     cls = type(obj)
-    fields = getattr(cls, "__dataclass_fields__", None)
-    if fields is None or hasattr(cls, "__post_init__") or not hasattr(obj, "__dict__"):
+    fields = _COPYABLE.get(cls)
+    if fields is None:
+        fields = _COPYABLE[cls] = _copyable(cls)
+    if not fields:
         return replace(obj, **changes)  # type: ignore[type-var]
     for k in changes:
         if k not in fields:

@@ -1271,6 +1271,8 @@ class Interpreter:
 
     # ------------------------------------------------------------ expressions
     def eval(self, node: syntax.Node) -> Any:
+        if type(node) is syntax.Number:  # the commonest node there is
+            return node.value
         if type(node) in _COMPILED_KINDS:
             # compiled when evaluated again (a loop's, a macro's): compiling what runs once
             # would cost more than it saves
