@@ -911,7 +911,11 @@ class Interpreter:
 
     def _d_if(self, node: syntax.If, out, spec) -> None:
         for cond, body in node.branches:
-            if cond is None or builtins.truth(self.eval(cond)):
+            if cond is None:
+                out.extend(self.expand(body, spec))
+                return
+            c = self.eval(cond)
+            if c != 0.0 if type(c) is float else builtins.truth(c):
                 out.extend(self.expand(body, spec))
                 return
 
@@ -1188,7 +1192,7 @@ class Interpreter:
             )
         if self.macro_depth >= MAX_MACRO_DEPTH:
             raise self.error("E0231", f"macro `{macro.name}` recursed too deeply", node.span)
-        if macro.span is not None and macro.span in self.broken_macros:
+        if self.broken_macros and macro.span is not None and macro.span in self.broken_macros:
             self.sink.items.extend(self.broken_macros[macro.span])
             self.broken_macros[macro.span] = []  # its own errors are shown once
             where = f"{Path(macro.file).name}:{macro.span.line}"
