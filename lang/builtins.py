@@ -75,6 +75,16 @@ def truth(v: Any) -> bool:
 
 # ------------------------------------------------------------------ operators
 def _combine(a: Any, b: Any, fn: Callable[[float, float], float]) -> Any:
+    # vectors of one length and a vector with a float, the common cases, first: the same
+    # components as the promotions below give, without them
+    ta, tb = type(a), type(b)
+    if ta is Vec:
+        if tb is Vec and len(a) == len(b):
+            return Vec.of_floats(map(fn, a, b))
+        if tb is float:
+            return Vec.of_floats([fn(p, b) for p in a])
+    elif ta is float and tb is Vec:
+        return Vec.of_floats([fn(a, q) for q in b])
     if isinstance(a, str) or isinstance(b, str):
         raise EvalError(
             "arithmetic on a string", "join strings with concat(…), convert numbers with str(…)"

@@ -16,13 +16,45 @@ from lang.values import ObjectValue
 _T = TypeVar("_T")
 
 
+# class → its fields when replaced() may copy its instances' dict, else an empty dict
+_COPYABLE: dict[type, dict[str, Any]] = {}
+
+
+def _copyable(cls: type) -> dict[str, Any]:
+    fields = getattr(cls, "__dataclass_fields__", None)
+    if fields is None or hasattr(cls, "__post_init__") or hasattr(cls, "__slots__"):
+        return {}
+    return fields
+
+
+def replaced(obj: _T, **changes: Any) -> _T:
+    """dataclasses.replace, without running __init__ for the IR's frozen dataclasses (no
+    __post_init__, no slots): a copy of the fields with the changes. Building the objects
+    of a scene replaces a texture's parts several times per object, and __init__ over all
+    of a texture's fields was a third of a plain sphere's evaluation."""
+    cls = type(obj)
+    fields = _COPYABLE.get(cls)
+    if fields is None:
+        fields = _COPYABLE[cls] = _copyable(cls)
+    if not fields:
+        return replace(obj, **changes)  # type: ignore[type-var]
+    for k in changes:
+        if k not in fields:
+            raise TypeError(f"{cls.__name__} has no field {k!r}")
+    new = object.__new__(cls)
+    d = new.__dict__
+    d.update(obj.__dict__)
+    d.update(changes)
+    return new
+
+
 def transform_pigment(p: ir.Pigment, m: ir.Matrix, own: bool = False) -> ir.Pigment:
     """Move a pigment and (fully composed, like CSG children) its sub-pigments. A uv-mapped
     pigment stays as it is (POV-Ray moves only its outer pattern, which uv_mapping never
     reads) unless `own`: a transformation written inside its block."""
     if p.params.get("uv_mapping") and not own:
         return p
-    return replace(
+    return replaced(
         p,
         transform=transforms.compose(m, p.transform),
         list=tuple(transform_pigment(q, m) for q in p.list),
@@ -33,7 +65,7 @@ def transform_pigment(p: ir.Pigment, m: ir.Matrix, own: bool = False) -> ir.Pigm
 def transform_normal(n: ir.Normal | None, m: ir.Matrix) -> ir.Normal | None:
     if n is None or n.params.get("uv_mapping"):
         return n
-    return replace(n, transform=transforms.compose(m, n.transform))
+    return replaced(n, transform=transforms.compose(m, n.transform))
 
 
 def transform_texture(t: ir.Texture, m: ir.Matrix, own: bool = False) -> ir.Texture:
@@ -43,8 +75,8 @@ def transform_texture(t: ir.Texture, m: ir.Matrix, own: bool = False) -> ir.Text
     layers on top still move, each by its own flag."""
     layers = tuple(transform_texture(layer, m) for layer in t.layers)
     if t.uv_mapping and not own:
-        return replace(t, layers=layers)
-    return replace(
+        return replaced(t, layers=layers)
+    return replaced(
         t,
         pigment=transform_pigment(t.pigment, m),
         normal=transform_normal(t.normal, m),
@@ -57,7 +89,7 @@ def transform_texture(t: ir.Texture, m: ir.Matrix, own: bool = False) -> ir.Text
 def uv_mapped(t: ir.Texture) -> ir.Texture:
     """`t` with every layer and map entry marked uv_mapping (POV-Ray's UV_FLAG on an
     object, or `uv_mapping` in a texture: the whole texture is read at the surface's uv)."""
-    return replace(
+    return replaced(
         t,
         uv_mapping=True,
         layers=tuple(uv_mapped(layer) for layer in t.layers),
@@ -71,8 +103,8 @@ def with_top_layer(t: ir.Texture, **changes: Any) -> ir.Texture:
     object) changes that layer, as POV-Ray's Parse_Texture and Parse_Object_Mods change the
     first texture of their list."""
     if t.layers:
-        return replace(t, layers=(*t.layers[:-1], replace(t.layers[-1], **changes)))
-    return replace(t, **changes)
+        return replaced(t, layers=(*t.layers[:-1], replaced(t.layers[-1], **changes)))
+    return replaced(t, **changes)
 
 
 def top_layer(t: ir.Texture) -> ir.Texture:
@@ -83,7 +115,7 @@ def top_layer(t: ir.Texture) -> ir.Texture:
 def transform_light(light: ir.Light, m: ir.Matrix) -> ir.Light:
     area = light.area
     if area is not None:
-        area = replace(
+        area = replaced(
             area,
             axis1=transforms.apply_direction(m, area.axis1),
             axis2=transforms.apply_direction(m, area.axis2),
@@ -94,7 +126,7 @@ def transform_light(light: ir.Light, m: ir.Matrix) -> ir.Light:
     through = light.projected_through
     if through is not None:
         through = _transform_ir_object(through, m)
-    return replace(
+    return replaced(
         light,
         position=transforms.apply_point(m, light.position),
         point_at=transforms.apply_point(m, light.point_at),
@@ -107,11 +139,11 @@ def transform_light(light: ir.Light, m: ir.Matrix) -> ir.Light:
 def _transform_ir_object(o: ir.Object, m: ir.Matrix) -> ir.Object:
     shape = o.shape
     if isinstance(shape, ir.CSG):
-        shape = replace(shape, children=tuple(_transform_ir_object(c, m) for c in shape.children))
+        shape = replaced(shape, children=tuple(_transform_ir_object(c, m) for c in shape.children))
         tr = o.transform
     else:
         tr = transforms.compose(m, o.transform)
-    return replace(
+    return replaced(
         o,
         shape=shape,
         transform=tr,
@@ -128,8 +160,8 @@ def transform_object(obj: ObjectValue, m: ir.Matrix) -> ObjectValue:
     own space (composed once, in `to_ir`), so a transform costs O(1) however big the tree."""
     shape = obj.shape
     if isinstance(shape, ir.Mesh) and shape.textures:
-        shape = replace(shape, textures=tuple(transform_texture(t, m) for t in shape.textures))
-    return replace(
+        shape = replaced(shape, textures=tuple(transform_texture(t, m) for t in shape.textures))
+    return replaced(
         obj,
         shape=shape,
         transform=transforms.compose(m, obj.transform),
@@ -175,13 +207,13 @@ def group_lights(obj: ObjectValue, full: ir.Matrix) -> tuple[ir.Light, ...]:
 def transform_media(m: ir.Media, mat: ir.Matrix) -> ir.Media:
     if not m.density:
         return m
-    return replace(m, density=tuple(transform_pigment(d, mat) for d in m.density))
+    return replaced(m, density=tuple(transform_pigment(d, mat) for d in m.density))
 
 
 def transform_interior(i: ir.Interior | None, mat: ir.Matrix) -> ir.Interior | None:
     if i is None or not i.media:
         return i
-    return replace(i, media=tuple(transform_media(m, mat) for m in i.media))
+    return replaced(i, media=tuple(transform_media(m, mat) for m in i.media))
 
 
 def with_pattern_defaults(scene: ir.Scene, defaults: dict[str, Any]) -> ir.Scene:
@@ -230,7 +262,7 @@ def pattern_defaults_in(value: _T, defaults: dict[str, Any]) -> _T:
                 if gen != v.noise_generator:
                     changes["noise_generator"] = gen
             if changes:
-                out = replace(v, **changes)
+                out = replaced(v, **changes)
         memo[key] = out
         return out
 

@@ -27,14 +27,23 @@ class Vec(tuple):
     def __new__(cls, items) -> Vec:
         return super().__new__(cls, (float(v) for v in items))
 
+    @staticmethod
+    def of_floats(items) -> Vec:
+        """A vector of components known to be floats (the arithmetic's results): made
+        without converting each, which is most of what a vector costs."""
+        return tuple.__new__(Vec, items)
+
     def __repr__(self) -> str:
         return "<" + ", ".join(f"{v:g}" for v in self) + ">"
 
     def padded(self, n: int) -> Vec:
         """The first n components, zero-filled (how POV-Ray widens a short vector)."""
-        if len(self) >= n:
-            return Vec(self[:n])
-        return Vec(tuple(self) + (0.0,) * (n - len(self)))
+        have = len(self)
+        if have == n:
+            return self
+        if have > n:
+            return tuple.__new__(Vec, self[:n])
+        return tuple.__new__(Vec, tuple(self) + (0.0,) * (n - have))
 
     @property
     def xyz(self) -> ir.Vec3:

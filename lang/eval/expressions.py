@@ -17,6 +17,7 @@ from lang import (
 )
 from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.diagnostics import Span
+from lang.eval import generated
 from lang.eval.context import BuildContext
 from lang.eval.splines import evaluate_spline
 from lang.extents import bounding_box
@@ -454,7 +455,58 @@ _SPECIAL_CALLS = frozenset(
 )
 
 
+# evaluations of an expression before it is made a generated function (lang.eval.generated):
+# making one costs as much as a few hundred evaluations save
+GENERATE_AFTER = 200
+
+
 def compiled(node: syntax.Node) -> Compiled | None:
+    """The closure of an expression evaluated more than once: for an operator, unary
+    operator or built-in call, its closure (_closure), which turns into the expression's
+    generated function once it has run GENERATE_AFTER times; for a vector, member, index
+    or ternary of the pure subset, the tree walk until then. None for anything else."""
+    slow = _closure(node)
+    if slow is None:
+        if type(node) not in _WALKED or not generated.pure(node):
+            return None
+        slow = walker(node)
+    elif not generated.pure(node):
+        return slow
+    fast: Compiled | None = None
+    runs = 0
+
+    def warming(it: BuildContext) -> Any:
+        nonlocal fast, runs
+        if fast is not None:
+            try:
+                return fast(it)
+            except Exception:  # anything unusual: the usual way reports it where it occurs
+                return slow(it)
+        runs += 1
+        if runs == GENERATE_AFTER:
+            fast = generated.function(node, _e_const)
+        return slow(it)
+
+    return warming
+
+
+_WALKED = frozenset({syntax.Vector, syntax.Member, syntax.Index, syntax.Ternary})
+
+
+def walker(node: syntax.Node) -> Compiled:
+    """The tree walk of one node, as Interpreter.eval does it (an EvalError located at it)."""
+    walk = EXPRESSIONS[type(node)]
+
+    def walked(it: BuildContext) -> Any:
+        try:
+            return walk(it, node)
+        except EvalError as e:
+            raise it.error("E0203", e.message, node.span, e.hint) from None
+
+    return walked
+
+
+def _closure(node: syntax.Node) -> Compiled | None:
     """The closure of an operator, unary operator or built-in call; None for other nodes."""
     if isinstance(node, syntax.Binary):
         return _compile_binary(node)
@@ -471,7 +523,7 @@ def _operand(node: syntax.Node) -> Compiled:
         return lambda it: value
     if isinstance(node, syntax.Ident):
         return _compile_ident(node)
-    return compiled(node) or (lambda it: it.eval(node))
+    return _closure(node) or (lambda it: it.eval(node))
 
 
 def _compile_ident(node: syntax.Ident) -> Compiled:

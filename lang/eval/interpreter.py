@@ -131,10 +131,19 @@ class _Scope(dict):
         self.kind = kind
 
 
+# What a #declare may give straight to eval(): expressions that are no directive or macro
+# call (a non-built-in call may be a macro's, whose elements eval_value gathers).
+_VALUE_KINDS = frozenset(
+    {syntax.Number, syntax.String, syntax.Ident, syntax.Const, syntax.Vector, syntax.Unary}
+    | {syntax.Binary, syntax.Ternary, syntax.Member, syntax.Index, syntax.ColorCtor}
+)
 # bound once: eval() is the evaluator's hottest call
 _EXPRESSIONS = expressions.EXPRESSIONS
 # the node kinds lang.eval.expressions compiles into closures on first evaluation
-_COMPILED_KINDS = frozenset({syntax.Binary, syntax.Unary, syntax.Call})
+_COMPILED_KINDS = frozenset(
+    {syntax.Binary, syntax.Unary, syntax.Call, syntax.Vector, syntax.Member, syntax.Index}
+    | {syntax.Ternary}
+)
 
 
 class Interpreter:
@@ -236,8 +245,11 @@ class Interpreter:
         # one is read as tokens too, so that the macro's text joins the caller's.
         self.token_macros: set[str] = set()
         self._called: dict[int, tuple[syntax.Node, frozenset[str]]] = {}
+        self._watches: dict[int, tuple[syntax.While, list[str] | None]] = {}
         self._texts: dict[str, str] = {}  # file -> its text, comments blanked out
         self._raw_texts: dict[str, str] = {}  # texts given, not read from a file
+        # the tree walk's own expand_node (translate watches every node through its own)
+        self._plain = type(self).expand_node is Interpreter.expand_node
 
     # ------------------------------------------------------------ running
     def run(self, text: str, filename: str) -> Result:
@@ -434,12 +446,17 @@ class Interpreter:
     def declare(self, name: str, value: Any, local: bool) -> None:
         """POV-Ray: #local binds in the innermost table; #declare updates the most local
         visible binding (so a macro can assign its by-reference parameters), else global."""
-        self.edits.forget(value)
+        if type(value) is not float:  # a float is never a recorded block (lang.eval.edits)
+            self.edits.forget(value)
+        scopes = self.scopes
         if local:
-            self.scopes[-1][name] = value
+            scopes[-1][name] = value
             return
-        scope = self.scope_of(name)
-        (scope if scope is not None else self.scopes[0])[name] = value
+        for scope in reversed(scopes):
+            if name in scope:
+                scope[name] = value
+                return
+        scopes[0][name] = value
 
     def unknown_ident(self, name: str, span: Span) -> SceneError:
         visible: set[str] = set()
@@ -544,6 +561,17 @@ class Interpreter:
             try:
                 self.meter.step()
                 if (
+                    type(node) is syntax.Declare
+                    and type(node.value) in _VALUE_KINDS
+                    and self._plain
+                    and not self.token_macros
+                    and not opens
+                ):
+                    # the commonest statement of loops and macros, without the dispatch
+                    # (what _d_declare does for an expression; nothing joins `out`)
+                    self.assign(node, self.eval(node.value))
+                    continue
+                if (
                     isinstance(node, syntax.Declare)
                     and isinstance(node.value, syntax.Block)
                     and node.value.keyword == "texture"
@@ -570,7 +598,8 @@ class Interpreter:
                     self.expand_node(node, out, cuts.spec_for(out, opens, spec) if opens else spec)
                 if self.cut_braces:
                     cuts.pair(self, out, start, opens)
-                self._stamp_default(out, start)
+                if len(out) > start:
+                    self._stamp_default(out, start)
             except SceneError as e:
                 self.sink.items.append(e.diagnostic)
                 out.failed = True  # type: ignore[attr-defined]
@@ -629,7 +658,10 @@ class Interpreter:
         files' nodes are being evaluated when an error is reported."""
         t = type(node)
         n: Any = node  # dispatched on its exact type, which mypy cannot follow
-        if t is syntax.Keyword:
+        directive = _DIRECTIVES.get(t)
+        if directive is not None:  # no other branch takes a directive
+            directive(self, n, out, spec)
+        elif t is syntax.Keyword:
             out.append(El("kw", n.name, n.span))
         elif t is syntax.Comma:
             out.append(El("comma", None, n.span))
@@ -653,8 +685,6 @@ class Interpreter:
             # an unknown word where an item takes a word (`scheme sqrt3`): the item's own
             # check names the choices, which says more than "unknown identifier"
             out.append(El("kw", n.name, n.span))
-        elif t in _DIRECTIVES:
-            _DIRECTIVES[t](self, n, out, spec)
         elif t is syntax.Block and n.keyword == "default" and not n.params:
             # `default { … }` without the `#`: POV-Ray's older spelling of #default
             self._d_default(syntax.Default(n.span, n.body), out, spec)
@@ -877,17 +907,17 @@ class Interpreter:
             return
         if isinstance(value, ArrayValue) and isinstance(node.value, syntax.Ident):
             value = ArrayValue(value.dims, list(value.data))  # POV-Ray copies arrays
-        span = node.name_span or node.span
-        if node.local and len(self.scopes) > 1 and node.name in self.scopes[0]:
-            if node.name not in self.scopes[-1]:
+        name, scopes = node.name, self.scopes
+        if node.local:
+            if len(scopes) > 1 and name in scopes[0] and name not in scopes[-1]:
                 self.sink.warning(
                     "W0401",
-                    f"`#local {node.name}` hides the global `{node.name}` inside this macro",
-                    span,
+                    f"`#local {name}` hides the global `{name}` inside this macro",
+                    node.name_span or node.span,
                     "rename one of them if the global was meant",
                 )
-        elif not node.local and self.file_stack and self.file_stack[-1] == self.main_file:
-            self.main_declares.setdefault(node.name, span)
+        elif self.file_stack and self.file_stack[-1] == self.main_file:
+            self.main_declares.setdefault(name, node.name_span or node.span)
         if node.deprecated is not None:
             self.deprecated[node.name] = [node.deprecated, node.deprecated_once, False]
         elif self.deprecated:
@@ -934,7 +964,11 @@ class Interpreter:
 
     def _d_if(self, node: syntax.If, out, spec) -> None:
         for cond, body in node.branches:
-            if cond is None or builtins.truth(self.eval(cond)):
+            if cond is None:
+                out.extend(self.expand(body, spec))
+                return
+            c = self.eval(cond)
+            if c != 0.0 if type(c) is float else builtins.truth(c):
                 out.extend(self.expand(body, spec))
                 return
 
@@ -985,10 +1019,18 @@ class Interpreter:
 
     def _d_while(self, node: syntax.While, out, spec) -> None:
         n = 0
-        watched = loop_watch.watched_names(node)
+        held = self._watches.get(id(node))
+        if held is None or held[0] is not node:
+            # judged once per loop: the walk over its body costs more than a pass of it
+            held = self._watches[id(node)] = (node, loop_watch.watched_names(node))
+        watched = held[1]
         self.break_targets += 1
         try:
-            while builtins.truth(self.eval(node.cond)):
+            cond, truth = node.cond, builtins.truth
+            while True:
+                c = self.eval(cond)
+                if not (c != 0.0 if type(c) is float else truth(c)):
+                    break
                 n += 1
                 self.meter.step()
                 if n > MAX_LOOP_ITERATIONS:
@@ -1020,7 +1062,8 @@ class Interpreter:
             self.break_targets -= 1
 
     def _errors_since(self, mark: int) -> bool:
-        return any(d.severity is Severity.ERROR for d in self.sink.items[mark:])
+        items = self.sink.items
+        return len(items) > mark and any(d.severity is Severity.ERROR for d in items[mark:])
 
     def _d_for(self, node: syntax.For, out, spec) -> None:
         start = as_float(self.eval(node.start), "#for start")
@@ -1205,7 +1248,7 @@ class Interpreter:
         self.meter.step()
         if self.macro_depth >= MAX_MACRO_DEPTH:
             raise self.error("E0231", f"macro `{macro.name}` recursed too deeply", node.span)
-        if macro.span is not None and macro.span in self.broken_macros:
+        if self.broken_macros and macro.span is not None and macro.span in self.broken_macros:
             self.sink.items.extend(self.broken_macros[macro.span])
             self.broken_macros[macro.span] = []  # its own errors are shown once
             where = f"{Path(macro.file).name}:{macro.span.line}"
@@ -1288,6 +1331,8 @@ class Interpreter:
 
     # ------------------------------------------------------------ expressions
     def eval(self, node: syntax.Node) -> Any:
+        if type(node) is syntax.Number:  # the commonest node there is
+            return node.value
         if type(node) in _COMPILED_KINDS:
             # compiled when evaluated again (a loop's, a macro's): compiling what runs once
             # would cost more than it saves
@@ -1297,9 +1342,10 @@ class Interpreter:
                 return hit(self)
             if key not in self._evaluated:
                 self._evaluated.add(key)
-            elif (fn := expressions.compiled(node)) is not None:
-                # kept beside its node, whose id then stays its own for the evaluation
-                self._compiled[key] = fn
+            else:
+                # kept beside its node, whose id then stays its own for the evaluation; a
+                # node without a closure of its own keeps the tree walk (asked once)
+                fn = self._compiled[key] = expressions.compiled(node) or expressions.walker(node)
                 self._compiled_nodes.append(node)
                 return fn(self)
         try:

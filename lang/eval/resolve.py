@@ -5,10 +5,8 @@ between objects. The evaluator's `to_ir` (lang.eval.interpreter) is this with it
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 from lang import ir, transforms
-from lang.ir_ops import group_lights, transform_interior, transform_texture, uv_mapped
+from lang.ir_ops import group_lights, replaced, transform_interior, transform_texture, uv_mapped
 from lang.values import ObjectValue
 
 # The interior of every object that names none: one (frozen) value, not one each (a stored
@@ -24,9 +22,9 @@ def _finish_interior(inter: ir.Interior, tex: ir.Texture) -> ir.Interior:
         return inter
     fin = tex.layers[-1].finish if tex.layers else tex.finish
     if fin.ior is not None:
-        inter = replace(inter, ior=fin.ior, dispersion=1.0)
+        inter = replaced(inter, ior=fin.ior, dispersion=1.0)
     if fin.caustics is not None:
-        inter = replace(inter, caustics=fin.caustics)
+        inter = replaced(inter, caustics=fin.caustics)
     return inter
 
 
@@ -53,7 +51,7 @@ class ObjectResolver:
         key = (pig.color, pig.transform, id(tex.finish), tex.span)
         hit = self._textures.get(key)
         if hit is None:
-            shared = tex if pig.span is None else replace(tex, pigment=replace(pig, span=None))
+            shared = tex if pig.span is None else replaced(tex, pigment=replaced(pig, span=None))
             hit = self._textures[key] = (tex.finish, shared)
         return hit[1]
 
@@ -132,11 +130,11 @@ class ObjectResolver:
             full = ir.IDENTITY  # the children carry the whole transform
         elif isinstance(shape, ir.Mesh):
             if has_parent and shape.textures:
-                shape = replace(
+                shape = replaced(
                     shape, textures=tuple(transform_texture(t, parent) for t in shape.textures)
                 )
             if uv and shape.textures:
-                shape = replace(shape, textures=tuple(uv_mapped(t) for t in shape.textures))
+                shape = replaced(shape, textures=tuple(uv_mapped(t) for t in shape.textures))
             if shape.face_textures is not None:
                 textures = list(shape.textures)
                 faces = list(shape.face_textures)
@@ -144,7 +142,7 @@ class ObjectResolver:
                     textures.append(tex)
                     mine = len(textures) - 1
                     faces = [mine if f < 0 else f for f in faces]
-                shape = replace(shape, textures=tuple(textures), face_textures=tuple(faces))
+                shape = replaced(shape, textures=tuple(textures), face_textures=tuple(faces))
         f = {**obj.flags, **merged}
         return ir.Object(
             shape=shape,

@@ -6,7 +6,7 @@ textures, interior, material, flags)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 from lang import (
@@ -27,6 +27,7 @@ from lang.eval.elements import (
     item_matrix,
 )
 from lang.ir_ops import (
+    replaced,
     top_layer,
     transform_light,
     transform_object,
@@ -66,7 +67,7 @@ def _modified_texture(it: BuildContext, t: ir.Texture, name: str, v: Any) -> ir.
     POV-Ray's Parse_Object_Mods changes the texture's top layer, over a new layer of the
     default texture when that one is patterned; a block modifies the value it lands on."""
     if top_layer(t).pattern is not None:
-        t = replace(t, layers=(*t.layers, replace(it.default_texture, layers=())))
+        t = replaced(t, layers=(*t.layers, replaced(it.default_texture, layers=())))
     return with_top_layer(t, **{name: it.edits.onto(it, v, getattr(top_layer(t), name))})
 
 
@@ -112,7 +113,7 @@ def _object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -
         obj.texture = _modified_texture(it, _obj_texture(it, obj), name, args[0])
     elif name == "texture":
         if obj.flags.get("_explicit_texture") and obj.texture is not None:
-            obj.texture = replace(obj.texture, layers=obj.texture.layers + (args[0],))
+            obj.texture = replaced(obj.texture, layers=obj.texture.layers + (args[0],))
         else:
             obj.texture = args[0]
             obj.flags["_explicit_texture"] = True
@@ -144,7 +145,7 @@ def _object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -
         obj.interior_texture = (
             args[0].texture
             if inner is None
-            else replace(inner, layers=inner.layers + (args[0].texture,))
+            else replaced(inner, layers=inner.layers + (args[0].texture,))
         )
     elif name == "unsupported":
         it.unsupported(args[0].keyword, span)
@@ -153,8 +154,8 @@ def _object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -
             raise EvalError("uv_mapping must be specified before texture.")
         obj.flags["uv_mapping"] = True
         if isinstance(obj.shape, ir.Mesh) and obj.shape.textures:
-            shape = replace(obj.shape, textures=tuple(uv_mapped(t) for t in obj.shape.textures))
-            obj = replace(obj, shape=shape)
+            shape = replaced(obj.shape, textures=tuple(uv_mapped(t) for t in obj.shape.textures))
+            obj = replaced(obj, shape=shape)
     elif name in _IGNORED_OBJECT_ITEMS:
         pass
     return obj
@@ -500,7 +501,7 @@ def _b_mesh(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
                     (1.0, 0.0, 0.0) if tuple(n) == (0.0, 0.0, 0.0) else n for n in tri.shape.normals
                 )
                 fixed = (a, b, c)
-                tri = replace(tri, shape=replace(tri.shape, normals=fixed))
+                tri = replaced(tri, shape=replaced(tri.shape, normals=fixed))
         if isinstance(tri.shape, ir.Mesh) and not tri.children:  # `mesh { Declared_Mesh }`
             base = len(verts)
             moved = not transforms.is_identity(tri.transform)

@@ -6,7 +6,7 @@ textures share."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +28,7 @@ from lang.eval.elements import (
     item_matrix,
 )
 from lang.ir_ops import (
+    replaced,
     top_layer,
     transform_pigment,
     transform_texture,
@@ -355,10 +356,10 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
 def build_pigment(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment:
     # POV-Ray starts a pigment block from a copy of the `#default` pigment
     base = it.default_texture.pigment
-    pig = _pigment_items(it, replace(base, span=node.span), g.items)
+    pig = _pigment_items(it, replaced(base, span=node.span), g.items)
     if _modifies(g, "pigment"):
         it.edits.record(
-            pig, base, lambda b: _pigment_items(it, replace(b, span=node.span), g.items)
+            pig, base, lambda b: _pigment_items(it, replaced(b, span=node.span), g.items)
         )
     return pig
 
@@ -375,21 +376,21 @@ def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment
     for name, args, span in items:
         v: Any = args[0] if args else None
         if name == "pigment":
-            pig = replace(v, span=pig.span)
+            pig = replaced(v, span=pig.span)
             params = dict(v.params)
         elif name == "uv_mapping":
             # POV-Ray parses the rest of the block as a new pigment (from the default one)
             # that is evaluated at the surface's <u, v, 0>
             base = it.default_texture.pigment
-            pig = replace(base, span=pig.span)
+            pig = replaced(base, span=pig.span)
             params = {**base.params, "uv_mapping": True}
         elif name == "color":
-            pig = replace(pig, pattern="solid", color=_shared_colour(as_color(v).rgbft))
+            pig = replaced(pig, pattern="solid", color=_shared_colour(as_color(v).rgbft))
         elif name in schema.COMPONENT_WORDS:
             c = list(pig.color)
             for k in range(3) if name in ("gray", "grey") else [COMPONENT_INDEX[name]]:
                 c[k] = v
-            pig = replace(pig, pattern="solid", color=_shared_colour(tuple(c)))
+            pig = replaced(pig, pattern="solid", color=_shared_colour(tuple(c)))
         elif name in TRANSFORM_WORDS:
             own = bool(params.get("uv_mapping"))  # inside a uv-mapped block: it moves
             pig = transform_pigment(pig, item_matrix(name, args), own=own)
@@ -401,7 +402,7 @@ def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment
             given = [as_pigment(x) for x in v.items]
             while len(given) < 2:
                 given.append(ir.Pigment(color=(*_OBJECT_DEFAULTS[len(given)], 0.0, 0.0)))
-            pig = replace(pig, pattern="object", list=tuple(given))
+            pig = replaced(pig, pattern="object", list=tuple(given))
             params["object"] = v.object
         elif name in schema.LIST_PATTERNS:
             defaults = _LIST_DEFAULTS.get(name, [])
@@ -413,7 +414,7 @@ def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment
                     if pigments
                     else ir.Pigment(color=(*defaults[len(given)], 0.0, 0.0))
                 )
-            pig = replace(pig, pattern=name, list=tuple(given))
+            pig = replaced(pig, pattern=name, list=tuple(given))
             if name not in ("checker", "hexagon", "brick"):
                 it.unsupported(f"{name} pattern", span)
         else:
@@ -421,17 +422,17 @@ def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment
             if name == "unsupported":
                 it.unsupported(v.keyword, span)
             elif apply_pattern_item(it, st, name, args, span) and st["pattern"]:
-                pig = replace(pig, pattern=st["pattern"])
+                pig = replaced(pig, pattern=st["pattern"])
     if params or pig.params:
-        pig = replace(pig, params=params)
+        pig = replaced(pig, params=params)
     return pig
 
 
 def _with_map(it: BuildContext, pig: ir.Pigment, m: MapValue, span: Span) -> ir.Pigment:
     if m.map_kind in ("color_map", "colour_map"):
-        return replace(pig, color_map=tuple((k, c.rgbft) for k, c in m.entries))
+        return replaced(pig, color_map=tuple((k, c.rgbft) for k, c in m.entries))
     if m.map_kind == "pigment_map":
-        return replace(pig, pigment_map=tuple((k, as_pigment(p)) for k, p in m.entries))
+        return replaced(pig, pigment_map=tuple((k, as_pigment(p)) for k, p in m.entries))
     it.sink.error("E0212", f"a {m.map_kind} in a pigment", span, "use color_map or pigment_map")
     return pig
 
@@ -446,7 +447,7 @@ def _b_normal(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Normal:
 
 
 def _normal_base(base: ir.Normal | None, node: syntax.Block) -> ir.Normal:
-    return ir.Normal("none", span=node.span) if base is None else replace(base, span=node.span)
+    return ir.Normal("none", span=node.span) if base is None else replaced(base, span=node.span)
 
 
 def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
@@ -455,17 +456,21 @@ def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
     for name, args, span in items:
         v: Any = args[0] if args else None
         if name == "normal":
-            nrm = replace(v, span=nrm.span)
+            nrm = replaced(v, span=nrm.span)
             params = dict(v.params)
         elif name == "uv_mapping":
             # the rest of the block is a new normal, evaluated at the surface's <u, v, 0>
             base = it.default_texture.normal
-            nrm = ir.Normal("none", span=nrm.span) if base is None else replace(base, span=nrm.span)
+            nrm = (
+                ir.Normal("none", span=nrm.span) if base is None else replaced(base, span=nrm.span)
+            )
             params = {**nrm.params, "uv_mapping": True}
         elif name in TRANSFORM_WORDS:
-            nrm = replace(nrm, transform=transforms.compose(item_matrix(name, args), nrm.transform))
+            nrm = replaced(
+                nrm, transform=transforms.compose(item_matrix(name, args), nrm.transform)
+            )
         elif name in ("bump_size", "float"):
-            nrm = replace(nrm, depth=v)
+            nrm = replaced(nrm, depth=v)
         elif name == "map":
             if v.map_kind == "slope_map":
                 params["slope_map"] = tuple((k, (float(s[0]), float(s[1]))) for k, s in v.entries)
@@ -481,29 +486,29 @@ def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
         elif name == "no_bump_scale":
             params["no_bump_scale"] = True
         elif name == "bump_map":
-            nrm = replace(nrm, pattern="bump_map")
+            nrm = replaced(nrm, pattern="bump_map")
             params["image"] = v.params
             if v.bump_size is not None:
-                nrm = replace(nrm, depth=v.bump_size)
+                nrm = replaced(nrm, depth=v.bump_size)
         elif name == "unsupported":
             it.unsupported(v.keyword, span)
         elif name == "object" and isinstance(v, ObjectPattern):
-            nrm = replace(nrm, pattern="object")
+            nrm = replaced(nrm, pattern="object")
             params["list"] = v.items
             params["object"] = v.object
             _normal_list(params, v.items)
         elif name in schema.LIST_PATTERNS:
-            nrm = replace(nrm, pattern=name)
+            nrm = replaced(nrm, pattern=name)
             params["list"] = tuple(v)
             _normal_list(params, v)
         else:
             st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
             if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
-                nrm = replace(nrm, pattern=st["pattern"])
+                nrm = replaced(nrm, pattern=st["pattern"])
                 depth = st.get("depth_arg")
                 if isinstance(depth, float):
-                    nrm = replace(nrm, depth=depth)
-    return replace(nrm, params=params)
+                    nrm = replaced(nrm, depth=depth)
+    return replaced(nrm, params=params)
 
 
 def _normal_list(params: dict[str, Any], items) -> None:
@@ -533,7 +538,7 @@ def _old_finish_item(it: BuildContext, f: ir.Finish, name: str, v: float, span) 
     if name == "refraction":
         _old_refraction(it, v, span, "finish")
         return f
-    return replace(f, ior=v) if name == "ior" else replace(f, caustics=v)
+    return replaced(f, ior=v) if name == "ior" else replaced(f, caustics=v)
 
 
 def _old_refraction(it: BuildContext, v: float, span, block: str) -> None:
@@ -560,31 +565,31 @@ def _finish_items(it: BuildContext, f: ir.Finish, items: list) -> ir.Finish:
         if name == "finish":
             f = v
         elif name in ("ambient", "emission"):
-            f = replace(f, **{name: v})
+            f = replaced(f, **{name: v})
         elif name == "diffuse":
-            f = replace(f, diffuse=v)
+            f = replaced(f, diffuse=v)
             if args[1] is not None:
-                f = replace(f, diffuse_back=args[1])
+                f = replaced(f, diffuse_back=args[1])
         elif name in ("brilliance", "specular", "roughness", "phong", "phong_size", "crand"):
             if name == "roughness" and v == 0:
                 # POV-Ray's Parse_Finish keeps it: the highlight's exponent becomes 0
                 it.sink.warning("W0313", "Zero roughness used.", span)
-            f = replace(f, **{name: v})
+            f = replaced(f, **{name: v})
         elif name == "metallic":
-            f = replace(f, metallic=1.0 if v is None else v)
+            f = replaced(f, metallic=1.0 if v is None else v)
         elif name == "reflection":
             if isinstance(v, ReflectionValue):
-                f = replace(f, reflection=v.reflection)
+                f = replaced(f, reflection=v.reflection)
             else:
-                f = replace(f, reflection=replace(f.reflection, min=v, max=v))
+                f = replaced(f, reflection=replaced(f.reflection, min=v, max=v))
         elif name == "reflection_exponent":
             refl["exponent"] = v
         elif name == "fresnel":
             refl["fresnel"] = True if v is None else bool(v)
         elif name == "conserve_energy":
-            f = replace(f, conserve_energy=True if v is None else bool(v))
+            f = replaced(f, conserve_energy=True if v is None else bool(v))
         elif name == "irid":
-            f = replace(f, irid=(v.amount, v.thickness, v.turbulence))
+            f = replaced(f, irid=(v.amount, v.thickness, v.turbulence))
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in finish")
         elif name == "albedo":
@@ -592,7 +597,7 @@ def _finish_items(it: BuildContext, f: ir.Finish, items: list) -> ir.Finish:
         elif name in ("ior", "caustics", "refraction"):
             f = _old_finish_item(it, f, name, v, span)
     if refl:
-        f = replace(f, reflection=replace(f.reflection, **refl))
+        f = replaced(f, reflection=replaced(f.reflection, **refl))
     return f
 
 
@@ -603,11 +608,11 @@ def _b_reflection_block(it: BuildContext, g: Grouped, node: syntax.Block) -> Ref
     for name, args, _span in g.items:
         v: Any = args[0] if args else None
         if name == "fresnel":
-            r = replace(r, fresnel=True if v is None else bool(v))
+            r = replaced(r, fresnel=True if v is None else bool(v))
         elif name in ("falloff", "exponent"):
-            r = replace(r, **{name: v})
+            r = replaced(r, **{name: v})
         elif name == "metallic":
-            r = replace(r, metallic=1.0 if v is None else v)
+            r = replaced(r, metallic=1.0 if v is None else v)
     return ReflectionValue(r)
 
 
@@ -692,7 +697,7 @@ def _add_warp(pattern: Any, params: dict[str, Any], warp: _Warp) -> Any:
     the last written to the first: the transform written before this warp is stored with it,
     and the pattern's own transform starts again from the identity."""
     params["warps"] = (*params.get("warps", ()), (warp.data, pattern.transform))
-    return replace(pattern, transform=ir.IDENTITY)
+    return replaced(pattern, transform=ir.IDENTITY)
 
 
 _WARP_VALUES = frozenset(
@@ -791,14 +796,14 @@ def _b_interior(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Interior
         if name == "interior":
             i = v
         elif name in ("ior", "caustics", "dispersion", "fade_distance", "fade_power"):
-            i = replace(i, **{name: v})
+            i = replaced(i, **{name: v})
         elif name in ("fade_color", "fade_colour"):
-            i = replace(i, fade_color=v)
+            i = replaced(i, fade_color=v)
         elif name == "refraction":
             it.sink.warning("W0310", _OLD_FINISH_WARNINGS[name], span)
             _old_refraction(it, v, span, "interior")
         elif name == "media":
-            i = replace(i, media=(*i.media, v))
+            i = replaced(i, media=(*i.media, v))
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in interior")
     return i
@@ -837,14 +842,14 @@ def layered(textures: list[ir.Texture]) -> ir.Texture:
     base, *rest = textures
     layers = list(base.layers)
     for t in rest:
-        layers += [replace(t, layers=()), *t.layers]
-    return replace(base, layers=tuple(layers))
+        layers += [replaced(t, layers=()), *t.layers]
+    return replaced(base, layers=tuple(layers))
 
 
 def _no_bump_scale(t: ir.Texture) -> ir.Texture:
     """A texture with POV-Ray's no_bump_scale flag, passed down to the textures of its map
     (Post_Textures); the renderer reads it with each layer's normal."""
-    return replace(t, no_bump_scale=True, map=tuple((k, _no_bump_scale(x)) for k, x in t.map))
+    return replaced(t, no_bump_scale=True, map=tuple((k, _no_bump_scale(x)) for k, x in t.map))
 
 
 def _tiles_misplaced(g: Grouped) -> tuple[str, Span] | None:
@@ -863,7 +868,7 @@ def _tiles_misplaced(g: Grouped) -> tuple[str, Span] | None:
 
 def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
     # a texture block starts from a copy of the `#default` texture (its pigment, finish, normal)
-    t = replace(it.default_texture, layers=(), span=node.span)
+    t = replaced(it.default_texture, layers=(), span=node.span)
     # A patterned texture: the pattern keyword and its modifiers build `t.pattern` (a
     # pigment holding only the pattern), the texture list or texture_map its `map`.
     params: dict[str, Any] = {}
@@ -880,7 +885,7 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
         v: Any = args[0] if args else None
         if name == "tiles":
             # POV-Ray's Parse_Tiles: a checker whose entry 1 is the first tile, 0 the second
-            t = replace(
+            t = replaced(
                 t,
                 pattern=ir.Pigment(pattern="checker", span=span),
                 map=((0.0, v.second), (1.0, v.first)),
@@ -888,15 +893,15 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
         elif name == "material_map":
             # POV-Ray's Parse_Material_Map: the image's index picks a whole texture
             params = dict(v.params, count=len(v.textures))
-            t = replace(
+            t = replaced(
                 t,
                 pattern=ir.Pigment(pattern="material_map", span=span),
                 map=tuple((float(i), x) for i, x in enumerate(v.textures)),
             )
         elif name == "no_bump_scale":
-            t = replace(t, no_bump_scale=True)
+            t = replaced(t, no_bump_scale=True)
         elif name == "texture":
-            t = replace(v, span=node.span)
+            t = replaced(v, span=node.span)
             if v.pattern is not None:
                 params = dict(v.pattern.params)
         elif name in ("pigment", "finish", "normal"):
@@ -913,7 +918,7 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
                     (float(k), transform_texture(_as_texture(it, x), pattern.transform))
                     for k, x in v.entries
                 )
-                t = replace(t, pattern=pattern, map=entries)
+                t = replaced(t, pattern=pattern, map=entries)
             else:
                 it.sink.error("E0212", f"a {v.map_kind} in a texture", span)
         elif name in schema.LIST_PATTERNS or (name == "object" and isinstance(v, ObjectPattern)):
@@ -921,36 +926,36 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
             textures = [_as_texture(it, x) for x in items]
             # POV-Ray's Parse_Blend_List: the missing textures are the default texture
             while len(textures) < len(_LIST_DEFAULTS.get(name, _OBJECT_DEFAULTS)):
-                textures.append(replace(it.default_texture, layers=()))
+                textures.append(replaced(it.default_texture, layers=()))
             entries = tuple((float(i), x) for i, x in enumerate(textures))
             if isinstance(v, ObjectPattern):
                 params["object"] = v.object
             if name not in ("checker", "hexagon", "brick", "object"):
                 it.unsupported(f"{name} texture pattern", span, "; the first texture is used")
                 if entries:
-                    t = replace(entries[0][1], span=node.span)
+                    t = replaced(entries[0][1], span=node.span)
                 continue
-            t = replace(t, pattern=ir.Pigment(pattern=name, span=span), map=entries)
+            t = replaced(t, pattern=ir.Pigment(pattern=name, span=span), map=entries)
         elif name == "uv_mapping":
             # POV-Ray parses the rest of the block as a new texture, evaluated at the
             # surface's <u, v, 0>; transformations inside it still move it
-            t = replace(it.default_texture, layers=(), span=node.span)
+            t = replaced(it.default_texture, layers=(), span=node.span)
             params = {}
             uv = True
         elif name == "warp":
             if t.pattern is None:
                 it.unsupported("warp of a plain texture", span, " (warp its pigment instead)")
             else:
-                t = replace(t, pattern=_add_warp(t.pattern, params, v))
+                t = replaced(t, pattern=_add_warp(t.pattern, params, v))
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in texture")
         else:
             st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
             if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
                 old = t.pattern or ir.Pigment(span=span)
-                t = replace(t, pattern=replace(old, pattern=st["pattern"]))
+                t = replaced(t, pattern=replaced(old, pattern=st["pattern"]))
     if t.pattern is not None:
-        t = replace(t, pattern=replace(t.pattern, params=params))
+        t = replaced(t, pattern=replaced(t.pattern, params=params))
     if t.no_bump_scale and t.map:
         t = _no_bump_scale(t)
     return uv_mapped(t) if uv else t
@@ -966,7 +971,7 @@ def _as_texture(it: BuildContext, v: Any) -> ir.Texture:
     as a texture of that pigment)."""
     if isinstance(v, ir.Texture):
         return v
-    return replace(it.default_texture, layers=(), pigment=as_pigment(v))
+    return replaced(it.default_texture, layers=(), pigment=as_pigment(v))
 
 
 def _b_material(it: BuildContext, g: Grouped, node: syntax.Block) -> MaterialValue:
@@ -977,25 +982,25 @@ def _b_material(it: BuildContext, g: Grouped, node: syntax.Block) -> MaterialVal
             m = v
         elif name == "texture":
             if m.texture is None:
-                m = replace(m, texture=v)
+                m = replaced(m, texture=v)
             else:
-                m = replace(m, texture=replace(m.texture, layers=m.texture.layers + (v,)))
+                m = replaced(m, texture=replaced(m.texture, layers=m.texture.layers + (v,)))
         elif name == "interior_texture":
             inner = m.interior_texture
-            m = replace(
+            m = replaced(
                 m,
                 interior_texture=v.texture
                 if inner is None
-                else replace(inner, layers=inner.layers + (v.texture,)),
+                else replaced(inner, layers=inner.layers + (v.texture,)),
             )
         elif name == "interior":
-            m = replace(m, interior=v)
+            m = replaced(m, interior=v)
         elif name in TRANSFORM_WORDS:
             mat = item_matrix(name, args)
             if m.texture is not None:
-                m = replace(m, texture=transform_texture(m.texture, mat))
+                m = replaced(m, texture=transform_texture(m.texture, mat))
             if m.interior_texture is not None:
-                m = replace(m, interior_texture=transform_texture(m.interior_texture, mat))
+                m = replaced(m, interior_texture=transform_texture(m.interior_texture, mat))
         elif name == "unsupported":
             it.unsupported(v.keyword, span, " in material")
     return m
