@@ -28,6 +28,10 @@ class Span(NamedTuple):
         # a third faster to load, and stored parses and scenes hold one per node.
         return (tuple.__new__, (Span, tuple(self)))
 
+    def holds_line_of(self, inner: Span) -> bool:
+        """Does `inner` start on one of this span's lines (of the same file)?"""
+        return inner.file == self.file and self.line <= inner.line <= self.end_line
+
     def to_json(self) -> dict:
         return {
             "file": self.file,
@@ -171,6 +175,19 @@ class DiagnosticSink:
 
     def note(self, code: str, message: str, span: Span, hint: str | None = None) -> None:
         self.items.append(Diagnostic(Severity.NOTE, code, message, span, hint))
+
+    def unique(self) -> list[Diagnostic]:
+        """The same error or warning at the same place once (a macro called many times
+        reports its body's mistakes once); notes (#debug output) all stay, repeats too."""
+        seen: set[Diagnostic] = set()
+        out = []
+        for d in self.items:
+            if d.severity is not Severity.NOTE:
+                if d in seen:
+                    continue
+                seen.add(d)
+            out.append(d)
+        return out
 
     @property
     def has_errors(self) -> bool:

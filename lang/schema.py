@@ -1295,3 +1295,9 @@ RESERVED_WORDS = (
     | frozenset(SPLINE_TYPES)
     | OTHER_WORDS
 ) - SOFT_WORDS
+
+
+def takes_object_pattern(spec: BlockSpec | None) -> bool:
+    """Whether `object { … }` in this block is the object pattern (pigment, normal …)."""
+    item = spec.items.get("object") if spec is not None else None
+    return item is not None and item.args == ("object_pattern",)

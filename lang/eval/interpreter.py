@@ -305,7 +305,7 @@ class Interpreter:
         except RecursionError:
             pass  # objects nested deeper than the frames allow: the warning is left out
         symbols = {k: v for k, v in self.scopes[0].items()}
-        return Result(scene, _once(self.sink.items), symbols, list(self.files))
+        return Result(scene, self.sink.unique(), symbols, list(self.files))
 
     def parse_source(self, text: str, filename: str) -> tuple[syntax.SourceFile, list[Diagnostic]]:
         """The syntax tree of one file's text. An extension point: the language server parses
@@ -688,7 +688,7 @@ class Interpreter:
         elif t is syntax.Block and n.keyword == "default" and not n.params:
             # `default { … }` without the `#`: POV-Ray's older spelling of #default
             self._d_default(syntax.Default(n.span, n.body), out, spec)
-        elif t is syntax.Block and n.keyword == "object" and _takes_object_pattern(spec):
+        elif t is syntax.Block and n.keyword == "object" and schema.takes_object_pattern(spec):
             # `pigment { object { OBJ A, B } }`: the object pattern, not an object
             out.append(El("kw", "object", n.keyword_span or n.span))
             out.append(El("val", self._object_pattern(n), n.span))
@@ -827,7 +827,7 @@ class Interpreter:
                 stack.extend(n.then + (n.other or []))
         kept = []
         for d in diags:
-            home = next((m for m in macros if _inside(d.span, m.span)), None)
+            home = next((m for m in macros if m.span.holds_line_of(d.span)), None)
             if home is None or d.severity is not Severity.ERROR:
                 kept.append(d)
             else:
@@ -1471,30 +1471,6 @@ class Interpreter:
     ) -> ir.Object:
         """The object resolved into the IR (lang.eval.resolve), with the current #default."""
         return self._resolver.to_ir(obj, self.default_texture, parent, inherited, placed=placed)
-
-
-def _takes_object_pattern(spec: schema.BlockSpec | None) -> bool:
-    """Whether `object { … }` in this block is the object pattern (pigment, normal …)."""
-    item = spec.items.get("object") if spec is not None else None
-    return item is not None and item.args == ("object_pattern",)
-
-
-def _once(diags: list[Diagnostic]) -> list[Diagnostic]:
-    """The same error or warning at the same place once (a macro called many times reports
-    its body's mistakes once); notes (#debug output) all stay, repeats included."""
-    seen: set[Diagnostic] = set()
-    out = []
-    for d in diags:
-        if d.severity is not Severity.NOTE:
-            if d in seen:
-                continue
-            seen.add(d)
-        out.append(d)
-    return out
-
-
-def _inside(inner: Span, outer: Span) -> bool:
-    return inner.file == outer.file and outer.line <= inner.line <= outer.end_line
 
 
 _DIRECTIVES: dict[type, Callable[..., None]] = {
