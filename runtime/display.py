@@ -31,6 +31,7 @@ import numpy as np
 from lang import ir
 from runtime import color
 
+VERDICT_TIMEOUT = 5.0  # seconds a closing window may take to say whether it could open
 SCREEN_SHARE = 0.9  # an image larger than this share of the screen is shown subsampled
 
 
@@ -152,6 +153,9 @@ class Window:
 
     def close(self) -> None:
         """Close the window now (its drawing may lag the render: it is not waited for)."""
+        # a window still coming up is given the time to say whether it could: a render
+        # shorter than Tk's start must not hide that the display refused it
+        self._ready.wait(VERDICT_TIMEOUT)
         self._closing = True  # its end now is no problem to report
         self._outbox.put(None)
         if self._proc.poll() is None:
@@ -200,8 +204,8 @@ class Window:
                 self._ready.set()
             elif word == "error":
                 self.problem = rest
+                self.on_problem(rest)  # said before close() may go on and the process end
                 self._ready.set()
-                self.on_problem(rest)
             elif word == "save":
                 self._save()
             elif word == "stop" and not self._finished:
