@@ -233,6 +233,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     interiors = {id(o.interior): o.interior for o in prepared.objects}
     if any(it.caustics != 0 or it.media for it in interiors.values()):
         out.append("caustics or interior media")
+    if _nested_refraction(prepared):
+        out.append("transparent objects inside refracting ones")
     seen: set[tuple[str, int]] = set()
     for obj in prepared.objects:
         if obj.interior_texture is not None:
@@ -257,6 +259,41 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         if light.projected_through is not None:
             out.append("projected_through")
     return sorted(set(out))
+
+
+def _may_transmit(tex: ir.Texture) -> bool:
+    if tex.pattern is not None:
+        return True  # its textures' pigments: not worth walking for this test
+    return any(patterns.may_transmit(t.pigment) for t in context.texture_layers(tex))
+
+
+def _nested_refraction(prepared) -> bool:
+    """Transparent objects that may lie inside one another, one of them refracting: a ray
+    crossing them refracts by the interiors it is in (runtime.interiors), which the kernel
+    does not track. Told by the objects' boxes: several interiors in one tree node (a CSG),
+    or one node's box inside another's (objects that only overlap are left to the kernel,
+    which refracts them as if apart)."""
+    objs = prepared.objects
+    see = [_may_transmit(o.texture) for o in objs]
+    groups = []
+    for node in prepared.tracer.nodes:
+        mine = [i for i in node.leaves if see[i]]
+        if not mine:
+            continue
+        bends = any(abs(objs[i].interior.ior - 1.0) > 1e-10 for i in mine)
+        kinds = {id(objs[i].interior) for i in mine}
+        if bends and len(kinds) > 1:
+            return True
+        groups.append((np.asarray(node.lo), np.asarray(node.hi), bends))
+    if len(groups) > 256:
+        return any(b for _, _, b in groups)  # too many to pair up: assume they may nest
+    for k, (lo, hi, bends) in enumerate(groups):
+        for lo2, hi2, bends2 in groups[k + 1 :]:
+            inside = np.all(lo >= lo2) and np.all(hi <= hi2)
+            around = np.all(lo2 >= lo) and np.all(hi2 <= hi)
+            if (bends or bends2) and (inside or around):
+                return True
+    return False
 
 
 def pack_pigment(pig: ir.Pigment, row: np.ndarray) -> None:
