@@ -58,7 +58,7 @@ H_NLOOSE = 48
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
-O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL = 8, 20, 44, 45, 46
+O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL, O_INTERIOR = 8, 20, 44, 45, 46, 49
 PRIM_SLOTS = 24
 T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
 T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
@@ -233,8 +233,6 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     interiors = {id(o.interior): o.interior for o in prepared.objects}
     if any(it.caustics != 0 or it.media for it in interiors.values()):
         out.append("caustics or interior media")
-    if _nested_refraction(prepared):
-        out.append("transparent objects inside refracting ones")
     seen: set[tuple[str, int]] = set()
     for obj in prepared.objects:
         if obj.interior_texture is not None:
@@ -259,41 +257,6 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         if light.projected_through is not None:
             out.append("projected_through")
     return sorted(set(out))
-
-
-def _may_transmit(tex: ir.Texture) -> bool:
-    if tex.pattern is not None:
-        return True  # its textures' pigments: not worth walking for this test
-    return any(patterns.may_transmit(t.pigment) for t in context.texture_layers(tex))
-
-
-def _nested_refraction(prepared) -> bool:
-    """Transparent objects that may lie inside one another, one of them refracting: a ray
-    crossing them refracts by the interiors it is in (runtime.interiors), which the kernel
-    does not track. Told by the objects' boxes: several interiors in one tree node (a CSG),
-    or one node's box inside another's (objects that only overlap are left to the kernel,
-    which refracts them as if apart)."""
-    objs = prepared.objects
-    see = [_may_transmit(o.texture) for o in objs]
-    groups = []
-    for node in prepared.tracer.nodes:
-        mine = [i for i in node.leaves if see[i]]
-        if not mine:
-            continue
-        bends = any(abs(objs[i].interior.ior - 1.0) > 1e-10 for i in mine)
-        kinds = {id(objs[i].interior) for i in mine}
-        if bends and len(kinds) > 1:
-            return True
-        groups.append((np.asarray(node.lo), np.asarray(node.hi), bends))
-    if len(groups) > 256:
-        return any(b for _, _, b in groups)  # too many to pair up: assume they may nest
-    for k, (lo, hi, bends) in enumerate(groups):
-        for lo2, hi2, bends2 in groups[k + 1 :]:
-            inside = np.all(lo >= lo2) and np.all(hi <= hi2)
-            around = np.all(lo2 >= lo) and np.all(hi2 <= hi)
-            if (bends or bends2) and (inside or around):
-                return True
-    return False
 
 
 def pack_pigment(pig: ir.Pigment, row: np.ndarray) -> None:
@@ -564,6 +527,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[flag], dtype=bool)
     rows[:, O_DOUBLE] = ctx.double_illuminate
     rows[:, O_IOR] = ctx.ior
+    rows[:, O_INTERIOR] = ctx.interior_id  # runtime.interiors: told apart by identity
     # Untransformed leaves (most of a big scene) share one matrix row: only the others are
     # written one by one.
     rows[:, O_MINV : O_MINV + 12] = _IDENTITY_ROWS
