@@ -16,6 +16,7 @@ from lang import ir
 from runtime import patterns
 
 if TYPE_CHECKING:
+    from runtime.interiors import Crossing
     from runtime.mesh_camera import MeshCameraRays
     from runtime.prepare import Prepared
 
@@ -240,6 +241,8 @@ class Context:
     double_illuminate: np.ndarray  # (n_obj,) bool
     ior: np.ndarray  # (n_obj,) interior ior
     interiors: list[ir.Interior]  # (n_obj,) interior of each object
+    interior_id: np.ndarray  # (n_obj,) each object's interior, numbered by identity
+    interior_ior: np.ndarray  # (n_interiors,) their iors
     legacy_opacity: bool  # pre-3.7 transparency formula
     gamma: float | None  # what image files are decoded into (color.image_gamma)
     background: np.ndarray  # (3,)
@@ -306,6 +309,8 @@ class Hit:
     depth: np.ndarray | None = None  # (N,) distance from the ray's origin to the hit
     prim: np.ndarray | None = None  # (N,) mesh face of each hit (-1: not a mesh)
     uv: np.ndarray | None = None  # (N,3) surface <u, v, 0> where a texture is uv-mapped
+    stacks: np.ndarray | None = None  # (N, DEPTH) interiors each ray is in (runtime.interiors)
+    crossing: Crossing | None = None  # what passing each hit's surface means
 
 
 @dataclass

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lang import ir
-from runtime import color, media, patterns, shading, uvmap
+from runtime import color, interiors, media, patterns, shading, uvmap
 from runtime.context import (
     FINISH_FLOATS,
     Context,
@@ -149,6 +149,14 @@ def make_context(prepared) -> Context:
                 else np.full(len(ft), obj_tex[i])
             )
 
+    # POV-Ray tells interiors apart by identity (a CSG's children share its one).
+    numbers: dict[int, int] = {}
+    interior_id = np.array(
+        [numbers.setdefault(id(o.interior), len(numbers)) for o in objs], dtype=np.int32
+    )
+    interior_ior = np.ones(max(len(numbers), 1))
+    interior_ior[interior_id] = [o.interior.ior for o in objs]
+
     def any_layer(pred) -> np.ndarray:
         return np.array([any(pred(t) for t in ls) for ls in textures], dtype=bool)
 
@@ -196,6 +204,8 @@ def make_context(prepared) -> Context:
         double_illuminate=np.array([o.double_illuminate for o in objs], dtype=bool),
         ior=np.array([o.interior.ior for o in objs], dtype=np.float64),
         interiors=[o.interior for o in objs],
+        interior_id=interior_id,
+        interior_ior=interior_ior,
         legacy_opacity=legacy_rules(scene.settings),
         gamma=color.image_gamma(scene.settings),
         background=np.asarray(scene.background[:3], dtype=np.float64),
@@ -218,13 +228,15 @@ def trace(
     skip: str | None | np.ndarray,
     continued: bool | np.ndarray = False,
     depth: np.ndarray | None = None,
+    stacks: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,3) colours of rays; `depth`, when given ((N,), inf at first), receives how far
     each ray went before it met a surface (a final gather's records need it).
 
     level: the trace level of the surface that spawned each ray (0 for camera rays);
     `continued` rays (straight through ior-1 surfaces) stay at that level, the others are
-    one deeper. skip: a flag name for all rays or (N,) codes into SKIPS. All three may be
+    one deeper. stacks: the interiors each ray is in (runtime.interiors; None: none).
+    skip: a flag name for all rays or (N,) codes into SKIPS. All three may be
     per ray, so a wave's reflected and transmitted rays travel together: one call per
     wave, never one per kind of ray (which would double the calls at every level)."""
     n = len(origins)
@@ -243,6 +255,7 @@ def trace(
         return out
     o, d, w = origins[alive], dirs[alive], weight[alive]
     codes = codes[alive]
+    inside = interiors.empty(len(alive)) if stacks is None else stacks[alive]
     ctx.count("rays", len(alive))
     hits = None
     for code in np.unique(codes):
@@ -283,6 +296,7 @@ def trace(
             hits.t[rows],
             prim,
             uvmap.hit_uv(ctx, hits.obj[rows], tex, hits.point[rows], prim, bary),
+            inside[rows],
         )
     if ctx.scene.rainbows:
         col = apply_rainbows(ctx.scene.rainbows, d, hits.t, col)
@@ -364,6 +378,7 @@ def shade(
     depth: np.ndarray | None = None,
     prim: np.ndarray | None = None,
     uv: np.ndarray | None = None,
+    stacks: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,3) colours of N hits (tex: texture index of each hit; level: each hit's trace
     level; skip: each incoming ray's skip code; depth: how far each ray travelled to its
@@ -374,7 +389,10 @@ def shade(
     # POV-Ray turns the normal toward the viewer before shading.
     leaving = np.einsum("ij,ij->i", normal, dirs) > 0
     raw = np.where(leaving[:, None], -normal, normal)
-    hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim, uv)
+    if stacks is None:
+        stacks = interiors.empty(n)
+    crossing = interiors.cross(stacks, ctx.interior_id[obj], ctx.interior_ior, leaving)
+    hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim, uv, stacks, crossing)
     lights = light_colours(ctx, hit)
     secondary = Secondary()
     resolved = resolve_textures(ctx, tex, point, raw, uv)
@@ -387,7 +405,8 @@ def shade(
         src, leaf, w = resolved
         opt = lambda a: None if a is None else a[src]  # noqa: E731
         sub = Hit(obj[src], leaf, point[src], raw[src], leaving[src], dirs[src],
-                  weight[src] * w, opt(depth), opt(prim), opt(uv))  # fmt: skip
+                  weight[src] * w, opt(depth), opt(prim), opt(uv), stacks[src],
+                  crossing.take(src))  # fmt: skip
         sub_lights = LightColours(
             [d[src] for d in lights.direction], [c[src] for c in lights.colour]
         )
@@ -441,7 +460,9 @@ class Secondary:
 
     parts: list[tuple] = field(default_factory=list)
 
-    def add(self, rows, dirs, mult, weight, level, continued, skip, power=1.0, top=False) -> None:
+    def add(
+        self, rows, dirs, mult, weight, level, continued, skip, stacks, power=1.0, top=False
+    ) -> None:
         k = len(rows)
         if k == 0:
             return
@@ -456,6 +477,7 @@ class Secondary:
                 np.broadcast_to(skip, (k,)),
                 np.broadcast_to(power, (k,)),
                 np.broadcast_to(top, (k,)),
+                stacks,
             )
         )
 
@@ -472,14 +494,19 @@ class Secondary:
     def trace_into(self, ctx: Context, point: np.ndarray, result: np.ndarray) -> None:
         if not self.parts:
             return
-        rows, dirs, mult, w, lv, cont, skip, power = (
-            np.concatenate([p[i] for p in self.parts]) for i in range(8)
+        rows, dirs, mult, w, lv, cont, skip, power, _, stacks = (
+            np.concatenate([p[i] for p in self.parts]) for i in range(10)
         )
-        col = trace(ctx, point[rows], dirs, w, lv, skip.astype(np.int8), cont)
+        col = trace(ctx, point[rows], dirs, w, lv, skip.astype(np.int8), cont, stacks=stacks)
         bent = power != 1.0
         if bent.any():
             col[bent] = np.power(np.clip(col[bent], 0, None), power[bent, None])
         np.add.at(result, rows, mult * col)
+
+
+def _stacks(hit: Hit) -> np.ndarray:
+    assert hit.stacks is not None  # shade() gives every wave its rays' interiors
+    return hit.stacks
 
 
 def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondary, level):
@@ -537,6 +564,7 @@ def shade_plain(ctx, rows, hit: Hit, lights: LightColours, result, fil, secondar
             level[rows][sel],
             False,
             SKIP_NO_REFLECTION,
+            _stacks(hit)[rows][sel],
             exp,
             True,
         )
@@ -611,9 +639,9 @@ def shade_texture(
         reflects = max(r.max) > 0 or max(r.min) > 0
         if reflects:
             cos_i = -np.einsum("ij,ij->i", surf.ray_dir, surf.normal)
-            ior = ctx.ior[hit.obj[rows]]
-            # POV-Ray's relative ior for fresnel: entering ior/1, leaving 1/ior.
-            rel_ior = np.where(hit.leaving[rows], 1.0 / ior, ior)
+            assert hit.crossing is not None
+            # POV-Ray's relative ior for fresnel, from the interiors the ray is in
+            rel_ior = hit.crossing.fresnel_ior[rows]
             refl, wfac = shading.reflectivity(fin, cos_i, pig, rel_ior)
             use = active & (np.abs(refl).max(axis=1) > 0)
             if use.any():
@@ -633,6 +661,7 @@ def shade_texture(
                     level[rows][use],
                     False,
                     SKIP_NO_REFLECTION,
+                    _stacks(hit)[rows][use],
                     exp,
                     same_as_top[use],
                 )
@@ -655,23 +684,27 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary, top) -
     n = np.where((np.einsum("ij,ij->i", d, n) > 0)[:, None], -n, n)
     tir_rows = np.zeros(len(rows), dtype=bool)
     w = hit.weight[rows] * np.abs(fil[rows]).max(axis=1)
-    ior = ctx.ior[hit.obj[rows]]
-    straight = np.abs(ior - 1.0) < shading.EPSILON
+    assert hit.crossing is not None and hit.stacks is not None
+    # POV-Ray refracts by the ratio of the iors on both sides (runtime.interiors): a
+    # surface of ior 1 inside glass bends the ray too, one between equal iors does not.
+    ratio = hit.crossing.ratio[rows]
+    straight = np.abs(ratio - 1.0) < shading.EPSILON
     mult = fil[rows].copy()
     out_dir = d.copy()
     r_idx = np.nonzero(~straight)[0]
     if len(r_idx):
-        # Leaving the object (ray along its outward normal): ior → air, else air → ior.
-        ratio = np.where(hit.leaving[rows[r_idx]], ior[r_idx], 1.0 / ior[r_idx])
-        rd, tir = shading.refract(d[r_idx], n[r_idx], ratio)
+        rd, tir = shading.refract(d[r_idx], n[r_idx], ratio[r_idx])
         rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], raw[r_idx]), rd)
         out_dir[r_idx] = rd
         mult[r_idx[tir]] = 1.0
         tir_rows[r_idx[tir]] = True
         ctx.count("refraction_rays", len(r_idx))
     if hit.depth is not None:
-        mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], hit.leaving[rows], view=True)
-    secondary.add(rows, out_dir, mult, w, level[rows], straight, skip[rows])
+        inside = hit.crossing.inside[rows]
+        mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], inside, view=True)
+    # a totally reflected ray stays where it was (POV-Ray reflects the incoming ray)
+    stacks = np.where(tir_rows[:, None], hit.stacks[rows], hit.crossing.after[rows])
+    secondary.add(rows, out_dir, mult, w, level[rows], straight, skip[rows], stacks)
     return tir_rows
 
 

@@ -58,7 +58,7 @@ H_NLOOSE = 48
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
-O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL = 8, 20, 44, 45, 46
+O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL, O_INTERIOR = 8, 20, 44, 45, 46, 49
 PRIM_SLOTS = 24
 T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
 T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
@@ -527,6 +527,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[flag], dtype=bool)
     rows[:, O_DOUBLE] = ctx.double_illuminate
     rows[:, O_IOR] = ctx.ior
+    rows[:, O_INTERIOR] = ctx.interior_id  # runtime.interiors: told apart by identity
     # Untransformed leaves (most of a big scene) share one matrix row: only the others are
     # written one by one.
     rows[:, O_MINV : O_MINV + 12] = _IDENTITY_ROWS

@@ -35,7 +35,7 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
        H_MASK, H_NLOOSE };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
-       O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL };
+       O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49 };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
        T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE };
@@ -898,17 +898,57 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
     mult[0] = mult[1] = mult[2] = 0.0;
 }
 
+/* The interiors a ray is in, innermost last (runtime/interiors.py, POV-Ray's interior
+ * list): each with its ior. */
+#define INSIDE_DEPTH 8
+typedef struct {
+    int n;
+    int id[INSIDE_DEPTH];
+    double ior[INSIDE_DEPTH];
+} Inside;
+
+/* Crossing a surface of interior iid (ior `here`), as runtime/interiors.cross: was the ray
+ * inside it, the ratio of the iors on both sides, the list past the surface. */
+static int cross(const Inside *in, int iid, double here, int side_leaving, double *ratio,
+                 Inside *after) {
+    Inside st = *in;
+    if (st.n == 0 && side_leaving) { /* started inside: as if it had entered */
+        st.n = 1, st.id[0] = iid, st.ior[0] = here;
+    }
+    int member = 0;
+    for (int k = 0; k < st.n; k++) member |= st.id[k] == iid;
+    int innermost = member && st.id[st.n - 1] == iid;
+    double outer = st.n > 0 ? st.ior[st.n - 1] : 1.0;
+    after->n = 0;
+    for (int k = 0; k < st.n; k++)
+        if (!member || st.id[k] != iid) {
+            after->id[after->n] = st.id[k], after->ior[after->n] = st.ior[k];
+            after->n++;
+        }
+    if (!member && after->n < INSIDE_DEPTH) {
+        after->id[after->n] = iid, after->ior[after->n] = here;
+        after->n++;
+    }
+    double beyond = 1.0;
+    if (innermost && after->n > 0) beyond = after->ior[after->n - 1];
+    if (st.n == 0) *ratio = 1.0 / here;
+    else if (innermost) *ratio = here / beyond;
+    else if (member) *ratio = 1.0;
+    else *ratio = outer / here;
+    return member;
+}
+
 static void trace(Scene *s, const double *o, const double *d, double weight, int level,
-                  int skip, int continued, int cls, double *out);
+                  int skip, int continued, int cls, const Inside *in, double *out);
 
 static int transmit(Scene *s, const double *p, const double *d, const double *n,
                     const double *tx, const double *ob, const double *col, const double *refl,
                     int reflects, const Hit *h, double weight, int level, int skip, int leaving,
-                    int cls, double *out);
+                    int cls, const Inside *in, double *out);
 
 /* The colour of a hit (integrate.shade for one plain, one-layer texture). */
 static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
-                  int level, int skip, int cls, double *out) {
+                  int level, int skip, int cls, const Inside *in, double *out) {
     const double *ob = s->obj + (size_t)h->obj * OBJ;
     const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
     const double *hd = s->h;
@@ -1025,14 +1065,14 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     /* transmission; total internal reflection carries the mirrored light itself, so the
      * reflection (about the same normal: one layer, no normal) is then not traced (POV-Ray) */
     if (!transmit(s, p, d, n, tx, ob, col, refl, reflects, h, weight, level, skip, leaving,
-                  cls, out) &&
+                  cls, in, out) &&
         mirrored) {
         double rd[3];
         mirror(d, n, rd);
         /* shading.reflect's guard for bumpy normals never applies: raw = normal */
         normalize3(rd);
         double rc[3];
-        trace(s, p, rd, rweight, level, SKIP_NO_REFLECTION, 0, -1, rc);
+        trace(s, p, rd, rweight, level, SKIP_NO_REFLECTION, 0, -1, in, rc);
         double ex = tx[T_REXP];
         if (ex != 0.0 && 1.0 / ex != 1.0) {
             for (int i = 0; i < 3; i++) rc[i] = pow(rc[i] < 0 ? 0 : rc[i], 1.0 / ex);
@@ -1046,7 +1086,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
 static int transmit(Scene *s, const double *p, const double *d, const double *n,
                     const double *tx, const double *ob, const double *col, const double *refl,
                     int reflects, const Hit *h, double weight, int level, int skip, int leaving,
-                    int cls, double *out) {
+                    int cls, const Inside *in, double *out) {
     if (!(int)tx[T_TRANS]) return 0;
     double fil[3];
     for (int i = 0; i < 3; i++) {
@@ -1059,12 +1099,13 @@ static int transmit(Scene *s, const double *p, const double *d, const double *n,
     double big = fabs(fil[0]);
     if (fabs(fil[1]) > big) big = fabs(fil[1]);
     if (fabs(fil[2]) > big) big = fabs(fil[2]);
-    double w = weight * big, ior = ob[O_IOR];
-    int straight = fabs(ior - 1.0) < EPSILON;
+    double w = weight * big, ratio;
+    Inside past;
+    int inside = cross(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving, &ratio, &past);
+    int straight = fabs(ratio - 1.0) < EPSILON;
     double td[3] = {d[0], d[1], d[2]}, mult[3] = {fil[0], fil[1], fil[2]};
     int tir = 0;
     if (!straight) {
-        double ratio = leaving ? ior : 1.0 / ior;
         double n_cos = -dot(d, n);
         double tt = 1.0 + ratio * ratio * (n_cos * n_cos - 1.0);
         if (tt < 0) { /* total internal reflection: mirrored, not filtered */
@@ -1080,10 +1121,11 @@ static int transmit(Scene *s, const double *p, const double *d, const double *n,
             td[0] /= len, td[1] /= len, td[2] /= len;
         }
     }
-    if (leaving)
+    if (inside)
         for (int i = 0; i < 3; i++) mult[i] *= interior_fade(s, ob, h->t, i, 1);
     double tc[3];
-    trace(s, p, td, w, level, skip, straight, straight ? cls : -1, tc);
+    /* a totally reflected ray stays where it was (POV-Ray reflects the incoming ray) */
+    trace(s, p, td, w, level, skip, straight, straight ? cls : -1, tir ? in : &past, tc);
     for (int i = 0; i < 3; i++) out[i] += mult[i] * tc[i];
     return tir;
 }
@@ -1092,7 +1134,7 @@ static int transmit(Scene *s, const double *p, const double *d, const double *n,
  * spawned it; a `continued` ray (straight through an ior-1 surface) keeps that level. cls is
  * 0 for a camera ray (also continued: the same line), -1 for others. */
 static void trace(Scene *s, const double *o, const double *d, double weight, int level,
-                  int skip, int continued, int cls, double *out) {
+                  int skip, int continued, int cls, const Inside *in, double *out) {
     out[0] = out[1] = out[2] = 0.0;
     if (level >= s->maxlevel || weight < s->bailout) return;
     s->rays++;
@@ -1112,7 +1154,7 @@ static void trace(Scene *s, const double *o, const double *d, double weight, int
         for (int k = 0; k < 3; k++) out[k] += s->h[H_BG + k] * fil[k];
         return;
     }
-    shade(s, o, d, &h, weight, level + (continued ? 0 : 1), skip, cls, out);
+    shade(s, o, d, &h, weight, level + (continued ? 0 : 1), skip, cls, in, out);
 }
 
 /* The Scene view of a packed array; -1 with an exception set when it is too short. */
@@ -1237,7 +1279,8 @@ static void trace_pixel(Scene *s, double x, double y, double *out) {
     }
     double len = sqrt(dot(d, d));
     d[0] /= len, d[1] /= len, d[2] /= len;
-    trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, 0, out);
+    static const Inside outside = {0};
+    trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, 0, &outside, out);
 }
 
 /* One tile with POV-Ray's anti-aliasing method 1, as runtime/antialias.py does it: first
