@@ -209,6 +209,8 @@ class BuiltinState:
     streams: list[int] = field(default_factory=list)
     folder: str = "."
     looked_outside: bool = False  # file_exists() asked (see Interpreter.outside)
+    # whether a path may be read (lang.read_access): file_exists() answers only for those
+    readable: Callable[[str], bool] = lambda path: True
 
     def seed(self, n: float) -> float:
         self.streams.append(int(n) & 0xFFFFFFFF)
@@ -269,6 +271,11 @@ def _format_float(v: float, length: int, precision: int) -> str:
     if precision < 0:
         precision = 6
     zero = "0" if length < 0 else ""
+    if abs(length) > MAX_STRING_LENGTH or precision > MAX_STRING_LENGTH:
+        raise EvalError(
+            f"str() of width {length:,} and precision {precision:,} is too long",
+            f"strings hold at most {MAX_STRING_LENGTH:,} characters",
+        )
     return f"{v:{zero}{abs(length)}.{precision}f}"
 
 
@@ -418,7 +425,9 @@ def _dimensions(args, state):
 def _file_exists(args, state):
     name = _s(args, 0, "file_exists")
     state.looked_outside = True
-    return 1.0 if os.path.exists(os.path.join(state.folder, name)) else 0.0
+    path = os.path.join(state.folder, name)
+    # a file outside the folders that may be read is not there (file_exists("/etc/shadow"))
+    return 1.0 if state.readable(path) and os.path.exists(path) else 0.0
 
 
 def vturbulence_args(args: Sequence[Any]) -> tuple[float, float, int, Vec]:

@@ -38,7 +38,7 @@ from lang.grammar import (
     hint_for,
     tok_span,
 )
-from lang.lexical import BraceReport, block_head, line_col, scan_braces
+from lang.lexical import BraceReport, BraceScan, block_head, line_col, scan_braces
 
 # A runaway error cascade in a badly broken file stops being reported after this many.
 MAX_SYNTAX_ERRORS = 50
@@ -293,15 +293,19 @@ class _ChunkErrors:
         self.strays: list[int] = []
         self._braces: BraceReport | None = None
         self._braces_end = -1
+        self._scan: BraceScan | None = None
         self.before: Token | None = None  # the token fed before the one being fed
         # the unexpected tokens (the first ones), each with the token before it
         self.bad: list[tuple[Token, Token | None]] = []
 
     def braces_to(self, end: int) -> BraceReport:
         """Braces from the chunk's start to `end`: a `}` unmatched there has no `{` before it
-        in this chunk (matching looks backwards only, so the text after it changes nothing)."""
+        in this chunk (matching looks backwards only, so the text after it changes nothing).
+        Asked at ever later ends; each scan goes on from the last (lexical.BraceScan)."""
         if self._braces is None or self._braces_end < end:
-            self._braces = scan_braces(self.clean[self.start : end])
+            if self._scan is None:
+                self._scan = BraceScan(self.clean, self.start)
+            self._braces = self._scan.to(end)
             self._braces_end = end
         return self._braces
 

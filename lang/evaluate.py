@@ -11,8 +11,10 @@ from pathlib import Path
 from lang import scene_store
 from lang.animation import NAMES, Animation
 from lang.diagnostics import Diagnostic, Severity, Span
+from lang.eval.budget import RENDER, Budget
 from lang.eval.interpreter import Interpreter, Result
 from lang.queries import QueriesFactory
+from lang.read_access import UNRESTRICTED, ReadAccess
 
 __all__ = ["Result", "animation_values", "compile_file", "compile_source"]
 
@@ -57,6 +59,10 @@ def compile_file(
     queries: QueriesFactory | None = None,
     store: bool = False,
     declares: Mapping[str, float] | None = None,
+    budget: Budget = RENDER,
+    reads: ReadAccess = UNRESTRICTED,
+    confine_reads: str | None = None,
+    stores: bool = True,
 ) -> Result:
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -77,6 +83,10 @@ def compile_file(
         queries=queries,
         store=store,
         declares=declares,
+        budget=budget,
+        reads=reads,
+        confine_reads=confine_reads,
+        stores=stores,
     )
 
 
@@ -94,12 +104,20 @@ def compile_source(
     queries: QueriesFactory | None = None,
     store: bool = False,
     declares: Mapping[str, float] | None = None,
+    budget: Budget = RENDER,
+    reads: ReadAccess = UNRESTRICTED,
+    confine_reads: str | None = None,
+    stores: bool = True,
 ) -> Result:
     """`queries` answers trace() and inside() (see lang.queries); without it they miss.
 
     store: keep the result in `lang.scene_store` and take it from there while nothing it
     read has changed (the command line does; `symbols` is then empty). declares: names
-    declared before the scene is read (POV-Ray's `Declare=Name=Value` option)."""
+    declared before the scene is read (POV-Ray's `Declare=Name=Value` option). budget: the
+    evaluation's total steps and memory (lang.eval.budget: small for check and editors).
+    reads, confine_reads: which files may be read (lang.read_access; confine_reads names the
+    tool that reads only the scene's and the library folders). stores=False: nothing is kept
+    between runs, not even parses (check and the editor write nothing)."""
     name = ""
     if store:
         options = (
@@ -112,6 +130,9 @@ def compile_source(
             tuple(sorted((animation or {}).items())),
             queries is not None,
             tuple(sorted((declares or {}).items())),
+            budget,
+            reads,
+            confine_reads,
         )
         name = scene_store.key(text, filename, options)
         entry = scene_store.load(name)
@@ -129,6 +150,10 @@ def compile_source(
         animation=animation,
         queries=queries,
         declares=declares,
+        budget=budget,
+        reads=reads,
+        confine_reads=confine_reads,
+        stores=stores,
     )
     result = interp.run(text, filename)
     if store and result.scene is not None and interp.standalone(result):

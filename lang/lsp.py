@@ -113,6 +113,7 @@ def parse_include(text: str, path: str) -> tuple[SourceFile, list[Diagnostic]]:
 def analyse(text: str, path: str) -> list[Diagnostic]:
     """Parse and evaluate without touching the file system beyond reading includes. The
     document's own text is re-parsed incrementally; includes are parsed once per text."""
+    from lang.eval.budget import EDITOR
     from lang.eval.interpreter import Interpreter
 
     doc = document(path)
@@ -123,7 +124,9 @@ def analyse(text: str, path: str) -> list[Diagnostic]:
                 return doc.parse(text_)
             return parse_include(text_, filename)
 
-    result = Analysis(paths.library_paths(), allow_file_io=False).run(text, path)
+    result = Analysis(
+        paths.library_paths(), allow_file_io=False, budget=EDITOR, confine_reads="the editor"
+    ).run(text, path)
     doc.values = result.symbols
     return [d for d in result.diagnostics if d.span.file == path] or [
         d for d in result.diagnostics if d.severity is Severity.ERROR

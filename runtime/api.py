@@ -9,6 +9,8 @@
 
 The options are the command line's: width, height, aa (the +A threshold; None for one ray
 per pixel), aa_depth, threads, clock, library paths (-L), region, radiosity cache.
+In a notebook, `render(..., display=True)` shows the image growing in the cell's output
+as its tiles come in, and returns the array as ever.
 With `client=` (a dask.distributed.Client, `strala[cluster]`) the work runs on its
 cluster: `render(..., client=c, tiles=8)` in 8 tasks, `render_frames(..., client=c)` a task
 per frame; the pixels are the same as a local render's.
@@ -147,6 +149,7 @@ def render(
     linear: bool = False,
     client=None,
     tiles: int = 1,
+    display: bool = False,
 ) -> np.ndarray:
     """Render to an (height, width, 3) float32 array.
 
@@ -156,7 +159,9 @@ def render(
     compiled scene's, else 320x240; `clock` and `library_paths` apply to a path only.
     region=(left, top, right, bottom) renders part of the image (the rest stays black).
     client: a dask.distributed.Client to render on, in `tiles` bands of rows (the radiosity
-    cache is then each worker's own)."""
+    cache is then each worker's own).
+    display: show the image as it renders in the notebook cell running this (an IPython
+    display handle updated per tile; runtime.notebook); elsewhere a warning says so."""
     from runtime import color
     from runtime.render import render_scene
 
@@ -177,6 +182,8 @@ def render(
     if isinstance(scene, Compiled):
         scene = scene.scene
     if client is not None:
+        if display:
+            raise ValueError("display=True shows a render on this machine, not on client=")
         from runtime import bundle, cluster
 
         opts = cluster.Options(width, height, aa, aa_depth, threads, region)
@@ -191,6 +198,7 @@ def render(
         return next(_on_client(client, shipped, opts, [frame], tiles, linear))
     if tiles != 1:
         raise ValueError("tiles are tasks of a cluster: give client= too")
+    view = _inline_view(width, height, scene.settings) if display else None
     try:
         working = render_scene(
             scene,
@@ -201,11 +209,30 @@ def render(
             threads=threads,
             region=region,
             radiosity_cache=radiosity_cache,
+            on_tile=None if view is None else view.tile,
         )
     except SceneError as exc:
         raise CompileError([exc.diagnostic]) from None
+    if view is not None:
+        view.finish()
     convert = color.to_linear if linear else color.to_display
     return np.ascontiguousarray(convert(working, scene.settings), dtype=np.float32)
+
+
+def _inline_view(width: int, height: int, settings: ir.Settings):
+    from runtime import notebook
+
+    view = notebook.inline_view(width, height, settings)
+    if view is None:
+        import warnings
+
+        warnings.warn(
+            "display=True shows the image in a notebook (IPython showing images); "
+            "here the render goes on without it",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    return view
 
 
 def render_frames(

@@ -12,6 +12,7 @@ Exit codes: 0 ok, 1 the scene (or an input file) has errors, 2 bad command line,
 from __future__ import annotations
 
 import argparse
+import errno
 import gc
 import json
 import math
@@ -28,8 +29,9 @@ from contextlib import contextmanager, redirect_stdout
 from pathlib import Path
 from typing import TextIO
 
-from lang import paths
+from lang import paths, read_access
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
+from lang.eval.budget import CHECK, RENDER, Budget
 from runtime.povray_options import OptionError, parse_declare, translate_povray_args
 
 # Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
@@ -193,6 +195,20 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="write coarse passes (1/8, 1/4, 1/2 size) to SCENE.preview.png beside the output "
         "while the final image renders (the output is replaced only by the final image)",
+    )
+    r.add_argument(
+        "--display",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="show the image in a window as it renders (POV-Ray's +D); in the window s saves "
+        "what is shown (SCENE.shown.png), q or closing it stops the render (exit 130)",
+    )
+    r.add_argument(
+        "--pause",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="keep the display window open when the render is done, until it is closed "
+        "(POV-Ray's +P)",
     )
     r.add_argument(
         "--stats",
@@ -573,6 +589,8 @@ def _compile(
     animation: Mapping[str, float] | None = None,
     geometry: bool = True,
     declares: Mapping[str, float] | None = None,
+    budget: Budget | None = None,
+    confine_reads: str | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -596,8 +614,14 @@ def _compile(
         debug_to_stderr=debug_output,
         animation=animation,
         queries=_runtime_queries if geometry else None,
-        store=True,
+        store=confine_reads is None,  # check keeps nothing between runs: it writes nothing
+        stores=confine_reads is None,
         declares=declares,
+        budget=budget or RENDER,
+        confine_reads=confine_reads,
+        reads=read_access.from_povray_conf(
+            read_access.povray_conf(), Path(path).resolve().parent, libraries
+        ),
     )
     return result.scene, list(result.diagnostics)
 
@@ -615,7 +639,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     for file in args.files:
         diags += _compile(
             file, args.library, image_size(args), clock=clock, file_io=False,
-            animation=animation, geometry=False, declares=_declares(args),
+            animation=animation, geometry=False, declares=_declares(args), budget=CHECK,
+            confine_reads="check",
         )[1]  # fmt: skip
     errors, warnings = _counts(diags)
     if args.format == "json":
@@ -772,6 +797,12 @@ def output_path(scene_file: str, output: str | None, suffix: str) -> Path:
     if output.endswith(("/", os.sep)) or Path(output).is_dir():
         return Path(output) / (stem + suffix)
     if not Path(output).suffix:
+        if Path(output).exists() and not Path(output).is_file():
+            # `-o /dev/full` wrote /dev/full.png and said nothing
+            raise UsageError(
+                f"-o {output}: not a file or a folder (a device?); give an image name, "
+                "or -o - for standard output"
+            )
         return Path(output + suffix)
     return Path(output)
 
@@ -827,8 +858,6 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
     check_image_size(*image_size(args))
 
-    from lang.evaluate import animation_values
-
     stdout = sys.stdout
     args.plan = plan = animation_of(args)
     jobs = frame_jobs(out, args.clock, plan)
@@ -838,29 +867,52 @@ def cmd_render(args: argparse.Namespace) -> int:
             raise UsageError(f"--frame {args.frame} is not in --frames {plan.first}..{plan.last}")
         label = f"frame {args.frame}/{plan.last}"
         jobs, numbers = [(out, plan.clock(args.frame), label)], [args.frame]
-    if args.cluster is not None or args.tiles is not None:
-        if to_stdout or args.preview:
-            raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
-        from runtime import render_job
+    if (args.cluster is not None or args.tiles is not None) and (to_stdout or args.preview):
+        raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
+    args.window = _open_window(args.file) if args.display else None
+    try:
+        if args.cluster is not None or args.tiles is not None:
+            status = _render_on_cluster(args, jobs, numbers)
+        else:
+            status = _render_here(args, jobs, numbers, to_stdout, stdout)
+        if status == 0 and args.window is not None:
+            args.window.finish(pause=args.pause)
+        return status
+    finally:
+        if args.window is not None:
+            args.window.close()
 
-        width, height = image_size(args)
-        region = resolve_region(
-            width, height, args.start_col, args.end_col, args.start_row, args.end_row
+
+def _render_on_cluster(args: argparse.Namespace, jobs, numbers) -> int:
+    from runtime import render_job
+
+    width, height = image_size(args)
+    region = resolve_region(
+        width, height, args.start_col, args.end_col, args.start_row, args.end_row
+    )
+    try:
+        return render_job.run(
+            args,
+            jobs,
+            numbers,
+            (width, height),
+            region,
+            lambda diags: print_diagnostics(
+                render_diagnostics(diags, args.quiet), sys.stderr, summary=False
+            ),
+            window=args.window,
+            writing=_STOPPING.lock,
         )
-        try:
-            return render_job.run(
-                args,
-                jobs,
-                numbers,
-                (width, height),
-                region,
-                lambda diags: print_diagnostics(
-                    render_diagnostics(diags, args.quiet), sys.stderr, summary=False
-                ),
-            )
-        except render_job.JobError as exc:
-            raise UsageError(str(exc)) from None
+    except render_job.JobError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _render_here(args: argparse.Namespace, jobs, numbers, to_stdout: bool, stdout) -> int:
+    from lang.evaluate import animation_values
+    from runtime import image
+
     size = image_size(args)
+    plan = args.plan
     for (target, clock, label), number in zip(jobs, numbers, strict=True):
         if args.resume and not to_stdout and image.size_of(target) == size:
             if not args.quiet:
@@ -878,6 +930,24 @@ def cmd_render(args: argparse.Namespace) -> int:
         if status:
             return status
     return 0
+
+
+def _open_window(scene_file: str):
+    """The display window (--display, +D), opening beside the scene's compilation; None,
+    said in one line, where none can open."""
+    from runtime import display
+
+    why = display.unavailable()
+    if why is not None:
+        print(f"strala: no display window: {why}; rendering on", file=sys.stderr)
+        return None
+    return display.Window(
+        Path(scene_file).name,
+        lambda: _STOPPING.now("stopped from the window"),
+        lambda problem: print(
+            f"strala: no display window: {problem}; rendering on", file=sys.stderr
+        ),
+    )
 
 
 def render_stats(stats: dict) -> str:
@@ -936,38 +1006,38 @@ def _save_to_stdout(stdout: TextIO, suffix: str, pixels, settings, bits: int | N
         stdout.buffer.flush()
 
 
+class _Stopping:
+    """How a render stops at once: ^C while it computes pixels, the display window's q at
+    any time. The preview file is removed, a line said, and the process leaves (130).
+    Image files are written holding `lock`, so a stop waits for the file being written
+    rather than leave half of it."""
+
+    def __init__(self) -> None:
+        import threading
+
+        self.lock = threading.RLock()  # re-entered by a ^C on the thread that writes
+
+    def now(self, message: str) -> None:
+        from runtime import signals
+
+        with self.lock:
+            signals.stop(message, 130)  # the preview's file goes too (registered there)
+
+
+_STOPPING = _Stopping()
+
+
 @contextmanager
 def _quick_interrupt(cleanup: Path | None = None) -> Iterator[None]:
-    """^C during a render stops the process at once.
-
-    A KeyboardInterrupt would have to unwind through the render's thread pool, which
-    finishes every queued tile before it lets go; nothing is on disk yet while pixels are
-    being computed, so leaving immediately loses nothing. Outside this block (writing the
-    image) ^C is an ordinary KeyboardInterrupt, so the temporary file is cleaned up.
-    `cleanup`: a file to remove before leaving (the preview's)."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
+    """A stop (^C, SIGTERM) while the block runs removes `cleanup` (the preview's file) as
+    it ends the process at once (runtime.signals)."""
+    if cleanup is None:
         yield
         return
-    previous = signal.getsignal(signal.SIGINT)
-    if previous is not signal.default_int_handler:  # ignored, or someone else's: leave it
-        yield
-        return
+    from runtime import signals
 
-    def stop(signum, frame):
-        if cleanup is not None:
-            cleanup.unlink(missing_ok=True)
-        sys.stderr.write("\nstrala: interrupted\n")
-        sys.stderr.flush()
-        os._exit(130)
-
-    signal.signal(signal.SIGINT, stop)
-    try:
+    with signals.removed_if_stopped(cleanup):
         yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 def _render_one(
@@ -989,6 +1059,12 @@ def _render_one(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
     stats: dict = {}
+    window = getattr(args, "window", None)
+    if window is not None:
+        from runtime import display
+
+        beside = Path(args.file).with_suffix(".png") if out.stem == "-" else out
+        window.frame(width, height, scene.settings, label, display.shown_path(beside))
     preview = None
     if getattr(args, "preview", False) and out.stem != "-":
         preview = preview_path(out)
@@ -996,7 +1072,7 @@ def _render_one(
         with _quick_interrupt(preview):  # ^C in a preview pass too: only the preview goes
             if preview is not None:
                 try:
-                    _preview_passes(args, scene, preview, width, height, region)
+                    _preview_passes(args, scene, preview, width, height, region, window)
                 except (SceneError, OSError) as exc:
                     print(f"strala: preview skipped: {exc}", file=sys.stderr)
         with (
@@ -1014,7 +1090,8 @@ def _render_one(
                     jitter=args.jitter,
                     aa_gamma=args.aa_gamma,
                     threads=args.threads,
-                    progress=bar,
+                    progress=bar if window is None else _both(bar, window.progress),
+                    on_tile=None if window is None else window.tile,
                     region=region,
                     stats=stats,
                     **_radiosity_options(args),
@@ -1027,10 +1104,14 @@ def _render_one(
         if preview is not None:
             preview.unlink(missing_ok=True)
     try:
-        if out.stem == "-":
-            _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
-        else:
-            image.save_render(out, pixels, scene.settings, args.bits)
+        with _STOPPING.lock:  # the display window's q waits for the file being written
+            if out.stem == "-":
+                _save_to_stdout(stdout, out.suffix, pixels, scene.settings, args.bits)
+            elif window is not None and _eight_bit(image.output_format(out, args.bits)):
+                # the file's 8-bit values, made tile by tile for the window: not twice
+                image.write_pixels(out, window.file_values(), 8)
+            else:
+                image.save_render(out, pixels, scene.settings, args.bits)
     except OSError as exc:
         print(f"strala: error: {exc}", file=sys.stderr)
         return 1
@@ -1064,9 +1145,25 @@ def preview_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.preview{out.suffix}")
 
 
-def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> None:
+def _eight_bit(chosen) -> bool:
+    fmt, depth = chosen
+    return not fmt.linear and depth == 8
+
+
+def _both(first, second):
+    """One progress callback that calls two."""
+
+    def both(done: float, total: float) -> None:
+        first(done, total)
+        second(done, total)
+
+    return both
+
+
+def _preview_passes(args, scene, out: Path, width: int, height: int, region, window=None) -> None:
     """Coarse passes written to `out` (the preview file; atomically, each replacing the
-    last) before the final render: blocky first, sharper each time, no anti-aliasing."""
+    last) before the final render: blocky first, sharper each time, no anti-aliasing;
+    shown in the display `window` too, when there is one."""
     import numpy as np
 
     from runtime import image
@@ -1083,7 +1180,10 @@ def _preview_passes(args, scene, out: Path, width: int, height: int, region) -> 
             mask = np.zeros(full.shape[:2], dtype=bool)
             mask[top:bottom, left:right] = True
             full = np.where(mask[..., None], full, 0.0)
-        image.save_render(out, full, scene.settings, args.bits)
+        with _STOPPING.lock:  # a stop from the window waits for the file, as for the image
+            image.save_render(out, full, scene.settings, args.bits)
+        if window is not None:
+            window.whole(full, f"preview {w}x{h}")
         if not args.quiet:
             print(f"preview {w}x{h} written to {out}", file=sys.stderr)
 
@@ -1208,10 +1308,13 @@ def cmd_lsp(args: argparse.Namespace) -> int:
 
 
 def _write_text_atomically(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    from runtime import signals
+
+    tmp = signals.temporary_name(path, ".tmp")
     try:
-        tmp.write_text(text, encoding="utf-8", errors="surrogateescape")
-        os.replace(tmp, path)
+        with signals.removed_if_stopped(tmp):
+            tmp.write_text(text, encoding="utf-8", errors="surrogateescape")
+            os.replace(tmp, path)
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -1231,6 +1334,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args, unknown = parser.parse_known_args(argv)  # exits 2 on a bad command line
     if unknown:  # said with the command's usage line, not the top level's
         args.parsers[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
+    from runtime import signals
+
+    signals.install()  # a stop removes what is being written and exits 130/143/129 at once
     # The evaluator allocates many small objects and few cycles: collecting every 700
     # allocations cost a few percent of a short render for nothing.
     gc.set_threshold(20000, 20, 20)
@@ -1251,6 +1357,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 141  # what a shell reports for SIGPIPE
+    except OSError as exc:
+        if exc.errno not in _OUTPUT_FAILURES:
+            raise
+        # standard output on a full disk (`> /dev/full`): said, never exit 0 or a traceback
+        _drop_stdout()
+        print(f"strala {args.command}: error: cannot write: {exc.strerror}", file=sys.stderr)
+        return 1
     except Exception as exc:  # the last line of defence: never a bare traceback
         print(f"internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
         if args.debug:
@@ -1260,6 +1373,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             print("(run with --debug for the traceback)", file=sys.stderr)
         return 3
+
+
+# errors of a write that failed for want of room or a working device, not a bug
+_OUTPUT_FAILURES = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG})
+
+
+def _drop_stdout() -> None:
+    """What is left in standard output's buffer would fail again at exit: drop it."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
 
 
 def run() -> None:
@@ -1279,11 +1402,19 @@ def run() -> None:
     code = 0 if code is None else int(code)
     if sys.gettrace() is not None or sys.getprofile() is not None:
         sys.exit(code)
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):  # a closed pipe or stream: nothing more to say
-            pass
+    try:
+        sys.stdout.flush()
+    except OSError as exc:  # a full disk: the output is incomplete, so the command failed
+        if exc.errno in _OUTPUT_FAILURES:
+            _drop_stdout()
+            print(f"strala: error: cannot write: {exc.strerror}", file=sys.stderr)
+            code = code or 1
+    except ValueError:  # a closed stream: nothing more to say
+        pass
+    try:
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
     os._exit(code)
 
 

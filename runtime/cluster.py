@@ -156,9 +156,12 @@ def run(
     *,
     tiles: int = 1,
     progress: Callable[[float, float], None] | None = None,
+    on_tile: Callable[[Frame, TaskResult], None] | None = None,
 ) -> Iterator[tuple[Frame, Outcome]]:
     """Render `frames` (each in `tiles` tasks) on the client's cluster; yields each frame
-    with its outcome as soon as its last tile is in, in the order they finish."""
+    with its outcome as soon as its last tile is in, in the order they finish.
+    on_tile(frame, result) is called with each tile's pixels as they come in (the display
+    window's feed)."""
     if not frames:
         return
     full = options.region or (0, 0, options.width, options.height)
@@ -205,6 +208,8 @@ def run(
             continue
         got = parts.setdefault(fi, {})
         got[ti] = result
+        if on_tile:
+            on_tile(frames[fi], result)
         if len(got) == len(rects):
             yield frames[fi], _assemble(options, got)
             del parts[fi]

@@ -10,13 +10,13 @@ target, so an interrupted or failed render never leaves a truncated image behind
 from __future__ import annotations
 
 import os
-import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from lang import ir
+from runtime import signals
 
 
 @dataclass(frozen=True)
@@ -92,16 +92,19 @@ def write_pixels(path: str | os.PathLike, pixels: np.ndarray, bits: int | None =
 
     target = Path(path)
     # same folder, so os.replace is an atomic rename; same extension, so OIIO picks the format
-    tmp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}{target.suffix}")
+    tmp = signals.temporary_name(target, target.suffix)
+    for stale in signals.stale_temporaries(target):  # left by a process killed mid-write
+        stale.unlink(missing_ok=True)
     try:
-        if fmt.name == "png" and data.shape[2] in (1, 3):
-            # (RGBA stays with OpenImageIO, which stores it unassociated from premultiplied)
-            from runtime import png
+        with signals.removed_if_stopped(tmp):
+            if fmt.name == "png" and data.shape[2] in (1, 3):
+                # (RGBA stays with OpenImageIO, which stores it unassociated from premultiplied)
+                from runtime import png
 
-            tmp.write_bytes(png.encode(data))
-        else:
-            _write_oiio(tmp, target, fmt, depth, data)
-        os.replace(tmp, target)
+                tmp.write_bytes(png.encode(data))
+            else:
+                _write_oiio(tmp, target, fmt, depth, data)
+            os.replace(tmp, target)
     finally:
         if tmp.exists():
             tmp.unlink()

@@ -6,7 +6,8 @@ option table pairs them), so one table says what strala does with each; the sett
 then turned into strala options once all are read (POV-Ray's last value wins, and a
 threshold alone does not turn anti-aliasing on). An option strala does not act on is
 dropped with one "ignoring …" warning; only the ones that change nothing in a file render
-(display, console streams, pausing) are dropped silently.
+(console streams, video modes) are dropped silently. `+D`/`Display` opens strala's display
+window and `+P`/`Pause_When_Done` keeps it open at the end.
 
 Standard library only: `strala check` imports this and must start fast.
 """
@@ -35,7 +36,7 @@ SWITCHES: tuple[tuple[str, str | None, str | None], ...] = (
     ("BS", "render_block_size", None),
     ("B", None, "bounding"),
     ("C", None, "continue_trace"),
-    ("D", "display", "display"),
+    ("D", "video_mode", "display"),  # +D0 …: a video mode and palette, POV-Ray's DOS ones
     ("EC", "end_column", None),
     ("EF", "subset_end_frame", None),
     ("EP", "preview_end_size", None),
@@ -104,14 +105,14 @@ HANDLED = {
     "initial_frame", "final_frame", "subset_start_frame", "subset_end_frame",
     "start_column", "end_column", "start_row", "end_row", "output_file_type", "declare",
     "sampling_method", "jitter", "jitter_amount", "antialias_gamma", "cyclic_animation",
-    "initial_clock", "final_clock", "frame_step",
+    "initial_clock", "final_clock", "frame_step", "display", "pause_when_done",
 }  # fmt: skip
 REPEATED = {"library_path", "declare"}
 
-# What changes nothing in an image file: the display, console streams and their files,
-# pausing, the abort test, statistics. Dropped without a word.
+# What changes nothing in an image file: console streams and their files, the abort test,
+# statistics, video modes. Dropped without a word.
 QUIET = {
-    "display", "verbose", "pause_when_done", "test_abort", "test_abort_count",
+    "verbose", "test_abort", "test_abort_count",
     "all_console", "all_file", "debug_console", "debug_file", "fatal_console", "fatal_file",
     "render_console", "render_file", "statistic_console", "statistic_file",
     "warning_console", "warning_file", "append_file", "warning_level", "display_gamma",
@@ -298,6 +299,9 @@ def _strala_options(
                 out += ["--declare", v]
         elif key == "clock":
             out += ["--clock", value]
+        elif key in ("display", "pause_when_done"):
+            flag = "--display" if key == "display" else "--pause"
+            out.append(flag if value.lower() in _TRUE else flag.replace("--", "--no-"))
         elif key == "work_threads":
             out += ["--threads", value]
         elif key in _REGION:

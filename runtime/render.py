@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from lang import ir
+from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 from runtime import adaptive_antialias, antialias, color, integrate
 from runtime.antialias import Sampling
 from runtime.camera import FocalBlur, blur_rounds, blur_thresholds, camera_rays, has_focal_blur
@@ -33,6 +34,34 @@ BLUR_BATCH: int = 1 << 18
 MESH_BATCH: int = 1 << 17
 
 
+# CSG nested deeper than this is refused before rendering: the passes over the scene recurse
+# once per level, and Python's frames run out near a thousand (an internal error, not a
+# message). A scene's own nesting, even a recursive macro's tree, stays far below it.
+MAX_NESTING = 400
+
+
+def check_nesting(scene: ir.Scene) -> None:
+    """A located error when objects are nested deeper than MAX_NESTING (walked without
+    recursion, so the check itself cannot run out of frames)."""
+    for top in scene.objects:
+        todo = [(top, 1)]
+        while todo:
+            obj, depth = todo.pop()
+            if depth > MAX_NESTING:
+                span = top.span or Span("<scene>", 1, 1, 1, 1)
+                raise SceneError(
+                    Diagnostic(
+                        Severity.ERROR,
+                        "E0231",
+                        f"objects nested more than {MAX_NESTING} deep cannot be rendered",
+                        span,
+                        "flatten the CSG: a union of many children needs no nesting",
+                    )
+                )
+            if isinstance(obj.shape, ir.CSG):
+                todo.extend((c, depth + 1) for c in obj.shape.children)
+
+
 def render_scene(
     scene: ir.Scene,
     width: int,
@@ -42,6 +71,7 @@ def render_scene(
     aa_depth: int = 3,
     threads: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    on_tile: Callable[[tuple[int, int, int, int], np.ndarray], None] | None = None,
     region: tuple[int, int, int, int] | None = None,
     stats: dict | None = None,
     radiosity=None,
@@ -58,7 +88,9 @@ def render_scene(
     (None: POV-Ray's default; method 2 only); aa_gamma: +AG, the comparison's gamma.
     region: (left, top, right, bottom) pixel bounds, right/bottom exclusive, to render only
     part of the image (the rest stays black). progress(done, total) is called with pixel
-    counts after each tile, from the calling thread. stats, when given, receives counters
+    counts after each tile, from the calling thread; on_tile((x0, y0, x1, y1), pixels) too,
+    with the tile's finished working-space colours (the display window's feed: it must not
+    keep the calling thread long). stats, when given, receives counters
     (rays, shadow_rays, supersampled pixels …).
     radiosity: a precomputed `RadiosityResult` to use; otherwise a scene with
     `global_settings { radiosity {} }` is solved here first (cached in the folder or
@@ -67,6 +99,7 @@ def render_scene(
     passes the image's own, so every tile reads the same records (runtime.cluster)."""
     from runtime.prepare import prepare
 
+    check_nesting(scene)
     started = time.perf_counter()
     prepared = prepare(scene, width, height)
     ctx = integrate.make_context(prepared)
@@ -129,6 +162,8 @@ def render_scene(
             image[y0:y1, x0:x1] = pix
             supersampled += ss
             done += (x1 - x0) * (y1 - y0)
+            if on_tile:
+                on_tile((x0, y0, x1, y1), image[y0:y1, x0:x1])
             if progress:
                 progress(done, total)
     else:
@@ -139,6 +174,8 @@ def render_scene(
                 image[y0:y1, x0:x1] = pix
                 supersampled += ss
                 done += (x1 - x0) * (y1 - y0)
+                if on_tile:
+                    on_tile((x0, y0, x1, y1), image[y0:y1, x0:x1])
                 if progress:
                     progress(done, total)
     if stats is not None:

@@ -14,12 +14,13 @@ import argparse
 import sys
 import time
 from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
 
 from lang import paths
 from lang.diagnostics import Diagnostic, Severity
 from runtime import bundle as bundles
-from runtime import image
+from runtime import display, image
 from runtime.progress import Progress
 
 
@@ -34,10 +35,13 @@ def run(
     size: tuple[int, int],
     region: tuple[int, int, int, int] | None,
     show: Callable[[Sequence[Diagnostic]], None],
+    window=None,
+    writing: AbstractContextManager | None = None,
 ) -> int:
     """Render `jobs` ((output, clock, label) per frame, as cli.frame_jobs gives them) with
     frame `numbers` at `size` on the cluster `args.cluster` (default `local`); `show`
-    prints diagnostics."""
+    prints diagnostics. `window`: the display window (runtime.display), fed the tiles as
+    they come in; each image is written inside `writing` (a stop waits for it)."""
     try:
         from runtime import cluster
     except ImportError as exc:
@@ -84,9 +88,29 @@ def run(
             print(f"cluster: {workers} worker(s){board}", file=sys.stderr)
         label = f"{len(frames)} frame(s) x {tiles} tile(s)"
         said: set[Diagnostic] = set()
+        shown = None if window is None else display.Frames(window, width, height)
+
+        def on_tile(frame, result) -> None:
+            assert shown is not None
+            where = Path(frame.output)
+            what = frame.label or "rendering"
+            shown.tile(frame, what, where, result.tile, result.pixels, result.settings)
+
         with Progress(label, enabled=False if args.quiet else None) as bar:
+
+            def progress(done: float, total: float) -> None:
+                bar(done, total)
+                if window is not None:
+                    window.progress(done, total)
+
             for frame, outcome in cluster.run(
-                client, scene, options, frames, tiles=tiles, progress=bar
+                client,
+                scene,
+                options,
+                frames,
+                tiles=tiles,
+                progress=progress,
+                on_tile=None if shown is None else on_tile,
             ):
                 new = [d for d in outcome.diagnostics if d not in said]
                 said.update(new)
@@ -94,18 +118,24 @@ def run(
                     _clear(bar)
                     show(new)
                 if not outcome.ok:
+                    if shown is not None:
+                        shown.ended(frame)
                     why = outcome.error or "the scene has errors"
                     print(f"strala: {frame.label or 'the image'} failed: {why}", file=sys.stderr)
                     status = 1
                     continue
                 assert outcome.image is not None and outcome.settings is not None
                 try:
-                    image.save_render(frame.output, outcome.image, outcome.settings, args.bits)
+                    with writing or nullcontext():
+                        image.save_render(frame.output, outcome.image, outcome.settings, args.bits)
                 except OSError as exc:
                     _clear(bar)
                     print(f"strala: error: {exc}", file=sys.stderr)
                     status = 1
                     continue
+                finally:
+                    if shown is not None:
+                        shown.ended(frame)
                 written += 1
     finally:
         connection.__exit__(None, None, None)

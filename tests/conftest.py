@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -29,13 +30,22 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "strala"))
 
 
 def pytest_collection_modifyitems(config, items):
-    """`povray`-marked tests need the oracle; skip them (visibly) where it is not installed."""
-    if shutil.which("povray"):
-        return
-    skip = pytest.mark.skip(reason="POV-Ray is not installed (apt-get install povray)")
-    for item in items:
-        if "povray" in item.keywords:
-            item.add_marker(skip)
+    """`povray`-marked tests need the oracle, `xvfb`-marked ones a virtual X screen; skip
+    them (visibly) where it is not installed (.ci/run installs both)."""
+    needs = {
+        "povray": (shutil.which("povray"), "POV-Ray is not installed (apt-get install povray)"),
+        "xvfb": (
+            shutil.which("Xvfb") and importlib.util.find_spec("tkinter"),
+            "Xvfb or Tk is not installed (apt-get install xvfb python3-tk)",
+        ),
+    }
+    for marker, (there, reason) in needs.items():
+        if there:
+            continue
+        skip = pytest.mark.skip(reason=reason)
+        for item in items:
+            if marker in item.keywords:
+                item.add_marker(skip)
 
 
 def run_cli(*args: str, cwd: Path | None = None, extra: tuple[str, ...] = ()):

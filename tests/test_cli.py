@@ -49,10 +49,14 @@ def test_the_seeds_own_command_line_works():
     assert cli.output_path(args.file, args.output, ".png") == Path("Ex3.png")
 
 
-def test_display_switches_are_ignored_and_unknown_ones_warned():
+def test_display_switches_become_options_and_unknown_ones_warned():
     out, warnings = _translate("-D", "+D", "-V", "+V", "-P", "+GA", "+Q9", "scene.pov")
-    assert out == ["scene.pov"]
+    assert out == ["scene.pov", "--display", "--no-pause"]
     assert warnings == ["ignoring POV-Ray option +Q9"]
+    # +D's letters after it are a DOS video mode and palette: the window opens all the same
+    assert _translate("+D0", "s.pov")[0] == ["s.pov", "--display"]
+    assert _translate("Display=on", "Pause_When_Done=true")[0] == ["--display", "--pause"]
+    assert _translate("Display=off")[0] == ["--no-display"]
 
 
 def test_aa_switch_forms():
@@ -122,7 +126,13 @@ def test_declare_sets_the_name_as_in_povray(tmp_path):
 @given(st.lists(st.sampled_from(["+D", "-D", "+V", "-V", "+P", "-P", "+GA", "-GA", "+X"])))
 def test_ignored_switches_never_reach_argparse(switches):
     out, warnings = _translate(*switches, "scene.pov")
-    assert out == ["scene.pov"] and warnings == []
+    # the display and pause switches: the last of each wins, in the order last given
+    last = {s[1]: s for s in switches if s[1] in "DP"}
+    order = sorted(last.values(), key=lambda s: max(i for i, t in enumerate(switches) if t == s))
+    flags = {"D": "display", "P": "pause"}
+    want = [("--" if s[0] == "+" else "--no-") + flags[s[1]] for s in order]
+    assert out == ["scene.pov", *want] and warnings == []
+    cli.build_parser().parse_args(["render", *out])  # all of them strala's options
 
 
 def test_bare_scene_or_plus_option_means_render():

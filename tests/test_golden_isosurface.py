@@ -96,3 +96,67 @@ def test_matches_povray(tmp_path, scene, name):
     print(f"\n{name}: RMSE {rmse:.4f}, outliers {outliers * 100:.2f}%")
     assert rmse < RMSE_LIMIT
     assert outliers < OUTLIER_LIMIT
+
+
+# trace() against isosurfaces, printed by #debug: POV-Ray finds a root on a grid fixed by the
+# container's segment (its depth-first halving), so the points agree to the printed digits
+# only if strala's search is POV-Ray's. Scaled, noisy and open surfaces, a shape entered
+# through its container's wall, and rays that miss.
+TRACES = """#version 3.7;
+#declare f_noise3d = function { internal(76) }
+#declare f_sphere = function { internal(61) }
+#declare Ground = isosurface {
+  function { y - f_noise3d(x / 3, 0, z / 2) * 0.5 }
+  max_gradient 1.1
+  contained_by { box { <-10, -3, -10>, <10, 1, 10> } }
+}
+#declare Ball = isosurface {
+  function { f_sphere(x, y, z, 1) + f_noise3d(x * 2, y * 2, z * 2) * 0.4 }
+  max_gradient 4
+  contained_by { sphere { 0, 1.6 } }
+  scale 0.3 translate <1, 2, 0>
+}
+#declare Cut = isosurface {  // the container cuts the solid: its walls show
+  function { y + 0.5 }
+  contained_by { box { -1, 1 } }
+  translate <-3, 0, 0>
+}
+#declare Opened = isosurface { function { f_sphere(x, y, z, 0.7) } open accuracy 0.01 }
+#declare S = seed(7);
+#declare I = 0;
+#while (I < 12)
+  #declare O = <rand(S) * 8 - 4, 5, rand(S) * 8 - 4>;
+  #declare N = <0, 0, 0>;
+  #declare P = trace(Ground, O, -y, N);
+  #debug concat("G", str(I, 0, 0), " ", vstr(3, P, ",", 0, 9), " ", vstr(3, N, ",", 0, 6), "\\n")
+  #declare P = trace(Ball, <1, 2, -3>, <rand(S) - 0.5, rand(S) - 0.5, 3>, N);
+  #debug concat("B", str(I, 0, 0), " ", vstr(3, P, ",", 0, 9), " ", vstr(3, N, ",", 0, 6), "\\n")
+  #declare I = I + 1;
+#end
+#declare P = trace(Cut, <-3, -0.8, -5>, z, N);
+#debug concat("C0 ", vstr(3, P, ",", 0, 9), " ", vstr(3, N, ",", 0, 6), "\\n")
+#declare P = trace(Cut, <-3, 4, 0.2>, -y, N);
+#debug concat("C1 ", vstr(3, P, ",", 0, 9), " ", vstr(3, N, ",", 0, 6), "\\n")
+#declare P = trace(Opened, <0.2, 0.1, -4>, z, N);
+#debug concat("O0 ", vstr(3, P, ",", 0, 9), " ", vstr(3, N, ",", 0, 6), "\\n")
+"""
+
+
+@pytest.mark.povray
+def test_trace_finds_povrays_roots(tmp_path):
+    import re
+
+    from conftest import povray_debug
+
+    from lang.evaluate import compile_source
+    from runtime.queries import RuntimeQueries
+
+    scene = tmp_path / "t.pov"
+    scene.write_text(TRACES)
+    line = re.compile(r"^[GBCO]\d+ [-\d.,e]+ [-\d.,e]+$")
+    want = [s.strip() for s in povray_debug(scene).splitlines() if line.match(s.strip())]
+    r = compile_source(TRACES, str(scene), queries=RuntimeQueries)
+    got = [d.message.strip() for d in r.diagnostics if d.code == "N0100"]
+    got = [s for g in got for s in g.splitlines() if line.match(s.strip())]
+    assert len(want) == 27, want
+    assert got == want

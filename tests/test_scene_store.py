@@ -201,6 +201,9 @@ FILE_ACCESS = {
     ("store", "write"): "the store's own files",
     ("store", "_prune"): "the store's own files",
     ("grammar", "get_parser"): "the grammar",
+    ("eval.budget", "resident_bytes"): "the process's own size (/proc), not an input",
+    ("read_access", "povray_conf"): "read before evaluating: what it permits is in the key",
+    ("read_access", "from_povray_conf"): "read before evaluating: what it permits is in the key",
 }
 _LOOKS = {"open", "read_text", "read_bytes", "is_file", "exists", "isfile", "listdir", "stat",
           "glob", "scandir", "iterdir", "utime"}  # fmt: skip

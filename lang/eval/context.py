@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 if TYPE_CHECKING:
     from lang import builtins, ir, schema, syntax
     from lang.diagnostics import DiagnosticSink, SceneError, Span
+    from lang.eval.budget import Meter
     from lang.eval.edits import Edits
     from lang.eval.elements import El, Grouped
     from lang.values import ColorValue, FileHandle, FunctionValue, ObjectValue
@@ -38,6 +39,7 @@ class BuildContext(Protocol):
     blob_depth: int  # > 0: inside a blob body, where sphere/cylinder are components
     handles: dict[str, FileHandle]  # the files #fopen opened, by their names
     allow_file_io: bool  # False while checking: #fopen does nothing
+    meter: Meter  # the evaluation's total work and memory (lang.eval.budget)
 
     def error(self, code: str, message: str, span: Span, hint: str | None = None) -> SceneError:
         """A SceneError to raise; reported once it reaches the element being expanded."""

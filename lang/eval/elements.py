@@ -5,6 +5,7 @@ builder reads alike (the transforms)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -130,6 +131,13 @@ def item_matrix(name: str, args: list[Any]) -> ir.Matrix:
     v = args[0]
     if isinstance(v, TransformValue):
         return v.matrix
+    comps = (v,) if isinstance(v, float | int) else tuple(v)
+    if name != "matrix" and not all(math.isfinite(c) for c in comps if isinstance(c, float | int)):
+        # `rotate <1e308 * 10, 0, 0>`: no angle (a math domain error), no place to move to
+        raise EvalError(
+            f"`{name}` by an infinite or undefined amount",
+            "a value overflowed (past about 1.8e308) or is 0/0; check the arithmetic",
+        )
     if name == "translate":
         return transforms.translate(v)
     if name == "rotate":

@@ -34,6 +34,7 @@ from lang.values import (
 )
 
 MAX_ARRAY_ELEMENTS = 10_000_000  # a larger array is a mistake (and would exhaust memory)
+ARRAY_SLOT_BYTES = 8  # an element's slot (a pointer) before anything is stored in it
 
 
 def _e_number(it: BuildContext, node: syntax.Number) -> float:
@@ -342,6 +343,7 @@ def _e_array(it: BuildContext, node: syntax.ArrayLit) -> ArrayValue:
             node.span,
             f"strala's arrays hold at most {MAX_ARRAY_ELEMENTS:,} elements",
         )
+    it.meter.reserve(total * ARRAY_SLOT_BYTES)
     arr = ArrayValue(tuple(dims), [None] * total)
     if items is not None:
         flat: list[Any] = []

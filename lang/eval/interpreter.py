@@ -26,6 +26,7 @@ from lang import (
     ir,
     lexical,
     paths,
+    read_access,
     scene_store,
     schema,
     syntax,
@@ -39,11 +40,13 @@ from lang.eval import (
     fileio,
     functions,
     grouping,
+    loop_watch,
     splines,
     streamed,
     surfaces,
     textures,
 )
+from lang.eval.budget import RENDER, Budget, Exceeded, Meter
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
 from lang.eval.coincident import MAX_PAIRS, coincident_faces
@@ -64,6 +67,7 @@ from lang.ir_ops import (
 )
 from lang.keywords import ALL_WORDS
 from lang.queries import QueriesFactory, SceneQueries
+from lang.read_access import UNRESTRICTED, ReadAccess
 from lang.values import (
     ArrayValue,
     CameraValue,
@@ -75,7 +79,6 @@ from lang.values import (
     ObjectPattern,
     ObjectValue,
     UnsupportedValue,
-    Vec,
     describe,
     kind_of,
 )
@@ -156,8 +159,19 @@ class Interpreter:
         animation: Mapping[str, float] | None = None,
         queries: QueriesFactory | None = None,
         declares: Mapping[str, float] | None = None,
+        budget: Budget = RENDER,
+        reads: ReadAccess = UNRESTRICTED,
+        confine_reads: str | None = None,
+        stores: bool = True,
     ):
         self.sink = DiagnosticSink()
+        # which files may be read (lang.read_access); confine_reads names who reads only the
+        # scene's folder and the library folders (check, the editor); stores: parses may be
+        # kept between runs (lang.parse_store: off for tools that must write nothing)
+        self.reads = reads
+        self.confine_reads = confine_reads
+        self.stores = stores
+        self.meter = Meter(budget)  # the evaluation's total work (lang.eval.budget)
         self._queries_factory = queries
         self._queries: SceneQueries | None = None
         # functions called from the scene, with the scene's pattern defaults (the original
@@ -186,6 +200,7 @@ class Interpreter:
         # `#declare deprecated [once] "message" NAME`: NAME → [message, once, warned yet]
         self.deprecated: dict[str, list] = {}
         self.macro_depth = 0
+        self.exhausted = False  # the budget ran out: the evaluation stops
         self.cut_braces = False  # a brace paired across directives was read (lang.eval.cuts)
         self.break_targets = 0  # the #while, #for, #switch and macros a #break may leave
         self.loose_depth = 0
@@ -238,17 +253,30 @@ class Interpreter:
 
     # ------------------------------------------------------------ running
     def run(self, text: str, filename: str) -> Result:
+        # Scenes recurse through macros (trees, fractals) and nest blocks; each level costs a
+        # few dozen Python frames, so give the interpreter room (MAX_MACRO_DEPTH still bounds
+        # it), and the passes over the finished scene too (a union nested a thousand deep
+        # was read, then the coincidence check ran out of frames: an internal error).
+        old_limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(old_limit, RECURSION_LIMIT))
+        try:
+            return self._run(text, filename)
+        finally:
+            sys.setrecursionlimit(old_limit)
+
+    def _run(self, text: str, filename: str) -> Result:
         self.main_file = filename
+        if self.confine_reads is not None:
+            self.reads = read_access.confined(
+                Path(filename).resolve().parent, self.library_paths, self.confine_reads
+            )
+        self.state.readable = self.reads.allows
         self._raw_texts[filename] = text  # blanked only if a statement is read as tokens
         self.state.folder = str(Path(filename).resolve().parent)
         self.files.append(filename)
         tree, diags = self._parse_stored(text, filename)
         self.sink.items.extend(diags)
         self.file_stack.append(filename)
-        # Scenes recurse through macros (trees, fractals); each macro level costs a few dozen
-        # Python frames, so give the interpreter room (MAX_MACRO_DEPTH still bounds it).
-        old_limit = sys.getrecursionlimit()
-        sys.setrecursionlimit(max(old_limit, RECURSION_LIMIT))
         try:
             els = self.expand(tree.body, None, top=True)
             if self.cut_braces:
@@ -256,7 +284,6 @@ class Interpreter:
             for el in settings_at_top(self, els):
                 self._top_level(el)
         finally:
-            sys.setrecursionlimit(old_limit)
             self.file_stack.pop()
         for h in list(self.handles.values()):
             fileio.flush(self, h)
@@ -273,7 +300,10 @@ class Interpreter:
                     "remove the declaration, or use the name",
                 )
         scene = self._scene()
-        self._warn_coincident(scene)
+        try:
+            self._warn_coincident(scene)
+        except RecursionError:
+            pass  # objects nested deeper than the frames allow: the warning is left out
         symbols = {k: v for k, v in self.scopes[0].items()}
         return Result(scene, _once(self.sink.items), symbols, list(self.files))
 
@@ -288,7 +318,11 @@ class Interpreter:
         """A file's parse, from `lang.parse_store` when it holds it. Subclasses that parse
         in their own way (the language server, translate) keep theirs; text without a file
         name is parsed."""
-        if type(self).parse_source is not Interpreter.parse_source or filename.startswith("<"):
+        if (
+            type(self).parse_source is not Interpreter.parse_source
+            or filename.startswith("<")
+            or not self.stores
+        ):
             return self.parse_source(text, filename)
         from lang import parse_store
 
@@ -525,6 +559,7 @@ class Interpreter:
             node = body[i]
             i += 1
             try:
+                self.meter.step()
                 if (
                     type(node) is syntax.Declare
                     and type(node.value) in _VALUE_KINDS
@@ -576,6 +611,13 @@ class Interpreter:
             except Quiet:
                 pass
             except _Halt:
+                if top:
+                    return out
+                raise
+            except Exceeded as e:
+                if not self.exhausted:  # said once, at the statement that went past it
+                    self.exhausted = True
+                    self.sink.error("E0238", e.message, node.span, e.hint)
                 if top:
                     return out
                 raise
@@ -726,6 +768,15 @@ class Interpreter:
                 "E0220", f"include file `{name}` not found", node.span, f"searched {where}"
             )
         probed_at, path = found
+        if not self.reads.allows(path):
+            # `#include "/etc/passwd"` printed its lines in the diagnostics
+            who = self.confine_reads or self.reads.why
+            raise self.error(
+                "E0261",
+                f"`{name}` is outside the folders that may be read ({who})",
+                node.span,
+                "keep included files in the scene's folder or a library folder (-L)",
+            )
         if path in self.file_stack:
             raise self.error(
                 "E0221",
@@ -788,7 +839,9 @@ class Interpreter:
         not, makes the result depend on a file whose text is not followed."""
         self.depends_outside(f"the file {name}")
         found = self._find(name)
-        return None if found is None else found[1]
+        if found is None or not self.reads.allows(found[1]):
+            return None  # a file outside the folders that may be read is not there
+        return found[1]
 
     def _find(self, name: str) -> tuple[str, str] | None:
         """(the path probed, the resolved path) of the file `name` names: in the current
@@ -969,7 +1022,7 @@ class Interpreter:
         held = self._watches.get(id(node))
         if held is None or held[0] is not node:
             # judged once per loop: the walk over its body costs more than a pass of it
-            held = self._watches[id(node)] = (node, _loop_watch(node))
+            held = self._watches[id(node)] = (node, loop_watch.watched_names(node))
         watched = held[1]
         self.break_targets += 1
         try:
@@ -979,6 +1032,7 @@ class Interpreter:
                 if not (c != 0.0 if type(c) is float else truth(c)):
                     break
                 n += 1
+                self.meter.step()
                 if n > MAX_LOOP_ITERATIONS:
                     raise self.error(
                         "E0230",
@@ -994,7 +1048,7 @@ class Interpreter:
                 if (
                     before is not None
                     and watched is not None
-                    and _same_values(before, [self.lookup(v) for v in watched])
+                    and loop_watch.same_values(before, [self.lookup(v) for v in watched])
                 ):
                     raise self.error(
                         "E0230",
@@ -1030,6 +1084,7 @@ class Interpreter:
         try:
             while (i <= end + 1e-10) if step > 0 else (i >= end - 1e-10):
                 n += 1
+                self.meter.step()
                 if n > MAX_LOOP_ITERATIONS:
                     raise self.error(
                         "E0230", f"#for ran past {MAX_LOOP_ITERATIONS} iterations", node.span
@@ -1190,6 +1245,7 @@ class Interpreter:
                 node.span,
                 f"#macro {macro.name}({', '.join(macro.params)})",
             )
+        self.meter.step()
         if self.macro_depth >= MAX_MACRO_DEPTH:
             raise self.error("E0231", f"macro `{macro.name}` recursed too deeply", node.span)
         if self.broken_macros and macro.span is not None and macro.span in self.broken_macros:
@@ -1421,45 +1477,6 @@ def _takes_object_pattern(spec: schema.BlockSpec | None) -> bool:
     """Whether `object { … }` in this block is the object pattern (pigment, normal …)."""
     item = spec.items.get("object") if spec is not None else None
     return item is not None and item.args == ("object_pattern",)
-
-
-def _loop_watch(node: syntax.While) -> list[str] | None:
-    """The names a #while's condition reads, when nothing but them can end the loop and the
-    body cannot change them: the condition calls no function (a call may read a file, a
-    random stream, `defined()`), the body has no #break, and it neither assigns nor
-    #undefs those names, calls no macro (a macro may #declare them) and includes no file.
-    After one pass with the same values the loop cannot end. None: it cannot be judged
-    (a body that sets `Continue = 0`, then back to 1 while a counter runs down, is a loop
-    that ends: tracevines.pov)."""
-    cond = list(syntax.walk(node.cond))
-    if any(isinstance(n, syntax.Call) for n in cond):
-        return None
-    body = list(syntax.walk(node.body))
-    if any(isinstance(n, syntax.Break | syntax.FileOp) for n in body):
-        return None
-    names = sorted({n.name for n in cond if isinstance(n, syntax.Ident)})
-    for n in body if names else ():
-        if (
-            (isinstance(n, syntax.Declare | syntax.Undef) and n.name in names)
-            or (isinstance(n, syntax.For) and n.var in names)
-            or isinstance(n, syntax.Include)
-            or (isinstance(n, syntax.Call) and not n.builtin)
-        ):
-            return None
-    return names
-
-
-def _same_values(a: list[tuple[bool, Any]], b: list[tuple[bool, Any]]) -> bool:
-    """Whether two snapshots of (found, value) pairs are the same (numbers, vectors,
-    strings compared by value; anything else by identity)."""
-    for (fa, va), (fb, vb) in zip(a, b, strict=True):
-        if fa != fb:
-            return False
-        if va is vb:
-            continue
-        if not isinstance(va, float | int | str | Vec) or type(va) is not type(vb) or va != vb:
-            return False
-    return True
 
 
 def _once(diags: list[Diagnostic]) -> list[Diagnostic]:

@@ -82,7 +82,16 @@ def _b_light(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Light:
                 fields.setdefault("radius", 0.75)
                 fields.setdefault("falloff", 1.0)
         elif name in ("point_at", "radius", "falloff", "tightness", "fade_distance", "fade_power"):
-            fields[name] = args[0]
+            value = args[0]
+            if not all(map(math.isfinite, value if isinstance(value, tuple) else (value,))):
+                # an overflowed spotlight angle was a math domain error while rendering
+                raise it.error(
+                    "E0203",
+                    f"`{name}` is infinite or undefined",
+                    _span,
+                    "a value overflowed (past about 1.8e308) or is 0/0; check the arithmetic",
+                )
+            fields[name] = value
         elif name == "shadowless":
             fields["shadowless"] = True
         elif name in ("media_interaction", "media_attenuation"):

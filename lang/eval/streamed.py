@@ -35,6 +35,7 @@ from lang.lexical import blank, line_starts, offset_of
 from lang.values import MacroValue
 
 if TYPE_CHECKING:
+    from lang.eval.budget import Meter
     from lang.eval.elements import El
 
 
@@ -43,6 +44,7 @@ class Interpreter(Protocol):
 
     sink: DiagnosticSink
     token_macros: set[str]
+    meter: Meter  # the evaluation's total work (lang.eval.budget)
 
     @property
     def scopes(self) -> Sequence[dict[str, Any]]: ...
@@ -333,6 +335,7 @@ class _Stream:
 
     # ------------------------------------------------------------ directives
     def _directive(self, src: _Source, tok: Token) -> None:
+        self.it.meter.step()
         t = tok.type
         if t == "IF":
             self._if(src, tok, self._truth(src, tok))

@@ -699,6 +699,9 @@ def _corner_indices(
     """A mesh2's `normal_indices` or `uv_indices`: one <a, b, c> per face into its list."""
     if name not in lists or values is None:
         return None
+    if not all(isinstance(v, Vec) for v in lists[name].items):
+        # a texture or a number among the <a, b, c>s (was an internal error)
+        raise it.error("E0202", f"{name} holds <a, b, c> index vectors", g.span)
     idx = [tuple(int(c) for c in v.padded(3)) for v in lists[name].items]
     if len(idx) != n_faces:
         raise it.error("E0202", f"{name} needs one entry per face", g.span)

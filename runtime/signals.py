@@ -1,0 +1,101 @@
+"""What a stopped command leaves behind: nothing. Files being written (an image's hidden
+temporary file, a preview) are registered while they exist; SIGINT, SIGTERM and SIGHUP
+remove them and end the process at once with the shell's code for the signal (130, 143,
+129). An ordinary KeyboardInterrupt would have to unwind through a render's thread pool,
+which finishes every queued tile first; nothing on disk is lost by leaving at once, since
+outputs are written to a temporary name and renamed when complete.
+
+SIGKILL cannot be caught: a temporary file it leaves is removed by the next write of the
+same output (stale_temporaries), once the process that made it is gone."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+# the shell's exit code for a process ended by each signal: 128 + its number
+EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGHUP: 129}
+_NAMES = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
+
+_pending: set[Path] = set()
+_lock = threading.Lock()
+
+
+@contextmanager
+def removed_if_stopped(path: Path) -> Iterator[Path]:
+    """`path` is removed if a signal ends the process while the block runs."""
+    with _lock:
+        _pending.add(path)
+    try:
+        yield path
+    finally:
+        with _lock:
+            _pending.discard(path)
+
+
+def stop(message: str, code: int) -> None:
+    """End the process at once, as a signal does: the registered files removed, one line
+    said (the display window's q uses it too)."""
+    with _lock:
+        for path in list(_pending):
+            try:
+                path.unlink(missing_ok=True)
+            except OSError:
+                pass
+    try:
+        sys.stderr.write(f"\nstrala: {message}\n")
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+    os._exit(code)
+
+
+def _stop(signum: int, frame) -> None:
+    sig = signal.Signals(signum)
+    stop(_NAMES.get(sig, "stopped"), EXIT_CODES.get(sig, 128 + signum))
+
+
+def install() -> None:
+    """Handle SIGINT, SIGTERM and SIGHUP as above (from the main thread; a signal that is
+    ignored or has someone else's handler keeps it)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for sig in EXIT_CODES:
+        if signal.getsignal(sig) in (signal.SIG_DFL, signal.default_int_handler):
+            signal.signal(sig, _stop)
+
+
+def temporary_name(target: Path, suffix: str) -> Path:
+    """The hidden name `target` is written under before it is renamed into place (the
+    process id in it lets stale_temporaries tell whose it is)."""
+    import secrets
+
+    return target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}{suffix}")
+
+
+def stale_temporaries(target: Path) -> list[Path]:
+    """Temporary files of `target` left by processes that no longer run (a SIGKILL)."""
+    found = []
+    try:
+        candidates = list(target.parent.glob(f".{target.name}.*.*"))
+    except OSError:
+        return []
+    for path in candidates:
+        parts = path.name[len(target.name) + 2 :].split(".")
+        if len(parts) < 2 or not parts[0].isdigit():
+            continue
+        pid = int(parts[0])
+        if pid == os.getpid():
+            continue
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            found.append(path)
+        except (PermissionError, OverflowError):
+            continue  # someone else's process: its file
+    return found

@@ -1,0 +1,129 @@
+"""A stopped or failed command leaves nothing behind and says so: SIGINT, SIGTERM and SIGHUP
+end it at once with the shell's code (130, 143, 129) and remove what was being written (the
+image's hidden temporary file, a preview); a SIGKILL's leftover is removed by the next write
+of the same output; a device is not an output name; a full disk is an error, not exit 0."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import ROOT
+
+from runtime import image
+from runtime.signals import stale_temporaries, temporary_name
+
+ENDLESS = "#for (I, 0, 999999)\n #for (J, 0, 999999) #end\n#end\n"
+SCENE = "camera { location -5*z look_at 0 } light_source { <5, 5, -5> rgb 1 }\n"
+BALLS = "#for (I, 0, 400) sphere { <mod(I, 20) - 10, div(I, 20) - 10, 5>, 0.5 } #end\n"
+
+
+def _start(*args: str, cwd: Path) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.Popen(
+        [sys.executable, "-m", "runtime.cli", *args],
+        cwd=cwd,
+        env=env,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+@pytest.mark.parametrize(
+    "sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143), (signal.SIGHUP, 129)]
+)
+@pytest.mark.parametrize("command", ["check", "render"])
+def test_a_signal_during_evaluation_ends_the_command_at_once(tmp_path, sig, code, command):
+    (tmp_path / "e.pov").write_text(ENDLESS)
+    p = _start(command, "e.pov", cwd=tmp_path)
+    time.sleep(2.5)  # well into the loops
+    sent = time.perf_counter()
+    p.send_signal(sig)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == code, err
+    assert time.perf_counter() - sent < 5
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["e.pov"]
+
+
+def test_sigterm_while_rendering_with_a_preview_leaves_no_file(tmp_path):
+    (tmp_path / "b.pov").write_text(SCENE + BALLS)
+    p = _start("render", "b.pov", "-W", "640", "-H", "480", "--preview", cwd=tmp_path)
+    deadline = time.perf_counter() + 120
+    while not (tmp_path / "b.preview.png").exists() and time.perf_counter() < deadline:
+        time.sleep(0.05)  # until a preview pass has been written
+    assert (tmp_path / "b.preview.png").exists()
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 143, err
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["b.pov"]
+
+
+def test_a_signal_while_an_image_is_written_removes_its_temporary_file(tmp_path):
+    """The write itself, stopped: a process that has its temporary file open when SIGTERM
+    comes (here it sends the signal to itself from inside the registration)."""
+    code = (
+        "import os, signal, sys\n"
+        "from pathlib import Path\n"
+        "from runtime import signals\n"
+        "signals.install()\n"
+        f"tmp = signals.temporary_name(Path({str(tmp_path / 'x.png')!r}), '.png')\n"
+        "with signals.removed_if_stopped(tmp):\n"
+        "    tmp.write_bytes(b'half an image')\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    signal.pause()\n"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", code],
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert r.returncode == 143, r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_killed_writers_temporary_file_is_removed_by_the_next_write(tmp_path):
+    target = tmp_path / "k.png"
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()  # a process id that no longer runs
+    left = target.with_name(f".{target.name}.{dead.pid}.abcd1234.png")
+    left.write_bytes(b"x" * 1000)
+    mine = temporary_name(target, ".png")
+    assert stale_temporaries(target) == [left]
+    image.write_pixels(target, np.zeros((2, 2, 3), np.float32))
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["k.png"]
+    assert not mine.exists()
+
+
+def test_a_device_is_not_an_output_name(tmp_path, cli):
+    (tmp_path / "s.pov").write_text(SCENE + "sphere { 0, 1 }\n")
+    r = cli("render", str(tmp_path / "s.pov"), "-o", "/dev/full", "-W", "8", "-H", "6")
+    assert r.returncode == 2 and "not a file or a folder" in r.stderr
+    assert not Path("/dev/full.png").exists()
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full on this system")
+@pytest.mark.parametrize("extra", [(), ("--format", "json")])
+def test_a_full_disk_for_standard_output_is_an_error(tmp_path, extra):
+    (tmp_path / "w.pov").write_text("#declare A = 1;\nsphere { 0, 1 }\n")
+    with open("/dev/full", "w") as full:
+        r = subprocess.run(
+            [sys.executable, "-m", "runtime.cli", "check", "w.pov", *extra],
+            cwd=tmp_path,
+            env=dict(os.environ, PYTHONPATH=str(ROOT)),
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
+        )
+    assert r.returncode == 1 and "No space left on device" in r.stderr, r.stderr
+    assert "internal error" not in r.stderr

@@ -1,0 +1,97 @@
+"""Reads only where they belong (lang.read_access): `check` and the language server read the
+scene's folder and the library folders only, and write nothing (no stored parse, no stored
+scene); a render follows POV-Ray's povray.conf. Before, `#include "/etc/passwd"` printed its
+lines in the diagnostics and file_exists("/etc/shadow") answered."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+
+from lang import read_access
+from lang.evaluate import compile_source
+from lang.lsp import analyse
+
+LEAK = '#include "/etc/passwd"\nsphere { 0, 1 }\n'
+PROBE = 'sphere { 0, 1 }\n#if (file_exists("/etc/passwd")) #error "seen" #end\n'
+
+
+def _files(*folders: Path) -> set[Path]:
+    return {p for f in folders for p in f.rglob("*")}
+
+
+def _check(tmp_path: Path, name: str, env_extra: dict[str, str]):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), **env_extra)
+    return subprocess.run(
+        [sys.executable, "-m", "runtime.cli", "check", name, "--format", "sarif"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+
+
+@pytest.mark.skipif(not Path("/etc/passwd").is_file(), reason="no /etc/passwd here")
+def test_check_reads_only_the_scene_and_library_folders_and_writes_nothing(tmp_path):
+    scene = tmp_path / "scene"
+    scene.mkdir()
+    (scene / "leak.pov").write_text(LEAK)
+    (scene / "probe.pov").write_text(PROBE)
+    (scene / "own.inc").write_text("#declare R = 2;\n")
+    (scene / "ok.pov").write_text('#include "own.inc"\n#include "colors.inc"\nsphere { 0, R }\n')
+    cache, home = tmp_path / "cache", tmp_path / "home"
+    cache.mkdir(), home.mkdir()
+    env = {"STRALA_CACHE": str(cache), "HOME": str(home), "XDG_CACHE_HOME": str(cache)}
+    before = _files(tmp_path)
+    r = _check(scene, "leak.pov", env)
+    assert r.returncode == 1 and "E0261" in r.stdout and "root:" not in r.stdout
+    r = _check(scene, "probe.pov", env)
+    assert r.returncode == 0 and "seen" not in r.stdout
+    r = _check(scene, "ok.pov", env)
+    assert r.returncode == 0, r.stdout
+    assert _files(tmp_path) == before  # not a stored parse, not a stored scene
+
+
+@pytest.mark.skipif(not Path("/etc/passwd").is_file(), reason="no /etc/passwd here")
+def test_the_language_server_reads_only_the_scene_and_library_folders(tmp_path):
+    diags = analyse(LEAK, str(tmp_path / "leak.pov"))
+    assert [d.code for d in diags if d.severity.name == "ERROR"] == ["E0261"]
+    assert not any("root:" in d.message for d in diags)
+    assert not [d for d in analyse(PROBE, str(tmp_path / "p.pov")) if d.code == "E0240"]
+
+
+def test_an_include_beside_the_scene_and_the_stdlib_stay_readable(tmp_path):
+    (tmp_path / "own.inc").write_text("#declare R = 2;\n")
+    diags = analyse('#include "own.inc"\n#include "colors.inc"\nsphere { 0, R }\n',
+                    str(tmp_path / "s.pov"))  # fmt: skip
+    assert not [d for d in diags if d.severity.name == "ERROR"], diags
+
+
+def test_povray_conf_restricted_permits_its_paths_and_the_scene_folder(tmp_path):
+    conf = tmp_path / "povray.conf"
+    allowed, other, scene = tmp_path / "allowed", tmp_path / "other", tmp_path / "scene"
+    for f in (allowed, other, scene):
+        f.mkdir()
+    (allowed / "deep").mkdir()
+    conf.write_text(
+        "; a comment\n[File I/O Security]\nrestricted ; only the permitted paths\n"
+        f"[Shellout Security]\nforbidden\n[Permitted Paths]\nread* = {allowed}\n"
+        f"read+write = {other}\n"
+    )
+    access = read_access.from_povray_conf(conf, scene, [])
+    assert access.allows(allowed / "deep" / "x.inc")
+    assert access.allows(other / "x.inc") and not access.allows(other / "sub" / "x.inc")
+    assert access.allows(scene / "x.inc") and not access.allows("/etc/passwd")
+    src = '#include "/etc/passwd"\n'
+    r = compile_source(src, str(scene / "s.pov"), reads=access)
+    assert [d.code for d in r.diagnostics if d.severity.name == "ERROR"] == ["E0261"]
+
+
+@pytest.mark.parametrize("level", ["none", "read-only"])
+def test_povray_conf_below_restricted_reads_anywhere(tmp_path, level):
+    conf = tmp_path / "povray.conf"
+    conf.write_text(f"[File I/O Security]\n{level}\n")
+    assert read_access.from_povray_conf(conf, tmp_path, []).allows("/etc/passwd")
+    assert read_access.from_povray_conf(None, tmp_path, []).allows("/etc/passwd")
