@@ -41,6 +41,7 @@ from lang.eval import (
     functions,
     grouping,
     loop_watch,
+    macro_args,
     splines,
     streamed,
     surfaces,
@@ -1172,44 +1173,6 @@ class Interpreter:
             del scope[name]
 
     # ------------------------------------------------------------ macros
-    def _object_then_value(self, node: syntax.Node) -> tuple[Any, syntax.Node] | None:
-        """`M(Make_Thing() -y)`: POV-Ray ends an argument after an object (a comma between
-        arguments is optional), so `-y` is the next argument, not a subtraction. For a
-        `+`/`-` chain whose first operand is an object (a declared one or a macro's), that
-        object and the rest of the chain as its own expression; None otherwise."""
-        chain: list[syntax.Binary] = []
-        leaf = node
-        while isinstance(leaf, syntax.Binary) and leaf.op in ("+", "-"):
-            chain.append(leaf)
-            leaf = leaf.left
-        if not chain:
-            return None
-        if isinstance(leaf, syntax.Ident):
-            found, v = self.lookup(leaf.name)
-            if not (found and isinstance(v, ObjectValue)):
-                return None
-        elif not (isinstance(leaf, syntax.Call) and not leaf.builtin and self._is_macro(leaf.name)):
-            return None
-        first = chain.pop()
-        rest: syntax.Node = syntax.Unary(first.span, first.op, first.right)
-        for b in reversed(chain):
-            rest = syntax.Binary(b.span, b.op, rest, b.right)
-        return leaf, rest
-
-    def _split_object_args(self, args: list[syntax.Node], want: int) -> list[syntax.Node]:
-        """The arguments with `OBJECT -y` read as two (see _object_then_value), while
-        there are fewer arguments than parameters."""
-        out: list[syntax.Node] = []
-        count = len(args)
-        for a in args:
-            split = self._object_then_value(a) if count < want else None
-            if split is not None:
-                out.extend(split)
-                count += 1
-            else:
-                out.append(a)
-        return out
-
     def call_macro(self, node: syntax.Call) -> list[El]:
         macro, scope, refs = self.enter_macro(node)
         try:
@@ -1226,7 +1189,7 @@ class Interpreter:
         _, macro = self.lookup(node.name)
         required = len([p for p in macro.params if p not in macro.optional])
         if len(node.args) < required:
-            args = self._split_object_args(node.args, len(macro.params))
+            args = macro_args.split_object_args(self, node.args, len(macro.params))
             if len(args) != len(node.args):
                 node = syntax.Call(node.span, node.name, args, node.builtin)
         if len(node.args) > len(macro.params):

@@ -18,6 +18,29 @@ ray (prepare, the kernel's packing) to the cold figure: the issue's per-object b
 The two programs run alternately, N times each; the table gives medians and the ratios
 strala/POV-Ray of CPU seconds (the fair figure on a machine shared with other work) and of
 wall seconds. Not part of the default test run (see pyproject.toml).
+
+Runs (2 shared cores, load 2-5 from other work; CPU ratios, caches off / parse store on):
+
+    scene               POV-Ray cpu  before: strala  ratio   after: strala  ratio  stored
+    loops-40k                 0.13          0.82    5.30           0.37    2.74    2.73
+    loops-160k                0.54          3.28    5.48           1.43    2.67    2.60
+    shapes.inc-macros         0.07          1.24   14.4            0.84   11.9     9.55
+    makegrass                 0.34          2.54    6.28           1.31    3.80    3.82
+    spheres-10k               0.07          1.59   21.4            1.03   15.7    15.1
+    isocacti                  0.40          8.02   17.4            4.22   10.6     9.87
+    incdemo/shapes            0.50          7.45   12.9            3.47    6.93    6.32
+    benchmark                 0.34          3.30    8.80           1.66    4.86    4.55
+    stackergold               0.17          4.81   22.0            3.58   21.5    19.1
+    balcony                   0.27          4.32   13.7            2.85   10.7     4.57
+    Tango                     0.23          3.79   14.2            2.38   10.5    10.5
+    func_gradient             0.17          0.85    4.20           0.54    3.10    2.70
+    abyss                     0.11          1.29    9.56           1.11    9.83    8.44
+    median                                         12.9                    9.83    6.32
+
+(POV-Ray's own figures vary by about 15% between the two runs.) Setup (prepare and the
+kernel's packing after the evaluation), after: spheres-10k 1.78 s (0.75 s of it for 10,000
+spheres), makegrass 33.8 s (2,255 copies of a 6,000-triangle mesh flattened to 13.5 million
+world-space triangles), Tango 10.5 s, abyss 8.6 s.
 """
 
 from __future__ import annotations
