@@ -684,7 +684,7 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary, top) -
     n = np.where((np.einsum("ij,ij->i", d, n) > 0)[:, None], -n, n)
     tir_rows = np.zeros(len(rows), dtype=bool)
     w = hit.weight[rows] * np.abs(fil[rows]).max(axis=1)
-    assert hit.crossing is not None and hit.stacks is not None
+    assert hit.crossing is not None
     # POV-Ray refracts by the ratio of the iors on both sides (runtime.interiors): a
     # surface of ior 1 inside glass bends the ray too, one between equal iors does not.
     ratio = hit.crossing.ratio[rows]
@@ -703,7 +703,7 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary, top) -
         inside = hit.crossing.inside[rows]
         mult *= interior_fade(ctx, hit.obj[rows], hit.depth[rows], inside, view=True)
     # a totally reflected ray stays where it was (POV-Ray reflects the incoming ray)
-    stacks = np.where(tir_rows[:, None], hit.stacks[rows], hit.crossing.after[rows])
+    stacks = np.where(tir_rows[:, None], _stacks(hit)[rows], hit.crossing.after[rows])
     secondary.add(rows, out_dir, mult, w, level[rows], straight, skip[rows], stacks)
     return tir_rows
 

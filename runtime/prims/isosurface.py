@@ -119,10 +119,7 @@ class IsosurfacePrim:
             inv3[entry] = -1.0
             start = np.nonzero(~outside_start)[0]
             if len(start):
-                on = start[f[start] < near_surface]
-                if len(on):
-                    tmin[on] = 5.0 * acc
-                    inv3[on[self._at(o[on], d[on], tmin[on]) < 0.0]] = -1.0
+                self._step_off(o, d, tmin, inv3, start[f[start] < near_surface])
                 leaves = start[self._at(o[start], d[start], tmax[start]) < 0.0]
                 wall_t[leaves] = tmax[leaves]
         tmin = np.minimum(tmin, tmax)
@@ -132,10 +129,8 @@ class IsosurfacePrim:
             found.append((wall_t[keep], rows[keep], WALL))
         first = np.nonzero(live & (tmin < acc) & (inv3 == 1.0))[0]
         if len(first):
-            on = first[np.abs(self._at(o[first], d[first], tmin[first])) < near_surface]
-            if len(on):
-                tmin[on] = 5.0 * acc
-                inv3[on[self._at(o[on], d[on], tmin[on]) < 0.0]] = -1.0
+            on = np.abs(self._at(o[first], d[first], tmin[first])) < near_surface
+            self._step_off(o, d, tmin, inv3, first[on])
         todo = np.nonzero(live & (traced < self.max_trace))[0]
         while len(todo):
             hit, tl = self._find_root(o[todo], d[todo], length[todo], tmin[todo], tmax[todo],
@@ -146,6 +141,13 @@ class IsosurfacePrim:
             traced[got] += 1
             inv3[got] *= -1.0
             todo = got[(tmax[got] - tmin[got] >= acc) & (traced[got] < self.max_trace)]
+
+    def _step_off(self, o, d, tmin, inv3, on) -> None:
+        """Rays starting on the surface begin their search 5 accuracies on, looking for the
+        way out where they are inside there (POV-Ray's Inv3)."""
+        if len(on):
+            tmin[on] = 5.0 * self.accuracy
+            inv3[on[self._at(o[on], d[on], tmin[on]) < 0.0]] = -1.0
 
     def _find_root(self, o, d, length, t1, t2, inv3, which):
         """POV-Ray's Function_Find_Root(_R): halve [t1, t2] depth first, left half first,
@@ -181,12 +183,12 @@ class IsosurfacePrim:
         while len(live):
             sp[live] -= 1
             top = stack[live, sp[live]]
-            ta, va, tb, vb, width, change = top.T
-            split = va + vb - change < 0.0
+            split = top[:, 1] + top[:, 3] - top[:, 5] < 0.0
             live_split = live[split]
             if len(live_split):
-                half = 0.5 * width[split]
-                tm = ta[split] + half
+                ta, va, tb, vb, width, change = top[split].T
+                half = 0.5 * width
+                tm = ta + half
                 vm = s[live_split] * self._at(o[live_split], d[live_split], tm)
                 small = half < acc
                 # Both halves are leaves: the left one if its right end is inside, else
@@ -194,20 +196,17 @@ class IsosurfacePrim:
                 lf = live_split[small]
                 if len(lf):
                     left_in = vm[small] < 0.0
-                    right_in = vb[split][small] < 0.0
-                    got = left_in | right_in
-                    tl[lf[got]] = np.where(left_in, tm[small], tb[split][small])[got]
+                    got = left_in | (vb[small] < 0.0)
+                    tl[lf[got]] = np.where(left_in, tm[small], tb[small])[got]
                     hit[lf[got]] = True
                     sp[lf[got]] = 0  # found: nothing more to search
                 big = ~small
                 lb = live_split[big]
                 if len(lb):
-                    h, c = half[big], 0.5 * change[split][big]
+                    h, c, mid, vmid = half[big], 0.5 * change[big], tm[big], vm[big]
                     p = sp[lb]
-                    stack[lb, p] = np.stack([tm[big], vm[big], tb[split][big], vb[split][big],
-                                             h, c], axis=1)  # fmt: skip
-                    stack[lb, p + 1] = np.stack([ta[split][big], va[split][big], tm[big],
-                                                 vm[big], h, c], axis=1)  # fmt: skip
+                    stack[lb, p] = np.stack([mid, vmid, tb[big], vb[big], h, c], axis=1)
+                    stack[lb, p + 1] = np.stack([ta[big], va[big], mid, vmid, h, c], axis=1)
                     sp[lb] += 2
             live = live[sp[live] > 0]
         return hit, tl
