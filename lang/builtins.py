@@ -582,6 +582,19 @@ UNIT = {
     "v": Vec((0.0, 1.0)),
 }
 
+# the built-in constants that are the same in every scene and frame
+FIXED_CONSTANTS: dict[str, Any] = {
+    **UNIT,
+    "pi": math.pi,
+    "tau": 2 * math.pi,
+    "true": 1.0,
+    "yes": 1.0,
+    "on": 1.0,
+    "false": 0.0,
+    "no": 0.0,
+    "off": 0.0,
+}
+
 
 def constant(
     name: str,
@@ -592,17 +605,9 @@ def constant(
     image_height: int = 0,
     input_file: str = "",
 ) -> Any:
-    if name in UNIT:
-        return UNIT[name]
+    if name in FIXED_CONSTANTS:
+        return FIXED_CONSTANTS[name]
     simple = {
-        "pi": math.pi,
-        "tau": 2 * math.pi,
-        "true": 1.0,
-        "yes": 1.0,
-        "on": 1.0,
-        "false": 0.0,
-        "no": 0.0,
-        "off": 0.0,
         "clock": clock,
         "clock_delta": 0.0,
         "clock_on": 0.0,

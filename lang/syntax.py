@@ -93,6 +93,16 @@ class Index(Node):
     target: Node
     index: Node
 
+    def chain(self) -> tuple[Node, list[Node]]:
+        """`A[i][j]` as the array A and its indices [i, j], outermost first."""
+        indices: list[Node] = []
+        base: Node = self
+        while isinstance(base, Index):
+            indices.append(base.index)
+            base = base.target
+        indices.reverse()
+        return base, indices
+
 
 @dataclass(slots=True)
 class ColorCtor(Node):

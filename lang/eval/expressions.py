@@ -138,12 +138,7 @@ def _e_member(it: BuildContext, node: syntax.Member) -> Any:
 
 
 def _e_index(it: BuildContext, node: syntax.Index) -> Any:
-    chain: list[syntax.Node] = []
-    base: syntax.Node = node
-    while isinstance(base, syntax.Index):
-        chain.append(base.index)
-        base = base.target
-    chain.reverse()
+    base, chain = node.chain()
     arr = it.eval(base)
     if not isinstance(arr, ArrayValue):
         raise it.error("E0250", f"{describe(arr)} cannot be indexed", node.span)

@@ -15,7 +15,6 @@ looked up as Interpreter.lookup does (innermost scope first; a name read is mark
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -39,18 +38,6 @@ _SPECIAL = frozenset(
 # operators on two floats written inline (the same formulas as builtins.FLOAT_OPS)
 _INLINE = {"+": "+", "-": "-", "*": "*"}
 _VEC_INDEX = {"x": 0, "u": 0, "y": 1, "v": 1, "z": 2, "t": 3}
-# built-in constants that are the same in every scene and frame
-_FIXED_CONSTANTS = {
-    **builtins.UNIT,
-    "pi": math.pi,
-    "tau": 2 * math.pi,
-    "true": 1.0,
-    "yes": 1.0,
-    "on": 1.0,
-    "false": 0.0,
-    "no": 0.0,
-    "off": 0.0,
-}
 MAX_NODES = 400  # a larger expression is not worth a function of its own
 
 
@@ -146,8 +133,8 @@ class _Writer:
 
     def constant(self, n: syntax.Const) -> str:
         self.uses_constants = True  # a function's x, y, z shadow them: see the prologue
-        if n.name in _FIXED_CONSTANTS and n.name not in ANIMATION_NAMES:
-            return self.const(_FIXED_CONSTANTS[n.name])
+        if n.name in builtins.FIXED_CONSTANTS and n.name not in ANIMATION_NAMES:
+            return self.const(builtins.FIXED_CONSTANTS[n.name])
         if n.name == "now":
             raise _Unsupported()  # the result then depends on the time
         v = self.temp()
@@ -249,12 +236,7 @@ class _Writer:
         return v
 
     def index(self, n: syntax.Index, memo: dict[str, str]) -> str:
-        chain: list[syntax.Node] = []
-        base: syntax.Node = n
-        while isinstance(base, syntax.Index):
-            chain.append(base.index)
-            base = base.target
-        chain.reverse()
+        base, chain = n.chain()
         arr = self.node(base, memo)
         idx = [self.node(i, memo) for i in chain]
         v = self.temp()
