@@ -124,14 +124,14 @@ def run_process(
     return code, out, err, time.perf_counter() - start
 
 
-def _strala_env() -> dict[str, str]:
+def strala_env() -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     env.pop("STRALA_LIBRARY_PATH", None)  # only the folders the runner names
     return env
 
 
-def _strala(*args: str) -> list[str]:
+def strala_command(*args: str) -> list[str]:
     return [sys.executable, "-m", "runtime.cli", *args]
 
 
@@ -163,7 +163,7 @@ def _where(message: str, file: str | None, scene: Path) -> str:
     return message
 
 
-def _diagnostics(stderr: str, scene: Path) -> list[tuple[str, str]]:
+def diagnostics_of(stderr: str, scene: Path) -> list[tuple[str, str]]:
     found = []
     for line in stderr.splitlines():
         m = _DIAG_LINE.match(line)
@@ -172,7 +172,7 @@ def _diagnostics(stderr: str, scene: Path) -> list[tuple[str, str]]:
     return found
 
 
-def _internal_error(stderr: str) -> str:
+def internal_error(stderr: str) -> str:
     for line in stderr.splitlines():
         if line.startswith("internal error:"):
             return line
@@ -181,10 +181,11 @@ def _internal_error(stderr: str) -> str:
 
 def strala_check(scene: Path, library: Sequence[str], timeout: float) -> StralaRun:
     """Parse and evaluate only (`strala check`): did evaluation succeed, with what."""
-    cmd = _strala("check", scene.name, "--format", "json", "-W", str(WIDTH), "-H", str(HEIGHT))
+    size = ["-W", str(WIDTH), "-H", str(HEIGHT)]
+    cmd = strala_command("check", scene.name, "--format", "json", *size)
     for folder in library:
         cmd += ["-L", folder]
-    code, out, err, _ = run_process(cmd, scene.parent, timeout, _strala_env())
+    code, out, err, _ = run_process(cmd, scene.parent, timeout, strala_env())
     run = StralaRun()
     if code is None:
         run.note = f"evaluation took over {timeout:g} s"
@@ -192,7 +193,7 @@ def strala_check(scene: Path, library: Sequence[str], timeout: float) -> StralaR
     try:
         doc = json.loads(out)
     except json.JSONDecodeError:
-        run.note = _internal_error(err) or f"check exit {code}"
+        run.note = internal_error(err) or f"check exit {code}"
         return run
     run.errors, run.warnings = doc["errors"], doc["warnings"]
     run.diagnostics = [
@@ -206,7 +207,7 @@ def strala_check(scene: Path, library: Sequence[str], timeout: float) -> StralaR
     return run
 
 
-def _frame_options(frame: corpus.Frame) -> list[str]:
+def frame_options(frame: corpus.Frame) -> list[str]:
     """strala's options for the frame POV-Ray renders: the whole animation's range with the
     one frame picked (frame_number, clock_delta … as POV-Ray sets them), or a clock."""
     one_range = (frame.initial_clock, frame.final_clock) == (0.0, 1.0)
@@ -215,6 +216,13 @@ def _frame_options(frame: corpus.Frame) -> list[str]:
     if one_range:
         return ["--frames", f"{frame.first}..{frame.last}", "--frame", str(frame.number)]
     return ["--clock", repr(frame.clock), "--frame", str(frame.number)]
+
+
+def render_command(name: str, frame: corpus.Frame, out: Path) -> list[str]:
+    """strala's command line for the runners' image of scene `name`; not `-q`, which would
+    also silence the warnings the reports group the scenes by."""
+    cmd = strala_command("render", name, "-W", str(WIDTH), "-H", str(HEIGHT), "--no-aa")
+    return cmd + ["--threads", "1", "-o", str(out), *frame_options(frame)]
 
 
 def strala_render(
@@ -226,15 +234,14 @@ def strala_render(
     timeout: float,
 ) -> StralaRun:
     """Render with strala's CLI, then compare with the reference image when there is one."""
-    cmd = _strala("render", scene.name, "-W", str(WIDTH), "-H", str(HEIGHT), "--no-aa")
-    cmd += ["--threads", "1", "-q", "-o", str(out), *_frame_options(frame)]
+    cmd = render_command(scene.name, frame, out)
     for folder in library:
         cmd += ["-L", folder]
-    env = _strala_env()
+    env = strala_env()
     if not library:  # strala's stdlib only: not POV-Ray's files where the stdlib lacks one
         env["STRALA_POVRAY_INCLUDE"] = "off"
     code, _, err, seconds = run_process(cmd, scene.parent, timeout, env)
-    diags = _diagnostics(err, scene)
+    diags = diagnostics_of(err, scene)
     if code == 0 and out.exists():
         run = StralaRun(status="ok", eval_ok=True, seconds=seconds, diagnostics=diags)
         run.errors = sum(s == "error" for s, _ in diags)
@@ -258,11 +265,11 @@ def strala_render(
         elif not run.eval_ok:
             run.status = "eval-errors" if run.errors else "crash"
         elif code == 3:
-            run.status, run.note = "crash", _internal_error(err)
+            run.status, run.note = "crash", internal_error(err)
         else:
             run.status = "render-error"
             errors = [m for s, m in diags if s == "error"]
-            run.note = errors[0] if errors else _internal_error(err)
+            run.note = errors[0] if errors else internal_error(err)
     if run.rendered and reference is not None:
         try:
             c = compare(read_rgb(out), read_rgb(reference))

@@ -213,21 +213,20 @@ def strala_render(
     (status, exit code, seconds, diagnostics, first message)."""
     cwd = cwd or scene.parent
     name = os.path.relpath(scene, cwd)
-    cmd = run._strala("render", name, "-W", str(WIDTH), "-H", str(HEIGHT), "--no-aa")
-    cmd += ["--threads", "1", "-q", "-o", str(out), *run._frame_options(frame)]
+    cmd = run.render_command(name, frame, out)
     for folder in ([str(cwd)] if cwd != scene.parent else []) + list(library):
         cmd += ["-L", folder]
     out.unlink(missing_ok=True)
-    env = run._strala_env()
+    env = run.strala_env()
     if not library:  # --no-povray-include: strala's stdlib alone, not POV-Ray's files either
         env["STRALA_POVRAY_INCLUDE"] = "off"
     code, _, err, seconds = run.run_process(cmd, cwd, timeout, env)
-    diags = run._diagnostics(err, scene)
+    diags = run.diagnostics_of(err, scene)
     errors = [m for s, m in diags if s == "error"]
     if code is None:
         status, first = "timeout", f"render took over {timeout:g} s"
     elif code == 3:
-        status, first = "internal", run._internal_error(err)
+        status, first = "internal", run.internal_error(err)
     elif code == 0 and out.exists():
         warns = [m for s, m in diags if s == "warning"]
         status, first = "ok", warns[0] if warns else ""
