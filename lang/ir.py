@@ -792,9 +792,9 @@ class Radiosity:
 
     count: int = 35
     error_bound: float = 1.8
-    # POV-Ray's bounces of indirect light (its default is 2); None, when the scene does
-    # not say: every bounce, strala's converged solution.
-    recursion_limit: int | None = None
+    # POV-Ray's bounces of indirect light, its default 2; None (strala's `converged on`):
+    # every bounce, the radiosity system's converged solution.
+    recursion_limit: int | None = 2
     media: bool = False  # POV-Ray's `media on`: radiosity rays see media (off: they pass)
     # POV-Ray's irradiance cache: where the display gathers and how it interpolates.
     nearest_count: int = 5

@@ -564,7 +564,8 @@ BLOCKS: dict[str, BlockSpec] = {
             [
                 "count int int? | Rays per patch (POV-Ray: samples per point).",
                 "error_bound float | Patch subdivision threshold.",
-                "recursion_limit int | Number of diffuse bounces.",
+                "recursion_limit int | Number of diffuse bounces (1 to 20; POV-Ray's default 2).",
+                "converged bool? | strala: every bounce (the converged solution).",
                 "brightness float | Scale of the indirect light.",
                 "gray_threshold float | Desaturate indirect light.",
                 "pretrace_start float | Pretrace's first pixel step, a part of the image size.",

@@ -15,8 +15,8 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 def test_white_object_in_a_red_room_turns_reddish():
     # The example as it is, with a smaller patch budget to keep the test quick.
     text = (EXAMPLES / "red_room.scene").read_text()
-    assert "radiosity { }" in text
-    text = text.replace("radiosity { }", "radiosity { max_patches 800 }")
+    assert "radiosity { converged on }" in text
+    text = text.replace("radiosity { converged on }", "radiosity { converged on max_patches 800 }")
     result = compile_source(text, str(EXAMPLES / "red_room.scene"))
     assert result.scene is not None and result.scene.settings.radiosity is not None
     img = render_scene(result.scene, 80, 60)
@@ -43,7 +43,7 @@ def test_cornell_room_renders_from_the_command_line(tmp_path):
 
     # The example as it is, with a smaller patch budget to keep the test quick.
     text = (EXAMPLES / "cornell.scene").read_text()
-    assert "radiosity { }" in text
+    assert "radiosity { converged on }" in text
     scene = tmp_path / "cornell.scene"
     scene.write_text(text.replace("radiosity { }", "radiosity { max_patches 1000 }"))
     out = tmp_path / "cornell.exr"

@@ -16,7 +16,7 @@ from conftest import run_cli
 E = 0.05
 
 FURNACE = """#version 3.7;
-global_settings {{ assumed_gamma 1.0 radiosity {{ patch_size 1 }} }}
+global_settings {{ assumed_gamma 1.0 radiosity {{ patch_size 1 converged on }} }}
 camera {{ location <0.3, -0.4, -0.5> look_at <1, 0.2, 1> angle 100 }}
 sphere {{ <0.1, 0.2, 0.3>, 2
   pigment {{ rgb 1 }} finish {{ ambient 0 diffuse {rho} emission {e} }} }}

@@ -186,3 +186,42 @@ def test_a_large_emitter_around_the_scene_brings_the_gather_in():
     domed = dataclasses.replace(scene, objects=(*scene.objects[1:], dome))
     assert system.emitter_share(domed.objects) >= 1.0
     assert system.gather_pays(domed)
+
+
+# A legacy scene (before 3.7: `ambient` emits under radiosity) lit only by a glowing CSG
+# frame, which gets no patches: only the gather's rays can carry its light to the floor.
+FRAME = """#version 3.6;
+global_settings { assumed_gamma 1.0 radiosity { count 400 recursion_limit 1 nearest_count 4
+  error_bound 0.01 brightness 2 } }
+camera { location <0, 4, -8> look_at <0, 0.5, 0> }
+plane { y, 0 texture { pigment { rgb 1 } finish { ambient 0 diffuse 1 } } }
+difference { box { -0.5, 0.5 } box { <-0.45, -0.45, -1>, <0.45, 0.45, 1> }
+  box { <-1, -0.45, -0.45>, <1, 0.45, 0.45> } box { <-0.45, -1, -0.45>, <0.45, 1, 0.45> }
+  texture { pigment { rgb <1, 0.5, 0.2> } finish { ambient 1 diffuse 0 } } translate y*0.5 }
+"""
+
+
+def test_an_emitter_without_patches_brings_the_gather_in():
+    from lang.evaluate import compile_source
+
+    scene = compile_source(FRAME, "frame.pov").scene
+    assert scene is not None and not scene.lights
+    # the frame is small, yet its light reaches the floor only through gather rays
+    assert system.gather_pays(scene)
+    # without its ambient (3.7's rule) nothing emits
+    modern = compile_source(FRAME.replace("#version 3.6", "#version 3.7"), "f.pov").scene
+    assert modern is not None and not system.gather_pays(modern)
+
+
+@pytest.mark.povray
+def test_a_glowing_csg_frame_lights_the_floor_as_in_povray(tmp_path):
+    """Mean display value of the image against POV-Ray's (64×48, no anti-aliasing): the
+    floor was black (0.003 against POV-Ray's 0.033 in red) before an emitter without
+    patches brought the gather in; now within a third of POV-Ray's (0.025 measured: 64
+    gather rays where POV-Ray takes 400 finds the thin frame less often)."""
+    from conftest import povray_image, strala_image
+
+    ref = povray_image(FRAME, tmp_path, 64, 48)
+    ours, _ = strala_image(FRAME, tmp_path, 64, 48)
+    ratio = ours.mean(axis=(0, 1)) / ref.mean(axis=(0, 1))
+    assert np.all(ratio > 0.65) and np.all(ratio < 1.35), ratio

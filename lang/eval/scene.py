@@ -407,15 +407,26 @@ def _b_global_settings(it: BuildContext, g: Grouped, node: syntax.Block) -> None
 
 def _b_radiosity(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Radiosity:
     fields: dict[str, Any] = {"span": node.span}
+    converged = False
     for name, args, span in g.items:
-        if name in ("count", "recursion_limit", "max_patches"):
+        if name == "recursion_limit" and not 1 <= int(args[0]) <= 20:
+            # POV-Ray refuses these (its tracer's depth is 20 at most)
+            it.sink.error(
+                "E0202",
+                "radiosity recursion limit must be in the range 1 to 20",
+                span,
+                "strala's extension `converged on` takes every bounce",
+            )
+        elif name in ("count", "recursion_limit", "max_patches"):
             fields[name] = int(args[0])
+        elif name == "converged":
+            converged = args[0] is None or bool(args[0])
         elif name in ("error_bound", "brightness", "gray_threshold", "patch_size", "tolerance"):
             fields[name] = args[0]
         elif name == "media":
-            fields["media"] = bool(args[0]) if args else True
+            fields["media"] = args[0] is None or bool(args[0])  # bare: on
         elif name == "always_sample":
-            fields["always_sample"] = bool(args[0]) if args else True
+            fields["always_sample"] = args[0] is None or bool(args[0])  # bare: on
         elif name == "nearest_count":
             # POV-Ray 3.7 takes 1..20 (a second value is 3.7's adaptive pretrace count)
             fields["nearest_count"] = max(1, min(20, int(args[0])))
@@ -450,6 +461,8 @@ def _b_radiosity(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Radiosi
                 f"radiosity `{name}` has no meaning for strala's radiosity solver; ignored",
                 span,
             )
+    if converged:
+        fields["recursion_limit"] = None
     return ir.Radiosity(**fields)
 
 

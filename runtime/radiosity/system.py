@@ -896,7 +896,9 @@ def compute(
     scene: ir.Scene = prepared.scene
     if opts is None:
         r = scene.settings.radiosity or ir.Radiosity()
-        opts = Options.from_ir(r, final_gather=gather_pays(scene, prepared.objects))
+        opts = Options.from_ir(
+            r, final_gather=gather_pays(scene, prepared.objects, set(_meshable(prepared)))
+        )
     # The display (flat or Gouraud) reads the solution; it is not part of it.
     # So is the number of gather rays.
     display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
@@ -939,30 +941,48 @@ def _print_warnings(res: RadiosityResult) -> None:
         print(f"strala: warning: {msg}", file=sys.stderr)
 
 
-def gather_pays(scene: ir.Scene, objects=None) -> bool:
+def gather_pays(scene: ir.Scene, objects=None, meshed: set[int] | None = None) -> bool:
     """Whether the display should take the first bounce by a final gather: where light
-    sources or the sky shine, or where the emitting surfaces are large (a glowing dome
-    around the scene). Where the light comes from small emitting surfaces only (a Cornell
+    sources or the sky shine, where the emitting surfaces are large (a glowing dome
+    around the scene), or where an emitter gets no patches (CSG, text: only the gather's
+    rays see its light). Where the light comes from small emitting surfaces only (a Cornell
     box's ceiling patch), the patches carry it better: their form factors to the emitters
-    are exact, while a gather's few dozen rays that must find a small emitter are noisy."""
+    are exact, while a gather's few dozen rays that must find a small emitter are noisy.
+    `meshed`: the indices of `objects` that get patches (None: every meshable shape)."""
     sky = bool(scene.sky_sphere) or any(scene.background[:3])
     if scene.lights or sky:
         return True
-    return emitter_share(scene.objects if objects is None else objects) >= LARGE_EMITTERS
+    objects = scene.objects if objects is None else objects
+    for i, o in enumerate(objects):
+        if _emits(o, scene.settings) and (
+            not isinstance(o.shape, MESHED) or (meshed is not None and i not in meshed)
+        ):
+            return True
+    return emitter_share(objects, scene.settings) >= LARGE_EMITTERS
 
 
 # The emitters' bounding boxes' surface area, as a share of the scene's box's, from which
 # gather rays find them easily.
 LARGE_EMITTERS = 0.25
 
+# The shapes the mesher gives patches (SceneMesher.object)
+MESHED = (ir.Sphere, ir.Box, ir.Plane, ir.Polygon, ir.Disc, ir.Triangle, ir.Mesh)
 
-def emitter_share(objects) -> float:
+
+def _emits(obj: ir.Object, settings: ir.Settings | None) -> bool:
+    """Whether a surface sends out light of its own: emission, or before 3.7 ambient."""
+    tex = obj.texture
+    if tex is None:
+        return False
+    white = np.ones(3)
+    if settings is None:
+        return bool(np.any(white * np.asarray(tex.finish.emission, dtype=np.float64) > 0))
+    return bool(np.any(emitted(white, tex.finish, settings) > 0))
+
+
+def emitter_share(objects, settings: ir.Settings | None = None) -> float:
     """Surface area of the emitting objects' world boxes over that of the whole scene's
     box (1 or more: the emitters surround the scene)."""
-
-    def emits(obj: ir.Object) -> bool:
-        tex = obj.texture
-        return tex is not None and any(c > 0 for c in np.atleast_1d(tex.finish.emission))
 
     def area(lo: np.ndarray, hi: np.ndarray) -> float:
         if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)):
@@ -970,7 +990,7 @@ def emitter_share(objects) -> float:
         d = np.maximum(hi - lo, 0.0)
         return float(2 * (d[0] * d[1] + d[1] * d[2] + d[0] * d[2]))
 
-    lit = [o for o in objects if emits(o)]
+    lit = [o for o in objects if _emits(o, settings)]
     if not lit:
         return 0.0
     whole = area(*scene_bounds(list(objects), []))

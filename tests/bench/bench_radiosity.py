@@ -217,7 +217,8 @@ def run_strala(tmp: Path, size: float, budget: int, width: int) -> Run:
     marker = "radiosity {"
     if marker not in text:
         raise SystemExit("cornell.pov has no radiosity block to configure")
-    text = text.replace(marker, f"{marker} patch_size {size} max_patches {budget}", 1)
+    # every bounce, as the path-traced reference has
+    text = text.replace(marker, f"{marker} converged on patch_size {size} max_patches {budget}", 1)
     scene = tmp / f"strala_{size}_{budget}.pov"
     scene.write_text(text)
     out = scene.with_suffix(".exr")
