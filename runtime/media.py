@@ -40,13 +40,16 @@ SHADOW_SAMPLES: int = 4
 class Region:
     """Media of one region: `node` (a tracer node whose inside holds them) or the atmosphere."""
 
-    def __init__(self, media: tuple[ir.Media, ...], node=None):
+    def __init__(self, media: tuple[ir.Media, ...], node=None, beams: bool = False):
         self.media = media
         self.node = node
         self.constant = all(not m.density for m in media)
         self.scatters = any(max(m.scattering) != 0 for m in media)
-        # POV-Ray's method 3 (adaptive, at fixed depths) or its random depths (1 and 2)
-        self.adaptive = adaptive_media.uses_method_3(media)
+        # POV-Ray's method 3 (adaptive, at fixed depths) or its random depths (1 and 2).
+        # Scattering media under spot or cylinder lights stay with the random depths:
+        # POV-Ray puts method 3's intervals where those beams light the ray, which
+        # adaptive_media does not do, and a few fixed depths would miss the beams.
+        self.adaptive = adaptive_media.uses_method_3(media) and not (beams and self.scatters)
         self.samples = min(
             MAX_SAMPLES, max(MIN_SAMPLES, max(m.intervals * m.samples[0] * 4 for m in media))
         )
@@ -55,13 +58,18 @@ class Region:
 class MediaScene:
     def __init__(self, prepared):
         objs = prepared.objects
+        beams = any(
+            light.kind in ("spotlight", "cylinder") and light.media_interaction
+            for light in prepared.scene.lights
+        )
         self.regions: list[Region] = []
         for node in prepared.tracer.nodes:
             leaf = node.leaves[0]
             o = objs[leaf]
             if o.interior.media and o.hollow:
-                self.regions.append(Region(tuple(o.interior.media), node))
-        self.atmosphere = Region(tuple(prepared.scene.media)) if prepared.scene.media else None
+                self.regions.append(Region(tuple(o.interior.media), node, beams))
+        media = tuple(prepared.scene.media)
+        self.atmosphere = Region(media, None, beams) if media else None
         self.nonhollow = np.array([not o.hollow for o in objs], dtype=bool)
 
     @property
