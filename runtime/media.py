@@ -13,8 +13,9 @@ densities), and source = emission + scattering * sum over lights of the phase fu
 times the light reaching the sample (shadow rays; `media_attenuation` dims that light by
 the media on its way; lights with `media_interaction off` are left out). The phase
 functions are POV-Ray's (isotropic 1, Mie haze and murky, Rayleigh, Henyey-Greenstein),
-not normalised, averaged over the media of the region. The samples are not POV-Ray's random
-sequence; their expected value is the same integral.
+not normalised, averaged over every media the point is in. Method 3 (POV-Ray's default)
+samples POV-Ray's own depths (runtime.adaptive_media); methods 1 and 2 are random in
+POV-Ray, and here the stratified depths above reach the same expected value.
 
 Light reaching a sample comes through runtime.lights (shadow rays), which reaches back here
 only through the context: `ctx.media.transmittance` dims light by the media on its way.
