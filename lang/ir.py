@@ -125,7 +125,7 @@ class Media:
     murky, 4 Rayleigh, 5 Henyey-Greenstein with `eccentricity`). Each `density` (a pigment
     whose RGB is the density, in the media's space: the media's transforms are in each
     density's transform) multiplies all three; none means a constant density of 1. The
-    sampling settings are POV-Ray's; the renderer aims at the same expected value."""
+    sampling settings are POV-Ray's (its defaults by language version: lang.eval.media)."""
 
     emission: Vec3 = (0.0, 0.0, 0.0)
     absorption: Vec3 = (0.0, 0.0, 0.0)

@@ -13,8 +13,9 @@ densities), and source = emission + scattering * sum over lights of the phase fu
 times the light reaching the sample (shadow rays; `media_attenuation` dims that light by
 the media on its way; lights with `media_interaction off` are left out). The phase
 functions are POV-Ray's (isotropic 1, Mie haze and murky, Rayleigh, Henyey-Greenstein),
-not normalised, averaged over the media of the region. The samples are not POV-Ray's random
-sequence; their expected value is the same integral.
+not normalised, averaged over every media the point is in. Method 3 (POV-Ray's default)
+samples POV-Ray's own depths (runtime.adaptive_media); methods 1 and 2 are random in
+POV-Ray, and here the stratified depths above reach the same expected value.
 
 Light reaching a sample comes through runtime.lights (shadow rays), which reaches back here
 only through the context: `ctx.media.transmittance` dims light by the media on its way.
@@ -25,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from lang import ir
-from runtime import patterns, ray_random, shading
+from runtime import adaptive_media, patterns, ray_random, shading
 from runtime.lights import shadow
 
 # Rays that hit nothing cross this much atmosphere (POV-Ray's MAX_DISTANCE).
@@ -40,11 +41,16 @@ SHADOW_SAMPLES: int = 4
 class Region:
     """Media of one region: `node` (a tracer node whose inside holds them) or the atmosphere."""
 
-    def __init__(self, media: tuple[ir.Media, ...], node=None):
+    def __init__(self, media: tuple[ir.Media, ...], node=None, beams: bool = False):
         self.media = media
         self.node = node
         self.constant = all(not m.density for m in media)
         self.scatters = any(max(m.scattering) != 0 for m in media)
+        # POV-Ray's method 3 (adaptive, at fixed depths) or its random depths (1 and 2).
+        # Scattering media under spot or cylinder lights stay with the random depths:
+        # POV-Ray puts method 3's intervals where those beams light the ray, which
+        # adaptive_media does not do, and a few fixed depths would miss the beams.
+        self.adaptive = adaptive_media.uses_method_3(media) and not (beams and self.scatters)
         self.samples = min(
             MAX_SAMPLES, max(MIN_SAMPLES, max(m.intervals * m.samples[0] * 4 for m in media))
         )
@@ -53,13 +59,18 @@ class Region:
 class MediaScene:
     def __init__(self, prepared):
         objs = prepared.objects
+        beams = any(
+            light.kind in ("spotlight", "cylinder") and light.media_interaction
+            for light in prepared.scene.lights
+        )
         self.regions: list[Region] = []
         for node in prepared.tracer.nodes:
             leaf = node.leaves[0]
             o = objs[leaf]
             if o.interior.media and o.hollow:
-                self.regions.append(Region(tuple(o.interior.media), node))
-        self.atmosphere = Region(tuple(prepared.scene.media)) if prepared.scene.media else None
+                self.regions.append(Region(tuple(o.interior.media), node, beams))
+        media = tuple(prepared.scene.media)
+        self.atmosphere = Region(media, None, beams) if media else None
         self.nonhollow = np.array([not o.hollow for o in objs], dtype=bool)
 
     @property
@@ -79,13 +90,26 @@ class MediaScene:
         allowed = np.ones(n, dtype=bool)
         regions = _all_regions(self) if atmosphere else self.regions
         for i, region in enumerate(regions):
-            count = _count(region, True)
-            s = _samples(region, points, dirs, t_end, allowed, count, key, i, not atmosphere)
-            if s is None:
-                continue
-            r, t, ds = s
-            p = points[r] + t[:, None] * dirs[r]
-            ext, _, _ = coefficients(region, p, ctx.gamma)
+            if region.adaptive and not region.constant:
+
+                def extinction(rows, t, region=region):
+                    ext = coefficients(region, points[rows] + t[:, None] * dirs[rows], ctx.gamma)[0]
+                    return ext, np.zeros_like(ext)
+
+                a = _adaptive(
+                    region, points, dirs, t_end, allowed, key, i, extinction, not atmosphere
+                )
+                if a is None:
+                    continue
+                r, _, ds, ext, _ = a
+            else:
+                count = _count(region, True)
+                s = _samples(region, points, dirs, t_end, allowed, count, key, i, not atmosphere)
+                if s is None:
+                    continue
+                r, t, ds = s
+                p = points[r] + t[:, None] * dirs[r]
+                ext, _, _ = coefficients(region, p, ctx.gamma)
             for ch in range(3):
                 tau[:, ch] += np.bincount(r, ext[:, ch] * ds, minlength=n)
         return np.exp(-tau)
@@ -174,6 +198,20 @@ def _samples(region: Region, o, d, t_end, allowed, count: int, key: np.ndarray, 
     return np.repeat(rows, count), t, np.repeat(ds, count)
 
 
+def _adaptive(region: Region, o, d, t_end, allowed, key, which: int, evaluate,
+              open_end: bool = False):  # fmt: skip
+    """Method 3's slabs of the region's pieces of the rays: (ray, depth, length,
+    extinction, source), or None where no ray crosses the region."""
+    t0, t1, mask = _pieces(region, o, d, t_end, allowed, open_end)
+    rows, cols = np.nonzero(mask)
+    if not len(rows):
+        return None
+    piece = ray_random.derive(key[rows], cols.astype(np.uint64) * np.uint64(1 << 16) + which)
+    one = region.constant and not region.scatters
+    return adaptive_media.sample(region.media, rows, t0[rows, cols], t1[rows, cols], one,
+                                 evaluate, piece)  # fmt: skip
+
+
 def _count(region: Region, shadow: bool) -> int:
     if shadow:
         return 1 if region.constant else SHADOW_SAMPLES
@@ -210,10 +248,26 @@ def _in_scattered(ctx, region: Region, p, ray_dir, scat) -> np.ndarray:
                 ctx, pts[lit], ls.direction[lit], ls.distance[lit], light.media_attenuation
             )
         alpha = np.einsum("ij,ij->i", ls.direction[lit], rd[lit])
-        k = np.asarray(sum(phase(m, alpha) for m in region.media) / len(region.media))
-        acc[lit] += k[:, None] * col
+        acc[lit] += _phase(ctx.media, region, pts[lit], alpha)[:, None] * col
     out[rows] = acc * scat[rows]
     return out
+
+
+def _phase(ms: MediaScene, region: Region, p: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """The phase function at points p of a region: as POV-Ray's, the average over every
+    media the ray is in there, so where containers overlap each one's scattering takes
+    the phase of all of them."""
+    total = np.asarray(sum(phase(m, alpha) for m in region.media), dtype=np.float64)
+    count = np.full(len(p), float(len(region.media)))
+    if region.node is not None:
+        for other in ms.regions:
+            if other is region:
+                continue
+            inside = other.node.inside(p)
+            if inside.any():
+                total = total + inside * sum(phase(m, alpha) for m in other.media)
+                count += inside * len(other.media)
+    return total / count
 
 
 def apply(ctx, o, d, t_hit, hit_obj, normal, col) -> np.ndarray:
@@ -233,16 +287,26 @@ def apply(ctx, o, d, t_hit, hit_obj, normal, col) -> np.ndarray:
     key = ray_random.keys(o, d)
     parts = []
     for i, region in enumerate(_all_regions(ms)):
+
+        def evaluate(r, t, region=region):
+            p = o[r] + t[:, None] * d[r]
+            ext, emis, scat = coefficients(region, p, ctx.gamma)
+            if region.scatters:
+                emis = emis + _in_scattered(ctx, region, p, d[r], scat)
+            return ext, emis
+
+        if region.adaptive:
+            a = _adaptive(region, o, d, t_end, allowed, key, i, evaluate)
+            if a is not None:
+                r, t, ds, ext, src = a
+                parts.append((r, t, ds, ext, src, np.ones(len(r), dtype=bool)))
+            continue
         s = _samples(region, o, d, t_end, allowed, _count(region, False), key, i)
         if s is None:
             continue
         r, t, ds = s
-        p = o[r] + t[:, None] * d[r]
-        ext, emis, scat = coefficients(region, p, ctx.gamma)
-        src = emis
-        if region.scatters:
-            src = src + _in_scattered(ctx, region, p, d[r], scat)
-        parts.append((r, t, ds, ext, src))
+        ext, src = evaluate(r, t)
+        parts.append((r, t, ds, ext, src, np.zeros(len(r), dtype=bool)))
     if not parts:
         return col
     r = np.concatenate([x[0] for x in parts])
@@ -250,17 +314,20 @@ def apply(ctx, o, d, t_hit, hit_obj, normal, col) -> np.ndarray:
     ds = np.concatenate([x[2] for x in parts])
     ext = np.concatenate([x[3] for x in parts])
     src = np.concatenate([x[4] for x in parts])
+    flat = np.concatenate([x[5] for x in parts])
     order = np.lexsort((t, r))
-    r, ds, ext, src = r[order], ds[order], ext[order], src[order]
+    r, ds, ext, src, flat = r[order], ds[order], ext[order], src[order], flat[order]
     od = ext * ds[:, None]
     cum = np.cumsum(od, axis=0)
     start = np.searchsorted(r, np.arange(n))
     first = np.concatenate([np.zeros((1, 3)), cum])[start]  # optical depth before each ray
     before = cum - od - first[r]
     # Each sample stands for a slab of constant media ds long: its source, attenuated
-    # across the slab itself, gives src (1 - exp(-ext ds)) / ext (src ds where ext = 0).
+    # across the slab itself, gives src (1 - exp(-ext ds)) / ext (src ds where ext = 0);
+    # method 3's slabs are not attenuated inside (POV-Ray's sum).
     with np.errstate(divide="ignore", invalid="ignore"):
         slab = np.where(od > 1e-12, -np.expm1(-od) / np.where(od > 1e-12, od, 1.0), 1.0)
+    slab[flat] = 1.0
     light = src * (ds[:, None] * slab) * np.exp(-before)
     out = col.copy()
     tau = np.zeros((n, 3))

@@ -105,8 +105,16 @@ _INTS = {"method", "intervals", "aa_level"}
 _FLOATS = {"ratio", "confidence", "variance", "aa_threshold", "jitter"}
 
 
+def _new_media(version: float) -> ir.Media:
+    """POV-Ray's defaults for a media block: since 3.5, method 3 with one interval of 10
+    samples; before, method 1 with 10 intervals of one sample."""
+    if version >= 3.5:
+        return ir.Media(method=3, intervals=1, samples=(10, 10))
+    return ir.Media(method=1, intervals=10, samples=(1, 1))
+
+
 def build_media(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Media:
-    m: ir.Media = g.positional.get("base") or ir.Media()
+    m: ir.Media = g.positional.get("base") or _new_media(it.version)
     for name, args, span in g.items:
         v: Any = args[0] if args else None
         if name == "media":
