@@ -95,6 +95,21 @@ def test_without_the_renderer_trace_misses_and_nothing_is_loaded():
     assert proc.stdout.strip() == "[] False", proc.stdout + proc.stderr
 
 
+def test_without_the_renderer_each_query_warns_once_where_it_is_first_called():
+    """Not a silent difference: check's answers (a miss, outside) are named, once per
+    function, at the first call."""
+    text = (
+        "#declare S = sphere { 0, 1 }\n#declare A = trace(S, -5*z, z);\n"
+        "#declare B = trace(S, -5*x, x);\n#declare C = inside(S, 0);\n"
+    )
+    warned = [d for d in compile_source(text, "w.pov").diagnostics if "gives" in d.message]
+    assert [(d.span.line, d.span.col) for d in warned] == [(2, 14), (4, 14)]
+    assert "<0, 0, 0>" in warned[0].message and "gives 0" in warned[1].message
+    # with the renderer, nothing to say
+    ran = compile_source(text, "w.pov", queries=RuntimeQueries).diagnostics
+    assert not [d for d in ran if "gives" in d.message]
+
+
 @pytest.mark.parametrize(
     "call, code",
     [("trace(S, 0)", "E0232"), ("trace(1, 0, z)", "E0202"), ("trace(S, 0, z, 3)", "E0202"),

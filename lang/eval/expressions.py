@@ -262,6 +262,14 @@ def _geometry_call(it: BuildContext, node: syntax.Call) -> Any:
     except EvalError as e:
         raise it.error("E0203", e.message, node.span) from None
     queries = it.scene_queries()
+    if queries is None:
+        answer = "0" if name == "inside" else "<0, 0, 0>"
+        it.warn_once(
+            f"no-renderer:{name}()",
+            f"{name}() called from the scene language gives {answer} here",
+            node.span,
+            "it needs the renderer's geometry: `strala render` computes it",
+        )
     target = it.query_object(obj) if queries is not None else None
     if name == "inside":
         return 1.0 if queries is not None and queries.inside(target, vecs[0]) else 0.0
