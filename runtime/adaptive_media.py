@@ -72,7 +72,7 @@ def sample(
     d = np.arange(count + 1) * dd
     pos = np.broadcast_to(d, (len(ray), count + 1)).copy()
     if lead.jitter:
-        u = ray_random.uniforms(ray_random.derive(piece_key, np.uint64(3)), count + 1)
+        u = ray_random.uniforms(ray_random.derive(piece_key, 3), count + 1)
         pos += dd * lead.jitter * (u - 0.5)
     ext, src = _at(evaluate, ray, start, length, pos)
     colour, depth = src * length[:, None, None], ext * length[:, None, None]
@@ -104,7 +104,7 @@ def sample(
         if lead.jitter:
             # a node is named by its slab and its left end (a dyadic part of the slab)
             name = sub_key[nodes.target] + (nodes.d1 * (1 << 40)).astype(np.uint64)
-            u = ray_random.uniforms(ray_random.derive(name, np.uint64(16 + level)), 1)[:, 0]
+            u = ray_random.uniforms(ray_random.derive(name, 16 + level), 1)[:, 0]
             mid_pos = mid_pos + lead.jitter * (nodes.d3 - nodes.d1) * (u - 0.5)
         t = nodes.target
         e2, s2 = _at(evaluate, sub_ray[t], sub_start[t], sub_length[t], mid_pos[:, None])
