@@ -23,7 +23,7 @@ BOX = "box { <-2, -2, -2>, <2.5, 2, 2>"
 
 def furnace(shape: str, s: float, patch: float) -> np.ndarray:
     text = f"""#version 3.7;
-global_settings {{ assumed_gamma 1.0 radiosity {{ patch_size {num(patch * s)} }} }}
+global_settings {{ assumed_gamma 1.0 radiosity {{ converged on patch_size {num(patch * s)} }} }}
 camera {{ location <0.3, -0.4, -0.5> look_at <1, 0.2, 1> angle 100 scale {num(s)} }}
 {shape} scale {num(s)}
   pigment {{ rgb 1 }} finish {{ ambient 0 diffuse {RHO} emission {E} }} }}
