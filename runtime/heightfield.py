@@ -193,13 +193,13 @@ def height_field_mesh(
     if shape.water_level > 0:
         keep = (h.reshape(-1)[faces] > shape.water_level).any(axis=1)
         faces = faces[keep]
-    normals = _povray_normals(h) if shape.smooth else None
+    normals = povray_normals(h) if shape.smooth else None
     return ir.Mesh(
         vertices=verts, faces=faces.astype(np.int32), normals=normals, smooth=shape.smooth
     )
 
 
-def _povray_normals(h: np.ndarray) -> np.ndarray:
+def povray_normals(h: np.ndarray) -> np.ndarray:
     """Vertex normals (rows·columns, 3) as POV-Ray smooths a height field: at each sample,
     the unit normals of the four triangles to its neighbours right/down, down/left,
     left/up and up/right (those inside the grid), turned up and summed, all in POV-Ray's

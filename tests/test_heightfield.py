@@ -182,7 +182,7 @@ def test_smoothed_steep_relief_is_shaded_as_povray(tmp_path, pattern):
 def test_smooth_normals_point_up_on_flat_ground_and_sideways_only_on_a_step():
     h = np.zeros((5, 5))
     h[:, 3:] = 1.0  # a cliff between columns 2 and 3
-    n = hf._povray_normals(h).reshape(5, 5, 3)
+    n = hf.povray_normals(h).reshape(5, 5, 3)
     assert np.allclose(n[:, 0], [0, 1, 0]) and np.allclose(n[:, 4], [0, 1, 0])
     # beside the cliff: still nearly up (the grid's 65536 per height makes the step steep)
     assert np.all(n[:, 2, 1] > 0.99) and np.all(n[:, 3, 1] > 0.99)
