@@ -193,19 +193,48 @@ def height_field_mesh(
     if shape.water_level > 0:
         keep = (h.reshape(-1)[faces] > shape.water_level).any(axis=1)
         faces = faces[keep]
-    normals = _vertex_normals(verts, faces) if shape.smooth else None
+    normals = povray_normals(h) if shape.smooth else None
     return ir.Mesh(
         vertices=verts, faces=faces.astype(np.int32), normals=normals, smooth=shape.smooth
     )
 
 
-def _vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    e1 = verts[faces[:, 1]] - verts[faces[:, 0]]
-    e2 = verts[faces[:, 2]] - verts[faces[:, 0]]
-    fn = np.cross(e1, e2)
-    fn[fn[:, 1] < 0] *= -1.0  # every face normal up: the winding above is not uniform
-    n = np.zeros_like(verts)
-    for k in range(3):
-        np.add.at(n, faces[:, k], fn)
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    return n / np.where(length > 0, length, 1.0)
+def povray_normals(h: np.ndarray) -> np.ndarray:
+    """Vertex normals (rows·columns, 3) as POV-Ray smooths a height field: at each sample,
+    the unit normals of the four triangles to its neighbours right/down, down/left,
+    left/up and up/right (those inside the grid), turned up and summed, all in POV-Ray's
+    grid space (one unit per sample across, 65536 per full height up), where a step
+    between samples is a near-vertical face; then brought into the mesh's space (x and z
+    0..1, heights 0..1), where that space's scaling makes the normals of flat and
+    gently sloping ground point almost straight up."""
+    R, C = h.shape
+    y = h * HF_TOP
+    grid = np.stack(
+        [np.broadcast_to(np.arange(C, dtype=np.float64), (R, C)), y,
+         np.broadcast_to(np.arange(R, dtype=np.float64)[:, None], (R, C))], axis=-1
+    )  # fmt: skip
+    total = np.zeros((R, C, 3))
+    for (da, ra), (db, rb) in (((1, 0), (0, 1)), ((0, 1), (-1, 0)), ((-1, 0), (0, -1)),
+                               ((0, -1), (1, 0))):  # fmt: skip
+        # neighbours (column + da, row + ra) and (column + db, row + rb)
+        ok = np.ones((R, C), dtype=bool)
+        ia, ib = _shifted(grid, da, ra, ok), _shifted(grid, db, rb, ok)
+        n = np.cross(ib - grid, ia - grid)
+        n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+        n[n[..., 1] < 0] *= -1.0
+        total += np.where(ok[..., None], n, 0.0)
+    # grid (column, value, row) -> mesh (x = column/(C−1), y = value/65536, z = 1 − row/(R−1))
+    total *= np.array([C - 1, HF_TOP, -(R - 1)], dtype=np.float64)
+    length = np.linalg.norm(total, axis=-1, keepdims=True)
+    return (total / np.where(length > 0, length, 1.0)).reshape(-1, 3)
+
+
+def _shifted(grid: np.ndarray, dc: int, dr: int, ok: np.ndarray) -> np.ndarray:
+    """grid[row + dr, column + dc] for every sample (edge values where that is outside
+    the grid, which clears `ok` there)."""
+    R, C = grid.shape[:2]
+    rows = np.arange(R)[:, None] + dr
+    cols = np.arange(C)[None, :] + dc
+    inside = (rows >= 0) & (rows < R) & (cols >= 0) & (cols < C)
+    ok &= inside
+    return grid[np.clip(rows, 0, R - 1), np.clip(cols, 0, C - 1)]

@@ -365,6 +365,33 @@ def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
 
 
 # -------------------------------------------------------------------------- shade
+def _started_inside(ctx, obj, point, dirs, depth, leaving, stacks, level) -> np.ndarray:
+    """Which rays leaving an object by its surface started inside it. A ray whose interior
+    list is empty meets an object's surface from the inside side either because it started
+    inside (a camera in glass: POV-Ray puts the object in the camera ray's list) or because
+    it came in where the object has no surface (the open top of a height field's solid,
+    an `inverse` object): there POV-Ray's list says the ray enters. Camera rays only (their
+    hits are at level 1), whose start is `depth` back along the ray (the camera, whose
+    containing objects are POV-Ray's first list); further rays keep the surface's side, as
+    the kernel does."""
+    maybe = leaving & (stacks[:, 0] == interiors.NONE) & (np.asarray(level) == 1)
+    if depth is None or not maybe.any():
+        return leaving
+    from runtime.functions import compile_xyz
+    from runtime.inside import inside_points
+
+    out = leaving.copy()
+    rows = np.nonzero(maybe)[0]
+    start = point[rows] - depth[rows, None] * dirs[rows]
+    whole = ctx.prepared.whole_objects
+    for o in np.unique(obj[rows]):
+        if int(o) not in whole:  # a CSG part: its own inside is not its object's
+            continue
+        sel = obj[rows] == o
+        out[rows[sel]] = inside_points(ctx.prepared.objects[o], start[sel], compile_xyz)
+    return out
+
+
 def shade(
     ctx: Context,
     obj: np.ndarray,
@@ -391,7 +418,11 @@ def shade(
     raw = np.where(leaving[:, None], -normal, normal)
     if stacks is None:
         stacks = interiors.empty(n)
-    crossing = interiors.cross(stacks, ctx.interior_id[obj], ctx.interior_ior, leaving)
+    crossing = interiors.cross(
+        stacks, ctx.interior_id[obj], ctx.interior_ior, _started_inside(ctx, obj, point, dirs,
+                                                                       depth, leaving, stacks,
+                                                                       level)
+    )  # fmt: skip
     hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim, uv, stacks, crossing)
     lights = light_colours(ctx, hit)
     secondary = Secondary()

@@ -65,6 +65,19 @@ class Prepared:
         return any(texture_reflects(t) for o in self.objects for t in _textures(o))
 
     @functools.cached_property
+    def whole_objects(self) -> frozenset[int]:
+        """Indices of the objects that are whole objects, not parts of a CSG nor clipped:
+        analytic leaves that are tracer nodes themselves, and triangle leaves."""
+        from runtime.trace import Leaf
+
+        found = {n.index for n in self.tracer.nodes if isinstance(n, Leaf) and n.index >= 0}
+        tri = self.tracer.triangles
+        if tri is not None and len(getattr(tri, "leaf_of", ())):
+            solid: frozenset[int] = getattr(tri, "solid", frozenset())  # CSG parts, clipped
+            found |= {int(i) for i in np.unique(tri.leaf_of) if int(i) not in solid}
+        return frozenset(found)
+
+    @functools.cached_property
     def has_refraction(self) -> bool:
         """Some pigment colour lets light through (filter or transmit not 0)."""
         return any(texture_transparent(t) for o in self.objects for t in _textures(o))

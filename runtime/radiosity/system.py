@@ -560,16 +560,8 @@ def _polygon_points(shape) -> np.ndarray:
 
 
 def _meshable(prepared) -> list[int]:
-    """Indices of top-level objects (not CSG parts, not clipped): analytic leaves that are
-    tracer nodes themselves, and triangle leaves."""
-    from runtime.trace import Leaf
-
-    out = [n.index for n in prepared.tracer.nodes if isinstance(n, Leaf) and n.index >= 0]
-    tri = prepared.tracer.triangles
-    if tri is not None and len(getattr(tri, "leaf_of", ())):
-        solid: frozenset[int] = getattr(tri, "solid", frozenset())  # CSG parts, clipped
-        out += [int(i) for i in np.unique(tri.leaf_of) if int(i) not in solid]
-    return sorted(set(out))
+    """Indices of top-level objects (not CSG parts, not clipped)."""
+    return sorted(prepared.whole_objects)
 
 
 def _gathered(F, B, patches: Patches, D, S) -> np.ndarray:
