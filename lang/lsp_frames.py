@@ -77,6 +77,11 @@ class FrameReader:
             pass
         return out
 
+    @property
+    def held(self) -> int:
+        """How many bytes the reader keeps (a refused body is not kept)."""
+        return len(self._buf)
+
     def pending(self) -> bool:
         """Whether a message was cut off (the stream ended inside it)."""
         return self._need is not None or self._skip > 0 or bool(bytes(self._buf).strip(_SPACE))
@@ -248,3 +253,11 @@ def request_id(value: Any) -> int | str | None:
 
 def _is_id(v: Any) -> bool:
     return v is None or (isinstance(v, int | str) and not isinstance(v, bool))
+
+
+def error_frame(msg_id: int | str | None, code: int, message: str) -> bytes:
+    """A framed JSON-RPC error response."""
+    body = json.dumps(
+        {"jsonrpc": "2.0", "id": msg_id, "error": {"code": code, "message": message}}
+    ).encode()
+    return b"Content-Length: %d\r\n\r\n" % len(body) + body
