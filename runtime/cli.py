@@ -1303,7 +1303,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def cmd_lsp(args: argparse.Namespace) -> int:
     from lang.lsp import main as serve
 
-    serve()  # returns when the editor shuts the server down
+    serve()  # exits when the editor shuts the server down: 0 after shutdown, else 1 (LSP)
     return 0
 
 
