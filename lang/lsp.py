@@ -209,7 +209,10 @@ class StralaServer(LanguageServer):
             if not chunk:
                 break
             for event in frames.feed(chunk):
-                self.receive(event)
+                try:
+                    self.receive(event)
+                except Exception as exc:  # one message's failure never ends the stream
+                    _log(f"a message could not be handled: {type(exc).__name__}: {exc}")
         if frames.pending():
             _log("the client left in the middle of a message")
 

@@ -221,8 +221,12 @@ class FrameReader:
 
 
 def _decode(body: bytes) -> Any:
-    """The JSON value a body holds (ValueError if it holds none, or more than one)."""
-    return json.loads(body.decode("utf-8"))
+    """The JSON value a body holds (ValueError if it holds none, or more than one, or is
+    nested past Python's frames: `[[[…]]]` 100,000 deep was a RecursionError)."""
+    try:
+        return json.loads(body.decode("utf-8"))
+    except RecursionError:
+        raise ValueError("JSON nested too deeply") from None
 
 
 def invalid_request(value: Any) -> str | None:

@@ -21,7 +21,7 @@ from lang.lsp_frames import (
 
 
 def frame(value: object, delta: int = 0, blank: bool = True) -> bytes:
-    body = json.dumps(value).encode()
+    body = value if isinstance(value, bytes) else json.dumps(value).encode()
     head = f"Content-Length: {len(body) + delta}\r\n" + ("\r\n" if blank else "")
     return head.encode() + body
 
@@ -70,6 +70,9 @@ def test_a_bad_frame_costs_one_error_and_the_next_frame_is_read(name):
     assert received(events)[-2:] == [request(1), request(2)]
     if name == "50 bytes long":
         assert received(events) == [request(7), request(1), request(2)]
+    # the error is there at once: nothing waits for bytes a stalled client never sends
+    alone = read(bad)
+    assert len([e for e in alone if isinstance(e, Unreadable)]) == errors
 
 
 def test_a_length_too_long_is_answered_without_waiting_for_more_bytes():
@@ -96,6 +99,12 @@ def test_a_huge_length_is_refused_without_reading_the_body_into_memory():
 def test_a_body_may_mention_content_length():
     value = request(1, "Content-Length: 5\\r\\n and content-length")
     assert received(read(frame(value) + frame(request(2)))) == [value, request(2)]
+
+
+def test_json_nested_past_pythons_frames_is_a_parse_error():
+    deep = b"[" * 100_000 + b"]" * 100_000
+    events = read(frame(deep) + frame(request(1)))
+    assert [type(e) for e in events] == [Unreadable, Received]
 
 
 def test_a_message_cut_off_by_the_end_of_the_stream_is_pending():

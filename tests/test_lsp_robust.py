@@ -122,6 +122,11 @@ def _bad_frames(uri: str) -> dict[str, tuple[bytes, list[tuple[Any, int]]]]:
             [(None, PARSE_ERROR)],
         ),  # fmt: skip
         "a body that is not JSON": (frame(b"{not json"), [(None, PARSE_ERROR)]),
+        "JSON nested 100,000 deep": (
+            frame(b"[" * 100_000 + b"]" * 100_000),
+            [(None, PARSE_ERROR)],
+        ),  # fmt: skip
+        "a body that is not UTF-8": (frame(b'\xff\xfe{"a": 1}'), [(None, PARSE_ERROR)]),
         "a huge Content-Length": (b"Content-Length: 99999999999\r\n\r\n", [(None, PARSE_ERROR)]),
         "JSON that is an array": (frame([1, 2]), [(None, INVALID_REQUEST)]),
         "JSON without jsonrpc": (frame({"id": 901, "method": "x"}), [(901, INVALID_REQUEST)]),
