@@ -37,6 +37,9 @@ from lang.syntax import SourceFile
 # that arrive while an analysis runs wait in the queue and each re-arms the timer, so only the
 # last text is analysed. A change after a pause is analysed at once.
 DEBOUNCE_SECONDS = 0.05
+# A pause this long in the middle of a message's body: the reader looks at whether what came
+# is whole (a Content-Length too long), instead of waiting for bytes that may never come.
+IDLE_SECONDS = 0.1
 
 _SEVERITY = {
     Severity.ERROR: T.DiagnosticSeverity.Error,
@@ -204,11 +207,21 @@ class StralaServer(LanguageServer):
         # read1: what is there (a message may be shorter than a buffer), never waiting for more
         read = getattr(stdin, "read1", stdin.read)
         frames = lsp_frames.FrameReader()
+        reading: asyncio.Future[bytes] | None = None
         while True:
-            chunk = await loop.run_in_executor(self.thread_pool, read, 1 << 16)
-            if not chunk:
-                break
-            for event in frames.feed(chunk):
+            if reading is None:
+                reading = loop.run_in_executor(self.thread_pool, read, 1 << 16)
+            # in the middle of a body, a pause lets the reader see whether it is whole
+            wait = IDLE_SECONDS if frames.waiting() else None
+            done, _ = await asyncio.wait({reading}, timeout=wait)
+            if not done:
+                events = frames.idle()
+            else:
+                chunk, reading = reading.result(), None
+                if not chunk:
+                    break
+                events = frames.feed(chunk)
+            for event in events:
                 try:
                     self.receive(event)
                 except Exception as exc:  # one message's failure never ends the stream

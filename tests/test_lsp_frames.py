@@ -6,6 +6,7 @@ without its blank line."""
 from __future__ import annotations
 
 import json
+import time
 
 import pytest
 from hypothesis import given, settings
@@ -77,7 +78,25 @@ def test_a_bad_frame_costs_one_error_and_the_next_frame_is_read(name):
 
 def test_a_length_too_long_is_answered_without_waiting_for_more_bytes():
     # the client sends one request and waits for the answer: no more bytes will come
-    assert received(read(frame(request(1), 50))) == [request(1)]
+    reader = FrameReader()
+    assert reader.feed(frame(request(1), 50)) == [] and reader.waiting()
+    assert received(reader.idle()) == [request(1)] and not reader.waiting()
+    assert received(reader.feed(frame(request(2)))) == [request(2)]
+    # a body still coming is not taken at a pause
+    data = frame(request(3))
+    assert reader.feed(data[:-3]) == [] and reader.idle() == []
+    assert received(reader.feed(data[-3:])) == [request(3)]
+
+
+def test_a_big_body_in_small_chunks_is_read_in_linear_time():
+    text = "sphere { <1,2,3>, 1 pigment { rgb 1 } }\n" * 50_000  # 2 MB, braces everywhere
+    data = frame(request(1, text))
+    reader, events = FrameReader(), []
+    start = time.perf_counter()
+    for i in range(0, len(data), 4096):
+        events += reader.feed(data[i : i + 4096])
+    assert received(events) == [request(1, text)]
+    assert time.perf_counter() - start < 2.0  # about 0.05 s; 10 s once for 20 MB
 
 
 def test_a_huge_length_is_refused_without_reading_the_body_into_memory():

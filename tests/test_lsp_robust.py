@@ -237,3 +237,11 @@ def test_stdin_closed_in_the_middle_of_a_message_ends_the_server(raw, shut_down)
 def test_exit_without_shutdown_is_status_1(raw):
     raw.send({"jsonrpc": "2.0", "method": "exit"})
     assert raw.wait() == 1
+
+
+def test_a_length_too_long_is_answered_though_no_more_bytes_come(raw, tmp_path):
+    uri = (tmp_path / "s.pov").as_uri()
+    raw.notify("textDocument/didOpen", {"textDocument": {"uri": uri, "languageId": "pov",
+                                                         "version": 1, "text": TEXT}})  # fmt: skip
+    raw.send(frame(_hover_request(7, uri), 50))  # and nothing after it: the client waits
+    assert "sphere" in raw.answer(7, timeout=10)["result"]["contents"]["value"]
