@@ -183,6 +183,7 @@ class StralaServer(LanguageServer):
         self._active: dict[str, float] = {}  # when each document last changed or was analysed
         self._docs: dict[str, str] | None = None
         self.shut_down = False  # a shutdown request came: requests now are InvalidRequest
+        self.initialized = False  # `initialize` came: before it, requests are refused
 
     # ------------------------------------------------------------ the stream
     def start_io(self, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
@@ -246,6 +247,12 @@ class StralaServer(LanguageServer):
                 value["id"], lsp_frames.INVALID_REQUEST, f"`{method}` after shutdown"
             )  # LSP: a request after shutdown is an InvalidRequest error
             return
+        if not self.initialized and method not in (T.INITIALIZE, T.EXIT, None):
+            if request:  # LSP: requests before initialize are ServerNotInitialized errors
+                why = f"`{method}` before initialize"
+                self.reply_error(value["id"], lsp_frames.SERVER_NOT_INITIALIZED, why)
+            return  # and notifications are dropped
+        self.initialized = self.initialized or method == T.INITIALIZE
         if method is not None and "params" not in value:
             value = {**value, "params": None}  # optional in JSON-RPC; pygls' generic type needs it
         try:

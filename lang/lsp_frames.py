@@ -31,6 +31,7 @@ PARSE_ERROR = -32700
 INVALID_REQUEST = -32600
 METHOD_NOT_FOUND = -32601
 INVALID_PARAMS = -32602
+SERVER_NOT_INITIALIZED = -32002  # LSP's: a request before `initialize`
 
 # A body above this is refused unread (an editor's largest message is a whole document;
 # 2 MB scenes are 2 MB). Headers are a few short lines.

@@ -234,6 +234,21 @@ def test_stdin_closed_in_the_middle_of_a_message_ends_the_server(raw, shut_down)
     assert "in the middle of a message" in raw.stderr
 
 
+def test_a_request_before_initialize_is_refused():
+    server = RawServer()
+    try:
+        server.send(_hover_request(1, "file:///x.pov"))
+        assert server.answer(1)["error"]["code"] == -32002  # LSP's ServerNotInitialized
+        server.notify("textDocument/didOpen", {"textDocument": {"uri": "file:///x.pov",
+                      "languageId": "pov", "version": 1, "text": TEXT}})  # fmt: skip
+        server.initialize(ROOT)
+        server.send(_hover_request(2, "file:///x.pov"))  # the early didOpen was dropped
+        assert server.answer(2)["error"]["code"] == INVALID_PARAMS
+        assert server.proc.poll() is None
+    finally:
+        server.kill()
+
+
 def test_exit_without_shutdown_is_status_1(raw):
     raw.send({"jsonrpc": "2.0", "method": "exit"})
     assert raw.wait() == 1
