@@ -188,13 +188,12 @@ class StralaServer(LanguageServer):
     # ------------------------------------------------------------ the stream
     def start_io(self, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
         """Serve on stdio until `exit` or the end of stdin, through lang.lsp_frames' reader
-        (pygls' own stayed out of step after one bad frame). The exit status is LSP's: 0
-        after a shutdown request, else 1."""
+        (pygls' own stayed out of step after one bad frame). The exit status: `exit`'s is
+        LSP's (0 after a shutdown request, else 1); the end of stdin is a clean end (0)."""
         self.protocol.set_writer(StdoutWriter(stdout or sys.stdout.buffer))
         status: Any = 0
         try:
             asyncio.run(self._serve(stdin or sys.stdin.buffer))
-            status = 0 if self.shut_down else 1
         except SystemExit as e:  # the `exit` notification
             status = e.code
         except (BrokenPipeError, KeyboardInterrupt):

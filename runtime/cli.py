@@ -1312,7 +1312,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def cmd_lsp(args: argparse.Namespace) -> int:
     from lang.lsp import main as serve
 
-    serve()  # exits when the editor shuts the server down: 0 after shutdown, else 1 (LSP)
+    serve()  # exits at the end of stdin (0) or at `exit`: 0 after shutdown, else 1 (LSP)
     return 0
 
 
