@@ -16,13 +16,17 @@ from __future__ import annotations
 import asyncio
 import gc
 import re
+import sys
 from pathlib import Path
+from typing import Any, BinaryIO
 from urllib.parse import unquote, urlparse
 
 from lsprotocol import types as T
+from pygls.exceptions import JsonRpcInvalidParams
+from pygls.io_ import StdoutWriter
 from pygls.lsp.server import LanguageServer
 
-from lang import keywords, outline, paths
+from lang import keywords, lsp_frames, outline, paths
 from lang.diagnostics import Diagnostic, Severity, Span
 from lang.format import format_source
 from lang.incremental import IncrementalParser
@@ -33,6 +37,9 @@ from lang.syntax import SourceFile
 # that arrive while an analysis runs wait in the queue and each re-arms the timer, so only the
 # last text is analysed. A change after a pause is analysed at once.
 DEBOUNCE_SECONDS = 0.05
+# A pause this long in the middle of a message's body: the reader looks at whether what came
+# is whole (a Content-Length too long), instead of waiting for bytes that may never come.
+IDLE_SECONDS = 0.1
 
 _SEVERITY = {
     Severity.ERROR: T.DiagnosticSeverity.Error,
@@ -175,6 +182,98 @@ class StralaServer(LanguageServer):
         self._pending: dict[str, asyncio.TimerHandle] = {}
         self._active: dict[str, float] = {}  # when each document last changed or was analysed
         self._docs: dict[str, str] | None = None
+        self.shut_down = False  # a shutdown request came: requests now are InvalidRequest
+        self.initialized = False  # `initialize` came: before it, requests are refused
+
+    # ------------------------------------------------------------ the stream
+    def start_io(self, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
+        """Serve on stdio until `exit` or the end of stdin, through lang.lsp_frames' reader
+        (pygls' own stayed out of step after one bad frame). The exit status: `exit`'s is
+        LSP's (0 after a shutdown request, else 1); the end of stdin is a clean end (0)."""
+        self.protocol.set_writer(StdoutWriter(stdout or sys.stdout.buffer))
+        status: Any = 0
+        try:
+            asyncio.run(self._serve(stdin or sys.stdin.buffer))
+        except SystemExit as e:  # the `exit` notification
+            status = e.code
+        except (BrokenPipeError, KeyboardInterrupt):
+            status = 1
+        finally:
+            self.shutdown()
+        sys.exit(status)
+
+    async def _serve(self, stdin: BinaryIO) -> None:
+        loop = asyncio.get_running_loop()
+        # read1: what is there (a message may be shorter than a buffer), never waiting for more
+        read = getattr(stdin, "read1", stdin.read)
+        frames = lsp_frames.FrameReader()
+        reading: asyncio.Future[bytes] | None = None
+        while True:
+            if reading is None:
+                reading = loop.run_in_executor(self.thread_pool, read, 1 << 16)
+            # in the middle of a body, a pause lets the reader see whether it is whole
+            wait = IDLE_SECONDS if frames.waiting() else None
+            done, _ = await asyncio.wait({reading}, timeout=wait)
+            if not done:
+                events = frames.idle()
+            else:
+                chunk, reading = reading.result(), None
+                if not chunk:
+                    break
+                events = frames.feed(chunk)
+            for event in events:
+                try:
+                    self.receive(event)
+                except Exception as exc:  # one message's failure never ends the stream
+                    _log(f"a message could not be handled: {type(exc).__name__}: {exc}")
+        if frames.pending():
+            _log("the client left in the middle of a message")
+
+    def receive(self, event: lsp_frames.Event) -> None:
+        """One message from the stream, checked as JSON-RPC and LSP ask before pygls gets it."""
+        if isinstance(event, lsp_frames.Unreadable):
+            self.reply_error(None, lsp_frames.PARSE_ERROR, event.reason)
+            return
+        value = event.value
+        problem = lsp_frames.invalid_request(value)
+        if problem is not None:
+            self.reply_error(lsp_frames.request_id(value), lsp_frames.INVALID_REQUEST, problem)
+            return
+        method = value.get("method")
+        request = method is not None and "id" in value
+        if self.shut_down and request:
+            self.reply_error(
+                value["id"], lsp_frames.INVALID_REQUEST, f"`{method}` after shutdown"
+            )  # LSP: a request after shutdown is an InvalidRequest error
+            return
+        if not self.initialized and method not in (T.INITIALIZE, T.EXIT, None):
+            if request:  # LSP: requests before initialize are ServerNotInitialized errors
+                why = f"`{method}` before initialize"
+                self.reply_error(value["id"], lsp_frames.SERVER_NOT_INITIALIZED, why)
+            return  # and notifications are dropped
+        self.initialized = self.initialized or method == T.INITIALIZE
+        if method is not None and "params" not in value:
+            value = {**value, "params": None}  # optional in JSON-RPC; pygls' generic type needs it
+        try:
+            message = self.protocol.structure_message(value)
+        except Exception:  # pygls' cattrs structuring: the params are not what the method takes
+            if request:
+                why = f"the params of `{method}` are not what it takes"
+                self.reply_error(value["id"], lsp_frames.INVALID_PARAMS, why)
+            else:
+                _log(f"`{method}` with params it does not take: ignored")
+            return
+        if method == T.TEXT_DOCUMENT_DID_CHANGE and (
+            unquote(message.params.text_document.uri) not in self.workspace.text_documents
+        ):
+            _log(f"didChange of {message.params.text_document.uri}, never opened: ignored")
+            return
+        self.protocol.handle_message(message)
+
+    def reply_error(self, msg_id: int | str | None, code: int, message: str) -> None:
+        writer = self.protocol.writer
+        if writer is not None:
+            writer.write(lsp_frames.error_frame(msg_id, code, message))
 
     @property
     def keyword_docs(self) -> dict[str, str]:
@@ -183,7 +282,11 @@ class StralaServer(LanguageServer):
         return self._docs
 
     def publish(self, uri: str) -> None:
-        doc = self.workspace.get_text_document(uri)
+        try:
+            doc = text_document(self, uri)
+        except JsonRpcInvalidParams:
+            _log(f"{uri} is neither open nor readable: no diagnostics")
+            return
         diags = analyse(doc.source, uri_to_path(uri))
         self.text_document_publish_diagnostics(
             T.PublishDiagnosticsParams(
@@ -212,7 +315,16 @@ class StralaServer(LanguageServer):
         self._active[uri] = asyncio.get_event_loop().time()
 
 
+def _log(text: str) -> None:
+    print(f"strala lsp: {text}", file=sys.stderr, flush=True)
+
+
 server = StralaServer()
+
+
+@server.feature(T.SHUTDOWN)
+def shutdown(ls: StralaServer, params: None) -> None:
+    ls.shut_down = True
 
 
 @server.feature(T.TEXT_DOCUMENT_DID_OPEN)
@@ -238,8 +350,19 @@ def did_close(ls: StralaServer, params: T.DidCloseTextDocumentParams) -> None:
     )
 
 
-def _tree(ls: StralaServer, uri: str):
+def text_document(ls: StralaServer, uri: str) -> Any:
+    """The open document `uri`, else the file on disk (as pygls reads it); a request about
+    a document that is neither is InvalidParams (it was an internal error)."""
     doc = ls.workspace.get_text_document(uri)
+    try:
+        _ = doc.source  # read from disk when not open
+    except (OSError, UnicodeDecodeError, TypeError, ValueError):
+        raise JsonRpcInvalidParams(f"{uri} is not open and cannot be read") from None
+    return doc
+
+
+def _tree(ls: StralaServer, uri: str):
+    doc = text_document(ls, uri)
     tree, _ = document(uri_to_path(uri)).parse(doc.source)
     return doc, tree
 
@@ -505,7 +628,7 @@ def folding_range(ls: StralaServer, params: T.FoldingRangeParams) -> list[T.Fold
 
 @server.feature(T.TEXT_DOCUMENT_FORMATTING)
 def formatting(ls: StralaServer, params: T.DocumentFormattingParams) -> list[T.TextEdit]:
-    doc = ls.workspace.get_text_document(params.text_document.uri)
+    doc = text_document(ls, params.text_document.uri)
     new = format_source(doc.source)
     if new == doc.source:
         return []

@@ -5,7 +5,12 @@ below). The scene's folder and the library folders are always readable.
 
 `check` and the language server open files an editor hands them, often someone else's: they
 read only the scene's folder and the library folders, whatever povray.conf says. A render
-follows povray.conf, or, without one, reads anywhere (POV-Ray's own default, read-only)."""
+follows povray.conf, or, without one, reads anywhere (POV-Ray's own default, read-only);
+`render --io-restrictions` sets the level over povray.conf's.
+
+The same levels decide `#fopen`: reading as any other read; writing beside the scene (its
+folder and below), or anywhere at `none`. (POV-Ray also lets `read-only` and `restricted`
+write in povray.conf's `read+write` paths; strala keeps writes beside the scene.)"""
 
 from __future__ import annotations
 
@@ -16,15 +21,19 @@ from pathlib import Path
 
 from lang import paths
 
+LEVELS = ("none", "read-only", "restricted")  # POV-Ray's [File I/O Security]
+
 
 @dataclass(frozen=True)
 class ReadAccess:
-    """folders: readable with everything below them; shallow: readable, not below."""
+    """folders: readable with everything below them; shallow: readable, not below;
+    writes_anywhere: `#fopen` may write outside the scene's folder (level `none`)."""
 
     restricted: bool
     folders: tuple[Path, ...] = ()
     shallow: tuple[Path, ...] = ()
     why: str = ""
+    writes_anywhere: bool = False
 
     def allows(self, path: str | os.PathLike[str]) -> bool:
         if not self.restricted:
@@ -62,14 +71,30 @@ def povray_conf() -> Path | None:
     return next((c for c in candidates if c.is_file()), None)
 
 
-def from_povray_conf(conf: Path | None, scene_folder: Path, libraries: Iterable[str]) -> ReadAccess:
-    """The reads povray.conf permits a render (no file: reads anywhere)."""
-    if conf is None:
+def from_povray_conf(
+    conf: Path | None, scene_folder: Path, libraries: Iterable[str], level: str | None = None
+) -> ReadAccess:
+    """The reads povray.conf permits a render (no file: reads anywhere); `level`, one of
+    LEVELS (--io-restrictions), overrides its `[File I/O Security]`."""
+    conf_level, deep, shallow = _conf_settings(conf) if conf is not None else ("read-only", [], [])
+    if level is None:
+        level, why = conf_level, f"povray.conf ({conf}) restricts reads"
+    else:
+        why = f"--io-restrictions {level}"
+    if level == "none":
+        return ReadAccess(False, why=why, writes_anywhere=True)
+    if level != "restricted":
         return UNRESTRICTED
+    folders = (scene_folder.resolve(), *_library_folders(libraries), *deep)
+    return ReadAccess(True, folders, tuple(shallow), why)
+
+
+def _conf_settings(conf: Path) -> tuple[str, list[Path], list[Path]]:
+    """povray.conf's level and its permitted paths: (level, deep folders, shallow ones)."""
     try:
         lines = conf.read_text(errors="replace").splitlines()
     except OSError:
-        return UNRESTRICTED
+        return "read-only", [], []
     section, level = "", "read-only"
     deep: list[Path] = []
     shallow: list[Path] = []
@@ -89,7 +114,4 @@ def from_povray_conf(conf: Path | None, scene_folder: Path, libraries: Iterable[
             folder = (conf.parent / where if not os.path.isabs(where) and where != "." else
                       Path(where)).resolve()  # fmt: skip
             (deep if kind.endswith("*") else shallow).append(folder)
-    if level != "restricted":
-        return UNRESTRICTED
-    folders = (scene_folder.resolve(), *_library_folders(libraries), *deep)
-    return ReadAccess(True, folders, tuple(shallow), f"povray.conf ({conf}) restricts reads")
+    return level, deep, shallow

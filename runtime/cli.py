@@ -163,6 +163,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--aa-gamma", type=float, default=2.5, metavar="G", help="+AG: gamma of the comparison"
     )
     r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
+    r.add_argument(
+        "--io-restrictions",
+        choices=read_access.LEVELS,
+        help="POV-Ray's [File I/O Security], over povray.conf's: none (read and write "
+        "anywhere), read-only (read anywhere, write beside the scene), restricted (read only "
+        "the scene's, the library and povray.conf's permitted folders)",
+    )
     r.add_argument("--bits", type=int, choices=(8, 16, 32), help="PNG/TIFF 8|16, EXR 16|32")
     r.add_argument(
         "--clock", type=float, default=0.0, action=_ClockGiven, help="value of `clock` (default 0)"
@@ -591,6 +598,7 @@ def _compile(
     declares: Mapping[str, float] | None = None,
     budget: Budget | None = None,
     confine_reads: str | None = None,
+    io_restrictions: str | None = None,
 ):
     """(scene or None, diagnostics) for a scene file; a missing file is a diagnostic.
 
@@ -620,7 +628,7 @@ def _compile(
         budget=budget or RENDER,
         confine_reads=confine_reads,
         reads=read_access.from_povray_conf(
-            read_access.povray_conf(), Path(path).resolve().parent, libraries
+            read_access.povray_conf(), Path(path).resolve().parent, libraries, io_restrictions
         ),
     )
     return result.scene, list(result.diagnostics)
@@ -785,6 +793,7 @@ def _load_scene(args: argparse.Namespace, clock: float):
         debug_output=not args.quiet,
         animation=getattr(args, "animation", None),
         declares=_declares(args),
+        io_restrictions=getattr(args, "io_restrictions", None),
     )
 
 
@@ -1303,7 +1312,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def cmd_lsp(args: argparse.Namespace) -> int:
     from lang.lsp import main as serve
 
-    serve()  # returns when the editor shuts the server down
+    serve()  # exits at the end of stdin (0) or at `exit`: 0 after shutdown, else 1 (LSP)
     return 0
 
 

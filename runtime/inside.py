@@ -39,13 +39,30 @@ def object_matrix(obj: ir.Object) -> np.ndarray | None:
     return None if obj.transform == ir.IDENTITY else tf.as_matrix(obj.transform)
 
 
+# How far (and, inverted, how small) a transform may take an object and still be traced in
+# float64: distances are squared, and squared again (radiosity's form factors divide by d⁴),
+# so `translate <1.05, 0, 1e300>` overflowed to inf and NaN (a singular matrix in the
+# radiosity solve: exit 3). POV-Ray ignores intersections beyond 1e7 (MAX_DISTANCE) anyway.
+FAR_LIMIT = 1e30
+
+
 def singular(obj: ir.Object) -> str | None:
-    """A transform that flattens the object (scale 0) cannot be inverted: say so."""
+    """Why the object's transform cannot be traced (it flattens the object, is not finite,
+    or takes it out of float64's reach), None when it can. The caller skips the object and
+    says so, at the object's line."""
     if obj.transform == ir.IDENTITY:  # most objects; no numpy for them (1000s of spheres)
         return None
     m = tf.as_matrix(obj.transform)
-    if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) == 0:
+    if not np.all(np.isfinite(m)):
+        return "its transform is not finite (a value in it overflowed)"
+    det = abs(np.linalg.det(m[:3, :3]))
+    if det == 0:
         return "its transform is singular (a zero scale?)"
+    reach = float(np.max(np.abs(m[:3])))
+    if reach > FAR_LIMIT:
+        return f"its transform takes it {reach:.3g} units out, beyond {FAR_LIMIT:.0e}"
+    if det < FAR_LIMIT**-3:
+        return f"its transform shrinks it by {det ** (1 / 3):.3g}, below {1 / FAR_LIMIT:.0e}"
     return None
 
 

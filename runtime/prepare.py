@@ -305,10 +305,9 @@ class _Builder:
         if isinstance(shape, ir.Mesh | ir.Triangle) and not obj.clipped_by:
             # the common case: into the scene's Embree scene, past the CSG machinery
             # (`inverse` turns only the inside over, which prepare never asks of it)
-            if singular(obj):
-                self.warn_once(
-                    f"a {type(shape).__name__.lower()} is skipped: {singular(obj)}", obj.span
-                )
+            why = singular(obj)
+            if why:
+                self.warn_once(f"a {type(shape).__name__.lower()} is skipped: {why}", obj.span)
                 return
             index = self.add_leaf_object(obj, flags)
             self.triangle_leaves.append((index, obj))
@@ -388,11 +387,15 @@ class _Builder:
             return self.clipped(obj, mesh_node)
         if isinstance(shape, ir.Triangle) and shapes.flat_triangle(shape):
             return None
-        why = shapes.degenerate(shape) or singular(obj)
+        why = shapes.degenerate(shape)
         if why:
             self.warn_once(
                 f"a degenerate {type(shape).__name__.lower()} is skipped: {why}", obj.span
             )
+            return None
+        why = singular(obj)
+        if why:
+            self.warn_once(f"a {type(shape).__name__.lower()} is skipped: {why}", obj.span)
             return None
         try:
             prim = prims.primitive_for(shape, compile_xyz)

@@ -284,6 +284,7 @@ def test_a_read_only_output_folder_is_refused_at_once(tmp_path, capsys):
 _FUZZ_WORDS = [
     "render", "check", "compile", "fmt", "-o", "-W", "-H", "--aa", "--no-aa", "--aa-depth",
     "-L", "--threads", "--bits", "--clock", "--frames", "--format", "json", "sarif", "-q",
+    "--io-restrictions", "restricted", "none",
     "+W", "+H64", "+A", "+A0.2", "-A", "+R2", "+O", "+Oo.png", "+I", "+L", "+WT2", "+FN16",
     "+KFI1", "+KFF3", "+SC0.5", "+ER2", "-D", "+Q9", "--", "-", "0", "-1", "1..2", "x.bmpx",
     "missing.pov", "missing.json", "missing.ini", "16", "8", "0.5", "nan",

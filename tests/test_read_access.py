@@ -14,7 +14,7 @@ import pytest
 from conftest import ROOT
 
 from lang import read_access
-from lang.evaluate import compile_source
+from lang.evaluate import compile_file, compile_source
 from lang.lsp import analyse
 
 LEAK = '#include "/etc/passwd"\nsphere { 0, 1 }\n'
@@ -95,3 +95,80 @@ def test_povray_conf_below_restricted_reads_anywhere(tmp_path, level):
     conf.write_text(f"[File I/O Security]\n{level}\n")
     assert read_access.from_povray_conf(conf, tmp_path, []).allows("/etc/passwd")
     assert read_access.from_povray_conf(None, tmp_path, []).allows("/etc/passwd")
+
+
+# ------------------------------------------------ render --io-restrictions (POV-Ray's levels)
+OPS = {
+    "#include": '#include "../outside/o.inc"\nsphere { 0, R }\n',
+    "#fopen read": '#fopen F "../outside/data.txt" read\n#read (F, S, N)\nsphere { 0, N }\n',
+    "#fopen write": '#fopen W "../outside/w.txt" write\n#write (W, "x")\n#fclose W\n'
+    "sphere { 0, 1 }\n",
+}
+# level -> the error each operation outside the scene's folder gets (None: it is done)
+ALLOWED = {
+    "none": {"#include": None, "#fopen read": None, "#fopen write": None},
+    "read-only": {"#include": None, "#fopen read": None, "#fopen write": "E0260"},
+    "restricted": {"#include": "E0261", "#fopen read": "E0261", "#fopen write": "E0260"},
+}
+
+
+def _beside(tmp_path: Path) -> tuple[Path, Path]:
+    scene, outside = tmp_path / "scene", tmp_path / "outside"
+    scene.mkdir(), outside.mkdir()
+    (outside / "o.inc").write_text("#declare R = 2;\n")
+    (outside / "data.txt").write_text('"text",2,\n')
+    return scene, outside
+
+
+@pytest.mark.parametrize("level", read_access.LEVELS)
+@pytest.mark.parametrize("op", sorted(OPS))
+def test_each_level_on_reads_and_writes_outside_the_scene_folder(tmp_path, level, op):
+    scene, outside = _beside(tmp_path)
+    # a povray.conf that says otherwise: the level given wins over it
+    conf = tmp_path / "povray.conf"
+    conf.write_text("[File I/O Security]\n" + ("none" if level == "restricted" else "restricted"))
+    access = read_access.from_povray_conf(conf, scene, [], level)
+    (scene / "s.pov").write_text(OPS[op])
+    r = compile_file(str(scene / "s.pov"), reads=access)
+    codes = [d.code for d in r.diagnostics if d.severity.name == "ERROR"]
+    expected = ALLOWED[level][op]
+    assert codes[:1] == ([expected] if expected else []), r.diagnostics  # (then N is undefined)
+    if expected is None and op == "#fopen read":
+        assert r.symbols["S"] == "text" and r.symbols["N"] == 2
+    assert (outside / "w.txt").exists() == (op == "#fopen write" and expected is None)
+    if expected:
+        e = next(d for d in r.diagnostics if d.code == expected)
+        assert e.span.line == 1 and "../outside/" in e.message
+    # beside the scene every level reads and writes
+    (scene / "data.txt").write_text('"in",1,\n')
+    (scene / "o.inc").write_text("#declare R = 1;\n")
+    (scene / "in.pov").write_text(OPS[op].replace("../outside/", ""))
+    r = compile_file(str(scene / "in.pov"), reads=access)
+    assert not [d for d in r.diagnostics if d.severity.name == "ERROR"], r.diagnostics
+
+
+def _render(scene: Path, home: Path, *extra: str):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), HOME=str(home), STRALA_CACHE=str(home / "c"))
+    return subprocess.run(
+        [sys.executable, "-m", "runtime.cli", "render", "s.pov", "-W", "8", "-H", "6",
+         "-o", str(home / "out.png"), *extra],
+        cwd=scene, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+
+
+def test_render_io_restrictions_overrides_povray_conf(tmp_path):
+    scene, outside = _beside(tmp_path)
+    home = tmp_path / "home"
+    (home / ".povray" / "3.7").mkdir(parents=True)
+    (home / ".povray" / "3.7" / "povray.conf").write_text("[File I/O Security]\nrestricted\n")
+    (scene / "s.pov").write_text(OPS["#include"])
+    r = _render(scene, home)  # the user's povray.conf: restricted
+    assert r.returncode == 1 and "E0261" in r.stderr and "povray.conf" in r.stderr, r.stderr
+    assert _render(scene, home, "--io-restrictions", "read-only").returncode == 0
+    (scene / "s.pov").write_text(OPS["#fopen write"])
+    r = _render(scene, home, "--io-restrictions", "read-only")
+    assert r.returncode == 1 and "E0260" in r.stderr and not (outside / "w.txt").exists()
+    r = _render(scene, home, "--io-restrictions", "none")
+    assert r.returncode == 0 and (outside / "w.txt").read_text() == "x", r.stderr
+    r = _render(scene, home, "--io-restrictions", "sometimes")
+    assert r.returncode == 2 and "--io-restrictions" in r.stderr

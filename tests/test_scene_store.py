@@ -203,7 +203,7 @@ FILE_ACCESS = {
     ("grammar", "get_parser"): "the grammar",
     ("eval.budget", "resident_bytes"): "the process's own size (/proc), not an input",
     ("read_access", "povray_conf"): "read before evaluating: what it permits is in the key",
-    ("read_access", "from_povray_conf"): "read before evaluating: what it permits is in the key",
+    ("read_access", "_conf_settings"): "read before evaluating: what it permits is in the key",
 }
 _LOOKS = {"open", "read_text", "read_bytes", "is_file", "exists", "isfile", "listdir", "stat",
           "glob", "scandir", "iterdir", "utime"}  # fmt: skip

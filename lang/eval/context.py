@@ -17,6 +17,7 @@ if TYPE_CHECKING:
     from lang.eval.budget import Meter
     from lang.eval.edits import Edits
     from lang.eval.elements import El, Grouped
+    from lang.read_access import ReadAccess
     from lang.values import ColorValue, FileHandle, FunctionValue, ObjectValue
 
 
@@ -39,6 +40,7 @@ class BuildContext(Protocol):
     blob_depth: int  # > 0: inside a blob body, where sphere/cylinder are components
     handles: dict[str, FileHandle]  # the files #fopen opened, by their names
     allow_file_io: bool  # False while checking: #fopen does nothing
+    reads: ReadAccess  # which files may be read, and written (lang.read_access)
     meter: Meter  # the evaluation's total work and memory (lang.eval.budget)
 
     def error(self, code: str, message: str, span: Span, hint: str | None = None) -> SceneError:

@@ -1,6 +1,7 @@
-"""The file directives: `#fopen`, `#read`, `#write`, `#fclose`, as POV-Ray runs them, confined
-to the scene's folder. What `#write` gives a file is kept and written when the file is closed
-(or the scene ends), so a failed scene leaves no half-written file behind."""
+"""The file directives: `#fopen`, `#read`, `#write`, `#fclose`, as POV-Ray runs them: reads
+where lang.read_access permits them (as #include's), writes in the scene's folder (anywhere
+at --io-restrictions none). What `#write` gives a file is kept and written when the file is
+closed (or the scene ends), so a failed scene leaves no half-written file behind."""
 
 from __future__ import annotations
 
@@ -36,14 +37,21 @@ def file_op(it: BuildContext, node: syntax.FileOp) -> None:
             return
         folder = Path(it.state.folder)
         path = (folder / name).resolve()
-        if not path.is_relative_to(folder):
+        h = FileHandle(str(path), node.mode or "read", span=node.span)
+        if h.mode == "read" and not it.reads.allows(path):
+            raise it.error(
+                "E0261",
+                f"`{name}` is outside the folders that may be read ({it.reads.why})",
+                node.span,
+                "keep data files in the scene's folder or a permitted path of povray.conf",
+            )
+        if h.mode != "read" and not (path.is_relative_to(folder) or it.reads.writes_anywhere):
             raise it.error(
                 "E0260",
                 f"`{name}` is outside the scene's folder",
                 node.span,
-                "scenes may only read and write files beside them",
+                "scenes write files only beside them (render --io-restrictions none: anywhere)",
             )
-        h = FileHandle(str(path), node.mode or "read", span=node.span)
         if h.mode != "read" and (path.is_dir() or not path.parent.is_dir()):
             why = "it is a folder" if path.is_dir() else "its folder does not exist"
             raise it.error(
