@@ -385,11 +385,23 @@ def _started_inside(ctx, obj, point, dirs, depth, leaving, stacks, level) -> np.
     start = point[rows] - depth[rows, None] * dirs[rows]
     whole = ctx.prepared.whole_objects
     for o in np.unique(obj[rows]):
-        if int(o) not in whole:  # a CSG part: its own inside is not its object's
-            continue
+        target = ctx.prepared.objects[o]
+        if int(o) not in whole:
+            continue  # a CSG part: its own inside is not its object's
         sel = obj[rows] == o
-        out[rows[sel]] = inside_points(ctx.prepared.objects[o], start[sel], compile_xyz)
+        # no inside (flat or open triangles, a height field's mesh): never in the
+        # camera's list, as POV-Ray's inside test of them is false
+        out[rows[sel]] = (
+            inside_points(target, start[sel], compile_xyz) if _has_inside(target.shape) else False
+        )
     return out
+
+
+def _has_inside(shape) -> bool:
+    """Whether the shape has an inside test here (not flat or open triangle geometry)."""
+    if isinstance(shape, ir.Mesh):
+        return shape.inside_vector is not None
+    return not isinstance(shape, ir.Polygon | ir.Triangle)
 
 
 def shade(
