@@ -635,6 +635,9 @@ class ChunkParser:
         """Feed an earlier chunk's elements into the open construct, if the parser stands
         between two elements of a list there (the piece's first token, of type `ttype`, would
         start a new element)."""
+        if any(type(n) is syntax.Tokens for n in piece.nodes):
+            # text read as tokens from a fresh state: inside a construct it reads otherwise
+            return False
         states = self.table.states
         stack, action = reduced_for(states, state.state_stack, ttype)
         if action is None or "element" not in states[stack[-1]]:

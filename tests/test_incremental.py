@@ -162,6 +162,13 @@ def test_regressions_found_by_random_edits():
     inc.parse(text)
     edited = text.replace("B = 2", "B = 5")
     assert inc.parse(edited) == parse(edited, "t.pov")
+    # Text read as tokens from a fresh state (`#version …; #end` after a macro closed early)
+    # is not taken into the construct a later edit leaves open above it.
+    text = "#ifndef (X)\n#macro M(\n#end\nA)\n  1\n#end\n\n#version 3.7;\n\n#end\n"
+    inc = IncrementalParser("t.pov")
+    inc.parse(text)
+    edited = text.replace("#end\nA)", "#en\nA)")
+    assert inc.parse(edited) == parse(edited, "t.pov")
 
 
 @given(st.text("ab\n", max_size=30), st.text("ab\n", max_size=30))
