@@ -365,45 +365,6 @@ def sky(ctx: Context, dirs: np.ndarray) -> np.ndarray:
 
 
 # -------------------------------------------------------------------------- shade
-def _started_inside(ctx, obj, point, dirs, depth, leaving, stacks, level) -> np.ndarray:
-    """Which rays leaving an object by its surface started inside it. A ray whose interior
-    list is empty meets an object's surface from the inside side either because it started
-    inside (a camera in glass: POV-Ray puts the object in the camera ray's list) or because
-    it came in where the object has no surface (the open top of a height field's solid,
-    an `inverse` object): there POV-Ray's list says the ray enters. Camera rays only (their
-    hits are at level 1), whose start is `depth` back along the ray (the camera, whose
-    containing objects are POV-Ray's first list); further rays keep the surface's side, as
-    the kernel does."""
-    maybe = leaving & (stacks[:, 0] == interiors.NONE) & (np.asarray(level) == 1)
-    if depth is None or not maybe.any():
-        return leaving
-    from runtime.functions import compile_xyz
-    from runtime.inside import inside_points
-
-    out = leaving.copy()
-    rows = np.nonzero(maybe)[0]
-    start = point[rows] - depth[rows, None] * dirs[rows]
-    whole = ctx.prepared.whole_objects
-    for o in np.unique(obj[rows]):
-        target = ctx.prepared.objects[o]
-        if int(o) not in whole:
-            continue  # a CSG part: its own inside is not its object's
-        sel = obj[rows] == o
-        # no inside (flat or open triangles, a height field's mesh): never in the
-        # camera's list, as POV-Ray's inside test of them is false
-        out[rows[sel]] = (
-            inside_points(target, start[sel], compile_xyz) if _has_inside(target.shape) else False
-        )
-    return out
-
-
-def _has_inside(shape) -> bool:
-    """Whether the shape has an inside test here (not flat or open triangle geometry)."""
-    if isinstance(shape, ir.Mesh):
-        return shape.inside_vector is not None
-    return not isinstance(shape, ir.Polygon | ir.Triangle)
-
-
 def shade(
     ctx: Context,
     obj: np.ndarray,
@@ -430,11 +391,13 @@ def shade(
     raw = np.where(leaving[:, None], -normal, normal)
     if stacks is None:
         stacks = interiors.empty(n)
-    crossing = interiors.cross(
-        stacks, ctx.interior_id[obj], ctx.interior_ior, _started_inside(ctx, obj, point, dirs,
-                                                                       depth, leaving, stacks,
-                                                                       level)
-    )  # fmt: skip
+    # A ray with an empty list meeting a surface from its inside side started inside the
+    # object (the kernel's rule). Not camera rays (their hits are at level 1): they start
+    # with the list of the objects holding the camera (runtime.containers), so an empty
+    # list there says the ray came in where the object has no surface (the open top of a
+    # height field's solid, an `inverse` object), and POV-Ray's list says it enters.
+    side = leaving & (np.asarray(level) != 1)
+    crossing = interiors.cross(stacks, ctx.interior_id[obj], ctx.interior_ior, side)
     hit = Hit(obj, tex, point, raw, leaving, dirs, weight, depth, prim, uv, stacks, crossing)
     lights = light_colours(ctx, hit)
     secondary = Secondary()
@@ -722,9 +685,10 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary, top) -
     the object's inside fades with the distance. Returns which rows reflected totally."""
     d = hit.dirs[rows]
     raw = hit.normal[rows]
-    n = top[rows]
-    # POV-Ray refracts about the perturbed normal turned toward the ray
-    n = np.where((np.einsum("ij,ij->i", d, n) > 0)[:, None], -n, n)
+    unturned = top[rows]
+    # POV-Ray refracts about the perturbed normal turned toward the ray, and reflects
+    # totally about it as it is (which side the raw-normal fix mirrors from depends on it)
+    n = np.where((np.einsum("ij,ij->i", d, unturned) > 0)[:, None], -unturned, unturned)
     tir_rows = np.zeros(len(rows), dtype=bool)
     w = hit.weight[rows] * np.abs(fil[rows]).max(axis=1)
     assert hit.crossing is not None
@@ -737,7 +701,7 @@ def transmit(ctx, hit: Hit, level, skip, fil, rows, secondary: Secondary, top) -
     r_idx = np.nonzero(~straight)[0]
     if len(r_idx):
         rd, tir = shading.refract(d[r_idx], n[r_idx], ratio[r_idx])
-        rd = np.where(tir[:, None], shading.reflect(d[r_idx], n[r_idx], raw[r_idx]), rd)
+        rd = np.where(tir[:, None], shading.reflect(d[r_idx], unturned[r_idx], raw[r_idx]), rd)
         out_dir[r_idx] = rd
         mult[r_idx[tir]] = 1.0
         tir_rows[r_idx[tir]] = True

@@ -19,7 +19,7 @@ import numpy as np
 
 from lang import ir
 from lang.diagnostics import Diagnostic, SceneError, Severity, Span
-from runtime import adaptive_antialias, antialias, color, integrate
+from runtime import adaptive_antialias, antialias, color, containers, integrate
 from runtime.antialias import Sampling
 from runtime.camera import FocalBlur, blur_rounds, blur_thresholds, camera_rays, has_focal_blur
 from runtime.context import Context
@@ -297,7 +297,10 @@ def trace_primary(ctx: Context, origins: np.ndarray, dirs: np.ndarray, traced=No
     """(N,3) colours of camera rays; black where `traced` (a mask, or None for all) says
     the projection traces no ray (outside a fisheye's circle), as in POV-Ray."""
     if traced is None:
-        return integrate.trace(ctx, origins, dirs, np.ones(len(origins)), 0, "no_image")
+        stacks = containers.camera_stacks(ctx, origins)
+        return integrate.trace(
+            ctx, origins, dirs, np.ones(len(origins)), 0, "no_image", stacks=stacks
+        )
     out = np.zeros((len(origins), 3))
     if traced.any():
         out[traced] = trace_primary(ctx, origins[traced], dirs[traced])

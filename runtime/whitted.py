@@ -200,6 +200,21 @@ def _texture_reasons(tex: ir.Texture) -> list[str]:
     return out
 
 
+def _camera_in_matter(prepared, camera: ir.Camera) -> bool:
+    """Whether the camera starts inside an object whose interior bends or fades light: the
+    kernel starts camera rays with an empty interior list (right where the objects holding
+    the camera are of ior 1 and do not fade; runtime.containers)."""
+    from runtime import containers
+
+    at = np.asarray(camera.location, dtype=np.float64)[None, :]
+    for leaves, _ in containers.holding(prepared, at):
+        for i in leaves:
+            it = prepared.objects[i].interior
+            if it.ior != 1.0 or it.fade_distance != 0.0:
+                return True
+    return False
+
+
 def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     """Why the compiled kernel cannot render this scene (empty: it can). With the render's
     context (integrate.make_context), textures it made one entry are looked at once."""
@@ -233,6 +248,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     interiors = {id(o.interior): o.interior for o in prepared.objects}
     if any(it.caustics != 0 or it.media for it in interiors.values()):
         out.append("caustics or interior media")
+    if _camera_in_matter(prepared, camera):
+        out.append("the camera inside an object with an ior or fading")
     seen: set[tuple[str, int]] = set()
     for obj in prepared.objects:
         if obj.interior_texture is not None:

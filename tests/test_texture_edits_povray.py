@@ -48,6 +48,18 @@ sphere { <0, 1, 0>, 1 texture { tiles {
   texture { pigment { rgbf <0, 1, 0, 0.5> } }
   tile2 texture { pigment { rgb 0.2 } } } scale 0.3 } }
 """,
+    # Link_Textures: a texture goes on top of the one the object has already, from a
+    # pigment written before it (glasschess' `pigment { rgbf 0.9 } texture { Glass }`)
+    # or from the object it copies
+    "texture_layers_over_the_object_s": """
+camera { location <0, 1, -5> look_at <0, 0.5, 0> angle 45 }
+plane { y, -1 pigment { checker rgb 1 rgb <0, 0, 1> } }
+#declare Glassy = texture { pigment { rgbf <0.98, 1, 0.98, 1> }
+  finish { specular 1 roughness 0.001 ambient 0 diffuse 0 } }
+sphere { <-1.2, 0.5, 0>, 1 pigment { rgbf 0.9 } texture { Glassy } interior { ior 1.5 } }
+#declare Red = sphere { 0, 1 pigment { rgb <1, 0.2, 0.2> } }
+object { Red translate <1.2, 0.5, 0> texture { pigment { rgbt <0.2, 0.2, 1, 0.6> } } }
+""",
     "no_bump_scale": """
 camera { location <0, 0, -7> look_at 0 }
 sphere { <-2.2, 0, 0>, 1 texture { pigment { rgb 1 }
@@ -114,3 +126,26 @@ def test_malformed_tiles_are_located_errors(body, message):
     errors = [d for d in result.diagnostics if d.severity.value == "error"]
     assert errors and message in errors[0].message, [d.message for d in result.diagnostics]
     assert errors[0].span.line == 5
+
+
+def test_a_texture_goes_on_top_of_the_object_s_and_not_over_a_patterned_one():
+    t, _ = _texture("sphere { 0, 1 pigment { rgbf 0.9 } texture { pigment { rgb <1, 0, 0> } } }")
+    assert t.pigment.color[3] == 0.9 and t.layers[-1].pigment.color[:3] == (1, 0, 0)
+    for body, message in [
+        (
+            "texture { checker texture { pigment { rgb 1 } } texture { pigment { rgb 0 } } }"
+            " texture { pigment { rgb 1 } }",
+            "Cannot layer over a patterned texture.",
+        ),
+        (
+            "pigment { rgb 1 } texture { checker texture { pigment { rgb 1 } }"
+            " texture { pigment { rgb 0 } } }",
+            "Cannot layer a patterned texture over another.",
+        ),
+    ]:
+        text = HEAD + "camera { location -5*z look_at 0 }\nsphere { 0, 1\n" + body + " }\n"
+        errors = [
+            d for d in compile_source(text, "t.pov").diagnostics if d.severity.value == "error"
+        ]
+        assert [d.message for d in errors][:1] == [message]
+        assert errors[0].span.line == 6

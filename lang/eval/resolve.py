@@ -9,10 +9,6 @@ from lang import ir, transforms
 from lang.ir_ops import group_lights, replaced, transform_interior, transform_texture, uv_mapped
 from lang.values import ObjectValue
 
-# The interior of every object that names none: one (frozen) value, not one each (a stored
-# scene of thousands of objects loads it once).
-_DEFAULT_INTERIOR = ir.Interior()
-
 
 def _finish_interior(inter: ir.Interior, tex: ir.Texture) -> ir.Interior:
     """POV-Ray's Post_Process (parse.cpp): the finish of a plain (unpatterned) texture that
@@ -95,7 +91,11 @@ class ObjectResolver:
         own_interior = obj.interior
         if has_parent:
             own_interior = transform_interior(own_interior, parent)
-        inter = _finish_interior(own_interior or interior or _DEFAULT_INTERIOR, tex)
+        # POV-Ray's Post_Process gives an object without an interior (its own or its CSG's)
+        # a new one, which its children without one share: interiors are told apart by
+        # identity (runtime.interiors), so two objects never share one by default.
+        base = own_interior or interior or ir.Interior()
+        inter = _finish_interior(base, tex)
         full = transforms.compose(parent, obj.transform) if has_parent else obj.transform
         shape = obj.shape
         # no_shadow, hollow … on a CSG hold for every child (the runtime may flatten CSG)
@@ -118,7 +118,7 @@ class ObjectResolver:
                     default,
                     full,
                     own or inherited,
-                    own_interior or interior,
+                    base,
                     merged,
                     placed,
                     group,

@@ -26,6 +26,7 @@ from lang.eval.elements import (
     Quiet,
     item_matrix,
 )
+from lang.eval.textures import layered
 from lang.ir_ops import (
     replaced,
     top_layer,
@@ -71,6 +72,28 @@ def _modified_texture(it: BuildContext, t: ir.Texture, name: str, v: Any) -> ir.
     return with_top_layer(t, **{name: it.edits.onto(it, v, getattr(top_layer(t), name))})
 
 
+def _linked(old: ir.Texture | None, new: ir.Texture) -> ir.Texture:
+    """POV-Ray's Link_Textures: a texture (or material) given to an object goes on top of
+    the one it has already, from a pigment written before it, an earlier texture, or the
+    object it copies (`object { A texture { … } }`); POV-Ray refuses to layer over or
+    under a patterned one."""
+    if old is None:
+        return new
+    if top_layer(old).pattern is not None:
+        raise EvalError(
+            "Cannot layer over a patterned texture.",
+            "the object has a patterned texture already (texture_map, checker textures …): "
+            "give the texture where that one is given instead",
+        )
+    if top_layer(new).pattern is not None:
+        raise EvalError(
+            "Cannot layer a patterned texture over another.",
+            "the object has a texture already (perhaps from a `pigment` written before): "
+            "give the patterned texture alone",
+        )
+    return layered([old, new])
+
+
 def apply_object_items(it: BuildContext, obj: ObjectValue, g: Grouped) -> ObjectValue:
     for name, args, span in g.items:
         try:
@@ -112,18 +135,13 @@ def _object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -
     if name in ("pigment", "finish", "normal"):
         obj.texture = _modified_texture(it, _obj_texture(it, obj), name, args[0])
     elif name == "texture":
-        if obj.flags.get("_explicit_texture") and obj.texture is not None:
-            obj.texture = replaced(obj.texture, layers=obj.texture.layers + (args[0],))
-        else:
-            obj.texture = args[0]
-            obj.flags["_explicit_texture"] = True
+        obj.texture = _linked(obj.texture, args[0])
     elif name == "interior":
         obj.interior = args[0]
     elif name == "material":
         m: MaterialValue = args[0]
         if m.texture is not None:
-            obj.texture = m.texture
-            obj.flags["_explicit_texture"] = True
+            obj.texture = _linked(obj.texture, m.texture)
         if m.interior is not None:
             obj.interior = m.interior
         if m.interior_texture is not None:

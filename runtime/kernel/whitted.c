@@ -1101,7 +1101,9 @@ static int transmit(Scene *s, const double *p, const double *d, const double *n,
     if (fabs(fil[2]) > big) big = fabs(fil[2]);
     double w = weight * big, ratio;
     Inside past;
-    int inside = cross(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving, &ratio, &past);
+    /* not for camera rays (hits at level 1): the objects holding the camera bend and fade
+     * nothing here (whitted.reasons), so an empty list there says the ray enters */
+    int inside = cross(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving && level != 1, &ratio, &past);
     int straight = fabs(ratio - 1.0) < EPSILON;
     double td[3] = {d[0], d[1], d[2]}, mult[3] = {fil[0], fil[1], fil[2]};
     int tir = 0;
