@@ -19,7 +19,9 @@ from conftest import ROOT
 from runtime import image
 from runtime.signals import stale_temporaries, temporary_name
 
-ENDLESS = "#for (I, 0, 999999)\n #for (J, 0, 999999) #end\n#end\n"
+# Each pass allocates an array: check's step budget (1M) then lasts about 10 s, not the
+# 1.5 s of empty loops, which could end before the signal was sent.
+ENDLESS = "#for (I, 0, 999999)\n #declare A = array[20000];\n#end\n"
 SCENE = "camera { location -5*z look_at 0 } light_source { <5, 5, -5> rgb 1 }\n"
 BALLS = "#for (I, 0, 400) sphere { <mod(I, 20) - 10, div(I, 20) - 10, 5>, 0.5 } #end\n"
 
