@@ -239,3 +239,43 @@ def test_evaluated_scenes_round_trip(source):
     text = serialize.dumps(result.scene)
     assert serialize.loads(text) == result.scene
     assert serialize.dumps(serialize.loads(text)) == text  # and the text is stable
+
+
+def _interior_groups(scene: ir.Scene) -> list[int]:
+    """The leaves' interiors numbered by identity, in leaf order."""
+    numbers: dict[int, int] = {}
+    out: list[int] = []
+
+    def walk(obj: ir.Object) -> None:
+        if isinstance(obj.shape, ir.CSG):
+            for child in obj.shape.children:
+                walk(child)
+        else:
+            out.append(numbers.setdefault(id(obj.interior), len(numbers)))
+
+    for obj in scene.objects:
+        walk(obj)
+    return out
+
+
+def test_interiors_keep_their_sharing():
+    """Interiors are told apart by identity: a CSG's children without one share its, other
+    objects have their own, equal or not. The JSON keeps which share one."""
+    from lang.evaluate import compile_source
+
+    source = """#version 3.7;
+camera { location -5*z look_at 0 }
+merge { sphere { 0, 1 } sphere { x, 1 } pigment { rgbf 1 } interior { ior 1.5 } }
+difference { sphere { 0, 1 } sphere { 0, 0.5 interior { ior 1.2 } } pigment { rgbf 1 } }
+sphere { 0, 1 } sphere { 0, 2 }
+"""
+    scene = compile_source(source, "s.pov").scene
+    assert scene is not None
+    assert _interior_groups(scene) == [0, 0, 1, 2, 3, 4]
+    text = serialize.dumps(scene)
+    back = serialize.loads(text)
+    assert back == scene and _interior_groups(back) == [0, 0, 1, 2, 3, 4]
+    # written with the CSGs; their children without one of their own refer to them
+    assert text.count('"$ref"') == 3
+    with pytest.raises(serialize.IRFormatError, match="reference to no value"):
+        serialize.loads(text.replace('{"$ref":0}', '{"$ref":7}'))
