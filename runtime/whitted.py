@@ -35,7 +35,7 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, context, patterns, shading, shapes, uvmap
+from runtime import color, containers, context, interiors, patterns, shading, shapes, uvmap
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
@@ -48,13 +48,15 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 56, 64, 48, 24, 64, 7, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 80, 64, 48, 24, 64, 7, 16, 1024
 BVH, BVH_STACK = 11, 128
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
 H_LOC, H_DIR, H_RIGHT, H_UP, H_TOL = 16, 19, 22, 25, 28
 H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM, H_MASK = range(39, 48)
 H_NLOOSE = 48
+# the camera rays' interior list (runtime.containers): its length, the ids, their iors
+H_CAMIN = 56
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
@@ -201,11 +203,11 @@ def _texture_reasons(tex: ir.Texture) -> list[str]:
 
 
 def _camera_in_matter(prepared, camera: ir.Camera) -> bool:
-    """Whether the camera starts inside an object whose interior bends or fades light: the
-    kernel starts camera rays with an empty interior list (right where the objects holding
-    the camera are of ior 1 and do not fade; runtime.containers)."""
-    from runtime import containers
-
+    """Whether an orthographic camera starts inside an object whose interior bends or fades
+    light: the kernel gives every camera ray the list of the objects holding the camera's
+    location (runtime.containers), and an orthographic camera's rays start elsewhere."""
+    if camera.kind != "orthographic":
+        return False
     at = np.asarray(camera.location, dtype=np.float64)[None, :]
     for leaves, _ in containers.holding(prepared, at):
         for i in leaves:
@@ -249,7 +251,7 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     if any(it.caustics != 0 or it.media for it in interiors.values()):
         out.append("caustics or interior media")
     if _camera_in_matter(prepared, camera):
-        out.append("the camera inside an object with an ior or fading")
+        out.append("an orthographic camera inside an object with an ior or fading")
     seen: set[tuple[str, int]] = set()
     for obj in prepared.objects:
         if obj.interior_texture is not None:
@@ -507,6 +509,12 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     h[[H_NUNB, H_NBVH, H_NITEM, H_NLOOSE]] = len(unbounded), len(bvh), len(items), len(loose)
     h[H_MASK] = 1.0
     h[H_MAXLEVEL], h[H_BAILOUT] = s.max_trace_level, s.adc_bailout
+    held = containers.camera_stacks(ctx, np.asarray(camera.location, dtype=np.float64)[None])[0]
+    held = held[held >= 0]
+    h[H_CAMIN] = len(held)
+    h[H_CAMIN + 1 : H_CAMIN + 1 + len(held)] = held
+    iors = H_CAMIN + 1 + interiors.DEPTH
+    h[iors : iors + len(held)] = ctx.interior_ior[held]
     h[H_AMB : H_AMB + 3] = s.ambient_light
     h[H_BG : H_BG + 3] = ctx.background
     h[H_LEGACY] = ctx.legacy_opacity

@@ -18,7 +18,7 @@
 #include <string.h>
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
-#define HDR 56
+#define HDR 80
 #define OBJ 64
 #define TEX 48
 #define LIT 24
@@ -33,7 +33,7 @@
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
-       H_MASK, H_NLOOSE };
+       H_MASK, H_NLOOSE, H_CAMIN = 56 };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49 };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
@@ -1281,8 +1281,14 @@ static void trace_pixel(Scene *s, double x, double y, double *out) {
     }
     double len = sqrt(dot(d, d));
     d[0] /= len, d[1] /= len, d[2] /= len;
-    static const Inside outside = {0};
-    trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, 0, &outside, out);
+    /* the objects holding the camera (runtime/containers.py), as POV-Ray's camera rays */
+    Inside held = {0};
+    held.n = (int)s->h[H_CAMIN];
+    for (int k = 0; k < held.n && k < INSIDE_DEPTH; k++) {
+        held.id[k] = (int)s->h[H_CAMIN + 1 + k];
+        held.ior[k] = s->h[H_CAMIN + 1 + INSIDE_DEPTH + k];
+    }
+    trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, 0, &held, out);
 }
 
 /* One tile with POV-Ray's anti-aliasing method 1, as runtime/antialias.py does it: first
