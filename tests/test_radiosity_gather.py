@@ -225,3 +225,21 @@ def test_a_glowing_csg_frame_lights_the_floor_as_in_povray(tmp_path):
     ours, _ = strala_image(FRAME, tmp_path, 64, 48)
     ratio = ours.mean(axis=(0, 1)) / ref.mean(axis=(0, 1))
     assert np.all(ratio > 0.65) and np.all(ratio < 1.35), ratio
+
+
+@pytest.mark.parametrize("count, warned", [(400, True), (50, False)])
+def test_light_only_gather_rays_find_is_said_to_be_grainier(count, warned, capsys):
+    """The frame's light reaches the floor only through the final gather, capped at 64 rays
+    a point where POV-Ray interpolates samples of `count` rays: said at the frame, once."""
+    from lang.evaluate import compile_source
+
+    scene = compile_source(FRAME.replace("count 400", f"count {count}"), "frame.pov").scene
+    assert scene is not None
+    system.compute(prepare(scene, 8, 6))
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if "grainier than POV-Ray's" in line]
+    if warned:
+        assert len(lines) == 1 and lines[0].startswith("frame.pov:6:14: warning:"), err
+        assert "count 400" in lines[0] and "64 rays per point" in lines[0]
+    else:
+        assert lines == []

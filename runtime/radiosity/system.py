@@ -888,9 +888,9 @@ def compute(
     scene: ir.Scene = prepared.scene
     if opts is None:
         r = scene.settings.radiosity or ir.Radiosity()
-        opts = Options.from_ir(
-            r, final_gather=gather_pays(scene, prepared.objects, set(_meshable(prepared)))
-        )
+        meshed = set(_meshable(prepared))
+        opts = Options.from_ir(r, final_gather=gather_pays(scene, prepared.objects, meshed))
+        warn_grain(scene, prepared.objects, meshed, opts)
     # The display (flat or Gouraud) reads the solution; it is not part of it.
     # So is the number of gather rays.
     display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
@@ -945,12 +945,43 @@ def gather_pays(scene: ir.Scene, objects=None, meshed: set[int] | None = None) -
     if scene.lights or sky:
         return True
     objects = scene.objects if objects is None else objects
-    for i, o in enumerate(objects):
-        if _emits(o, scene.settings) and (
-            not isinstance(o.shape, MESHED) or (meshed is not None and i not in meshed)
-        ):
-            return True
+    if unpatched_emitters(scene, objects, meshed):
+        return True
     return emitter_share(objects, scene.settings) >= LARGE_EMITTERS
+
+
+def unpatched_emitters(scene: ir.Scene, objects, meshed: set[int] | None = None) -> list:
+    """The emitting objects that get no patches (CSG, text …): only gather rays see them."""
+    return [
+        o
+        for i, o in enumerate(objects)
+        if _emits(o, scene.settings)
+        and (not isinstance(o.shape, MESHED) or (meshed is not None and i not in meshed))
+    ]
+
+
+def warn_grain(scene: ir.Scene, objects, meshed: set[int], opts: Options) -> None:
+    """Say where the image will be grainier than POV-Ray's: lit only by emitters without
+    patches, whose light the final gather finds with its capped rays per point, where
+    POV-Ray interpolates samples of `count` rays each (its irradiance cache)."""
+    if scene.lights or scene.sky_sphere or any(scene.background[:3]) or not opts.final_gather:
+        return
+    if opts.gather_rays <= opts.gather_cap:
+        return
+    found = unpatched_emitters(scene, objects, meshed)
+    if not found:
+        return
+    first = next((o for o in found if o.span is not None), found[0])
+    where = f"{first.span}" if first.span is not None else "strala"
+    more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+    print(
+        f"{where}: warning: radiosity: the light of this emitting "
+        f"{type(first.shape).__name__.lower()}{more} gets no patches and reaches other "
+        f"surfaces only through the final gather's {opts.gather_cap} rays per point, "
+        f"where POV-Ray interpolates samples of count {opts.gather_rays}: the image is "
+        "grainier than POV-Ray's",
+        file=sys.stderr,
+    )
 
 
 # The emitters' bounding boxes' surface area, as a share of the scene's box's, from which
