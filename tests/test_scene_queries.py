@@ -164,3 +164,36 @@ def test_height_field_normals_under_mirrors_agree_with_povray(tmp_path):
     for name, value in ref.items():
         # the mesh's flat triangles against POV-Ray's own height field intersection
         assert got[name] == pytest.approx(value, abs=0.02), (name, got[name], value)
+
+
+# A point walking over a sphere: each trace() starts just off the last hit (tracevines'
+# vines grow so); a placement: each ray starts afresh from above.
+WALK = """#declare S = sphere { 0, 1 }
+#declare P = <0, 0, -1>;
+#declare N = <0, 0, 0>;
+#for (I, 1, 5200)
+  #declare Q = P + 0.05 * <cos(I), sin(I), 0> - 0.02 * P;
+  #declare P = trace(S, Q, -Q, N);
+#end
+"""
+PLACEMENT = """#declare S = sphere { 0, 1 }
+#declare N = <0, 0, 0>;
+#for (I, 0, 5200)
+  #declare P = trace(S, <mod(I, 70) / 40 - 0.87, 5, div(I, 70) / 40 - 0.87>, -y, N);
+#end
+"""
+
+
+@pytest.mark.parametrize(
+    "text, warned", [(WALK, True), (PLACEMENT, False)], ids=["walk", "placement"]
+)
+def test_a_walk_by_trace_is_said_to_drift_from_povray(text, warned):
+    """Each hit fed into the next call: last-bit differences from POV-Ray's intersections
+    grow along the walk (tracevines: about tenfold every 500 steps), so it is said, once,
+    where trace() is called; rays placed afresh are not affected."""
+    found = [
+        d
+        for d in compile_source(text, "walk.pov", queries=RuntimeQueries).diagnostics
+        if "from next to its last hit" in d.message
+    ]
+    assert [(d.span.line, d.span.col) for d in found] == ([(6, 16)] if warned else [])

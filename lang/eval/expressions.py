@@ -17,7 +17,7 @@ from lang import (
 )
 from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.diagnostics import Span
-from lang.eval import generated
+from lang.eval import generated, trace_walk
 from lang.eval.context import BuildContext
 from lang.eval.splines import evaluate_spline
 from lang.extents import bounding_box
@@ -274,6 +274,18 @@ def _geometry_call(it: BuildContext, node: syntax.Call) -> Any:
     if name == "inside":
         return 1.0 if queries is not None and queries.inside(target, vecs[0]) else 0.0
     found = queries.trace(target, vecs[0], vecs[1]) if queries is not None else None
+    if queries is not None and trace_walk.step(
+        queries, vecs[0], None if found is None else found[0]
+    ):
+        it.warn_once(
+            "trace-walk",
+            f"trace() has been called {trace_walk.CHAINED:,} times from next to its last hit: "
+            "a walk over a surface, along which strala's intersections (equal to POV-Ray's "
+            "but for the last bits) drift from POV-Ray's from step to step; what the walk "
+            "builds may take other paths than in POV-Ray's render",
+            node.span,
+            "expected of a walk; a placement that starts each ray afresh is not affected",
+        )
     point, normal = found if found is not None else ((0.0,) * 3, (0.0,) * 3)
     if len(args) == 4 and isinstance(normal_name := args[3], syntax.Ident):  # checked above
         it.declare(normal_name.name, Vec(normal), local=False)
