@@ -64,6 +64,10 @@ class Options:
     aa_depth: int = 3
     threads: int | None = None  # render threads per task (default: the worker's threads)
     region: tuple[int, int, int, int] | None = None  # a partial render's bounds
+    # what a worker compiling the scene's files applies as the client does: the reads
+    # `--io-restrictions` permits (None: povray.conf's default) and `Declare=` values
+    io_restrictions: str | None = None
+    declares: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -291,6 +295,7 @@ def _compile(scene: bundles.Bundle, root: Path, options: Options, frame: Frame):
     if key in _compiled:
         _compiled.move_to_end(key)
         return *_compiled[key], 0.0
+    from lang import read_access
     from lang.evaluate import compile_file
     from runtime.queries import RuntimeQueries
 
@@ -304,6 +309,11 @@ def _compile(scene: bundles.Bundle, root: Path, options: Options, frame: Frame):
         image_height=options.height,
         animation=dict(frame.animation),
         queries=RuntimeQueries,
+        declares=dict(options.declares),
+        # the worker's own povray.conf says nothing of the client's files: the level only
+        reads=read_access.from_povray_conf(
+            None, Path(path).resolve().parent, libraries, options.io_restrictions
+        ),
     )
     diags = [bundles.client_diagnostic(d, root) for d in result.diagnostics]
     _compiled[key] = (result.scene, diags)

@@ -69,7 +69,16 @@ def run(
     if not frames:
         return 0
     scene = _bundle(args, frames[0], (width, height))
-    options = cluster.Options(width, height, args.aa, args.aa_depth, args.threads, region)
+    options = cluster.Options(
+        width,
+        height,
+        args.aa,
+        args.aa_depth,
+        args.threads,
+        region,
+        getattr(args, "io_restrictions", None),
+        tuple(dict(getattr(args, "declare", None) or ()).items()),
+    )
     tiles = args.tiles or 1
     start = time.perf_counter()
     try:
@@ -163,6 +172,7 @@ def _bundle(args: argparse.Namespace, first, size: tuple[int, int]) -> bundles.B
             raise JobError(f"cannot read {args.file}: {exc}") from None
     if not Path(args.file).is_file():
         raise JobError(f"no such scene file: {args.file}")
+    from lang import read_access
     from lang.evaluate import compile_file
     from runtime.queries import RuntimeQueries
 
@@ -175,6 +185,14 @@ def _bundle(args: argparse.Namespace, first, size: tuple[int, int]) -> bundles.B
         image_height=size[1],
         animation=dict(first.animation),
         queries=RuntimeQueries,
+        declares=dict(getattr(args, "declare", None) or ()),
+        # the files shipped are those this compile read: only where the render may read
+        reads=read_access.from_povray_conf(
+            read_access.povray_conf(),
+            Path(args.file).resolve().parent,
+            libraries,
+            getattr(args, "io_restrictions", None),
+        ),
     )
     ok = result.scene is not None and not any(
         d.severity is Severity.ERROR for d in result.diagnostics

@@ -295,3 +295,35 @@ def test_resume_works_without_a_cluster_too(scenes, tmp_path, capsys):
     code, err = _render([*argv, "--resume"], capsys)
     assert code == 0 and "l2.png is there, skipped" in err and "l1.png (8x6" in err
     assert (tmp_path / "l2.png").stat().st_mtime_ns == kept
+
+
+def test_declares_and_read_restrictions_hold_on_the_cluster(client, tmp_path, capsys, monkeypatch):
+    """`Declare=` values reach the workers' compiles (the frame equals the local render's
+    bytes), and a read povray.conf refuses is refused there too: the client ships only
+    what its own compile, under the same restrictions, read."""
+    home = tmp_path / "home"
+    (home / ".povray" / "3.7").mkdir(parents=True)
+    (home / ".povray" / "3.7" / "povray.conf").write_text("[File I/O Security]\nrestricted\n")
+    monkeypatch.setenv("HOME", str(home))
+    (tmp_path / "outside").mkdir()
+    (tmp_path / "outside" / "o.inc").write_text(INCLUDE)
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    (folder / "parts.inc").write_text(INCLUDE)
+    body = "camera { location -4*z look_at 0 }\nlight_source { <3, 5, -3> rgb 1 }\n"
+    (folder / "d.pov").write_text('#include "parts.inc"\n' + body + "object { Ball scale S }\n")
+    (folder / "r.pov").write_text('#include "../outside/o.inc"\n' + body + "object { Ball }\n")
+    size = ["-W", "8", "-H", "6", "--declare", "S=1.3", "-q"]
+    address = client.scheduler.address
+    code, err = _render(["render", str(folder / "d.pov"), "-o", str(tmp_path / "l.png"), *size],
+                        capsys)  # fmt: skip
+    assert code == 0, err
+    code, err = _render(["render", str(folder / "d.pov"), "-o", str(tmp_path / "c.png"), *size,
+                         "--cluster", address], capsys)  # fmt: skip
+    assert code == 0, err
+    assert (tmp_path / "c.png").read_bytes() == (tmp_path / "l.png").read_bytes()
+    for where in ([], ["--cluster", address]):
+        out = tmp_path / "r.png"
+        code, err = _render(["render", str(folder / "r.pov"), "-o", str(out), *size, *where],
+                            capsys)  # fmt: skip
+        assert code == 1 and "o.inc" in err and not out.exists(), (where, err)
