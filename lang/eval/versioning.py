@@ -16,6 +16,9 @@ from pathlib import Path
 
 from lang.diagnostics import DiagnosticSink, Span
 
+# the codes of these warnings (tests about other things leave them out)
+CODES = frozenset({"W0316", "W0317", "W0318", "W0319", "W0320"})
+
 # POV-Ray's EffectiveLanguageVersion: a scene without any #version is taken for a 3.6 one
 UNSET_EFFECTIVE_VERSION = 3.62
 
