@@ -394,7 +394,8 @@ def test_macro_errors():
 def test_version_and_messages(capsys):
     r = run('#version 3.7;\n#debug "hi\\n"\n#warning "careful"\nsphere { 0, 1 }')
     assert r.scene.settings.version == 3.7
-    assert [d.code for d in r.diagnostics] == ["N0100", "W0301"]
+    # W0317: a 3.7 scene without assumed_gamma, as POV-Ray warns
+    assert [d.code for d in r.diagnostics] == ["N0100", "W0301", "W0317"]
     assert capsys.readouterr().err == ""
     r = run('#debug "hi\\n"', debug_to_stderr=True)
     assert capsys.readouterr().err == "hi\n"

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from conftest import image_errors, povray_image, strala_image
 
+from lang.eval.versioning import CODES as VERSION_CODES
 from lang.evaluate import compile_source
 from runtime import patterns
 
@@ -15,7 +16,7 @@ def test_pigment_pattern_value_is_the_pigments_grey():
     r = compile_source(
         "plane { y, 0 pigment { pigment_pattern { color rgb <1, 0.5, 0> } } }", "t.pov"
     )
-    assert not r.diagnostics, [d.message for d in r.diagnostics]
+    assert not [d for d in r.diagnostics if d.code not in VERSION_CODES], r.diagnostics
     pig = r.scene.objects[0].texture.pigment
     assert pig.pattern == "pigment_pattern"
     v = patterns.pattern_value(pig, np.zeros((1, 3)))

@@ -42,7 +42,19 @@ def _e_number(it: BuildContext, node: syntax.Number) -> float:
 
 
 def _e_string(it: BuildContext, node: syntax.String) -> str:
-    return node.value
+    v = node.value
+    if v.isascii() or it.version < 3.5 or it.settings.get("charset", "ascii") != "ascii":
+        return v
+    # POV-Ray's String_To_UCS2 under `charset ascii` (the default): each byte of a
+    # non-ASCII character (its UTF-8 bytes, as the file holds them) becomes a space
+    it.sink.warning(
+        "W0309",
+        "Non-ASCII character has been replaced by space character.",
+        node.span,
+        "POV-Ray does the same under `charset ascii`, the default; for the character, give"
+        " `global_settings { charset utf8 }`",
+    )
+    return "".join(c if c.isascii() else " " * len(c.encode("utf-8", "replace")) for c in v)
 
 
 def _e_ident(it: BuildContext, node: syntax.Ident) -> Any:

@@ -46,6 +46,7 @@ from lang.eval import (
     streamed,
     surfaces,
     textures,
+    versioning,
 )
 from lang.eval.budget import RENDER, Budget, Exceeded, Meter
 from lang.eval.builders import BUILDERS
@@ -210,6 +211,8 @@ class Interpreter:
         self.fn_bindings: list[dict[str, float]] = []
         self.version = 3.7
         self.version_set = False
+        self.version_late: Span | None = None  # the first #version, if tokens came before
+        self.first_statement: Span | None = None  # where the main file's first token is
         self.main_file = ""
         self.warned: set[str] = set()
         # Names the main file #declares (first place) and every name ever read, for the
@@ -277,6 +280,8 @@ class Interpreter:
         self.files.append(filename)
         tree, diags = self._parse_stored(text, filename)
         self.sink.items.extend(diags)
+        if tree.body:
+            self.first_statement = tree.body[0].span
         self.file_stack.append(filename)
         try:
             els = self.expand(tree.body, None, top=True)
@@ -288,7 +293,7 @@ class Interpreter:
             self.file_stack.pop()
         for h in list(self.handles.values()):
             fileio.flush(self, h)
-        if not self.objects and not self.lights and not _is_include(filename):
+        if not self.objects and not self.lights and not versioning.is_include(filename):
             # POV-Ray's Parse: a light source counts as an object there
             lines = max(1, len(text.splitlines()))
             self.sink.warning("W0304", "No objects in scene.", Span(filename, lines, 1, lines, 1))
@@ -300,6 +305,15 @@ class Interpreter:
                     span,
                     "remove the declaration, or use the name",
                 )
+        if not self.exhausted:
+            state = versioning.VersionState(
+                self.version,
+                self.version_set,
+                self.version_late,
+                self.first_statement,
+                self.settings.get("assumed_gamma") is not None,
+            )
+            versioning.warn_at_end(self.sink, state, filename)
         scene = self._scene()
         try:
             self._warn_coincident(scene)
@@ -962,6 +976,13 @@ class Interpreter:
         scope = self.scope_of(node.name)
         if scope is not None:
             del scope[node.name]
+        else:
+            self.sink.warning(
+                "W0312",
+                "Attempt to undef unknown identifier",
+                node.span,
+                f"POV-Ray ignores the `#undef` the same way; `{node.name}` is not declared here",
+            )
 
     def _d_if(self, node: syntax.If, out, spec) -> None:
         for cond, body in node.branches:
@@ -1119,13 +1140,24 @@ class Interpreter:
         # it includes, marks the language version as set; the version the scene ends with
         # decides the gamma and legacy rules. POV-Ray's include files set 3.5 and restore the
         # version they found, so `#include "colors.inc"` alone makes a scene 3.7.
+        first = self.first_statement
+        if not self.version_set and (first is None or node.span[:3] != first[:3]):
+            self.version_late = node.span  # POV-Ray's languageVersionLate: tokens came first
         self.version = as_float(self.eval(node.value), "#version")
         self.version_set = True
 
     def _d_message(self, node: syntax.Message, out, spec) -> None:
         v = self.eval(node.value)
         text = v if isinstance(v, str) else str(v)
-        if node.kind == "debug":
+        if node.kind in ("render", "statistics"):
+            self.sink.warning(
+                "W0312",
+                "#render and #statistics streams are no longer available."
+                " Redirecting output to #debug stream.",
+                node.span,
+                "POV-Ray writes the text as `#debug` does; write `#debug`",
+            )
+        if node.kind in ("debug", "render", "statistics"):
             if self.debug_to_stderr:
                 sys.stderr.write(text)
                 self.printed.append(text)
@@ -1452,9 +1484,3 @@ _DIRECTIVES: dict[type, Callable[..., None]] = {
     syntax.FileOp: Interpreter._d_fileop,
     syntax.Break: Interpreter._d_break,
 }
-
-
-def _is_include(filename: str) -> bool:
-    """An include file read on its own (the language server, `check` of a library): it
-    is not a scene, so an empty one is not worth POV-Ray's warning."""
-    return Path(filename).suffix.lower() in (".inc", ".mcr", ".map")

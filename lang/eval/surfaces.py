@@ -109,7 +109,24 @@ def apply_object_items(it: BuildContext, obj: ObjectValue, g: Grouped) -> Object
                 where,
                 "give the object a `texture` (or pigment) too",
             )
+    if obj.bounded_by and obj.keyword not in _KEEP_BOUNDS:
+        where = next((s for n, _, s in g.items if n == "bounded_by"), None)
+        if where is not None:
+            it.sink.warning(
+                "W0312",
+                "Unnecessary bounding object removed.",
+                where,
+                "POV-Ray renders the object unbounded, as strala does; remove `bounded_by`",
+            )
     return obj
+
+
+# The objects whose bounded_by POV-Ray keeps (Parse_Object_Mods, Remove_Bounds): CSG and
+# the shapes without a bounding box of their own; on any other it drops it, with a warning.
+_KEEP_BOUNDS = frozenset(
+    "union intersection difference merge light_group poly cubic quartic polynomial text"
+    " quadric".split()
+)
 
 
 def _apply_object_item(it, obj: ObjectValue, name: str, args: list[Any], span: Span) -> ObjectValue:
@@ -602,13 +619,41 @@ def _degenerate(pts: list[tuple[float, float, float]]) -> bool:
     return transforms.cross(u, v) == (0.0, 0.0, 0.0)
 
 
+def _mesh2_normals(it: BuildContext, normals: ListValue, span: Span) -> list[ir.Vec3]:
+    """mesh2's normal_vectors; a zero one becomes <1,0,0> as POV-Ray's Parse_Mesh2 makes
+    it (its x set to 1), with one warning."""
+    out = []
+    warned = False
+    for v in normals.items:
+        n = as_vec(v, 3).xyz
+        if all(abs(c) < 1e-10 for c in n):  # POV-Ray's EPSILON
+            n = (1.0, n[1], n[2])
+            if not warned:
+                it.sink.warning(
+                    "W0309",
+                    "Normal vector in mesh2 cannot be zero - changing it to <1,0,0>.",
+                    normals.span or span,
+                )
+                warned = True
+        out.append(n)
+    return out
+
+
 def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     lists: dict[str, ListValue] = {}
     mods: list[tuple[str, list[Any], Span]] = []
     base: ObjectValue | None = None
     for name, args, span in g.items:
         if name == "list":
-            lists[args[0].keyword] = args[0]
+            kw = args[0].keyword
+            if kw in lists and kw in ("vertex_vectors", "normal_vectors", "uv_vectors"):
+                it.sink.warning(
+                    "W0312",
+                    f"Duplicate {kw} block; ignoring previous block.",
+                    span,
+                    f"POV-Ray keeps the last `{kw}` the same way; remove the other one",
+                )
+            lists[kw] = args[0]
         elif name == "object" and base is None and not lists and not mods:
             base = args[0]
         else:
@@ -650,9 +695,7 @@ def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     textures = tuple(t for t in lists["texture_list"].items) if "texture_list" in lists else ()
     normals: list[Any] | None = None
     nvecs = (
-        [as_vec(v, 3).xyz for v in lists["normal_vectors"].items]
-        if "normal_vectors" in lists
-        else None
+        _mesh2_normals(it, lists["normal_vectors"], g.span) if "normal_vectors" in lists else None
     )
     uvecs = (
         [(float(v[0]), float(v[1])) for v in lists["uv_vectors"].items]
