@@ -102,6 +102,25 @@ def test_a_mesh2_index_list_with_a_non_vector_is_an_error(entry):
     assert [d.code for d in errors] == ["E0202"] and "index vectors" in errors[0].message
 
 
+@pytest.mark.parametrize(
+    "uvs, refused", [("0, x, y", True), ("0, <1, 0>, <0, 1>", False), ("<1, 0, 0>", True)]
+)
+def test_mesh2_uv_vectors_are_two_component_vectors_or_floats(uvs, refused):
+    # a 3-vector among the uv_vectors was a TypeError ("internal error"); POV-Ray's
+    # Parse_UV_Vect takes a float as <f, f> and refuses a longer vector
+    count = 1 if uvs.startswith("<") else 3
+    src = (
+        "mesh2 { vertex_vectors { 3, <0,0,0>, <1,0,0>, <0,1,0> }\n"
+        f"  uv_vectors {{ {count}, {uvs} }}\n"
+        "  face_indices { 1, <0, 1, 2> }\n}\n"
+    )
+    errors = [d for d in compile_source(src, "m.pov").diagnostics if d.severity is Severity.ERROR]
+    if refused:
+        assert [d.code for d in errors] == ["E0202"] and "UV_Vector expected" in errors[0].message
+    else:
+        assert errors == []
+
+
 @pytest.mark.parametrize("item", ["falloff 1e308 * 10", "radius 0/0 + 1e308 * 10",
                                   "point_at <0, -1e308 * 10, 0>"])  # fmt: skip
 def test_a_spotlight_of_an_infinite_angle_is_an_error_at_it(item):

@@ -639,6 +639,21 @@ def _mesh2_normals(it: BuildContext, normals: ListValue, span: Span) -> list[ir.
     return out
 
 
+def _uv_vector(it: BuildContext, v: Any, span: Span) -> tuple[float, float]:
+    """One of mesh2's uv_vectors, as POV-Ray's Parse_UV_Vect reads it: a float is <f, f>,
+    a vector of more than two components is refused."""
+    if isinstance(v, float | int) and not isinstance(v, bool):
+        return float(v), float(v)
+    if isinstance(v, Vec) and len(v) == 2:
+        return float(v[0]), float(v[1])
+    raise it.error(
+        "E0202",
+        "UV_Vector expected but vector or color expression found",
+        span,
+        "each of uv_vectors is <u, v>",
+    )
+
+
 def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     lists: dict[str, ListValue] = {}
     mods: list[tuple[str, list[Any], Span]] = []
@@ -698,7 +713,7 @@ def _b_mesh2(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
         _mesh2_normals(it, lists["normal_vectors"], g.span) if "normal_vectors" in lists else None
     )
     uvecs = (
-        [(float(v[0]), float(v[1])) for v in lists["uv_vectors"].items]
+        [_uv_vector(it, v, g.span) for v in lists["uv_vectors"].items]
         if "uv_vectors" in lists
         else None
     )
