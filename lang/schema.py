@@ -356,6 +356,7 @@ SHAPES: dict[str, BlockSpec] = {
                 ("merge", "A union without the inner surfaces."),
                 ("intersection", "The volume inside every child."),
                 ("difference", "The first child minus the others."),
+                ("composite", "POV-Ray's old name for a union."),
             ]
         ),
         BlockSpec(
@@ -1273,7 +1274,7 @@ OTHER_WORDS = frozenset(
             # the subdivision schemes that are reserved (the others are soft words)
             "catmull_clark four_point",
             # more of POV-Ray's words that strala does not describe
-            "all alpha anisotropy composite falloff_angle focal_blur mixed precompute",
+            "all alpha anisotropy falloff_angle focal_blur mixed precompute",
             "rainbow size spiral trace_level use_color use_colour use_index width xyz",
         ]
     ).split()

@@ -82,8 +82,15 @@ def test_refraction_one_changes_nothing_other_values_are_named() -> None:
         "sphere { <0, 0.2, 0>, 1 pigment { rgbf <1, 1, 1, 0.9> } finish { ior 1.5 } "
         "interior { ior 1.1 } }",
         "sphere { <0, 0.2, 0>, 1 pigment { rgbf <1, 1, 1, 0.9> } finish { refraction 1 ior 1.3 } }",
+        "composite { sphere { 0, 0.8 pigment { rgb 1 } } box { 0.3, 1 pigment { rgb x } } }",
     ],
-    ids=["zero-scale", "finish-ior", "finish-ior-over-interior", "finish-refraction-1"],
+    ids=[
+        "zero-scale",
+        "finish-ior",
+        "finish-ior-over-interior",
+        "finish-refraction-1",
+        "composite",
+    ],
 )
 def test_lenient_case_renders_like_povray(tmp_path, body) -> None:
     text = HEAD + body + "\n"
@@ -120,3 +127,10 @@ def test_acos_asin_clamp_like_povray(tmp_path) -> None:
     out = povray_debug(tmp_path / "a.pov")
     assert "Domain error in acos." in out and "Domain error in asin." in out
     assert "0.000000 -1.570796" in out
+
+
+def test_composite_is_a_union_with_povray_s_warning() -> None:
+    text = HEAD + "composite { sphere { 0, 1 } box { 0, 1 } pigment { rgb 1 } }\n"
+    assert _codes(text) == [("W0312", "Use union instead of composite.")]
+    scene = compile_source(text, "l.pov").scene
+    assert scene is not None and scene.objects[-1].shape.op == "union"

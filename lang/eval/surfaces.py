@@ -447,6 +447,19 @@ def _b_csg(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     return apply_object_items(it, obj, Grouped(g.positional, mods, g.span))
 
 
+def _b_composite(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
+    """POV-Ray 3.7 reads `composite` as a union, with its warning (Parse_Object)."""
+    it.sink.warning(
+        "W0312",
+        "Use union instead of composite.",
+        node.keyword_span or g.span,
+        "POV-Ray renders it as a union the same way",
+    )
+    obj = _b_csg(it, g, node)
+    obj.keyword = "union"
+    return obj
+
+
 def _b_light_group(it: BuildContext, g: Grouped, node: syntax.Block) -> ObjectValue:
     """POV-Ray's Parse_Light_Group: a union whose lights light only its objects; the
     scene's lights reach them too only with `global_lights` (off by default)."""
@@ -1139,6 +1152,7 @@ BUILDERS: dict[str, Builder] = {
         ).split()
     },
     **{k: _b_csg for k in ("union", "merge", "intersection", "difference")},
+    "composite": _b_composite,
     "light_group": _b_light_group,
     "object": _b_object,
     "mesh": _b_mesh,
