@@ -138,6 +138,16 @@ CORPUS = [
     ),
     # POV-Ray reads exactly the declared number of points
     ("count_mismatch", "polygon { 4, <0,0>, <1,0>, <0,1> }\n", "E0290", 1, 1),
+    # an image that cannot be had stops the scene, as in POV-Ray (tests/test_refusals_povray.py)
+    ("image_missing", 'plane { y, 0 pigment { image_map { png "none.png" } } }\n', "E0220", 1, 36),
+    (
+        "image_unreadable",
+        'plane { y, 0 pigment { image_map { png "bad.png" } } }\n',
+        "E0222",
+        1,
+        36,
+    ),
+    ("declare_semicolon", "#declare R = 1\nsphere { 0, R }\n", "E0108", 1, 15),
 ]
 
 # (name, source, code, line, col) of a warning the scene must get
@@ -162,14 +172,6 @@ WARNINGS = [
         41,
     ),
     ("open_polygon", "polygon { 3, <0,0>, <1,0>, <0,1> }\n", "W0309", 1, 1),
-    ("image_missing", 'plane { y, 0 pigment { image_map { png "none.png" } } }\n', "W0307", 1, 24),
-    (
-        "image_unreadable",
-        'plane { y, 0 pigment { image_map { png "bad.png" } } }\n',
-        "W0307",
-        1,
-        24,
-    ),
 ]
 
 

@@ -42,6 +42,7 @@ from lang.eval import (
     grouping,
     loop_watch,
     macro_args,
+    semicolons,
     splines,
     streamed,
     surfaces,
@@ -564,6 +565,7 @@ class Interpreter:
                 if (
                     type(node) is syntax.Declare
                     and type(node.value) in _VALUE_KINDS
+                    and node.semicolon
                     and self._plain
                     and not self.token_macros
                     and not opens
@@ -891,6 +893,7 @@ class Interpreter:
             value = self.declared(els, node.span, since)
         else:
             value = self.eval_value(node.value)
+            semicolons.check(self.sink, node, value, self.version, self.lookup)
         self.assign(node, value)
 
     def assign(self, node: syntax.Declare, value: Any) -> None:
