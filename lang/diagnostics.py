@@ -213,6 +213,9 @@ class Diagnostic:
     message: str
     span: Span
     hint: str | None = None
+    # (macro name, call span) of the macro calls a mistake in a body was reached through,
+    # innermost first; not part of its identity (a body's mistake is reported once)
+    called_from: tuple[tuple[str, Span], ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         if self.hint is None:
@@ -230,7 +233,11 @@ class Diagnostic:
             out += "~" * (width - 1)
         if self.hint:
             out += f"\n      = hint: {self.hint}"
+        out += "".join(self.call_lines("\n      = note: "))
         return out
+
+    def call_lines(self, prefix: str = "") -> list[str]:
+        return [f"{prefix}in macro `{name}` called at {at}" for name, at in self.called_from]
 
     def to_json(self) -> dict:
         return {
@@ -239,6 +246,11 @@ class Diagnostic:
             "message": self.message,
             "span": self.span.to_json(),
             "hint": self.hint,
+            **(
+                {"called_from": [{"macro": n, "span": at.to_json()} for n, at in self.called_from]}
+                if self.called_from
+                else {}
+            ),
         }
 
 
@@ -273,6 +285,23 @@ class DiagnosticSink:
     @property
     def has_errors(self) -> bool:
         return any(d.severity is Severity.ERROR for d in self.items)
+
+
+def in_order(diags: list[Diagnostic]) -> list[Diagnostic]:
+    """Errors and warnings by position: the files in the order they first appear, then
+    line and column (stable: what one place reports keeps the order it was said in). Notes
+    (#debug output) stay where and in the order the scene printed them."""
+    rank: dict[str, int] = {}
+    for d in diags:
+        rank.setdefault(d.span.file, len(rank))
+    slots = [i for i, d in enumerate(diags) if d.severity is not Severity.NOTE]
+    ranked = sorted(
+        (diags[i] for i in slots), key=lambda d: (rank[d.span.file], d.span.line, d.span.col)
+    )
+    out = list(diags)
+    for i, d in zip(slots, ranked, strict=True):
+        out[i] = d
+    return out
 
 
 class SceneError(Exception):

@@ -68,6 +68,7 @@ def to_range(span: Span) -> T.Range:
 
 def to_lsp_diagnostic(d: Diagnostic) -> T.Diagnostic:
     message = d.message + (f"\nhint: {d.hint}" if d.hint else "")
+    message += "".join("\n" + line for line in d.call_lines())
     return T.Diagnostic(
         range=to_range(d.span),
         message=message,
