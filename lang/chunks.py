@@ -414,13 +414,13 @@ class _ChunkErrors:
                     filler = kind, text
                     break
             if attempt == 0 and report:
-                self._report_open(filler[0] if filler else None, expected)
+                self._report_open(filler[0] if filler else None, expected, state)
             if filler is None:
                 return None
             state.feed_token(Token.new_borrow_pos(filler[0], filler[1], end))
         return None
 
-    def _report_open(self, closer: str | None, expected: set[str]) -> None:
+    def _report_open(self, closer: str | None, expected: set[str], state: ParserState) -> None:
         end = self.span_at(max(len(self.clean) - 1, 0))
         braces = self.braces_to(len(self.clean))
         if closer == "RBRACE" and braces.unclosed_open:
@@ -432,10 +432,21 @@ class _ChunkErrors:
                 "add the missing `}` at the end of the block",
             )
         elif closer == "END":
+            # at the directive left open, the innermost (POV-Ray names only the end of file)
+            opener = next(
+                (
+                    v
+                    for v in reversed(state.value_stack)
+                    if isinstance(v, Token) and v.type in _OPENER_TYPES
+                ),
+                None,
+            )
             self.report(
                 "E0107",
-                "a directive is never closed",
-                end,
+                f"this `{_directive_word(opener)}` is never closed"
+                if opener
+                else "a directive is never closed",
+                tok_span(self.file, opener) if opener else end,
                 "every #if/#while/#for/#macro/#switch needs its `#end`",
             )
         elif closer in _CLOSER_TEXT:
@@ -447,6 +458,13 @@ class _ChunkErrors:
 
 
 _CLOSER_TEXT = {"RPAR": ")", "RSQB": "]", "MORETHAN": ">"}
+_OPENER_TYPES = frozenset({"IF", "IFDEF", "SWITCH", "WHILE", "FOR", "MACRO"})
+
+
+def _directive_word(tok: Token) -> str:
+    return str(tok).lstrip("#").strip()
+
+
 # What `close` (and `_close_until`) may add, in order. No operand is made up for an unfinished
 # expression: the statement is dropped instead (a made-up `0` would be evaluated, and could
 # give a second, misleading error).

@@ -66,6 +66,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "E0104": "start the #switch body with `#case (value)` or `#range (low, high)`",
     "E0106": "add the `}` that closes it",
     "E0107": "add the `#end` that closes it",
+    "E0108": "add the `;`, or set the language version to 3.1 or lower",
     "E0200": "this is a bug in strala; please report it with the scene",
     "E0201": "declare it with #declare before this line, or #include the file that declares it",
     "E0202": "check the value's kind: float, vector, colour or string",
@@ -75,6 +76,7 @@ DEFAULT_HINTS: dict[str, str] = {
     "E0212": "remove it, or move it where it belongs",
     "E0220": "searched the scene's folder, the -L library paths and strala's stdlib",
     "E0221": "guard the file with `#ifndef (Name_Inc) #declare Name_Inc = 1; … #end`",
+    "E0222": "check the file: POV-Ray cannot read it either",
     "E0230": "make sure the loop's condition becomes false",
     "E0231": "give the recursion a condition that ends it",
     "E0232": "pass one argument per parameter, in order",
@@ -109,7 +111,6 @@ DEFAULT_HINTS: dict[str, str] = {
     "W0304": "an empty construct renders nothing",
     "W0305": "add `area_light <axis1>, <axis2>, n1, n2`",
     "W0306": "check the camera's vectors",
-    "W0307": "the image renders black; check its name and folder",
     "W0308": "the keyword is read and has no effect in strala",
     "W0309": "POV-Ray repairs it the same way and renders; write the value meant",
     "W0310": "POV-Ray reads it the same way; move it into `interior { }`",
@@ -123,10 +124,95 @@ DEFAULT_HINTS: dict[str, str] = {
     "W0318": "POV-Ray renders it as version 3.5 from there on; set `#version 3.5;` or later",
     "W0319": "make `#version 3.7;` the scene's first statement",
     "W0320": "add `#version 3.7;` as the scene's first line",
+    "W0321": "add the `;`",
     "W0330": "remove the `#`",
     "W0400": "remove the declaration, or use the name",
     "W0401": "rename one of them if the other was meant",
     "W0402": "the declaration is deprecated",
+}
+
+
+# What each code means, in a few words: the rules a code-scanning report lists (SARIF's
+# tool.driver.rules), beside the hint a diagnostic carries by default.
+TITLES: dict[str, str] = {
+    "E0000": "internal parser error",
+    "E0001": "unexpected end of file",
+    "E0002": "unexpected token",
+    "E0003": "unterminated comment",
+    "E0004": "unterminated string",
+    "E0005": "unexpected character",
+    "E0006": "number out of range",
+    "E0101": "unmatched closing brace",
+    "E0102": "keyword used as a name",
+    "E0103": "malformed directive",
+    "E0104": "bad #switch body",
+    "E0106": "block never closed",
+    "E0107": "directive never closed",
+    "E0108": "#declare without its `;`",
+    "E0200": "internal error",
+    "E0201": "unknown identifier",
+    "E0202": "wrong kind of value",
+    "E0203": "operands that do not mix",
+    "E0210": "keyword not valid in this block",
+    "E0211": "malformed block",
+    "E0212": "item out of place",
+    "E0220": "file not found",
+    "E0221": "include nested too deep",
+    "E0222": "image file not readable",
+    "E0230": "loop that does not end",
+    "E0231": "recursion too deep",
+    "E0232": "wrong number of arguments",
+    "E0233": "macro with syntax errors",
+    "E0234": "#break outside a loop",
+    "E0235": "block left open on some path",
+    "E0236": "block closed on some path only",
+    "E0237": "braces cut across directive branches",
+    "E0238": "evaluation budget exceeded",
+    "E0240": "#error or a bad value",
+    "E0250": "bad array or index",
+    "E0260": "file I/O refused",
+    "E0261": "include outside the permitted folders",
+    "E0270": "bad camera",
+    "E0280": "bad knot vector",
+    "E0281": "bad control points",
+    "E0282": "bad weights",
+    "E0283": "degree too high for the control points",
+    "E0284": "curve without a radius",
+    "E0285": "bad subdivision settings",
+    "E0286": "face index out of range",
+    "E0287": "non-manifold edge",
+    "E0288": "bad crease edge",
+    "E0289": "inconsistent face orientation",
+    "E0290": "a value POV-Ray refuses",
+    "E0900": "input file not readable",
+    "E0901": "bad compiled scene document",
+    "N0001": "more syntax errors not shown",
+    "N0100": "#debug output",
+    "W0300": "feature not supported",
+    "W0301": "#warning",
+    "W0302": "count that does not match the items",
+    "W0303": "object that renders nothing",
+    "W0304": "empty construct",
+    "W0305": "area-light modifiers without area_light",
+    "W0306": "doubtful camera",
+    "W0308": "keyword without effect",
+    "W0309": "value POV-Ray repairs",
+    "W0310": "deprecated place for a keyword",
+    "W0311": "directive without its #",
+    "W0312": "keyword POV-Ray ignores here",
+    "W0313": "suspicious value",
+    "W0314": "keyword outside its block",
+    "W0315": "coincident surfaces",
+    "W0316": "no assumed_gamma before 3.7: no gamma handling",
+    "W0317": "no assumed_gamma in a 3.7 scene",
+    "W0318": "language version 3.1 or earlier",
+    "W0319": "#version after other statements",
+    "W0320": "no #version",
+    "W0321": "#declare without its `;` (before 3.5)",
+    "W0330": "`#` without a directive",
+    "W0400": "declared but never used",
+    "W0401": "#local hides a global",
+    "W0402": "deprecated declaration",
 }
 
 
@@ -137,6 +223,9 @@ class Diagnostic:
     message: str
     span: Span
     hint: str | None = None
+    # (macro name, call span) of the macro calls a mistake in a body was reached through,
+    # innermost first; not part of its identity (a body's mistake is reported once)
+    called_from: tuple[tuple[str, Span], ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         if self.hint is None:
@@ -154,7 +243,11 @@ class Diagnostic:
             out += "~" * (width - 1)
         if self.hint:
             out += f"\n      = hint: {self.hint}"
+        out += "".join(self.call_lines("\n      = note: "))
         return out
+
+    def call_lines(self, prefix: str = "") -> list[str]:
+        return [f"{prefix}in macro `{name}` called at {at}" for name, at in self.called_from]
 
     def to_json(self) -> dict:
         return {
@@ -163,6 +256,11 @@ class Diagnostic:
             "message": self.message,
             "span": self.span.to_json(),
             "hint": self.hint,
+            **(
+                {"called_from": [{"macro": n, "span": at.to_json()} for n, at in self.called_from]}
+                if self.called_from
+                else {}
+            ),
         }
 
 
@@ -197,6 +295,23 @@ class DiagnosticSink:
     @property
     def has_errors(self) -> bool:
         return any(d.severity is Severity.ERROR for d in self.items)
+
+
+def in_order(diags: list[Diagnostic]) -> list[Diagnostic]:
+    """Errors and warnings by position: the files in the order they first appear, then
+    line and column (stable: what one place reports keeps the order it was said in). Notes
+    (#debug output) stay where and in the order the scene printed them."""
+    rank: dict[str, int] = {}
+    for d in diags:
+        rank.setdefault(d.span.file, len(rank))
+    slots = [i for i, d in enumerate(diags) if d.severity is not Severity.NOTE]
+    ranked = sorted(
+        (diags[i] for i in slots), key=lambda d: (rank[d.span.file], d.span.line, d.span.col)
+    )
+    out = list(diags)
+    for i, d in zip(slots, ranked, strict=True):
+        out[i] = d
+    return out
 
 
 class SceneError(Exception):

@@ -390,6 +390,7 @@ class _Builder(Transformer):
             name_span=tok_span(self.file, name),
             deprecated=note.message if note else None,
             deprecated_once=bool(note and note.once),
+            semicolon=isinstance(children[-1], Token) and children[-1] == ";",
         )
 
     def declare_cut(self, children):

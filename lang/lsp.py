@@ -68,6 +68,7 @@ def to_range(span: Span) -> T.Range:
 
 def to_lsp_diagnostic(d: Diagnostic) -> T.Diagnostic:
     message = d.message + (f"\nhint: {d.hint}" if d.hint else "")
+    message += "".join("\n" + line for line in d.call_lines())
     return T.Diagnostic(
         range=to_range(d.span),
         message=message,
@@ -150,6 +151,18 @@ def _keyword_docs() -> dict[str, str]:
             docs.setdefault(item.name, f"`{item.signature}` — {item.doc}".rstrip(" —"))
         docs[name] = f"`{name} {{ … }}` — {block.doc}"
     return docs
+
+
+def _keyword_doc(docs: dict[str, str], word: str, blocks: list[str]) -> str | None:
+    """A keyword's doc where it is written: an item of the innermost open block is that
+    block's (`emission` in `finish` is not the sky's); elsewhere the first block's that has it."""
+    from lang import schema
+
+    found = schema.spec(blocks[-1]) if blocks else None
+    if found is not None and word in found.items and word not in schema.BLOCKS:
+        item = found.items[word]
+        return f"`{item.signature}` — {item.doc}".rstrip(" —")
+    return docs.get(word)
 
 
 def _block_items(block: str) -> list[str] | None:
@@ -426,9 +439,8 @@ def completion(ls: StralaServer, params: T.CompletionParams) -> T.CompletionList
     words = allowed if allowed is not None else sorted(keywords.ITEM_WORDS)
     docs = ls.keyword_docs
     for w in words:
-        items.append(
-            T.CompletionItem(label=w, kind=T.CompletionItemKind.Keyword, detail=docs.get(w))
-        )
+        detail = _keyword_doc(docs, w, blocks)
+        items.append(T.CompletionItem(label=w, kind=T.CompletionItemKind.Keyword, detail=detail))
     for w in sorted(keywords.FUNCTIONS):
         items.append(
             T.CompletionItem(label=w, kind=T.CompletionItemKind.Function, detail="built-in")
@@ -483,7 +495,8 @@ def hover(ls: StralaServer, params: T.HoverParams) -> T.Hover | None:
     if not word:
         return None
     if word in keywords.ALL_WORDS:
-        text = ls.keyword_docs.get(word) or _word_class(word)
+        blocks = outline.open_blocks_before(doc.source, doc.offset_at_position(params.position))
+        text = _keyword_doc(ls.keyword_docs, word, blocks) or _word_class(word)
         return T.Hover(
             contents=T.MarkupContent(kind=T.MarkupKind.Markdown, value=f"**{word}** — {text}")
         )

@@ -208,6 +208,8 @@ class Declare(Node):
     # `#declare deprecated [once] "message" NAME = …`: a use of NAME warns with the message
     deprecated: str | None = None
     deprecated_once: bool = False
+    # the `;` after the value, whose absence POV-Ray refuses for a float, vector or colour
+    semicolon: bool = True
 
 
 @dataclass(slots=True)

@@ -31,6 +31,7 @@ from pathlib import Path
 
 from lang import paths, syntax
 from lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
+from lang.eval import semicolons
 from lang.eval.interpreter import Interpreter
 from lang.format import format_source
 from lang.lexical import comment_ranges, line_col, strip_comments
@@ -415,6 +416,12 @@ def repair_evaluation(scene: SourceFile, files: dict[Path, SourceFile], opts: Op
         edits: dict[str, list[tuple[int, int, str]]] = {}
         kept: list[Diagnostic] = []
         for d in errors:
+            if d.code == semicolons.MISSING and d.span.file in by_name:
+                # the `;` POV-Ray 3.5 and later need after a #declare'd value: added
+                f = by_name[d.span.file]
+                at = _offsets(f.text, d.span)[0]
+                edits.setdefault(d.span.file, []).append((at, at, ";"))
+                continue
             target = _blamed(p, d, by_name, round_ >= ESCALATE_AFTER)
             if target is None or _reads(target, read_names):
                 kept.append(d)
@@ -460,7 +467,12 @@ def _blamed(
 
 
 def _drop_spans(f: SourceFile, spans: list[tuple[int, int, str]]) -> None:
-    """Comment out regions (the outermost of overlapping ones)."""
+    """Comment out regions (the outermost of overlapping ones); an empty region whose
+    reason is `;` is where a missing `;` goes."""
+    added = [_Edit(a, a, ";") for a, b, why in spans if a == b and why == ";"]
+    for e in added:
+        f.note("syntax", "added the `;` POV-Ray 3.5 and later need after a #declare", e.start)
+    spans = [s for s in spans if not (s[0] == s[1] and s[2] == ";")]
     chosen: list[tuple[int, int, str]] = []
     for a, b, why in sorted(spans, key=lambda s: (s[0], -s[1])):
         if chosen and a < chosen[-1][1]:
@@ -470,7 +482,7 @@ def _drop_spans(f: SourceFile, spans: list[tuple[int, int, str]]) -> None:
     for a, b, why in chosen:
         f.note("dropped", f"gives an error in strala: {why}", a, b)
         edits.append(comment_out(f.text, a, b, f"dropped, gives an error: {why}"))
-    f.apply(_disjoint(edits))
+    f.apply(_disjoint(edits + added))
 
 
 def _disjoint(edits: list[_Edit]) -> list[_Edit]:

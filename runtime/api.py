@@ -37,10 +37,19 @@ PathLike = str | os.PathLike[str]
 class CompileError(Exception):
     """The scene has errors; `diagnostics` holds all of them (and the warnings)."""
 
-    def __init__(self, diagnostics: Sequence[Diagnostic]):
+    def __init__(self, diagnostics: Sequence[Diagnostic], texts: dict[str, str] | None = None):
+        """`texts`: source text by file name for what is not on disk (compile_string's)."""
         self.diagnostics = list(diagnostics)
         errors = [d for d in self.diagnostics if d.severity is Severity.ERROR]
-        lines = [d.format(_source_lines(d.span.file)) for d in errors]
+        given = texts or {}
+        lines = [
+            d.format(
+                given[d.span.file].splitlines()
+                if d.span.file in given
+                else _source_lines(d.span.file)
+            )
+            for d in errors
+        ]
         count = f"{len(errors)} error{'' if len(errors) == 1 else 's'}"
         super().__init__(count + "\n" + "\n".join(lines))
 
@@ -69,10 +78,12 @@ def _source_lines(file: str) -> list[str] | None:
         return None
 
 
-def _finish(result, size: tuple[int, int], clock: float) -> Compiled:
+def _finish(
+    result, size: tuple[int, int], clock: float, texts: dict[str, str] | None = None
+) -> Compiled:
     diagnostics = tuple(result.diagnostics)
     if result.scene is None or any(d.severity is Severity.ERROR for d in diagnostics):
-        raise CompileError(diagnostics)
+        raise CompileError(diagnostics, texts)
     return Compiled(result.scene, diagnostics, size, clock)
 
 
@@ -100,7 +111,9 @@ def compile_string(
         debug_to_stderr=debug_output,
         queries=_queries,
     )
-    return _finish(result, (width, height), clock)
+    # the text is the source of its diagnostics' lines: a file of that name may not exist,
+    # or may hold something else
+    return _finish(result, (width, height), clock, {str(filename): text})
 
 
 def _queries():

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import TextIO
 
 from lang import paths, read_access
-from lang.diagnostics import Diagnostic, SceneError, Severity, Span
+from lang.diagnostics import DEFAULT_HINTS, TITLES, Diagnostic, SceneError, Severity, Span
 from lang.eval.budget import CHECK, RENDER, Budget
 from runtime.povray_options import OptionError, parse_declare, translate_povray_args
 
@@ -740,12 +740,29 @@ def _translate_jobs(args: argparse.Namespace) -> list[tuple[Path, Path]]:
     return [(source, target)]
 
 
+def _sarif_rules() -> list[dict]:
+    """Every code strala reports, as SARIF rules: its title, default hint and level."""
+    levels = {"E": "error", "W": "warning", "N": "note"}
+    return [
+        {
+            "id": code,
+            "shortDescription": {"text": title},
+            **({"help": {"text": DEFAULT_HINTS[code]}} if code in DEFAULT_HINTS else {}),
+            "defaultConfiguration": {"level": levels[code[0]]},
+        }
+        for code, title in sorted(TITLES.items())
+    ]
+
+
 def _sarif(diags: Sequence[Diagnostic]) -> dict:
     levels = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "note"}
+    rules = _sarif_rules()
+    index = {rule["id"]: i for i, rule in enumerate(rules)}
     results = []
     for d in diags:
         result = {
             "ruleId": d.code,
+            **({"ruleIndex": index[d.code]} if d.code in index else {}),
             "level": levels[d.severity],
             "message": {"text": d.message + (f" (hint: {d.hint})" if d.hint else "")},
             "locations": [
@@ -767,7 +784,10 @@ def _sarif(diags: Sequence[Diagnostic]) -> dict:
         "version": "2.1.0",
         "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
         "runs": [
-            {"tool": {"driver": {"name": "strala", "version": _version()}}, "results": results}
+            {
+                "tool": {"driver": {"name": "strala", "version": _version(), "rules": rules}},
+                "results": results,
+            }
         ],
     }
 

@@ -10,14 +10,6 @@ import numpy as np
 from lang import ir
 from runtime import noise, shading
 
-_warned: set[str] = set()
-
-
-def _warn(msg: str) -> None:
-    if msg not in _warned:
-        _warned.add(msg)
-        print(f"strala: warning: {msg}")
-
 
 def scene_fogs(scene: ir.Scene) -> tuple[ir.Fog, ...]:
     """Every fog of the scene, in order (POV-Ray applies them all)."""
@@ -63,8 +55,7 @@ def fog_attenuation(fog: ir.Fog, width: np.ndarray, origins=None, dirs=None) -> 
         a = (y1 - fog.offset) / fog.alt
         b = (y2 - fog.offset) / fog.alt
         density = ground_fog_density(a, b)
-    elif fog.fog_type not in (1, 2):
-        _warn(f"fog_type {fog.fog_type} is not supported: rendered as constant fog")
+    # any other type is constant fog, as POV-Ray renders it (check warns where it is written)
     if fog.turbulence is not None and have_rays:
         mid = (origins + dirs * (width / 2.0)[:, None]) * np.asarray(fog.turbulence)
         turb = noise.turbulence(mid, fog.octaves, fog.omega, fog.lam)

@@ -403,7 +403,9 @@ def evaluate(
         return _map(pigment, value, at, gamma, normals, uv)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
-        _warn(f"pigment pattern `{kind}` is not supported yet: using its first colour")
+        _warn(
+            f"pigment pattern `{kind}` is not supported yet: using its first colour", pigment.span
+        )
         return _fallback(pigment, points, gamma)
     value = apply_wave(fn(p, pigment.params), pigment.params, kind)
     return _map(pigment, value, at, gamma, normals, uv)
@@ -605,8 +607,7 @@ def image_uv(p: np.ndarray, map_type: int) -> tuple[np.ndarray, np.ndarray]:
         safe = np.where(r > 0, r, 1.0)
         v = np.arcsin(np.clip(y / safe, -1.0, 1.0)) / math.pi + 0.5
         return u, v
-    if map_type not in (0, 1, 2):
-        _warn(f"image_map map_type {map_type} is not supported yet: using planar mapping")
+    # every other map_type is planar, as POV-Ray's map_pos reads it
     return x, y
 
 
@@ -1003,7 +1004,7 @@ def pattern_value(
         return apply_wave(slope(p, points, normals, pattern.params), pattern.params, kind)
     fn = CONTINUOUS_PATTERNS.get(kind)
     if fn is None:
-        _warn(f"pattern `{kind}` is not supported yet in a function: its value is 0")
+        _warn(f"pattern `{kind}` is not supported yet in a function: its value is 0", pattern.span)
         return np.zeros(len(points))
     return apply_wave(fn(p, pattern.params), pattern.params, kind)
 
@@ -1285,7 +1286,10 @@ def perturb_normal(
     else:
         fn = CONTINUOUS_PATTERNS.get(kind)
         if fn is None and kind not in LIST_PATTERNS and kind != "slope":
-            _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
+            _warn(
+                f"normal pattern `{kind}` is not supported yet: the surface stays smooth",
+                normal.span,
+            )
             return n_world
         n = n + (SLOPE_GAIN * amount) * _slope(kind, p, normal.params, (points, n_world))
     if lin is not None:
@@ -1321,7 +1325,9 @@ def _normal_map(
             out += (k / total) * perturb_normal(sub, p, n, keep, unit=False, uv=uv)
         return out
     if kind not in LIST_PATTERNS and kind not in CONTINUOUS_PATTERNS and kind != "slope":
-        _warn(f"normal pattern `{kind}` is not supported yet: the surface stays smooth")
+        _warn(
+            f"normal pattern `{kind}` is not supported yet: the surface stays smooth", normal.span
+        )
         return n
     value = _pattern_value(kind, p, normal.params, at)
     lo, hi, frac = blend_indices(keys, value)

@@ -48,6 +48,18 @@ def test_errors_raise_with_every_diagnostic_and_its_position(tmp_path):
     assert "Nope" in text and "^" in text  # the caret display, as on the command line
 
 
+def test_compile_string_errors_show_the_line_and_caret(tmp_path, monkeypatch):
+    # the text given is the source shown, even where a file of that name holds other text
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "named.pov").write_text("// something else\n")
+    for name in ("<string>", "named.pov"):
+        with pytest.raises(api.CompileError) as info:
+            api.compile_string("sphere { 0, 1 }\nsphere { 0, Nope }\n", filename=name)
+        text = str(info.value)
+        assert f"{name}:2:13: error" in text
+        assert "    2 | sphere { 0, Nope }\n      |             ^~~~" in text
+
+
 def test_a_missing_file_is_a_compile_error(tmp_path):
     with pytest.raises(api.CompileError, match="cannot read"):
         api.compile_file(tmp_path / "nowhere.pov")

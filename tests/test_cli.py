@@ -405,6 +405,18 @@ def test_check_json_and_sarif(tmp_path):
     result = sarif["runs"][0]["results"][0]
     assert result["level"] == "error"
     assert result["locations"][0]["physicalLocation"]["region"]["startLine"] == 2
+    # the rules the results name, each with its description, found by its index
+    rules = sarif["runs"][0]["tool"]["driver"]["rules"]
+    rule = rules[result["ruleIndex"]]
+    assert rule["id"] == result["ruleId"] == "E0101"
+    assert rule["shortDescription"]["text"] and rule["defaultConfiguration"]["level"] == "error"
+    assert {"E0201", "W0400", "N0100"} <= {r["id"] for r in rules}
+
+
+def test_every_code_reported_has_a_title():
+    from lang.diagnostics import DEFAULT_HINTS, TITLES
+
+    assert set(DEFAULT_HINTS) <= set(TITLES)
 
 
 def test_compile_writes_ir_that_loads(tmp_path):

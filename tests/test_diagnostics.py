@@ -20,7 +20,7 @@ from lang.evaluate import compile_source
 CORPUS = [
     ("stray_brace", "sphere { 0, 1 }\n}\n", "E0101", 2, 1),
     ("unclosed_block", "sphere { 0, 1\n", "E0106", 1, 8),
-    ("missing_end", "#if (1)\nsphere { 0, 1 }\n", "E0107", 2, 16),
+    ("missing_end", "#if (1)\nsphere { 0, 1 }\n", "E0107", 1, 1),  # at the #if left open
     ("unterminated_string", '#debug "abc\n', "E0004", 1, 8),
     ("unterminated_comment", "/* never\nsphere{0,1}\n", "E0003", 1, 1),
     ("bad_char", "sphere { 0, 1 } @\n", "E0005", 1, 17),
@@ -139,6 +139,16 @@ CORPUS = [
     ),
     # POV-Ray reads exactly the declared number of points
     ("count_mismatch", "polygon { 4, <0,0>, <1,0>, <0,1> }\n", "E0290", 1, 1),
+    # an image that cannot be had stops the scene, as in POV-Ray (tests/test_refusals_povray.py)
+    ("image_missing", 'plane { y, 0 pigment { image_map { png "none.png" } } }\n', "E0220", 1, 36),
+    (
+        "image_unreadable",
+        'plane { y, 0 pigment { image_map { png "bad.png" } } }\n',
+        "E0222",
+        1,
+        36,
+    ),
+    ("declare_semicolon", "#declare R = 1\nsphere { 0, R }\n", "E0108", 1, 15),
 ]
 
 # (name, source, code, line, col) of a warning the scene must get
@@ -163,14 +173,6 @@ WARNINGS = [
         41,
     ),
     ("open_polygon", "polygon { 3, <0,0>, <1,0>, <0,1> }\n", "W0309", 1, 1),
-    ("image_missing", 'plane { y, 0 pigment { image_map { png "none.png" } } }\n', "W0307", 1, 24),
-    (
-        "image_unreadable",
-        'plane { y, 0 pigment { image_map { png "bad.png" } } }\n',
-        "W0307",
-        1,
-        24,
-    ),
 ]
 
 
@@ -496,3 +498,30 @@ def test_a_for_loop_beyond_the_iteration_limit_is_reported_before_it_runs():
     assert time.perf_counter() - start < 5
     ok = "#for (I, 0, 999999, 1) #end\n#for (I, 10, 0, -5) #end\n"
     assert not [d for d in compile_source(ok, "g.pov").diagnostics if d.severity is Severity.ERROR]
+
+
+def test_diagnostics_come_by_position(tmp_path):
+    # a warning (found at the end of the scene) and errors of two passes, in source order
+    src = "#declare Z = 1;\nsphere { 0, 1 pigment { rgb bar } }\nsphere { 0, 1 angle 3 }\n}\n"
+    diags = diagnostics_of("order", src, tmp_path)
+    places = [(d.span.line, d.span.col) for d in diags]
+    assert places == sorted(places) and len(diags) >= 4, [d.format() for d in diags]
+
+
+def test_a_misspelt_block_is_one_error(tmp_path):
+    # POV-Ray: "No matching } in 'sphere', undeclared identifier 'pigmnet' found instead"
+    diags = diagnostics_of("typo", "sphere { 0, 1 pigmnet { rgb 1 } }\n", tmp_path)
+    assert [(d.code, d.span.line, d.span.col) for d in diags] == [("E0201", 1, 15)]
+    assert "pigment" in (diags[0].hint or "")
+
+
+def test_an_error_in_a_macro_body_names_the_call(tmp_path):
+    src = "#macro M(A)\n  sphere { 0, A pigment { rgb foo } }\n#end\nM(1)\nM(2)\n"
+    (d,) = errors_of("macro_call", src, tmp_path)  # once, for the first call
+    assert (d.code, d.span.line, d.span.col) == ("E0201", 2, 31)
+    assert [(name, at.line, at.col) for name, at in d.called_from] == [("M", 4, 1)]
+    assert "in macro `M` called at" in d.format() and ":4:1" in d.format()
+    # through two macros: the innermost call first
+    src = "#macro In() rgb foo #end\n#macro Out() sphere { 0, 1 pigment { In() } } #end\nOut()\n"
+    (d,) = errors_of("macro_nested", src, tmp_path)
+    assert [(name, at.line) for name, at in d.called_from] == [("In", 2), ("Out", 3)]

@@ -395,7 +395,7 @@ def test_version_and_messages(capsys):
     r = run('#version 3.7;\n#debug "hi\\n"\n#warning "careful"\nsphere { 0, 1 }')
     assert r.scene.settings.version == 3.7
     # W0317: a 3.7 scene without assumed_gamma, as POV-Ray warns
-    assert [d.code for d in r.diagnostics] == ["N0100", "W0301", "W0317"]
+    assert [d.code for d in r.diagnostics] == ["N0100", "W0317", "W0301"]  # by position
     assert capsys.readouterr().err == ""
     r = run('#debug "hi\\n"', debug_to_stderr=True)
     assert capsys.readouterr().err == "hi\n"
@@ -949,12 +949,17 @@ def test_splines_match_povray(tmp_path):
         assert w[0] == g[0] and close(wv, gv, 1e-6), (w, g)
 
 
-def test_map_entry_forms():
-    s = sym_table("""#declare P = pigment { average pigment_map {
+def test_map_entry_forms(tmp_path, monkeypatch):
+    # the image must be there: one not found stops the scene, as in POV-Ray
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "x.png").write_bytes(_ONE_PIXEL_PNG)
+    s = ok(
+        """#declare P = pigment { average pigment_map {
   [ gradient y color_map { [0 rgb 0] [1 rgb 1] } ] [2 rgb <1,0,0>] } }
 #declare C = color_map { [0.00 blue 0.4] [0.5 red 1 green 0.5] [0.7 0.9 rgb 0 rgb 1] }
 #declare I = pigment { image_map { png "x.png" gamma 2.2 map_type 1 once } }
-""")
+""",
+    ).symbols
     pm = s["P"].pigment_map
     assert [w for w, _ in pm] == [1.0, 2.0] and pm[0][1].pattern == "gradient"
     assert [(v, c.rgbft[:3]) for v, c in s["C"].entries] == [
@@ -965,6 +970,14 @@ def test_map_entry_forms():
     ]
     assert s["I"].pattern == "image_map" and s["I"].params["gamma"] == 2.2
     assert s["I"].params["map_type"] == 1 and s["I"].params["once"]
+
+
+# A 1×1 grey PNG, enough for the evaluator to find an image where it looks
+_ONE_PIXEL_PNG = (
+    b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\x00\x00\x00\x01\x00\x00\x00\x01\x08\x00\x00"
+    b"\x00\x00:~\x9bU\x00\x00\x00\nIDATx\x9cc`\x00\x00\x00\x02\x00\x01H\xaf\xa4q\x00\x00"
+    b"\x00\x00IEND\xaeB`\x82"
+)
 
 
 def test_deep_macro_recursion():

@@ -156,6 +156,15 @@ async def test_completion_is_driven_by_the_schema_and_hover_shows_docs(
     assert "phong <float>" in await _hover_at(client, doc, 1, 13)
 
 
+async def test_hover_describes_a_keyword_as_the_block_it_is_in(client: LanguageClient, tmp_path):
+    # `emission` is an item of finish, sky_sphere and media: each says its own
+    text = "sphere { 0, 1 finish { emission 1 } }\nsky_sphere { emission 2 }\n"
+    doc = T.TextDocumentIdentifier(uri=_open(client, tmp_path / "e.pov", text))
+    in_finish = await _hover_at(client, doc, 0, 25)
+    assert "Light the surface emits" in in_finish and "Sky" not in in_finish
+    assert "Sky brightness" in await _hover_at(client, doc, 1, 15)
+
+
 async def _keywords_at(
     client: LanguageClient, doc: T.TextDocumentIdentifier, line: int, character: int
 ) -> set[str]:

@@ -148,8 +148,9 @@ def test_off_the_image_once_is_the_first_texture(tmp_path):
     assert material_index(p, _params(tmp_path, "pal.png", 7)).any()
 
 
-def test_the_texture_carries_the_image_and_its_textures():
-    result = compile_source(HEAD + SCENES["palette"])
+def test_the_texture_carries_the_image_and_its_textures(tmp_path):
+    _write_images(tmp_path)  # an image not there stops the scene, as in POV-Ray
+    result = compile_source(HEAD + SCENES["palette"], str(tmp_path / "m.pov"))
     assert result.scene is not None
     tex = result.scene.objects[0].texture
     assert isinstance(tex, ir.Texture) and tex.pattern is not None

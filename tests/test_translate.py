@@ -128,6 +128,10 @@ def test_stdlib_includes_stay_and_local_includes_are_translated_beside(tmp_path)
     assert '#include "colors.inc"' in out.read_text()
     translated = tmp_path / "out" / "parts" / "local.inc"
     assert translated.is_file() and "<0, 1, 0>,\n" in translated.read_text()
+    # the `;` POV-Ray 3.7 needs after a declared vector is added, not the statement dropped
+    assert "#declare Where = <0, 1, 0>;" in translated.read_text()
+    added = [c for c in t.changes if c.span.file.endswith("local.inc") and "`;`" in c.message]
+    assert [(c.kind, c.span.line, c.span.col) for c in added] == [("syntax", 1, 27)]
     assert errors(out) == []
 
 

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 from lang import ir, schema, syntax
 from lang.builtins import as_vec
 from lang.diagnostics import Span
-from lang.eval import fractal_inversion, grouping, surfaces
+from lang.eval import fractal_inversion, grouping, images, surfaces
 from lang.values import FunctionValue, ObjectValue, Vec
 
 if TYPE_CHECKING:
@@ -384,13 +384,7 @@ def _height_field(cur: Cursor) -> ir.HeightField:
         raise _Skip()
     else:
         name = cur.string("the image file")
-        found = cur.it.resolve(name)
-        if found is None:
-            raise cur.it.error(
-                "E0220", f"height_field image `{name}` not found", e.span if e else cur.span,
-                "searched the scene's folder and the -L library paths",
-            )  # fmt: skip
-        path = found
+        path = images.image_path(cur.it, name, e.span if e else cur.span, "height_field")
     smooth, water = False, 0.0
     while True:
         if cur.word("smooth") is not None:

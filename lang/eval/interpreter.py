@@ -32,16 +32,19 @@ from lang import (
     syntax,
 )
 from lang.builtins import EvalError, as_float
-from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span
+from lang.diagnostics import Diagnostic, DiagnosticSink, SceneError, Severity, Span, in_order
 from lang.eval import (
+    call_sites,
     cuts,
     data_shapes,
     expressions,
     fileio,
+    follow_on,
     functions,
     grouping,
     loop_watch,
     macro_args,
+    semicolons,
     splines,
     streamed,
     surfaces,
@@ -320,7 +323,8 @@ class Interpreter:
         except RecursionError:
             pass  # objects nested deeper than the frames allow: the warning is left out
         symbols = {k: v for k, v in self.scopes[0].items()}
-        return Result(scene, self.sink.unique(), symbols, list(self.files))
+        said = follow_on.drop(self.sink.unique(), diags, tree)
+        return Result(scene, in_order(said), symbols, list(self.files))
 
     def parse_source(self, text: str, filename: str) -> tuple[syntax.SourceFile, list[Diagnostic]]:
         """The syntax tree of one file's text. An extension point: the language server parses
@@ -578,6 +582,7 @@ class Interpreter:
                 if (
                     type(node) is syntax.Declare
                     and type(node.value) in _VALUE_KINDS
+                    and node.semicolon
                     and self._plain
                     and not self.token_macros
                     and not opens
@@ -905,6 +910,8 @@ class Interpreter:
             value = self.declared(els, node.span, since)
         else:
             value = self.eval_value(node.value)
+            if not self.token_macros:  # a macro read as tokens may bring the `;` itself
+                semicolons.check(self.sink, node, value, self.version, self.lookup)
         self.assign(node, value)
 
     def assign(self, node: syntax.Declare, value: Any) -> None:
@@ -1207,12 +1214,17 @@ class Interpreter:
     # ------------------------------------------------------------ macros
     def call_macro(self, node: syntax.Call) -> list[El]:
         macro, scope, refs = self.enter_macro(node)
+        since = len(self.sink.items)
         try:
             els = self.expand(macro.body, None)
         except _Break as e:  # POV-Ray: #break in a macro ends the macro
             els = _Els(e.partial)
+        except SceneError as e:
+            e.diagnostic = call_sites.through(e.diagnostic, macro, node.span)
+            raise
         finally:
             self.leave_macro(scope, refs)
+            call_sites.mark(self.sink.items, since, macro, node.span)
         return els
 
     def enter_macro(self, node: syntax.Call) -> tuple[MacroValue, _Scope, dict]:
@@ -1372,6 +1384,8 @@ class Interpreter:
     def eval_block(self, node: syntax.Block) -> Any:
         kw = node.keyword
         span = node.keyword_span or node.span
+        if kw not in ALL_WORDS:
+            raise follow_on.misspelt_block(self, kw, span)
         if kw == "function":
             return functions.build(self, node)
         if kw in schema.LIST_BLOCKS:

@@ -500,7 +500,12 @@ def _b_fog(it: BuildContext, g: Grouped, node: syntax.Block) -> Statement:
         elif name == "fog_type":
             fields["fog_type"] = int(args[0])
             if fields["fog_type"] not in (1, 2):
-                it.sink.warning("W0303", "unknown fog type: 1 is constant, 2 ground fog", span)
+                it.sink.warning(
+                    "W0309",
+                    "Unknown fog type.",
+                    span,
+                    "POV-Ray renders it as constant fog (1); 2 is ground fog",
+                )
         elif name == "fog_offset":
             fields["offset"] = float(args[0])
         elif name == "fog_alt":

@@ -18,7 +18,7 @@ from lang import (
 )
 from lang.builtins import EvalError, as_color, as_float, as_vec
 from lang.diagnostics import Span
-from lang.eval import grouping
+from lang.eval import grouping, images
 from lang.eval.context import BuildContext, Builder
 from lang.eval.elements import (
     COMPONENT_INDEX,
@@ -1102,8 +1102,39 @@ def _b_image_map(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Pigment
                 params[f"{name}_entries"] = params.get(f"{name}_entries", ()) + (entry,)
         elif name in ("use_alpha", "premultiplied"):
             params[name] = True
+        elif name == "map_type" and int(args[0]) not in _IMAGE_MAP_TYPES:
+            # Parse_Image_Map refuses it (bump_map and material_map take any: planar)
+            raise it.error(
+                "E0290", "Invalid map_type value.", _span, "0 planar, 1 spherical, "
+                "2 cylindrical, 5 torus",
+            )  # fmt: skip
     _image_file(it, g, params, "image_map")
+    _palette_entries(it, g, params)
     return ir.Pigment(pattern="image_map", params=params, span=node.span)
+
+
+def _palette_entries(it: BuildContext, g: Grouped, params: dict[str, Any]) -> None:
+    """`filter N, F` / `transmit N, T` name a palette entry: POV-Ray's Parse_Image_Map
+    refuses them for an image without a palette, and an entry past its end."""
+    size = images.palette_size(params["path"])
+    if size is None:
+        return
+    for name, args, span in g.items:
+        if name not in ("filter", "transmit") or args[0] == "all" or args[2] is None:
+            continue
+        if size == 0:
+            raise it.error(
+                "E0290", f"Keyword '{name}' cannot be used with non color-mapped image.", span,
+                f"`{name} all {float(args[2]):g}` is every colour's; an entry needs a palette",
+            )  # fmt: skip
+        if not 0 <= int(float(args[1]) + 0.01) < size:
+            raise it.error(
+                "E0290", f"{name.upper()} color register value out of range.", span,
+                f"the image's palette has entries 0 to {size - 1}",
+            )  # fmt: skip
+
+
+_IMAGE_MAP_TYPES = frozenset({0, 1, 2, 5})
 
 
 def _b_bump_map(it: BuildContext, g: Grouped, node: syntax.Block) -> BumpMapValue:
@@ -1142,17 +1173,18 @@ def _b_material_map(it: BuildContext, g: Grouped, node: syntax.Block) -> _Materi
 
 def _image_file(it: BuildContext, g: Grouped, params: dict[str, Any], block: str) -> None:
     """The image items image_map and bump_map share (format and file, map_type,
-    interpolate, once, gamma) into `params`, with the file found (its "path") or warned
-    about."""
+    interpolate, once, gamma) into `params`, with the file found (its "path"): a file not
+    found or not an image stops the scene, as in POV-Ray."""
     fmt = None
-    for name, args, _span in g.items:
+    where = g.span
+    for name, args, span in g.items:
         v: Any = args[0] if args else None
         if name == "string":
-            params["file"] = v
+            params["file"], where = v, span
         elif name in _IMAGE_FORMATS:
             fmt = name
             if v is not None:
-                params["file"] = v
+                params["file"], where = v, span
         elif name == "once":
             params["once"] = True
         elif name in ("map_type", "interpolate"):
@@ -1164,59 +1196,7 @@ def _image_file(it: BuildContext, g: Grouped, params: dict[str, Any], block: str
             "E0211", f"`{block}` needs a file name", g.span, f'{block} {{ png "file.png" }}'
         )
     params["format"] = fmt or Path(params["file"]).suffix.lstrip(".").lower()
-    path = it.resolve(params["file"])
-    if path is None:
-        it.sink.warning("W0307", f"image `{params['file']}` not found", g.span)
-    else:
-        params["path"] = path
-        problem = _unreadable_image(path)
-        if problem:
-            it.sink.warning(
-                "W0307",
-                f"image `{params['file']}` cannot be read: {problem}",
-                g.span,
-                _UNREADABLE_HINTS[block],
-            )
-
-
-_UNREADABLE_HINTS = {
-    "image_map": "the image renders black; check the file",
-    "bump_map": "the surface stays smooth; check the file",
-    "material_map": "the first texture is used everywhere; check the file",
-}
-
-
-# How image files start, for formats that have a signature (TGA and IFF files are not checked).
-_IMAGE_SIGNATURES = (
-    b"\x89PNG\r\n\x1a\n",
-    b"\xff\xd8\xff",
-    b"GIF87a",
-    b"GIF89a",
-    b"II*\x00",
-    b"MM\x00*",
-    b"v/1\x01",
-    b"#?RADIANCE",
-    b"#?RGBE",
-    *(b"P%d" % i for i in range(1, 7)),
-)
-_SIGNED_FORMATS = frozenset("png jpeg jpg gif tiff tif exr hdr ppm pgm".split())
-
-
-def _unreadable_image(path: str) -> str | None:
-    """Why an image file cannot be decoded, from its first bytes (None: it looks fine). Reads
-    a few bytes only, so `check` finds a broken image_map without loading an image library."""
-    if Path(path).suffix.lstrip(".").lower() not in _SIGNED_FORMATS:
-        return None
-    try:
-        with open(path, "rb") as f:
-            head = f.read(16)
-    except OSError as e:
-        return e.strerror or str(e)
-    if not head:
-        return "the file is empty"
-    if not head.startswith(_IMAGE_SIGNATURES):
-        return "it is not an image file of a known format"
-    return None
+    params["path"] = images.image_path(it, params["file"], where, block)
 
 
 BUILDERS: dict[str, Builder] = {
