@@ -134,3 +134,22 @@ def test_composite_is_a_union_with_povray_s_warning() -> None:
     assert _codes(text) == [("W0312", "Use union instead of composite.")]
     scene = compile_source(text, "l.pov").scene
     assert scene is not None and scene.objects[-1].shape.op == "union"
+
+
+def test_an_illegal_blur_confidence_or_variance_warns_and_keeps_the_default() -> None:
+    text = (
+        "#version 3.7;\nglobal_settings { assumed_gamma 1 }\n"
+        "camera { location -5*z look_at 0 aperture 0.3 blur_samples 4 focal_point 0\n"
+        "  confidence 1.5 variance 2 }\nsphere { 0, 1 pigment { rgb 1 } }\n"
+    )
+    assert _codes(text) == [
+        ("W0313", "Illegal confidence value. Default is used."),
+        ("W0313", "Illegal variance value. Default is used."),
+    ]
+    scene = compile_source(text, "l.pov").scene
+    default = compile_source(text.replace("confidence 1.5 variance 2", ""), "l.pov").scene
+    assert scene is not None and default is not None
+    assert (scene.camera.blur_confidence, scene.camera.blur_variance) == (
+        default.camera.blur_confidence,
+        default.camera.blur_variance,
+    )

@@ -175,7 +175,19 @@ def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
             "confidence",
             "variance",
         ):
-            b.set(name, args[0])
+            v = args[0]
+            if name in ("confidence", "variance") and not (
+                0.0 < float(v) < 1.0 if name == "confidence" else 0.0 <= float(v) <= 1.0
+            ):
+                # POV-Ray's Parse_Camera: a warning, and the default stays
+                it.sink.warning(
+                    "W0313",
+                    f"Illegal {name} value. Default is used.",
+                    span,
+                    "confidence lies strictly between 0 and 1, variance within 0..1",
+                )
+                continue
+            b.set(name, v)
         elif name == "blur_samples":  # `blur_samples [min,] max`
             given = tuple(a for a in args if a is not None)
             b.set(name, given if len(given) > 1 else given[0])
