@@ -221,7 +221,8 @@ WARP_ITEMS = [
     "major_radius float | Toroidal warp's major radius.",
 ]
 
-COMPONENT_WORDS = ("red", "green", "blue", "filter", "transmit", "gray", "grey")
+# `alpha` is POV-Ray's discontinued name of `filter` (a warning, then read as filter)
+COMPONENT_WORDS = ("red", "green", "blue", "filter", "transmit", "gray", "grey", "alpha")
 
 # Patterns that take their colours as `listN` arguments.
 LIST_PATTERNS = {"checker": 2, "hexagon": 3, "brick": 2, "square": 4, "triangular": 6, "cubic": 6}
@@ -1274,7 +1275,7 @@ OTHER_WORDS = frozenset(
             # the subdivision schemes that are reserved (the others are soft words)
             "catmull_clark four_point",
             # more of POV-Ray's words that strala does not describe
-            "all alpha anisotropy falloff_angle focal_blur mixed precompute",
+            "all anisotropy falloff_angle focal_blur mixed precompute",
             "rainbow size spiral trace_level use_color use_colour use_index width xyz",
         ]
     ).split()

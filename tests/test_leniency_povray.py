@@ -83,6 +83,8 @@ def test_refraction_one_changes_nothing_other_values_are_named() -> None:
         "interior { ior 1.1 } }",
         "sphere { <0, 0.2, 0>, 1 pigment { rgbf <1, 1, 1, 0.9> } finish { refraction 1 ior 1.3 } }",
         "composite { sphere { 0, 0.8 pigment { rgb 1 } } box { 0.3, 1 pigment { rgb x } } }",
+        "sphere { 0, 0.8 pigment { color red 1 green 0.5 alpha 0.7 } }\n"
+        "sphere { x, 0.5 pigment { color rgb <0, 1, 0> alpha 0.5 } }",
     ],
     ids=[
         "zero-scale",
@@ -90,6 +92,7 @@ def test_refraction_one_changes_nothing_other_values_are_named() -> None:
         "finish-ior-over-interior",
         "finish-refraction-1",
         "composite",
+        "alpha",
     ],
 )
 def test_lenient_case_renders_like_povray(tmp_path, body) -> None:
@@ -153,3 +156,10 @@ def test_an_illegal_blur_confidence_or_variance_warns_and_keeps_the_default() ->
         default.camera.blur_confidence,
         default.camera.blur_variance,
     )
+
+
+def test_alpha_is_read_as_filter_with_povray_s_warning() -> None:
+    text = HEAD + "sphere { 0, 1 pigment { color red 1 alpha 0.7 } }\n"
+    assert _codes(text) == [("W0310", "Keyword ALPHA discontinued. Use FILTER instead.")]
+    scene = compile_source(text, "l.pov").scene
+    assert scene is not None and scene.objects[-1].texture.pigment.color[3] == 0.7

@@ -117,7 +117,7 @@ def convert(kind: str, v: Any) -> Any:
     return v
 
 
-COMPONENT_INDEX = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4}
+COMPONENT_INDEX = {"red": 0, "green": 1, "blue": 2, "filter": 3, "transmit": 4, "alpha": 3}
 
 
 def component_slots(name: str) -> range | list[int]:

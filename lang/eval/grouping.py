@@ -77,6 +77,8 @@ def group(
             i += 1
             continue
         if e.kind == "kw":
+            if e.value == "alpha":
+                _discontinued_alpha(it, e.span)
             item = spec.items.get(e.value)
             if item is None:
                 if not loose:
@@ -166,6 +168,15 @@ def _not_valid(it: BuildContext, word: str, spec: schema.BlockSpec, span: Span) 
     )
 
 
+def _discontinued_alpha(it, span: Span) -> None:
+    it.sink.warning(
+        "W0310",
+        "Keyword ALPHA discontinued. Use FILTER instead.",
+        span,
+        "POV-Ray reads it as `filter`, and so does strala",
+    )
+
+
 def _parse_args(
     it, item: schema.Item, els: list[El], i: int, span: Span, spec: schema.BlockSpec
 ) -> tuple[list[Any], int]:
@@ -204,6 +215,8 @@ def _parse_args(
             # the old `red 1 green .5` colour form without `color`
             c = [0.0] * 5
             while j + 1 < n and els[j].kind == "kw" and els[j].value in schema.COMPONENT_WORDS:
+                if els[j].value == "alpha":
+                    _discontinued_alpha(it, els[j].span)
                 val = as_float(els[j + 1].value) if els[j + 1].kind == "val" else 0.0
                 for idx in component_slots(els[j].value):
                     c[idx] = val
