@@ -10,6 +10,8 @@ open triangle geometry has none.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from lang import ir
@@ -32,8 +34,11 @@ def camera_stacks(ctx, origins: np.ndarray) -> np.ndarray:
     if n == 0:
         return out
     # a perspective camera's rays share one origin: test the distinct ones only
-    points, back = np.unique(origins, axis=0, return_inverse=True)
-    back = np.reshape(back, -1)
+    if (origins == origins[0]).all():
+        points, back = origins[:1], np.zeros(n, dtype=np.int64)
+    else:
+        points, back = np.unique(origins, axis=0, return_inverse=True)
+        back = np.reshape(back, -1)
     lists = interiors.empty(len(points))
     count = np.zeros(len(points), dtype=np.int64)
     for leaves, inside in holding(ctx.prepared, points):
@@ -57,9 +62,13 @@ def holding(prepared, points: np.ndarray) -> list[tuple[list[int], np.ndarray]]:
     tracer = prepared.tracer
     lo, hi = points.min(axis=0), points.max(axis=0)
     found: list[tuple[list[int], np.ndarray]] = []
-    for node in tracer.nodes:
-        if np.any(node.lo > hi) or np.any(node.hi < lo) or not node.leaves:
-            continue  # its box holds none of the points (an inverted object's is infinite)
+    # only the roots whose box holds some of the points (an inverted object's is infinite):
+    # the camera's rays ask this for every tile, over scenes of thousands of roots
+    boxes_lo, boxes_hi = _boxes(tracer)
+    near = np.nonzero(np.all(boxes_lo <= hi, axis=1) & np.all(boxes_hi >= lo, axis=1))[0]
+    for node in (tracer.nodes[k] for k in near):
+        if not node.leaves:
+            continue
         if len(node.leaves) == 1 and not has_inside(prepared.objects[node.leaves[0]].shape):
             continue
         inside = np.asarray(node.inside(np.ascontiguousarray(points)), dtype=bool)
@@ -76,6 +85,21 @@ def holding(prepared, points: np.ndarray) -> list[tuple[list[int], np.ndarray]]:
             if inside.any():
                 found.append(([i], inside))
     return found
+
+
+_BOXES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _boxes(tracer) -> tuple[np.ndarray, np.ndarray]:
+    """(R,3) lows and highs of the tracer's roots' boxes, gathered once per tracer."""
+    got = _BOXES.get(tracer)
+    if got is None:
+        nodes = tracer.nodes
+        got = _BOXES[tracer] = (
+            np.array([n.lo for n in nodes], dtype=np.float64).reshape(-1, 3),
+            np.array([n.hi for n in nodes], dtype=np.float64).reshape(-1, 3),
+        )
+    return got
 
 
 def _interior_of(ctx, leaves: list[int]) -> int | None:
