@@ -941,13 +941,17 @@ def gather_pays(scene: ir.Scene, objects=None, meshed: set[int] | None = None) -
     box's ceiling patch), the patches carry it better: their form factors to the emitters
     are exact, while a gather's few dozen rays that must find a small emitter are noisy.
     `meshed`: the indices of `objects` that get patches (None: every meshable shape)."""
-    sky = bool(scene.sky_sphere) or any(scene.background[:3])
-    if scene.lights or sky:
+    if _lights_or_sky(scene):
         return True
     objects = scene.objects if objects is None else objects
     if unpatched_emitters(scene, objects, meshed):
         return True
     return emitter_share(objects, scene.settings) >= LARGE_EMITTERS
+
+
+def _lights_or_sky(scene: ir.Scene) -> bool:
+    """Light the gather's rays find easily: light sources, a sky sphere, a background."""
+    return bool(scene.lights or scene.sky_sphere or any(scene.background[:3]))
 
 
 def unpatched_emitters(scene: ir.Scene, objects, meshed: set[int] | None = None) -> list:
@@ -964,7 +968,7 @@ def warn_grain(scene: ir.Scene, objects, meshed: set[int], opts: Options) -> Non
     """Say where the image will be grainier than POV-Ray's: lit only by emitters without
     patches, whose light the final gather finds with its capped rays per point, where
     POV-Ray interpolates samples of `count` rays each (its irradiance cache)."""
-    if scene.lights or scene.sky_sphere or any(scene.background[:3]) or not opts.final_gather:
+    if _lights_or_sky(scene) or not opts.final_gather:
         return
     if opts.gather_rays <= opts.gather_cap:
         return
