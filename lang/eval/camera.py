@@ -54,6 +54,13 @@ def _unit(a: Vec3) -> Vec3:
     return _scaled(a, 1.0 / n) if n > 0 else a
 
 
+def legal_blur_value(name: str, value: float) -> bool:
+    """POV-Ray's Parse_Camera ranges: confidence strictly inside 0..1, variance within it
+    (outside them it warns and keeps the default)."""
+    v = float(value)
+    return 0.0 < v < 1.0 if name == "confidence" else 0.0 <= v <= 1.0
+
+
 @dataclass
 class CameraBuilder:
     """Collects a camera block's items; `build` applies POV-Ray's rules."""
@@ -116,8 +123,6 @@ class CameraBuilder:
                 raise CameraError("blur_samples must not be negative")
             self.camera = replace(c, blur_samples=hi, blur_samples_min=lo)
         elif name == "confidence":
-            if not 0.0 < float(value) < 1.0:
-                raise CameraError("confidence must be between 0 and 1")
             self.camera = replace(c, blur_confidence=float(value))
         elif name == "variance":
             self.camera = replace(c, blur_variance=float(value))

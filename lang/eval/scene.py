@@ -13,7 +13,7 @@ from lang import (
     transforms,
 )
 from lang.builtins import as_vec
-from lang.eval.camera import CameraBuilder, transform_camera
+from lang.eval.camera import CameraBuilder, legal_blur_value, transform_camera
 from lang.eval.context import BuildContext, Builder
 from lang.eval.elements import (
     TRANSFORM_WORDS,
@@ -176,9 +176,7 @@ def _b_camera(it: BuildContext, g: Grouped, node: syntax.Block) -> CameraValue:
             "variance",
         ):
             v = args[0]
-            if name in ("confidence", "variance") and not (
-                0.0 < float(v) < 1.0 if name == "confidence" else 0.0 <= float(v) <= 1.0
-            ):
+            if name in ("confidence", "variance") and not legal_blur_value(name, v):
                 # POV-Ray's Parse_Camera: a warning, and the default stays
                 it.sink.warning(
                     "W0313",
