@@ -238,3 +238,31 @@ Render failed
         "Fatal error in parser: Cannot open file."
     )
     assert wild.povray_error("") == ""
+
+
+def test_the_suite_runner_counts_the_scenes_the_kernel_traced(tmp_path):
+    """run.py reads `render --stats` for how each image was traced: a scene of spheres is
+    the compiled kernel's, a foggy one the numpy path's with its reason; the summary counts
+    the kernel's share and reasons.md tallies the reasons."""
+    from conformance import corpus, report, run
+
+    from runtime.whitted import kernel_built
+
+    (tmp_path / "kern.pov").write_text(GOOD)
+    (tmp_path / "fog.pov").write_text(GOOD + "fog { distance 10 color rgb 0.5 }\n")
+    frame = corpus.Frame()
+    results = []
+    for name in ("kern", "fog"):
+        res = run.SceneResult(f"{name}.pov", 0.0, None, povray_seconds=1.0)
+        res.lib = run.strala_render(tmp_path / f"{name}.pov", frame, [], tmp_path / f"{name}.png",
+                                    None, 60)  # fmt: skip
+        results.append(res)
+    kern, fog = (r.lib for r in results)
+    assert fog.traced_by == "numpy" and "fog or media" in fog.numpy_because
+    if kernel_built():
+        assert (kern.traced_by, kern.numpy_because) == ("kernel", [])
+        assert "compiled kernel 1/2 (50%) of the rendered" in report.summary_line(
+            report.counts(results)
+        )
+    assert "| 1 | fog or media | fog.pov |" in report.reasons(results)
+    assert run.traced_by("no stats here") == ("", [])

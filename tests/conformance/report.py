@@ -27,6 +27,7 @@ class Counts:
     skipped: int  # POV-Ray cannot render them either (a file they need is missing)
     strala_seconds: float  # over scenes both renderers finished
     povray_seconds: float
+    kernel: int = 0  # rendered scenes the compiled kernel traced (`--stats`)
 
     @property
     def time_ratio(self) -> float:
@@ -45,6 +46,7 @@ def counts(results: Sequence[SceneResult], stdlib: bool = False) -> Counts:
         skipped=len(results) - len(counted),
         strala_seconds=sum(s.seconds for _, s in both),
         povray_seconds=sum(r.povray_seconds for r, _ in both),
+        kernel=sum(s.traced_by == "kernel" for _, s in runs if s.rendered),
     )
 
 
@@ -55,7 +57,8 @@ def _share(part: int, whole: int) -> str:
 def summary_line(c: Counts) -> str:
     return (
         f"parse+eval {_share(c.parsed, c.total)}, render {_share(c.rendered, c.total)}, "
-        f"match {_share(c.matched, c.total)}; time strala/POV-Ray = {c.time_ratio:.2f}"
+        f"match {_share(c.matched, c.total)}; time strala/POV-Ray = {c.time_ratio:.2f}; "
+        f"compiled kernel {_share(c.kernel, c.rendered)} of the rendered"
     )
 
 
@@ -201,6 +204,14 @@ def reasons(results: Sequence[SceneResult], top: int = 40) -> str:
             cell = message.replace("|", "\\|")
             out.append(f"| {n} | {cell} | {_examples(runs, message, severity)} |")
         out.append("")
+    numpy = [r for r in counted if r.lib.traced_by == "numpy"]
+    out += [f"## Why the numpy path traced them, not the compiled kernel ({len(numpy)})", ""]
+    out += ["| scenes | reason | e.g. |", "|---|---|---|"]
+    why = Counter(w for r in numpy for w in r.lib.numpy_because)
+    for w, n in why.most_common():
+        names = [r.scene for r in numpy if w in r.lib.numpy_because]
+        out.append(f"| {n} | {w} | {', '.join(names[:3])}{' …' if n > 3 else ''} |")
+    out.append("")
     crashes = [(r.scene, r.lib.note) for r in counted if r.lib.status in ("crash", "render-error")]
     timeouts = [r.scene for r in counted if r.lib.status == "timeout"]
     out += [f"## Crashes and render errors ({len(crashes)})", ""]

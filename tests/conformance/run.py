@@ -52,6 +52,10 @@ _DIAG_LINE = re.compile(
     r"^(?:(?P<file>[^ :][^:]*):\d+:\d+: |strala: )?(?P<sev>error|warning): "
     r"(?P<msg>.+?)(?: \[[EWN]\d{4}\])?$"
 )
+# `render --stats`: `traced by the compiled kernel: …` or `traced by numpy (why, why): …`
+_TRACED = re.compile(
+    r"^traced by (?:(?P<kernel>the compiled kernel)|numpy \((?P<why>.*)\)): ", re.M
+)
 CHECK_ONLY = "while checking"  # `check` turns file I/O off and says so: not the scene's fault
 
 
@@ -69,6 +73,10 @@ class StralaRun:
     match: bool = False
     diagnostics: list[tuple[str, str]] = field(default_factory=list)  # (severity, message)
     note: str = ""  # the first error, or the internal error
+    # how the image was traced (`--stats`): "kernel", "numpy", or "" when not rendered;
+    # with numpy, why not the kernel (every frame's reasons, once each)
+    traced_by: str = ""
+    numpy_because: list[str] = field(default_factory=list)
 
     @property
     def rendered(self) -> bool:
@@ -222,7 +230,18 @@ def render_command(name: str, frame: corpus.Frame, out: Path) -> list[str]:
     """strala's command line for the runners' image of scene `name`; not `-q`, which would
     also silence the warnings the reports group the scenes by."""
     cmd = strala_command("render", name, "-W", str(WIDTH), "-H", str(HEIGHT), "--no-aa")
-    return cmd + ["--threads", "1", "-o", str(out), *frame_options(frame)]
+    return cmd + ["--threads", "1", "--stats", "-o", str(out), *frame_options(frame)]
+
+
+def traced_by(stderr: str) -> tuple[str, list[str]]:
+    """("kernel" | "numpy" | "", reasons) from `render --stats`: numpy if any frame was."""
+    found = list(_TRACED.finditer(stderr))
+    if not found:
+        return "", []
+    why = [w for m in found if m["why"] for w in m["why"].split(", ")]
+    return ("numpy" if why or any(m["kernel"] is None for m in found) else "kernel"), sorted(
+        set(why)
+    )
 
 
 def strala_render(
@@ -244,6 +263,7 @@ def strala_render(
     diags = diagnostics_of(err, scene)
     if code == 0 and out.exists():
         run = StralaRun(status="ok", eval_ok=True, seconds=seconds, diagnostics=diags)
+        run.traced_by, run.numpy_because = traced_by(err)
         run.errors = sum(s == "error" for s, _ in diags)
         run.warnings = sum(s == "warning" for s, _ in diags)
     elif code == 1 and any(s == "error" for s, _ in diags):
