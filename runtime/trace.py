@@ -474,6 +474,8 @@ def slab_hits(o, d, lo, hi, tmin, tmax, inv=None) -> np.ndarray:
     be passed when the caller tests the same rays against many boxes."""
     if len(o) == 1 and inv is not None:
         return np.array([_slab_one(o[0].tolist(), lo, hi, tmin[0], tmax[0], inv[0].tolist())])
+    if _boxtree is not None and not _PYTHON_TREE and len(o):
+        return _slab_compiled(o, d, lo, hi, tmin, tmax, inv)
     if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)):
         # A half-infinite box still culls on its finite sides; keep it simple: no culling.
         return np.ones(len(o), dtype=bool)
@@ -491,6 +493,34 @@ def slab_hits(o, d, lo, hi, tmin, tmax, inv=None) -> np.ndarray:
         # Widen so that a hit exactly on the box surface is never culled.
         pad = tol.BOX_PAD_REL * (np.abs(tn) + np.abs(tf)) + tol.BOX_PAD_ABS
         return (tn - pad <= tf + pad) & (tf + pad >= tmin) & (tn - pad <= tmax)
+
+
+def _limits(t, n: int) -> np.ndarray:
+    """A segment end for the compiled tests: one value for every ray, or one per ray."""
+    a = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
+    return a if len(a) in (1, n) else np.ascontiguousarray(np.broadcast_to(a, (n,)))
+
+
+def _slab_compiled(o, d, lo, hi, tmin, tmax, inv) -> np.ndarray:
+    """slab_hits in C (runtime._boxtree.slab): the same operations ray by ray, without the
+    dozen temporary arrays of the numpy formula."""
+    n = len(o)
+    if inv is None:
+        with np.errstate(divide="ignore"):
+            inv = 1.0 / np.asarray(d, dtype=np.float64)
+    out = np.empty(n, dtype=bool)
+    _boxtree.slab(
+        np.ascontiguousarray(o, dtype=np.float64),
+        np.ascontiguousarray(inv, dtype=np.float64),
+        _limits(tmin, n),
+        _limits(tmax, n),
+        np.ascontiguousarray(lo, dtype=np.float64),
+        np.ascontiguousarray(hi, dtype=np.float64),
+        tol.BOX_PAD_REL,
+        tol.BOX_PAD_ABS,
+        out,
+    )
+    return out
 
 
 def _fmin(a: float, b: float) -> float:
@@ -534,6 +564,8 @@ class BoxTree:
         self.hi: list[np.ndarray] = []
         self.kids: list[tuple[int, int] | None] = []
         self.items: list[np.ndarray] = []
+        # the compiled tree's arrays, for the compiled query (None: the Python walk)
+        self._flat: tuple | None = None
         if _boxtree is not None and len(lo) > 0 and not _PYTHON_TREE:
             self._compiled(lo, hi)
             return
@@ -549,6 +581,7 @@ class BoxTree:
         lo = np.ascontiguousarray(lo, dtype=np.float64)
         hi = np.ascontiguousarray(hi, dtype=np.float64)
         m = _boxtree.build(n, self.LEAF_SIZE, lo, hi, node_lo, node_hi, kids, first, count, order)
+        self._flat = (node_lo[:m], node_hi[:m], kids[:m], first[:m], count[:m], order, n)
         self.lo, self.hi = list(node_lo[:m]), list(node_hi[:m])
         self.kids = [None if a < 0 else (a, b) for a, b in kids[:m].tolist()]
         runs = zip(first[:m].tolist(), count[:m].tolist(), strict=True)
@@ -584,6 +617,8 @@ class BoxTree:
 
         Each stack entry carries its rows' ray data packed in one array (origin, 1/d, tmin,
         tmax), already cut down by its parent, so a tree node costs one small gather."""
+        if self._flat is not None and not _PYTHON_TREE and len(o):
+            return self._query_compiled(o, tmin, tmax, inv)
         out: list[tuple[int, np.ndarray]] = []
         packed = np.column_stack([o, inv, tmin, tmax])
         stack = [(0, np.arange(len(o)), packed)]
@@ -603,6 +638,36 @@ class BoxTree:
             else:
                 stack.extend((c, rows, sub) for c in kids)
         return sorted(out, key=lambda item: item[0])
+
+    def _query_compiled(self, o, tmin, tmax, inv) -> list[tuple[int, np.ndarray]]:
+        """`query` in C (runtime._boxtree.query): the same pairs, each ray walked down the
+        tree on its own, so a node costs no array operations."""
+        assert self._flat is not None
+        node_lo, node_hi, kids, first, count, order, n_items = self._flat
+        n = len(o)
+        starts = np.empty(n_items + 1, dtype=np.int64)
+        rows = np.frombuffer(
+            _boxtree.query(
+                node_lo,
+                node_hi,
+                kids,
+                first,
+                count,
+                order,
+                np.ascontiguousarray(o, dtype=np.float64),
+                np.ascontiguousarray(inv, dtype=np.float64),
+                np.ascontiguousarray(np.broadcast_to(tmin, (n,)), dtype=np.float64),
+                np.ascontiguousarray(np.broadcast_to(tmax, (n,)), dtype=np.float64),
+                tol.BOX_PAD_REL,
+                tol.BOX_PAD_ABS,
+                n_items,
+                starts,
+            ),
+            dtype=np.int64,
+        )
+        reached = np.nonzero(starts[1:] > starts[:-1])[0].tolist()
+        bounds = starts.tolist()
+        return [(i, rows[bounds[i] : bounds[i + 1]]) for i in reached]
 
 
 class Tracer:

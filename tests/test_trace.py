@@ -651,3 +651,69 @@ def test_disc_insides_are_povrays(tmp_path):
     ours = line.findall("\n".join(d.message for d in api.compile_string(INSIDE).diagnostics))
     assert len(theirs) == 90 and ours == theirs
     assert {v for *_, v in theirs} == {"0", "1"}
+
+
+def _rays(rng, n: int):
+    """Rays for the box tests: some parallel to an axis (0 and -0 in d), some starting on a
+    slab's plane, segments open or bounded on either side."""
+    o = rng.normal(size=(n, 3)) * 12
+    o[rng.random(n) < 0.2, 0] = 1.0
+    d = rng.normal(size=(n, 3))
+    d[rng.random((n, 3)) < 0.15] = 0.0
+    d[rng.random((n, 3)) < 0.05] = -0.0
+    tmin = np.where(rng.random(n) < 0.3, -np.inf, rng.uniform(-1, 1, n))
+    tmax = np.where(rng.random(n) < 0.4, np.inf, rng.uniform(0, 40, n))
+    with np.errstate(divide="ignore"):
+        inv = 1.0 / d
+    return o, d, tmin, tmax, inv
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(2, 80), st.booleans())
+def test_the_compiled_slab_test_is_the_numpy_one(seed, n, shared_limits):
+    """runtime._boxtree.slab answers as slab_hits' numpy formula, ray for ray: parallel rays
+    (0 * inf), rays on a slab's plane, one segment end for all rays or one per ray."""
+    from runtime import trace
+
+    if not trace.box_tree_compiled():
+        pytest.skip("the compiled box tree is not built (no C compiler)")
+    rng = np.random.default_rng(seed)
+    o, d, tmin, tmax, inv = _rays(rng, n)
+    lo = rng.normal(size=3) * 5
+    hi = lo + rng.choice([0.0, 1.0, 7.0], 3)
+    if shared_limits:
+        tmin, tmax = float(tmin[0]), float(tmax[0])
+    mp = pytest.MonkeyPatch()
+    try:
+        mp.setattr(trace, "_PYTHON_TREE", True)
+        want = trace.slab_hits(o, d, lo, hi, tmin, tmax, inv if seed % 2 else None)
+        mp.setattr(trace, "_PYTHON_TREE", False)
+        got = trace.slab_hits(o, d, lo, hi, tmin, tmax, inv if seed % 2 else None)
+    finally:
+        mp.undo()
+    assert got.dtype == bool and np.array_equal(got, want)
+
+
+@given(st.integers(1, 70), st.integers(0, 2**32 - 1), st.integers(1, 90))
+def test_the_compiled_tree_query_is_the_python_walk(n, seed, rays):
+    """runtime._boxtree.query gives the Python walk's [(item, rows)]: the same items in the
+    same order, each with the same rows in ascending order."""
+    from runtime import trace
+
+    if not trace.box_tree_compiled():
+        pytest.skip("the compiled box tree is not built (no C compiler)")
+    rng = np.random.default_rng(seed)
+    c = rng.normal(size=(n, 3)) * 10
+    half = rng.uniform(0.0, 2.0, (n, 3))
+    mp = pytest.MonkeyPatch()
+    try:
+        slow = _tree_of(c - half, c + half, True, mp)
+        fast = _tree_of(c - half, c + half, False, mp)
+        o, d, tmin, tmax, inv = _rays(rng, rays)
+        mp.setattr(trace, "_PYTHON_TREE", True)
+        want = slow.query(o, d, tmin, tmax, inv)
+        mp.setattr(trace, "_PYTHON_TREE", False)
+        got = fast.query(o, d, tmin, tmax, inv)
+    finally:
+        mp.undo()
+    assert [i for i, _ in got] == [i for i, _ in want]
+    assert all(np.array_equal(a, b) for (_, a), (_, b) in zip(got, want, strict=True))

@@ -1,4 +1,5 @@
-/* The box tree's build (runtime/trace.py BoxTree), compiled: the same splits node for node.
+/* The box tree's build and its queries (runtime/trace.py BoxTree, slab_hits), compiled: the
+ * same splits node for node, the same slab test operation for operation.
  *
  * Each node holds the boxes of its ids; a node of more than `leaf` ids sorts them (stably)
  * by their centres along the axis where the centres spread most and splits at the middle of
@@ -9,7 +10,9 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include "buffer.h"
+#include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 typedef struct {
     double key;
@@ -124,13 +127,204 @@ done:
     return result;
 }
 
+
+/* slab_hits for one ray: the numpy formula's operations in its order (fmin/fmax skip the
+ * NaN of 0 * inf; the pad widens the box so that a hit on its surface is never culled). */
+static inline int slab_one(const double *o, const double *inv, const double *lo,
+                           const double *hi, double tmin, double tmax, double rel, double abs_) {
+    double near[3], far[3];
+    for (int a = 0; a < 3; a++) {
+        double t1 = (lo[a] - o[a]) * inv[a], t2 = (hi[a] - o[a]) * inv[a];
+        near[a] = fmin(t1, t2);
+        far[a] = fmax(t1, t2);
+    }
+    double tn = fmax(fmax(near[0], near[1]), near[2]);
+    double tf = fmin(fmin(far[0], far[1]), far[2]);
+    double pad = rel * (fabs(tn) + fabs(tf)) + abs_;
+    return (tn - pad <= tf + pad) && (tf + pad >= tmin) && (tn - pad <= tmax);
+}
+
+static inline int box_finite(const double *lo, const double *hi) {
+    for (int a = 0; a < 3; a++)
+        if (!isfinite(lo[a]) || !isfinite(hi[a])) return 0;
+    return 1;
+}
+
+/* slab(o, inv, tmin, tmax, lo, hi, rel, abs, out): out[i] = does ray i's segment touch the
+ * box; tmin and tmax hold one value for every ray or one per ray. */
+static PyObject *py_slab(PyObject *self, PyObject *args) {
+    PyObject *objs[7];
+    double rel, abs_;
+    if (!PyArg_ParseTuple(args, "OOOOOOddO", &objs[0], &objs[1], &objs[2], &objs[3], &objs[4],
+                          &objs[5], &rel, &abs_, &objs[6]))
+        return NULL;
+    Py_buffer v[7];
+    int got = 0;
+    PyObject *result = NULL;
+    const char *names[7] = {"o", "inv", "tmin", "tmax", "lo", "hi", "out"};
+    for (; got < 7; got++)
+        if (checked_buffer(objs[got], &v[got], got == 4 || got == 5 ? 3 : 1,
+                           got == 6 ? 1 : 8, got == 6, names[got]))
+            goto done;
+    Py_ssize_t n = v[0].len / 24;
+    Py_ssize_t nmin = v[2].len / 8, nmax = v[3].len / 8;
+    if (v[1].len < n * 24 || v[6].len < n || (nmin != 1 && nmin < n) || (nmax != 1 && nmax < n)) {
+        PyErr_SetString(PyExc_ValueError, "slab: arrays of different lengths");
+        goto done;
+    }
+    const double *o = v[0].buf, *inv = v[1].buf, *tmin = v[2].buf, *tmax = v[3].buf;
+    const double *lo = v[4].buf, *hi = v[5].buf;
+    char *out = v[6].buf;
+    if (!box_finite(lo, hi)) { /* a half-infinite box culls nothing (as slab_hits) */
+        memset(out, 1, (size_t)n);
+    } else {
+        for (Py_ssize_t i = 0; i < n; i++)
+            out[i] = (char)slab_one(o + 3 * i, inv + 3 * i, lo, hi, tmin[nmin == 1 ? 0 : i],
+                                    tmax[nmax == 1 ? 0 : i], rel, abs_);
+    }
+    result = Py_None;
+    Py_INCREF(result);
+done:
+    for (int i = 0; i < got; i++) PyBuffer_Release(&v[i]);
+    return result;
+}
+
+typedef struct {
+    long long *item, *row;
+    Py_ssize_t n, cap;
+} Pairs;
+
+static int push(Pairs *p, long long item, long long row) {
+    if (p->n == p->cap) {
+        Py_ssize_t cap = p->cap ? 2 * p->cap : 1024;
+        long long *a = realloc(p->item, (size_t)cap * sizeof(long long));
+        if (!a) return -1;
+        p->item = a;
+        long long *b = realloc(p->row, (size_t)cap * sizeof(long long));
+        if (!b) return -1;
+        p->row = b;
+        p->cap = cap;
+    }
+    p->item[p->n] = item;
+    p->row[p->n++] = row;
+    return 0;
+}
+
+/* query(node_lo, node_hi, kids, first, count, order, o, inv, tmin, tmax, rel, abs, n_items,
+ * starts) -> rows: every (item, ray) whose tree leaf the ray's segment reaches, as the rays
+ * of each item in ascending order, item after item (starts: n_items + 1 offsets into rows,
+ * filled here). A ray reaches a node when it passes the slab test of the node and of
+ * every node above it: the Python walk's per-node filtering, ray by ray. */
+static PyObject *py_query(PyObject *self, PyObject *args) {
+    PyObject *objs[11];
+    double rel, abs_;
+    Py_ssize_t n_items;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOddnO", &objs[0], &objs[1], &objs[2], &objs[3],
+                          &objs[4], &objs[5], &objs[6], &objs[7], &objs[8], &objs[9], &rel,
+                          &abs_, &n_items, &objs[10]))
+        return NULL;
+    Py_buffer v[11];
+    int got = 0;
+    PyObject *result = NULL;
+    Pairs p = {NULL, NULL, 0, 0};
+    long long *stack = NULL;
+    const char *names[11] = {"node_lo", "node_hi", "kids", "first", "count", "order",
+                             "o", "inv", "tmin", "tmax", "starts"};
+    Py_ssize_t sizes[11] = {8, 8, 8, 8, 8, sizeof(Py_ssize_t), 8, 8, 8, 8, 8};
+    for (; got < 11; got++)
+        if (checked_buffer(objs[got], &v[got], got == 10 ? n_items + 1 : 1, sizes[got],
+                           got == 10, names[got]))
+            goto done;
+    Py_ssize_t m = v[3].len / 8, n = v[6].len / 24;
+    if (v[0].len < 24 * m || v[1].len < 24 * m || v[2].len < 16 * m || v[4].len < 8 * m ||
+        v[7].len < 24 * n || v[8].len < 8 * n || v[9].len < 8 * n || m < 1) {
+        PyErr_SetString(PyExc_ValueError, "query: arrays of different lengths");
+        goto done;
+    }
+    const double *nlo = v[0].buf, *nhi = v[1].buf, *o = v[6].buf, *inv = v[7].buf;
+    const double *tmin = v[8].buf, *tmax = v[9].buf;
+    const long long *kids = v[2].buf, *first = v[3].buf, *count = v[4].buf;
+    const Py_ssize_t *order = v[5].buf;
+    long long *starts = v[10].buf;
+    stack = malloc((size_t)(m + 1) * sizeof(long long));
+    if (!stack) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t r = 0; r < n; r++) {
+        Py_ssize_t top = 0;
+        stack[top++] = 0;
+        while (top) {
+            long long k = stack[--top];
+            if (k < 0 || k >= m) {
+                PyErr_SetString(PyExc_ValueError, "query: a child index out of the tree");
+                goto done;
+            }
+            const double *lo = nlo + 3 * k, *hi = nhi + 3 * k;
+            if (box_finite(lo, hi) &&
+                !slab_one(o + 3 * r, inv + 3 * r, lo, hi, tmin[r], tmax[r], rel, abs_))
+                continue;
+            if (kids[2 * k] < 0) {
+                for (long long i = first[k]; i < first[k] + count[k]; i++) {
+                    Py_ssize_t item = order[i];
+                    if (item < 0 || item >= n_items) {
+                        PyErr_SetString(PyExc_ValueError, "query: an item out of range");
+                        goto done;
+                    }
+                    if (push(&p, item, r)) {
+                        PyErr_NoMemory();
+                        goto done;
+                    }
+                }
+            } else {
+                if (top + 2 > m + 1) {
+                    PyErr_SetString(PyExc_ValueError, "query: the tree is not a tree");
+                    goto done;
+                }
+                stack[top++] = kids[2 * k + 1];
+                stack[top++] = kids[2 * k];
+            }
+        }
+    }
+    /* counting sort by item, stable: each item's rays stay in ascending order */
+    memset(starts, 0, (size_t)(n_items + 1) * sizeof(long long));
+    for (Py_ssize_t i = 0; i < p.n; i++) starts[p.item[i] + 1]++;
+    for (Py_ssize_t i = 0; i < n_items; i++) starts[i + 1] += starts[i];
+    PyObject *rows_o = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)(p.n * 8));
+    if (!rows_o) goto done;
+    long long *rows = (long long *)PyByteArray_AS_STRING(rows_o);
+    long long *fill = malloc((size_t)(n_items + 1) * sizeof(long long));
+    if (!fill) {
+        Py_DECREF(rows_o);
+        PyErr_NoMemory();
+        goto done;
+    }
+    memcpy(fill, starts, (size_t)(n_items + 1) * sizeof(long long));
+    for (Py_ssize_t i = 0; i < p.n; i++) rows[fill[p.item[i]]++] = p.row[i];
+    free(fill);
+    result = rows_o;
+done:
+    free(stack);
+    free(p.item);
+    free(p.row);
+    for (int i = 0; i < got; i++) PyBuffer_Release(&v[i]);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"build", py_build, METH_VARARGS,
      "build(n, leaf, lo, hi, node_lo, node_hi, kids, first, count, order) -> nodes: the box "
      "tree over n boxes into the given arrays (2n rows each, order: n intp)."},
+    {"slab", py_slab, METH_VARARGS,
+     "slab(o, inv, tmin, tmax, lo, hi, rel, abs, out): the slab test of each ray against one "
+     "box into out (bool)."},
+    {"query", py_query, METH_VARARGS,
+     "query(node_lo, node_hi, kids, first, count, order, o, inv, tmin, tmax, rel, abs, "
+     "n_items, starts) -> bytearray of int64 rows, grouped by item (starts: offsets)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_boxtree",
-                                    "The box tree's build (see runtime/trace.py).", -1, methods};
+                                    "The box tree's build and queries (see runtime/trace.py).",
+                                    -1, methods};
 
 PyMODINIT_FUNC PyInit__boxtree(void) { return PyModule_Create(&module); }
