@@ -18,7 +18,7 @@ cylindrical, planar, boxed or radial with a colour map and a wave (no turbulence
 warps); no normal; finishes without irid, fresnel, crand, diffuse_back or negative
 metallic. Point lights and spotlights (fade included, no area lights); interiors with
 ior and fade, no caustics or media; a background colour and sky_sphere layers of those
-pigments (3.7 rules); no fog, media or radiosity.
+pigments (either version's rules for their filter and transmit); no fog, media or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -35,7 +35,7 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, containers, context, interiors, patterns, shading, shapes, uvmap
+from runtime import color, containers, interiors, patterns, shading, shapes, uvmap
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
@@ -262,8 +262,6 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         if key not in seen:
             seen.add(key)
             out.extend(_texture_reasons(tex))
-    if scene.sky_sphere and context.legacy_rules(scene.settings):
-        out.append("sky_sphere in a pre-3.7 scene")
     for pig in scene.sky_sphere or ():
         out.extend(_pigment_reasons(pig))
     if any(r is not None for r in getattr(prepared, "receivers", ())):

@@ -134,6 +134,31 @@ def test_patterns_and_sky_match_numpy(monkeypatch):
     _assert_identical(scene, 96, 72, 0.3, monkeypatch)
 
 
+def test_a_pre_37_sky_matches_numpy(monkeypatch):
+    """Before 3.7 the sky layers' accumulated filter and transmit pass the background
+    (integrate.sky's legacy rule); the kernel keeps it (the suite's metals demos)."""
+    text = LAYERED_SKY.replace("#version 3.7;", "#version 3.6;")
+    _assert_identical(_scene(text), 64, 48, 0.3, monkeypatch)
+    # the rule matters here: 3.7's gives another image
+    old, new = render_scene(_scene(text), 32, 24), render_scene(_scene(LAYERED_SKY), 32, 24)
+    assert np.abs(old - new).max() > 0.1
+
+
+LAYERED_SKY = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 0, -3> look_at <0, 0.6, 0> angle 90 }
+light_source { <-4, 9, -6>, rgb 1 }
+background { rgb <0.9, 0.2, 0.1> }
+sky_sphere {
+  pigment { gradient y color_map { [0 rgbf <0.8, 0.9, 1, 0.4>] [0.5 rgbt <0.3, 0.4, 0.9, 0.5>]
+    [1 rgbft <0.1, 0.2, 0.7, 0.3, 0.3>] } }
+  pigment { spherical color_map { [0 rgbt 1] [1 rgbf <1, 0.5, 0.2, 0.3>] } scale 0.4 }
+}
+sphere { <0, -0.5, 0>, 1 pigment { rgb 0.2 } finish { reflection 0.6 } }
+"""
+
+
 CSG = """
 #version 3.7;
 global_settings { assumed_gamma 1 }

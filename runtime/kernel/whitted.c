@@ -1142,6 +1142,19 @@ static void trace(Scene *s, const double *o, const double *d, double weight, int
     s->rays++;
     Hit h;
     if (!closest(s, o, d, INFINITY, skip, cls, &h)) {
+        if (s->legacy && s->nsky) { /* before 3.7 (integrate.sky): the layers' accumulated */
+            double acc[5] = {1.0, 1.0, 1.0, 1.0, 1.0}, pass = 1.0; /* filter/transmit */
+            for (int l = 0; l < s->nsky; l++) {
+                double c[5];
+                pigment(s, s->pig + (size_t)(s->npig - s->nsky + l) * PIG, d, c);
+                double op = pass * (1.0 - c[3] - c[4]);
+                for (int k = 0; k < 3; k++) out[k] += c[k] * op;
+                for (int k = 0; k < 5; k++) acc[k] *= c[k];
+                pass = fabs(acc[3]) + fabs(acc[4]);
+            }
+            for (int k = 0; k < 3; k++) out[k] += s->h[H_BG + k] * (acc[k] * acc[3] + acc[4]);
+            return;
+        }
         /* sky_sphere layers over the background, each filtering those behind (integrate.sky) */
         double fil[3] = {1.0, 1.0, 1.0};
         for (int l = 0; l < s->nsky; l++) {
