@@ -706,7 +706,9 @@ def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np
 
 # ------------------------------------------------------------------------ noise
 # POV-Ray's own noise (runtime.noise); `noise_generator` in a pattern picks the generator.
-def _generator(params: dict) -> int:
+def noise_generator(params: dict) -> int:
+    """The pattern's noise generator (1, 2 or 3; POV-Ray 3.7's default 2), as the numpy
+    path and the compiled one (runtime.whitted) read it."""
     return int(params.get("noise_generator", DEFAULT_GENERATOR) or DEFAULT_GENERATOR)
 
 
@@ -737,7 +739,7 @@ def _builtin_turb(p: np.ndarray, params: dict, axis: int) -> np.ndarray | float:
     vec, octaves, omega, lam = turb_params(params)
     if vec is None:
         return 0.0
-    return vec[axis] * turbulence(p, octaves, omega, lam, _generator(params))
+    return vec[axis] * turbulence(p, octaves, omega, lam, noise_generator(params))
 
 
 def _triangle(v: np.ndarray) -> np.ndarray:
@@ -752,13 +754,13 @@ def _cycloidal(v: np.ndarray) -> np.ndarray:
 
 def bozo(p: np.ndarray, params: dict) -> np.ndarray:
     """bozo, spotted and bumps as pigments: the noise itself."""
-    return noise(p, _generator(params))
+    return noise(p, noise_generator(params))
 
 
 def granite(p: np.ndarray, params: dict) -> np.ndarray:
     """Six octaves of noise at 4x scale, each half as strong: |0.5 - n| for the original
     generator, min(|1 - 2n|, 0.5) for the others."""
-    gen = _generator(params)
+    gen = noise_generator(params)
     total = np.zeros(len(p))
     freq = 1.0
     for _ in range(6):
@@ -793,7 +795,7 @@ def wood(p: np.ndarray, params: dict) -> np.ndarray:
 def wrinkles(p: np.ndarray, params: dict) -> np.ndarray:
     """Ten octaves of noise, each twice as fine and half as strong, halved (POV-Ray's
     wrinkles pigment); generators 2 and 3 stretch each octave to 2n - 0.5, clipped."""
-    gen = _generator(params)
+    gen = noise_generator(params)
 
     def octave(q: np.ndarray) -> np.ndarray:
         n = noise(q, gen)
@@ -859,7 +861,7 @@ def waves(p: np.ndarray, params: dict) -> np.ndarray:
 
 
 def dents(p: np.ndarray, params: dict) -> np.ndarray:
-    return noise(p, _generator(params)) ** 3
+    return noise(p, noise_generator(params)) ** 3
 
 
 def agate(p: np.ndarray, params: dict) -> np.ndarray:
@@ -867,7 +869,7 @@ def agate(p: np.ndarray, params: dict) -> np.ndarray:
     the pattern's octaves/omega/lambda (6, 0.5, 2 unless given)."""
     turb = float(params.get("agate_turb", 1.0))
     _, octaves, omega, lam = turb_params(params)
-    t = turb * turbulence(p, octaves, omega, lam, _generator(params))
+    t = turb * turbulence(p, octaves, omega, lam, noise_generator(params))
     value = 0.5 * (_cycloidal(1.3 * t + 1.1 * p[:, 2]) + 1.0)
     return np.clip(value, 0.0, 1.0) ** 0.77
 
@@ -926,7 +928,7 @@ def crackle(p: np.ndarray, params: dict) -> np.ndarray:
     if offset:
         three = three + (offset * offset if metric == 2.0 else offset**metric)
     if params.get("solid"):
-        return noise(points[np.arange(n), nearest], _generator(params))
+        return noise(points[np.arange(n), nearest], noise_generator(params))
     dist = three if metric == 1.0 else three ** (1.0 / metric)
     return np.clip(dist @ form, 0.0, 1.0)
 
@@ -1255,7 +1257,7 @@ def perturb_normal(
     elif kind == "bumps":
         n = n + amount * dnoise(p)
     elif kind == "dents":
-        k = noise(p, _generator(normal.params)) ** 3 * amount
+        k = noise(p, noise_generator(normal.params)) ** 3 * amount
         n = n + k[:, None] * dnoise(p)
     elif kind == "wrinkles":
         total = np.zeros_like(p)

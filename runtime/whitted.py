@@ -35,7 +35,7 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, containers, interiors, patterns, shading, shapes, uvmap
+from runtime import color, containers, interiors, noise, patterns, shading, shapes, uvmap
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
@@ -48,7 +48,7 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAX_MAP, NODE, MAX_CROSS = 80, 64, 48, 24, 64, 7, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 80, 64, 48, 24, 32, 6, 16, 1024
 BVH, BVH_STACK = 11, 128
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
@@ -57,6 +57,10 @@ H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM, H_MASK = ra
 H_NLOOSE = 48
 # the camera rays' interior list (runtime.containers): its length, the ids, their iors
 H_CAMIN = 56
+# where POV-Ray's noise tables start in the packed array (0: not packed, no pigment needs them)
+H_NOISE = 76
+# the colour maps' table (MAP_ENTRY values an entry: key, rgbft): where it starts, its entries
+H_MAPS, H_NMAPS = 77, 78
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
@@ -78,6 +82,10 @@ P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
     20,
     21,
 )
+# P_MAP: the first of the colour map's P_N entries in the map table; then the turbulence
+# (vector, octaves, omega, lambda, on), the noise generator and agate_turb
+P_TURB = P_MAP + 1
+P_OCTAVES, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE = range(P_TURB + 3, P_TURB + 9)
 PIGMENT_KINDS = {
     "solid": 0,
     "checker": 1,
@@ -88,7 +96,16 @@ PIGMENT_KINDS = {
     "planar": 6,
     "boxed": 7,
     "radial": 8,
+    "bozo": 9,
+    "spotted": 9,
+    "bumps": 9,
+    "granite": 10,
+    "marble": 11,
+    "wood": 12,
+    "wrinkles": 13,
+    "agate": 14,
 }
+NOISE_KINDS = frozenset(k for k, v in PIGMENT_KINDS.items() if v >= PIGMENT_KINDS["bozo"])
 WAVES = {
     "ramp_wave": 0,
     "triangle_wave": 1,
@@ -153,7 +170,7 @@ def layout() -> dict[str, int]:
         "texture": TEX,
         "light": LIT,
         "pigment": PIG,
-        "map_entries": MAX_MAP,
+        "map_entry": MAP_ENTRY,
         "node": NODE,
         "max_crossings": MAX_CROSS,
         "bvh": BVH,
@@ -167,19 +184,23 @@ def _pigment_reasons(pig: ir.Pigment) -> list[str]:
         return [f"pigment pattern {kind}"]
     if kind == "solid":
         return []
-    if pig.params.get("warps") or patterns.turb_params(pig.params)[0] is not None:
-        return [f"warped or turbulent {kind}"]
+    if pig.params.get("warps"):
+        return [f"warped {kind}"]
+    if _needs_noise(pig) and patterns.noise_generator(pig.params) not in (1, 2, 3):
+        return [f"noise_generator {pig.params.get('noise_generator')}"]
     if kind == "checker":
         if any(sub.pattern != "solid" for sub in pig.list) or len(pig.list) == 1:
             return ["checker of patterned pigments"]
         return []
     if pig.pigment_map:
         return ["pigment_map"]
-    if len(_colour_map(pig)) > MAX_MAP:
-        return [f"colour map of more than {MAX_MAP} entries"]
     if pig.params.get("wave", "ramp_wave") not in WAVES:
         return [f"wave {pig.params.get('wave')}"]
     return []
+
+
+def _needs_noise(pig: ir.Pigment) -> bool:
+    return pig.pattern in NOISE_KINDS or patterns.turb_params(pig.params)[0] is not None
 
 
 def _colour_map(pig: ir.Pigment):
@@ -276,30 +297,48 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     return sorted(set(out))
 
 
-def pack_pigment(pig: ir.Pigment, row: np.ndarray) -> None:
+def _entries(pig: ir.Pigment) -> list:
+    """The (key, rgbft) entries the kernel blends: a solid's one colour, a checker's two."""
+    if pig.pattern == "solid":
+        return [(0.0, pig.color)]
+    if pig.pattern == "checker":
+        subs = pig.list or tuple(ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS["checker"])
+        return [(0.0, subs[0].color), (1.0, subs[1].color)]
+    return list(_colour_map(pig))
+
+
+def pack_pigment(pig: ir.Pigment, row: np.ndarray, maps: list[list[float]]) -> None:
     """One pigment row: kind, pattern-space transform, wave and colour map (solid: one
     entry; checker: its two colours)."""
     kind = pig.pattern
     row[P_KIND] = PIGMENT_KINDS[kind]
-    if kind == "solid":
-        entries = [(0.0, pig.color)]
-    elif kind == "checker":
-        subs = pig.list or tuple(ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS["checker"])
-        entries = [(0.0, subs[0].color), (1.0, subs[1].color)]
-    else:
-        entries = list(_colour_map(pig))
+    entries = _entries(pig)
+    if kind not in ("solid", "checker"):
         prm = pig.params
         row[P_ORIENT : P_ORIENT + 3] = prm.get("orientation", (1.0, 0.0, 0.0))
         row[P_FREQ] = float(prm.get("frequency", 1.0))
         row[P_PHASE] = float(prm.get("phase", 0.0))
-        row[P_WAVE] = WAVES[prm.get("wave", "ramp_wave")]
+        default = "triangle_wave" if kind in patterns.TRIANGLE_BY_DEFAULT else "ramp_wave"
+        row[P_WAVE] = WAVES[prm.get("wave", default)]
         row[P_WEXP] = float(prm.get("wave_exponent", prm.get("exponent", 1.0)))
+    vec, octaves, omega, lam = patterns.turb_params(pig.params)
+    row[P_TURB : P_TURB + 3] = (0.0, 0.0, 0.0) if vec is None else vec
+    row[P_OCTAVES], row[P_OMEGA], row[P_LAMBDA] = octaves, omega, lam
+    row[P_HASTURB] = vec is not None
+    row[P_GEN] = patterns.noise_generator(pig.params)
+    row[P_AGATE] = float(pig.params.get("agate_turb", 1.0))
     inv = tf.cached_inverse(pig.transform)
     row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
-    row[P_N] = len(entries)
-    for k, (key, colour) in enumerate(entries):
-        row[P_MAP + 6 * k] = key
-        row[P_MAP + 6 * k + 1 : P_MAP + 6 * k + 6] = colour
+    row[P_N], row[P_MAP] = len(entries), len(maps)
+    maps.extend([float(key), *map(float, colour)] for key, colour in entries)
+
+
+def _noise_tables() -> np.ndarray:
+    """POV-Ray's noise tables as the kernel reads them (kernel/noise.h): the hash
+    permutation, the value table and its halves, generator 3's permutation and gradients."""
+    t = noise.tables()
+    parts = (t.hash, t.rtable, t.half, t.solid_perm, t.solid_grads.ravel())
+    return np.concatenate([np.asarray(a, dtype=np.float64) for a in parts])
 
 
 def _tree_depth(tracer) -> int:
@@ -500,7 +539,13 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     starts = walk_starts(bvh, masks)
     tail = np.concatenate([children, unbounded, loose, bvh.ravel(), items, masks.ravel(), starts])
     tail = tail.astype(np.float64)
-    buf = np.zeros(size + len(tail))
+    pigs = [layers[0].pigment for layers in ctx.textures] + sky
+    noisy = any(_needs_noise(p) for p in pigs)
+    tables = _noise_tables() if noisy else np.zeros(0)
+    n_entries = sum(len(_entries(p)) for p in pigs)
+    maps_at = size + len(tail)
+    buf = np.zeros(maps_at + MAP_ENTRY * n_entries + len(tables))
+    maps: list[list[float]] = []
     h = buf[:HDR]
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
@@ -581,12 +626,15 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     prows = buf[start : start + n_pig * PIG].reshape(n_pig, PIG)
     start += n_pig * PIG
     nrows = buf[start : start + n_node * NODE].reshape(n_node, NODE)
-    buf[start + n_node * NODE :] = tail
+    buf[start + n_node * NODE : start + n_node * NODE + len(tail)] = tail
+    if noisy:
+        h[H_NOISE] = len(buf) - len(tables)
+        buf[len(buf) - len(tables) :] = tables
     for t, layers in enumerate(ctx.textures):
         tex, r = layers[0], trows[t]
         pig, f = tex.pigment, tex.finish
         r[T_PIG] = t  # texture t's pigment is pigment row t; the sky's follow
-        pack_pigment(pig, prows[t])
+        pack_pigment(pig, prows[t], maps)
         r[T_TRANS], r[T_LIT] = ctx.transmits[t], ctx.lit[t]
         r[T_AMB : T_AMB + 3] = f.ambient
         r[T_EMIS : T_EMIS + 3] = f.emission
@@ -609,7 +657,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
         r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(node.children)
     for k, pig in enumerate(sky):
-        pack_pigment(pig, prows[n_tex + k])
+        pack_pigment(pig, prows[n_tex + k], maps)
+    h[H_MAPS], h[H_NMAPS] = maps_at, len(maps)
+    buf[maps_at : maps_at + MAP_ENTRY * len(maps)] = np.ravel(maps)
     for light, r in zip(scene.lights, lrows, strict=True):
         r[L_KIND] = 1 if light.kind == "spotlight" else 0
         r[L_POS : L_POS + 3] = light.position

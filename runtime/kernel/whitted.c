@@ -13,6 +13,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include "buffer.h"
+#include "noise.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,18 +23,17 @@
 #define OBJ 64
 #define TEX 48
 #define LIT 24
-#define PIG 64
+#define PIG 32
 #define NODE 16
 #define BVH 11
 #define BVH_STACK 128
 /* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
 #define MAX_CROSS 1024 /* 4 a leaf at most (a capped cone) */
-#define MAX_MAP 7
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
-       H_MASK, H_NLOOSE, H_CAMIN = 56 };
+       H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49 };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
@@ -42,9 +42,13 @@ enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
 enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS,
        L_TIGHT = 13, L_COSR, L_COSF };
 
-enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP };
+/* P_MAP: where the colour map's P_N entries (6 values each: key, rgbft) start in the map
+ * table; then the turbulence (vector, octaves, omega, lambda, on), the noise generator and
+ * agate_turb */
+enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP,
+       P_TURB, P_OCTAVES = P_TURB + 3, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE };
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
-       PK_BOXED, PK_RADIAL };
+       PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE };
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS };
@@ -82,7 +86,9 @@ typedef struct {
     /* per box-tree node: may camera rays (column 0), or shadow rays from their hits toward
      * light l (column 1 + l), meet it (whitted.py view masks); NULL: not packed */
     const double *mask, *start; /* start: per class, the node its walk begins at (-1: none) */
-    int mwidth;
+    Noise noise;                /* POV-Ray's noise tables, when a pigment needs them */
+    const double *map;          /* the colour maps' entries */
+    int has_noise, mwidth;
     int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nloose, nbvh, nitem, maxlevel,
         legacy, anytrans;
     double bailout;
@@ -769,9 +775,69 @@ static double apply_wave(const double *pg, double v) {
 
 static inline double clip01(double v) { return v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v); }
 
+static inline double cycloidal(double v) { return sin(2.0 * M_PI * (v - floor(v))); }
+
+/* The noise patterns' values (patterns.bozo, granite, marble, wood, wrinkles, agate). */
+static double noise_pattern(const Noise *nz, int kind, const double *q, int turbulent,
+                            const double *turb, int octaves, double omega, double lam, int gen,
+                            const double *pg) {
+    switch (kind) {
+    case PK_GRANITE: {
+        double total = 0.0, freq = 1.0;
+        for (int i = 0; i < 6; i++) {
+            double f = 4.0 * freq, r[3] = {q[0] * f, q[1] * f, q[2] * f};
+            double n = noise_at(nz, r, gen), t;
+            if (gen == 1) {
+                t = fabs(0.5 - n);
+            } else {
+                t = fabs(1.0 - 2.0 * n);
+                t = t < 0.5 ? t : 0.5;
+            }
+            total += t / freq;
+            freq *= 2.0;
+        }
+        return total;
+    }
+    case PK_MARBLE:
+        return q[0] + (turbulent ? turb[0] * turbulence_at(nz, q, octaves, omega, lam, gen) : 0.0);
+    case PK_WOOD: {
+        double x = q[0], y = q[1];
+        if (turbulent) {
+            double d[3];
+            dturbulence_at(nz, q, octaves, omega, lam, d);
+            x = x + cycloidal((x + d[0]) * turb[0]);
+            y = y + cycloidal((y + d[1]) * turb[1]);
+        }
+        return hypot(x, y);
+    }
+    case PK_WRINKLES: {
+        double total = 0.0, l = 2.0, w = 0.5;
+        for (int i = 0; i < 10; i++) {
+            double r[3] = {q[0] * l, q[1] * l, q[2] * l};
+            double n = noise_at(nz, i ? r : q, gen);
+            if (gen != 1) n = clip_unit(2.0 * n - 0.5);
+            if (i == 0) {
+                total = n;
+                continue;
+            }
+            total += w * n;
+            l *= 2.0;
+            w *= 0.5;
+        }
+        return total / 2.0;
+    }
+    case PK_AGATE: {
+        double t = pg[P_AGATE] * turbulence_at(nz, q, octaves, omega, lam, gen);
+        double v = 0.5 * (cycloidal(1.3 * t + 1.1 * q[2]) + 1.0);
+        return pow(clip_unit(v), 0.77);
+    }
+    default: return noise_at(nz, q, gen); /* bozo, spotted, bumps */
+    }
+}
+
 /* RGBFT colour of a pigment at a point (patterns.evaluate for the kinds packed). */
 static void pigment(const Scene *s, const double *pg, const double *p, double *out) {
-    const double *map = pg + P_MAP;
+    const double *map = s->map + 6 * (size_t)pg[P_MAP];
     int kind = (int)pg[P_KIND];
     if (kind == PK_SOLID) {
         memcpy(out, map + 1, 5 * sizeof(double));
@@ -779,6 +845,16 @@ static void pigment(const Scene *s, const double *pg, const double *p, double *o
     }
     double q[3];
     affine(pg + P_INV, p, q);
+    const Noise *nz = &s->noise;
+    int octaves = (int)pg[P_OCTAVES], gen = (int)pg[P_GEN];
+    double omega = pg[P_OMEGA], lam = pg[P_LAMBDA];
+    const double *turb = pg + P_TURB;
+    int turbulent = pg[P_HASTURB] != 0.0;
+    if (turbulent && kind != PK_MARBLE && kind != PK_WOOD && kind != PK_AGATE) {
+        double dt[3]; /* the classic turbulence warp (patterns.turbulence_warp) */
+        dturbulence_at(nz, q, octaves, omega, lam, dt);
+        for (int a = 0; a < 3; a++) q[a] = q[a] + dt[a] * turb[a];
+    }
     if (kind == PK_CHECKER) {
         double sum = floor(q[0] + CHECKER_OFFSET) + floor(q[1] + CHECKER_OFFSET) +
                      floor(q[2] + CHECKER_OFFSET);
@@ -798,10 +874,12 @@ static void pigment(const Scene *s, const double *pg, const double *p, double *o
         v = clip01(1.0 - m);
         break;
     }
-    default: /* radial */
+    case PK_RADIAL:
         v = (fabs(q[0]) < 0.001 && fabs(q[2]) < 0.001)
                 ? 0.25
                 : 0.25 + (atan2(q[0], q[2]) + M_PI) / (2.0 * M_PI);
+        break;
+    default: v = noise_pattern(nz, kind, q, turbulent, turb, octaves, omega, lam, gen, pg);
     }
     v = apply_wave(pg, v);
     /* POV-Ray's Search_Blend_Map (patterns.blend_indices) */
@@ -1267,9 +1345,25 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         double g = s->tex[(size_t)i * TEX + T_PIG];
         if (!(g >= 0 && g < s->npig)) goto bad;
     }
+    double maps = h[H_MAPS], nmaps = h[H_NMAPS];
+    if (!(maps >= need && nmaps >= 0 && maps + 6 * nmaps <= sb->len / 8)) goto bad;
+    s->map = h + (size_t)maps;
+    double at = h[H_NOISE];
+    if (at != 0.0) {
+        if (!(at >= need && at + NOISE_LEN <= sb->len / 8)) goto bad;
+        noise_view(h + (size_t)at, &s->noise);
+        if (!noise_valid(&s->noise)) goto bad;
+        s->has_noise = 1;
+    }
     for (int i = 0; i < s->npig; i++) {
-        double n = s->pig[(size_t)i * PIG + P_N];
-        if (!(n >= 1 && n <= MAX_MAP)) goto bad;
+        const double *pg = s->pig + (size_t)i * PIG;
+        double n = pg[P_N];
+        if (!(n >= 1 && pg[P_MAP] >= 0 && pg[P_MAP] + n <= nmaps)) goto bad;
+        if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_AGATE)) goto bad;
+        if ((pg[P_KIND] >= PK_BOZO || pg[P_HASTURB] != 0.0) &&
+            !(s->has_noise && pg[P_GEN] >= 1 && pg[P_GEN] <= 3 && pg[P_OCTAVES] >= 0 &&
+              pg[P_OCTAVES] <= 1e6))
+            goto bad;
     }
     return 0;
 bad:
@@ -1417,8 +1511,8 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
     return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR, "object",
-                         OBJ, "texture", TEX, "light", LIT, "pigment", PIG, "map_entries",
-                         MAX_MAP, "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
+                         OBJ, "texture", TEX, "light", LIT, "pigment", PIG, "map_entry", 6,
+                         "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
                          "bvh_stack", BVH_STACK);
 }
 
