@@ -10,11 +10,13 @@ module is the kernel's only importer: `kernel_built`, `kernel_layout` and `trace
 are the way to it from elsewhere.
 
 What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
-without focal blur; spheres, planes, boxes, discs, cylinders and cones, transformed or not,
-inverse or not, and their CSG (union, intersection, difference, merge, nested), any number
-of them through the tracer's box tree; no clipped_by, meshes or other shapes. One-layer
-textures whose pigment is solid, checker (of solid colours) or gradient, onion, spherical,
-cylindrical, planar, boxed or radial with a colour map and a wave (no turbulence or
+without focal blur; spheres, planes, boxes, discs, cylinders, cones and tori, transformed or
+not, inverse or not, and their CSG (union, intersection, difference, merge, nested), any
+number of them through the tracer's box tree; no clipped_by, meshes or other shapes.
+Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker (of
+solid colours), gradient, onion, spherical, cylindrical, planar, boxed, radial or one of
+POV-Ray's noise patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on
+its three noise generators), with a colour map of any length, a wave and turbulence (no
 warps); no normal; finishes without irid, fresnel, crand, diffuse_back or negative
 metallic. Point lights and spotlights (fade included, no area lights); interiors with
 ior and fade, no caustics or media; a background colour and sky_sphere layers of those
@@ -35,7 +37,7 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, containers, interiors, noise, patterns, shading, shapes, uvmap
+from runtime import color, containers, context, interiors, noise, patterns, shading, shapes, uvmap
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
@@ -48,7 +50,9 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 80, 64, 48, 24, 32, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 80, 64, 52, 24, 32, 6, 16, 1024
+# a texture of more layers renders through numpy (kernel/whitted.c MAX_LAYERS)
+MAX_LAYERS = 16
 BVH, BVH_STACK = 11, 128
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
@@ -68,7 +72,8 @@ O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL, O_INTERIOR = 8, 20, 44, 45, 46
 PRIM_SLOTS = 24
 T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
 T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
-T_RMIN, T_RMAX, T_FALLOFF, T_REXP, T_RMETAL, T_CONSERVE = 38, 41, 44, 45, 46, 47
+# T_NEXT: the row of the layer below (-1: the last); a texture's first row holds T_TRANS, T_LIT
+T_RMIN, T_RMAX, T_FALLOFF, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT = 38, 41, 44, 45, 46, 47, 48
 L_KIND, L_POS, L_COL, L_SHADOWLESS, L_FADEPOW, L_FADEDIST = 0, 1, 4, 7, 8, 9
 L_AXIS, L_TIGHT, L_COSR, L_COSF = 10, 13, 14, 15
 P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
@@ -208,18 +213,25 @@ def _colour_map(pig: ir.Pigment):
 
 
 def _texture_reasons(tex: ir.Texture) -> list[str]:
-    if tex.layers or (tex.pattern is not None and tex.map):
-        return ["layered or patterned texture"]
+    if context.is_patterned(tex):
+        return ["patterned texture"]
     if uvmap.uses_uv(tex):
         return ["uv_mapping"]
-    f = tex.finish
-    out = _pigment_reasons(tex.pigment)
-    if tex.normal is not None:
-        out.append("normal perturbation")
-    if f.irid is not None or f.reflection.fresnel or f.crand != 0 or f.diffuse_back != 0:
-        out.append("finish with irid, fresnel, crand or diffuse_back")
-    if f.metallic < 0:
-        out.append("negative metallic")
+    layers = context.texture_layers(tex)
+    if len(layers) > MAX_LAYERS:
+        return [f"more than {MAX_LAYERS} texture layers"]
+    out = []
+    for layer in layers:
+        if context.is_patterned(layer) or (layer is not tex and layer.layers):
+            out.append("patterned texture")
+        f = layer.finish
+        out.extend(_pigment_reasons(layer.pigment))
+        if layer.normal is not None:
+            out.append("normal perturbation")
+        if f.irid is not None or f.reflection.fresnel or f.crand != 0 or f.diffuse_back != 0:
+            out.append("finish with irid, fresnel, crand or diffuse_back")
+        if f.metallic < 0:
+            out.append("negative metallic")
     return out
 
 
@@ -527,7 +539,12 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     nodes, children, firsts = _nodes(list(tracer.nodes))
     leaves = sorted((n for n in nodes if isinstance(n, Leaf)), key=lambda n: n.index)
     assert [n.index for n in leaves] == list(range(len(objs))), "one leaf per object"
-    n_obj, n_tex, n_light = len(leaves), len(ctx.textures), len(scene.lights)
+    n_obj, n_light = len(leaves), len(scene.lights)
+    # a texture's first layer is its row (objects point there); the layers below it get
+    # rows after all the textures', chained by T_NEXT
+    layer_rows = [list(layers) for layers in ctx.textures]
+    below = [layer for layers in layer_rows for layer in layers[1:]]
+    n_tex = len(ctx.textures) + len(below)
     sky = list(reversed(scene.sky_sphere or ()))  # evaluated innermost first, as integrate.sky
     n_pig = n_tex + len(sky)
     n_node = len(nodes)
@@ -539,7 +556,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     starts = walk_starts(bvh, masks)
     tail = np.concatenate([children, unbounded, loose, bvh.ravel(), items, masks.ravel(), starts])
     tail = tail.astype(np.float64)
-    pigs = [layers[0].pigment for layers in ctx.textures] + sky
+    pigs = [layers[0].pigment for layers in layer_rows] + [t.pigment for t in below] + sky
     noisy = any(_needs_noise(p) for p in pigs)
     tables = _noise_tables() if noisy else np.zeros(0)
     n_entries = sum(len(_entries(p)) for p in pigs)
@@ -630,12 +647,20 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     if noisy:
         h[H_NOISE] = len(buf) - len(tables)
         buf[len(buf) - len(tables) :] = tables
-    for t, layers in enumerate(ctx.textures):
-        tex, r = layers[0], trows[t]
+    rows_of = []  # per texture row: the layer it shades
+    extra = len(layer_rows)
+    for t, layers in enumerate(layer_rows):
+        trows[t, T_TRANS], trows[t, T_LIT] = ctx.transmits[t], ctx.lit[t]
+        chain = [t, *range(extra, extra + len(layers) - 1)]
+        extra += len(layers) - 1
+        for k, row in enumerate(chain):
+            trows[row, T_NEXT] = chain[k + 1] if k + 1 < len(chain) else -1
+        rows_of.extend(zip(chain, layers, strict=True))
+    for t, tex in sorted(rows_of, key=lambda item: item[0]):
+        r = trows[t]
         pig, f = tex.pigment, tex.finish
-        r[T_PIG] = t  # texture t's pigment is pigment row t; the sky's follow
+        r[T_PIG] = t  # texture row t's pigment is pigment row t; the sky's follow
         pack_pigment(pig, prows[t], maps)
-        r[T_TRANS], r[T_LIT] = ctx.transmits[t], ctx.lit[t]
         r[T_AMB : T_AMB + 3] = f.ambient
         r[T_EMIS : T_EMIS + 3] = f.emission
         r[T_DIFF : T_METAL + 1] = (

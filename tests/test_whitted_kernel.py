@@ -190,6 +190,40 @@ def test_noise_patterns_and_turbulence_match_numpy(generator, monkeypatch):
     _assert_identical(scene, 96, 72, 0.3, monkeypatch)
 
 
+LAYERS = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 1.5, -6> look_at <0, 0.3, 0> angle 60 }
+light_source { <-4, 9, -6>, rgb 1 }
+light_source { <5, 4, -3>, rgb 0.5 spotlight point_at 0 radius 20 falloff 30 }
+background { rgb <0.2, 0.3, 0.4> }
+plane { y, -1 pigment { checker rgb 0.9, rgb 0.4 } }
+sphere { <-1.8, 0.3, 0>, 1
+  texture { pigment { gradient x color_map { [0 rgb <1, 0, 0>] [1 rgb <0, 0, 1>] } } }
+  texture { pigment { wood turbulence 0.2 scale 0.2 color_map { [0 rgbf <1, 1, 0, 0.8>]
+    [1 rgbt <0, 1, 1, 0.4>] } } finish { phong 0.5 reflection 0.2 } }
+  texture { pigment { rgbt <1, 1, 1, 0.7> } finish { specular 0.6 reflection { 0.1, 0.4 } } }
+}
+sphere { <0.6, 0.3, 0>, 1
+  texture { pigment { rgbf <0.9, 1, 0.9, 0.9> } finish { reflection 0.1 conserve_energy } }
+  texture { pigment { bozo scale 0.3
+    color_map { [0 rgbt <1, 0.5, 0, 1>] [1 rgbt <1, 0, 0, 0.3>] } } }
+  interior { ior 1.5 fade_distance 1 fade_power 2 }
+}
+box { <1.8, -1, -0.5>, <2.8, 1, 0.5>
+  texture { pigment { rgb <0.2, 0.6, 0.2> } }
+  texture { pigment { granite color_map { [0 rgbf 1] [0.5 rgbf <1, 1, 1, 0.5>] [1 rgb 0] } } }
+}
+"""
+
+
+def test_layered_textures_match_numpy(monkeypatch):
+    """Layered textures in the kernel (integrate.shade_texture): each layer lit and seen
+    through the filter of those above it, a reflection per layer, the light through them all
+    (refracted, faded), and shadows filtered by every layer (lights.shadow_filter)."""
+    _assert_identical(_scene(LAYERS), 96, 72, 0.3, monkeypatch)
+
+
 CSG = """
 #version 3.7;
 global_settings { assumed_gamma 1 }

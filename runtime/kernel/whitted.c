@@ -21,7 +21,9 @@
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
 #define HDR 80
 #define OBJ 64
-#define TEX 48
+#define TEX 52
+/* a texture of more layers renders through numpy (whitted.py MAX_LAYERS) */
+#define MAX_LAYERS 16
 #define LIT 24
 #define PIG 32
 #define NODE 16
@@ -38,7 +40,7 @@ enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV 
        O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49 };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
-       T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE };
+       T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT };
 enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS,
        L_TIGHT = 13, L_COSR, L_COSF };
 
@@ -958,13 +960,20 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
             mult[0] = mult[1] = mult[2] = 0.0;
             return;
         }
-        double c[5];
-        pigment(s, texture_pigment(s, tx), pt, c);
+        /* what every layer lets through (lights.shadow_filter) */
+        double t[3] = {1.0, 1.0, 1.0};
+        const double *ly = tx;
+        for (int k = 0; ly && k < MAX_LAYERS; k++) {
+            double c[5];
+            pigment(s, texture_pigment(s, ly), pt, c);
+            for (int i = 0; i < 3; i++) t[i] *= c[3] * c[i] + c[4];
+            ly = ly[T_NEXT] < 0 ? NULL : s->tex + (size_t)ly[T_NEXT] * TEX;
+        }
         hit_normal(s, o, ldir, &h, n);
         int leaving = dot(n, ldir) > 0;
         double big = 0.0;
         for (int i = 0; i < 3; i++) {
-            double f = c[3] * c[i] + c[4];
+            double f = t[i];
             if (leaving) f *= interior_fade(s, ob, h.t, i, 0);
             mult[i] *= f;
             if (fabs(mult[i]) > big) big = fabs(mult[i]);
@@ -1020,75 +1029,80 @@ static void trace(Scene *s, const double *o, const double *d, double weight, int
                   int skip, int continued, int cls, const Inside *in, double *out);
 
 static int transmit(Scene *s, const double *p, const double *d, const double *n,
-                    const double *tx, const double *ob, const double *col, const double *refl,
-                    int reflects, const Hit *h, double weight, int level, int skip, int leaving,
-                    int cls, const Inside *in, double *out);
+                    const double *tx, const double *ob, const double *fil, const Hit *h,
+                    double weight, int level, int skip, int leaving, int cls, const Inside *in,
+                    double *out);
 
-/* The colour of a hit (integrate.shade for one plain, one-layer texture). */
-static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
-                  int level, int skip, int cls, const Inside *in, double *out) {
-    const double *ob = s->obj + (size_t)h->obj * OBJ;
-    const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
-    const double *hd = s->h;
-    double p[3], n[3];
-    for (int i = 0; i < 3; i++) p[i] = o[i] + h->t * d[i];
-    hit_normal(s, o, d, h, n);
-    int leaving = dot(n, d) > 0;
-    if (leaving) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
-    double col[5];
-    pigment(s, texture_pigment(s, tx), p, col);
-    const double *pig = col;
-    double op = opacity(col, s->legacy);
-    int lit = (int)tx[T_LIT], dbl = (int)ob[O_DOUBLE];
-    double acc[3];
+/* A light as a hit sees it, for every layer of its texture: the direction, the colour that
+ * arrives (attenuated, shadowed), and whether the layers' finishes take it at all. */
+typedef struct {
+    double ld[3], lc[3], cos_l;
+    int ok, shadowless;
+} LightAt;
+
+#define LIGHTS_ON_STACK 16
+
+static void light_at(Scene *s, const double *lt, int l, const double *p, const double *n,
+                     int lit, int dbl, int cls, LightAt *la) {
+    double *ld = la->ld;
+    ld[0] = lt[L_POS] - p[0], ld[1] = lt[L_POS + 1] - p[1], ld[2] = lt[L_POS + 2] - p[2];
+    double depth = sqrt(dot(ld, ld));
+    if (depth > 0) ld[0] /= depth, ld[1] /= depth, ld[2] /= depth;
+    double att = 1.0;
+    if ((int)lt[L_KIND] == 1) { /* spotlight */
+        double ct = dot(ld, lt + L_AXIS);
+        ct = depth > 0 ? -ct : ct;
+        att = ct > 0 ? pow(ct, lt[L_TIGHT]) : 0.0;
+        if (lt[L_COSR] > 0 && ct < lt[L_COSR]) att *= cubic_spline(lt[L_COSF], lt[L_COSR], ct);
+    }
+    double power = lt[L_FADEPOW];
+    if (power > 0) {
+        double fd = lt[L_FADEDIST];
+        double fade = fabs(fd) >= EPSILON ? 2.0 / (1.0 + pow(fabs(depth) / fd, power))
+                                          : pow(fabs(depth), -power);
+        if (att > 0) att *= fade;
+    }
+    double big = 0.0;
+    for (int i = 0; i < 3; i++) {
+        la->lc[i] = att * lt[L_COL + i];
+        if (fabs(la->lc[i]) > big) big = fabs(la->lc[i]);
+    }
+    la->cos_l = dot(n, ld);
+    int front = la->cos_l >= EPSILON;
+    la->shadowless = (int)lt[L_SHADOWLESS];
+    la->ok = lit && (front || dbl) && big > EPSILON;
+    if (la->ok && !la->shadowless) {
+        double f[3];
+        /* from a camera ray's hit, the shadow ray stays inside the view's half spaces that
+         * hold the light: its own class */
+        shadow_filter(s, p, ld, depth, cls == 0 ? 1 + l : -1, f);
+        la->lc[0] *= f[0], la->lc[1] *= f[1], la->lc[2] *= f[2];
+    }
+}
+
+/* One layer's own light (ambient, emission, each light's diffuse and highlights) into acc
+ * (integrate.shade_texture's per-layer sum). */
+static void layer_light(const Scene *s, const double *tx, const double *col, double op,
+                        const double *d, const double *n, const LightAt *la, double *acc) {
+    const double *hd = s->h, *pig = col;
     for (int i = 0; i < 3; i++)
         acc[i] = pig[i] * (tx[T_AMB + i] * hd[H_AMB + i] + tx[T_EMIS + i]) * op;
     for (int l = 0; l < s->nlight; l++) {
-        const double *lt = s->light + (size_t)l * LIT;
-        double ld[3] = {lt[L_POS] - p[0], lt[L_POS + 1] - p[1], lt[L_POS + 2] - p[2]};
-        double depth = sqrt(dot(ld, ld));
-        if (depth > 0) ld[0] /= depth, ld[1] /= depth, ld[2] /= depth;
-        double att = 1.0;
-        if ((int)lt[L_KIND] == 1) { /* spotlight */
-            double ct = dot(ld, lt + L_AXIS);
-            ct = depth > 0 ? -ct : ct;
-            att = ct > 0 ? pow(ct, lt[L_TIGHT]) : 0.0;
-            if (lt[L_COSR] > 0 && ct < lt[L_COSR]) att *= cubic_spline(lt[L_COSF], lt[L_COSR], ct);
-        }
-        double power = lt[L_FADEPOW];
-        if (power > 0) {
-            double fd = lt[L_FADEDIST];
-            double fade = fabs(fd) >= EPSILON ? 2.0 / (1.0 + pow(fabs(depth) / fd, power))
-                                              : pow(fabs(depth), -power);
-            if (att > 0) att *= fade;
-        }
-        double lc[3], big = 0.0;
-        for (int i = 0; i < 3; i++) {
-            lc[i] = att * lt[L_COL + i];
-            if (fabs(lc[i]) > big) big = fabs(lc[i]);
-        }
-        double cos_l = dot(n, ld);
-        int front = cos_l >= EPSILON;
-        if (!(lit && (front || dbl) && big > EPSILON)) continue;
-        if (!(int)lt[L_SHADOWLESS]) {
-            double f[3];
-            /* from a camera ray's hit, the shadow ray stays inside the view's half spaces
-             * that hold the light: its own class */
-            shadow_filter(s, p, ld, depth, cls == 0 ? 1 + l : -1, f);
-            lc[0] *= f[0], lc[1] *= f[1], lc[2] *= f[2];
-        }
+        const LightAt *a = la + l;
+        if (!a->ok) continue;
+        const double *ld = a->ld, *lc = a->lc;
         double diffuse = tx[T_DIFF];
         if (diffuse > 0) {
-            double a = fabs(cos_l);
-            double in = (tx[T_BRIL] == 1.0 ? a : pow(a, tx[T_BRIL])) * diffuse * op;
+            double c = fabs(a->cos_l);
+            double in = (tx[T_BRIL] == 1.0 ? c : pow(c, tx[T_BRIL])) * diffuse * op;
             for (int i = 0; i < 3; i++) acc[i] += in * pig[i] * lc[i];
         }
         /* POV-Ray gives a shadowless (fill) light no highlights */
-        if ((int)lt[L_SHADOWLESS]) continue;
+        if (a->shadowless) continue;
         double metal = tx[T_METAL];
         double tint[3] = {1.0, 1.0, 1.0};
         if (metal > 0 && (tx[T_PHONG] > 0 || tx[T_SPEC] > 0)) {
-            double f = fresnel_metallic(cos_l);
+            double f = fresnel_metallic(a->cos_l);
             for (int i = 0; i < 3; i++) tint[i] = 1.0 + metal * (1.0 - f) * (pig[i] - 1.0);
         }
         if (tx[T_PHONG] > 0) {
@@ -1111,66 +1125,110 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
             }
         }
     }
-    for (int i = 0; i < 3; i++) out[i] = acc[i];
+}
 
-    /* reflection */
+/* A layer's reflectivity (shading.reflectivity): 1 with refl and the weight factor set
+ * when it reflects, 0 when its finish has no reflection. */
+static int layer_reflection(const Scene *s, const double *tx, const double *col,
+                            const double *d, const double *n, double *refl, double *wfac) {
     const double *rmin = tx + T_RMIN, *rmax = tx + T_RMAX;
-    double refl[3] = {0.0, 0.0, 0.0};
     int reflects = 0;
-    int mirrored = 0; /* a reflected ray to trace, after the transmitted one */
-    double rweight = 0.0;
     for (int i = 0; i < 3; i++) reflects |= rmax[i] > 0 || rmin[i] > 0;
-    if (reflects) {
-        double cos_i = -dot(d, n);
-        double wfac = 0.0;
-        for (int i = 0; i < 3; i++) {
-            if (rmax[i] > wfac) wfac = rmax[i];
-            if (rmin[i] > wfac) wfac = rmin[i];
-        }
-        double frac = 1.0 - cos_i;
-        if (fabs(tx[T_FALLOFF] - 1.0) > EPSILON) frac = pow(frac < 0 ? 0 : frac, tx[T_FALLOFF]);
-        double big = 0.0;
-        double rm = tx[T_RMETAL], fm = rm != 0.0 ? fresnel_metallic(cos_i) : 0.0;
-        for (int i = 0; i < 3; i++) {
-            refl[i] = frac * rmax[i] + (1.0 - frac) * rmin[i];
-            if (rm != 0.0) refl[i] *= 1.0 + rm * (1.0 - fm) * (pig[i] - 1.0);
-            if (fabs(refl[i]) > big) big = fabs(refl[i]);
-        }
-        mirrored = big > 0;
-        rweight = weight * wfac;
+    refl[0] = refl[1] = refl[2] = 0.0;
+    if (!reflects) return 0;
+    double cos_i = -dot(d, n);
+    *wfac = 0.0;
+    for (int i = 0; i < 3; i++) {
+        if (rmax[i] > *wfac) *wfac = rmax[i];
+        if (rmin[i] > *wfac) *wfac = rmin[i];
     }
+    double frac = 1.0 - cos_i;
+    if (fabs(tx[T_FALLOFF] - 1.0) > EPSILON) frac = pow(frac < 0 ? 0 : frac, tx[T_FALLOFF]);
+    double rm = tx[T_RMETAL], fm = rm != 0.0 ? fresnel_metallic(cos_i) : 0.0;
+    for (int i = 0; i < 3; i++) {
+        refl[i] = frac * rmax[i] + (1.0 - frac) * rmin[i];
+        if (rm != 0.0) refl[i] *= 1.0 + rm * (1.0 - fm) * (col[i] - 1.0);
+    }
+    return 1;
+}
 
-    /* transmission; total internal reflection carries the mirrored light itself, so the
-     * reflection (about the same normal: one layer, no normal) is then not traced (POV-Ray) */
-    if (!transmit(s, p, d, n, tx, ob, col, refl, reflects, h, weight, level, skip, leaving,
-                  cls, in, out) &&
-        mirrored) {
+/* The colour of a hit (integrate.shade_texture): the texture's layers from the top, each
+ * lit and seen through the filter of those above it; each layer's reflection and the light
+ * through them all traced after. */
+static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
+                  int level, int skip, int cls, const Inside *in, double *out) {
+    const double *ob = s->obj + (size_t)h->obj * OBJ;
+    const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
+    double p[3], n[3];
+    for (int i = 0; i < 3; i++) p[i] = o[i] + h->t * d[i];
+    hit_normal(s, o, d, h, n);
+    int leaving = dot(n, d) > 0;
+    if (leaving) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
+    out[0] = out[1] = out[2] = 0.0;
+    LightAt on_stack[LIGHTS_ON_STACK], *la = on_stack;
+    if (s->nlight > LIGHTS_ON_STACK && !(la = malloc((size_t)s->nlight * sizeof *la))) return;
+    int lit = (int)tx[T_LIT], dbl = (int)ob[O_DOUBLE];
+    for (int l = 0; l < s->nlight; l++)
+        light_at(s, s->light + (size_t)l * LIT, l, p, n, lit, dbl, cls, la + l);
+    /* the reflected rays to trace, after the transmitted one */
+    struct {
+        double refl[3], weight, ex;
+    } mirrored[MAX_LAYERS];
+    int nmirrored = 0;
+    double fil[3] = {1.0, 1.0, 1.0}, trans = 1.0;
+    const double *ly = tx;
+    for (int k = 0; ly && k < MAX_LAYERS; k++) {
+        if (!(trans > s->bailout)) break;
+        double col[5], acc[3], refl[3], wfac = 0.0;
+        pigment(s, texture_pigment(s, ly), p, col);
+        double op = opacity(col, s->legacy);
+        layer_light(s, ly, col, op, d, n, la, acc);
+        for (int i = 0; i < 3; i++) out[i] += acc[i] * fil[i];
+        int reflects = layer_reflection(s, ly, col, d, n, refl, &wfac);
+        if (reflects) {
+            double big = fabs(refl[0]);
+            if (fabs(refl[1]) > big) big = fabs(refl[1]);
+            if (fabs(refl[2]) > big) big = fabs(refl[2]);
+            if (big > 0) {
+                memcpy(mirrored[nmirrored].refl, refl, sizeof refl);
+                mirrored[nmirrored].weight = weight * trans * wfac;
+                mirrored[nmirrored++].ex = ly[T_REXP];
+            }
+        }
+        for (int i = 0; i < 3; i++) {
+            fil[i] *= col[3] * col[i] + col[4];
+            if ((int)ly[T_CONSERVE] && reflects) fil[i] *= (1.0 - refl[i]) < 1.0 ? 1.0 - refl[i] : 1.0;
+        }
+        trans = fabs(dot(fil, GREY));
+        if (trans > 1.0) trans = 1.0;
+        ly = ly[T_NEXT] < 0 ? NULL : s->tex + (size_t)ly[T_NEXT] * TEX;
+    }
+    if (la != on_stack) free(la);
+    /* total internal reflection carries the mirrored light itself, so the layers'
+     * reflections (about the same normal: no layer perturbs it) are then not traced */
+    if (transmit(s, p, d, n, tx, ob, fil, h, weight, level, skip, leaving, cls, in, out)) return;
+    for (int k = 0; k < nmirrored; k++) {
         double rd[3];
         mirror(d, n, rd);
         /* shading.reflect's guard for bumpy normals never applies: raw = normal */
         normalize3(rd);
         double rc[3];
-        trace(s, p, rd, rweight, level, SKIP_NO_REFLECTION, 0, -1, in, rc);
-        double ex = tx[T_REXP];
+        trace(s, p, rd, mirrored[k].weight, level, SKIP_NO_REFLECTION, 0, -1, in, rc);
+        double ex = mirrored[k].ex;
         if (ex != 0.0 && 1.0 / ex != 1.0) {
             for (int i = 0; i < 3; i++) rc[i] = pow(rc[i] < 0 ? 0 : rc[i], 1.0 / ex);
         }
-        for (int i = 0; i < 3; i++) out[i] += refl[i] * rc[i];
+        for (int i = 0; i < 3; i++) out[i] += mirrored[k].refl[i] * rc[i];
     }
 }
 
 /* The ray through a transparent surface, added to out: straight on where the ior is 1,
  * refracted otherwise; returns 1 where it reflected totally instead. */
 static int transmit(Scene *s, const double *p, const double *d, const double *n,
-                    const double *tx, const double *ob, const double *col, const double *refl,
-                    int reflects, const Hit *h, double weight, int level, int skip, int leaving,
-                    int cls, const Inside *in, double *out) {
+                    const double *tx, const double *ob, const double *fil, const Hit *h,
+                    double weight, int level, int skip, int leaving, int cls, const Inside *in,
+                    double *out) {
     if (!(int)tx[T_TRANS]) return 0;
-    double fil[3];
-    for (int i = 0; i < 3; i++) {
-        fil[i] = col[3] * col[i] + col[4];
-        if ((int)tx[T_CONSERVE] && reflects) fil[i] *= (1.0 - refl[i]) < 1.0 ? 1.0 - refl[i] : 1.0;
-    }
     double trans = fabs(dot(fil, GREY));
     if (trans > 1.0) trans = 1.0;
     if (!(trans > s->bailout)) return 0;
@@ -1344,6 +1402,9 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     for (int i = 0; i < s->ntex; i++) {
         double g = s->tex[(size_t)i * TEX + T_PIG];
         if (!(g >= 0 && g < s->npig)) goto bad;
+        /* a layer's next layer comes after it: the walk over them always ends */
+        double next = s->tex[(size_t)i * TEX + T_NEXT];
+        if (!(next == -1 || (next > i && next < s->ntex))) goto bad;
     }
     double maps = h[H_MAPS], nmaps = h[H_NMAPS];
     if (!(maps >= need && nmaps >= 0 && maps + 6 * nmaps <= sb->len / 8)) goto bad;
