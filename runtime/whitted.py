@@ -20,7 +20,8 @@ its three noise generators), with a colour map of any length, a wave and turbule
 warps); no normal; finishes without irid, fresnel, crand, diffuse_back or negative
 metallic. Point lights and spotlights (fade included, no area lights); interiors with
 ior and fade, no caustics or media; a background colour and sky_sphere layers of those
-pigments (either version's rules for their filter and transmit); no fog, media or radiosity.
+pigments (either version's rules for their filter and transmit); fog (constant, ground,
+turbulent, several); no media, rainbow or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -37,7 +38,18 @@ import os
 import numpy as np
 
 from lang import ir
-from runtime import color, containers, context, interiors, noise, patterns, shading, shapes, uvmap
+from runtime import (
+    color,
+    containers,
+    context,
+    fog,
+    interiors,
+    noise,
+    patterns,
+    shading,
+    shapes,
+    uvmap,
+)
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
@@ -50,7 +62,8 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 80, 64, 52, 24, 32, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 96, 64, 52, 24, 32, 6, 16, 1024
+FOG = 20
 # a texture of more layers renders through numpy (kernel/whitted.c MAX_LAYERS)
 MAX_LAYERS = 16
 BVH, BVH_STACK = 11, 128
@@ -65,6 +78,10 @@ H_CAMIN = 56
 H_NOISE = 76
 # the colour maps' table (MAP_ENTRY values an entry: key, rgbft): where it starts, its entries
 H_MAPS, H_NMAPS = 77, 78
+# the fogs' table (FOG values each), how many, and how far a ray that hits nothing sees fog
+H_FOGS, H_NFOG, H_FOGMAX = 80, 81, 82
+F_DIST, F_COL, F_TYPE, F_UP, F_OFFSET, F_ALT, F_HASTURB, F_TURB = 0, 1, 6, 7, 10, 11, 12, 13
+F_OCTAVES, F_OMEGA, F_LAMBDA, F_TDEPTH = 16, 17, 18, 19
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
@@ -180,6 +197,8 @@ def layout() -> dict[str, int]:
         "max_crossings": MAX_CROSS,
         "bvh": BVH,
         "bvh_stack": BVH_STACK,
+        "fog": FOG,
+        "max_layers": MAX_LAYERS,
     }
 
 
@@ -265,8 +284,11 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append("camera normal")
     if scene.settings.radiosity is not None:
         out.append("radiosity")
-    if scene.fog is not None or scene.fogs or scene.media:
-        out.append("fog or media")
+    if scene.media:
+        out.append("media")
+    fogs = fog.scene_fogs(scene)
+    if fogs and any(lt.media_attenuation and lt.media_interaction for lt in scene.lights):
+        out.append("a light's media_attenuation through fog")
     if scene.rainbows:
         out.append("rainbow")
     tracer = prepared.tracer
@@ -343,6 +365,20 @@ def pack_pigment(pig: ir.Pigment, row: np.ndarray, maps: list[list[float]]) -> N
     row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
     row[P_N], row[P_MAP] = len(entries), len(maps)
     maps.extend([float(key), *map(float, colour)] for key, colour in entries)
+
+
+def pack_fog(f: ir.Fog, row: np.ndarray) -> None:
+    """One fog row (fog.fog_attenuation's inputs; `up` made unit as it does)."""
+    row[F_DIST] = f.distance
+    row[F_COL : F_COL + 5] = f.color
+    row[F_TYPE], row[F_OFFSET], row[F_ALT] = f.fog_type, f.offset, f.alt
+    up = np.asarray(f.up, dtype=np.float64)
+    row[F_UP : F_UP + 3] = up / np.linalg.norm(up)
+    if f.turbulence is not None:
+        row[F_HASTURB] = 1.0
+        row[F_TURB : F_TURB + 3] = f.turbulence
+    row[F_OCTAVES], row[F_OMEGA], row[F_LAMBDA] = f.octaves, f.omega, f.lam
+    row[F_TDEPTH] = f.turb_depth
 
 
 def _noise_tables() -> np.ndarray:
@@ -557,11 +593,13 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     tail = np.concatenate([children, unbounded, loose, bvh.ravel(), items, masks.ravel(), starts])
     tail = tail.astype(np.float64)
     pigs = [layers[0].pigment for layers in layer_rows] + [t.pigment for t in below] + sky
-    noisy = any(_needs_noise(p) for p in pigs)
+    fogs = [f for f in fog.scene_fogs(scene)]
+    noisy = any(_needs_noise(p) for p in pigs) or any(f.turbulence is not None for f in fogs)
     tables = _noise_tables() if noisy else np.zeros(0)
     n_entries = sum(len(_entries(p)) for p in pigs)
     maps_at = size + len(tail)
-    buf = np.zeros(maps_at + MAP_ENTRY * n_entries + len(tables))
+    fogs_at = maps_at + MAP_ENTRY * n_entries
+    buf = np.zeros(fogs_at + FOG * len(fogs) + len(tables))
     maps: list[list[float]] = []
     h = buf[:HDR]
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
@@ -684,6 +722,10 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     for k, pig in enumerate(sky):
         pack_pigment(pig, prows[n_tex + k], maps)
     h[H_MAPS], h[H_NMAPS] = maps_at, len(maps)
+    h[H_FOGS], h[H_NFOG], h[H_FOGMAX] = fogs_at, len(fogs), fog.MAX_FOG_DISTANCE
+    frows = buf[fogs_at : fogs_at + FOG * len(fogs)].reshape(len(fogs), FOG)
+    for f, r in zip(fogs, frows, strict=True):
+        pack_fog(f, r)
     buf[maps_at : maps_at + MAP_ENTRY * len(maps)] = np.ravel(maps)
     for light, r in zip(scene.lights, lrows, strict=True):
         r[L_KIND] = 1 if light.kind == "spotlight" else 0

@@ -224,6 +224,35 @@ def test_layered_textures_match_numpy(monkeypatch):
     _assert_identical(_scene(LAYERS), 96, 72, 0.3, monkeypatch)
 
 
+FOGS = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 1.5, -8> look_at <0, 0.5, 0> angle 60 }
+light_source { <-4, 9, -6>, rgb 1 }
+background { rgb <0.2, 0.3, 0.6> }
+plane { y, -1 pigment { checker rgb 0.9, rgb 0.3 } finish { reflection 0.3 } }
+sphere { <-1.5, 0.3, 0>, 1 pigment { rgb <0.9, 0.2, 0.1> } }
+sphere { <1.5, 0.3, 4>, 1 pigment { rgbf <1, 1, 1, 0.8> } interior { ior 1.3 } }
+%s
+"""
+
+
+@pytest.mark.parametrize(
+    "fogs",
+    [
+        "fog { distance 6 rgbf <0.8, 0.8, 0.9, 0.3> }",
+        "fog { fog_type 2 distance 3 rgbt <0.9, 0.9, 1, 0.2> fog_offset 0.2 fog_alt 0.6 }",
+        "fog { fog_type 2 distance 4 rgb 0.8 fog_offset 0 fog_alt 1 up <0.2, 1, 0>"
+        " turbulence <0.3, 0.5, 0.2> turb_depth 0.4 octaves 4 }"
+        " fog { distance 20 rgb <0.5, 0.1, 0.1> turbulence 0.8 }",
+    ],
+)
+def test_fogs_match_numpy(fogs, monkeypatch):
+    """Constant and ground fog, fog turbulence and several fogs in the kernel (fog.apply_fogs
+    on every ray, what hits nothing seeing MAX_FOG_DISTANCE of it)."""
+    _assert_identical(_scene(FOGS % fogs), 96, 72, 0.3, monkeypatch)
+
+
 CSG = """
 #version 3.7;
 global_settings { assumed_gamma 1 }
@@ -519,7 +548,11 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
             "difference { sphere { 0, 1 } lathe { linear_spline 3, <0, 0>, <1, 1>, <0, 2> } }",
             "shape lathe",
         ),
-        ("sphere { 0, 1 } fog { distance 5 rgb 1 }", "fog"),
+        ("sphere { 0, 1 } media { scattering { 1, 0.1 } }", "media"),
+        (
+            "sphere { 0, 1 } fog { distance 5 rgb 1 } light_source { 9, 1 media_attenuation }",
+            "media_attenuation",
+        ),
         ("sphere { 0, 1 } sky_sphere { pigment { crackle } }", "crackle"),
         ("sphere { 0, 1 pigment { gradient y warp { turbulence 0.5 } } }", "warped"),
         ("sphere { 0, 1 pigment { leopard } }", "leopard"),

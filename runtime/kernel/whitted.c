@@ -19,7 +19,8 @@
 #include <string.h>
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
-#define HDR 80
+#define HDR 96
+#define FOG 20
 #define OBJ 64
 #define TEX 52
 /* a texture of more layers renders through numpy (whitted.py MAX_LAYERS) */
@@ -35,7 +36,11 @@
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
-       H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS };
+       H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX };
+/* a fog: distance, rgbft, type, unit up, offset, alt, turbulence (on, vector, octaves, omega,
+ * lambda, depth) */
+enum { F_DIST, F_COL, F_TYPE = 6, F_UP, F_OFFSET = 10, F_ALT, F_HASTURB, F_TURB, F_OCTAVES = 16,
+       F_OMEGA, F_LAMBDA, F_TDEPTH };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
        O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49 };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
@@ -90,7 +95,8 @@ typedef struct {
     const double *mask, *start; /* start: per class, the node its walk begins at (-1: none) */
     Noise noise;                /* POV-Ray's noise tables, when a pigment needs them */
     const double *map;          /* the colour maps' entries */
-    int has_noise, mwidth;
+    const double *fog;          /* the fogs, FOG values each */
+    int has_noise, nfog, mwidth;
     int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nloose, nbvh, nitem, maxlevel,
         legacy, anytrans;
     double bailout;
@@ -1268,6 +1274,86 @@ static int transmit(Scene *s, const double *p, const double *d, const double *n,
     return tir;
 }
 
+/* What a ray that hits nothing sees: sky_sphere layers over the background
+ * (integrate.sky). */
+static void sky(Scene *s, const double *d, double *out) {
+    if (s->legacy && s->nsky) { /* before 3.7: the layers' accumulated filter/transmit */
+        double acc[5] = {1.0, 1.0, 1.0, 1.0, 1.0}, pass = 1.0;
+        for (int l = 0; l < s->nsky; l++) {
+            double c[5];
+            pigment(s, s->pig + (size_t)(s->npig - s->nsky + l) * PIG, d, c);
+            double op = pass * (1.0 - c[3] - c[4]);
+            for (int k = 0; k < 3; k++) out[k] += c[k] * op;
+            for (int k = 0; k < 5; k++) acc[k] *= c[k];
+            pass = fabs(acc[3]) + fabs(acc[4]);
+        }
+        for (int k = 0; k < 3; k++) out[k] += s->h[H_BG + k] * (acc[k] * acc[3] + acc[4]);
+        return;
+    }
+    /* 3.7: each layer filters those behind it */
+    double fil[3] = {1.0, 1.0, 1.0};
+    for (int l = 0; l < s->nsky; l++) {
+        double c[5];
+        pigment(s, s->pig + (size_t)(s->npig - s->nsky + l) * PIG, d, c);
+        double op = 1.0 - c[3] - c[4];
+        for (int k = 0; k < 3; k++) {
+            out[k] += c[k] * op * fil[k];
+            fil[k] *= c[3] * c[k] + c[4];
+        }
+    }
+    for (int k = 0; k < 3; k++) out[k] += s->h[H_BG + k] * fil[k];
+}
+
+/* Mean ground-fog density between heights a and b (fog.ground_fog_density). */
+static double ground_fog_density(const Scene *s, double a, double b) {
+    if (a <= 0 && b <= 0) return 1.0;
+    if (a <= 0) return (atan(b) - a) / (b - a != 0 ? b - a : 1.0);
+    if (b <= 0) return (atan(a) - b) / (a - b != 0 ? a - b : 1.0);
+    double delta = a - b;
+    if (fabs(delta) <= EPSILON) return 1.0 / (a * a + 1.0);
+    return (atan(a) - atan(b)) / delta;
+}
+
+/* The share of light one fog lets through over `width` along a ray (fog.fog_attenuation). */
+static double fog_attenuation(const Scene *s, const double *fg, double width, const double *o,
+                              const double *d) {
+    double density = 1.0;
+    if ((int)fg[F_TYPE] == 2 && fg[F_ALT] != 0) {
+        const double *up = fg + F_UP;
+        double q[3] = {o[0] + d[0] * width, o[1] + d[1] * width, o[2] + d[2] * width};
+        double a = (dot(o, up) - fg[F_OFFSET]) / fg[F_ALT];
+        double b = (dot(q, up) - fg[F_OFFSET]) / fg[F_ALT];
+        density = ground_fog_density(s, a, b);
+    }
+    if (fg[F_HASTURB] != 0.0) {
+        double half = width / 2.0, mid[3];
+        for (int i = 0; i < 3; i++) mid[i] = (o[i] + d[i] * half) * fg[F_TURB + i];
+        double t = turbulence_at(&s->noise, mid, (int)fg[F_OCTAVES], fg[F_OMEGA], fg[F_LAMBDA], 2);
+        double k = exp(-width / fg[F_DIST]), m = t * fg[F_TDEPTH];
+        width = width * (1.0 - k * (m < 1.0 ? m : 1.0));
+    }
+    return exp(-width * density / fg[F_DIST]);
+}
+
+/* POV-Ray's ComputeFog over every fog of the scene (fog.apply_fogs), for a ray that went
+ * `depth` from o along d and brought `col`. */
+static void apply_fogs(const Scene *s, double depth, const double *o, const double *d,
+                       double *col) {
+    double width = isfinite(depth) ? depth : s->h[H_FOGMAX];
+    double sum_att[3] = {1.0, 1.0, 1.0}, sum_col[3] = {0.0, 0.0, 0.0};
+    for (int f = 0; f < s->nfog; f++) {
+        const double *fg = s->fog + (size_t)f * FOG, *fc = fg + F_COL;
+        if (fabs(fg[F_DIST]) <= EPSILON) continue;
+        double att = fog_attenuation(s, fg, width, o, d);
+        if (att < fc[4]) att = fc[4];
+        for (int i = 0; i < 3; i++) {
+            sum_att[i] = sum_att[i] * (att * ((1.0 - fc[3]) + fc[3] * fc[i]));
+            sum_col[i] = sum_col[i] + (1.0 - att) * fc[i];
+        }
+    }
+    for (int i = 0; i < 3; i++) col[i] = sum_col[i] + sum_att[i] * col[i];
+}
+
 /* The colour of one ray (integrate.trace): `level` is the trace level of the surface that
  * spawned it; a `continued` ray (straight through an ior-1 surface) keeps that level. cls is
  * 0 for a camera ray (also continued: the same line), -1 for others. */
@@ -1278,34 +1364,12 @@ static void trace(Scene *s, const double *o, const double *d, double weight, int
     s->rays++;
     Hit h;
     if (!closest(s, o, d, INFINITY, skip, cls, &h)) {
-        if (s->legacy && s->nsky) { /* before 3.7 (integrate.sky): the layers' accumulated */
-            double acc[5] = {1.0, 1.0, 1.0, 1.0, 1.0}, pass = 1.0; /* filter/transmit */
-            for (int l = 0; l < s->nsky; l++) {
-                double c[5];
-                pigment(s, s->pig + (size_t)(s->npig - s->nsky + l) * PIG, d, c);
-                double op = pass * (1.0 - c[3] - c[4]);
-                for (int k = 0; k < 3; k++) out[k] += c[k] * op;
-                for (int k = 0; k < 5; k++) acc[k] *= c[k];
-                pass = fabs(acc[3]) + fabs(acc[4]);
-            }
-            for (int k = 0; k < 3; k++) out[k] += s->h[H_BG + k] * (acc[k] * acc[3] + acc[4]);
-            return;
-        }
-        /* sky_sphere layers over the background, each filtering those behind (integrate.sky) */
-        double fil[3] = {1.0, 1.0, 1.0};
-        for (int l = 0; l < s->nsky; l++) {
-            double c[5];
-            pigment(s, s->pig + (size_t)(s->npig - s->nsky + l) * PIG, d, c);
-            double op = 1.0 - c[3] - c[4];
-            for (int k = 0; k < 3; k++) {
-                out[k] += c[k] * op * fil[k];
-                fil[k] *= c[3] * c[k] + c[4];
-            }
-        }
-        for (int k = 0; k < 3; k++) out[k] += s->h[H_BG + k] * fil[k];
+        sky(s, d, out);
+        if (s->nfog) apply_fogs(s, INFINITY, o, d, out);
         return;
     }
     shade(s, o, d, &h, weight, level + (continued ? 0 : 1), skip, cls, in, out);
+    if (s->nfog) apply_fogs(s, h.t, o, d, out);
 }
 
 /* The Scene view of a packed array; -1 with an exception set when it is too short. */
@@ -1409,6 +1473,11 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     double maps = h[H_MAPS], nmaps = h[H_NMAPS];
     if (!(maps >= need && nmaps >= 0 && maps + 6 * nmaps <= sb->len / 8)) goto bad;
     s->map = h + (size_t)maps;
+    double fogs = h[H_FOGS], nfog = h[H_NFOG];
+    if (!(nfog >= 0 && nfog < 1e6 && (nfog == 0 || (fogs >= need && fogs + FOG * nfog <= sb->len / 8))))
+        goto bad;
+    s->fog = h + (size_t)fogs;
+    s->nfog = (int)nfog;
     double at = h[H_NOISE];
     if (at != 0.0) {
         if (!(at >= need && at + NOISE_LEN <= sb->len / 8)) goto bad;
@@ -1416,6 +1485,8 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if (!noise_valid(&s->noise)) goto bad;
         s->has_noise = 1;
     }
+    for (int f = 0; f < s->nfog; f++)
+        if (s->fog[(size_t)f * FOG + F_HASTURB] != 0.0 && !s->has_noise) goto bad;
     for (int i = 0; i < s->npig; i++) {
         const double *pg = s->pig + (size_t)i * PIG;
         double n = pg[P_N];
@@ -1571,10 +1642,10 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 }
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
-    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR, "object",
-                         OBJ, "texture", TEX, "light", LIT, "pigment", PIG, "map_entry", 6,
-                         "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
-                         "bvh_stack", BVH_STACK);
+    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR,
+                         "object", OBJ, "texture", TEX, "light", LIT, "pigment", PIG,
+                         "map_entry", 6, "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
+                         "bvh_stack", BVH_STACK, "fog", FOG, "max_layers", MAX_LAYERS);
 }
 
 static PyMethodDef methods[] = {
