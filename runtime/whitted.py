@@ -685,7 +685,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     if noisy:
         h[H_NOISE] = len(buf) - len(tables)
         buf[len(buf) - len(tables) :] = tables
-    rows_of = []  # per texture row: the layer it shades
+    rows_of: list[tuple[int, ir.Texture]] = []  # per texture row: the layer it shades
     extra = len(layer_rows)
     for t, layers in enumerate(layer_rows):
         trows[t, T_TRANS], trows[t, T_LIT] = ctx.transmits[t], ctx.lit[t]
