@@ -724,8 +724,8 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     h[H_MAPS], h[H_NMAPS] = maps_at, len(maps)
     h[H_FOGS], h[H_NFOG], h[H_FOGMAX] = fogs_at, len(fogs), fog.MAX_FOG_DISTANCE
     frows = buf[fogs_at : fogs_at + FOG * len(fogs)].reshape(len(fogs), FOG)
-    for f, r in zip(fogs, frows, strict=True):
-        pack_fog(f, r)
+    for one, r in zip(fogs, frows, strict=True):
+        pack_fog(one, r)
     buf[maps_at : maps_at + MAP_ENTRY * len(maps)] = np.ravel(maps)
     for light, r in zip(scene.lights, lrows, strict=True):
         r[L_KIND] = 1 if light.kind == "spotlight" else 0
