@@ -17,11 +17,11 @@ Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, ch
 solid colours), gradient, onion, spherical, cylindrical, planar, boxed, radial or one of
 POV-Ray's noise patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on
 its three noise generators), with a colour map of any length, a wave and turbulence (no
-warps); no normal; finishes without irid, fresnel, crand, diffuse_back or negative
-metallic. Point lights and spotlights (fade included, no area lights); interiors with
-ior and fade, no caustics or media; a background colour and sky_sphere layers of those
-pigments (either version's rules for their filter and transmit); fog (constant, ground,
-turbulent, several); no media, rainbow or radiosity.
+warps); no normal; every finish item (crand, diffuse_back, fresnel reflection, irid
+included) but a negative metallic. Point lights and spotlights (fade included, no area
+lights); interiors with ior and fade, no caustics or media; a background colour and
+sky_sphere layers of those pigments (either version's rules for their filter and
+transmit); fog (constant, ground, turbulent, several); no media, rainbow or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -62,7 +62,7 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 96, 64, 52, 24, 32, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 96, 64, 56, 24, 32, 6, 16, 1024
 FOG = 20
 # a texture of more layers renders through numpy (kernel/whitted.c MAX_LAYERS)
 MAX_LAYERS = 16
@@ -91,6 +91,9 @@ T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
 T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
 # T_NEXT: the row of the layer below (-1: the last); a texture's first row holds T_TRANS, T_LIT
 T_RMIN, T_RMAX, T_FALLOFF, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT = 38, 41, 44, 45, 46, 47, 48
+# crand, diffuse_back, fresnel reflection, irid (amount, thickness, turbulence); T_BACKLIT:
+# some layer has diffuse_back (on the texture's first row: lights are tested from both sides)
+T_CRAND, T_DBACK, T_FRESNEL, T_IRID, T_BACKLIT = 49, 50, 51, 52, 55
 L_KIND, L_POS, L_COL, L_SHADOWLESS, L_FADEPOW, L_FADEDIST = 0, 1, 4, 7, 8, 9
 L_AXIS, L_TIGHT, L_COSR, L_COSF = 10, 13, 14, 15
 P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
@@ -247,8 +250,6 @@ def _texture_reasons(tex: ir.Texture) -> list[str]:
         out.extend(_pigment_reasons(layer.pigment))
         if layer.normal is not None:
             out.append("normal perturbation")
-        if f.irid is not None or f.reflection.fresnel or f.crand != 0 or f.diffuse_back != 0:
-            out.append("finish with irid, fresnel, crand or diffuse_back")
         if f.metallic < 0:
             out.append("negative metallic")
     return out
@@ -594,7 +595,12 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     tail = tail.astype(np.float64)
     pigs = [layers[0].pigment for layers in layer_rows] + [t.pigment for t in below] + sky
     fogs = [f for f in fog.scene_fogs(scene)]
-    noisy = any(_needs_noise(p) for p in pigs) or any(f.turbulence is not None for f in fogs)
+    films = [layer.finish.irid for layers in layer_rows for layer in layers]
+    noisy = (
+        any(_needs_noise(p) for p in pigs)
+        or any(f.turbulence is not None for f in fogs)
+        or any(irid is not None and irid[0] > 0 and irid[2] != 0 for irid in films)
+    )
     tables = _noise_tables() if noisy else np.zeros(0)
     n_entries = sum(len(_entries(p)) for p in pigs)
     maps_at = size + len(tail)
@@ -689,6 +695,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     extra = len(layer_rows)
     for t, layers in enumerate(layer_rows):
         trows[t, T_TRANS], trows[t, T_LIT] = ctx.transmits[t], ctx.lit[t]
+        trows[t, T_BACKLIT] = ctx.back_lit[t]
         chain = [t, *range(extra, extra + len(layers) - 1)]
         extra += len(layers) - 1
         for k, row in enumerate(chain):
@@ -709,6 +716,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         r[T_RMAX : T_RMAX + 3] = rf.max
         r[T_FALLOFF], r[T_REXP], r[T_RMETAL] = rf.falloff, rf.exponent, rf.metallic
         r[T_CONSERVE] = f.conserve_energy
+        r[T_CRAND], r[T_DBACK], r[T_FRESNEL] = f.crand, f.diffuse_back, rf.fresnel
+        if f.irid is not None and f.irid[0] > 0:
+            r[T_IRID : T_IRID + 3] = f.irid[:3]
     nrows[:, N_LO : N_LO + 3] = _table([node.lo for node in nodes], 3)
     nrows[:, N_HI : N_HI + 3] = _table([node.hi for node in nodes], 3)
     is_leaf = [isinstance(node, Leaf) for node in nodes]

@@ -22,7 +22,7 @@
 #define HDR 96
 #define FOG 20
 #define OBJ 64
-#define TEX 52
+#define TEX 56
 /* a texture of more layers renders through numpy (whitted.py MAX_LAYERS) */
 #define MAX_LAYERS 16
 #define LIT 24
@@ -45,7 +45,8 @@ enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV 
        O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49 };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
-       T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT };
+       T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT, T_CRAND, T_DBACK, T_FRESNEL,
+       T_IRID, T_BACKLIT = T_IRID + 3 };
 enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS,
        L_TIGHT = 13, L_COSR, L_COSF };
 
@@ -1034,6 +1035,18 @@ static int cross(const Inside *in, int iid, double here, int side_leaving, doubl
 static void trace(Scene *s, const double *o, const double *d, double weight, int level,
                   int skip, int continued, int cls, const Inside *in, double *out);
 
+/* POV-Ray's relative ior for fresnel reflection (ComputeRelativeIOR; interiors.cross):
+ * entering I: I over the ior outside; leaving I alone: 1/I; else the innermost's over I. */
+static double fresnel_ior(const Inside *in, int iid, double here, int side_leaving) {
+    int count = in->n, member = 0;
+    if (count == 0 && side_leaving) return 1.0 / here; /* started inside: as if it entered */
+    for (int k = 0; k < count; k++) member |= in->id[k] == iid;
+    double outer = count > 0 ? in->ior[count - 1] : 1.0;
+    if (count == 0) return here;
+    if (member) return count == 1 ? 1.0 / here : outer / here;
+    return here / outer;
+}
+
 static int transmit(Scene *s, const double *p, const double *d, const double *n,
                     const double *tx, const double *ob, const double *fil, const Hit *h,
                     double weight, int level, int skip, int leaving, int cls, const Inside *in,
@@ -1043,13 +1056,13 @@ static int transmit(Scene *s, const double *p, const double *d, const double *n,
  * arrives (attenuated, shadowed), and whether the layers' finishes take it at all. */
 typedef struct {
     double ld[3], lc[3], cos_l;
-    int ok, shadowless;
+    int ok, front, shadowless;
 } LightAt;
 
 #define LIGHTS_ON_STACK 16
 
 static void light_at(Scene *s, const double *lt, int l, const double *p, const double *n,
-                     int lit, int dbl, int cls, LightAt *la) {
+                     int lit, int dbl, int back_lit, int cls, LightAt *la) {
     double *ld = la->ld;
     ld[0] = lt[L_POS] - p[0], ld[1] = lt[L_POS + 1] - p[1], ld[2] = lt[L_POS + 2] - p[2];
     double depth = sqrt(dot(ld, ld));
@@ -1074,9 +1087,9 @@ static void light_at(Scene *s, const double *lt, int l, const double *p, const d
         if (fabs(la->lc[i]) > big) big = fabs(la->lc[i]);
     }
     la->cos_l = dot(n, ld);
-    int front = la->cos_l >= EPSILON;
+    la->front = la->cos_l >= EPSILON;
     la->shadowless = (int)lt[L_SHADOWLESS];
-    la->ok = lit && (front || dbl) && big > EPSILON;
+    la->ok = lit && (la->front || dbl || back_lit) && big > EPSILON;
     if (la->ok && !la->shadowless) {
         double f[3];
         /* from a camera ray's hit, the shadow ray stays inside the view's half spaces that
@@ -1086,57 +1099,89 @@ static void light_at(Scene *s, const double *lt, int l, const double *p, const d
     }
 }
 
-/* One layer's own light (ambient, emission, each light's diffuse and highlights) into acc
- * (integrate.shade_texture's per-layer sum). */
+/* shading.grain: a deterministic random number in [0, 1) per surface point (crand) */
+static inline double grain(const double *p) {
+    double h = sin(p[0] * 12.9898 + p[1] * 78.233 + p[2] * 37.719) * 43758.5453;
+    return h - floor(h);
+}
+
+static const double IRID_WAVELENGTHS[3] = {0.70, 0.52, 0.48};
+
+/* The thin-film factor of an iridescent finish toward direction l (shading.iridescence). */
+static void iridescence(const Scene *s, const double *tx, const double *n, const double *d,
+                        const double *l, const double *p, double *out) {
+    double amount = tx[T_IRID], film = tx[T_IRID + 1], turb = tx[T_IRID + 2];
+    double cos_l = fabs(dot(n, l)), cos_e = fabs(dot(n, d));
+    if (turb != 0) film = film * (1.0 + turb * (2.0 * turbulence_at(&s->noise, p, 5, 0.5, 2.0, 2) - 1.0));
+    double phase = 2.0 * M_PI * film * (cos_l + cos_e);
+    for (int i = 0; i < 3; i++) out[i] = 1.0 + amount * cos(phase / IRID_WAVELENGTHS[i]);
+}
+
+/* One layer's own light (ambient, emission, each light's diffuse, diffuse_back, crand,
+ * highlights and iridescence) into acc (integrate.shade_texture, shading.light_terms). */
 static void layer_light(const Scene *s, const double *tx, const double *col, double op,
-                        const double *d, const double *n, const LightAt *la, double *acc) {
+                        const double *p, const double *d, const double *n, int dbl,
+                        const LightAt *la, double *acc) {
     const double *hd = s->h, *pig = col;
     for (int i = 0; i < 3; i++)
         acc[i] = pig[i] * (tx[T_AMB + i] * hd[H_AMB + i] + tx[T_EMIS + i]) * op;
+    double crand = tx[T_CRAND], rnd = crand > 0 ? grain(p) : 0.0;
+    double diffuse = tx[T_DIFF], dback = tx[T_DBACK];
     for (int l = 0; l < s->nlight; l++) {
         const LightAt *a = la + l;
         if (!a->ok) continue;
         const double *ld = a->ld, *lc = a->lc;
-        double diffuse = tx[T_DIFF];
-        if (diffuse > 0) {
-            double c = fabs(a->cos_l);
-            double in = (tx[T_BRIL] == 1.0 ? c : pow(c, tx[T_BRIL])) * diffuse * op;
-            for (int i = 0; i < 3; i++) acc[i] += in * pig[i] * lc[i];
+        int lit = a->front || dbl, back = !a->front && !dbl && dback != 0.0;
+        double term[3] = {0.0, 0.0, 0.0};
+        if ((diffuse > 0 || dback > 0) && (lit || back)) {
+            double c = fabs(a->cos_l), dif = back ? dback : diffuse;
+            double in = (tx[T_BRIL] == 1.0 ? c : pow(c, tx[T_BRIL])) * (dif > 0 ? dif : 0.0) * op;
+            if (crand > 0) in = in - rnd * crand;
+            for (int i = 0; i < 3; i++) term[i] += in * pig[i] * lc[i];
         }
-        /* POV-Ray gives a shadowless (fill) light no highlights */
-        if (a->shadowless) continue;
-        double metal = tx[T_METAL];
-        double tint[3] = {1.0, 1.0, 1.0};
-        if (metal > 0 && (tx[T_PHONG] > 0 || tx[T_SPEC] > 0)) {
-            double f = fresnel_metallic(a->cos_l);
-            for (int i = 0; i < 3; i++) tint[i] = 1.0 + metal * (1.0 - f) * (pig[i] - 1.0);
-        }
-        if (tx[T_PHONG] > 0) {
-            double r[3];
-            mirror(d, n, r);
-            double c = dot(r, ld);
-            if (c > 0 && (tx[T_PHSIZE] < 60 || c > 0.0008)) {
-                double in = tx[T_PHONG] * pow(c, tx[T_PHSIZE]);
-                for (int i = 0; i < 3; i++) acc[i] += in * lc[i] * tint[i];
+        /* POV-Ray gives a shadowless (fill) light no highlights, nor the far side */
+        if (!a->shadowless && lit) {
+            double metal = tx[T_METAL];
+            double tint[3] = {1.0, 1.0, 1.0};
+            if (metal > 0 && (tx[T_PHONG] > 0 || tx[T_SPEC] > 0)) {
+                double f = fresnel_metallic(a->cos_l);
+                for (int i = 0; i < 3; i++) tint[i] = 1.0 + metal * (1.0 - f) * (pig[i] - 1.0);
+            }
+            if (tx[T_PHONG] > 0) {
+                double r[3];
+                mirror(d, n, r);
+                double c = dot(r, ld);
+                if (c > 0 && (tx[T_PHSIZE] < 60 || c > 0.0008)) {
+                    double in = tx[T_PHONG] * pow(c, tx[T_PHSIZE]);
+                    for (int i = 0; i < 3; i++) term[i] += in * lc[i] * tint[i];
+                }
+            }
+            if (tx[T_SPEC] > 0) {
+                double half[3] = {0.5 * (-d[0] + ld[0]), 0.5 * (-d[1] + ld[1]),
+                                  0.5 * (-d[2] + ld[2])};
+                double len = sqrt(dot(half, half));
+                double c = dot(half, n) / (len > 0 ? len : 1.0);
+                if (len > 0 && c > 0) {
+                    double rough = tx[T_ROUGH];
+                    double in = tx[T_SPEC] * pow(c, rough != 0 ? 1.0 / rough : 0.0);
+                    for (int i = 0; i < 3; i++) term[i] += in * lc[i] * tint[i];
+                }
             }
         }
-        if (tx[T_SPEC] > 0) {
-            double half[3] = {0.5 * (-d[0] + ld[0]), 0.5 * (-d[1] + ld[1]), 0.5 * (-d[2] + ld[2])};
-            double len = sqrt(dot(half, half));
-            double c = dot(half, n) / (len > 0 ? len : 1.0);
-            if (len > 0 && c > 0) {
-                double rough = tx[T_ROUGH];
-                double in = tx[T_SPEC] * pow(c, rough != 0 ? 1.0 / rough : 0.0);
-                for (int i = 0; i < 3; i++) acc[i] += in * lc[i] * tint[i];
-            }
+        if (tx[T_IRID] > 0) {
+            double f[3];
+            iridescence(s, tx, n, d, ld, p, f);
+            for (int i = 0; i < 3; i++) term[i] = term[i] * f[i];
         }
+        for (int i = 0; i < 3; i++) acc[i] += term[i];
     }
 }
 
 /* A layer's reflectivity (shading.reflectivity): 1 with refl and the weight factor set
  * when it reflects, 0 when its finish has no reflection. */
 static int layer_reflection(const Scene *s, const double *tx, const double *col,
-                            const double *d, const double *n, double *refl, double *wfac) {
+                            const double *d, const double *n, double rel_ior, double *refl,
+                            double *wfac) {
     const double *rmin = tx + T_RMIN, *rmax = tx + T_RMAX;
     int reflects = 0;
     for (int i = 0; i < 3; i++) reflects |= rmax[i] > 0 || rmin[i] > 0;
@@ -1144,15 +1189,30 @@ static int layer_reflection(const Scene *s, const double *tx, const double *col,
     if (!reflects) return 0;
     double cos_i = -dot(d, n);
     *wfac = 0.0;
-    for (int i = 0; i < 3; i++) {
-        if (rmax[i] > *wfac) *wfac = rmax[i];
-        if (rmin[i] > *wfac) *wfac = rmin[i];
+    double frac;
+    if (tx[T_FRESNEL] != 0.0) { /* POV-Ray's ComputeReflectivity with fresnel */
+        double sqx = rel_ior * rel_ior + cos_i * cos_i - 1.0;
+        double g = sqrt(sqx > 0 ? sqx : 0.0), f = 1.0;
+        if (sqx > 0) {
+            double gm = g - cos_i, gp = g + cos_i;
+            f = 0.5 * (gm * gm) / (gp * gp);
+            double u = cos_i * gp - 1.0, v = cos_i * gm + 1.0;
+            f = f * (1.0 + (u * u) / (v * v));
+            f = f != f ? 1.0 : (f < 0.0 ? 0.0 : (f > 1.0 ? 1.0 : f));
+        }
+        frac = f;
+    } else {
+        for (int i = 0; i < 3; i++) {
+            if (rmax[i] > *wfac) *wfac = rmax[i];
+            if (rmin[i] > *wfac) *wfac = rmin[i];
+        }
+        frac = 1.0 - cos_i;
+        if (fabs(tx[T_FALLOFF] - 1.0) > EPSILON) frac = pow(frac < 0 ? 0 : frac, tx[T_FALLOFF]);
     }
-    double frac = 1.0 - cos_i;
-    if (fabs(tx[T_FALLOFF] - 1.0) > EPSILON) frac = pow(frac < 0 ? 0 : frac, tx[T_FALLOFF]);
     double rm = tx[T_RMETAL], fm = rm != 0.0 ? fresnel_metallic(cos_i) : 0.0;
     for (int i = 0; i < 3; i++) {
         refl[i] = frac * rmax[i] + (1.0 - frac) * rmin[i];
+        if (tx[T_FRESNEL] != 0.0 && refl[i] > *wfac) *wfac = refl[i];
         if (rm != 0.0) refl[i] *= 1.0 + rm * (1.0 - fm) * (col[i] - 1.0);
     }
     return 1;
@@ -1174,8 +1234,10 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     LightAt on_stack[LIGHTS_ON_STACK], *la = on_stack;
     if (s->nlight > LIGHTS_ON_STACK && !(la = malloc((size_t)s->nlight * sizeof *la))) return;
     int lit = (int)tx[T_LIT], dbl = (int)ob[O_DOUBLE];
+    double rel_ior = fresnel_ior(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving && level != 1);
     for (int l = 0; l < s->nlight; l++)
-        light_at(s, s->light + (size_t)l * LIT, l, p, n, lit, dbl, cls, la + l);
+        light_at(s, s->light + (size_t)l * LIT, l, p, n, lit, dbl, (int)tx[T_BACKLIT], cls,
+                 la + l);
     /* the reflected rays to trace, after the transmitted one */
     struct {
         double refl[3], weight, ex;
@@ -1188,14 +1250,20 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
         double col[5], acc[3], refl[3], wfac = 0.0;
         pigment(s, texture_pigment(s, ly), p, col);
         double op = opacity(col, s->legacy);
-        layer_light(s, ly, col, op, d, n, la, acc);
+        layer_light(s, ly, col, op, p, d, n, dbl, la, acc);
         for (int i = 0; i < 3; i++) out[i] += acc[i] * fil[i];
-        int reflects = layer_reflection(s, ly, col, d, n, refl, &wfac);
+        int reflects = layer_reflection(s, ly, col, d, n, rel_ior, refl, &wfac);
         if (reflects) {
             double big = fabs(refl[0]);
             if (fabs(refl[1]) > big) big = fabs(refl[1]);
             if (fabs(refl[2]) > big) big = fabs(refl[2]);
             if (big > 0) {
+                if (ly[T_IRID] > 0) { /* the film tints the reflection too */
+                    double rd[3], f[3];
+                    mirror(d, n, rd);
+                    iridescence(s, ly, n, d, rd, p, f);
+                    for (int i = 0; i < 3; i++) refl[i] = refl[i] * f[i];
+                }
                 memcpy(mirrored[nmirrored].refl, refl, sizeof refl);
                 mirrored[nmirrored].weight = weight * trans * wfac;
                 mirrored[nmirrored++].ex = ly[T_REXP];
