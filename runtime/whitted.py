@@ -10,9 +10,10 @@ module is the kernel's only importer: `kernel_built`, `kernel_layout` and `trace
 are the way to it from elsewhere.
 
 What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
-without focal blur; spheres, planes, boxes, discs, cylinders, cones and tori, transformed or
-not, inverse or not, and their CSG (union, intersection, difference, merge, nested), any
-number of them through the tracer's box tree; no clipped_by, meshes or other shapes.
+without focal blur; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials
+(quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE), transformed or not, inverse
+or not, and their CSG (union, intersection, difference, merge, nested), any number of them
+through the tracer's box tree; no clipped_by, meshes or other shapes.
 Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker (of
 solid colours), gradient, onion, spherical, cylindrical, planar, boxed, radial or one of
 POV-Ray's noise patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on
@@ -54,6 +55,7 @@ from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
 from runtime.lights import MAX_SHADOW_CROSSINGS
+from runtime.prims.polynomial import PolyPrim
 from runtime.trace import CsgNode, Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
@@ -80,6 +82,11 @@ H_NOISE = 76
 H_MAPS, H_NMAPS = 77, 78
 # the fogs' table (FOG values each), how many, and how far a ray that hits nothing sees fog
 H_FOGS, H_NFOG, H_FOGMAX = 80, 81, 82
+# the polynomials' terms table (i, j, k, c each), its length, and their tolerances
+H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER = 83, 84, 85, 86, 87
+POLY_TERM = 4
+# a polynomial of a higher degree renders through numpy (kernel/poly.h POLY_MAX_DEGREE)
+POLY_MAX_DEGREE = 8
 F_DIST, F_COL, F_TYPE, F_UP, F_OFFSET, F_ALT, F_HASTURB, F_TURB = 0, 1, 6, 7, 10, 11, 12, 13
 F_OCTAVES, F_OMEGA, F_LAMBDA, F_TDEPTH = 16, 17, 18, 19
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
@@ -146,6 +153,7 @@ KINDS = {
     shapes.DiscPrim: 3,
     shapes.ConePrim: 4,
     shapes.TorusPrim: 5,
+    PolyPrim: 6,
 }
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
@@ -500,6 +508,8 @@ def walk_starts(bvh: np.ndarray, masks: np.ndarray) -> np.ndarray:
 def _uncovered(node) -> set[str]:
     """What in a node the kernel cannot trace (empty: all of it)."""
     if isinstance(node, Leaf):
+        if type(node.prim) is PolyPrim and node.prim.degree > POLY_MAX_DEGREE:
+            return {f"a polynomial of degree above {POLY_MAX_DEGREE}"}
         if type(node.prim) in KINDS:
             return set()
         return {f"shape {type(node.prim).__name__.removesuffix('Prim').lower()}"}
@@ -538,7 +548,7 @@ def _table(rows: list, width: int) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(len(rows), width)
 
 
-def _prim_row(prim) -> list[float]:
+def _prim_row(prim, terms: list[list[float]]) -> list[float]:
     """A primitive's parameters (PRIM_SLOTS of them): plane normal and distance, box
     corners, disc centre, normal, radius^2 and hole^2, cone/cylinder canonical frame (object
     to canonical rows), radii and openness. A sphere's (centre and radius) are written by
@@ -553,6 +563,9 @@ def _prim_row(prim) -> list[float]:
         row = [*prim.frame_inv[:3].ravel().tolist(), prim.r0, prim.r1, float(prim.open)]
     elif isinstance(prim, shapes.TorusPrim):
         row = [prim.R, prim.r]
+    elif isinstance(prim, PolyPrim):
+        row = [len(terms), len(prim.c), prim.degree, prim.inside_eps, prim.size]
+        terms.extend(map(list, zip(prim.i, prim.j, prim.k, prim.c, strict=True)))
     else:
         raise TypeError(f"no kernel row for {type(prim).__name__}")
     return row + [0.0] * (PRIM_SLOTS - len(row))
@@ -605,7 +618,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     n_entries = sum(len(_entries(p)) for p in pigs)
     maps_at = size + len(tail)
     fogs_at = maps_at + MAP_ENTRY * n_entries
-    buf = np.zeros(fogs_at + FOG * len(fogs) + len(tables))
+    terms_at = fogs_at + FOG * len(fogs)
+    n_terms = sum(len(leaf.prim.c) for leaf in leaves if type(leaf.prim) is PolyPrim)
+    buf = np.zeros(terms_at + POLY_TERM * n_terms + len(tables))
     maps: list[list[float]] = []
     h = buf[:HDR]
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
@@ -670,10 +685,18 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         rows[spheres, O_PRIM : O_PRIM + 3] = [leaves[k].prim.c for k in spheres]
         rows[spheres, O_PRIM + 3] = [leaves[k].prim.r for k in spheres]
     others = [k for k, leaf in enumerate(leaves) if type(leaf.prim) is not shapes.SpherePrim]
+    terms: list[list[float]] = []
     if others:
         rows[others, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
-            [_prim_row(leaves[k].prim) for k in others], PRIM_SLOTS
+            [_prim_row(leaves[k].prim, terms) for k in others], PRIM_SLOTS
         )
+    h[H_TERMS], h[H_NTERMS] = terms_at, len(terms)
+    h[H_POLY_REACH], h[H_POLY_LEAD], h[H_ROOT_ITER] = (
+        tol.POLY_REACH,
+        tol.POLY_LEAD_REL,
+        tol.ROOT_MAX_ITER,
+    )
+    buf[terms_at : terms_at + POLY_TERM * len(terms)] = np.ravel(terms)
     fades: dict[int, tuple] = {}  # by interior: objects share their default one
     for it in (o.interior for o in objs):
         if id(it) not in fades:

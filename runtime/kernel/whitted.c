@@ -14,6 +14,7 @@
 #include <Python.h>
 #include "buffer.h"
 #include "noise.h"
+#include "poly.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,12 +32,15 @@
 #define BVH 11
 #define BVH_STACK 128
 /* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
-#define MAX_CROSS 1024 /* 4 a leaf at most (a capped cone) */
+#define MAX_CROSS 1024
+/* crossings of one leaf at most: a polynomial's degree (a capped cone has 4) */
+#define MAX_LEAF POLY_MAX_DEGREE
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
-       H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX };
+       H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
+       H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER };
 /* a fog: distance, rgbft, type, unit up, offset, alt, turbulence (on, vector, octaves, omega,
  * lambda, depth) */
 enum { F_DIST, F_COL, F_TYPE = 6, F_UP, F_OFFSET = 10, F_ALT, F_HASTURB, F_TURB, F_OCTAVES = 16,
@@ -59,7 +63,10 @@ enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL
        PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE };
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 
-enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS };
+enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY };
+/* a polynomial's parameters: its terms in the terms table, their count, its degree, its
+ * inside tolerance, its size (polynomial.PolyPrim) */
+enum { Y_TERMS, Y_NTERMS, Y_DEGREE, Y_INSIDE, Y_SIZE };
 /* a disc's parameters: centre, unit normal, radius^2, hole radius^2; a cone's (shapes.ConePrim,
  * canonical frame: axis +z from 0 to 1): the object-to-canonical rows, r0, r1, open */
 enum { D_C, D_N = 3, D_R2 = 6, D_H2 };
@@ -97,6 +104,7 @@ typedef struct {
     Noise noise;                /* POV-Ray's noise tables, when a pigment needs them */
     const double *map;          /* the colour maps' entries */
     const double *fog;          /* the fogs, FOG values each */
+    const double *terms;        /* the polynomials' terms, POLY_TERM values each */
     int has_noise, nfog, mwidth;
     int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nloose, nbvh, nitem, maxlevel,
         legacy, anytrans;
@@ -326,6 +334,49 @@ static int torus_crossings(const Scene *s, const double *p, const double *o, con
     return 4;
 }
 
+static inline Poly poly_of(const Scene *s, const double *p) {
+    return (Poly){s->terms + (size_t)p[Y_TERMS] * POLY_TERM, (int)p[Y_NTERMS], (int)p[Y_DEGREE]};
+}
+
+/* PolyPrim.crossings: the ray recentred on the object's origin and made unit, the
+ * polynomial along it, its roots (quadratic formula for a quadric; roots_in in the
+ * Fujiwara bound capped at POLY_REACH sizes otherwise). */
+static int poly_crossings(const Scene *s, const double *p, const double *o, const double *d,
+                          double *t, int *face) {
+    Poly pl = poly_of(s, p);
+    int n = pl.degree;
+    for (int j = 0; j < n; j++) t[j] = INFINITY, face[j] = 0;
+    if (n == 0) {
+        t[0] = INFINITY, face[0] = 0;
+        return 1;
+    }
+    double dl = sqrt(dot(d, d));
+    int ok = dl > 0;
+    double du[3] = {d[0] / (ok ? dl : 1.0), d[1] / (ok ? dl : 1.0), d[2] / (ok ? dl : 1.0)};
+    double dd = dot(d, d), t0 = 0.0;
+    if (dd > 0) {
+        double c[3] = {-o[0], -o[1], -o[2]};
+        t0 = dot(c, d) / dd;
+    }
+    double oc[3] = {o[0] + t0 * d[0], o[1] + t0 * d[1], o[2] + t0 * d[2]};
+    double cf[POLY_MAX_DEGREE + 1], u[POLY_MAX_DEGREE];
+    poly_along(&pl, oc, du, cf);
+    if (n == 1) {
+        u[0] = -cf[0] / cf[1];
+        if (!isfinite(u[0])) u[0] = INFINITY;
+    } else if (n == 2) {
+        double b = 0.5 * cf[1];
+        stable_quadratic(cf[2], b, cf[0], b * b - cf[2] * cf[0], &u[0], &u[1]);
+    } else {
+        double bound = fujiwara(cf, n, s->h[H_POLY_LEAD], ABS_FLOOR);
+        double reach = s->h[H_POLY_REACH] * (p[Y_SIZE] + sqrt(dot(oc, oc)));
+        if (reach < bound) bound = reach;
+        roots_in(cf, n, -bound, bound, (int)s->h[H_ROOT_ITER], u);
+    }
+    for (int j = 0; j < n; j++) t[j] = ok && isfinite(u[j]) ? u[j] / (ok ? dl : 1.0) + t0 : INFINITY;
+    return n;
+}
+
 /* All crossings of one primitive along o + t d (object space); returns how many. */
 static int crossings(const Scene *s, const double *ob, const double *o, const double *d, double *t, int *face) {
     const double *p = ob + O_PRIM;
@@ -373,6 +424,8 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
         return cone_crossings(s, p, o, d, t, face);
     case K_TORUS:
         return torus_crossings(s, p, o, d, t, face);
+    case K_POLY:
+        return poly_crossings(s, p, o, d, t, face);
     default: { /* box */
         const double *lo = p, *hi = p + 3;
         double n_ax[3], f_ax[3];
@@ -404,7 +457,8 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
     }
 }
 
-static void object_normal(const double *ob, const double *po, int face, double *n) {
+static void object_normal(const Scene *s, const double *ob, const double *po, int face,
+                          double *n) {
     const double *p = ob + O_PRIM;
     switch ((int)ob[O_KIND]) {
     case K_SPHERE:
@@ -426,6 +480,11 @@ static void object_normal(const double *ob, const double *po, int face, double *
         if (face == 3) cn[0] = 0.0, cn[1] = 0.0, cn[2] = 1.0;
         /* canonical to object space: n @ frame_inv[:3,:3] */
         for (int i = 0; i < 3; i++) n[i] = cn[0] * m[i] + cn[1] * m[4 + i] + cn[2] * m[8 + i];
+        break;
+    }
+    case K_POLY: {
+        Poly pl = poly_of(s, p);
+        poly_value(&pl, po, n);
         break;
     }
     case K_TORUS: {
@@ -465,8 +524,8 @@ static inline int object_crossings(const Scene *s, const double *ob, const doubl
 static int leaf_crossings(const Scene *s, int obj, const double *o, const double *d, double tlo,
                           double thi, Cross *out) {
     const double *ob = s->obj + (size_t)obj * OBJ;
-    double t[4];
-    int face[4];
+    double t[MAX_LEAF];
+    int face[MAX_LEAF];
     int k = object_crossings(s, ob, o, d, t, face), n = 0;
     for (int j = 0; j < k; j++)
         if (t[j] > tlo && t[j] < thi) out[n++] = (Cross){t[j], obj, face[j], (int)ob[O_FLIP]};
@@ -504,6 +563,13 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
         double e = (int)q[C_OPEN] ? INSIDE_EPS : -INSIDE_EPS;
         double w2 = c[0] * c[0] + c[1] * c[1];
         int in = c[2] >= -e && c[2] <= 1 + e && w2 <= rho * rho + e;
+        return outside ? !in : in;
+    }
+    case K_POLY: {
+        Poly pl = poly_of(s, q);
+        if (pl.degree == 0) return outside;
+        double v = poly_value(&pl, p, NULL), e = q[Y_INSIDE];
+        int in = e == 0 ? v <= 0 : v < e;
         return outside ? !in : in;
     }
     case K_TORUS: { /* distance to the core circle, surface included (as POV-Ray) */
@@ -576,7 +642,7 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
                           const double *inv, double tlo, double thi, Cross *out, int cap) {
     const double *nd = s->node + (size_t)node * NODE;
     if ((int)nd[N_KIND] == NK_LEAF) {
-        if (cap < 4) return -1;
+        if (cap < MAX_LEAF) return -1;
         return leaf_crossings(s, (int)nd[N_LEAF], o, d, tlo, thi, out);
     }
     int op = (int)nd[N_OP], count = (int)nd[N_COUNT], n = 0;
@@ -634,8 +700,8 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
         int obj = (int)nd[N_LEAF];
         const double *ob = s->obj + (size_t)obj * OBJ;
         if (skip & (int)ob[O_FLAGS]) return 0;
-        double t[4];
-        int face[4];
+        double t[MAX_LEAF];
+        int face[MAX_LEAF];
         int k = object_crossings(s, ob, o, d, t, face);
         double floor = OBJECT_REL * ob[O_SIZE];
         if (tmin > floor) floor = tmin;
@@ -747,14 +813,14 @@ static void hit_normal(Scene *s, const double *o, const double *d, const Hit *h,
     double po[3], on[3];
     if ((int)ob[O_IDENT]) {
         for (int i = 0; i < 3; i++) po[i] = o[i] + h->t * d[i];
-        object_normal(ob, po, h->face, n);
+        object_normal(s, ob, po, h->face, n);
     } else {
         double oo[3], dd[3];
         const double *m = ob + O_MINV;
         affine(m, o, oo);
         linear(m, d, dd);
         for (int i = 0; i < 3; i++) po[i] = oo[i] + h->t * dd[i];
-        object_normal(ob, po, h->face, on);
+        object_normal(s, ob, po, h->face, on);
         /* the inverse transpose: n @ m_inv[:3,:3] */
         for (int i = 0; i < 3; i++) n[i] = on[0] * m[i] + on[1] * m[4 + i] + on[2] * m[8 + i];
     }
@@ -1546,6 +1612,22 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         goto bad;
     s->fog = h + (size_t)fogs;
     s->nfog = (int)nfog;
+    double terms = h[H_TERMS], nterms = h[H_NTERMS];
+    if (!(nterms >= 0 && (nterms == 0 || (terms >= need && terms + POLY_TERM * nterms <= sb->len / 8))))
+        goto bad;
+    s->terms = h + (size_t)terms;
+    for (int i = 0; i < s->nobj; i++) {
+        const double *ob = s->obj + (size_t)i * OBJ, *q = ob + O_PRIM;
+        if ((int)ob[O_KIND] != K_POLY) continue;
+        if (!(q[Y_DEGREE] >= 0 && q[Y_DEGREE] <= POLY_MAX_DEGREE && q[Y_TERMS] >= 0 &&
+              q[Y_NTERMS] >= 0 && q[Y_TERMS] + q[Y_NTERMS] <= nterms))
+            goto bad;
+        for (int k = 0; k < (int)q[Y_NTERMS]; k++) {
+            const double *tm = s->terms + (size_t)(q[Y_TERMS] + k) * POLY_TERM;
+            if (!(tm[0] >= 0 && tm[1] >= 0 && tm[2] >= 0 && tm[0] + tm[1] + tm[2] <= q[Y_DEGREE]))
+                goto bad;
+        }
+    }
     double at = h[H_NOISE];
     if (at != 0.0) {
         if (!(at >= need && at + NOISE_LEN <= sb->len / 8)) goto bad;
