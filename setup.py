@@ -10,7 +10,7 @@ setup(
         Extension(
             "runtime._whitted",
             ["runtime/kernel/whitted.c"],
-            depends=["runtime/kernel/buffer.h", "runtime/kernel/noise.h"],
+            depends=["runtime/kernel/buffer.h", "runtime/kernel/noise.h", "runtime/kernel/poly.h"],
             extra_compile_args=["-O3", "-fno-math-errno"],
             # linked to libm, not left to bind at load time: an unversioned `pow` bound to
             # glibc's oldest version, a wrapper around the fast one (a fifth slower)
