@@ -242,14 +242,14 @@ Render failed
 
 def test_the_suite_runner_counts_the_scenes_the_kernel_traced(tmp_path):
     """run.py reads `render --stats` for how each image was traced: a scene of spheres is
-    the compiled kernel's, a foggy one the numpy path's with its reason; the summary counts
+    the compiled kernel's, one in media the numpy path's with its reason; the summary counts
     the kernel's share and reasons.md tallies the reasons."""
     from conformance import corpus, report, run
 
     from runtime.whitted import kernel_built
 
     (tmp_path / "kern.pov").write_text(GOOD)
-    (tmp_path / "fog.pov").write_text(GOOD + "fog { distance 10 color rgb 0.5 }\n")
+    (tmp_path / "fog.pov").write_text(GOOD + "media { scattering { 1, 0.05 } }\n")
     frame = corpus.Frame()
     results = []
     for name in ("kern", "fog"):
@@ -258,11 +258,11 @@ def test_the_suite_runner_counts_the_scenes_the_kernel_traced(tmp_path):
                                     None, 60)  # fmt: skip
         results.append(res)
     kern, fog = (r.lib for r in results)
-    assert fog.traced_by == "numpy" and "fog or media" in fog.numpy_because
+    assert fog.traced_by == "numpy" and "media" in fog.numpy_because
     if kernel_built():
         assert (kern.traced_by, kern.numpy_because) == ("kernel", [])
         assert "compiled kernel 1/2 (50%) of the rendered" in report.summary_line(
             report.counts(results)
         )
-    assert "| 1 | fog or media | fog.pov |" in report.reasons(results)
+    assert "| 1 | media | fog.pov |" in report.reasons(results)
     assert run.traced_by("no stats here") == ("", [])
