@@ -10,7 +10,12 @@ setup(
         Extension(
             "runtime._whitted",
             ["runtime/kernel/whitted.c"],
-            depends=["runtime/kernel/buffer.h", "runtime/kernel/noise.h", "runtime/kernel/poly.h"],
+            depends=[
+                "runtime/kernel/buffer.h",
+                "runtime/kernel/noise.h",
+                "runtime/kernel/poly.h",
+                "runtime/kernel/slab.h",
+            ],
             extra_compile_args=["-O3", "-fno-math-errno"],
             # linked to libm, not left to bind at load time: an unversioned `pow` bound to
             # glibc's oldest version, a wrapper around the fast one (a fifth slower)
@@ -20,7 +25,7 @@ setup(
         Extension(
             "runtime._boxtree",
             ["runtime/kernel/boxtree.c"],
-            depends=["runtime/kernel/buffer.h"],
+            depends=["runtime/kernel/buffer.h", "runtime/kernel/slab.h"],
             # no fused multiply-adds: the slab test must round as numpy's formula does
             extra_compile_args=["-O3", "-ffp-contract=off"],
             libraries=["m"],

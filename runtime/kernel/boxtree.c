@@ -10,6 +10,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include "buffer.h"
+#include "slab.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -128,22 +129,6 @@ done:
 }
 
 
-/* slab_hits for one ray: the numpy formula's operations in its order (fmin/fmax skip the
- * NaN of 0 * inf; the pad widens the box so that a hit on its surface is never culled). */
-static inline int slab_one(const double *o, const double *inv, const double *lo,
-                           const double *hi, double tmin, double tmax, double rel, double abs_) {
-    double near[3], far[3];
-    for (int a = 0; a < 3; a++) {
-        double t1 = (lo[a] - o[a]) * inv[a], t2 = (hi[a] - o[a]) * inv[a];
-        near[a] = fmin(t1, t2);
-        far[a] = fmax(t1, t2);
-    }
-    double tn = fmax(fmax(near[0], near[1]), near[2]);
-    double tf = fmin(fmin(far[0], far[1]), far[2]);
-    double pad = rel * (fabs(tn) + fabs(tf)) + abs_;
-    return (tn - pad <= tf + pad) && (tf + pad >= tmin) && (tn - pad <= tmax);
-}
-
 static inline int box_finite(const double *lo, const double *hi) {
     for (int a = 0; a < 3; a++)
         if (!isfinite(lo[a]) || !isfinite(hi[a])) return 0;
@@ -179,8 +164,8 @@ static PyObject *py_slab(PyObject *self, PyObject *args) {
         memset(out, 1, (size_t)n);
     } else {
         for (Py_ssize_t i = 0; i < n; i++)
-            out[i] = (char)slab_one(o + 3 * i, inv + 3 * i, lo, hi, tmin[nmin == 1 ? 0 : i],
-                                    tmax[nmax == 1 ? 0 : i], rel, abs_);
+            out[i] = (char)slab_padded(lo, hi, o + 3 * i, inv + 3 * i, tmin[nmin == 1 ? 0 : i],
+                                       tmax[nmax == 1 ? 0 : i], rel, abs_);
     }
     result = Py_None;
     Py_INCREF(result);
@@ -262,7 +247,7 @@ static PyObject *py_query(PyObject *self, PyObject *args) {
             }
             const double *lo = nlo + 3 * k, *hi = nhi + 3 * k;
             if (box_finite(lo, hi) &&
-                !slab_one(o + 3 * r, inv + 3 * r, lo, hi, tmin[r], tmax[r], rel, abs_))
+                !slab_padded(lo, hi, o + 3 * r, inv + 3 * r, tmin[r], tmax[r], rel, abs_))
                 continue;
             if (kids[2 * k] < 0) {
                 for (long long i = first[k]; i < first[k] + count[k]; i++) {

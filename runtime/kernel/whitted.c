@@ -15,6 +15,7 @@
 #include "buffer.h"
 #include "noise.h"
 #include "poly.h"
+#include "slab.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -605,26 +606,13 @@ static int node_inside(const Scene *s, int node, const double *p, int inverted) 
     return all_of;
 }
 
-/* numpy's fmin/fmax: a NaN (0 * inf, a ray in a slab's plane) loses to the other value.
- * Written out so they inline (the libm calls do not without -ffast-math). */
-static inline double fmin_nan(double a, double b) { return (a < b || b != b) ? a : b; }
-static inline double fmax_nan(double a, double b) { return (a > b || b != b) ? a : b; }
-
 /* trace.slab_hits for a finite box: may the segment (tmin, tmax) touch the box [lo, hi]?
  * (padded, so that a hit on the box surface is never culled). inv = 1/d, taken once per ray:
  * the divisions were most of a box test. Box-tree nodes come here directly (their boxes are
  * finite, scene_from checks): the finiteness tests were a tenth of a box test. */
 static inline int slab_finite(const Scene *s, const double *lo, const double *hi,
                               const double *o, const double *inv, double tmin, double tmax) {
-    double tn = -INFINITY, tf = INFINITY;
-    for (int i = 0; i < 3; i++) {
-        double t1 = (lo[i] - o[i]) * inv[i], t2 = (hi[i] - o[i]) * inv[i];
-        double near = fmin_nan(t1, t2), far = fmax_nan(t1, t2);
-        tn = i == 0 ? near : fmax_nan(tn, near);
-        tf = i == 0 ? far : fmin_nan(tf, far);
-    }
-    double pad = BOX_PAD_REL * (fabs(tn) + fabs(tf)) + BOX_PAD_ABS;
-    return tn - pad <= tf + pad && tf + pad >= tmin && tn - pad <= tmax;
+    return slab_padded(lo, hi, o, inv, tmin, tmax, BOX_PAD_REL, BOX_PAD_ABS);
 }
 
 /* The same for any box: an infinite one never culls. */
