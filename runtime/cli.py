@@ -754,6 +754,18 @@ def _sarif_rules() -> list[dict]:
     ]
 
 
+def _sarif_place(span: Span) -> dict:
+    return {
+        "artifactLocation": {"uri": Path(span.file).as_posix()},
+        "region": {
+            "startLine": span.line,
+            "startColumn": span.col,
+            "endLine": span.end_line,
+            "endColumn": span.end_col,
+        },
+    }
+
+
 def _sarif(diags: Sequence[Diagnostic]) -> dict:
     levels = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "note"}
     rules = _sarif_rules()
@@ -765,20 +777,17 @@ def _sarif(diags: Sequence[Diagnostic]) -> dict:
             **({"ruleIndex": index[d.code]} if d.code in index else {}),
             "level": levels[d.severity],
             "message": {"text": d.message + (f" (hint: {d.hint})" if d.hint else "")},
-            "locations": [
-                {
-                    "physicalLocation": {
-                        "artifactLocation": {"uri": Path(d.span.file).as_posix()},
-                        "region": {
-                            "startLine": d.span.line,
-                            "startColumn": d.span.col,
-                            "endLine": d.span.end_line,
-                            "endColumn": d.span.end_col,
-                        },
-                    }
-                }
-            ],
+            "locations": [{"physicalLocation": _sarif_place(d.span)}],
         }
+        if d.called_from:  # the macro calls a body's mistake was reached through
+            result["relatedLocations"] = [
+                {
+                    "id": i,
+                    "physicalLocation": _sarif_place(at),
+                    "message": {"text": f"in macro `{name}` called here"},
+                }
+                for i, (name, at) in enumerate(d.called_from, start=1)
+            ]
         results.append(result)
     return {
         "version": "2.1.0",
