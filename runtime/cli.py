@@ -310,7 +310,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--vs-povray", action="store_true", help="POV-Ray's own curve, measured in the same run"
     )
     b.add_argument(
-        "-o", "--output", metavar="PREFIX", help="PREFIX.csv and PREFIX.png (default: SCENE-bench)"
+        "-o",
+        "--output",
+        metavar="PREFIX",
+        help="PREFIX.csv and PREFIX.png, or a folder for SCENE-bench.* "
+        "(default: SCENE-bench.* in the current folder)",
+    )
+    b.add_argument(
+        "--runs", type=_positive_int, default=3, metavar="N", help="timed runs a point (median)"
     )
     b.set_defaults(func=cmd_bench)
 
@@ -1315,7 +1322,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
     path = Path(args.file)
     if not path.is_file():
         raise UsageError(f"no such scene file: {path}")
-    prefix = Path(args.output) if args.output else None
+    out = bench.default_prefix(path)
+    if args.output and (args.output.endswith(("/", os.sep)) or Path(args.output).is_dir()):
+        out = Path(args.output) / out.name
+    elif args.output:
+        out = Path(args.output)
+    for target in (out.with_suffix(".csv"), out.with_suffix(".png")):
+        check_writable(target)
     try:
         rows = bench.run(
             path,
@@ -1324,8 +1337,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
             list(args.library),
             Path(args.reference) if args.reference else None,
             args.vs_povray,
-            prefix,
+            out,
             log=lambda line: print(line, file=sys.stderr),
+            runs=args.runs,
         )
     except CompileError as exc:
         print(exc, file=sys.stderr)
@@ -1333,7 +1347,6 @@ def cmd_bench(args: argparse.Namespace) -> int:
     except (RuntimeError, ValueError, OSError) as exc:
         raise UsageError(str(exc)) from None
     print(bench.table(rows))
-    out = prefix or path.with_name(path.stem + "-bench")
     print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}", file=sys.stderr)
     return 0
 
