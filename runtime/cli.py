@@ -240,7 +240,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="skip frames whose image is already written at this size",
     )
-    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
+    r.add_argument(
+        "-q", "--quiet", action="store_true", help="errors only: no progress bar, warnings, summary"
+    )
     r.set_defaults(func=cmd_render)
 
     c = sub.add_parser("check", parents=[common], help="report every diagnostic, render nothing")
@@ -917,7 +919,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     args.window = _open_window(args.file) if args.display else None
     try:
         if args.cluster is not None or args.tiles is not None:
-            status = _render_on_cluster(args, jobs, numbers)
+            with _silenced(args.quiet):
+                status = _render_on_cluster(args, jobs, numbers)
         else:
             status = _render_here(args, jobs, numbers, to_stdout, stdout)
         if status == 0 and args.window is not None:
@@ -970,11 +973,25 @@ def _render_here(args: argparse.Namespace, jobs, numbers, to_stdout: bool, stdou
         )
         # runtime modules print their warnings; on stderr they never mix into an image
         # written to standard output
-        with redirect_stdout(sys.stderr):
+        with redirect_stdout(sys.stderr), _silenced(args.quiet):
             status = _render_one(args, target, clock, label, stdout)
         if status:
             return status
     return 0
+
+
+@contextmanager
+def _silenced(quiet: bool) -> Iterator[None]:
+    """-q: what the renderer would warn of while it prepares and traces is not said either
+    (its own warnings and Python's); errors still are."""
+    import warnings
+
+    from runtime import notices
+
+    with notices.silenced(quiet), warnings.catch_warnings():
+        if quiet:
+            warnings.simplefilter("ignore")
+        yield
 
 
 def _open_window(scene_file: str):
@@ -1119,9 +1136,10 @@ def _render_one(
                 try:
                     _preview_passes(args, scene, preview, width, height, region, window)
                 except (SceneError, OSError) as exc:
-                    print(f"strala: preview skipped: {exc}", file=sys.stderr)
+                    if not args.quiet:
+                        print(f"strala: preview skipped: {exc}", file=sys.stderr)
         with (
-            Progress(label, enabled=False if args.quiet else None) as bar,
+            Progress(label, enabled=False if args.quiet else None, tick=TICK) as bar,
             _quick_interrupt(preview),
         ):
             try:
@@ -1136,6 +1154,7 @@ def _render_one(
                     aa_gamma=args.aa_gamma,
                     threads=args.threads,
                     progress=bar if window is None else _both(bar, window.progress),
+                    estimate=bar.enabled or window is not None,
                     on_tile=None if window is None else window.tile,
                     region=region,
                     stats=stats,
@@ -1162,7 +1181,7 @@ def _render_one(
         return 1
     if getattr(args, "stats", False):
         print(render_stats(stats), file=sys.stderr)
-    if stats.get("nonfinite"):
+    if stats.get("nonfinite") and not args.quiet:
         print(
             f"strala: warning: {stats['nonfinite']} pixel(s) had no finite colour (an infinite "
             "or undefined value in the scene: a huge light, ambient or background, a negative "
@@ -1177,6 +1196,8 @@ def _render_one(
         print(f"wrote {where} ({width}x{height}, {took:.2f} s)", file=sys.stderr)
     return 0
 
+
+TICK = 0.5  # seconds between the progress bar's redraws while no tile finishes
 
 # Preview passes render at 1/8, 1/4 and 1/2 of the size (the seed's "lower resolution
 # while moving"); together they cost about a third of the final pass.
@@ -1212,13 +1233,17 @@ def _preview_passes(args, scene, out: Path, width: int, height: int, region, win
     import numpy as np
 
     from runtime import image
+    from runtime.progress import Progress
     from runtime.render import render_scene
 
     for f in PREVIEW_FACTORS:
         w, h = -(-width // f), -(-height // f)
         if min(w, h) < PREVIEW_MIN_SIZE:
             continue
-        coarse = render_scene(scene, w, h, threads=args.threads, **_radiosity_options(args))
+        with Progress(f"preview {w}x{h}", enabled=False if args.quiet else None, tick=TICK) as bar:
+            coarse = render_scene(
+                scene, w, h, threads=args.threads, progress=bar, **_radiosity_options(args)
+            )
         full = np.repeat(np.repeat(coarse, f, axis=0), f, axis=1)[:height, :width]
         if region is not None:  # a partial render previews its own region only
             left, top, right, bottom = region
