@@ -491,7 +491,8 @@ class _Builder(Transformer):
         return syntax.MacroDef(self._span(children), str(name), params, body, optional)
 
     def version(self, children):
-        return syntax.Version(self._span(children), children[1])
+        semicolon = isinstance(children[-1], Token) and children[-1] == ";"
+        return syntax.Version(self._span(children), children[1], semicolon=semicolon)
 
     def message(self, children):
         kind = str(children[0]).lstrip("#").strip()

@@ -69,12 +69,22 @@ def to_range(span: Span) -> T.Range:
 def to_lsp_diagnostic(d: Diagnostic) -> T.Diagnostic:
     message = d.message + (f"\nhint: {d.hint}" if d.hint else "")
     message += "".join("\n" + line for line in d.call_lines())
+    # the macro calls a body's mistake was reached through, innermost first, as places the
+    # editor can jump to (the message names them too, for clients that show no related list)
+    related = [
+        T.DiagnosticRelatedInformation(
+            location=T.Location(uri=path_to_uri(at.file), range=to_range(at)),
+            message=f"in macro `{name}` called here",
+        )
+        for name, at in d.called_from
+    ]
     return T.Diagnostic(
         range=to_range(d.span),
         message=message,
         severity=_SEVERITY[d.severity],
         code=d.code,
         source="strala",
+        related_information=related or None,
     )
 
 

@@ -276,6 +276,8 @@ class MacroDef(Node):
 @dataclass(slots=True)
 class Version(Node):
     value: Node
+    # the `;` after the version, whose absence POV-Ray warns of from 3.1 on
+    semicolon: bool = True
 
 
 @dataclass(slots=True)

@@ -3,22 +3,31 @@
 The knobs that matter are read off the compiled scene (anti-aliasing always; area-light
 samples, radiosity patch budget, nurbs tolerance, subdivision level and max_trace_level
 only when the scene has what they act on). Each knob is swept alone from the scene's own
-settings; every render is timed (wall clock) and compared with a reference: the image given
-with --reference, else strala's render with every knob at its finest value. With
---vs-povray, POV-Ray renders the same file in the same run at its own quality settings
-(+A thresholds and depths; radiosity count / error_bound when the scene has radiosity),
-compared with the same reference. The result is a table, a CSV and a plot of error
-against time (log-log) with the Pareto front of strala's settings marked.
+settings and compared with a reference: the image given with --reference, else strala's
+render with every knob at its finest value. With --vs-povray, POV-Ray renders the same file
+in the same run at its own quality settings (+A thresholds and depths; radiosity count /
+error_bound when the scene has radiosity), compared with the same reference.
+
+Both renderers are timed the same way: the wall time of a whole process that starts, reads
+the scene file, renders and writes an 8-bit PNG (strala's is `python -m runtime.bench`,
+which does what `strala render` does with the setting applied to the compiled scene, its
+compile cache included, as a user's next render has it), the median of `runs` runs per
+point. The result is a table, a CSV and a plot of error against time (log-log) with every
+point labelled with its setting, strala's Pareto front joined and the reference drawn.
 """
 
 from __future__ import annotations
 
+import argparse
 import csv
 import dataclasses
 import math
+import os
 import re
 import shutil
+import statistics
 import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -39,6 +48,8 @@ SUBDIVISION_LEVELS = (1, 2, 3, 4, 5)
 TRACE_LEVELS = (1, 2, 3, 5, 10)
 POVRAY_AA = ((None, 1), (0.3, 2), (0.3, 3), (0.1, 3), (0.03, 4))
 POVRAY_RADIOSITY = ((35, 1.8), (100, 1.0), (400, 0.5), (1600, 0.25))
+RUNS = 3  # processes timed per point: their median is the point's time
+REFERENCE = "reference"
 
 
 @dataclass
@@ -57,11 +68,16 @@ class Row:
     renderer: str
     knob: str
     label: str
-    seconds: float
+    seconds: float  # the median of `times`
     rmse: float = math.nan
     ssim: float = math.nan
     pareto: bool = False
     image: np.ndarray | None = field(default=None, repr=False)
+    times: tuple[float, ...] = ()  # each run's wall time
+
+    @property
+    def reference(self) -> bool:
+        return self.knob == REFERENCE
 
 
 # ----------------------------------------------------------- scene edits
@@ -141,28 +157,36 @@ def knobs(scene: ir.Scene) -> dict[str, list[Setting]]:
     """The sweeps that apply to this scene, each cheapest first."""
     out: dict[str, list[Setting]] = {
         "antialias": [
-            Setting("antialias", "off" if t is None else f"+A{t} +R{d}", aa=t, aa_depth=d)
+            Setting("antialias", "AA off" if t is None else f"+A{t} +R{d}", aa=t, aa_depth=d)
             for t, d in AA_STEPS
         ]
     }
     if any(getattr(light, "area", None) is not None for light in scene.lights):
         out["area_light"] = [
-            Setting("area_light", f"samples x{k:g}", _area_scale(k)) for k in AREA_SCALES
+            Setting("area_light", f"area samples x{k:g}", _area_scale(k)) for k in AREA_SCALES
         ]
     if scene.settings.radiosity is not None:
         out["radiosity"] = [
-            Setting("radiosity", f"max_patches {n}", _settings_edit(radiosity={"max_patches": n}))
+            Setting(
+                "radiosity",
+                f"radiosity max_patches {n}",
+                _settings_edit(radiosity={"max_patches": n}),
+            )
             for n in PATCH_BUDGETS
         ]
     shapes = _shapes(scene)
     if any(isinstance(s, ir.Nurbs) for s in shapes):
         out["nurbs"] = [
-            Setting("nurbs", f"tolerance {t:g}", _with_shape_field(ir.Nurbs, "tolerance", t))
+            Setting("nurbs", f"nurbs tolerance {t:g}", _with_shape_field(ir.Nurbs, "tolerance", t))
             for t in NURBS_TOLERANCES
         ]
     if any(isinstance(s, ir.Subdivision) for s in shapes):
         out["subdivision"] = [
-            Setting("subdivision", f"levels {n}", _with_shape_field(ir.Subdivision, "levels", n))
+            Setting(
+                "subdivision",
+                f"subdivision levels {n}",
+                _with_shape_field(ir.Subdivision, "levels", n),
+            )
             for n in SUBDIVISION_LEVELS
         ]
     from runtime.prepare import texture_reflects, texture_transparent
@@ -172,7 +196,7 @@ def knobs(scene: ir.Scene) -> dict[str, list[Setting]]:
     transparent = any(texture_transparent(o.texture) for o in objects if o.texture is not None)
     if reflective or transparent:
         out["max_trace_level"] = [
-            Setting("max_trace_level", f"{n}", _settings_edit(max_trace_level=n))
+            Setting("max_trace_level", f"max_trace_level {n}", _settings_edit(max_trace_level=n))
             for n in TRACE_LEVELS
         ]
     return out
@@ -188,17 +212,58 @@ def finest(sweeps: dict[str, list[Setting]]) -> Setting:
             scene = e(scene)
         return scene
 
-    return Setting("reference", "finest", edit, aa=aa.aa, aa_depth=aa.aa_depth)
+    return Setting(REFERENCE, "finest", edit, aa=aa.aa, aa_depth=aa.aa_depth)
 
 
 # ------------------------------------------------------------------ runs
-def _render(scene: ir.Scene, s: Setting, width: int, height: int) -> tuple[np.ndarray, float]:
-    from runtime.api import render
+def default_prefix(path: Path) -> Path:
+    """Where the CSV and plot go without -o: the folder the bench is run from, never the
+    scene's own (a scene in a source tree stays as it was checked out)."""
+    return Path.cwd() / f"{path.stem}-bench"
 
-    edited = s.scene(scene)
-    t0 = time.perf_counter()
-    img = render(edited, width=width, height=height, aa=s.aa, aa_depth=s.aa_depth)
-    return img, time.perf_counter() - t0
+
+def timed(cmd: list[str], cwd: Path, runs: int, env: dict[str, str] | None = None) -> list[float]:
+    """The wall time of each of `runs` runs of a whole process, from its start to its exit.
+    A failing run raises RuntimeError with the end of what it said."""
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        done = subprocess.run(
+            cmd, capture_output=True, text=True, errors="replace", cwd=cwd, env=env,
+            stdin=subprocess.DEVNULL, timeout=3600,
+        )  # fmt: skip
+        times.append(time.perf_counter() - t0)
+        if done.returncode != 0:
+            raise RuntimeError(f"{' '.join(cmd[:3])} … failed: {done.stderr.strip()[-400:]}")
+    return times
+
+
+def _strala_env() -> dict[str, str]:
+    """The environment for strala's processes: this strala importable, whatever the cwd."""
+    root = str(Path(__file__).resolve().parent.parent)
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
+    return env
+
+
+def strala_command(
+    path: Path, knob: str, index: int, width: int, height: int, out: Path, library: list[str]
+) -> list[str]:
+    libs = [a for d in library for a in ("-L", str(d))]
+    return [sys.executable, "-m", "runtime.bench", str(path), knob, str(index),
+            str(width), str(height), str(out), *libs]  # fmt: skip
+
+
+def _measure(renderer: str, knob: str, label: str, cmd: list[str], out: Path, cwd: Path,
+             runs: int, env: dict[str, str] | None = None) -> Row:  # fmt: skip
+    from runtime.image import read_image
+
+    times = timed(cmd, cwd, runs, env)
+    if not out.is_file():
+        raise RuntimeError(f"{renderer} wrote no image for {knob} {label}")
+    img = read_image(out)[..., :3]
+    out.unlink()
+    return Row(renderer, knob, label, statistics.median(times), image=img, times=tuple(times))
 
 
 def _povray_text(text: str, count: int, error_bound: float) -> str:
@@ -212,18 +277,16 @@ def _povray_text(text: str, count: int, error_bound: float) -> str:
 
 
 def povray_rows(
-    path: Path, width: int, height: int, library: list[str], radiosity: bool
+    path: Path, width: int, height: int, library: list[str], radiosity: bool, runs: int = RUNS
 ) -> list[Row]:
-    """POV-Ray's own quality curve on the same file, timed in this run."""
-    import OpenImageIO as oiio
-
+    """POV-Ray's own quality curve on the same file, timed in this run as strala's is."""
     exe = shutil.which("povray")
     if exe is None:
         raise RuntimeError("POV-Ray is not installed (apt-get install povray)")
     rows: list[Row] = []
     with tempfile.TemporaryDirectory() as tmp:
-        runs: list[tuple[str, str, list[str], Path]] = [
-            ("antialias", "off" if t is None else f"+A{t} +R{d}",
+        plan: list[tuple[str, str, list[str], Path]] = [
+            ("antialias", "AA off" if t is None else f"+A{t} +R{d}",
              [] if t is None else [f"+A{t}", f"+R{d}"], path)
             for t, d in POVRAY_AA
         ]  # fmt: skip
@@ -235,22 +298,17 @@ def povray_rows(
                 body = re.sub(r"(radiosity\s*\{[^}]*?)\bcount\s+[\d.]+", r"\1", text)
                 body = re.sub(r"(radiosity\s*\{[^}]*?)\berror_bound\s+[\d.]+", r"\1", body)
                 variant.write_text(_povray_text(body, count, eb))
-                runs.append(("radiosity", f"count {count} error_bound {eb}", ["+A0.3"], variant))
-        for knob, label, opts, scene_path in runs:
+                label = f"radiosity count {count} error_bound {eb}"
+                plan.append(("radiosity", label, ["+A0.3"], variant))
+        for knob, label, opts, scene_path in plan:
             out = Path(tmp) / "pov.png"
             libs = [f"+L{d}" for d in (path.parent, *library)]
             cmd = [exe, f"+I{scene_path}", f"+O{out}", f"+W{width}", f"+H{height}", "-D",
                    "-V", "-GA", *opts, *libs]  # fmt: skip
-            t0 = time.perf_counter()
-            done = subprocess.run(cmd, capture_output=True, cwd=path.parent, timeout=3600)
-            seconds = time.perf_counter() - t0
-            if done.returncode != 0 or not out.is_file():
-                continue
-            pixels = oiio.ImageBuf(str(out)).get_pixels(oiio.FLOAT)
-            assert pixels is not None  # None only when the file cannot be read
-            img = pixels[..., :3]
-            rows.append(Row("povray", knob, label, seconds, image=img))
-            out.unlink()
+            try:
+                rows.append(_measure("povray", knob, label, cmd, out, path.parent, runs))
+            except RuntimeError:
+                continue  # a setting POV-Ray refuses is left out, as before
     return rows
 
 
@@ -262,8 +320,11 @@ def score(rows: list[Row], reference: np.ndarray) -> None:
 
 
 def mark_pareto(rows: list[Row]) -> None:
-    """Strala's settings that no other strala setting beats on both time and error."""
-    ours = [r for r in rows if r.renderer == "strala" and math.isfinite(r.rmse)]
+    """Strala's settings that no other strala setting beats on both time and error (the
+    reference, every knob at once, is the yardstick, not a setting of the front)."""
+    ours = [
+        r for r in rows if r.renderer == "strala" and r.knob != REFERENCE and math.isfinite(r.rmse)
+    ]
     for r in ours:
         r.pareto = not any(
             (o.seconds <= r.seconds and o.rmse <= r.rmse)
@@ -274,6 +335,7 @@ def mark_pareto(rows: list[Row]) -> None:
 
 # ------------------------------------------------------------------ output
 def table(rows: list[Row]) -> str:
+    runs = max((len(r.times) for r in rows), default=1)
     lines = [f"{'renderer':8} {'knob':16} {'setting':28} {'seconds':>8} {'RMSE':>8} {'SSIM':>7}"]
     for r in rows:
         star = " *" if r.pareto else ""
@@ -281,6 +343,10 @@ def table(rows: list[Row]) -> str:
             f"{r.renderer:8} {r.knob:16} {r.label:28} {r.seconds:8.3f} {r.rmse:8.4f} "
             f"{r.ssim:7.4f}{star}"
         )
+    lines.append(
+        f"seconds: the whole process (start, read the scene, render, write the image), "
+        f"the median of {runs} run{'s' if runs != 1 else ''}"
+    )
     lines.append("* on strala's Pareto front (no other setting is both faster and closer)")
     return "\n".join(lines)
 
@@ -289,62 +355,13 @@ def write_csv(rows: list[Row], path: Path) -> None:
     tmp = path.with_name(f".{path.name}.tmp")
     with open(tmp, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["renderer", "knob", "setting", "seconds", "rmse", "ssim", "pareto"])
+        w.writerow(["renderer", "knob", "setting", "seconds", "runs", "seconds_min",
+                    "seconds_max", "rmse", "ssim", "pareto"])  # fmt: skip
         for r in rows:
-            w.writerow([r.renderer, r.knob, r.label, f"{r.seconds:.4f}", f"{r.rmse:.6f}",
+            times = r.times or (r.seconds,)
+            w.writerow([r.renderer, r.knob, r.label, f"{r.seconds:.4f}", len(times),
+                        f"{min(times):.4f}", f"{max(times):.4f}", f"{r.rmse:.6f}",
                         f"{r.ssim:.6f}", int(r.pareto)])  # fmt: skip
-    tmp.replace(path)
-
-
-def plot(rows: list[Row], path: Path, title: str) -> None:
-    """Error (RMSE) against wall time, both log scale: strala's points in blue with its
-    Pareto front joined, POV-Ray's in red; drawn with OpenImageIO."""
-    import OpenImageIO as oiio
-
-    W, H, L, R, T, B = 760, 480, 80, 20, 40, 60
-    pts = [r for r in rows if math.isfinite(r.rmse) and r.rmse > 0 and r.seconds > 0]
-    buf = oiio.ImageBuf(oiio.ImageSpec(W, H, 3, oiio.FLOAT))
-    oiio.ImageBufAlgo.fill(buf, (1.0, 1.0, 1.0))
-    black, blue, red, grey = (0, 0, 0), (0.1, 0.3, 0.9), (0.85, 0.15, 0.1), (0.8, 0.8, 0.8)
-    if pts:
-        tx = np.log10([r.seconds for r in pts])
-        ey = np.log10([r.rmse for r in pts])
-        x0, x1 = math.floor(tx.min()), math.ceil(tx.max() + 1e-9)
-        y0, y1 = math.floor(ey.min()), math.ceil(ey.max() + 1e-9)
-        x1, y1 = max(x1, x0 + 1), max(y1, y0 + 1)
-
-        def xy(t: float, e: float) -> tuple[int, int]:
-            px = L + (math.log10(t) - x0) / (x1 - x0) * (W - L - R)
-            py = H - B - (math.log10(e) - y0) / (y1 - y0) * (H - T - B)
-            return int(round(px)), int(round(py))
-
-        for k in range(x0, x1 + 1):
-            px = L + (k - x0) / (x1 - x0) * (W - L - R)
-            oiio.ImageBufAlgo.render_line(buf, int(px), T, int(px), H - B, grey)
-            oiio.ImageBufAlgo.render_text(
-                buf, int(px) - 14, H - B + 20, f"{10.0**k:g}", 14, "", black
-            )
-        for k in range(y0, y1 + 1):
-            py = H - B - (k - y0) / (y1 - y0) * (H - T - B)
-            oiio.ImageBufAlgo.render_line(buf, L, int(py), W - R, int(py), grey)
-            oiio.ImageBufAlgo.render_text(buf, 8, int(py) + 5, f"{10.0**k:g}", 14, "", black)
-        front = sorted((r for r in pts if r.pareto), key=lambda r: r.seconds)
-        for a, b in zip(front, front[1:], strict=False):
-            oiio.ImageBufAlgo.render_line(buf, *xy(a.seconds, a.rmse), *xy(b.seconds, b.rmse), blue)
-        for r in pts:
-            px, py = xy(r.seconds, r.rmse)
-            colour = blue if r.renderer == "strala" else red
-            oiio.ImageBufAlgo.render_box(buf, px - 3, py - 3, px + 3, py + 3, colour, fill=True)
-    oiio.ImageBufAlgo.render_line(buf, L, T, L, H - B, black)
-    oiio.ImageBufAlgo.render_line(buf, L, H - B, W - R, H - B, black)
-    oiio.ImageBufAlgo.render_text(buf, L, 24, title, 16, "", black)
-    oiio.ImageBufAlgo.render_text(buf, W // 2 - 60, H - 12, "wall time (s)", 14, "", black)
-    oiio.ImageBufAlgo.render_text(buf, 8, T - 8, "RMSE", 14, "", black)
-    oiio.ImageBufAlgo.render_text(buf, W - 230, T + 20, "strala (front joined)", 14, "", blue)
-    oiio.ImageBufAlgo.render_text(buf, W - 230, T + 40, "POV-Ray 3.7", 14, "", red)
-    tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
-    if not buf.write(str(tmp)):
-        raise OSError(f"cannot write {path}: {buf.geterror()}")
     tmp.replace(path)
 
 
@@ -357,45 +374,81 @@ def run(
     vs_povray: bool = False,
     out_prefix: Path | None = None,
     log: Callable[[str], None] = print,
+    runs: int = RUNS,
 ) -> list[Row]:
     """The whole benchmark; returns its rows (images dropped) and writes CSV and plot."""
-    import OpenImageIO as oiio
-
     from runtime.api import compile_file
+    from runtime.bench_plot import plot
+    from runtime.image import read_image
 
     compiled = compile_file(path, library_paths=library, width=width, height=height)
-    scene = compiled.scene
-    sweeps = knobs(scene)
-    log(f"knobs: {', '.join(sweeps)}")
-    if reference_image is not None:
-        ref_pixels = oiio.ImageBuf(str(reference_image)).get_pixels(oiio.FLOAT)
-        assert ref_pixels is not None  # None only when the file cannot be read
-        ref = ref_pixels[..., :3]
-        if ref.shape[:2] != (height, width):
-            raise ValueError(
-                f"the reference is {ref.shape[1]}x{ref.shape[0]}, the bench renders "
-                f"{width}x{height}"
-            )
-    else:
-        best = finest(sweeps)
-        ref, seconds = _render(scene, best, width, height)
-        log(f"reference (every knob at its finest): {seconds:.2f} s")
+    sweeps = knobs(compiled.scene)
+    log(f"knobs: {', '.join(sweeps)}; {runs} timed run{'s' if runs != 1 else ''} a point")
     rows: list[Row] = []
-    for settings in sweeps.values():
-        for s in settings:
-            img, seconds = _render(scene, s, width, height)
-            rows.append(Row("strala", s.knob, s.label, seconds, image=img))
-            log(f"  strala {s.knob} {s.label}: {seconds:.3f} s")
+    env = _strala_env()
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "strala.png"
+
+        def strala(knob: str, index: int, label: str) -> Row:
+            cmd = strala_command(path, knob, index, width, height, out, library)
+            return _measure("strala", knob, label, cmd, out, path.parent, runs, env)
+
+        if reference_image is not None:
+            ref = read_image(reference_image)[..., :3]
+            if ref.shape[:2] != (height, width):
+                raise ValueError(
+                    f"the reference is {ref.shape[1]}x{ref.shape[0]}, the bench renders "
+                    f"{width}x{height}"
+                )
+        else:
+            best = strala(REFERENCE, 0, "finest (every knob)")
+            assert best.image is not None
+            ref = best.image
+            rows.append(best)
+            log(f"reference (every knob at its finest): {best.seconds:.2f} s")
+        for settings in sweeps.values():
+            for i, s in enumerate(settings):
+                rows.append(strala(s.knob, i, s.label))
+                log(f"  strala {s.label}: {rows[-1].seconds:.3f} s")
     if vs_povray:
-        pov = povray_rows(path, width, height, library, scene.settings.radiosity is not None)
+        radiosity = compiled.scene.settings.radiosity is not None
+        pov = povray_rows(path, width, height, library, radiosity, runs)
         for r in pov:
-            log(f"  povray {r.knob} {r.label}: {r.seconds:.3f} s")
+            log(f"  povray {r.label}: {r.seconds:.3f} s")
         rows.extend(pov)
     score(rows, ref)
     mark_pareto(rows)
     for r in rows:
         r.image = None
-    prefix = out_prefix or path.with_name(path.stem + "-bench")
+    prefix = out_prefix or default_prefix(path)
     write_csv(rows, prefix.with_suffix(".csv"))
     plot(rows, prefix.with_suffix(".png"), f"{path.name} {width}x{height}: error vs time")
     return rows
+
+
+# ------------------------------------------------------------------ one point
+def render_point(argv: list[str]) -> None:
+    """A strala point as its own process (python -m runtime.bench SCENE KNOB INDEX W H OUT):
+    compile the scene file, apply the setting, render and write an 8-bit PNG, as
+    `strala render` does."""
+    p = argparse.ArgumentParser(prog="python -m runtime.bench")
+    for name in ("scene", "knob"):
+        p.add_argument(name)
+    for name in ("index", "width", "height"):
+        p.add_argument(name, type=int)
+    p.add_argument("output")
+    p.add_argument("-L", dest="library", action="append", default=[])
+    a = p.parse_args(argv)
+    from runtime.api import compile_file, render
+    from runtime.image import write_pixels
+
+    compiled = compile_file(a.scene, library_paths=a.library, width=a.width, height=a.height)
+    sweeps = knobs(compiled.scene)
+    s = finest(sweeps) if a.knob == REFERENCE else sweeps[a.knob][a.index]
+    edited = s.scene(compiled.scene)
+    img = render(edited, width=a.width, height=a.height, aa=s.aa, aa_depth=s.aa_depth)
+    write_pixels(a.output, img, 8)
+
+
+if __name__ == "__main__":
+    render_point(sys.argv[1:])

@@ -7,7 +7,7 @@ from statistics import NormalDist
 import numpy as np
 
 from lang import ir
-from runtime import ray_random
+from runtime import notices, ray_random
 from runtime import transform as tf
 from runtime.patterns import perturb_normal
 
@@ -304,7 +304,7 @@ def _warn_kind(kind: str) -> None:
     # The evaluator already reports unsupported camera kinds; this only says what we did.
     if kind not in _warned:
         _warned.add(kind)
-        print(f"strala: camera type {kind!r} not supported, rendering as perspective")
+        notices.say(f"strala: camera type {kind!r} not supported, rendering as perspective")
 
 
 # How far beyond the image the view's half spaces reach, in pixels: anti-aliasing compares

@@ -240,7 +240,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="skip frames whose image is already written at this size",
     )
-    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
+    r.add_argument(
+        "-q", "--quiet", action="store_true", help="errors only: no progress bar, warnings, summary"
+    )
     r.set_defaults(func=cmd_render)
 
     c = sub.add_parser("check", parents=[common], help="report every diagnostic, render nothing")
@@ -310,7 +312,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--vs-povray", action="store_true", help="POV-Ray's own curve, measured in the same run"
     )
     b.add_argument(
-        "-o", "--output", metavar="PREFIX", help="PREFIX.csv and PREFIX.png (default: SCENE-bench)"
+        "-o",
+        "--output",
+        metavar="PREFIX",
+        help="PREFIX.csv and PREFIX.png, or a folder for SCENE-bench.* "
+        "(default: SCENE-bench.* in the current folder)",
+    )
+    b.add_argument(
+        "--runs", type=_positive_int, default=3, metavar="N", help="timed runs a point (median)"
     )
     b.set_defaults(func=cmd_bench)
 
@@ -754,6 +763,18 @@ def _sarif_rules() -> list[dict]:
     ]
 
 
+def _sarif_place(span: Span) -> dict:
+    return {
+        "artifactLocation": {"uri": Path(span.file).as_posix()},
+        "region": {
+            "startLine": span.line,
+            "startColumn": span.col,
+            "endLine": span.end_line,
+            "endColumn": span.end_col,
+        },
+    }
+
+
 def _sarif(diags: Sequence[Diagnostic]) -> dict:
     levels = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "note"}
     rules = _sarif_rules()
@@ -765,20 +786,17 @@ def _sarif(diags: Sequence[Diagnostic]) -> dict:
             **({"ruleIndex": index[d.code]} if d.code in index else {}),
             "level": levels[d.severity],
             "message": {"text": d.message + (f" (hint: {d.hint})" if d.hint else "")},
-            "locations": [
-                {
-                    "physicalLocation": {
-                        "artifactLocation": {"uri": Path(d.span.file).as_posix()},
-                        "region": {
-                            "startLine": d.span.line,
-                            "startColumn": d.span.col,
-                            "endLine": d.span.end_line,
-                            "endColumn": d.span.end_col,
-                        },
-                    }
-                }
-            ],
+            "locations": [{"physicalLocation": _sarif_place(d.span)}],
         }
+        if d.called_from:  # the macro calls a body's mistake was reached through
+            result["relatedLocations"] = [
+                {
+                    "id": i,
+                    "physicalLocation": _sarif_place(at),
+                    "message": {"text": f"in macro `{name}` called here"},
+                }
+                for i, (name, at) in enumerate(d.called_from, start=1)
+            ]
         results.append(result)
     return {
         "version": "2.1.0",
@@ -901,7 +919,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     args.window = _open_window(args.file) if args.display else None
     try:
         if args.cluster is not None or args.tiles is not None:
-            status = _render_on_cluster(args, jobs, numbers)
+            with _silenced(args.quiet):
+                status = _render_on_cluster(args, jobs, numbers)
         else:
             status = _render_here(args, jobs, numbers, to_stdout, stdout)
         if status == 0 and args.window is not None:
@@ -954,11 +973,25 @@ def _render_here(args: argparse.Namespace, jobs, numbers, to_stdout: bool, stdou
         )
         # runtime modules print their warnings; on stderr they never mix into an image
         # written to standard output
-        with redirect_stdout(sys.stderr):
+        with redirect_stdout(sys.stderr), _silenced(args.quiet):
             status = _render_one(args, target, clock, label, stdout)
         if status:
             return status
     return 0
+
+
+@contextmanager
+def _silenced(quiet: bool) -> Iterator[None]:
+    """-q: what the renderer would warn of while it prepares and traces is not said either
+    (its own warnings and Python's); errors still are."""
+    import warnings
+
+    from runtime import notices
+
+    with notices.silenced(quiet), warnings.catch_warnings():
+        if quiet:
+            warnings.simplefilter("ignore")
+        yield
 
 
 def _open_window(scene_file: str):
@@ -1103,9 +1136,10 @@ def _render_one(
                 try:
                     _preview_passes(args, scene, preview, width, height, region, window)
                 except (SceneError, OSError) as exc:
-                    print(f"strala: preview skipped: {exc}", file=sys.stderr)
+                    if not args.quiet:
+                        print(f"strala: preview skipped: {exc}", file=sys.stderr)
         with (
-            Progress(label, enabled=False if args.quiet else None) as bar,
+            Progress(label, enabled=False if args.quiet else None, tick=TICK) as bar,
             _quick_interrupt(preview),
         ):
             try:
@@ -1120,6 +1154,7 @@ def _render_one(
                     aa_gamma=args.aa_gamma,
                     threads=args.threads,
                     progress=bar if window is None else _both(bar, window.progress),
+                    estimate=bar.enabled or window is not None,
                     on_tile=None if window is None else window.tile,
                     region=region,
                     stats=stats,
@@ -1146,7 +1181,7 @@ def _render_one(
         return 1
     if getattr(args, "stats", False):
         print(render_stats(stats), file=sys.stderr)
-    if stats.get("nonfinite"):
+    if stats.get("nonfinite") and not args.quiet:
         print(
             f"strala: warning: {stats['nonfinite']} pixel(s) had no finite colour (an infinite "
             "or undefined value in the scene: a huge light, ambient or background, a negative "
@@ -1161,6 +1196,8 @@ def _render_one(
         print(f"wrote {where} ({width}x{height}, {took:.2f} s)", file=sys.stderr)
     return 0
 
+
+TICK = 0.5  # seconds between the progress bar's redraws while no tile finishes
 
 # Preview passes render at 1/8, 1/4 and 1/2 of the size (the seed's "lower resolution
 # while moving"); together they cost about a third of the final pass.
@@ -1196,13 +1233,17 @@ def _preview_passes(args, scene, out: Path, width: int, height: int, region, win
     import numpy as np
 
     from runtime import image
+    from runtime.progress import Progress
     from runtime.render import render_scene
 
     for f in PREVIEW_FACTORS:
         w, h = -(-width // f), -(-height // f)
         if min(w, h) < PREVIEW_MIN_SIZE:
             continue
-        coarse = render_scene(scene, w, h, threads=args.threads, **_radiosity_options(args))
+        with Progress(f"preview {w}x{h}", enabled=False if args.quiet else None, tick=TICK) as bar:
+            coarse = render_scene(
+                scene, w, h, threads=args.threads, progress=bar, **_radiosity_options(args)
+            )
         full = np.repeat(np.repeat(coarse, f, axis=0), f, axis=1)[:height, :width]
         if region is not None:  # a partial render previews its own region only
             left, top, right, bottom = region
@@ -1306,7 +1347,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
     path = Path(args.file)
     if not path.is_file():
         raise UsageError(f"no such scene file: {path}")
-    prefix = Path(args.output) if args.output else None
+    out = bench.default_prefix(path)
+    if args.output and (args.output.endswith(("/", os.sep)) or Path(args.output).is_dir()):
+        out = Path(args.output) / out.name
+    elif args.output:
+        out = Path(args.output)
+    for target in (out.with_suffix(".csv"), out.with_suffix(".png")):
+        check_writable(target)
     try:
         rows = bench.run(
             path,
@@ -1315,8 +1362,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
             list(args.library),
             Path(args.reference) if args.reference else None,
             args.vs_povray,
-            prefix,
+            out,
             log=lambda line: print(line, file=sys.stderr),
+            runs=args.runs,
         )
     except CompileError as exc:
         print(exc, file=sys.stderr)
@@ -1324,7 +1372,6 @@ def cmd_bench(args: argparse.Namespace) -> int:
     except (RuntimeError, ValueError, OSError) as exc:
         raise UsageError(str(exc)) from None
     print(bench.table(rows))
-    out = prefix or path.with_name(path.stem + "-bench")
     print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}", file=sys.stderr)
     return 0
 

@@ -7,10 +7,11 @@ file's length gives, and 0 … its largest value map to 0 … 1.
 
 from __future__ import annotations
 
-import sys
 from functools import lru_cache
 
 import numpy as np
+
+from runtime import notices
 
 
 @lru_cache(maxsize=8)
@@ -46,7 +47,7 @@ def density_file(p: np.ndarray, params: dict) -> np.ndarray:
     except (OSError, ValueError) as e:
         if path not in _WARNED:
             _WARNED.add(path)
-            print(f"strala: warning: density_file: {e}", file=sys.stderr)
+            notices.warn(f"density_file: {e}")
         return out
     sz, sy, sx = d.shape
     inside = np.all((p >= 0.0) & (p < 1.0), axis=1)

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from runtime import notices
 from runtime.noise import noise
 
 Arr = Any  # an ndarray or a float (parameters are usually plain numbers)
@@ -28,7 +29,7 @@ _missing: set[str] = set()
 def warn_missing(name: str) -> None:
     if name not in _missing:
         _missing.add(name)
-        print(f"strala: warning: the internal function {name} is not available: it gives 0")
+        notices.warn(f"the internal function {name} is not available: it gives 0")
 
 
 def _clamp(v: Arr, lim: Arr = 10.0) -> Arr:

@@ -6,7 +6,6 @@ can be built at all (`singular`) and what its leaf carries (`object_matrix`)."""
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
@@ -14,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from lang import ir
-from runtime import prims, shapes
+from runtime import notices, prims, shapes
 from runtime import transform as tf
 from runtime.heightfield import height_field_mesh
 from runtime.prims import FunctionCompiler
@@ -30,8 +29,7 @@ def warn_once(seen: list[str], msg: str, span=None) -> None:
     the object's source when known."""
     if msg not in seen:
         seen.append(msg)
-        where = f"{span}" if span is not None else "strala"
-        print(f"{where}: warning: {msg}", file=sys.stderr)
+        notices.warn(msg, span)
 
 
 def object_matrix(obj: ir.Object) -> np.ndarray | None:

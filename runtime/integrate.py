@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lang import ir
-from runtime import color, interiors, media, patterns, shading, uvmap
+from runtime import color, interiors, media, notices, patterns, shading, uvmap
 from runtime.context import (
     FINISH_FLOATS,
     Context,
@@ -50,7 +50,7 @@ _warned: set[str] = set()
 def _warn(msg: str) -> None:
     if msg not in _warned:
         _warned.add(msg)
-        print(f"strala: warning: {msg}")
+        notices.warn(msg)
 
 
 def _plain(layers: list[ir.Texture]) -> bool:

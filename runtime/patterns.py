@@ -38,7 +38,7 @@ from functools import cache, lru_cache
 import numpy as np
 
 from lang import ir
-from runtime import bump_map
+from runtime import bump_map, notices
 from runtime import transform as tf
 from runtime.density import density_file
 from runtime.fractal_patterns import julia, magnet, mandel
@@ -129,7 +129,7 @@ def _warn(msg: str, span=None) -> None:
     key = f"{span}: {msg}" if span is not None else msg
     if key not in _warned:
         _warned.add(key)
-        print(f"{span if span is not None else 'strala'}: warning: {msg}")
+        notices.warn(msg, span)
 
 
 def _untransform(m: ir.Matrix, points: np.ndarray) -> np.ndarray:

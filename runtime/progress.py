@@ -1,8 +1,11 @@
 """A one-line progress bar with an ETA, drawn on a terminal and silent everywhere else.
 
 The renderer reports work as `progress(done, total)` (any unit: pixels, tiles, patches);
-calling the bar is all it needs to know. Redraws are throttled so a fast stream of small
-tiles costs nothing, and the bar never writes to a pipe or a log file unless forced.
+calling the bar is all it needs to know. A first call with done == 0 says the work starts:
+the time before it (compiling, preparing) does not count in the estimate of the time left.
+Redraws are throttled so a fast stream of small tiles costs nothing; with `tick`, a thread
+redraws the line that often between reports, so the elapsed time never stands still and the
+ETA counts down. The bar never writes to a pipe or a log file unless forced.
 """
 
 from __future__ import annotations
@@ -10,6 +13,7 @@ from __future__ import annotations
 import math
 import shutil
 import sys
+import threading
 import time
 from collections.abc import Callable
 from typing import TextIO
@@ -33,7 +37,8 @@ def format_seconds(seconds: float) -> str:
 class Progress:
     """Callable progress bar: `bar(done, total)`; `bar.close()` ends the line.
 
-    enabled=None means "only when `stream` is a terminal"."""
+    enabled=None means "only when `stream` is a terminal"; tick: seconds between the
+    redraws of a thread of its own (None: redraw only when called)."""
 
     def __init__(
         self,
@@ -43,6 +48,7 @@ class Progress:
         enabled: bool | None = None,
         interval: float = 0.1,
         clock: Callable[[], float] = time.monotonic,
+        tick: float | None = None,
     ):
         self.stream = stream if stream is not None else sys.stderr
         if enabled is None:
@@ -57,17 +63,31 @@ class Progress:
         self._drawn = False
         self.done = 0.0
         self.total = 0.0
+        self._work_start: float | None = None  # when the work began (the first report)
+        self._estimate: tuple[float, float] | None = None  # (when, seconds left then)
+        self._lock = threading.Lock()  # the ticker and the caller draw in turn
+        self._stopped = threading.Event()
+        self._ticker: threading.Thread | None = None
+        if enabled and tick:
+            self._ticker = threading.Thread(target=self._tick, args=(tick,), daemon=True)
+            self._ticker.start()
 
     def __call__(self, done: float, total: float) -> None:
-        self.done, self.total = done, total
-        if not self.enabled:
-            return
         now = self.clock()
-        # always draw the final state, otherwise at most once per interval
-        if done < total and now - self._last_draw < self.interval:
-            return
-        self._last_draw = now
-        self._draw(now)
+        with self._lock:
+            if self._work_start is None:
+                self._work_start = now if done <= 0 else self.start
+            if (done, total) != (self.done, self.total) and 0 < done < total:
+                # the rate so far, over the work's own time: the estimate the line counts
+                # down from until the next report
+                self._estimate = (now, (now - self._work_start) * (total - done) / done)
+            self.done, self.total = done, total
+            if not self.enabled:
+                return
+            # always draw the final state, otherwise at most once per interval
+            if done < total and now - self._last_draw < self.interval:
+                return
+            self._draw(now)
 
     def line(self, now: float, width: int) -> str:
         """The status text for the current state, at most `width` characters."""
@@ -75,10 +95,10 @@ class Progress:
         elapsed = now - self.start
         if frac >= 1.0:
             tail = f"{format_seconds(elapsed)}"
-        elif frac > 0.0:
-            tail = (
-                f"{format_seconds(elapsed)} elapsed, ETA {format_seconds(elapsed / frac - elapsed)}"
-            )
+        elif frac > 0.0 and self._estimate is not None:
+            when, left = self._estimate
+            left = max(left - (now - when), 0.0)
+            tail = f"{format_seconds(elapsed)} elapsed, ETA {format_seconds(left)}"
         else:
             tail = f"{format_seconds(elapsed)} elapsed"
         head = f"{self.label} " if self.label else ""
@@ -89,7 +109,15 @@ class Progress:
             return f"{head}[{'#' * filled}{'.' * (bar_width - filled)}]{text}"
         return (head + text.strip())[:width]
 
+    def _tick(self, every: float) -> None:
+        while not self._stopped.wait(every):
+            with self._lock:
+                if self._stopped.is_set():
+                    return
+                self._draw(self.clock())
+
     def _draw(self, now: float) -> None:
+        self._last_draw = now
         width = shutil.get_terminal_size((80, 24)).columns - 1
         # \r + clear-to-end: the line is rewritten in place, shorter lines leave no debris
         self.stream.write("\r" + self.line(now, width) + "\x1b[K")
@@ -97,11 +125,16 @@ class Progress:
         self._drawn = True
 
     def close(self) -> None:
-        """Finish the line (only if something was drawn)."""
-        if self.enabled and self._drawn:
-            self.stream.write("\n")
-            self.stream.flush()
-            self._drawn = False
+        """Stop the ticker; finish the line (only if something was drawn)."""
+        self._stopped.set()
+        if self._ticker is not None:
+            self._ticker.join()
+            self._ticker = None
+        with self._lock:
+            if self.enabled and self._drawn:
+                self.stream.write("\n")
+                self.stream.flush()
+                self._drawn = False
 
     def __enter__(self) -> Progress:
         return self

@@ -105,7 +105,7 @@ def run(
             what = frame.label or "rendering"
             shown.tile(frame, what, where, result.tile, result.pixels, result.settings)
 
-        with Progress(label, enabled=False if args.quiet else None) as bar:
+        with Progress(label, enabled=False if args.quiet else None, tick=0.5) as bar:
 
             def progress(done: float, total: float) -> None:
                 bar(done, total)

@@ -413,6 +413,42 @@ def test_check_json_and_sarif(tmp_path):
     assert {"E0201", "W0400", "N0100"} <= {r["id"] for r in rules}
 
 
+def test_sarif_names_the_macro_calls_as_related_locations(tmp_path):
+    # the mistake is in an include's macro body; the calls that reached it, innermost first,
+    # are places a code-scanning viewer can open (not only words in the message)
+    (tmp_path / "shapes.inc").write_text(
+        "#macro Ball(R)\n  sphere { 0, R pigment { rgb nope } }\n#end\n#macro Pair() Ball(1) #end\n"
+    )
+    scene = tmp_path / "main.pov"
+    scene.write_text('#include "shapes.inc"\n\nPair()\n')
+    proc = run_cli("check", "--format", "sarif", str(scene))
+    (result,) = json.loads(proc.stdout)["runs"][0]["results"]
+    assert result["ruleId"] == "E0201"
+    place = result["locations"][0]["physicalLocation"]
+    assert place["artifactLocation"]["uri"].endswith("shapes.inc")
+    assert place["region"]["startLine"] == 2
+    related = [
+        (
+            r["physicalLocation"]["artifactLocation"]["uri"].rsplit("/", 1)[-1],
+            r["physicalLocation"]["region"]["startLine"],
+            r["physicalLocation"]["region"]["startColumn"],
+            r["message"]["text"],
+        )
+        for r in result["relatedLocations"]
+    ]
+    assert related == [
+        ("shapes.inc", 4, 15, "in macro `Ball` called here"),
+        ("main.pov", 3, 1, "in macro `Pair` called here"),
+    ]
+    assert len({r["id"] for r in result["relatedLocations"]}) == 2
+    # a mistake outside any macro has none
+    scene.write_text("sphere { 0, 1 pigment { rgb nope } }\n")
+    (result,) = json.loads(run_cli("check", "--format", "sarif", str(scene)).stdout)["runs"][0][
+        "results"
+    ]
+    assert "relatedLocations" not in result
+
+
 def test_every_code_reported_has_a_title():
     from lang.diagnostics import DEFAULT_HINTS, TITLES
 

@@ -15,7 +15,7 @@ import pytest
 from conftest import EXAMPLES, ROOT, run_cli
 from xwindow import Screen, VirtualScreen
 
-from runtime import image
+from runtime import image, render
 
 EX3 = EXAMPLES / "ex3.scene"
 
@@ -282,7 +282,8 @@ def test_the_notebook_view_grows_per_tile_and_ends_on_the_returned_image(shell, 
     ids = {o.transient["display_id"] for o in outputs}
     assert len(ids) == 1  # one handle, shown once and updated
     assert [o.update for o in outputs] == [False] + [True] * (len(outputs) - 1)
-    assert len(outputs) == 1 + 3 * 2  # 300x200 is 3 x 2 tiles of 128
+    tiles = render.tile_order((0, 0, 300, 200), os.cpu_count() or 1)
+    assert len(outputs) == 1 + len(tiles)  # shown, then once a tile
     last = _decode_png(outputs[-1].data["image/png"])
     # the file's 8-bit values (color.to_display8) against the float array rounded here: a
     # value a hair from a level's edge may round the other way, by one level at most

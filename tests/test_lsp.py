@@ -63,6 +63,21 @@ async def test_diagnostics_on_open_point_at_the_stray_brace(client: LanguageClie
     assert "unmatched" in stray[0].message
 
 
+async def test_a_macro_body_error_lists_its_calls_as_related_information(
+    client: LanguageClient, tmp_path
+):
+    text = "#macro M(A)\n  sphere { 0, A pigment { rgb foo } }\n#end\n\n  M(1)\n"
+    path = tmp_path / "macro.pov"
+    uri = _open(client, path, text)
+    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    (error,) = [d for d in client.diagnostics[uri] if d.severity == T.DiagnosticSeverity.Error]
+    assert (error.range.start.line, error.range.start.character) == (1, 30)
+    (call,) = error.related_information or []
+    assert call.location.uri == path.resolve().as_uri()
+    assert (call.location.range.start.line, call.location.range.start.character) == (4, 2)
+    assert call.message == "in macro `M` called here"
+
+
 async def test_diagnostics_follow_changes(client: LanguageClient, tmp_path):
     uri = _open(client, tmp_path / "a.pov", BROKEN)
     await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)

@@ -186,7 +186,7 @@ def test_unknown_pattern_falls_back_to_its_first_colour(capsys):
     pig = ir.Pigment(pattern="granite_unknown", color_map=((0.0, GREEN), (1.0, RED)))
     out = patterns.evaluate(pig, np.zeros((2, 3)))
     np.testing.assert_allclose(out[:, :3], [GREEN[:3]] * 2)
-    assert "granite_unknown" in capsys.readouterr().out
+    assert "granite_unknown" in capsys.readouterr().err  # the renderer warns on stderr
 
 
 def test_may_transmit_sees_nested_pigments():
@@ -316,7 +316,7 @@ def test_missing_image_renders_black_with_a_warning(capsys):
     pig = ir.Pigment(pattern="image_map", params={"file": "nowhere.png"})
     out = patterns.evaluate(pig, np.zeros((3, 3)))
     assert not out.any()
-    assert "nowhere.png" in capsys.readouterr().out
+    assert "nowhere.png" in capsys.readouterr().err
 
 
 def test_average_pattern_weights_its_pigments():

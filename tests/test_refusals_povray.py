@@ -14,6 +14,7 @@ accepts, strala accepts. Each scene is read by POV-Ray at test time (+W1 +H1, no
 
 from __future__ import annotations
 
+import re
 import struct
 import subprocess
 import zlib
@@ -125,3 +126,41 @@ def test_what_povray_accepts_check_accepts(name, body, warning, tmp_path):
         (hit,) = [d for d in diags if d.code == warning]
         assert (hit.span.line, hit.span.col) == (4, 17)
         assert "Possible Parse Error" in pov.stderr
+
+
+# A `#version` without its `;` (tokenize.cpp: Parse_Semi_Colon(false) once the new version is
+# in force): a "Possible Parse Error" that POV-Ray renders past, when that version is 3.1 or
+# later. (name, scene, {file: text} beside it, where strala's W0322 stands or None)
+VERSIONS = [
+    ("missing", "#version 3.7\n" + HEAD, {}, ("s.pov", 1, 13)),
+    ("given", "#version 3.7;\n" + HEAD, {}, None),
+    ("before_3_1", "#version 3.0\n" + HEAD, {}, None),
+    ("at_3_1", "#version 3.1\n" + HEAD, {}, ("s.pov", 1, 13)),
+    ("before_a_directive", "#version 3.7 // the first line\n#declare X = 1;\n" + HEAD, {},
+     ("s.pov", 1, 13)),
+    ("expression", "#version 3.7 + 0\n" + HEAD, {}, ("s.pov", 1, 17)),
+    ("the_later_one", "#version 3.0\n#version 3.7\n" + HEAD, {}, ("s.pov", 2, 13)),
+    ("last_line", HEAD + "#version 3.7", {}, ("s.pov", 3, 13)),
+    ("in_an_include", '#version 3.7;\n#include "v.inc"\n' + HEAD,
+     {"v.inc": "#version 3.7\n#declare Q = 1;\n"}, ("v.inc", 1, 13)),
+]  # fmt: skip
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("name, text, files, place", VERSIONS, ids=[v[0] for v in VERSIONS])
+def test_a_version_without_its_semicolon_is_povray_s_warning(name, text, files, place, tmp_path):
+    for file, body in files.items():
+        (tmp_path / file).write_text(body)
+    pov = _povray(tmp_path, text + "sphere { 0, 1 pigment { rgb 1 } }\n")
+    assert pov.returncode == 0, pov.stderr[-400:]
+    said = re.findall(r"File '([^']+)' line (\d+): Possible Parse Error", pov.stderr)
+    diags = _strala(tmp_path, text + "sphere { 0, 1 pigment { rgb 1 } }\n")
+    assert not [d.format() for d in diags if d.severity is Severity.ERROR]
+    ours = [d for d in diags if d.code == "W0322"]
+    assert len(said) == len(ours) == (place is not None), (said, [d.format() for d in ours])
+    if place:
+        (file, line), (hit,) = said[0], ours
+        assert hit.severity is Severity.WARNING and "semi-colon ';'" in hit.message
+        assert (Path(hit.span.file).name, hit.span.line, hit.span.col) == place
+        # POV-Ray names the line of the token it read in the `;`'s place: this one or later
+        assert Path(file).name == place[0] and int(line) >= place[1]

@@ -92,10 +92,10 @@ def test_progress_reports_every_pixel_once():
     render_scene(sphere_on_plane(), 130, 70, threads=2, progress=lambda d, t: calls.append((d, t)))
     assert calls[-1] == (130 * 70, 130 * 70)
     assert [d for d, _ in calls] == sorted(d for d, _ in calls)
-    from runtime.render import TILE
+    from runtime.render import tile_order
 
-    across, down = -(-130 // TILE), -(-70 // TILE)
-    assert len(calls) == across * down  # one report per tile
+    assert calls[0] == (0, 130 * 70)  # the tracing starts
+    assert len(calls) == 1 + len(tile_order((0, 0, 130, 70), 2))  # then one report per tile
 
 
 def test_no_image_objects_are_invisible_but_cast_shadows():

@@ -1143,15 +1143,15 @@ class Interpreter:
         )
 
     def _d_version(self, node: syntax.Version, out, spec) -> None:
-        # POV-Ray 3.7 (tokenize.cpp, VERSION_TOKEN): any #version, in the scene or in a file
-        # it includes, marks the language version as set; the version the scene ends with
-        # decides the gamma and legacy rules. POV-Ray's include files set 3.5 and restore the
-        # version they found, so `#include "colors.inc"` alone makes a scene 3.7.
+        # POV-Ray 3.7 (tokenize.cpp, VERSION_TOKEN): any #version, in the scene or an include,
+        # marks the language version as set; the one the scene ends with decides the gamma and
+        # legacy rules. Its includes set 3.5 and restore it: `#include "colors.inc"` makes 3.7.
         first = self.first_statement
         if not self.version_set and (first is None or node.span[:3] != first[:3]):
             self.version_late = node.span  # POV-Ray's languageVersionLate: tokens came first
         self.version = as_float(self.eval(node.value), "#version")
         self.version_set = True
+        semicolons.check_version(self.sink, node, self.version)
 
     def _d_message(self, node: syntax.Message, out, spec) -> None:
         v = self.eval(node.value)

@@ -1,7 +1,8 @@
 """POV-Ray's rule for the `;` that ends a `#declare` (or `#local`) of a float, vector or
 colour (parse.cpp, Parse_Semi_Colon): from `#version 3.5` on a missing one stops the scene,
 from 3.1 it is a warning, before 3.1 nothing. Other values (objects, textures, strings,
-arrays) take no `;`."""
+arrays) take no `;`. A `#version` without its `;` is only ever the warning, from 3.1 on
+(tokenize.cpp reads it with Parse_Semi_Colon(false), once the new version is in force)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,8 @@ from lang.values import ColorValue, MacroValue, Vec
 
 MISSING = "E0108"
 MISSING_OLD = "W0321"
+MISSING_VERSION = "W0322"
+POSSIBLE = "All #version and #declares of float, vector, and color require semi-colon ';' at end."
 
 
 def check(sink: DiagnosticSink, node: syntax.Declare, value: Any, version: float, lookup) -> None:
@@ -24,8 +27,7 @@ def check(sink: DiagnosticSink, node: syntax.Declare, value: Any, version: float
         return
     if any(_calls_macro(n, lookup) for n in syntax.walk(node.value)):
         return
-    end = node.value.span
-    at = Span(end.file, end.end_line, end.end_col, end.end_line, end.end_col + 1)
+    at = _after(node.value.span)
     if version >= 3.5:
         sink.error(
             MISSING,
@@ -35,12 +37,20 @@ def check(sink: DiagnosticSink, node: syntax.Declare, value: Any, version: float
             "add the `;`, or set the language version to 3.1 or lower (`#version 3.1;`)",
         )
     else:
-        sink.warning(
-            MISSING_OLD,
-            "All #version and #declares of float, vector, and color require semi-colon ';' at end.",
-            at,
-            "add the `;`",
-        )
+        sink.warning(MISSING_OLD, POSSIBLE, at, "add the `;`")
+
+
+def check_version(sink: DiagnosticSink, node: syntax.Version, version: float) -> None:
+    """Warn of a `#version` without its `;` as POV-Ray does: when the version it sets is
+    3.1 or later. POV-Ray names the line of the token it read instead of the `;` (the next
+    statement's); the warning stands where the `;` belongs."""
+    if not node.semicolon and version >= 3.1:
+        sink.warning(MISSING_VERSION, POSSIBLE, _after(node.value.span))
+
+
+def _after(end: Span) -> Span:
+    """The character after a value: where its `;` belongs."""
+    return Span(end.file, end.end_line, end.end_col, end.end_line, end.end_col + 1)
 
 
 def _is_numeric(value: Any) -> bool:

@@ -32,7 +32,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import pickle
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,8 +39,8 @@ from pathlib import Path
 import numpy as np
 
 from lang import ir
+from runtime import notices, uvmap
 from runtime import transform as tf
-from runtime import uvmap
 from runtime.context import radiosity_ray
 from runtime.radiosity import irradiance_cache
 from runtime.radiosity import solve as solver
@@ -930,7 +929,7 @@ def cache_path(cache: Path, key: str) -> Path:
 def _print_warnings(res: RadiosityResult) -> None:
     """On stderr, as prepare does with its own (one line each)."""
     for msg in res.warnings:
-        print(f"strala: warning: {msg}", file=sys.stderr)
+        notices.warn(msg)
 
 
 def gather_pays(scene: ir.Scene, objects=None, meshed: set[int] | None = None) -> bool:
@@ -976,15 +975,14 @@ def warn_grain(scene: ir.Scene, objects, meshed: set[int], opts: Options) -> Non
     if not found:
         return
     first = next((o for o in found if o.span is not None), found[0])
-    where = f"{first.span}" if first.span is not None else "strala"
     more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
-    print(
-        f"{where}: warning: radiosity: the light of this emitting "
+    notices.warn(
+        f"radiosity: the light of this emitting "
         f"{type(first.shape).__name__.lower()}{more} gets no patches and reaches other "
         f"surfaces only through the final gather's {opts.gather_cap} rays per point, "
         f"where POV-Ray interpolates samples of count {opts.gather_rays}: the image is "
         "grainier than POV-Ray's",
-        file=sys.stderr,
+        first.span,
     )
 
 
