@@ -15,7 +15,7 @@ from conftest import ROOT
 
 from lang import read_access
 from lang.evaluate import compile_file, compile_source
-from lang.lsp import analyse
+from lang.lsp_analysis import analyse
 
 LEAK = '#include "/etc/passwd"\nsphere { 0, 1 }\n'
 PROBE = 'sphere { 0, 1 }\n#if (file_exists("/etc/passwd")) #error "seen" #end\n'
