@@ -912,28 +912,37 @@ def cmd_render(args: argparse.Namespace) -> int:
             args.window.close()
 
 
+# Seconds a stopped cluster render may take to close its cluster (a LocalCluster ends its
+# workers in about one) before the process kills them and leaves.
+CLUSTER_STOP_GRACE = 5.0
+
+
 def _render_on_cluster(args: argparse.Namespace, jobs, numbers) -> int:
-    from runtime import render_job
+    from runtime import render_job, signals
 
     width, height = image_size(args)
     region = resolve_region(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
-    try:
-        return render_job.run(
-            args,
-            jobs,
-            numbers,
-            (width, height),
-            region,
-            lambda diags: print_diagnostics(
-                render_diagnostics(diags, args.quiet), sys.stderr, summary=False
-            ),
-            window=args.window,
-            writing=_STOPPING.lock,
-        )
-    except render_job.JobError as exc:
-        raise UsageError(str(exc)) from None
+    # a stop unwinds through the client's exits, which end the cluster's workers
+    with signals.unwinding(CLUSTER_STOP_GRACE):
+        try:
+            return render_job.run(
+                args,
+                jobs,
+                numbers,
+                (width, height),
+                region,
+                lambda diags: print_diagnostics(
+                    render_diagnostics(diags, args.quiet), sys.stderr, summary=False
+                ),
+                window=args.window,
+                writing=_STOPPING.lock,
+            )
+        except render_job.JobError as exc:
+            raise UsageError(str(exc)) from None
+        except signals.Stopped as stopped:  # said already; an image being written is gone
+            return stopped.code
 
 
 def _render_here(args: argparse.Namespace, jobs, numbers, to_stdout: bool, stdout) -> int:
