@@ -32,6 +32,12 @@ Matrix = tuple[
     tuple[float, float, float, float],
 ]
 
+# How far (and, inverted, how small) the traced world reaches in float64: distances are
+# squared, and squared again (radiosity's form factors divide by d⁴), so a place 1e300 units
+# out overflows to inf and NaN. An object or a light beyond it is left out, said at its line.
+# POV-Ray ignores intersections beyond 1e7 (MAX_DISTANCE) anyway.
+FAR_LIMIT = 1e30
+
 IDENTITY: Matrix = (
     (1.0, 0.0, 0.0, 0.0),
     (0.0, 1.0, 0.0, 0.0),

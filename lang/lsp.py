@@ -3,7 +3,8 @@
 Diagnostics come from the same parser and evaluator as `strala check` (file writes and reads
 are off while a file is evaluated here). Completion and hover come from the schema's word
 lists and the names declared so far; structure (symbols, folds, definitions) from the syntax
-tree. Diagnostics are debounced so typing stays smooth on large scenes.
+tree. Diagnostics are debounced so typing stays smooth on large scenes. Analyses run off the
+thread that answers requests, and a newer edit cancels the older one's (lang/lsp_analysis.py).
 
 An open document is re-parsed incrementally (only the statements an edit touched, see
 lang/incremental.py) and include files are parsed once per text, so the time from a change to
@@ -14,7 +15,6 @@ its diagnostics is one evaluation (plus the debounce while typing): about 0.1 s 
 from __future__ import annotations
 
 import asyncio
-import gc
 import re
 import sys
 from pathlib import Path
@@ -29,9 +29,15 @@ from pygls.lsp.server import LanguageServer
 from lang import keywords, lsp_frames, outline, paths
 from lang.diagnostics import Diagnostic, Severity, Span
 from lang.format import format_source
-from lang.incremental import IncrementalParser
-from lang.parser import parse
-from lang.syntax import SourceFile
+from lang.lsp_analysis import (
+    Analyses,
+    View,
+    forget,
+    included_text,
+    resolve_include,
+    view_from_disk,
+    view_of,
+)
 
 # While changes keep coming (typing), diagnostics wait until none came for this long; changes
 # that arrive while an analysis runs wait in the queue and each re-arms the timer, so only the
@@ -88,69 +94,6 @@ def to_lsp_diagnostic(d: Diagnostic) -> T.Diagnostic:
     )
 
 
-class Document:
-    """What the server keeps of an open file between edits: its incremental parse."""
-
-    def __init__(self, path: str) -> None:
-        self.path = path
-        self.parser = IncrementalParser(path)
-        self.text: str | None = None
-        self.result: tuple[SourceFile, list[Diagnostic]] | None = None
-        # the global names' values at the end of the last analysis (for hover)
-        self.values: dict[str, object] = {}
-
-    def parse(self, text: str) -> tuple[SourceFile, list[Diagnostic]]:
-        if self.result is None or text != self.text:
-            self.result = self.parser.parse(text)
-            self.text = text
-        return self.result
-
-
-_documents: dict[str, Document] = {}
-# Parsed include files by path: (text, parse). Trees are never changed after parsing, so one
-# parse of colors.inc serves every analysis while the file's text stays the same.
-_include_parses: dict[str, tuple[str, tuple[SourceFile, list[Diagnostic]]]] = {}
-
-
-def document(path: str) -> Document:
-    doc = _documents.get(path)
-    if doc is None:
-        doc = _documents[path] = Document(path)
-    return doc
-
-
-def parse_include(text: str, path: str) -> tuple[SourceFile, list[Diagnostic]]:
-    hit = _include_parses.get(path)
-    if hit is not None and hit[0] == text:
-        return hit[1]
-    result = parse(text, path)
-    _include_parses[path] = (text, result)
-    return result
-
-
-def analyse(text: str, path: str) -> list[Diagnostic]:
-    """Parse and evaluate without touching the file system beyond reading includes. The
-    document's own text is re-parsed incrementally; includes are parsed once per text."""
-    from lang.eval.budget import EDITOR
-    from lang.eval.interpreter import Interpreter
-
-    doc = document(path)
-
-    class Analysis(Interpreter):
-        def parse_source(self, text_: str, filename: str) -> tuple[SourceFile, list[Diagnostic]]:
-            if filename == path and text_ is text:
-                return doc.parse(text_)
-            return parse_include(text_, filename)
-
-    result = Analysis(
-        paths.library_paths(), allow_file_io=False, budget=EDITOR, confine_reads="the editor"
-    ).run(text, path)
-    doc.values = result.symbols
-    return [d for d in result.diagnostics if d.span.file == path] or [
-        d for d in result.diagnostics if d.severity is Severity.ERROR
-    ]
-
-
 def _keyword_docs() -> dict[str, str]:
     """One-line docs per keyword from the schema: a block's doc, an item's signature and doc."""
     from lang import schema
@@ -188,17 +131,6 @@ def _block_items(block: str) -> list[str] | None:
     return sorted(words)
 
 
-def _settle_heap() -> None:
-    """Collect the analysis' garbage now, then freeze what survives (the open documents' trees,
-    the parsed includes) out of the collector's view. Without this a full collection, which
-    walks every syntax node of a large scene (60-100 ms), lands inside some later analysis.
-    After the first call each one is cheap (a few ms): only objects made since are walked.
-    Frozen objects are still freed by reference counting when a re-parse drops them; syntax
-    trees hold no reference cycles."""
-    gc.collect()
-    gc.freeze()
-
-
 class StralaServer(LanguageServer):
     def __init__(self) -> None:
         super().__init__("strala", "0.1.0", text_document_sync_kind=T.TextDocumentSyncKind.Full)
@@ -207,6 +139,7 @@ class StralaServer(LanguageServer):
         self._docs: dict[str, str] | None = None
         self.shut_down = False  # a shutdown request came: requests now are InvalidRequest
         self.initialized = False  # `initialize` came: before it, requests are refused
+        self.analyses = Analyses(self._found)
 
     # ------------------------------------------------------------ the stream
     def start_io(self, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
@@ -305,23 +238,47 @@ class StralaServer(LanguageServer):
         return self._docs
 
     def publish(self, uri: str) -> None:
+        """Analyse the document's current text (off this thread, lang.lsp_analysis); its
+        diagnostics are published when the analysis ends, if no newer edit came."""
         try:
             doc = text_document(self, uri)
         except JsonRpcInvalidParams:
             _log(f"{uri} is neither open nor readable: no diagnostics")
             return
-        diags = analyse(doc.source, uri_to_path(uri))
+        self.analyses.start(uri, uri_to_path(uri), doc.source, doc.version)
+
+    def _found(self, uri: str, version: int | None, diags: list[Diagnostic]) -> None:
+        """An analysis ended: publish what it found while its version is still the
+        document's (the text analysed is the one the editor has)."""
+        self._active[uri] = asyncio.get_event_loop().time()
+        current = self.workspace.text_documents.get(unquote(uri))
+        if current is None or current.version != version:
+            return  # closed, or edited since: a newer analysis publishes
         self.text_document_publish_diagnostics(
             T.PublishDiagnosticsParams(
-                uri=uri, version=doc.version, diagnostics=[to_lsp_diagnostic(d) for d in diags]
+                uri=uri, version=version, diagnostics=[to_lsp_diagnostic(d) for d in diags]
             )
         )
-        _settle_heap()
+
+    async def view(self, uri: str) -> View:
+        """What a request about `uri` answers from: an open document's analysis of its
+        current text once it ends, or after ANSWER_WAIT the newest the analyses have (a
+        slow document does not hold the request); a file on disk parsed off this thread."""
+        doc = text_document(self, uri)
+        path = uri_to_path(uri)
+        if unquote(uri) not in self.workspace.text_documents:
+            return await asyncio.to_thread(view_from_disk, doc.source, path)
+        if uri in self._pending:  # the debounce holds a change: analyse it now
+            self._pending.pop(uri).cancel()
+            self._run(uri)
+        await self.analyses.settled(uri)
+        return view_of(doc.source, path)
 
     def schedule(self, uri: str, delay: float = DEBOUNCE_SECONDS) -> None:
         """Analyse after a change: at once when the document had been quiet (no change and
         no analysis for `delay`: an edit after a pause), else once the changes stop for
-        `delay` (typing)."""
+        `delay` (typing). The analysis of the older text stops now."""
+        self.analyses.cancel(uri)
         loop = asyncio.get_event_loop()
         now = loop.time()
         quiet = now - self._active.get(uri, -delay) >= delay
@@ -348,6 +305,7 @@ server = StralaServer()
 @server.feature(T.SHUTDOWN)
 def shutdown(ls: StralaServer, params: None) -> None:
     ls.shut_down = True
+    ls.analyses.cancel_all()
 
 
 @server.feature(T.TEXT_DOCUMENT_DID_OPEN)
@@ -367,7 +325,11 @@ def did_save(ls: StralaServer, params: T.DidSaveTextDocumentParams) -> None:
 
 @server.feature(T.TEXT_DOCUMENT_DID_CLOSE)
 def did_close(ls: StralaServer, params: T.DidCloseTextDocumentParams) -> None:
-    _documents.pop(uri_to_path(params.text_document.uri), None)
+    pending = ls._pending.pop(params.text_document.uri, None)
+    if pending is not None:
+        pending.cancel()
+    ls.analyses.cancel(params.text_document.uri)
+    forget(uri_to_path(params.text_document.uri))
     ls.text_document_publish_diagnostics(
         T.PublishDiagnosticsParams(uri=params.text_document.uri, diagnostics=[])
     )
@@ -384,42 +346,10 @@ def text_document(ls: StralaServer, uri: str) -> Any:
     return doc
 
 
-def _tree(ls: StralaServer, uri: str):
-    doc = text_document(ls, uri)
-    tree, _ = document(uri_to_path(uri)).parse(doc.source)
-    return doc, tree
-
-
-def _included_definitions(path: str, tree, depth: int = 0) -> dict[str, list[Span]]:
-    """Definitions from the files this one includes (scene folder, library paths, stdlib)."""
-    out: dict[str, list[Span]] = {}
-    if depth > 8:
-        return out
-    for name, _span in outline.includes(tree):
-        found = resolve_include(name, path)
-        if found is None:
-            continue
-        try:
-            text = Path(found).read_text(encoding="latin-1")
-        except OSError:
-            continue
-        sub, _ = parse_include(text, found)
-        for k, v in _included_definitions(found, sub, depth + 1).items():
-            out.setdefault(k, []).extend(v)
-        for k, v in outline.definitions(sub).items():
-            out.setdefault(k, []).extend(v)
-    return out
-
-
-def resolve_include(name: str, including: str) -> str | None:
-    """The file an `#include "name"` in `including` reads, as the evaluator finds it."""
-    found = paths.find(name, Path(including).parent, paths.library_paths())
-    return None if found is None else found.probed
-
-
 @server.feature(T.TEXT_DOCUMENT_COMPLETION, T.CompletionOptions(trigger_characters=["#", ".", '"']))
-def completion(ls: StralaServer, params: T.CompletionParams) -> T.CompletionList:
-    doc, tree = _tree(ls, params.text_document.uri)
+async def completion(ls: StralaServer, params: T.CompletionParams) -> T.CompletionList:
+    view = await ls.view(params.text_document.uri)
+    doc, tree = text_document(ls, params.text_document.uri), view.tree
     path = uri_to_path(params.text_document.uri)
     line, col = params.position.line + 1, params.position.character + 1
     offset = doc.offset_at_position(params.position)
@@ -459,7 +389,7 @@ def completion(ls: StralaServer, params: T.CompletionParams) -> T.CompletionList
         items.append(
             T.CompletionItem(label=w, kind=T.CompletionItemKind.Constant, detail="built-in")
         )
-    included = _included_definitions(path, tree)
+    included = view.included
     names: dict[str, list[Span]] = {k: list(v) for k, v in included.items()}
     for k, v in outline.definitions(tree).items():
         # only names declared before the cursor, as the evaluator would see them
@@ -498,9 +428,9 @@ def _include_files(path: str) -> list[tuple[str, str]]:
 
 
 @server.feature(T.TEXT_DOCUMENT_HOVER)
-def hover(ls: StralaServer, params: T.HoverParams) -> T.Hover | None:
-    doc, tree = _tree(ls, params.text_document.uri)
-    path = uri_to_path(params.text_document.uri)
+async def hover(ls: StralaServer, params: T.HoverParams) -> T.Hover | None:
+    view = await ls.view(params.text_document.uri)
+    doc, tree = text_document(ls, params.text_document.uri), view.tree
     word = outline.word_at(doc.source, params.position.line + 1, params.position.character + 1)
     if not word:
         return None
@@ -517,15 +447,15 @@ def hover(ls: StralaServer, params: T.HoverParams) -> T.Hover | None:
         before = [s for s in spans if s.line <= line]
         span, source = (before[-1] if before else spans[0]), doc.source
     else:
-        spans = _included_definitions(path, tree).get(word)
+        spans = view.included.get(word)
         if not spans:
             return None
-        span, source = spans[-1], _file_text(spans[-1].file)
+        span, source = spans[-1], included_text(spans[-1].file)
     parts = [f"**{word}**"]
     written = _declaration_line(source, span)
     if written:
         parts.append(f"```pov\n{written}\n```")
-    value = _show_value(document(path).values.get(word))
+    value = _show_value(view.values.get(word))
     if value is not None:
         parts.append(f"value: `{value}`")
     parts.append(f"declared at {Path(span.file).name}:{span.line}:{span.col}")
@@ -533,16 +463,6 @@ def hover(ls: StralaServer, params: T.HoverParams) -> T.Hover | None:
         contents=T.MarkupContent(kind=T.MarkupKind.Markdown, value="\n\n".join(parts)),
         range=None,
     )
-
-
-def _file_text(path: str) -> str:
-    hit = _include_parses.get(path)
-    if hit is not None:
-        return hit[0]
-    try:
-        return Path(path).read_text(encoding="latin-1")
-    except OSError:
-        return ""
 
 
 def _declaration_line(source: str, span: Span, limit: int = 120) -> str:
@@ -586,8 +506,9 @@ def _word_class(word: str) -> str:
 
 
 @server.feature(T.TEXT_DOCUMENT_DEFINITION)
-def definition(ls: StralaServer, params: T.DefinitionParams) -> list[T.Location] | None:
-    doc, tree = _tree(ls, params.text_document.uri)
+async def definition(ls: StralaServer, params: T.DefinitionParams) -> list[T.Location] | None:
+    view = await ls.view(params.text_document.uri)
+    doc, tree = text_document(ls, params.text_document.uri), view.tree
     path = uri_to_path(params.text_document.uri)
     line, col = params.position.line + 1, params.position.character + 1
     for name, span in outline.includes(tree):
@@ -601,7 +522,7 @@ def definition(ls: StralaServer, params: T.DefinitionParams) -> list[T.Location]
     word = outline.word_at(doc.source, line, col)
     if not word:
         return None
-    spans = outline.definitions(tree).get(word) or _included_definitions(path, tree).get(word)
+    spans = outline.definitions(tree).get(word) or view.included.get(word)
     if not spans:
         return None
     return [
@@ -625,8 +546,10 @@ _SYMBOL_KIND = {
 
 
 @server.feature(T.TEXT_DOCUMENT_DOCUMENT_SYMBOL)
-def document_symbol(ls: StralaServer, params: T.DocumentSymbolParams) -> list[T.DocumentSymbol]:
-    _, tree = _tree(ls, params.text_document.uri)
+async def document_symbol(
+    ls: StralaServer, params: T.DocumentSymbolParams
+) -> list[T.DocumentSymbol]:
+    tree = (await ls.view(params.text_document.uri)).tree
 
     def convert(sym: outline.Symbol) -> T.DocumentSymbol:
         return T.DocumentSymbol(
@@ -642,8 +565,8 @@ def document_symbol(ls: StralaServer, params: T.DocumentSymbolParams) -> list[T.
 
 
 @server.feature(T.TEXT_DOCUMENT_FOLDING_RANGE)
-def folding_range(ls: StralaServer, params: T.FoldingRangeParams) -> list[T.FoldingRange]:
-    _, tree = _tree(ls, params.text_document.uri)
+async def folding_range(ls: StralaServer, params: T.FoldingRangeParams) -> list[T.FoldingRange]:
+    tree = (await ls.view(params.text_document.uri)).tree
     return [
         T.FoldingRange(start_line=a - 1, end_line=b - 1) for a, b in outline.folding_ranges(tree)
     ]
@@ -661,6 +584,12 @@ def formatting(ls: StralaServer, params: T.DocumentFormattingParams) -> list[T.T
 
 
 def main() -> None:
+    from lang.eval.interpreter import RECURSION_LIMIT
+
+    # The interpreter raises the limit while it runs and puts it back after: analyses on
+    # several threads at once would put it back under each other. Raised once here, each
+    # finds it raised and leaves it so.
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), RECURSION_LIMIT))
     server.start_io()
 
 

@@ -167,8 +167,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--io-restrictions",
         choices=read_access.LEVELS,
         help="POV-Ray's [File I/O Security], over povray.conf's: none (read and write "
-        "anywhere), read-only (read anywhere, write beside the scene), restricted (read only "
-        "the scene's, the library and povray.conf's permitted folders)",
+        "anywhere), read-only (read anywhere, write beside the scene and in povray.conf's "
+        "read+write paths), restricted (also read only the scene's, the library and "
+        "povray.conf's permitted folders)",
     )
     r.add_argument("--bits", type=int, choices=(8, 16, 32), help="PNG/TIFF 8|16, EXR 16|32")
     r.add_argument(
@@ -570,6 +571,24 @@ def check_image_size(width: int, height: int) -> None:
         )
 
 
+def check_permitted(args: argparse.Namespace, out: Path) -> None:
+    """Refuse, before any work, an output image povray.conf (or --io-restrictions) does not
+    let the render write (lang.read_access): an animation's frames are beside it."""
+    scene = Path(args.file).resolve().parent
+    access = read_access.from_povray_conf(
+        read_access.povray_conf(),
+        scene,
+        paths.library_paths(args.library),
+        getattr(args, "io_restrictions", None),
+    )
+    if access.confines_output and not access.allows_write(out, scene):
+        raise UsageError(
+            f"cannot write {out}: {access.write_why} permits writes "
+            f"{access.write_places()}; add a `read+write` path to its [Permitted Paths], "
+            "or render --io-restrictions none"
+        )
+
+
 def check_writable(out: Path) -> None:
     """Refuse, before any work, an output whose folder is missing or cannot take a new
     file (read-only, no permission): images are written beside the target and renamed."""
@@ -900,6 +919,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     except image.ImageFormatError as exc:
         raise UsageError(str(exc)) from None
     if not to_stdout:
+        check_permitted(args, out)
         check_writable(out)
     if args.frames is not None and args.file.lower().endswith(".json"):
         raise UsageError("a compiled scene has a fixed clock; render frames from the scene file")
@@ -931,28 +951,37 @@ def cmd_render(args: argparse.Namespace) -> int:
             args.window.close()
 
 
+# Seconds a stopped cluster render may take to close its cluster (a LocalCluster ends its
+# workers in about one) before the process kills them and leaves.
+CLUSTER_STOP_GRACE = 5.0
+
+
 def _render_on_cluster(args: argparse.Namespace, jobs, numbers) -> int:
-    from runtime import render_job
+    from runtime import render_job, signals
 
     width, height = image_size(args)
     region = resolve_region(
         width, height, args.start_col, args.end_col, args.start_row, args.end_row
     )
-    try:
-        return render_job.run(
-            args,
-            jobs,
-            numbers,
-            (width, height),
-            region,
-            lambda diags: print_diagnostics(
-                render_diagnostics(diags, args.quiet), sys.stderr, summary=False
-            ),
-            window=args.window,
-            writing=_STOPPING.lock,
-        )
-    except render_job.JobError as exc:
-        raise UsageError(str(exc)) from None
+    # a stop unwinds through the client's exits, which end the cluster's workers
+    with signals.unwinding(CLUSTER_STOP_GRACE):
+        try:
+            return render_job.run(
+                args,
+                jobs,
+                numbers,
+                (width, height),
+                region,
+                lambda diags: print_diagnostics(
+                    render_diagnostics(diags, args.quiet), sys.stderr, summary=False
+                ),
+                window=args.window,
+                writing=_STOPPING.lock,
+            )
+        except render_job.JobError as exc:
+            raise UsageError(str(exc)) from None
+        except signals.Stopped as stopped:  # said already; an image being written is gone
+            return stopped.code
 
 
 def _render_here(args: argparse.Namespace, jobs, numbers, to_stdout: bool, stdout) -> int:

@@ -21,7 +21,9 @@ Dask is an optional dependency (`strala[cluster]`); importing this module needs 
 
 from __future__ import annotations
 
+import asyncio
 import os
+import signal
 import time
 import uuid
 from collections import OrderedDict
@@ -133,13 +135,43 @@ def connect(spec: str, *, quiet: bool = True) -> Iterator[distributed.Client]:
                 processes=True,
                 dashboard_address=":0",
                 silence_logs=50 if quiet else 30,
+                preload=[__name__],  # dask_setup below, in each worker
             ) as cluster,
             distributed.Client(cluster) as client,
         ):
-            yield client
+            try:
+                yield client
+            except BaseException:
+                _end_workers(cluster)
+                raise
         return
     with distributed.Client(spec) as client:
         yield client
+
+
+def dask_setup(worker: object) -> None:
+    """Run in each worker process of a local cluster as it starts (Dask's preload). ^C in a
+    terminal reaches the whole process group: the client stops the workers itself, so they
+    ignore it (each would print a KeyboardInterrupt's traceback)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _end_workers(cluster: distributed.LocalCluster) -> None:
+    """Leaving early (a stop, an error): the tasks' results are not wanted, so the workers
+    end now. A nanny's own close asks its worker to finish first and waits four seconds for
+    a busy one before it kills it."""
+
+    async def end() -> None:
+        nannies = list(cluster.workers.values())
+        await asyncio.gather(
+            *(n.close(timeout=0.5, reason="strala-stopped") for n in nannies),
+            return_exceptions=True,
+        )
+
+    try:
+        cluster.sync(end)
+    except Exception:  # the cluster's own close still follows
+        pass
 
 
 def tile_rects(region: tuple[int, int, int, int], tiles: int) -> list[tuple[int, int, int, int]]:

@@ -37,11 +37,10 @@ def object_matrix(obj: ir.Object) -> np.ndarray | None:
     return None if obj.transform == ir.IDENTITY else tf.as_matrix(obj.transform)
 
 
-# How far (and, inverted, how small) a transform may take an object and still be traced in
-# float64: distances are squared, and squared again (radiosity's form factors divide by d⁴),
-# so `translate <1.05, 0, 1e300>` overflowed to inf and NaN (a singular matrix in the
-# radiosity solve: exit 3). POV-Ray ignores intersections beyond 1e7 (MAX_DISTANCE) anyway.
-FAR_LIMIT = 1e30
+# How far (and, inverted, how small) a transform may take an object and still be traced
+# (lang.ir.FAR_LIMIT): `translate <1.05, 0, 1e300>` overflowed to inf and NaN (a singular
+# matrix in the radiosity solve: exit 3).
+FAR_LIMIT = ir.FAR_LIMIT
 
 
 def singular(obj: ir.Object) -> str | None:

@@ -146,8 +146,10 @@ def run(
                     if shown is not None:
                         shown.ended(frame)
                 written += 1
-    finally:
-        connection.__exit__(None, None, None)
+    except BaseException as exc:  # a stop or a failure: the cluster is left at once
+        connection.__exit__(type(exc), exc, exc.__traceback__)
+        raise
+    connection.__exit__(None, None, None)
     if not args.quiet:
         took = time.perf_counter() - start
         failed = len(frames) - written

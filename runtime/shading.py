@@ -119,13 +119,12 @@ def attenuation(light: ir.Light, points: np.ndarray, direction: np.ndarray, dept
             soft = cubic_spline(0.0, 1.0 - light.radius / falloff, dist)
             att = np.where(radial > light.radius, att * soft, att)
     power = light.fade_power or 0.0
-    if power > 0:
-        fd = light.fade_distance or 0.0
+    fd = light.fade_distance or 0.0
+    # POV-Ray's Attenuate_Light: no fade unless both are set (a fade_distance of 0, or one
+    # within EPSILON of it, leaves the light whole)
+    if power > 0 and abs(fd) > EPSILON:
         with np.errstate(divide="ignore", over="ignore"):
-            if abs(fd) >= EPSILON:
-                fade = 2.0 / (1.0 + np.power(np.abs(depth) / fd, power))
-            else:
-                fade = np.power(np.abs(depth), -power)
+            fade = 2.0 / (1.0 + np.power(np.abs(depth) / fd, power))
         att = np.where(att > 0, att * fade, att)
     return att
 

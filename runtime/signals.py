@@ -5,6 +5,12 @@ remove them and end the process at once with the shell's code for the signal (13
 which finishes every queued tile first; nothing on disk is lost by leaving at once, since
 outputs are written to a temporary name and renamed when complete.
 
+A render on a cluster (`--cluster local:N`) has worker processes to stop, and the client's
+own exits stop them (the LocalCluster's close ends its workers and releases what it holds):
+inside `unwinding`, a signal says its line at once and raises Stopped in the main thread, so
+those exits run; the exit code is the same. Should they take longer than the grace given,
+the process kills its children and ends at once as elsewhere; so does a second signal.
+
 SIGKILL cannot be caught: a temporary file it leaves is removed by the next write of the
 same output (stale_temporaries), once the process that made it is gone."""
 
@@ -24,6 +30,29 @@ _NAMES = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated", signal.SIG
 
 _pending: set[Path] = set()
 _lock = threading.Lock()
+_grace: float | None = None  # inside `unwinding`: the seconds a stop may take to unwind
+_stopping = False  # a signal came and is unwinding
+
+
+class Stopped(BaseException):
+    """A signal inside `unwinding`: a BaseException, so that no handler on the way takes it
+    for an error; `code` is the exit code (130, 143, 129)."""
+
+    def __init__(self, message: str, code: int) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+@contextmanager
+def unwinding(grace: float) -> Iterator[None]:
+    """While the block runs, a signal raises Stopped in the main thread (see the module's
+    doc); after `grace` seconds of unwinding the process ends at once, its children killed."""
+    global _grace
+    old, _grace = _grace, grace
+    try:
+        yield
+    finally:
+        _grace = old
 
 
 @contextmanager
@@ -41,23 +70,68 @@ def removed_if_stopped(path: Path) -> Iterator[Path]:
 def stop(message: str, code: int) -> None:
     """End the process at once, as a signal does: the registered files removed, one line
     said (the display window's q uses it too)."""
+    _say(message)
+    _end(code)
+
+
+def _say(message: str) -> None:
+    try:
+        sys.stderr.write(f"\nstrala: {message}\n")
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+
+
+def _end(code: int) -> None:
     with _lock:
         for path in list(_pending):
             try:
                 path.unlink(missing_ok=True)
             except OSError:
                 pass
-    try:
-        sys.stderr.write(f"\nstrala: {message}\n")
-        sys.stderr.flush()
-    except (OSError, ValueError):
-        pass
     os._exit(code)
 
 
+def _kill_children() -> None:
+    """Kill the processes this one started (a cluster's workers), and theirs."""
+    try:
+        import psutil  # with strala[cluster] (Dask's distributed needs it)
+    except ImportError:
+        return
+    try:
+        children = psutil.Process().children(recursive=True)
+    except psutil.Error:
+        return
+    for child in children:
+        try:
+            child.kill()
+        except psutil.Error:
+            pass
+    psutil.wait_procs(children, timeout=2)
+
+
+def _give_up(code: int) -> None:
+    """The unwinding took too long: end at once."""
+    _kill_children()
+    _end(code)
+
+
 def _stop(signum: int, frame) -> None:
+    global _stopping
     sig = signal.Signals(signum)
-    stop(_NAMES.get(sig, "stopped"), EXIT_CODES.get(sig, 128 + signum))
+    message, code = _NAMES.get(sig, "stopped"), EXIT_CODES.get(sig, 128 + signum)
+    grace = _grace
+    if grace is None:
+        stop(message, code)
+        return
+    if _stopping:  # a second signal: no more waiting
+        _give_up(code)
+    _stopping = True
+    _say(message)
+    watchdog = threading.Timer(grace, _give_up, (code,))
+    watchdog.daemon = True
+    watchdog.start()
+    raise Stopped(message, code)
 
 
 def install() -> None:

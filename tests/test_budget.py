@@ -92,3 +92,30 @@ def test_str_of_a_huge_width_is_refused_before_it_is_built():
     _, errors, took = _errors("#declare S = str(1, 1e9, 0);\n")
     assert [d.code for d in errors] == ["E0203"] and "too long" in errors[0].message
     assert took < 5
+
+
+def test_a_cancelled_evaluation_stops_at_its_next_step():
+    """The language server cancels the analysis of an older text (lang/lsp_analysis.py): the
+    evaluation stops with Cancelled, which no handler of the interpreter turns into a
+    diagnostic, long before its loop would end."""
+    import threading
+
+    from lang.eval.interpreter import Interpreter
+
+    cancel = threading.Event()
+    it = Interpreter([], budget=budget.EDITOR)
+    it.meter.cancel = cancel
+    steps = 0
+    step = it.meter.step
+
+    def counting(n: int = 1) -> None:
+        nonlocal steps
+        steps += 1
+        if steps == 100:
+            cancel.set()
+        step(n)
+
+    it.meter.step = counting  # type: ignore[method-assign]
+    with pytest.raises(budget.Cancelled):
+        it.run("#declare I = 0;\n#while (I < 100000)\n  #declare I = I + 1;\n#end\n", "c.pov")
+    assert steps == 100  # the step at which it was set raised

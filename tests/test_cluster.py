@@ -315,15 +315,15 @@ def test_declares_and_read_restrictions_hold_on_the_cluster(client, tmp_path, ca
     (folder / "r.pov").write_text('#include "../outside/o.inc"\n' + body + "object { Ball }\n")
     size = ["-W", "8", "-H", "6", "--declare", "S=1.3", "-q"]
     address = client.scheduler.address
-    code, err = _render(["render", str(folder / "d.pov"), "-o", str(tmp_path / "l.png"), *size],
+    code, err = _render(["render", str(folder / "d.pov"), "-o", str(folder / "l.png"), *size],
                         capsys)  # fmt: skip
     assert code == 0, err
-    code, err = _render(["render", str(folder / "d.pov"), "-o", str(tmp_path / "c.png"), *size,
+    code, err = _render(["render", str(folder / "d.pov"), "-o", str(folder / "c.png"), *size,
                          "--cluster", address], capsys)  # fmt: skip
     assert code == 0, err
-    assert (tmp_path / "c.png").read_bytes() == (tmp_path / "l.png").read_bytes()
+    assert (folder / "c.png").read_bytes() == (folder / "l.png").read_bytes()
     for where in ([], ["--cluster", address]):
-        out = tmp_path / "r.png"
+        out = folder / "r.png"  # beside the scene: povray.conf permits no other write
         code, err = _render(["render", str(folder / "r.pov"), "-o", str(out), *size, *where],
                             capsys)  # fmt: skip
         assert code == 1 and "o.inc" in err and not out.exists(), (where, err)

@@ -85,3 +85,40 @@ def test_why_a_transform_cannot_be_traced(transform, why):
 def test_the_limit_is_far_past_scenes_sizes():
     assert singular(_object(f"scale {FAR_LIMIT / 2}")) is None
     assert singular(_object(f"scale {FAR_LIMIT * 2}")) is not None
+
+
+LAMP = "light_source { <-1.5, 2.6, -1.5> rgb 0.9 area_light x*0.4, z*0.4, 3, 3 }"
+
+
+@pytest.mark.parametrize(
+    "light, why",
+    [
+        ("light_source { <1.05, 0, 1e300> rgb 0.9 area_light x*0.4, z*0.4, 3, 3 }",
+         "its position is 1e+300 units out"),
+        ("light_source { <-1.5, 2.6, -1.5> rgb 0.9 spotlight point_at <0, 0, 1e300> }",
+         "its point_at is 1e+300 units out"),
+        ("light_source { <-1.5, 2.6, -1.5> rgb 0.9 translate 1e308 translate 1e308 }",
+         "its position is not finite"),
+    ],
+)  # fmt: skip
+def test_egg_with_its_light_out_of_reach_leaves_it_out_and_says_so(tmp_path, light, why):
+    """The light's place overflows everything that measures a distance to it (POV-Ray's
+    image has no light from it); before, the radiosity solve ran on the overflow and numpy's
+    RuntimeWarning was the only word of it. Now a located warning, and the image of the egg
+    without the light, to the last bit."""
+    text = EGG.read_text()
+    assert LAMP in text
+    far, err = _render_exr(tmp_path, "far.scene", text.replace(LAMP, light))
+    line = text[: text.index(LAMP)].count("\n") + 1
+    warned = [w for w in err.splitlines() if "W0323" in w]
+    assert len(warned) == 1 and warned[0].startswith(f"far.scene:{line}:1: warning: "), err
+    assert why in warned[0]
+    assert "RuntimeWarning" not in err and "internal error" not in err, err
+    dark, _ = _render_exr(tmp_path, "dark.scene", text.replace(LAMP, ""))
+    assert np.all(np.isfinite(far)) and np.array_equal(far, dark)
+
+
+def test_a_light_within_reach_stays():
+    r = compile_source("light_source { <1e29, 0, 0> rgb 1 }\nsphere { 0, 1 }\n", "t.pov")
+    assert r.scene is not None and len(r.scene.lights) == 1
+    assert not [d for d in r.diagnostics if d.code == "W0323"]

@@ -93,6 +93,102 @@ def test_a_signal_while_an_image_is_written_removes_its_temporary_file(tmp_path)
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    "sig, group, code, said", [(signal.SIGTERM, False, 143, "terminated"),
+                               (signal.SIGINT, True, 130, "interrupted")]
+)  # fmt: skip
+def test_a_signal_during_a_cluster_render_stops_the_workers_and_leaves_no_file(
+    tmp_path, sig, group, code, said
+):
+    """`--cluster local:2`: SIGTERM to the client, and ^C (SIGINT to the whole process group,
+    as a terminal sends it): the exit code of the local path, soon (the workers' tasks are
+    not waited for: a nanny's own close waits four seconds for a busy worker), the worker
+    processes gone, no hidden temporary file, every image there whole. Before, the client
+    left at once and the workers were left to notice; the multiprocessing resource tracker
+    then warned of leaked semaphores."""
+    psutil = pytest.importorskip("psutil")
+    pytest.importorskip("distributed")
+    (tmp_path / "b.pov").write_text(
+        SCENE + BALLS.replace("0.5 }", "0.5 finish { reflection 0.5 } }")
+    )
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.Popen(
+        [sys.executable, "-m", "runtime.cli", "render", "b.pov", "-W", "160", "-H", "120",
+         "-o", "out.png", "--cluster", "local:2", "--frames", "1..500"],
+        cwd=tmp_path, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    try:
+        deadline = time.perf_counter() + 120
+        while not list(tmp_path.glob("out*.png")) and time.perf_counter() < deadline:
+            time.sleep(0.05)  # until the workers are rendering and images are written
+        assert list(tmp_path.glob("out*.png")), p.stderr.read() if p.poll() is not None else ""
+        workers = psutil.Process(p.pid).children(recursive=True)
+        assert len(workers) >= 2  # the two worker processes (and the resource tracker)
+        sent = time.perf_counter()
+        if group:
+            os.killpg(p.pid, sig)
+        else:
+            p.send_signal(sig)
+        _, err = p.communicate(timeout=60)
+        took = time.perf_counter() - sent
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == code, err
+    assert took < 4.0, took  # not the five seconds after which it gives up and kills them
+    assert f"strala: {said}" in err and "Traceback" not in err and "leaked" not in err, err
+
+    def alive(proc) -> bool:
+        try:
+            return proc.status() != psutil.STATUS_ZOMBIE
+        except psutil.NoSuchProcess:
+            return False
+
+    deadline = time.perf_counter() + 10
+    while any(alive(w) for w in workers) and time.perf_counter() < deadline:
+        time.sleep(0.1)
+    assert not [w for w in workers if alive(w)]
+    names = sorted(f.name for f in tmp_path.iterdir())
+    assert [n for n in names if n != "b.pov" and not n.startswith("out")] == [], names
+    images = sorted(tmp_path.glob("out*.png"))
+    assert images and len(images) < 500
+    assert all(image.size_of(f) == (160, 120) for f in images)
+
+
+def test_a_stop_whose_unwinding_hangs_ends_after_the_grace_and_kills_the_children(tmp_path):
+    """Inside signals.unwinding, a signal raises Stopped; if what it unwinds through hangs
+    (here: a handler that sleeps), the process kills the processes it started and ends
+    with the signal's code once the grace is over."""
+    code = (
+        "import os, signal, subprocess, sys, time\n"
+        "from runtime import signals\n"
+        "signals.install()\n"
+        "child = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(60)'])\n"
+        "print(child.pid, flush=True)\n"
+        "with signals.unwinding(0.5):\n"
+        "    try:\n"
+        "        os.kill(os.getpid(), signal.SIGTERM)\n"
+        "        time.sleep(5)\n"
+        "    except signals.Stopped:\n"
+        "        time.sleep(60)  # a close that never ends\n"
+    )
+    start = time.perf_counter()
+    r = subprocess.run(
+        [sys.executable, "-c", code],
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert r.returncode == 143, r.stderr
+    assert time.perf_counter() - start < 30
+    assert r.stderr.count("strala: terminated") == 1, r.stderr
+    child = int(r.stdout.split()[0])
+    psutil = pytest.importorskip("psutil")
+    assert not psutil.pid_exists(child) or psutil.Process(child).status() == psutil.STATUS_ZOMBIE
+
+
 def test_a_killed_writers_temporary_file_is_removed_by_the_next_write(tmp_path):
     target = tmp_path / "k.png"
     dead = subprocess.Popen([sys.executable, "-c", "pass"])

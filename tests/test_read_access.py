@@ -15,7 +15,7 @@ from conftest import ROOT
 
 from lang import read_access
 from lang.evaluate import compile_file, compile_source
-from lang.lsp import analyse
+from lang.lsp_analysis import analyse
 
 LEAK = '#include "/etc/passwd"\nsphere { 0, 1 }\n'
 PROBE = 'sphere { 0, 1 }\n#if (file_exists("/etc/passwd")) #error "seen" #end\n'
@@ -148,10 +148,12 @@ def test_each_level_on_reads_and_writes_outside_the_scene_folder(tmp_path, level
 
 
 def _render(scene: Path, home: Path, *extra: str):
+    # the image beside the scene: povray.conf's levels hold the output image to their write
+    # rule too (tests/test_write_access.py)
     env = dict(os.environ, PYTHONPATH=str(ROOT), HOME=str(home), STRALA_CACHE=str(home / "c"))
     return subprocess.run(
         [sys.executable, "-m", "runtime.cli", "render", "s.pov", "-W", "8", "-H", "6",
-         "-o", str(home / "out.png"), *extra],
+         "-o", str(scene / "out.png"), *extra],
         cwd=scene, env=env, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
 

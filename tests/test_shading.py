@@ -99,6 +99,48 @@ def test_fade_is_one_at_the_fade_distance_and_falls_with_its_power():
     np.testing.assert_allclose(ls.distance, [2.0, 4.0])
 
 
+@pytest.mark.parametrize("fade_distance", [0.0, 1e-11, -1e-300])
+def test_a_fade_power_without_a_fade_distance_leaves_the_light_whole(fade_distance):
+    """POV-Ray fades a light only when fade_power > 0 and |fade_distance| > EPSILON; strala
+    had lit those points by 1/d^fade_power (the sphere below at half POV-Ray's brightness)."""
+    light = ir.Light(position=(0, 0, 0), fade_distance=fade_distance, fade_power=2.0)
+    pts = np.array([[2.0, 0, 0], [40.0, 0, 0]])
+    np.testing.assert_allclose(shading.sample_light(light, pts).colour[:, 0], [1.0, 1.0])
+
+
+FADE_SCENE = """#version 3.7;
+global_settings {{ assumed_gamma 1.0 }}
+camera {{ location <0, 0, -5> look_at 0 }}
+light_source {{ <1, 1, -5> rgb 1 fade_distance {fd} fade_power 2 }}
+sphere {{ 0, 1 pigment {{ rgb 1 }} }}
+"""
+
+
+@pytest.mark.parametrize("fade_distance", ["0", "1e-11", "0.5"])
+def test_the_kernel_fades_lights_as_the_numpy_path(fade_distance, monkeypatch):
+    from runtime import api, whitted
+    from runtime.render import render_scene
+
+    scene = api.compile_string(FADE_SCENE.format(fd=fade_distance)).scene
+    assert whitted.reasons(prepare(scene, 32, 24), scene.camera) == []
+    fast = render_scene(scene, 32, 24)
+    monkeypatch.setenv(whitted.ENV, "numpy")
+    slow = render_scene(scene, 32, 24)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
+@pytest.mark.povray
+@pytest.mark.parametrize("fade_distance", ["0", "1e-11", "0.5"])
+def test_fade_without_a_distance_as_povray(tmp_path, fade_distance):
+    from conftest import image_errors, povray_image, strala_image
+
+    text = FADE_SCENE.format(fd=fade_distance)
+    ref = povray_image(text, tmp_path, 64, 48)
+    ours, messages = strala_image(text, tmp_path, 64, 48)
+    err, off = image_errors(ours, ref)
+    assert off < 0.005 and err < 0.01, (err, off, messages)
+
+
 def test_spotlight_is_full_inside_radius_dark_beyond_falloff_smooth_between():
     light = ir.Light(
         position=(0, 10, 0), kind="spotlight", point_at=(0, 0, 0), radius=10, falloff=20

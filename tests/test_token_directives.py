@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from lang import lsp, syntax
+from lang import lsp_analysis, syntax
 from lang.evaluate import compile_source
 from lang.parser import parse
 from tests.conftest import povray_debug
@@ -123,7 +123,7 @@ def test_no_false_error_in_the_editor(tmp_path, case):
     path = tmp_path / "scene.pov"
     text = CASES[case] + SCENE_TAIL
     path.write_text(text)
-    assert not [d.format() for d in lsp.analyse(text, str(path)) if d.severity == "error"]
+    assert not [d.format() for d in lsp_analysis.analyse(text, str(path)) if d.severity == "error"]
 
 
 def test_only_the_cut_statements_lose_their_tree():

@@ -16,6 +16,7 @@ a runaway scene ends with a message instead of filling the machine.
 from __future__ import annotations
 
 import os
+import threading
 from dataclasses import dataclass
 
 # How often (in steps) the process's resident size is read: a read of /proc costs a few
@@ -69,16 +70,25 @@ class Exceeded(Exception):
         self.hint = hint
 
 
+class Cancelled(BaseException):
+    """Raised at the next step once the evaluation's `cancel` is set (the language server: a
+    newer edit came). A BaseException: no handler of the interpreter's turns it into a
+    diagnostic; the evaluation ends and its result is dropped."""
+
+
 class Meter:
-    """A budget being spent by one evaluation."""
+    """A budget being spent by one evaluation; `cancel`, when set, stops it at its next step."""
 
     def __init__(self, budget: Budget) -> None:
         self.budget = budget
         self.left = budget.steps
         self._until_memory = MEMORY_EVERY
         self._base = resident_bytes()
+        self.cancel: threading.Event | None = None
 
     def step(self, n: int = 1) -> None:
+        if self.cancel is not None and self.cancel.is_set():
+            raise Cancelled
         self.left -= n
         if self.left < 0:
             raise Exceeded(

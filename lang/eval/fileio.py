@@ -1,7 +1,8 @@
 """The file directives: `#fopen`, `#read`, `#write`, `#fclose`, as POV-Ray runs them: reads
-where lang.read_access permits them (as #include's), writes in the scene's folder (anywhere
-at --io-restrictions none). What `#write` gives a file is kept and written when the file is
-closed (or the scene ends), so a failed scene leaves no half-written file behind."""
+where lang.read_access permits them (as #include's), writes in the scene's folder and in
+povray.conf's `read+write` paths (anywhere at --io-restrictions none). What `#write` gives
+a file is kept and written when the file is closed (or the scene ends), so a failed scene
+leaves no half-written file behind."""
 
 from __future__ import annotations
 
@@ -45,12 +46,14 @@ def file_op(it: BuildContext, node: syntax.FileOp) -> None:
                 node.span,
                 "keep data files in the scene's folder or a permitted path of povray.conf",
             )
-        if h.mode != "read" and not (path.is_relative_to(folder) or it.reads.writes_anywhere):
+        if h.mode != "read" and not it.reads.allows_write(path, folder):
             raise it.error(
                 "E0260",
-                f"`{name}` is outside the scene's folder",
+                f"`{name}` is outside the folders that may be written ({it.reads.write_why} "
+                f"permits writes {it.reads.write_places()})",
                 node.span,
-                "scenes write files only beside them (render --io-restrictions none: anywhere)",
+                "write beside the scene, or add a `read+write` path to povray.conf's "
+                "[Permitted Paths] (render --io-restrictions none: anywhere)",
             )
         if h.mode != "read" and (path.is_dir() or not path.parent.is_dir()):
             why = "it is a folder" if path.is_dir() else "its folder does not exist"

@@ -64,7 +64,7 @@ from lang.eval.elements import (
     Statement,
 )
 from lang.eval.resolve import ObjectResolver
-from lang.eval.scene import settings_at_top
+from lang.eval.scene import lights_in_reach, settings_at_top
 from lang.ir_ops import (
     collect_lights,
     pattern_defaults_in,
@@ -364,7 +364,7 @@ class Interpreter:
         )
         scene = ir.Scene(
             camera=self.camera if self.camera is not None else ir.Camera(),
-            lights=tuple(self.lights),
+            lights=lights_in_reach(self, self.lights),
             objects=tuple(self.objects),
             settings=settings,
             background=self.background,

@@ -1128,11 +1128,9 @@ static void light_at(Scene *s, const double *lt, int l, const double *p, const d
         att = ct > 0 ? pow(ct, lt[L_TIGHT]) : 0.0;
         if (lt[L_COSR] > 0 && ct < lt[L_COSR]) att *= cubic_spline(lt[L_COSF], lt[L_COSR], ct);
     }
-    double power = lt[L_FADEPOW];
-    if (power > 0) {
-        double fd = lt[L_FADEDIST];
-        double fade = fabs(fd) >= EPSILON ? 2.0 / (1.0 + pow(fabs(depth) / fd, power))
-                                          : pow(fabs(depth), -power);
+    double power = lt[L_FADEPOW], fd = lt[L_FADEDIST];
+    if (power > 0 && fabs(fd) > EPSILON) {  /* as shading.attenuation: both set, or no fade */
+        double fade = 2.0 / (1.0 + pow(fabs(depth) / fd, power));
         if (att > 0) att *= fade;
     }
     double big = 0.0;

@@ -208,7 +208,8 @@ def server_latency(
 
 
 def in_process(text: str, path: str, rounds: int = 5) -> None:
-    from lang.lsp import DEBOUNCE_SECONDS, analyse
+    from lang.lsp import DEBOUNCE_SECONDS
+    from lang.lsp_analysis import analyse
     from lang.parser import parse
 
     analyse(text, path)  # the document is open: its chunks and includes are parsed
