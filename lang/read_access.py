@@ -87,12 +87,15 @@ class ReadAccess:
             return True
         return any(f in real.parents for f in self.writable)
 
+    def writes_permitted(self) -> bool:
+        """Whether povray.conf names folders to write in (its read+write paths)."""
+        return bool(self.writable or self.writable_shallow)
+
     def write_places(self) -> str:
         """Where writes may go, said in a refusal."""
-        places = ["beside the scene"]
-        if self.writable or self.writable_shallow:
-            places.append("in its read+write paths")
-        return " and ".join(places)
+        return "beside the scene" + (
+            " and in its read+write paths" if self.writes_permitted() else " only"
+        )
 
 
 def _real(path: str | os.PathLike[str] | None) -> Path | None:

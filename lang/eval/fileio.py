@@ -49,8 +49,9 @@ def file_op(it: BuildContext, node: syntax.FileOp) -> None:
         if h.mode != "read" and not it.reads.allows_write(path, folder):
             raise it.error(
                 "E0260",
-                f"`{name}` is outside the folders that may be written ({it.reads.write_why} "
-                f"permits writes {it.reads.write_places()})",
+                f"`{name}` is outside the scene's folder"
+                + (" and povray.conf's read+write paths" if it.reads.writes_permitted() else "")
+                + f" ({it.reads.write_why or 'strala'} permits writes {it.reads.write_places()})",
                 node.span,
                 "write beside the scene, or add a `read+write` path to povray.conf's "
                 "[Permitted Paths] (render --io-restrictions none: anywhere)",
