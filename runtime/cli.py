@@ -30,8 +30,9 @@ from pathlib import Path
 from typing import TextIO
 
 from lang import paths, read_access
-from lang.diagnostics import DEFAULT_HINTS, TITLES, Diagnostic, SceneError, Severity, Span
+from lang.diagnostics import Diagnostic, SceneError, Severity, Span
 from lang.eval.budget import CHECK, RENDER, Budget
+from runtime import sarif
 from runtime.povray_options import OptionError, parse_declare, translate_povray_args
 
 # Every subcommand build_parser() adds (a first argument that is one of them is not a scene).
@@ -688,7 +689,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         }
         print(json.dumps(doc, indent=2))
     elif args.format == "sarif":
-        print(json.dumps(_sarif(diags), indent=2))
+        print(json.dumps(sarif.report(diags, _version()), indent=2))
     else:
         print_diagnostics(diags, sys.stdout)
     return 1 if errors else 0
@@ -766,67 +767,6 @@ def _translate_jobs(args: argparse.Namespace) -> list[tuple[Path, Path]]:
         raise UsageError(f"the translation would overwrite {source}; name another with -o")
     check_writable(target)
     return [(source, target)]
-
-
-def _sarif_rules() -> list[dict]:
-    """Every code strala reports, as SARIF rules: its title, default hint and level."""
-    levels = {"E": "error", "W": "warning", "N": "note"}
-    return [
-        {
-            "id": code,
-            "shortDescription": {"text": title},
-            **({"help": {"text": DEFAULT_HINTS[code]}} if code in DEFAULT_HINTS else {}),
-            "defaultConfiguration": {"level": levels[code[0]]},
-        }
-        for code, title in sorted(TITLES.items())
-    ]
-
-
-def _sarif_place(span: Span) -> dict:
-    return {
-        "artifactLocation": {"uri": Path(span.file).as_posix()},
-        "region": {
-            "startLine": span.line,
-            "startColumn": span.col,
-            "endLine": span.end_line,
-            "endColumn": span.end_col,
-        },
-    }
-
-
-def _sarif(diags: Sequence[Diagnostic]) -> dict:
-    levels = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "note"}
-    rules = _sarif_rules()
-    index = {rule["id"]: i for i, rule in enumerate(rules)}
-    results = []
-    for d in diags:
-        result = {
-            "ruleId": d.code,
-            **({"ruleIndex": index[d.code]} if d.code in index else {}),
-            "level": levels[d.severity],
-            "message": {"text": d.message + (f" (hint: {d.hint})" if d.hint else "")},
-            "locations": [{"physicalLocation": _sarif_place(d.span)}],
-        }
-        if d.called_from:  # the macro calls a body's mistake was reached through
-            result["relatedLocations"] = [
-                {
-                    "id": i,
-                    "physicalLocation": _sarif_place(at),
-                    "message": {"text": f"in macro `{name}` called here"},
-                }
-                for i, (name, at) in enumerate(d.called_from, start=1)
-            ]
-        results.append(result)
-    return {
-        "version": "2.1.0",
-        "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
-        "runs": [
-            {
-                "tool": {"driver": {"name": "strala", "version": _version(), "rules": rules}},
-                "results": results,
-            }
-        ],
-    }
 
 
 def _load_scene(args: argparse.Namespace, clock: float):
