@@ -181,7 +181,7 @@ def test_the_command_line_uses_the_store(tmp_path, monkeypatch):
 # (as includes are) or one that makes a result unstorable (Interpreter.depends_outside).
 FILE_ACCESS = {
     ("evaluate", "compile_file"): "the main file: its text is part of the key",
-    ("eval.interpreter", "_find_declaring_include"): "a hint for an error: errors are not stored",
+    ("eval.unknown", "_declaring_include"): "a hint for an error: errors are not stored",
     ("eval.interpreter", "_d_include"): "an include: its text's digest is kept",
     ("eval.interpreter", "source_text"): "a file already read (the main file, an include "
     "whose digest is kept), read again for its tokens",

@@ -12,9 +12,6 @@ builders see."""
 
 from __future__ import annotations
 
-import difflib
-import os
-import re
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -49,6 +46,7 @@ from lang.eval import (
     streamed,
     surfaces,
     textures,
+    unknown,
     versioning,
 )
 from lang.eval.budget import RENDER, Budget, Exceeded, Meter
@@ -211,6 +209,7 @@ class Interpreter:
         self.loose_depth = 0
         self.blob_depth = 0  # inside a blob body, `sphere`/`cylinder` are components
         self.state = builtins.BuiltinState()
+        self.unknown_hints: unknown.Hints = {}  # an unknown name's hint, found once
         self.fn_bindings: list[dict[str, float]] = []
         self.version = 3.7
         self.version_set = False
@@ -478,38 +477,10 @@ class Interpreter:
         scopes[0][name] = value
 
     def unknown_ident(self, name: str, span: Span) -> SceneError:
-        visible: set[str] = set()
-        for scope in self.scopes:
-            visible |= set(scope)
-        close = difflib.get_close_matches(name, sorted(visible), n=1, cutoff=0.75)
-        hint = f"did you mean `{close[0]}`?" if close else None
-        if hint is None:
-            found = self._find_declaring_include(name)
-            if found:
-                hint = f'`{name}` is declared in {found}: add `#include "{found}"`'
-        if hint is None:
-            kw = difflib.get_close_matches(name, sorted(ALL_WORDS), n=1, cutoff=0.8)
-            if kw:
-                hint = f"did you mean the keyword `{kw[0]}`?"
-        return self.error("E0201", f"unknown identifier `{name}`", span, hint)
-
-    def _find_declaring_include(self, name: str) -> str | None:
-        pat = re.compile(rf"#\s*declare\s+{re.escape(name)}\s*=")
-        libraries = paths.search_folders(self._folder(), self.library_paths)
-        for folder in [str(where) for kind, where in libraries if kind != "local"]:
-            try:
-                entries = sorted(os.listdir(folder))
-            except OSError:
-                continue
-            for f in entries:
-                if not f.endswith(".inc"):
-                    continue
-                try:
-                    if pat.search(Path(folder, f).read_text(errors="replace")):
-                        return f
-                except OSError:
-                    continue
-        return None
+        found = unknown.hint(
+            name, self.scopes, self.unknown_hints, self._folder(), self.library_paths
+        )
+        return self.error("E0201", f"unknown identifier `{name}`", span, found)
 
     # ------------------------------------------------------------ top level
     def _top_level(self, el: El) -> None:

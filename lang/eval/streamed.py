@@ -83,6 +83,9 @@ _OPENERS = frozenset({"IF", "IFDEF", "SWITCH", "WHILE", "FOR", "MACRO"})
 # Builders that read their block's syntax (functions, splines, meshes, blobs …) get it whole.
 _WHOLE = frozenset({"spline", "bicubic_patch", *schema.DATA_SHAPES, *schema.LIST_BLOCKS})
 _MAX_ITERATIONS = 1_000_000
+# Budget steps a token read as tokens costs: a token (a parse step, an element evaluated
+# when it is complete) takes two to four times a tree-walk step (lang.eval.budget)
+TOKEN_STEPS = 3
 
 
 @dataclass
@@ -230,6 +233,9 @@ class _Stream:
                     and (j := resume(tok.start_pos)) is not None
                 ):
                     raise _Stop(j)
+                # each token is work (a parse step, perhaps an element evaluated): counted,
+                # or a #while of long passes ran for minutes under check's budget
+                self.it.meter.step(TOKEN_STEPS)
                 self.readers[-1].feed(self._named(tok), self.tok_file)
                 self.before = tok
             self._settle("$END")
@@ -728,6 +734,12 @@ class _Reader:
         self.skipping = False  # after a syntax error, until a token can start a statement
         self.last: Token | None = None
         self.used = False  # a token was fed
+        # per position on the value stack, how many of its element list's children are
+        # evaluated already and the last of them: a list only grows (each reduction moves
+        # its children into the next list), so the next settle starts after them. Scanning
+        # every child at every token was quadratic: a loop appending to a union's body ran
+        # for minutes under check's budget.
+        self._done: dict[int, tuple[int, object]] = {}
 
     def refuses(self, ttype: str) -> bool:
         """Whether a token of type `ttype` is a syntax error where this parser stands."""
@@ -786,6 +798,7 @@ class _Reader:
         if self.fresh:
             return
         state, self.state, self.fresh = self.state, self._fresh(), True
+        self._done.clear()
         last = self.last
         assert last is not None
         try:
@@ -828,7 +841,18 @@ class _Reader:
             else:
                 return  # a map entry, a directive's body …: evaluated whole
             children = v.children
-            for j, c in enumerate(children):
+            start = 0
+            done = self._done.get(k)
+            if (
+                done is not None
+                and 0 < done[0] <= len(children)
+                and children[done[0] - 1] is done[1]
+            ):
+                start = done[0]
+            for j in range(start, len(children)):
+                c = children[j]
                 if isinstance(c, syntax.Node) and type(c) is not syntax.Expanded:
                     els = self.it.expand([c], spec)
                     children[j] = syntax.Expanded(c.span, els)
+            if children:
+                self._done[k] = (len(children), children[-1])
