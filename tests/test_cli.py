@@ -4,7 +4,6 @@ diagnostics instead of tracebacks, `check` staying free of numpy, and the progre
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import os
 import re
@@ -18,7 +17,6 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from runtime import cli, povray_options
-from runtime.progress import Progress, format_seconds
 
 EX3 = EXAMPLES / "ex3.scene"
 
@@ -674,81 +672,6 @@ def test_render_from_compiled_ir_matches_render_from_source(tmp_path):
     assert cli.main(["render", str(EX3), "-W", "32", "-H", "24", "-o", str(a), "-q"]) == 0
     assert cli.main(["render", str(ir_doc), "-W", "32", "-H", "24", "-o", str(b), "-q"]) == 0
     assert (read_image(a) == read_image(b)).all()
-
-
-# ------------------------------------------------------------- progress bar
-class _Clock:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
-class _Tty(io.StringIO):
-    def isatty(self) -> bool:
-        return True
-
-
-def test_progress_is_silent_without_a_terminal():
-    stream = io.StringIO()
-    bar = Progress(stream=stream)
-    bar(5, 10)
-    bar(10, 10)
-    bar.close()
-    assert stream.getvalue() == ""
-
-
-def test_progress_draws_eta_on_a_terminal_and_ends_the_line():
-    stream, clock = _Tty(), _Clock()
-    bar = Progress("rendering", stream=stream, clock=clock)
-    clock.now = 2.0
-    bar(25, 100)
-    text = stream.getvalue()
-    assert "rendering" in text and " 25%" in text
-    assert "ETA 6.0s" in text  # 2 s for a quarter: 6 s to go
-    clock.now = 8.0
-    bar(100, 100)
-    bar.close()
-    assert stream.getvalue().endswith("\n")
-    assert "100%" in stream.getvalue()
-
-
-def test_progress_redraws_are_throttled():
-    stream, clock = _Tty(), _Clock()
-    bar = Progress(stream=stream, clock=clock, interval=0.5)
-    for i in range(1, 50):
-        clock.now = i * 0.01
-        bar(i, 100)
-    assert stream.getvalue().count("\r") == 1
-
-
-def test_quiet_progress_never_writes():
-    stream = _Tty()
-    bar = Progress(stream=stream, enabled=False)
-    bar(1, 2)
-    bar.close()
-    assert stream.getvalue() == ""
-
-
-@given(
-    done=st.floats(0, 1e9, allow_nan=False),
-    total=st.floats(0, 1e9, allow_nan=False),
-    width=st.integers(1, 300),
-    now=st.floats(0, 1e6, allow_nan=False),
-)
-def test_progress_line_fits_the_terminal(done, total, width, now):
-    bar = Progress("rendering", stream=io.StringIO(), clock=lambda: 0.0)
-    bar.done, bar.total = done, total
-    assert len(bar.line(now, width)) <= width
-
-
-@pytest.mark.parametrize(
-    "seconds, text",
-    [(4.24, "4.2s"), (65, "1m05s"), (3725, "1h02m"), (float("inf"), "--")],
-)
-def test_format_seconds(seconds, text):
-    assert format_seconds(seconds) == text
 
 
 def test_preview_writes_coarse_passes_then_the_same_final_image(tmp_path):
