@@ -607,7 +607,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     tail = np.concatenate([children, unbounded, loose, bvh.ravel(), items, masks.ravel(), starts])
     tail = tail.astype(np.float64)
     pigs = [layers[0].pigment for layers in layer_rows] + [t.pigment for t in below] + sky
-    fogs = [f for f in fog.scene_fogs(scene)]
+    fogs = list(fog.scene_fogs(scene))
     films = [layer.finish.irid for layers in layer_rows for layer in layers]
     noisy = (
         any(_needs_noise(p) for p in pigs)
@@ -615,13 +615,16 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         or any(irid is not None and irid[0] > 0 and irid[2] != 0 for irid in films)
     )
     tables = _noise_tables() if noisy else np.zeros(0)
-    n_entries = sum(len(_entries(p)) for p in pigs)
+    # pigment row k is pigs[k]'s: packed first, for the length of their colour maps' table
+    pig_rows = np.zeros((n_pig, PIG))
+    maps: list[list[float]] = []
+    for pig, row in zip(pigs, pig_rows, strict=True):
+        pack_pigment(pig, row, maps)
     maps_at = size + len(tail)
-    fogs_at = maps_at + MAP_ENTRY * n_entries
+    fogs_at = maps_at + MAP_ENTRY * len(maps)
     terms_at = fogs_at + FOG * len(fogs)
     n_terms = sum(len(leaf.prim.c) for leaf in leaves if type(leaf.prim) is PolyPrim)
     buf = np.zeros(terms_at + POLY_TERM * n_terms + len(tables))
-    maps: list[list[float]] = []
     h = buf[:HDR]
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
@@ -707,14 +710,14 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     start += n_tex * TEX
     lrows = buf[start : start + n_light * LIT].reshape(n_light, LIT)
     start += n_light * LIT
-    prows = buf[start : start + n_pig * PIG].reshape(n_pig, PIG)
+    buf[start : start + n_pig * PIG] = pig_rows.ravel()
     start += n_pig * PIG
     nrows = buf[start : start + n_node * NODE].reshape(n_node, NODE)
     buf[start + n_node * NODE : start + n_node * NODE + len(tail)] = tail
     if noisy:
         h[H_NOISE] = len(buf) - len(tables)
         buf[len(buf) - len(tables) :] = tables
-    rows_of: list[tuple[int, ir.Texture]] = []  # per texture row: the layer it shades
+    rows_of: list[tuple[int, ir.Texture]] = []  # (texture row, the layer it shades)
     extra = len(layer_rows)
     for t, layers in enumerate(layer_rows):
         trows[t, T_TRANS], trows[t, T_LIT] = ctx.transmits[t], ctx.lit[t]
@@ -724,11 +727,10 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         for k, row in enumerate(chain):
             trows[row, T_NEXT] = chain[k + 1] if k + 1 < len(chain) else -1
         rows_of.extend(zip(chain, layers, strict=True))
-    for t, tex in sorted(rows_of, key=lambda item: item[0]):
+    for t, tex in rows_of:
         r = trows[t]
-        pig, f = tex.pigment, tex.finish
+        f = tex.finish
         r[T_PIG] = t  # texture row t's pigment is pigment row t; the sky's follow
-        pack_pigment(pig, prows[t], maps)
         r[T_AMB : T_AMB + 3] = f.ambient
         r[T_EMIS : T_EMIS + 3] = f.emission
         r[T_DIFF : T_METAL + 1] = (
@@ -752,8 +754,6 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         node, r = nodes[k], nrows[k]
         r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
         r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(node.children)
-    for k, pig in enumerate(sky):
-        pack_pigment(pig, prows[n_tex + k], maps)
     h[H_MAPS], h[H_NMAPS] = maps_at, len(maps)
     h[H_FOGS], h[H_NFOG], h[H_FOGMAX] = fogs_at, len(fogs), fog.MAX_FOG_DISTANCE
     frows = buf[fogs_at : fogs_at + FOG * len(fogs)].reshape(len(fogs), FOG)
