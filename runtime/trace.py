@@ -34,7 +34,7 @@ def box_tree_compiled() -> bool:
     return _boxtree is not None
 
 
-# Tests set this to compare the two builds.
+# Tests set this to compare the numpy/Python box tree and box tests with the compiled ones.
 _PYTHON_TREE = False
 
 # The matrix of every untransformed leaf: shared, so it must not be written to.

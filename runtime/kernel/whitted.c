@@ -1286,7 +1286,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     LightAt on_stack[LIGHTS_ON_STACK], *la = on_stack;
     if (s->nlight > LIGHTS_ON_STACK && !(la = malloc((size_t)s->nlight * sizeof *la))) return;
     int lit = (int)tx[T_LIT], dbl = (int)ob[O_DOUBLE];
-    double rel_ior = fresnel_ior(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving && level != 1);
+    double rel_ior = NAN; /* found when a layer's fresnel reflection asks for it */
     for (int l = 0; l < s->nlight; l++)
         light_at(s, s->light + (size_t)l * LIT, l, p, n, lit, dbl, (int)tx[T_BACKLIT], cls,
                  la + l);
@@ -1295,6 +1295,9 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
         double refl[3], weight, ex;
     } mirrored[MAX_LAYERS];
     int nmirrored = 0;
+    /* the mirror direction, the same for every layer: no layer perturbs the normal.
+     * shading.reflect's guard for bumpy normals never applies: raw = normal */
+    double rd[3];
     double fil[3] = {1.0, 1.0, 1.0}, trans = 1.0;
     const double *ly = tx;
     for (int k = 0; ly && k < MAX_LAYERS; k++) {
@@ -1304,15 +1307,20 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
         double op = opacity(col, s->legacy);
         layer_light(s, ly, col, op, p, d, n, dbl, la, acc);
         for (int i = 0; i < 3; i++) out[i] += acc[i] * fil[i];
+        if (ly[T_FRESNEL] != 0.0 && rel_ior != rel_ior)
+            rel_ior = fresnel_ior(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving && level != 1);
         int reflects = layer_reflection(s, ly, col, d, n, rel_ior, refl, &wfac);
         if (reflects) {
             double big = fabs(refl[0]);
             if (fabs(refl[1]) > big) big = fabs(refl[1]);
             if (fabs(refl[2]) > big) big = fabs(refl[2]);
             if (big > 0) {
-                if (ly[T_IRID] > 0) { /* the film tints the reflection too */
-                    double rd[3], f[3];
+                if (nmirrored == 0) {
                     mirror(d, n, rd);
+                    normalize3(rd);
+                }
+                if (ly[T_IRID] > 0) { /* the film tints the reflection too */
+                    double f[3];
                     iridescence(s, ly, n, d, rd, p, f);
                     for (int i = 0; i < 3; i++) refl[i] = refl[i] * f[i];
                 }
@@ -1334,10 +1342,6 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
      * reflections (about the same normal: no layer perturbs it) are then not traced */
     if (transmit(s, p, d, n, tx, ob, fil, h, weight, level, skip, leaving, cls, in, out)) return;
     for (int k = 0; k < nmirrored; k++) {
-        double rd[3];
-        mirror(d, n, rd);
-        /* shading.reflect's guard for bumpy normals never applies: raw = normal */
-        normalize3(rd);
         double rc[3];
         trace(s, p, rd, mirrored[k].weight, level, SKIP_NO_REFLECTION, 0, -1, in, rc);
         double ex = mirrored[k].ex;
