@@ -842,7 +842,7 @@ def ripples(p: np.ndarray, params: dict) -> np.ndarray:
     """Concentric sine waves from POV-Ray's wave sources (10 unless global_settings'
     number_of_waves says), averaged to [0, 1]."""
     total = np.zeros(len(p))
-    sources, _ = _wave_tables(_wave_count(params))
+    sources, _ = wave_tables(wave_count(params))
     for src in sources:
         length = np.linalg.norm(p - src, axis=1)
         total += _cycloidal(length)
@@ -852,7 +852,7 @@ def ripples(p: np.ndarray, params: dict) -> np.ndarray:
 def waves(p: np.ndarray, params: dict) -> np.ndarray:
     """Cosine waves of varied frequencies from POV-Ray's wave sources."""
     total = np.zeros(len(p))
-    sources, freqs = _wave_tables(_wave_count(params))
+    sources, freqs = wave_tables(wave_count(params))
     for src, f in zip(sources, freqs, strict=True):
         length = np.linalg.norm(p - src, axis=1)
         length = np.where(length == 0.0, 1.0, length)
@@ -1196,13 +1196,13 @@ def may_transmit(pigment: ir.Pigment) -> bool:
 NORMAL_DELTA: float = 0.02
 
 
-def _wave_count(params: dict) -> int:
+def wave_count(params: dict) -> int:
     # global_settings' number_of_waves, which the evaluator gives every pattern
     return max(1, int(params.get("number_of_waves", 10) or 10))
 
 
 @cache
-def _wave_tables(count: int = 10) -> tuple[np.ndarray, np.ndarray]:
+def wave_tables(count: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """POV-Ray's ripple/wave sources and frequencies: source i is DNoise(<i, 0, 0>)
     normalised, frequency i a draw of POV-Ray's LCG (seeded -560851967) in [0.01, 1.01]."""
     sources = dnoise(np.array([[float(i), 0.0, 0.0] for i in range(count)]))
@@ -1274,9 +1274,9 @@ def perturb_normal(
     elif kind in ("ripples", "waves"):
         freq = float(normal.params.get("frequency", 1.0))
         phase = float(normal.params.get("phase", 0.0))
-        count = _wave_count(normal.params)
+        count = wave_count(normal.params)
         # normal.cpp's ripples and waves: both are sines (POV-Ray's cycloidal)
-        for src, f in zip(*_wave_tables(count), strict=True):
+        for src, f in zip(*wave_tables(count), strict=True):
             d = p - src
             length = np.linalg.norm(d, axis=1)
             length = np.where(length > 0, length, 1.0)

@@ -18,7 +18,9 @@ Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, ch
 solid colours), gradient, onion, spherical, cylindrical, planar, boxed, radial or one of
 POV-Ray's noise patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on
 its three noise generators), with a colour map of any length, a wave and turbulence (no
-warps); no normal; every finish item (crand, diffuse_back, fresnel reflection, irid
+warps); normals (bumps, dents, wrinkles, ripples, waves and the slope of
+those patterns, with turbulence and a slope map; no normal_map or warps), one per layer;
+every finish item (crand, diffuse_back, fresnel reflection, irid
 included) but a negative metallic. Point lights and spotlights (fade included, no area
 lights); interiors with ior and fade, no caustics or media; a background colour and
 sky_sphere layers of those pigments (either version's rules for their filter and
@@ -64,7 +66,9 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 96, 64, 56, 24, 32, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 96, 64, 64, 24, 32, 6, 16, 1024
+# a normal row: a pattern row (PIG values, no colour map), then NR_KIND on
+NRM = 64
 FOG = 20
 # a texture of more layers renders through numpy (kernel/whitted.c MAX_LAYERS)
 MAX_LAYERS = 16
@@ -84,6 +88,8 @@ H_MAPS, H_NMAPS = 77, 78
 H_FOGS, H_NFOG, H_FOGMAX = 80, 81, 82
 # the polynomials' terms table (i, j, k, c each), its length, and their tolerances
 H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER = 83, 84, 85, 86, 87
+# the normals' table (NRM values each) and how many
+H_NRMS, H_NNRM = 88, 89
 POLY_TERM = 4
 # a polynomial of a higher degree renders through numpy (kernel/poly.h POLY_MAX_DEGREE)
 POLY_MAX_DEGREE = 8
@@ -101,6 +107,9 @@ T_RMIN, T_RMAX, T_FALLOFF, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT = 38, 41, 44, 45
 # crand, diffuse_back, fresnel reflection, irid (amount, thickness, turbulence); T_BACKLIT:
 # some layer has diffuse_back (on the texture's first row: lights are tested from both sides)
 T_CRAND, T_DBACK, T_FRESNEL, T_IRID, T_BACKLIT = 49, 50, 51, 52, 55
+# T_NRM: the layer's normal row (-1: none); T_BUMPY (a texture's first row): some layer has
+# one, so lights are tested from both sides (lights.light_colours)
+T_NRM, T_BUMPY = 56, 57
 L_KIND, L_POS, L_COL, L_SHADOWLESS, L_FADEPOW, L_FADEDIST = 0, 1, 4, 7, 8, 9
 L_AXIS, L_TIGHT, L_COSR, L_COSF = 10, 13, 14, 15
 P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
@@ -138,6 +147,18 @@ PIGMENT_KINDS = {
     "agate": 14,
 }
 NOISE_KINDS = frozenset(k for k, v in PIGMENT_KINDS.items() if v >= PIGMENT_KINDS["bozo"])
+# A normal: its kind (NR_KIND), then (patterns.perturb_normal) depth, accuracy,
+# no_bump_scale, whether it has a linear part, that part and its inverse (3x3 each), its
+# wave sources in the map table (ripples and waves: frequency, x, y, z) and its slope map
+# there (key, height, slope)
+NR_KIND, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN = range(PIG, PIG + 6)
+NR_LININV = NR_LIN + 9
+NR_WAVES, NR_NWAVES, NR_SLOPES, NR_NSLOPES = range(NR_LININV + 9, NR_LININV + 13)
+# bumps, dents, wrinkles, ripples and waves perturb the normal their own way; the other
+# patterns the kernel knows by their slope (patterns._slope)
+NORMAL_KINDS = {"none": 0, "bumps": 1, "dents": 2, "wrinkles": 3, "ripples": 4, "waves": 5}
+NK_SLOPE = 6
+SLOPE_KINDS = frozenset(k for k in PIGMENT_KINDS if k not in ("solid", *NORMAL_KINDS))
 WAVES = {
     "ramp_wave": 0,
     "triangle_wave": 1,
@@ -203,6 +224,7 @@ def layout() -> dict[str, int]:
         "texture": TEX,
         "light": LIT,
         "pigment": PIG,
+        "normal": NRM,
         "map_entry": MAP_ENTRY,
         "node": NODE,
         "max_crossings": MAX_CROSS,
@@ -234,6 +256,21 @@ def _pigment_reasons(pig: ir.Pigment) -> list[str]:
     return []
 
 
+def _normal_reasons(nrm: ir.Normal) -> list[str]:
+    kind, prm = nrm.pattern, nrm.params
+    if prm.get("normal_map"):
+        return ["normal_map"]
+    if kind not in NORMAL_KINDS and kind not in SLOPE_KINDS:
+        return [f"normal pattern {kind}"]
+    if prm.get("warps"):
+        return [f"warped {kind} normal"]
+    if patterns.noise_generator(prm) not in (1, 2, 3):
+        return [f"noise_generator {prm.get('noise_generator')}"]
+    if kind in SLOPE_KINDS and prm.get("wave", "ramp_wave") not in WAVES:
+        return [f"wave {prm.get('wave')}"]
+    return []
+
+
 def _needs_noise(pig: ir.Pigment) -> bool:
     return pig.pattern in NOISE_KINDS or patterns.turb_params(pig.params)[0] is not None
 
@@ -257,7 +294,7 @@ def _texture_reasons(tex: ir.Texture) -> list[str]:
         f = layer.finish
         out.extend(_pigment_reasons(layer.pigment))
         if layer.normal is not None:
-            out.append("normal perturbation")
+            out.extend(_normal_reasons(layer.normal))
         if f.metallic < 0:
             out.append("negative metallic")
     return out
@@ -350,30 +387,63 @@ def _entries(pig: ir.Pigment) -> list:
     return list(_colour_map(pig))
 
 
-def pack_pigment(pig: ir.Pigment, row: np.ndarray, maps: list[list[float]]) -> None:
-    """One pigment row: kind, pattern-space transform, wave and colour map (solid: one
-    entry; checker: its two colours)."""
-    kind = pig.pattern
-    row[P_KIND] = PIGMENT_KINDS[kind]
-    entries = _entries(pig)
+def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
+    """A pattern row's pattern: pattern-space transform, orientation, wave, turbulence and
+    noise generator (a pigment's or a normal's)."""
     if kind not in ("solid", "checker"):
-        prm = pig.params
         row[P_ORIENT : P_ORIENT + 3] = prm.get("orientation", (1.0, 0.0, 0.0))
         row[P_FREQ] = float(prm.get("frequency", 1.0))
         row[P_PHASE] = float(prm.get("phase", 0.0))
         default = "triangle_wave" if kind in patterns.TRIANGLE_BY_DEFAULT else "ramp_wave"
-        row[P_WAVE] = WAVES[prm.get("wave", default)]
+        row[P_WAVE] = WAVES.get(prm.get("wave", default), 0)  # checked by the reasons
         row[P_WEXP] = float(prm.get("wave_exponent", prm.get("exponent", 1.0)))
-    vec, octaves, omega, lam = patterns.turb_params(pig.params)
+    vec, octaves, omega, lam = patterns.turb_params(prm)
     row[P_TURB : P_TURB + 3] = (0.0, 0.0, 0.0) if vec is None else vec
     row[P_OCTAVES], row[P_OMEGA], row[P_LAMBDA] = octaves, omega, lam
     row[P_HASTURB] = vec is not None
-    row[P_GEN] = patterns.noise_generator(pig.params)
-    row[P_AGATE] = float(pig.params.get("agate_turb", 1.0))
-    inv = tf.cached_inverse(pig.transform)
+    row[P_GEN] = patterns.noise_generator(prm)
+    row[P_AGATE] = float(prm.get("agate_turb", 1.0))
+    inv = tf.cached_inverse(transform)
     row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
+
+
+def pack_pigment(pig: ir.Pigment, row: np.ndarray, maps: list[list[float]]) -> None:
+    """One pigment row: kind, pattern and colour map (solid: one entry; checker: its two
+    colours)."""
+    row[P_KIND] = PIGMENT_KINDS[pig.pattern]
+    _pack_pattern(pig.pattern, pig.params, pig.transform, row)
+    entries = _entries(pig)
     row[P_N], row[P_MAP] = len(entries), len(maps)
     maps.extend([float(key), *map(float, colour)] for key, colour in entries)
+
+
+def pack_normal(nrm: ir.Normal, keep: bool, row: np.ndarray, maps: list[list[float]]) -> None:
+    """One normal row (patterns.perturb_normal's inputs; `keep`: the layer's no_bump_scale):
+    its pattern, kind, depth, accuracy, linear part, and its wave sources and slope map
+    as map-table entries."""
+    kind, prm = nrm.pattern, nrm.params
+    slope = kind not in NORMAL_KINDS
+    row[P_KIND] = PIGMENT_KINDS[kind] if slope else 0
+    _pack_pattern(kind, prm, nrm.transform, row)
+    row[NR_KIND] = NK_SLOPE if slope else NORMAL_KINDS[kind]
+    row[NR_DEPTH] = float(nrm.depth)
+    row[NR_ACC] = float(prm.get("accuracy", patterns.NORMAL_DELTA))
+    row[NR_KEEP] = keep or bool(prm.get("no_bump_scale"))
+    lin = patterns.pattern_linear(nrm)
+    if lin is not None:
+        row[NR_HASLIN] = 1.0
+        row[NR_LIN : NR_LIN + 9] = np.ravel(lin)
+        row[NR_LININV : NR_LININV + 9] = np.ravel(np.linalg.inv(lin))
+    if kind in ("ripples", "waves"):
+        sources, freqs = patterns.wave_tables(patterns.wave_count(prm))
+        row[NR_WAVES], row[NR_NWAVES] = len(maps), len(freqs)
+        maps.extend(
+            [float(f), *map(float, src), 0.0, 0.0] for src, f in zip(sources, freqs, strict=True)
+        )
+    slopes = prm.get("slope_map")
+    if slope and slopes:
+        row[NR_SLOPES], row[NR_NSLOPES] = len(maps), len(slopes)
+        maps.extend([float(key), float(hs[0]), float(hs[1]), 0.0, 0.0, 0.0] for key, hs in slopes)
 
 
 def pack_fog(f: ir.Fog, row: np.ndarray) -> None:
@@ -609,8 +679,12 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     pigs = [layers[0].pigment for layers in layer_rows] + [t.pigment for t in below] + sky
     fogs = list(fog.scene_fogs(scene))
     films = [layer.finish.irid for layers in layer_rows for layer in layers]
+    # the layers' normals, in the order of the layer rows (`rows_of` below)
+    layered = [layers[0] for layers in layer_rows] + below
+    bumped = [layer for layer in layered if layer.normal is not None]
     noisy = (
-        any(_needs_noise(p) for p in pigs)
+        bool(bumped)
+        or any(_needs_noise(p) for p in pigs)
         or any(f.turbulence is not None for f in fogs)
         or any(irid is not None and irid[0] > 0 and irid[2] != 0 for irid in films)
     )
@@ -620,12 +694,19 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     maps: list[list[float]] = []
     for pig, row in zip(pigs, pig_rows, strict=True):
         pack_pigment(pig, row, maps)
+    nrm_rows = np.zeros((len(bumped), NRM))
+    for layer, row in zip(bumped, nrm_rows, strict=True):
+        assert layer.normal is not None  # bumped holds the layers with one
+        pack_normal(layer.normal, layer.no_bump_scale, row, maps)
     maps_at = size + len(tail)
     fogs_at = maps_at + MAP_ENTRY * len(maps)
     terms_at = fogs_at + FOG * len(fogs)
     n_terms = sum(len(leaf.prim.c) for leaf in leaves if type(leaf.prim) is PolyPrim)
-    buf = np.zeros(terms_at + POLY_TERM * n_terms + len(tables))
+    nrms_at = terms_at + POLY_TERM * n_terms
+    buf = np.zeros(nrms_at + NRM * len(bumped) + len(tables))
+    buf[nrms_at : nrms_at + NRM * len(bumped)] = nrm_rows.ravel()
     h = buf[:HDR]
+    h[H_NRMS], h[H_NNRM] = nrms_at, len(bumped)
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
     h[[H_NUNB, H_NBVH, H_NITEM, H_NLOOSE]] = len(unbounded), len(bvh), len(items), len(loose)
@@ -722,13 +803,16 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     for t, layers in enumerate(layer_rows):
         trows[t, T_TRANS], trows[t, T_LIT] = ctx.transmits[t], ctx.lit[t]
         trows[t, T_BACKLIT] = ctx.back_lit[t]
+        trows[t, T_BUMPY] = ctx.bumpy[t]
         chain = [t, *range(extra, extra + len(layers) - 1)]
         extra += len(layers) - 1
         for k, row in enumerate(chain):
             trows[row, T_NEXT] = chain[k + 1] if k + 1 < len(chain) else -1
         rows_of.extend(zip(chain, layers, strict=True))
+    nrm_of = {id(layer): k for k, layer in enumerate(bumped)}
     for t, tex in rows_of:
         r = trows[t]
+        r[T_NRM] = nrm_of.get(id(tex), -1)
         f = tex.finish
         r[T_PIG] = t  # texture row t's pigment is pigment row t; the sky's follow
         r[T_AMB : T_AMB + 3] = f.ambient

@@ -24,11 +24,13 @@
 #define HDR 96
 #define FOG 20
 #define OBJ 64
-#define TEX 56
+#define TEX 64
 /* a texture of more layers renders through numpy (whitted.py MAX_LAYERS) */
 #define MAX_LAYERS 16
 #define LIT 24
 #define PIG 32
+/* a normal: a pattern row (PIG values), then its own (NR_ below) */
+#define NRM 64
 #define NODE 16
 #define BVH 11
 #define BVH_STACK 128
@@ -41,7 +43,7 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
        H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
-       H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER };
+       H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM };
 /* a fog: distance, rgbft, type, unit up, offset, alt, turbulence (on, vector, octaves, omega,
  * lambda, depth) */
 enum { F_DIST, F_COL, F_TYPE = 6, F_UP, F_OFFSET = 10, F_ALT, F_HASTURB, F_TURB, F_OCTAVES = 16,
@@ -51,7 +53,7 @@ enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV 
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
        T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT, T_CRAND, T_DBACK, T_FRESNEL,
-       T_IRID, T_BACKLIT = T_IRID + 3 };
+       T_IRID, T_BACKLIT = T_IRID + 3, T_NRM, T_BUMPY };
 enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS,
        L_TIGHT = 13, L_COSR, L_COSF };
 
@@ -63,6 +65,13 @@ enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, 
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
        PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE };
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
+/* a normal row after its pattern part: kind, depth, accuracy, no_bump_scale, whether it has
+ * a linear part, the linear part and its inverse (3x3 row-major), its wave sources in the
+ * map table (frequency, x, y, z: ripples and waves), its slope map there (key, height,
+ * slope) */
+enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = NR_LIN + 9,
+       NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES };
+enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY };
 /* a polynomial's parameters: its terms in the terms table, their count, its degree, its
@@ -99,6 +108,7 @@ static const double GREY[3] = {0.297, 0.589, 0.114};
 
 typedef struct {
     const double *h, *obj, *tex, *light, *tol, *pig, *node, *child, *unb, *loose, *bvh, *item;
+    const double *nrm; /* the normals, NRM values each */
     /* per box-tree node: may camera rays (column 0), or shadow rays from their hits toward
      * light l (column 1 + l), meet it (whitted.py view masks); NULL: not packed */
     const double *mask, *start; /* start: per class, the node its walk begins at (-1: none) */
@@ -106,7 +116,7 @@ typedef struct {
     const double *map;          /* the colour maps' entries */
     const double *fog;          /* the fogs, FOG values each */
     const double *terms;        /* the polynomials' terms, POLY_TERM values each */
-    int has_noise, nfog, mwidth;
+    int has_noise, nfog, mwidth, nnrm;
     int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nloose, nbvh, nitem, maxlevel,
         legacy, anytrans;
     double bailout;
@@ -898,34 +908,17 @@ static double noise_pattern(const Noise *nz, int kind, const double *q, int turb
     }
 }
 
-/* RGBFT colour of a pigment at a point (patterns.evaluate for the kinds packed). */
-static void pigment(const Scene *s, const double *pg, const double *p, double *out) {
-    const double *map = s->map + 6 * (size_t)pg[P_MAP];
+/* A pattern's value at a pattern-space point q, turbulence warp already applied, after its
+ * wave (patterns._pattern_value for the kinds packed; a checker's is its entry, 0 or 1). */
+static double pattern_value(const Scene *s, const double *pg, const double *q) {
     int kind = (int)pg[P_KIND];
-    if (kind == PK_SOLID) {
-        memcpy(out, map + 1, 5 * sizeof(double));
-        return;
-    }
-    double q[3];
-    affine(pg + P_INV, p, q);
-    const Noise *nz = &s->noise;
-    int octaves = (int)pg[P_OCTAVES], gen = (int)pg[P_GEN];
-    double omega = pg[P_OMEGA], lam = pg[P_LAMBDA];
-    const double *turb = pg + P_TURB;
-    int turbulent = pg[P_HASTURB] != 0.0;
-    if (turbulent && kind != PK_MARBLE && kind != PK_WOOD && kind != PK_AGATE) {
-        double dt[3]; /* the classic turbulence warp (patterns.turbulence_warp) */
-        dturbulence_at(nz, q, octaves, omega, lam, dt);
-        for (int a = 0; a < 3; a++) q[a] = q[a] + dt[a] * turb[a];
-    }
-    if (kind == PK_CHECKER) {
-        double sum = floor(q[0] + CHECKER_OFFSET) + floor(q[1] + CHECKER_OFFSET) +
-                     floor(q[2] + CHECKER_OFFSET);
-        memcpy(out, map + ((((long long)sum) & 1) ? 7 : 1), 5 * sizeof(double));
-        return;
-    }
     double v;
     switch (kind) {
+    case PK_CHECKER: {
+        double sum = floor(q[0] + CHECKER_OFFSET) + floor(q[1] + CHECKER_OFFSET) +
+                     floor(q[2] + CHECKER_OFFSET);
+        return (double)(((long long)sum) & 1);
+    }
     case PK_GRADIENT: v = dot(q, pg + P_ORIENT); break;
     case PK_ONION: v = fmod(sqrt(dot(q, q)), 1.0); break;
     case PK_SPHERICAL: v = clip01(1.0 - sqrt(dot(q, q))); break;
@@ -942,20 +935,178 @@ static void pigment(const Scene *s, const double *pg, const double *p, double *o
                 ? 0.25
                 : 0.25 + (atan2(q[0], q[2]) + M_PI) / (2.0 * M_PI);
         break;
-    default: v = noise_pattern(nz, kind, q, turbulent, turb, octaves, omega, lam, gen, pg);
+    default:
+        v = noise_pattern(&s->noise, kind, q, pg[P_HASTURB] != 0.0, pg + P_TURB,
+                          (int)pg[P_OCTAVES], pg[P_OMEGA], pg[P_LAMBDA], (int)pg[P_GEN], pg);
     }
-    v = apply_wave(pg, v);
-    /* POV-Ray's Search_Blend_Map (patterns.blend_indices) */
-    int n = (int)pg[P_N], hi = 0;
+    return apply_wave(pg, v);
+}
+
+/* A pattern row's point in its pattern space with the classic turbulence warp (the noise
+ * patterns with their own turbulence, marble, wood and agate, take it inside). */
+static void pattern_point(const Scene *s, const double *pg, const double *p, double *q) {
+    affine(pg + P_INV, p, q);
+    int kind = (int)pg[P_KIND];
+    if (pg[P_HASTURB] != 0.0 && kind != PK_MARBLE && kind != PK_WOOD && kind != PK_AGATE) {
+        double dt[3]; /* patterns.turbulence_warp */
+        dturbulence_at(&s->noise, q, (int)pg[P_OCTAVES], pg[P_OMEGA], pg[P_LAMBDA], dt);
+        for (int a = 0; a < 3; a++) q[a] = q[a] + dt[a] * pg[P_TURB + a];
+    }
+}
+
+/* POV-Ray's Search_Blend_Map (patterns.blend_indices) over n map entries: the two to blend
+ * and the weight of hi. */
+static double blend(const double *map, int n, double v, int *lo_out, int *hi_out) {
+    int hi = 0;
     while (hi < n && map[6 * hi] < v) hi++;
     if (hi > n - 1) hi = n - 1;
     int lo = hi > 0 ? hi - 1 : 0;
     if (v >= map[6 * (n - 1)]) hi = n - 1;
     if (v >= map[6 * (n - 1)] || map[6 * hi] == v || v <= map[0]) lo = hi;
     double span = map[6 * hi] - map[6 * lo];
-    double frac = span > 0 ? (v - map[6 * lo]) / span : 0.0;
+    *lo_out = lo, *hi_out = hi;
+    return span > 0 ? (v - map[6 * lo]) / span : 0.0;
+}
+
+/* RGBFT colour of a pigment at a point (patterns.evaluate for the kinds packed). */
+static void pigment(const Scene *s, const double *pg, const double *p, double *out) {
+    const double *map = s->map + 6 * (size_t)pg[P_MAP];
+    int kind = (int)pg[P_KIND];
+    if (kind == PK_SOLID) {
+        memcpy(out, map + 1, 5 * sizeof(double));
+        return;
+    }
+    double q[3];
+    pattern_point(s, pg, p, q);
+    double v = pattern_value(s, pg, q);
+    if (kind == PK_CHECKER) {
+        memcpy(out, map + (v != 0.0 ? 7 : 1), 5 * sizeof(double));
+        return;
+    }
+    int lo, hi;
+    double frac = blend(map, (int)pg[P_N], v, &lo, &hi);
     for (int k = 0; k < 5; k++)
         out[k] = map[6 * lo + 1 + k] * (1.0 - frac) + map[6 * hi + 1 + k] * frac;
+}
+
+/* A normal pattern's value for its slope (patterns._pattern_value), its slope map applied
+ * (POV-Ray's Do_Slope_Map: a cubic Hermite curve between the entries around the value). */
+static double normal_value(const Scene *s, const double *nr, const double *q) {
+    double v = pattern_value(s, nr, q);
+    int n = (int)nr[NR_NSLOPES];
+    if (n == 0) return v;
+    const double *map = s->map + 6 * (size_t)nr[NR_SLOPES];
+    int lo, hi;
+    double t = blend(map, n, v, &lo, &hi);
+    double h1 = map[6 * lo + 1], s1 = map[6 * lo + 2], h2 = map[6 * hi + 1], s2 = map[6 * hi + 2];
+    if (lo == hi) return h2;
+    double tt = t * t;
+    return tt * t * (s1 + s2 + 2.0 * (h1 - h2)) - tt * (2.0 * s1 + s2 + 3.0 * (h1 - h2)) +
+           t * s1 + h1;
+}
+
+/* POV-Ray's sampling tetrahedron for a pattern's slope (patterns._PYRAMID) */
+static const double PYRAMID[4][3] = {
+    {0.9428090415820635, -1.0 / 3.0, 0.0},
+    {-0.47140452079103173, -1.0 / 3.0, 0.8164965809277259},
+    {-0.47140452079103173, -1.0 / 3.0, -0.8164965809277259},
+    {0.0, 1.0, 0.0},
+};
+#define NORMAL_DELTA 0.02
+#define SLOPE_GAIN (-5.0)
+
+/* The unit normal after a `normal { … }` at world point p (patterns.perturb_normal, not a
+ * normal_map): perturbed in pattern space, taken back to world space. */
+static void perturb(const Scene *s, const double *nr, const double *p, const double *nw,
+                    double *out) {
+    double q[3], n[3];
+    affine(nr + P_INV, p, q);
+    const double *lin = nr + NR_LIN, *inv = nr + NR_LININV;
+    int haslin = nr[NR_HASLIN] != 0.0;
+    for (int j = 0; j < 3; j++)
+        n[j] = haslin ? nw[0] * lin[j] + nw[1] * lin[3 + j] + nw[2] * lin[6 + j] : nw[j];
+    if (nr[NR_KEEP] == 0.0) {
+        double len = sqrt(dot(n, n));
+        len = len > 1e-300 ? len : 1e-300;
+        for (int j = 0; j < 3; j++) n[j] = n[j] / len;
+    }
+    double amount = nr[NR_DEPTH];
+    int kind = (int)nr[NR_KIND];
+    if (kind == NK_NONE || amount == 0.0) {
+        memcpy(out, nw, 3 * sizeof(double));
+        return;
+    }
+    const Noise *nz = &s->noise;
+    int pk = (int)nr[P_KIND];
+    int builtin = kind == NK_SLOPE && (pk == PK_MARBLE || pk == PK_WOOD || pk == PK_AGATE);
+    if (nr[P_HASTURB] != 0.0 && !builtin) {
+        double dt[3]; /* patterns.turbulence_warp */
+        dturbulence_at(nz, q, (int)nr[P_OCTAVES], nr[P_OMEGA], nr[P_LAMBDA], dt);
+        for (int a = 0; a < 3; a++) q[a] = q[a] + dt[a] * nr[P_TURB + a];
+    }
+    switch (kind) {
+    case NK_BUMPS: {
+        double g[3];
+        dnoise_at(nz, q, g);
+        for (int a = 0; a < 3; a++) n[a] = n[a] + amount * g[a];
+        break;
+    }
+    case NK_DENTS: {
+        double g[3], v = noise_at(nz, q, (int)nr[P_GEN]);
+        double k = pow(v, 3.0) * amount; /* numpy's ** 3 is pow */
+        dnoise_at(nz, q, g);
+        for (int a = 0; a < 3; a++) n[a] = n[a] + k * g[a];
+        break;
+    }
+    case NK_WRINKLES: {
+        double total[3] = {0.0, 0.0, 0.0}, scale = 1.0;
+        for (int i = 0; i < 10; i++) {
+            double r[3] = {q[0] * scale, q[1] * scale, q[2] * scale}, g[3];
+            dnoise_at(nz, r, g);
+            for (int a = 0; a < 3; a++) total[a] += fabs(g[a]) / scale;
+            scale *= 2.0;
+        }
+        for (int a = 0; a < 3; a++) n[a] = n[a] + amount * total[a];
+        break;
+    }
+    case NK_RIPPLES:
+    case NK_WAVES: {
+        double freq = nr[P_FREQ], phase = nr[P_PHASE];
+        int count = (int)nr[NR_NWAVES];
+        const double *w = s->map + 6 * (size_t)nr[NR_WAVES];
+        for (int i = 0; i < count; i++, w += 6) {
+            double d[3] = {q[0] - w[1], q[1] - w[2], q[2] - w[3]};
+            double len = sqrt(dot(d, d)), sv;
+            len = len > 0 ? len : 1.0;
+            if (kind == NK_RIPPLES) sv = cycloidal(len * freq + phase) * amount / count;
+            else sv = cycloidal(len * freq * w[0] + phase) * amount / (count * w[0]);
+            for (int a = 0; a < 3; a++) n[a] = n[a] + (d[a] / len) * sv;
+        }
+        break;
+    }
+    default: { /* a pattern's slope: the tetrahedron's samples (patterns._slope) */
+        double delta = nr[NR_ACC], g[3] = {0.0, 0.0, 0.0};
+        for (int k = 0; k < 4; k++) {
+            const double *u = PYRAMID[k];
+            double r[3] = {q[0] + delta * u[0], q[1] + delta * u[1], q[2] + delta * u[2]};
+            double v = normal_value(s, nr, r);
+            for (int a = 0; a < 3; a++) g[a] += v * u[a];
+        }
+        if (delta != NORMAL_DELTA)
+            for (int a = 0; a < 3; a++) g[a] = g[a] * (NORMAL_DELTA / delta);
+        double gain = SLOPE_GAIN * amount;
+        for (int a = 0; a < 3; a++) n[a] = n[a] + gain * g[a];
+    }
+    }
+    if (haslin) {
+        double m[3] = {n[0], n[1], n[2]};
+        for (int j = 0; j < 3; j++) n[j] = m[0] * inv[j] + m[1] * inv[3 + j] + m[2] * inv[6 + j];
+    }
+    double len = sqrt(dot(n, n));
+    if (len > 0)
+        for (int a = 0; a < 3; a++) out[a] = n[a] / len;
+    else
+        memcpy(out, nw, 3 * sizeof(double));
 }
 
 static inline const double *texture_pigment(const Scene *s, const double *tx) {
@@ -1101,10 +1252,10 @@ static double fresnel_ior(const Inside *in, int iid, double here, int side_leavi
     return here / outer;
 }
 
-static int transmit(Scene *s, const double *p, const double *d, const double *n,
-                    const double *tx, const double *ob, const double *fil, const Hit *h,
-                    double weight, int level, int skip, int leaving, int cls, const Inside *in,
-                    double *out);
+static int transmit(Scene *s, const double *p, const double *d, const double *top,
+                    const double *raw, const double *tx, const double *ob, const double *fil,
+                    const Hit *h, double weight, int level, int skip, int leaving, int cls,
+                    const Inside *in, double *out);
 
 /* A light as a hit sees it, for every layer of its texture: the direction, the colour that
  * arrives (attenuated, shadowed), and whether the layers' finishes take it at all. */
@@ -1183,10 +1334,14 @@ static void layer_light(const Scene *s, const double *tx, const double *col, dou
         const LightAt *a = la + l;
         if (!a->ok) continue;
         const double *ld = a->ld, *lc = a->lc;
-        int lit = a->front || dbl, back = !a->front && !dbl && dback != 0.0;
+        /* the layer's (perhaps bumpy) normal decides the side; the smooth one which lights
+         * were tested (light_at) */
+        double cos_l = dot(n, ld);
+        int front = cos_l >= EPSILON;
+        int lit = front || dbl, back = !front && !dbl && dback != 0.0;
         double term[3] = {0.0, 0.0, 0.0};
         if ((diffuse > 0 || dback > 0) && (lit || back)) {
-            double c = fabs(a->cos_l), dif = back ? dback : diffuse;
+            double c = fabs(cos_l), dif = back ? dback : diffuse;
             double in = (tx[T_BRIL] == 1.0 ? c : pow(c, tx[T_BRIL])) * (dif > 0 ? dif : 0.0) * op;
             if (crand > 0) in = in - rnd * crand;
             for (int i = 0; i < 3; i++) term[i] += in * pig[i] * lc[i];
@@ -1196,7 +1351,7 @@ static void layer_light(const Scene *s, const double *tx, const double *col, dou
             double metal = tx[T_METAL];
             double tint[3] = {1.0, 1.0, 1.0};
             if (metal > 0 && (tx[T_PHONG] > 0 || tx[T_SPEC] > 0)) {
-                double f = fresnel_metallic(a->cos_l);
+                double f = fresnel_metallic(cos_l);
                 for (int i = 0; i < 3; i++) tint[i] = 1.0 + metal * (1.0 - f) * (pig[i] - 1.0);
             }
             if (tx[T_PHONG] > 0) {
@@ -1270,6 +1425,19 @@ static int layer_reflection(const Scene *s, const double *tx, const double *col,
     return 1;
 }
 
+/* The unit mirror direction of d about a layer's normal nl (shading.reflect): where a bumpy
+ * normal would send it into the surface (behind the smooth normal raw), POV-Ray's fix. */
+static void reflect_dir(const double *d, const double *nl, const double *raw, double *out) {
+    mirror(d, nl, out);
+    double k = dot(out, raw);
+    if (k < 0) {
+        if (dot(out, nl) < 0) mirror(d, raw, out);
+        else
+            for (int i = 0; i < 3; i++) out[i] = out[i] - 2.0 * k * raw[i];
+    }
+    normalize3(out);
+}
+
 /* The colour of a hit (integrate.shade_texture): the texture's layers from the top, each
  * lit and seen through the filter of those above it; each layer's reflection and the light
  * through them all traced after. */
@@ -1287,43 +1455,50 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     if (s->nlight > LIGHTS_ON_STACK && !(la = malloc((size_t)s->nlight * sizeof *la))) return;
     int lit = (int)tx[T_LIT], dbl = (int)ob[O_DOUBLE];
     double rel_ior = NAN; /* found when a layer's fresnel reflection asks for it */
+    /* a bumpy normal may face a light the smooth one does not: those are tested too */
+    int any_side = (int)tx[T_BACKLIT] || (int)tx[T_BUMPY];
     for (int l = 0; l < s->nlight; l++)
-        light_at(s, s->light + (size_t)l * LIT, l, p, n, lit, dbl, (int)tx[T_BACKLIT], cls,
-                 la + l);
-    /* the reflected rays to trace, after the transmitted one */
+        light_at(s, s->light + (size_t)l * LIT, l, p, n, lit, dbl, any_side, cls, la + l);
+    /* the reflected rays to trace, after the transmitted one; `top`: about the top layer's
+     * normal (total internal reflection replaces those) */
     struct {
-        double refl[3], weight, ex;
+        double refl[3], weight, ex, dir[3];
+        int top;
     } mirrored[MAX_LAYERS];
     int nmirrored = 0;
-    /* the mirror direction, the same for every layer: no layer perturbs the normal.
-     * shading.reflect's guard for bumpy normals never applies: raw = normal */
-    double rd[3];
-    double fil[3] = {1.0, 1.0, 1.0}, trans = 1.0;
+    double fil[3] = {1.0, 1.0, 1.0}, trans = 1.0, top[3] = {n[0], n[1], n[2]};
     const double *ly = tx;
     for (int k = 0; ly && k < MAX_LAYERS; k++) {
         if (!(trans > s->bailout)) break;
-        double col[5], acc[3], refl[3], wfac = 0.0;
+        double col[5], acc[3], refl[3], wfac = 0.0, bumped[3];
+        const double *nl = n; /* the layer's normal */
+        if (ly[T_NRM] >= 0) {
+            perturb(s, s->nrm + (size_t)ly[T_NRM] * NRM, p, n, bumped);
+            nl = bumped;
+        }
+        if (k == 0) memcpy(top, nl, sizeof top);
         pigment(s, texture_pigment(s, ly), p, col);
         double op = opacity(col, s->legacy);
-        layer_light(s, ly, col, op, p, d, n, dbl, la, acc);
+        layer_light(s, ly, col, op, p, d, nl, dbl, la, acc);
         for (int i = 0; i < 3; i++) out[i] += acc[i] * fil[i];
         if (ly[T_FRESNEL] != 0.0 && rel_ior != rel_ior)
             rel_ior = fresnel_ior(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving && level != 1);
-        int reflects = layer_reflection(s, ly, col, d, n, rel_ior, refl, &wfac);
+        int reflects = layer_reflection(s, ly, col, d, nl, rel_ior, refl, &wfac);
         if (reflects) {
             double big = fabs(refl[0]);
             if (fabs(refl[1]) > big) big = fabs(refl[1]);
             if (fabs(refl[2]) > big) big = fabs(refl[2]);
             if (big > 0) {
-                if (nmirrored == 0) {
-                    mirror(d, n, rd);
-                    normalize3(rd);
-                }
+                double *rd = mirrored[nmirrored].dir;
+                reflect_dir(d, nl, n, rd);
                 if (ly[T_IRID] > 0) { /* the film tints the reflection too */
                     double f[3];
-                    iridescence(s, ly, n, d, rd, p, f);
+                    iridescence(s, ly, nl, d, rd, p, f);
                     for (int i = 0; i < 3; i++) refl[i] = refl[i] * f[i];
                 }
+                mirrored[nmirrored].top = fabs(nl[0] - top[0]) <= EPSILON &&
+                                          fabs(nl[1] - top[1]) <= EPSILON &&
+                                          fabs(nl[2] - top[2]) <= EPSILON;
                 memcpy(mirrored[nmirrored].refl, refl, sizeof refl);
                 mirrored[nmirrored].weight = weight * trans * wfac;
                 mirrored[nmirrored++].ex = ly[T_REXP];
@@ -1339,11 +1514,14 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     }
     if (la != on_stack) free(la);
     /* total internal reflection carries the mirrored light itself, so the layers'
-     * reflections (about the same normal: no layer perturbs it) are then not traced */
-    if (transmit(s, p, d, n, tx, ob, fil, h, weight, level, skip, leaving, cls, in, out)) return;
+     * reflections about the same normal (the top layer's) are then not traced */
+    int tir = transmit(s, p, d, top, n, tx, ob, fil, h, weight, level, skip, leaving, cls, in,
+                       out);
     for (int k = 0; k < nmirrored; k++) {
         double rc[3];
-        trace(s, p, rd, mirrored[k].weight, level, SKIP_NO_REFLECTION, 0, -1, in, rc);
+        if (tir && mirrored[k].top) continue;
+        trace(s, p, mirrored[k].dir, mirrored[k].weight, level, SKIP_NO_REFLECTION, 0, -1, in,
+              rc);
         double ex = mirrored[k].ex;
         if (ex != 0.0 && 1.0 / ex != 1.0) {
             for (int i = 0; i < 3; i++) rc[i] = pow(rc[i] < 0 ? 0 : rc[i], 1.0 / ex);
@@ -1353,11 +1531,12 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
 }
 
 /* The ray through a transparent surface, added to out: straight on where the ior is 1,
- * refracted otherwise; returns 1 where it reflected totally instead. */
-static int transmit(Scene *s, const double *p, const double *d, const double *n,
-                    const double *tx, const double *ob, const double *fil, const Hit *h,
-                    double weight, int level, int skip, int leaving, int cls, const Inside *in,
-                    double *out) {
+ * refracted otherwise about the top layer's normal turned toward the ray (raw: the smooth
+ * normal, for the reflection fix); returns 1 where it reflected totally instead. */
+static int transmit(Scene *s, const double *p, const double *d, const double *top,
+                    const double *raw, const double *tx, const double *ob, const double *fil,
+                    const Hit *h, double weight, int level, int skip, int leaving, int cls,
+                    const Inside *in, double *out) {
     if (!(int)tx[T_TRANS]) return 0;
     double trans = fabs(dot(fil, GREY));
     if (trans > 1.0) trans = 1.0;
@@ -1374,11 +1553,12 @@ static int transmit(Scene *s, const double *p, const double *d, const double *n,
     double td[3] = {d[0], d[1], d[2]}, mult[3] = {fil[0], fil[1], fil[2]};
     int tir = 0;
     if (!straight) {
+        double n[3] = {top[0], top[1], top[2]};
+        if (dot(d, top) > 0) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
         double n_cos = -dot(d, n);
         double tt = 1.0 + ratio * ratio * (n_cos * n_cos - 1.0);
         if (tt < 0) { /* total internal reflection: mirrored, not filtered */
-            mirror(d, n, td);
-            normalize3(td);
+            reflect_dir(d, top, raw, td);
             mult[0] = mult[1] = mult[2] = 1.0;
             tir = 1;
         } else {
@@ -1594,6 +1774,15 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         double next = s->tex[(size_t)i * TEX + T_NEXT];
         if (!(next == -1 || (next > i && next < s->ntex))) goto bad;
     }
+    double nrms = h[H_NRMS], nnrm = h[H_NNRM];
+    if (!(nnrm >= 0 && nnrm < 1e9 && (nnrm == 0 || (nrms >= need && nrms + NRM * nnrm <= sb->len / 8))))
+        goto bad;
+    s->nrm = h + (size_t)nrms;
+    s->nnrm = (int)nnrm;
+    for (int i = 0; i < s->ntex; i++) {
+        double r = s->tex[(size_t)i * TEX + T_NRM];
+        if (!(r == -1 || (r >= 0 && r < s->nnrm))) goto bad;
+    }
     double maps = h[H_MAPS], nmaps = h[H_NMAPS];
     if (!(maps >= need && nmaps >= 0 && maps + 6 * nmaps <= sb->len / 8)) goto bad;
     s->map = h + (size_t)maps;
@@ -1627,6 +1816,22 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     }
     for (int f = 0; f < s->nfog; f++)
         if (s->fog[(size_t)f * FOG + F_HASTURB] != 0.0 && !s->has_noise) goto bad;
+    for (int i = 0; i < s->nnrm; i++) {
+        const double *nr = s->nrm + (size_t)i * NRM;
+        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_SLOPE)) goto bad;
+        if (!(nr[P_KIND] >= PK_SOLID && nr[P_KIND] <= PK_AGATE)) goto bad;
+        /* every normal but none reads POV-Ray's noise (its turbulence, dents, bumps, ...) */
+        if (nr[NR_KIND] != NK_NONE &&
+            !(s->has_noise && nr[P_GEN] >= 1 && nr[P_GEN] <= 3 && nr[P_OCTAVES] >= 0 &&
+              nr[P_OCTAVES] <= 1e6))
+            goto bad;
+        if (!(nr[NR_NWAVES] >= 0 && nr[NR_WAVES] >= 0 && nr[NR_WAVES] + nr[NR_NWAVES] <= nmaps))
+            goto bad;
+        if (!(nr[NR_NSLOPES] >= 0 && nr[NR_SLOPES] >= 0 &&
+              nr[NR_SLOPES] + nr[NR_NSLOPES] <= nmaps))
+            goto bad;
+        if (nr[NR_KIND] == NK_SLOPE && !(nr[NR_ACC] > 0)) goto bad;
+    }
     for (int i = 0; i < s->npig; i++) {
         const double *pg = s->pig + (size_t)i * PIG;
         double n = pg[P_N];
@@ -1782,8 +1987,9 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 }
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
-    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR,
+    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR,
                          "object", OBJ, "texture", TEX, "light", LIT, "pigment", PIG,
+                         "normal", NRM,
                          "map_entry", 6, "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
                          "bvh_stack", BVH_STACK, "fog", FOG, "max_layers", MAX_LAYERS);
 }
