@@ -11,8 +11,8 @@ are the way to it from elsewhere.
 
 What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
 without focal blur; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials
-(quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE), transformed or not, inverse
-or not, and their CSG (union, intersection, difference, merge, nested), any number of them
+(quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
+kernel/sweep.h), transformed or not, inverse or not, and their CSG (union, intersection, difference, merge, nested), any number of them
 through the tracer's box tree; no clipped_by, meshes or other shapes.
 Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker (of
 solid colours), gradient, onion, spherical, cylindrical, planar, boxed, radial or one of
@@ -58,6 +58,8 @@ from runtime import transform as tf
 from runtime.camera import view_planes
 from runtime.lights import MAX_SHADOW_CROSSINGS
 from runtime.prims.polynomial import PolyPrim
+from runtime.prims.prism import PrismPrim, Sweep
+from runtime.prims.text import TextPrim
 from runtime.trace import CsgNode, Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
@@ -66,7 +68,7 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 96, 64, 64, 24, 32, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 112, 64, 64, 24, 32, 6, 16, 1024
 # a normal row: a pattern row (PIG values, no colour map), then NR_KIND on
 NRM = 64
 FOG = 20
@@ -90,6 +92,10 @@ H_FOGS, H_NFOG, H_FOGMAX = 80, 81, 82
 H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER = 83, 84, 85, 86, 87
 # the normals' table (NRM values each) and how many
 H_NRMS, H_NNRM = 88, 89
+# the sweeps' table (kernel/sweep.h: groups, then segments, per sweep), its length, and the
+# tolerances of their root finding (spline2d)
+H_SWEEPS, H_NSWEEP, H_SWEEP_TOL = 96, 97, 98
+SWEEP_GROUP, SWEEP_SEGMENT = 6, 13
 POLY_TERM = 4
 # a polynomial of a higher degree renders through numpy (kernel/poly.h POLY_MAX_DEGREE)
 POLY_MAX_DEGREE = 8
@@ -175,6 +181,8 @@ KINDS = {
     shapes.ConePrim: 4,
     shapes.TorusPrim: 5,
     PolyPrim: 6,
+    PrismPrim: 7,
+    TextPrim: 7,
 }
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
@@ -618,11 +626,26 @@ def _table(rows: list, width: int) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(len(rows), width)
 
 
-def _prim_row(prim, terms: list[list[float]]) -> list[float]:
+def _sweep_rows(prim: Sweep) -> np.ndarray:
+    """A sweep's part of the sweeps' table: per group its box, first segment and count, then
+    per segment its x and y cubics, exact box and whether its end joins a start."""
+    groups = [
+        [*prim.glo[g], *prim.ghi[g], prim.offsets[g], len(curve)]
+        for g, curve in enumerate(prim.groups)
+    ]
+    c = prim.all
+    segs = np.concatenate(
+        [c.coef[:, 0], c.coef[:, 1], c.lo, c.hi, c.joined[:, None].astype(np.float64)], axis=1
+    )
+    return np.concatenate([_table(groups, SWEEP_GROUP).ravel(), segs.ravel()])
+
+
+def _prim_row(prim, terms: list[list[float]], sweeps: list[np.ndarray]) -> list[float]:
     """A primitive's parameters (PRIM_SLOTS of them): plane normal and distance, box
     corners, disc centre, normal, radius^2 and hole^2, cone/cylinder canonical frame (object
-    to canonical rows), radii and openness. A sphere's (centre and radius) are written by
-    pack, all spheres at once."""
+    to canonical rows), radii and openness; a polynomial's terms and a sweep's curves go to
+    their tables (`terms`, `sweeps`). A sphere's (centre and radius) are written by pack,
+    all spheres at once."""
     if isinstance(prim, shapes.PlanePrim):
         row = [*prim.n.tolist(), prim.dist]
     elif isinstance(prim, shapes.BoxPrim):
@@ -636,6 +659,11 @@ def _prim_row(prim, terms: list[list[float]]) -> list[float]:
     elif isinstance(prim, PolyPrim):
         row = [len(terms), len(prim.c), prim.degree, prim.inside_eps, prim.size]
         terms.extend(map(list, zip(prim.i, prim.j, prim.k, prim.c, strict=True)))
+    elif isinstance(prim, Sweep):
+        at = sum(len(rows) for rows in sweeps)
+        sweeps.append(_sweep_rows(prim))
+        row = [at, len(prim.groups), len(prim.all), prim.h1, prim.h2, *prim.axes]
+        row += [prim.conic, prim.open, prim.size, *prim.lo, *prim.hi, prim.degenerate]
     else:
         raise TypeError(f"no kernel row for {type(prim).__name__}")
     return row + [0.0] * (PRIM_SLOTS - len(row))
@@ -703,7 +731,13 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     terms_at = fogs_at + FOG * len(fogs)
     n_terms = sum(len(leaf.prim.c) for leaf in leaves if type(leaf.prim) is PolyPrim)
     nrms_at = terms_at + POLY_TERM * n_terms
-    buf = np.zeros(nrms_at + NRM * len(bumped) + len(tables))
+    sweeps_at = nrms_at + NRM * len(bumped)
+    n_sweep = sum(
+        SWEEP_GROUP * len(leaf.prim.groups) + SWEEP_SEGMENT * len(leaf.prim.all)
+        for leaf in leaves
+        if isinstance(leaf.prim, Sweep)
+    )
+    buf = np.zeros(sweeps_at + n_sweep + len(tables))
     buf[nrms_at : nrms_at + NRM * len(bumped)] = nrm_rows.ravel()
     h = buf[:HDR]
     h[H_NRMS], h[H_NNRM] = nrms_at, len(bumped)
@@ -770,11 +804,22 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         rows[spheres, O_PRIM + 3] = [leaves[k].prim.r for k in spheres]
     others = [k for k, leaf in enumerate(leaves) if type(leaf.prim) is not shapes.SpherePrim]
     terms: list[list[float]] = []
+    sweeps: list[np.ndarray] = []
     if others:
         rows[others, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
-            [_prim_row(leaves[k].prim, terms) for k in others], PRIM_SLOTS
+            [_prim_row(leaves[k].prim, terms, sweeps) for k in others], PRIM_SLOTS
         )
     h[H_TERMS], h[H_NTERMS] = terms_at, len(terms)
+    h[H_SWEEPS], h[H_NSWEEP] = sweeps_at, n_sweep
+    h[H_SWEEP_TOL : H_SWEEP_TOL + 5] = (
+        tol.LEAD_REL,
+        tol.NEWTON_STEPS,
+        tol.NEWTON_MAX_STEP_REL,
+        tol.SPLINE_PARAM_EPS,
+        tol.SWEEP_SIDE_REL,
+    )
+    if sweeps:
+        buf[sweeps_at : sweeps_at + n_sweep] = np.concatenate(sweeps)
     h[H_POLY_REACH], h[H_POLY_LEAD], h[H_ROOT_ITER] = (
         tol.POLY_REACH,
         tol.POLY_LEAD_REL,

@@ -307,6 +307,74 @@ def test_random_normals_match_numpy(kind, depth, scale, turb, ior, keep, monkeyp
     _assert_mostly_same(fast, slow, 0.01)
 
 
+SWEEPS = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <1.5, 1.6, -4.5> look_at <1.5, 0.4, 0> }
+light_source { <5, 8, -6>, rgb 1 }
+light_source { <-3, 4, -2>, rgb 0.4 }
+plane { y, -0.01 pigment { checker rgb 1, rgb 0.5 } }
+text { ttf "timrom.ttf" "Strala 3.7!" 0.3, <0.05, 0, 0> pigment { rgb <1, 0.5, 0.2> }
+  finish { phong 0.5 reflection 0.1 } scale 0.6 rotate y * -10 translate <-0.3, 0, 0> }
+prism { linear_sweep cubic_spline 0, 0.8, 8, <1, -1>, <1, 1>, <-1, 1>, <-1, -1>, <1, -1>,
+  <1, 1>, <-1, 1>, <0.5, 0> pigment { rgbf <0.5, 1, 0.5, 0.7> } interior { ior 1.3 }
+  scale 0.4 translate <3, 0, -0.5> }
+prism { conic_sweep linear_spline 0.5, 1, 5, <1, 1>, <-1, 1>, <-1, -1>, <1, -1>, <1, 1>
+  rotate x * 180 translate y pigment { rgb <0.3, 0.4, 1> } scale 0.5 translate <0, 0, -1> }
+prism { quadratic_spline -0.5, 0.5, 6, <0, 0>, <1, 0>, <0, 1>, <-1, 0>, <0, -1>, <1, 0>
+  open pigment { rgb <1, 1, 0.4> } rotate z * 70 scale 0.3 translate <2, 0.6, -1.4> }
+prism { bezier_spline 0, 0.3, 8, <0, 0>, <1, 0>, <1, 1>, <0, 1>, <0, 1>, <-1, 1>, <-1, 0>,
+  <0, 0> pigment { rgb <0.9, 0.2, 0.6> } translate <0.8, 0, -1.8> }
+difference {
+  box { <-0.5, 0, 1>, <3.5, 1, 1.5> }
+  text { ttf "crystal.ttf" "CSG" 1, 0 translate <0, 0.1, 0.9> }
+  pigment { rgb 0.8 } }
+intersection {
+  text { ttf "cyrvetic.ttf" "O" 0.5, 0 scale 1.2 }
+  sphere { <0.4, 0.45, 0.25>, 0.45 }
+  pigment { rgb <0.2, 0.8, 0.9> } translate <3.5, 0.3, 0.2> }
+"""
+
+
+def test_prisms_and_text_match_numpy(monkeypatch):
+    """Sweeps in the kernel (kernel/sweep.h, prism.Sweep): text glyphs (lines and quadratic
+    Béziers, several glyphs a union), prisms of every spline type, linear and conic, open
+    or capped, transparent, transformed, and in CSG (difference, intersection)."""
+    _assert_identical(_scene(SWEEPS), 96, 72, 0.3, monkeypatch)
+
+
+_PRISM_POINT = st.tuples(st.floats(-1, 1), st.floats(-1, 1))
+
+
+@settings(
+    max_examples=25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
+@given(
+    points=st.lists(_PRISM_POINT, min_size=3, max_size=7),
+    spline=st.sampled_from(["linear_spline", "quadratic_spline", "cubic_spline"]),
+    sweep=st.sampled_from(["linear_sweep", "conic_sweep"]),
+    heights=st.sampled_from([(0.0, 1.0), (0.3, 1.2), (-1.0, 0.5)]),
+    turn=st.floats(0, 90),
+)
+def test_random_prisms_match_numpy(points, spline, sweep, heights, turn, monkeypatch):
+    # closed as POV-Ray wants: linear repeats its first point, the others their second
+    closing = points[0] if spline == "linear_spline" else points[1]
+    pts = [*points, closing] + ([points[2]] if spline == "cubic_spline" else [])
+    text = ", ".join(f"<{u}, {v}>" for u, v in pts)
+    scene = _scene(
+        "#version 3.7; global_settings { assumed_gamma 1 }"
+        "camera { location <0, 3, -4> look_at 0 } light_source { <3, 5, -4>, rgb 1 }"
+        "plane { y, -1.5 pigment { checker rgb 1, rgb 0.2 } }"
+        f"prism {{ {sweep} {spline} {heights[0]}, {heights[1]}, {len(pts)}, {text}"
+        f" pigment {{ rgbf <1, 0.8, 0.6, 0.5> }} interior {{ ior 1.2 }}"
+        f" rotate <{turn}, {turn / 2}, 0> }}"
+    )
+    fast, slow = _both(scene, 24, 18, monkeypatch=monkeypatch)
+    _assert_mostly_same(fast, slow, 0.01)
+
+
 FOGS = """
 #version 3.7;
 global_settings { assumed_gamma 1 }
@@ -780,7 +848,7 @@ def test_a_damaged_scene_array_is_refused_not_traced():
     for where, value in ((whitted.H_NOBJ, 1e6), (o_tex, 99.0), (o_tex, -1.0),
                          (whitted.H_NSKY, 1e3), (whitted.H_NBVH, -1.0),
                          (whitted.H_NNODE, np.nan), (whitted.H_MAXLEVEL, 1e300),
-                         (whitted.H_NNRM, 5.0)):  # fmt: skip
+                         (whitted.H_NNRM, 5.0), (whitted.H_SWEEP_TOL + 1, 1e9)):  # fmt: skip
         bad = good.copy()
         bad[where] = value
         with pytest.raises(ValueError, match="scene"):

@@ -16,12 +16,13 @@
 #include "noise.h"
 #include "poly.h"
 #include "slab.h"
+#include "sweep.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
-#define HDR 96
+#define HDR 112
 #define FOG 20
 #define OBJ 64
 #define TEX 64
@@ -36,14 +37,16 @@
 #define BVH_STACK 128
 /* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
 #define MAX_CROSS 1024
-/* crossings of one leaf at most: a polynomial's degree (a capped cone has 4) */
-#define MAX_LEAF POLY_MAX_DEGREE
+/* crossings of one leaf at most: a sweep's kept ones (a polynomial has its degree, a capped
+ * cone 4) */
+#define MAX_LEAF (SWEEP_MAX_CROSS > POLY_MAX_DEGREE ? SWEEP_MAX_CROSS : POLY_MAX_DEGREE)
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
        H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
-       H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM };
+       H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM,
+       H_SWEEPS = 96, H_NSWEEP, H_SWEEP_TOL };
 /* a fog: distance, rgbft, type, unit up, offset, alt, turbulence (on, vector, octaves, omega,
  * lambda, depth) */
 enum { F_DIST, F_COL, F_TYPE = 6, F_UP, F_OFFSET = 10, F_ALT, F_HASTURB, F_TURB, F_OCTAVES = 16,
@@ -73,7 +76,7 @@ enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = 
        NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES };
 enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE };
 
-enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY };
+enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP };
 /* a polynomial's parameters: its terms in the terms table, their count, its degree, its
  * inside tolerance, its size (polynomial.PolyPrim) */
 enum { Y_TERMS, Y_NTERMS, Y_DEGREE, Y_INSIDE, Y_SIZE };
@@ -108,7 +111,9 @@ static const double GREY[3] = {0.297, 0.589, 0.114};
 
 typedef struct {
     const double *h, *obj, *tex, *light, *tol, *pig, *node, *child, *unb, *loose, *bvh, *item;
-    const double *nrm; /* the normals, NRM values each */
+    const double *nrm;    /* the normals, NRM values each */
+    const double *sweeps; /* the sweeps' groups and segments (kernel/sweep.h) */
+    SweepTol swt;
     /* per box-tree node: may camera rays (column 0), or shadow rays from their hits toward
      * light l (column 1 + l), meet it (whitted.py view masks); NULL: not packed */
     const double *mask, *start; /* start: per class, the node its walk begins at (-1: none) */
@@ -437,6 +442,8 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
         return torus_crossings(s, p, o, d, t, face);
     case K_POLY:
         return poly_crossings(s, p, o, d, t, face);
+    case K_SWEEP:
+        return sweep_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
     default: { /* box */
         const double *lo = p, *hi = p + 3;
         double n_ax[3], f_ax[3];
@@ -498,6 +505,9 @@ static void object_normal(const Scene *s, const double *ob, const double *po, in
         poly_value(&pl, po, n);
         break;
     }
+    case K_SWEEP:
+        sweep_normal(&s->swt, s->sweeps, p, po, face, n);
+        break;
     case K_TORUS: {
         double R2 = p[0] * p[0], sq = dot(po, po) + R2 - p[1] * p[1];
         n[0] = po[0] * sq - 2 * R2 * po[0];
@@ -581,6 +591,10 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
         if (pl.degree == 0) return outside;
         double v = poly_value(&pl, p, NULL), e = q[Y_INSIDE];
         int in = e == 0 ? v <= 0 : v < e;
+        return outside ? !in : in;
+    }
+    case K_SWEEP: {
+        int in = sweep_inside(&s->swt, s->sweeps, q, p);
         return outside ? !in : in;
     }
     case K_TORUS: { /* distance to the core circle, surface included (as POV-Ray) */
@@ -686,6 +700,16 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
 static int gather_hit(Scene *s, const Cross *buf, int n, double tmin, double limit, int skip,
                       int any, Hit *h);
 
+/* How many leaves a node holds (room for their crossings, when a ray meets many). */
+static size_t node_leaves(const Scene *s, int node) {
+    const double *nd = s->node + (size_t)node * NODE;
+    if ((int)nd[N_KIND] == NK_LEAF) return 1;
+    size_t n = 0;
+    for (int j = 0; j < (int)nd[N_COUNT]; j++)
+        n += node_leaves(s, (int)s->child[(size_t)nd[N_FIRST] + j]);
+    return n;
+}
+
 /* Test root node r; 1 when `any` and a hit was found (the caller stops). A CSG root is
  * culled by its box against the segment (tmin, cull). */
 static int test_root(Scene *s, int r, const double *o, const double *d, const double *inv,
@@ -717,7 +741,7 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
         if (n < 0) {
             /* a ray through more leaves than the stack buffer holds (a CSG of hundreds of
              * shapes): once more with room for every leaf's crossings */
-            size_t cap = 4 * (size_t)s->nobj + 4;
+            size_t cap = (size_t)MAX_LEAF * node_leaves(s, r) + 4;
             Cross *big = malloc(cap * sizeof(Cross));
             if (big == NULL) return 0;
             n = node_crossings(s, r, o, d, inv, tmin, limit, big, (int)cap);
@@ -1804,6 +1828,30 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         for (int k = 0; k < (int)q[Y_NTERMS]; k++) {
             const double *tm = s->terms + (size_t)(q[Y_TERMS] + k) * POLY_TERM;
             if (!(tm[0] >= 0 && tm[1] >= 0 && tm[2] >= 0 && tm[0] + tm[1] + tm[2] <= q[Y_DEGREE]))
+                goto bad;
+        }
+    }
+    double sweeps = h[H_SWEEPS], nsweep = h[H_NSWEEP];
+    if (!(nsweep >= 0 && (nsweep == 0 || (sweeps >= need && sweeps + nsweep <= sb->len / 8))))
+        goto bad;
+    s->sweeps = h + (size_t)sweeps;
+    const double *stl = h + H_SWEEP_TOL;
+    s->swt = (SweepTol){.parallel = PARALLEL_EPS, .abs_floor = ABS_FLOOR, .lead_rel = stl[0],
+                        .newton_steps = (int)stl[1], .newton_max_step = stl[2],
+                        .param_eps = stl[3], .side_rel = stl[4]};
+    if (!(stl[1] >= 0 && stl[1] <= 100)) goto bad;
+    for (int i = 0; i < s->nobj; i++) {
+        const double *ob = s->obj + (size_t)i * OBJ, *q = ob + O_PRIM;
+        if ((int)ob[O_KIND] != K_SWEEP) continue;
+        if (!(q[SW_AT] >= 0 && q[SW_NGROUP] >= 0 && q[SW_NSEG] >= 0 &&
+              q[SW_AT] + SG * q[SW_NGROUP] + SS * q[SW_NSEG] <= nsweep))
+            goto bad;
+        for (int k = 0; k < 3; k++)
+            if (!(q[SW_AXES + k] >= 0 && q[SW_AXES + k] <= 2)) goto bad;
+        SweepView v = sweep_view(s->sweeps, q);
+        for (int g = 0; g < v.ngroup; g++) {
+            const double *gr = v.groups + (size_t)g * SG;
+            if (!(gr[SG_FIRST] >= 0 && gr[SG_COUNT] >= 0 && gr[SG_FIRST] + gr[SG_COUNT] <= v.nseg))
                 goto bad;
         }
     }
