@@ -12,8 +12,9 @@ are the way to it from elsewhere.
 What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
 without focal blur; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials
 (quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
-kernel/sweep.h), transformed or not, inverse or not, and their CSG (union, intersection, difference, merge, nested), any number of them
-through the tracer's box tree; no clipped_by, meshes or other shapes.
+kernel/sweep.h), transformed or not, inverse or not, and their CSG (union, intersection,
+difference, merge, nested), any number of them through the tracer's box tree; no
+clipped_by, meshes or other shapes.
 Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker (of
 solid colours), gradient, onion, spherical, cylindrical, planar, boxed, radial or one of
 POV-Ray's noise patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on
