@@ -15,17 +15,18 @@ without focal blur; spheres, planes, boxes, discs, cylinders, cones, tori and po
 kernel/sweep.h), transformed or not, inverse or not, and their CSG (union, intersection,
 difference, merge, nested), any number of them through the tracer's box tree; no
 clipped_by, meshes or other shapes.
-Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker (of
-solid colours), gradient, onion, spherical, cylindrical, planar, boxed, radial or one of
-POV-Ray's noise patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on
-its three noise generators), with a colour map of any length, a wave and turbulence (no
-warps); normals (bumps, dents, wrinkles, ripples, waves and the slope of
-those patterns, with turbulence and a slope map; no normal_map or warps), one per layer;
-every finish item (crand, diffuse_back, fresnel reflection, irid
-included) but a negative metallic. Point lights and spotlights (fade included, no area
-lights); interiors with ior and fade, no caustics or media; a background colour and
-sky_sphere layers of those pigments (either version's rules for their filter and
-transmit); fog (constant, ground, turbulent, several); no media, rainbow or radiosity.
+Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker,
+gradient, onion, spherical, cylindrical, planar, boxed, radial or one of POV-Ray's noise
+patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on its three noise
+generators), with a colour map of any length or a pigment map (checkers and maps of such
+pigments, nested up to PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps,
+dents, wrinkles, ripples, waves and the slope of those patterns, with turbulence and a
+slope map; no normal_map or warps), one per layer; every finish item (crand, diffuse_back,
+fresnel reflection, irid included) but a negative metallic. Point lights and spotlights
+(fade included, no area lights); interiors with ior and fade, no caustics or media; a
+background colour and sky_sphere layers of those pigments (either version's rules for
+their filter and transmit); fog (constant, ground, turbulent, several); no media, rainbow
+or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -69,9 +70,11 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 112, 64, 64, 24, 32, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 112, 64, 64, 24, 48, 6, 16, 1024
 # a normal row: a pattern row (PIG values, no colour map), then NR_KIND on
-NRM = 64
+NRM = PIG + 32
+# pigments inside pigments (maps, checkers) deeper than this render through numpy
+PIGMENT_DEPTH = 32
 FOG = 20
 # a texture of more layers renders through numpy (kernel/whitted.c MAX_LAYERS)
 MAX_LAYERS = 16
@@ -134,6 +137,11 @@ P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
 # (vector, octaves, omega, lambda, on), the noise generator and agate_turb
 P_TURB = P_MAP + 1
 P_OCTAVES, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE = range(P_TURB + 3, P_TURB + 9)
+# P_SUBS: the entries name pigment rows (a pigment map, a checker of pigments), evaluated at
+# the world point or (P_MAPAT) at the pattern point taken back through P_FWD, the forward
+# transform (patterns.map_points)
+P_SUBS, P_FWD = P_AGATE + 1, P_AGATE + 2
+P_MAPAT = P_FWD + 12
 PIGMENT_KINDS = {
     "solid": 0,
     "checker": 1,
@@ -244,8 +252,10 @@ def layout() -> dict[str, int]:
     }
 
 
-def _pigment_reasons(pig: ir.Pigment) -> list[str]:
+def _pigment_reasons(pig: ir.Pigment, depth: int = 0) -> list[str]:
     kind = pig.pattern
+    if depth >= PIGMENT_DEPTH:
+        return [f"pigments nested deeper than {PIGMENT_DEPTH}"]
     if kind not in PIGMENT_KINDS:
         return [f"pigment pattern {kind}"]
     if kind == "solid":
@@ -255,14 +265,12 @@ def _pigment_reasons(pig: ir.Pigment) -> list[str]:
     if _needs_noise(pig) and patterns.noise_generator(pig.params) not in (1, 2, 3):
         return [f"noise_generator {pig.params.get('noise_generator')}"]
     if kind == "checker":
-        if any(sub.pattern != "solid" for sub in pig.list) or len(pig.list) == 1:
-            return ["checker of patterned pigments"]
-        return []
-    if pig.pigment_map:
-        return ["pigment_map"]
+        if len(pig.list) == 1:
+            return ["checker of one pigment"]
+        return [r for sub in pig.list for r in _pigment_reasons(sub, depth + 1)]
     if pig.params.get("wave", "ramp_wave") not in WAVES:
         return [f"wave {pig.params.get('wave')}"]
-    return []
+    return [r for _, sub in pig.pigment_map for r in _pigment_reasons(sub, depth + 1)]
 
 
 def _normal_reasons(nrm: ir.Normal) -> list[str]:
@@ -386,6 +394,31 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     return sorted(set(out))
 
 
+def _subs(pig: ir.Pigment) -> list[ir.Pigment]:
+    """The pigments inside a pigment (its pigment map's, a checker's of patterned ones)."""
+    if pig.pattern == "checker" and any(sub.pattern != "solid" for sub in pig.list):
+        return list(pig.list)
+    return [sub for _, sub in pig.pigment_map]
+
+
+def _inner_pigments(tops: list[ir.Pigment]) -> list[ir.Pigment]:
+    """Every pigment inside these, each once, breadth first (their rows follow the
+    textures'); deeper than PIGMENT_DEPTH is refused by the reasons."""
+    seen = {id(p) for p in tops}
+    out: list[ir.Pigment] = []
+    level = tops
+    for _ in range(PIGMENT_DEPTH):
+        nxt = []
+        for pig in level:
+            for sub in _subs(pig):
+                if id(sub) not in seen:
+                    seen.add(id(sub))
+                    nxt.append(sub)
+        out.extend(nxt)
+        level = nxt
+    return out
+
+
 def _entries(pig: ir.Pigment) -> list:
     """The (key, rgbft) entries the kernel blends: a solid's one colour, a checker's two."""
     if pig.pattern == "solid":
@@ -416,14 +449,30 @@ def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
     row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
 
 
-def pack_pigment(pig: ir.Pigment, row: np.ndarray, maps: list[list[float]]) -> None:
+def pack_pigment(
+    pig: ir.Pigment, row: np.ndarray, maps: list[list[float]], rows_of: dict[int, int]
+) -> None:
     """One pigment row: kind, pattern and colour map (solid: one entry; checker: its two
-    colours)."""
+    colours), or the rows of the pigments inside it (`rows_of`, by id)."""
     row[P_KIND] = PIGMENT_KINDS[pig.pattern]
     _pack_pattern(pig.pattern, pig.params, pig.transform, row)
-    entries = _entries(pig)
-    row[P_N], row[P_MAP] = len(entries), len(maps)
-    maps.extend([float(key), *map(float, colour)] for key, colour in entries)
+    subs = _subs(pig)
+    row[P_MAP] = len(maps)
+    if not subs:
+        entries = _entries(pig)
+        row[P_N] = len(entries)
+        maps.extend([float(key), *map(float, colour)] for key, colour in entries)
+        return
+    row[P_SUBS] = 1.0
+    keys = [0.0, 1.0] if pig.pattern == "checker" else [k for k, _ in pig.pigment_map]
+    row[P_N] = len(subs)
+    maps.extend(
+        [float(k), float(rows_of[id(sub)]), 0.0, 0.0, 0.0, 0.0]
+        for k, sub in zip(keys, subs, strict=True)
+    )
+    if pig.pattern != "checker" and patterns.turb_params(pig.params)[0] is not None:
+        row[P_MAPAT] = 1.0  # patterns.map_points: back through the transform (no warps here)
+        row[P_FWD : P_FWD + 12] = _inv_rows(pig.transform)
 
 
 def pack_normal(nrm: ir.Normal, keep: bool, row: np.ndarray, maps: list[list[float]]) -> None:
@@ -695,7 +744,10 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     below = [layer for layers in layer_rows for layer in layers[1:]]
     n_tex = len(ctx.textures) + len(below)
     sky = list(reversed(scene.sky_sphere or ()))  # evaluated innermost first, as integrate.sky
-    n_pig = n_tex + len(sky)
+    tops = [layers[0].pigment for layers in layer_rows] + [t.pigment for t in below]
+    # the pigments inside pigments after the textures' (the sky's stay last, kernel's rule)
+    inner = _inner_pigments(tops + sky)
+    n_pig = n_tex + len(inner) + len(sky)
     n_node = len(nodes)
     bvh, items = box_tree(tracer)
     unbounded = list(tracer.unbounded)
@@ -705,7 +757,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     starts = walk_starts(bvh, masks)
     tail = np.concatenate([children, unbounded, loose, bvh.ravel(), items, masks.ravel(), starts])
     tail = tail.astype(np.float64)
-    pigs = [layers[0].pigment for layers in layer_rows] + [t.pigment for t in below] + sky
+    pigs = tops + inner + sky
     fogs = list(fog.scene_fogs(scene))
     films = [layer.finish.irid for layers in layer_rows for layer in layers]
     # the layers' normals, in the order of the layer rows (`rows_of` below)
@@ -721,8 +773,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     # pigment row k is pigs[k]'s: packed first, for the length of their colour maps' table
     pig_rows = np.zeros((n_pig, PIG))
     maps: list[list[float]] = []
+    pig_row_of = {id(pig): k for k, pig in enumerate(pigs)}
     for pig, row in zip(pigs, pig_rows, strict=True):
-        pack_pigment(pig, row, maps)
+        pack_pigment(pig, row, maps, pig_row_of)
     nrm_rows = np.zeros((len(bumped), NRM))
     for layer, row in zip(bumped, nrm_rows, strict=True):
         assert layer.normal is not None  # bumped holds the layers with one

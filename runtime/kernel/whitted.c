@@ -29,9 +29,11 @@
 /* a texture of more layers renders through numpy (whitted.py MAX_LAYERS) */
 #define MAX_LAYERS 16
 #define LIT 24
-#define PIG 32
+#define PIG 48
 /* a normal: a pattern row (PIG values), then its own (NR_ below) */
-#define NRM 64
+#define NRM (PIG + 32)
+/* pigments inside pigments (pigment maps, checkers of pigments) at most this deep */
+#define PIGMENT_DEPTH 32
 #define NODE 16
 #define BVH 11
 #define BVH_STACK 128
@@ -62,9 +64,12 @@ enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS
 
 /* P_MAP: where the colour map's P_N entries (6 values each: key, rgbft) start in the map
  * table; then the turbulence (vector, octaves, omega, lambda, on), the noise generator and
- * agate_turb */
+ * agate_turb. P_SUBS: the entries name pigment rows instead (key, row: a pigment map, a
+ * checker of pigments), evaluated at the world point or (P_MAPAT) at the pattern point
+ * taken back through the forward transform P_FWD (patterns.map_points: its turbulence). */
 enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP,
-       P_TURB, P_OCTAVES = P_TURB + 3, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE };
+       P_TURB, P_OCTAVES = P_TURB + 3, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE, P_SUBS,
+       P_FWD, P_MAPAT = P_FWD + 12 };
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
        PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE };
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
@@ -993,24 +998,50 @@ static double blend(const double *map, int n, double v, int *lo_out, int *hi_out
 }
 
 /* RGBFT colour of a pigment at a point (patterns.evaluate for the kinds packed). */
-static void pigment(const Scene *s, const double *pg, const double *p, double *out) {
+static void pigment_in(const Scene *s, const double *pg, const double *p, double *out,
+                       int depth) {
     const double *map = s->map + 6 * (size_t)pg[P_MAP];
-    int kind = (int)pg[P_KIND];
+    int kind = (int)pg[P_KIND], subs = pg[P_SUBS] != 0.0;
     if (kind == PK_SOLID) {
         memcpy(out, map + 1, 5 * sizeof(double));
+        return;
+    }
+    if (depth >= PIGMENT_DEPTH) { /* deeper than whitted.py packs: black */
+        memset(out, 0, 5 * sizeof(double));
         return;
     }
     double q[3];
     pattern_point(s, pg, p, q);
     double v = pattern_value(s, pg, q);
     if (kind == PK_CHECKER) {
-        memcpy(out, map + (v != 0.0 ? 7 : 1), 5 * sizeof(double));
+        const double *e = map + (v != 0.0 ? 6 : 0);
+        if (subs) pigment_in(s, s->pig + (size_t)e[1] * PIG, p, out, depth + 1);
+        else memcpy(out, e + 1, 5 * sizeof(double));
         return;
     }
     int lo, hi;
     double frac = blend(map, (int)pg[P_N], v, &lo, &hi);
-    for (int k = 0; k < 5; k++)
-        out[k] = map[6 * lo + 1 + k] * (1.0 - frac) + map[6 * hi + 1 + k] * frac;
+    if (!subs) {
+        for (int k = 0; k < 5; k++)
+            out[k] = map[6 * lo + 1 + k] * (1.0 - frac) + map[6 * hi + 1 + k] * frac;
+        return;
+    }
+    /* a pigment map (patterns._map): the two entries around the value, weighted */
+    double at[3], a[5], b[5];
+    if (pg[P_MAPAT] != 0.0) affine(pg + P_FWD, q, at);
+    else memcpy(at, p, sizeof at);
+    pigment_in(s, s->pig + (size_t)map[6 * lo + 1] * PIG, at, a, depth + 1);
+    if (lo == hi) {
+        double w = (1.0 - frac) + frac;
+        for (int k = 0; k < 5; k++) out[k] = w * a[k];
+        return;
+    }
+    pigment_in(s, s->pig + (size_t)map[6 * hi + 1] * PIG, at, b, depth + 1);
+    for (int k = 0; k < 5; k++) out[k] = (1.0 - frac) * a[k] + frac * b[k];
+}
+
+static inline void pigment(const Scene *s, const double *pg, const double *p, double *out) {
+    pigment_in(s, pg, p, out, 0);
 }
 
 /* A normal pattern's value for its slope (patterns._pattern_value), its slope map applied
@@ -1884,6 +1915,13 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         const double *pg = s->pig + (size_t)i * PIG;
         double n = pg[P_N];
         if (!(n >= 1 && pg[P_MAP] >= 0 && pg[P_MAP] + n <= nmaps)) goto bad;
+        if (pg[P_SUBS] != 0.0) {
+            if (pg[P_KIND] == PK_CHECKER && n < 2) goto bad;
+            for (int e = 0; e < (int)n; e++) {
+                double row = s->map[6 * ((size_t)pg[P_MAP] + e) + 1];
+                if (!(row >= 0 && row < s->npig)) goto bad;
+            }
+        }
         if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_AGATE)) goto bad;
         if ((pg[P_KIND] >= PK_BOZO || pg[P_HASTURB] != 0.0) &&
             !(s->has_noise && pg[P_GEN] >= 1 && pg[P_GEN] <= 3 && pg[P_OCTAVES] >= 0 &&
