@@ -155,10 +155,13 @@ def worker_paths(bundle: Bundle, root: Path) -> tuple[str, tuple[str, ...]]:
 
 def client_diagnostic(d: Diagnostic, root: Path) -> Diagnostic:
     """A worker's diagnostic with the client's path of its file (and of the root in text)."""
-    prefix = str(root)
-    file = d.span.file
-    if file.startswith(prefix + os.sep):
-        file = os.sep + file[len(prefix) + 1 :]
-    message = d.message.replace(prefix + os.sep, os.sep)
-    hint = d.hint.replace(prefix + os.sep, os.sep) if d.hint else d.hint
-    return dataclasses.replace(d, span=d.span._replace(file=file), message=message, hint=hint)
+    file = client_text(d.span.file, root)
+    hint = client_text(d.hint, root) if d.hint else d.hint
+    return dataclasses.replace(
+        d, span=d.span._replace(file=file), message=client_text(d.message, root), hint=hint
+    )
+
+
+def client_text(text: str, root: Path) -> str:
+    """Text a worker wrote (a message, a warning's line) with the client's paths in it."""
+    return text.replace(str(root) + os.sep, os.sep)

@@ -297,14 +297,10 @@ _PROJECTIONS = {
 }
 SUPPORTED_KINDS = frozenset({"perspective", "orthographic", *_PROJECTIONS})
 
-_warned: set[str] = set()
-
 
 def _warn_kind(kind: str) -> None:
     # The evaluator already reports unsupported camera kinds; this only says what we did.
-    if kind not in _warned:
-        _warned.add(kind)
-        notices.say(f"strala: camera type {kind!r} not supported, rendering as perspective")
+    notices.say_once(f"strala: camera type {kind!r} not supported, rendering as perspective")
 
 
 # How far beyond the image the view's half spaces reach, in pixels: anti-aliasing compares

@@ -26,6 +26,7 @@ import os
 import signal
 import time
 import uuid
+import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Hashable, Iterator, Sequence
 from contextlib import contextmanager
@@ -37,6 +38,7 @@ import numpy as np
 from lang import ir
 from lang.diagnostics import Diagnostic, SceneError, Severity
 from runtime import bundle as bundles
+from runtime import notices
 
 try:
     import distributed
@@ -94,6 +96,9 @@ class TaskResult:
     seconds: float  # on the worker: materialising, compiling, rendering
     compile_seconds: float = 0.0
     worker: str = ""
+    # what the renderer said (its warnings, in the client's paths): the client prints
+    # them, or not under -q; a worker's own stderr is not the user's
+    notices: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -105,6 +110,7 @@ class Outcome:
     diagnostics: list[Diagnostic] = field(default_factory=list)
     error: str = ""  # an internal failure (not the scene's), one line
     seconds: float = 0.0  # task time on the workers, summed
+    notices: list[str] = field(default_factory=list)  # the tiles' warnings, each once
 
     @property
     def ok(self) -> bool:
@@ -238,7 +244,10 @@ def run(
         finally:
             fut.release()
         if result.pixels is None:
-            failed[fi] = Outcome(None, result.settings, result.diagnostics, seconds=result.seconds)
+            failed[fi] = Outcome(
+                None, result.settings, result.diagnostics, seconds=result.seconds,
+                notices=result.notices,
+            )  # fmt: skip
             _cancel_frame(futures, owner, fi)
             yield frames[fi], failed[fi]
             continue
@@ -262,6 +271,7 @@ def _assemble(options: Options, parts: dict[int, TaskResult]) -> Outcome:
     """A frame's image from its tiles (black outside a partial render's region)."""
     image = np.zeros((options.height, options.width, 3), dtype=np.float32)
     diagnostics: list[Diagnostic] = []
+    notices: dict[str, None] = {}  # in order, each once (tiles meet the same problems)
     seconds = 0.0
     settings = None
     for ti in sorted(parts):
@@ -270,9 +280,10 @@ def _assemble(options: Options, parts: dict[int, TaskResult]) -> Outcome:
         image[y0:y1, x0:x1] = r.pixels
         settings = r.settings
         seconds += r.seconds
+        notices.update(dict.fromkeys(r.notices))
         if ti == 0:  # every tile compiled the same scene: its warnings once
             diagnostics = r.diagnostics
-    return Outcome(image, settings, diagnostics, seconds=seconds)
+    return Outcome(image, settings, diagnostics, seconds=seconds, notices=list(notices))
 
 
 # ------------------------------------------------------------------ the worker
@@ -282,12 +293,23 @@ _compiled: OrderedDict[tuple, tuple[ir.Scene | None, list[Diagnostic]]] = Ordere
 def render_task(
     scene: bundles.Bundle, options: Options, frame: Frame, tile: tuple[int, int, int, int]
 ) -> TaskResult:
-    """Run on a worker: the pixels of `tile` of `frame` (or the scene's diagnostics)."""
-    from runtime.render import render_scene
-
+    """Run on a worker: the pixels of `tile` of `frame` (or the scene's diagnostics), with
+    what the renderer said on the way (runtime.notices, Python's warnings)."""
     _tune_malloc()
     start = time.perf_counter()
     root = bundles.materialise(scene)
+    with notices.recorded() as said, warnings.catch_warnings(record=True) as caught:
+        result = _render_task(scene, root, options, frame, tile, start)
+    said.extend(notices.warning_line(str(w.message)) for w in caught)
+    result.notices = list(dict.fromkeys(bundles.client_text(line, root) for line in said))
+    return result
+
+
+def _render_task(
+    scene: bundles.Bundle, root: Path, options: Options, frame: Frame, tile, start: float
+) -> TaskResult:
+    from runtime.render import render_scene
+
     compiled, diagnostics, compile_s = _compile(scene, root, options, frame)
     where = _worker_address()
     if compiled is None or any(d.severity is Severity.ERROR for d in diagnostics):

@@ -23,13 +23,10 @@ from runtime import notices
 from runtime.noise import noise
 
 Arr = Any  # an ndarray or a float (parameters are usually plain numbers)
-_missing: set[str] = set()
 
 
 def warn_missing(name: str) -> None:
-    if name not in _missing:
-        _missing.add(name)
-        notices.warn(f"the internal function {name} is not available: it gives 0")
+    notices.warn_once(f"the internal function {name} is not available: it gives 0")
 
 
 def _clamp(v: Arr, lim: Arr = 10.0) -> Arr:

@@ -44,13 +44,9 @@ from runtime.lights import interior_fade, light_colours
 from runtime.rainbow import apply_rainbows
 from runtime.shading import GREY, Surface
 
-_warned: set[str] = set()
-
 
 def _warn(msg: str) -> None:
-    if msg not in _warned:
-        _warned.add(msg)
-        notices.warn(msg)
+    notices.warn_once(msg)
 
 
 def _plain(layers: list[ir.Texture]) -> bool:

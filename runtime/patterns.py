@@ -121,15 +121,10 @@ DEFAULT_MAPS: dict[str, tuple[tuple[float, ir.Color], ...]] = {
     ),
 }
 
-_warned: set[str] = set()
-
 
 def _warn(msg: str, span=None) -> None:
     """Once per message; blames the source (file:line:col) when the caller knows it."""
-    key = f"{span}: {msg}" if span is not None else msg
-    if key not in _warned:
-        _warned.add(key)
-        notices.warn(msg, span)
+    notices.warn_once(msg, span)
 
 
 def _untransform(m: ir.Matrix, points: np.ndarray) -> np.ndarray:

@@ -97,6 +97,7 @@ def run(
             print(f"cluster: {workers} worker(s){board}", file=sys.stderr)
         label = f"{len(frames)} frame(s) x {tiles} tile(s)"
         said: set[Diagnostic] = set()
+        noticed: set[str] = set()  # the workers' warnings said so far
         shown = None if window is None else display.Frames(window, width, height)
 
         def on_tile(frame, result) -> None:
@@ -126,6 +127,11 @@ def run(
                 if new or not outcome.ok:
                     _clear(bar)
                     show(new)
+                lines = [] if args.quiet else [n for n in outcome.notices if n not in noticed]
+                noticed.update(lines)
+                if lines:
+                    _clear(bar)
+                    print("\n".join(lines), file=sys.stderr)
                 if not outcome.ok:
                     if shown is not None:
                         shown.ended(frame)

@@ -22,6 +22,8 @@ from hypothesis import strategies as st
 
 pytest.importorskip("distributed")
 
+from conftest import run_cli  # noqa: E402
+
 from lang.diagnostics import Diagnostic, Severity, Span  # noqa: E402
 from lang.evaluate import compile_file  # noqa: E402
 from runtime import api, bundle, cli, cluster  # noqa: E402
@@ -133,6 +135,44 @@ def test_quiet_says_nothing(client, scenes, tmp_path, capsys):
                          client.scheduler.address, "-q"], capsys)  # fmt: skip
     assert (code, err) == (0, "")
     assert (tmp_path / "q.png").is_file()
+
+
+# a clip the renderer cannot use: a warning from the workers' prepare, not the compile
+UNCLIPPABLE = """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 1, -4> look_at <0, 0.5, 0> }
+light_source { <3, 5, -3> color rgb 1 }
+sphere { <0, 0.8, 0>, 0.8 pigment { rgb 1 }
+  clipped_by { triangle { <-1, 0, 0>, <1, 0, 0>, <0, 1, 0> } } }
+"""
+
+
+def test_quiet_silences_the_workers_too(tmp_path):
+    """-q leaves only errors with a cluster of its own as without one: its workers' warnings
+    are the client's to print (a worker writing on its own stderr was not silenced)."""
+    scene = tmp_path / "clip.pov"
+    scene.write_text(UNCLIPPABLE)
+    quiet = run_cli("render", str(scene), "-W", "8", "-H", "6", "-o", str(tmp_path / "q.png"),
+                    "--cluster", "local:1", "-q")  # fmt: skip
+    assert (quiet.returncode, quiet.stdout, quiet.stderr) == (0, "", "")
+    assert (tmp_path / "q.png").is_file()
+
+
+def test_the_workers_warnings_reach_the_client_once_under_its_paths(client, tmp_path, capsys):
+    """A worker's warning is printed by the client, once for all tiles and frames, naming
+    the scene where the client has it (not the worker's copy), and again in the next job
+    (a worker renders many jobs in one process)."""
+    scene = tmp_path / "clip.pov"
+    scene.write_text(UNCLIPPABLE)
+    argv = ["render", str(scene), "-W", "8", "-H", "6", "-o", str(tmp_path / "c.png"),
+            "--frames", "1..2", "--tiles", "2", "--cluster", client.scheduler.address]  # fmt: skip
+    for _ in range(2):
+        code, err = _render(argv, capsys)
+        assert code == 0, err
+        warned = [line for line in err.splitlines() if "has no inside" in line]
+        assert warned == [f"{scene}:6:16: warning: clipped_by Triangle has no inside: ignored"]
+    code, err = _render([*argv, "-q"], capsys)
+    assert (code, err) == (0, "")
 
 
 def test_a_tiled_image_equals_the_untiled_one_bit_for_bit(client, scenes):
