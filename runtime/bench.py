@@ -217,9 +217,9 @@ def finest(sweeps: dict[str, list[Setting]]) -> Setting:
 
 # ------------------------------------------------------------------ runs
 def default_prefix(path: Path) -> Path:
-    """Where the CSV and plot go without -o: the folder the bench is run from, never the
-    scene's own (a scene in a source tree stays as it was checked out)."""
-    return Path.cwd() / f"{path.stem}-bench"
+    """Where the CSV and plot go without -o: beside the scene, where `strala render` writes
+    the scene's image by default (and POV-Ray 3.7 its output, from any current folder)."""
+    return path.with_name(f"{path.stem}-bench")
 
 
 def timed(cmd: list[str], cwd: Path, runs: int, env: dict[str, str] | None = None) -> list[float]:

@@ -318,7 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--output",
         metavar="PREFIX",
         help="PREFIX.csv and PREFIX.png, or a folder for SCENE-bench.* "
-        "(default: SCENE-bench.* in the current folder)",
+        "(default: SCENE-bench.* beside the scene, as render's SCENE.png)",
     )
     b.add_argument(
         "--runs", type=_positive_int, default=3, metavar="N", help="timed runs a point (median)"

@@ -83,18 +83,24 @@ SCENE = (
 )
 
 
-def test_bench_writes_table_csv_and_plot_where_it_is_run(tmp_path):
-    # the scene's folder stands for a source tree: nothing is written there
+def test_bench_writes_table_csv_and_plot_where_render_writes_the_image(tmp_path):
+    # run from another folder: the files go beside the scene, where `strala render` puts
+    # SCENE.png by default (POV-Ray 3.7's rule too: test_outputs_go_where_povray_puts_its)
     source, here = tmp_path / "src", tmp_path / "here"
     source.mkdir(), here.mkdir()
     scene = source / "s.pov"
     scene.write_text(SCENE)
-    r = run_cli("bench", str(scene), "-W", "32", "-H", "24", "--runs", "2", cwd=here)
+    r = run_cli("render", str(Path("..") / "src" / "s.pov"), "-W", "8", "-H", "6", cwd=here)
     assert r.returncode == 0, r.stderr
-    assert sorted(p.name for p in source.iterdir()) == ["s.pov"]
-    assert sorted(p.name for p in here.iterdir()) == ["s-bench.csv", "s-bench.png"]
+    r = run_cli("bench", str(Path("..") / "src" / "s.pov"), "-W", "32", "-H", "24",
+                "--runs", "2", cwd=here)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in here.iterdir()) == []
+    assert sorted(p.name for p in source.iterdir()) == [
+        "s-bench.csv", "s-bench.png", "s.png", "s.pov"
+    ]  # fmt: skip
     assert "Pareto" in r.stdout and "antialias" in r.stdout and "median of 2 runs" in r.stdout
-    rows = list(csv.DictReader(open(here / "s-bench.csv")))
+    rows = list(csv.DictReader(open(source / "s-bench.csv")))
     assert {row["knob"] for row in rows} == {"reference", "antialias", "max_trace_level"}
     errors = {row["setting"]: float(row["rmse"]) for row in rows if row["knob"] == "antialias"}
     assert errors["AA off"] > errors["+A0.03 +R4"]  # the finest AA is the reference
@@ -106,13 +112,36 @@ def test_bench_writes_table_csv_and_plot_where_it_is_run(tmp_path):
         assert low <= mid <= high and math.isclose(mid, (low + high) / 2, abs_tol=1e-3)
     import OpenImageIO as oiio
 
-    assert oiio.ImageBuf(str(here / "s-bench.png")).spec().width == 760
+    assert oiio.ImageBuf(str(source / "s-bench.png")).spec().width == 760
     # -o a folder: SCENE-bench.* in it
     out = tmp_path / "out"
     out.mkdir()
     r = run_cli("bench", str(scene), "-W", "8", "-H", "6", "--runs", "1", "-o", f"{out}/")
     assert r.returncode == 0, r.stderr
     assert sorted(p.name for p in out.iterdir()) == ["s-bench.csv", "s-bench.png"]
+
+
+@pytest.mark.povray
+def test_outputs_go_where_povray_puts_its(tmp_path):
+    """POV-Ray 3.7 names its image after the scene and writes it beside the scene, from
+    any current folder; `strala render` and `strala bench` write theirs there too."""
+    import subprocess
+
+    source, here = tmp_path / "src", tmp_path / "here"
+    source.mkdir(), here.mkdir()
+    (source / "s.pov").write_text(SCENE)
+    relative = str(Path("..") / "src" / "s.pov")
+    subprocess.run(["povray", f"+I{relative}", "+W8", "+H6", "-D", "-V", "-GA"], cwd=here,
+                   check=True, capture_output=True, timeout=120)  # fmt: skip
+    assert sorted(p.name for p in here.iterdir()) == []
+    (source / "s.png").rename(source / "povray.png")
+    for argv in (["render", relative], ["bench", relative, "--runs", "1"]):
+        r = run_cli(*argv, "-W", "8", "-H", "6", cwd=here)
+        assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in here.iterdir()) == []
+    assert sorted(p.name for p in source.iterdir()) == [
+        "povray.png", "s-bench.csv", "s-bench.png", "s.png", "s.pov"
+    ]  # fmt: skip
 
 
 def test_bench_refuses_an_unwritable_output_before_any_render(tmp_path):
