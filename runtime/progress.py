@@ -141,3 +141,64 @@ class Progress:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class Stages:
+    """One progress report over stages of work that cost differently (a radiosity solve,
+    its pretrace passes, the tracing), in seconds: `done` the time the work has taken,
+    `total` that and what each stage has left: the stage under way as its share done says
+    (the time it took so far, stretched to the whole), a stage to come as `expect` said.
+    A bar fed these estimates the time left as the sum of the stages' own."""
+
+    def __init__(self, report: ProgressFn, clock: Callable[[], float] = time.perf_counter):
+        self._report = report
+        self._clock = clock
+        self._start = clock()
+        self._expected: dict[str, float] = {}
+        self._ended: set[str] = set()
+        self._stage: str | None = None
+        self._began = self._start
+        self._share = 0.0
+        report(0.0, 1.0)  # the work starts now: what the bar counts the time left from
+
+    def expect(self, stage: str, seconds: float) -> None:
+        """What a stage to come (or under way, before it says its share) will take."""
+        self._expected[stage] = max(float(seconds), 0.0)
+
+    def begin(self, stage: str) -> None:
+        """The stage under way ends (if any) and `stage` begins."""
+        if self._stage is not None:
+            self._ended.add(self._stage)
+        self._stage, self._began, self._share = stage, self._clock(), 0.0
+        self._emit()
+
+    def part(self, share: float) -> None:
+        """The stage under way is `share` (0 to 1) done."""
+        self._share = min(max(float(share), 0.0), 1.0)
+        self._emit()
+
+    def end(self) -> None:
+        """All done."""
+        done = self._clock() - self._start
+        self._report(done, done)
+
+    def left(self, now: float) -> float | None:
+        """Seconds the work has left (None: no estimate yet)."""
+        ran = now - self._began
+        later = sum(
+            s for k, s in self._expected.items() if k not in self._ended and k != self._stage
+        )
+        if self._share > 0.0:
+            return ran * (1.0 - self._share) / self._share + later
+        here = self._expected.get(self._stage or "")
+        if here is None and later <= 0.0:
+            return None
+        return max((here or 0.0) - ran, 0.0) + later
+
+    def _emit(self) -> None:
+        now = self._clock()
+        left = self.left(now)
+        done = now - self._start
+        if left is None or done <= 0.0:
+            return  # nothing to estimate from: the bar's last estimate counts down
+        self._report(done, done + max(left, 1e-9))

@@ -24,6 +24,8 @@ from runtime.antialias import Sampling
 from runtime.camera import FocalBlur, blur_rounds, blur_thresholds, camera_rays, has_focal_blur
 from runtime.context import Context
 from runtime.mesh_camera import MeshCameraRays
+from runtime.progress import Stages
+from runtime.tile_costs import tile_costs
 
 # ~16k camera rays per batch: numpy work large enough to release the GIL, so two threads
 # overlap (Ex3 1280x960: 0.97 s on 2 threads vs 1.67 s with 64-pixel tiles).
@@ -94,8 +96,10 @@ def render_scene(
     (None: POV-Ray's default; method 2 only); aa_gamma: +AG, the comparison's gamma.
     region: (left, top, right, bottom) pixel bounds, right/bottom exclusive, to render only
     part of the image (the rest stays black). progress(done, total) is called with 0 as the
-    tracing starts and after each tile, from the calling thread: `done` the pixels done or,
-    with estimate=True, the share of the work done by `tile_costs` (in pixels of `total`).
+    work starts and as it goes, from the calling thread: `done` the pixels done or, with
+    estimate=True, the share of the work done by `tile_costs` (in pixels of `total`), after
+    each tile; with radiosity, seconds over its stages (the solve, the pretrace, the tiles:
+    progress.Stages), so the time left counts them all.
     on_tile((x0, y0, x1, y1), pixels) too, with the tile's finished working-space colours
     (the display window's feed: it must not keep the calling thread long). stats, when
     given, receives counters (rays, shadow_rays, supersampled pixels …).
@@ -110,53 +114,80 @@ def render_scene(
     started = time.perf_counter()
     prepared = prepare(scene, width, height)
     ctx = integrate.make_context(prepared)
+    sampling = Sampling(
+        aa_method if antialias is not None else 0, antialias or 0.0, aa_depth, jitter, aa_gamma
+    )
+    left, top, right, bottom = region if region is not None else (0, 0, width, height)
+    left, top = max(0, left), max(0, top)
+    right, bottom = min(width, right), min(height, bottom)
+    workers = threads or os.cpu_count() or 1
+    tiles = tile_order((left, top, right, bottom), workers)
+
+    def shoot(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        with np.errstate(over="ignore", invalid="ignore"):
+            return trace_pixels(ctx, scene.camera, width, height, xs, ys)
+
+    # with radiosity the bar counts every stage; the time before the work is not counted
+    stages = None
+    if progress and (radiosity is not None or scene.settings.radiosity is not None):
+        stages = Stages(progress)
     if radiosity is None and scene.settings.radiosity is not None:
         # Imported only here: scenes without radiosity never load the solver.
         from runtime.radiosity import system as radiosity_system
 
+        if stages is not None and estimate and tiles:
+            # the tracing to come, as it costs without the indirect light (no solution yet)
+            stages.expect("trace", sum(tile_costs(ctx, shoot, tiles, sampling)))
         cache = None if radiosity_cache is None else Path(radiosity_cache)
-        radiosity = radiosity_system.compute(prepared, cache_dir=cache)
+        if stages is not None:
+            stages.begin("radiosity")
+        radiosity = radiosity_system.compute(
+            prepared, cache_dir=cache, progress=None if stages is None else stages.part
+        )
     ctx.radiosity = radiosity
     from runtime import whitted
 
     numpy_because = (
         ["radiosity"] if radiosity is not None else whitted.why_not(prepared, scene.camera, ctx)
     )
-    sampling = Sampling(
-        aa_method if antialias is not None else 0, antialias or 0.0, aa_depth, jitter, aa_gamma
-    )
     if sampling.method == 2 and not numpy_because:
         numpy_because = ["anti-aliasing method 2"]  # the kernel samples pixel centres only
     if not numpy_because:
         ctx.kernel = whitted.Kernel(ctx, scene.camera, width, height)
     traced = time.perf_counter()
-    left, top, right, bottom = region if region is not None else (0, 0, width, height)
-    left, top = max(0, left), max(0, top)
-    right, bottom = min(width, right), min(height, bottom)
     if radiosity is not None:
         # The final gather's records, from coarse passes of camera rays (one thread: a
         # pass's records depend on no tile order).
-        def shoot(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-            with np.errstate(over="ignore", invalid="ignore"):
-                return trace_pixels(ctx, scene.camera, width, height, xs, ys)
-
-        radiosity.pretrace(shoot, width, height, pretrace_region or (left, top, right, bottom))
+        if stages is not None:
+            stages.begin("pretrace")
+        radiosity.pretrace(
+            shoot, width, height, pretrace_region or (left, top, right, bottom),
+            progress=None if stages is None else stages.part,
+        )  # fmt: skip
     image = np.zeros((height, width, 3), dtype=np.float32)
-    workers = threads or os.cpu_count() or 1
-    tiles = tile_order((left, top, right, bottom), workers)
     total = max(0, (right - left) * (bottom - top))
     done = 0
     supersampled = 0
     # the progress is the share of the work done: by pixels, or by each tile's cost as a
-    # sparse sample of its rays measures it (numpy path; not with radiosity, whose records
-    # the extra rays could add to)
+    # sparse sample of its pixels measures it (runtime.tile_costs; with radiosity after the
+    # pretrace: the records are read-only then, the sample adds none)
     weights = {t: float((t[2] - t[0]) * (t[3] - t[1])) for t in tiles}
-    if progress and estimate and ctx.kernel is None and radiosity is None and tiles:
-        costs = tile_costs(ctx, scene.camera, width, height, tiles)
+    if progress and estimate and tiles:
+        costs = tile_costs(ctx, shoot, tiles, sampling)
         weights = {t: c * total / sum(costs) for t, c in zip(tiles, costs, strict=True)}
+        if stages is not None:
+            stages.expect("trace", sum(costs))
     worked = 0.0
-    if progress:
+    if stages is not None:
+        stages.begin("trace")
+    elif progress:
         progress(0, total)  # the tracing starts: what the estimate of the time left counts
+
+    def report(done: int, worked: float) -> None:
+        if stages is not None:
+            stages.part(1.0 if done == total else worked / total)
+        elif progress:
+            progress(total if done == total else min(worked, total), total)
 
     nonfinite = 0
 
@@ -178,8 +209,7 @@ def render_scene(
             worked += weights[(x0, y0, x1, y1)]
             if on_tile:
                 on_tile((x0, y0, x1, y1), image[y0:y1, x0:x1])
-            if progress:
-                progress(total if done == total else min(worked, total), total)
+            report(done, worked)
     else:
         with ThreadPoolExecutor(max_workers=workers) as pool:
             futures = [pool.submit(run, t) for t in tiles]
@@ -191,8 +221,9 @@ def render_scene(
                 worked += weights[(x0, y0, x1, y1)]
                 if on_tile:
                     on_tile((x0, y0, x1, y1), image[y0:y1, x0:x1])
-                if progress:
-                    progress(total if done == total else min(worked, total), total)
+                report(done, worked)
+    if stages is not None:
+        stages.end()
     if stats is not None:
         stats.update(ctx.stats)
         if radiosity is not None:  # the solver's figures, for `strala render` to report
@@ -226,27 +257,6 @@ def tile_order(region: tuple[int, int, int, int], workers: int) -> list[tuple[in
         for y in range(top, bottom, size)
         for x in range(left, right, size)
     ]
-
-
-def tile_costs(
-    ctx: Context, camera: ir.Camera, width: int, height: int, tiles: list, stride: int = 8
-) -> list[float]:
-    """What each tile will cost, to weigh the progress by: the seconds a sparse grid of its
-    camera rays (one per stride x stride pixels, about 1/64 of them) takes on the numpy path.
-    Tiles of one image differ by a factor of hundreds (biscuit.pov at 320x240 with +A0.3:
-    0.04 s to 16 s); counted by pixels the ETA was 0.4 to 88 times the time left, weighed
-    so 0.3 to 3 times. The rays' counters are left as they were: they are not the image's."""
-    counters = dict(ctx.stats)
-    costs = []
-    with np.errstate(over="ignore", invalid="ignore"):
-        for x0, y0, x1, y1 in tiles:
-            ys, xs = np.mgrid[y0 + stride / 2 : y1 : stride, x0 + stride / 2 : x1 : stride]
-            t0 = time.perf_counter()
-            trace_pixels(ctx, camera, width, height, xs.ravel(), ys.ravel())
-            costs.append(max(time.perf_counter() - t0, 1e-6))
-    ctx.stats.clear()
-    ctx.stats.update(counters)
-    return costs
 
 
 # The largest colour a float32 image holds: brighter values are written as it.

@@ -237,7 +237,7 @@ class _FlatRadiosity:
     def gather(self, ctx, points, normals):
         return None  # no final gather: the display reads `gathered`
 
-    def pretrace(self, shoot, width, height, region):
+    def pretrace(self, shoot, width, height, region, progress=None):
         pass  # no final gather: nothing to fill before the image
 
 

@@ -233,25 +233,38 @@ def pass_steps(rules: ir.Radiosity, width: int, height: int) -> list[tuple[float
     return out
 
 
+def pass_grids(rules: ir.Radiosity, width: int, height: int, region) -> list[tuple]:
+    """The pretrace's passes over `region`: (POV-Ray's pass?, xs, ys) pixel coordinates of
+    each pass' camera rays (passes with none left out)."""
+    x0, y0, x1, y1 = region
+    grids = []
+    for step, pov in pass_steps(rules, width, height):
+        ys, xs = np.mgrid[y0 + step / 2 : y1 : step, x0 + step / 2 : x1 : step]
+        if xs.size:
+            grids.append((pov, xs.ravel(), ys.ravel()))
+    return grids
+
+
 def pretrace(cache: IrradianceCache, shoot: Callable[[np.ndarray, np.ndarray], object],
-             width: int, height: int, region: tuple[int, int, int, int]) -> int:  # fmt: skip
+             width: int, height: int, region: tuple[int, int, int, int],
+             progress: Callable[[float], None] | None = None) -> int:  # fmt: skip
     """Run the passes: camera rays through a grid of pixels per pass, traced in full (so
     points seen in mirrors get records too); their gathers become records. Returns how
-    many passes ran."""
-    x0, y0, x1, y1 = region
+    many passes ran; progress(share of the rays shot) after each."""
     rules = cache.rules
-    done = 0
-    for step, pov in pass_steps(rules, width, height):
+    grids = pass_grids(rules, width, height, region)
+    rays = sum(xs.size for _, xs, _ in grids)
+    shot = 0
+    for pov, xs, ys in grids:
         eb = rules.error_bound * (rules.low_error_factor if pov else 1.0)
-        ys, xs = np.mgrid[y0 + step / 2 : y1 : step, x0 + step / 2 : x1 : step]
-        if not xs.size:
-            continue
         cache.reading = Pass(eb, pov, record=True)
         try:
-            shoot(xs.ravel(), ys.ravel())
+            shoot(xs, ys)
         finally:
             cache.reading = None
         cache.commit()
-        done += 1
+        shot += xs.size
+        if progress is not None:
+            progress(shot / rays)
     cache.reading = Pass(rules.error_bound, pretrace=False, record=False)
-    return done
+    return len(grids)
