@@ -18,15 +18,15 @@ clipped_by, meshes or other shapes.
 Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker,
 gradient, onion, spherical, cylindrical, planar, boxed, radial or one of POV-Ray's noise
 patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on its three noise
-generators), with a colour map of any length or a pigment map (checkers and maps of such
-pigments, nested up to PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps,
-dents, wrinkles, ripples, waves and the slope of those patterns, with turbulence and a
-slope map; no normal_map or warps), one per layer; every finish item (crand, diffuse_back,
-fresnel reflection, irid included) but a negative metallic. Point lights and spotlights
-(fade included, no area lights); interiors with ior and fade, no caustics or media; a
-background colour and sky_sphere layers of those pigments (either version's rules for
-their filter and transmit); fog (constant, ground, turbulent, several); no media, rainbow
-or radiosity.
+generators), with a colour map of any length or a pigment map (checkers, maps and averages
+of such pigments, nested up to PIGMENT_DEPTH), a wave and turbulence (no warps); normals
+(bumps, dents, wrinkles, ripples, waves and the slope of those patterns, with turbulence
+and a slope map; no normal_map or warps), one per layer; every finish item (crand,
+diffuse_back, fresnel reflection, irid included) but a negative metallic. Point lights and
+spotlights (fade included, no area lights); interiors with ior, fade and faked caustics,
+no media; a background colour and sky_sphere layers of those pigments (either version's
+rules for their filter and transmit); fog (constant, ground, turbulent, several); no
+media, rainbow or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -49,6 +49,7 @@ from runtime import (
     context,
     fog,
     interiors,
+    lights,
     noise,
     patterns,
     shading,
@@ -109,6 +110,8 @@ N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8,
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
 O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL, O_INTERIOR = 8, 20, 44, 45, 46, 49
+# POV-Ray's faked caustics (lights.CAUSTICS_SCALE times `caustics`: the exponent)
+O_CAUSTICS = 50
 PRIM_SLOTS = 24
 T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
 T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
@@ -160,8 +163,11 @@ PIGMENT_KINDS = {
     "wood": 12,
     "wrinkles": 13,
     "agate": 14,
+    "average": 15,
 }
-NOISE_KINDS = frozenset(k for k, v in PIGMENT_KINDS.items() if v >= PIGMENT_KINDS["bozo"])
+NOISE_KINDS = frozenset(
+    k for k, v in PIGMENT_KINDS.items() if PIGMENT_KINDS["bozo"] <= v <= PIGMENT_KINDS["agate"]
+)
 # A normal: its kind (NR_KIND), then (patterns.perturb_normal) depth, accuracy,
 # no_bump_scale, whether it has a linear part, that part and its inverse (3x3 each), its
 # wave sources in the map table (ripples and waves: frequency, x, y, z) and its slope map
@@ -173,7 +179,8 @@ NR_WAVES, NR_NWAVES, NR_SLOPES, NR_NSLOPES = range(NR_LININV + 9, NR_LININV + 13
 # patterns the kernel knows by their slope (patterns._slope)
 NORMAL_KINDS = {"none": 0, "bumps": 1, "dents": 2, "wrinkles": 3, "ripples": 4, "waves": 5}
 NK_SLOPE = 6
-SLOPE_KINDS = frozenset(k for k in PIGMENT_KINDS if k not in ("solid", *NORMAL_KINDS))
+# (an average normal blends its entries' normals: not a slope)
+SLOPE_KINDS = frozenset(k for k in PIGMENT_KINDS if k not in ("solid", "average", *NORMAL_KINDS))
 WAVES = {
     "ramp_wave": 0,
     "triangle_wave": 1,
@@ -268,6 +275,8 @@ def _pigment_reasons(pig: ir.Pigment, depth: int = 0) -> list[str]:
         if len(pig.list) == 1:
             return ["checker of one pigment"]
         return [r for sub in pig.list for r in _pigment_reasons(sub, depth + 1)]
+    if kind == "average" and not pig.pigment_map:
+        return ["average without a pigment_map"]
     if pig.params.get("wave", "ramp_wave") not in WAVES:
         return [f"wave {pig.params.get('wave')}"]
     return [r for _, sub in pig.pigment_map for r in _pigment_reasons(sub, depth + 1)]
@@ -366,8 +375,8 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     # each interior and texture once: a large scene's objects share them, or (textures)
     # ones equal to them, which make_context made one entry (ctx.leaf_id)
     interiors = {id(o.interior): o.interior for o in prepared.objects}
-    if any(it.caustics != 0 or it.media for it in interiors.values()):
-        out.append("caustics or interior media")
+    if any(it.media for it in interiors.values()):
+        out.append("interior media")
     if _camera_in_matter(prepared, camera):
         out.append("an orthographic camera inside an object with an ior or fading")
     seen: set[tuple[str, int]] = set()
@@ -464,6 +473,7 @@ def pack_pigment(
         maps.extend([float(key), *map(float, colour)] for key, colour in entries)
         return
     row[P_SUBS] = 1.0
+    # (an average's keys are its entries' weights)
     keys = [0.0, 1.0] if pig.pattern == "checker" else [k for k, _ in pig.pigment_map]
     row[P_N] = len(subs)
     maps.extend(
@@ -885,6 +895,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         if id(it) not in fades:
             fades[id(it)] = (it.fade_power, it.fade_distance, *it.fade_color)
     rows[:, O_FADEPOW : O_FADECOL + 3] = _table([fades[id(o.interior)] for o in objs], 5)
+    rows[:, O_CAUSTICS] = [lights.CAUSTICS_SCALE * o.interior.caustics for o in objs]
     start = HDR + n_obj * OBJ
     trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
     start += n_tex * TEX

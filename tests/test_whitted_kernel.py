@@ -6,6 +6,7 @@ over the image, and, for random scenes, the share of pixels that differ by more 
 
 from __future__ import annotations
 
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -405,6 +406,35 @@ def test_pigment_maps_match_numpy(monkeypatch):
     """Pigment maps and checkers of patterned pigments, nested, turbulent (their entries
     met at the unturbulated point), on the sky too."""
     _assert_identical(_scene(PIGMENT_MAPS), 96, 72, 0.3, monkeypatch)
+
+
+AVERAGES_AND_CAUSTICS = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 4, -8> look_at <0, 0, 0> angle 50 }
+light_source { <-3, 9, -4>, rgb 1 }
+light_source { <5, 6, 2>, rgb 0.5 }
+plane { y, -1 pigment { average pigment_map { [1 checker rgb 1 rgb 0.2]
+  [2 gradient x color_map { [0 rgb <1, 0, 0>] [1 rgb <0, 0, 1>] }]
+  [0.5 average turbulence 0.4 pigment_map { [1 bozo scale 0.3] [3 rgb <0, 1, 0>] }] } } }
+sphere { <-1.5, 0.5, 0>, 1 pigment { rgbf <1, 0.9, 0.8, 0.9> }
+  interior { ior 1.3 caustics 1 } }
+sphere { <1.5, 0.5, 0>, 1 texture { pigment { rgbt <0.6, 1, 0.8, 0.7> }
+  normal { bumps 0.6 scale 0.2 } } texture { pigment { rgbf <1, 1, 1, 0.5> } }
+  interior { caustics 0.4 } }
+box { <-0.4, -1, 1.5>, <0.4, 1.5, 2.2> pigment { average pigment_map {
+  [1 rgbf <1, 0, 0, 0.8>] [1 rgbt <0, 0, 1, 0.5>] } } interior { caustics 2 } }
+"""
+
+
+def test_averages_and_faked_caustics_match_numpy(monkeypatch):
+    """average pigments (weights, nested, turbulent), and POV-Ray's faked caustics on the
+    light through transparent objects, about each layer's (bumped) normal."""
+    _assert_identical(_scene(AVERAGES_AND_CAUSTICS), 96, 72, 0.3, monkeypatch)
+    # the caustics brighten the shadows: without them, another image
+    plain = _scene(re.sub(r"caustics [0-9.]+", "", AVERAGES_AND_CAUSTICS))
+    with_caustics = render_scene(_scene(AVERAGES_AND_CAUSTICS), 32, 24)
+    assert np.abs(render_scene(plain, 32, 24) - with_caustics).max() > 0.05
 
 
 def test_pigments_nested_too_deep_say_why():

@@ -54,7 +54,7 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
 enum { F_DIST, F_COL, F_TYPE = 6, F_UP, F_OFFSET = 10, F_ALT, F_HASTURB, F_TURB, F_OCTAVES = 16,
        F_OMEGA, F_LAMBDA, F_TDEPTH };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
-       O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49 };
+       O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49, O_CAUSTICS };
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
        T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT, T_CRAND, T_DBACK, T_FRESNEL,
@@ -71,7 +71,8 @@ enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, 
        P_TURB, P_OCTAVES = P_TURB + 3, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE, P_SUBS,
        P_FWD, P_MAPAT = P_FWD + 12 };
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
-       PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE };
+       PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE,
+       PK_AVERAGE };
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 /* a normal row after its pattern part: kind, depth, accuracy, no_bump_scale, whether it has
  * a linear part, the linear part and its inverse (3x3 row-major), its wave sources in the
@@ -1012,6 +1013,21 @@ static void pigment_in(const Scene *s, const double *pg, const double *p, double
     }
     double q[3];
     pattern_point(s, pg, p, q);
+    if (kind == PK_AVERAGE) { /* patterns.evaluate: the weighted mean of the map's pigments */
+        double at[3], e[5], total = 0.0;
+        if (pg[P_MAPAT] != 0.0) affine(pg + P_FWD, q, at);
+        else memcpy(at, p, sizeof at);
+        memset(out, 0, 5 * sizeof(double));
+        for (int i = 0; i < (int)pg[P_N]; i++) {
+            double w = map[6 * i];
+            pigment_in(s, s->pig + (size_t)map[6 * i + 1] * PIG, at, e, depth + 1);
+            for (int k = 0; k < 5; k++) out[k] += w * e[k];
+            total += w;
+        }
+        if (total == 0.0) total = 1.0;
+        for (int k = 0; k < 5; k++) out[k] /= total;
+        return;
+    }
     double v = pattern_value(s, pg, q);
     if (kind == PK_CHECKER) {
         const double *e = map + (v != 0.0 ? 6 : 0);
@@ -1227,17 +1243,26 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
             mult[0] = mult[1] = mult[2] = 0.0;
             return;
         }
-        /* what every layer lets through (lights.shadow_filter) */
-        double t[3] = {1.0, 1.0, 1.0};
+        hit_normal(s, o, ldir, &h, n);
+        int leaving = dot(n, ldir) > 0;
+        /* what every layer lets through (lights.shadow_filter), brightened by faked
+         * caustics: 1 + |N.L|^exponent about the layer's normal, turned against the ray */
+        double t[3] = {1.0, 1.0, 1.0}, caustics = ob[O_CAUSTICS], against[3];
+        for (int i = 0; i < 3; i++) against[i] = leaving ? -n[i] : n[i];
         const double *ly = tx;
         for (int k = 0; ly && k < MAX_LAYERS; k++) {
             double c[5];
             pigment(s, texture_pigment(s, ly), pt, c);
             for (int i = 0; i < 3; i++) t[i] *= c[3] * c[i] + c[4];
+            if (caustics != 0.0) {
+                double ln[3];
+                if (ly[T_NRM] >= 0) perturb(s, s->nrm + (size_t)ly[T_NRM] * NRM, pt, against, ln);
+                else memcpy(ln, against, sizeof ln);
+                double f = 1.0 + pow(fabs(dot(ln, ldir)), caustics);
+                for (int i = 0; i < 3; i++) t[i] *= f;
+            }
             ly = ly[T_NEXT] < 0 ? NULL : s->tex + (size_t)ly[T_NEXT] * TEX;
         }
-        hit_normal(s, o, ldir, &h, n);
-        int leaving = dot(n, ldir) > 0;
         double big = 0.0;
         for (int i = 0; i < 3; i++) {
             double f = t[i];
@@ -1922,7 +1947,8 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 if (!(row >= 0 && row < s->npig)) goto bad;
             }
         }
-        if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_AGATE)) goto bad;
+        if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_AVERAGE)) goto bad;
+        if (pg[P_KIND] == PK_AVERAGE && pg[P_SUBS] == 0.0) goto bad;
         if ((pg[P_KIND] >= PK_BOZO || pg[P_HASTURB] != 0.0) &&
             !(s->has_noise && pg[P_GEN] >= 1 && pg[P_GEN] <= 3 && pg[P_OCTAVES] >= 0 &&
               pg[P_OCTAVES] <= 1e6))
