@@ -18,15 +18,15 @@ clipped_by, meshes or other shapes.
 Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker,
 gradient, onion, spherical, cylindrical, planar, boxed, radial or one of POV-Ray's noise
 patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on its three noise
-generators), with a colour map of any length or a pigment map (checkers, maps and averages
-of such pigments, nested up to PIGMENT_DEPTH), a wave and turbulence (no warps); normals
-(bumps, dents, wrinkles, ripples, waves and the slope of those patterns, with turbulence
-and a slope map; no normal_map or warps), one per layer; every finish item (crand,
-diffuse_back, fresnel reflection, irid included) but a negative metallic. Point lights and
-spotlights (fade included, no area lights); interiors with ior, fade and faked caustics,
-no media; a background colour and sky_sphere layers of those pigments (either version's
-rules for their filter and transmit); fog (constant, ground, turbulent, several); no
-media, rainbow or radiosity.
+generators, and crackle), with a colour map of any length or a pigment map (checkers, maps
+and averages of such pigments, nested up to PIGMENT_DEPTH), a wave and turbulence (no
+warps); normals (bumps, dents, wrinkles, ripples, waves and the slope of those patterns,
+with turbulence and a slope map; no normal_map or warps), one per layer; every finish item
+(crand, diffuse_back, fresnel reflection, irid included) but a negative metallic. Point
+lights and spotlights (fade included, no area lights); interiors with ior, fade and faked
+caustics, no media; a background colour and sky_sphere layers of those pigments (either
+version's rules for their filter and transmit); fog (constant, ground, turbulent,
+several); no media, rainbow or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -71,7 +71,7 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 112, 64, 64, 24, 48, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 112, 64, 64, 24, 56, 6, 16, 1024
 # a normal row: a pattern row (PIG values, no colour map), then NR_KIND on
 NRM = PIG + 32
 # pigments inside pigments (maps, checkers) deeper than this render through numpy
@@ -145,6 +145,9 @@ P_OCTAVES, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE = range(P_TURB + 3, P_TU
 # transform (patterns.map_points)
 P_SUBS, P_FWD = P_AGATE + 1, P_AGATE + 2
 P_MAPAT = P_FWD + 12
+# crackle (patterns.crackle): form (3), metric, the offset's term, solid
+P_FORM = P_MAPAT + 1
+P_METRIC, P_OFFSET, P_SOLID = P_FORM + 3, P_FORM + 4, P_FORM + 5
 PIGMENT_KINDS = {
     "solid": 0,
     "checker": 1,
@@ -164,10 +167,11 @@ PIGMENT_KINDS = {
     "wrinkles": 13,
     "agate": 14,
     "average": 15,
+    "crackle": 16,
 }
 NOISE_KINDS = frozenset(
     k for k, v in PIGMENT_KINDS.items() if PIGMENT_KINDS["bozo"] <= v <= PIGMENT_KINDS["agate"]
-)
+) | {"crackle"}
 # A normal: its kind (NR_KIND), then (patterns.perturb_normal) depth, accuracy,
 # no_bump_scale, whether it has a linear part, that part and its inverse (3x3 each), its
 # wave sources in the map table (ripples and waves: frequency, x, y, z) and its slope map
@@ -453,6 +457,15 @@ def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
     row[P_OCTAVES], row[P_OMEGA], row[P_LAMBDA] = octaves, omega, lam
     row[P_HASTURB] = vec is not None
     row[P_GEN] = patterns.noise_generator(prm)
+    if kind == "crackle":
+        form = np.broadcast_to(np.asarray(prm.get("form", (-1.0, 1.0, 0.0)), float), (3,))
+        metric = float(prm.get("metric", 2.0))
+        offset = float(prm.get("offset", 0.0))
+        row[P_FORM : P_FORM + 3] = form
+        row[P_METRIC] = metric
+        # the term patterns.crackle adds to each distance (in the metric's power)
+        row[P_OFFSET] = (offset * offset if metric == 2.0 else offset**metric) if offset else 0.0
+        row[P_SOLID] = 1.0 if prm.get("solid") else 0.0
     row[P_AGATE] = float(prm.get("agate_turb", 1.0))
     inv = tf.cached_inverse(transform)
     row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
@@ -530,9 +543,10 @@ def pack_fog(f: ir.Fog, row: np.ndarray) -> None:
 
 def _noise_tables() -> np.ndarray:
     """POV-Ray's noise tables as the kernel reads them (kernel/noise.h): the hash
-    permutation, the value table and its halves, generator 3's permutation and gradients."""
+    permutation, the value table and its halves, generator 3's permutation and gradients,
+    the cells' random values."""
     t = noise.tables()
-    parts = (t.hash, t.rtable, t.half, t.solid_perm, t.solid_grads.ravel())
+    parts = (t.hash, t.rtable, t.half, t.solid_perm, t.solid_grads.ravel(), t.pattern_rands)
     return np.concatenate([np.asarray(a, dtype=np.float64) for a in parts])
 
 

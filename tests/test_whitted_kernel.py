@@ -408,6 +408,28 @@ def test_pigment_maps_match_numpy(monkeypatch):
     _assert_identical(_scene(PIGMENT_MAPS), 96, 72, 0.3, monkeypatch)
 
 
+CRACKLE = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 3, -9> look_at <0, 0.5, 0> angle 55 }
+light_source { <-4, 9, -6>, rgb 1 }
+plane { y, -1 pigment { crackle scale 0.5
+  color_map { [0 rgb 0] [0.05 rgb 0] [0.1 rgb <1, 0.8, 0.6>] [1 rgb 1] } } }
+sphere { <-3, 0.5, 0>, 1 pigment { crackle form <1, 0, 0> metric 1 scale 0.3 } }
+sphere { <-1, 0.5, 0>, 1 pigment { crackle solid scale 0.4
+  color_map { [0 rgb <1, 0, 0>] [1 rgb <0, 0, 1>] } } }
+sphere { <1, 0.5, 0>, 1 pigment { crackle metric 3 offset 0.2 turbulence 0.3 scale 0.3 } }
+sphere { <3, 0.5, 0>, 1 pigment { rgb 0.8 } normal { crackle 0.8 scale 0.3 } }
+box { <-4, -1, 2>, <4, 2, 2.5> pigment { crackle form <-1, 0.5, 0.5> scale 0.5 }
+  normal { crackle -0.5 form <0, 1, 0> } }
+"""
+
+
+def test_crackle_matches_numpy(monkeypatch):
+    """crackle's cells (form, metric, offset, solid, turbulent) as a pigment and a normal."""
+    _assert_identical(_scene(CRACKLE), 96, 72, 0.3, monkeypatch)
+
+
 AVERAGES_AND_CAUSTICS = """
 #version 3.7;
 global_settings { assumed_gamma 1 }
@@ -845,7 +867,7 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
             "sphere { 0, 1 } fog { distance 5 rgb 1 } light_source { 9, 1 media_attenuation }",
             "media_attenuation",
         ),
-        ("sphere { 0, 1 } sky_sphere { pigment { crackle } }", "crackle"),
+        ("sphere { 0, 1 } sky_sphere { pigment { hexagon } }", "hexagon"),
         ("sphere { 0, 1 pigment { gradient y warp { turbulence 0.5 } } }", "warped"),
         ("sphere { 0, 1 pigment { leopard } }", "leopard"),
         ("sphere { 0, 1 normal { quilted 0.5 } }", "normal pattern quilted"),

@@ -10,14 +10,16 @@
 #define NOISE_VALUES 267  /* the value/gradient table */
 #define NOISE_SOLID 2048  /* generator 3's gradients */
 #define NOISE_SOLID_ROWS (2 * NOISE_SOLID + 2)
-/* packed: hash, rtable, half (0.5 rtable), solid permutation, solid gradients (3 a row) */
-#define NOISE_LEN (NOISE_HASH + 2 * NOISE_VALUES + 4 * NOISE_SOLID_ROWS)
+#define NOISE_RANDS 32768 /* the cells' and crackle's random values (noise._pattern_rands) */
+/* packed: hash, rtable, half (0.5 rtable), solid permutation, solid gradients (3 a row),
+ * the pattern rands */
+#define NOISE_LEN (NOISE_HASH + 2 * NOISE_VALUES + 4 * NOISE_SOLID_ROWS + NOISE_RANDS)
 #define NOISE_EPSILON 1.0e-10
 #define NOISE_MIN_LATTICE (-10000)
 #define NOISE_ROLLOVER 10000000.023157213
 
 typedef struct {
-    const double *hash, *rtable, *half, *perm, *grads;
+    const double *hash, *rtable, *half, *perm, *grads, *rands;
 } Noise;
 
 static void noise_view(const double *at, Noise *nz) {
@@ -26,6 +28,14 @@ static void noise_view(const double *at, Noise *nz) {
     nz->half = nz->rtable + NOISE_VALUES;
     nz->perm = nz->half + NOISE_VALUES;
     nz->grads = nz->perm + NOISE_SOLID_ROWS;
+    nz->rands = nz->grads + 3 * NOISE_SOLID_ROWS;
+}
+
+/* POV-Ray's Hash3d of integer cells, each coordinate modulo 4096 (noise.hash3d) */
+static inline int hash3d(const Noise *nz, long long ix, long long iy, long long iz) {
+    int a = (int)nz->hash[ix & 0xFFF];
+    int b = (int)nz->hash[a ^ (int)(iy & 0xFFF)];
+    return (int)nz->hash[b ^ (int)(iz & 0xFFF)];
 }
 
 /* the packed tables' indices stay inside them (checked once per packed scene) */

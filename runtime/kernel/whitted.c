@@ -29,7 +29,7 @@
 /* a texture of more layers renders through numpy (whitted.py MAX_LAYERS) */
 #define MAX_LAYERS 16
 #define LIT 24
-#define PIG 48
+#define PIG 56
 /* a normal: a pattern row (PIG values), then its own (NR_ below) */
 #define NRM (PIG + 32)
 /* pigments inside pigments (pigment maps, checkers of pigments) at most this deep */
@@ -69,10 +69,10 @@ enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS
  * taken back through the forward transform P_FWD (patterns.map_points: its turbulence). */
 enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP,
        P_TURB, P_OCTAVES = P_TURB + 3, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE, P_SUBS,
-       P_FWD, P_MAPAT = P_FWD + 12 };
+       P_FWD, P_MAPAT = P_FWD + 12, P_FORM, P_METRIC = P_FORM + 3, P_OFFSET, P_SOLID };
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
        PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE,
-       PK_AVERAGE };
+       PK_AVERAGE, PK_CRACKLE };
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 /* a normal row after its pattern part: kind, depth, accuracy, no_bump_scale, whether it has
  * a linear part, the linear part and its inverse (3x3 row-major), its wave sources in the
@@ -938,6 +938,45 @@ static double noise_pattern(const Noise *nz, int kind, const double *q, int turb
     }
 }
 
+/* Voronoi cells around one random point per unit cube (patterns.crackle): the distances
+ * to the three nearest of the 81 cubes' points, in the row's metric, weighted by its form;
+ * solid: the noise at the nearest point. */
+static double crackle(const Noise *nz, const double *pg, const double *q) {
+    double metric = pg[P_METRIC], best[3] = {INFINITY, INFINITY, INFINITY}, near[3] = {0};
+    long long base[3];
+    for (int a = 0; a < 3; a++) base[a] = (long long)floor(q[a] - 1.0e-10);
+    for (int dx = -2; dx <= 2; dx++)
+        for (int dy = -2; dy <= 2; dy++)
+            for (int dz = -2; dz <= 2; dz++) {
+                if ((abs(dx) == 2) + (abs(dy) == 2) + (abs(dz) == 2) > 1) continue;
+                long long c[3] = {base[0] + dx, base[1] + dy, base[2] + dz};
+                int seed = hash3d(nz, c[0], c[1], c[2]);
+                double pt[3], d[3], sum;
+                for (int a = 0; a < 3; a++) {
+                    pt[a] = (double)c[a] + nz->rands[seed + a];
+                    d[a] = fabs(pt[a] - q[a]);
+                }
+                if (metric == 2.0) sum = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                else if (metric == 1.0) sum = d[0] + d[1] + d[2];
+                else sum = pow(d[0], metric) + pow(d[1], metric) + pow(d[2], metric);
+                if (sum < best[0]) {
+                    best[2] = best[1], best[1] = best[0], best[0] = sum;
+                    memcpy(near, pt, sizeof near);
+                } else if (sum < best[1]) {
+                    best[2] = best[1], best[1] = sum;
+                } else if (sum < best[2]) {
+                    best[2] = sum;
+                }
+            }
+    if (pg[P_SOLID] != 0.0) return noise_at(nz, near, (int)pg[P_GEN]);
+    double v = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double t = best[k] + pg[P_OFFSET];
+        v += (metric == 1.0 ? t : pow(t, 1.0 / metric)) * pg[P_FORM + k];
+    }
+    return clip01(v);
+}
+
 /* A pattern's value at a pattern-space point q, turbulence warp already applied, after its
  * wave (patterns._pattern_value for the kinds packed; a checker's is its entry, 0 or 1). */
 static double pattern_value(const Scene *s, const double *pg, const double *q) {
@@ -960,6 +999,7 @@ static double pattern_value(const Scene *s, const double *pg, const double *q) {
         v = clip01(1.0 - m);
         break;
     }
+    case PK_CRACKLE: v = crackle(&s->noise, pg, q); break;
     case PK_RADIAL:
         v = (fabs(q[0]) < 0.001 && fabs(q[2]) < 0.001)
                 ? 0.25
@@ -1923,7 +1963,8 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     for (int i = 0; i < s->nnrm; i++) {
         const double *nr = s->nrm + (size_t)i * NRM;
         if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_SLOPE)) goto bad;
-        if (!(nr[P_KIND] >= PK_SOLID && nr[P_KIND] <= PK_AGATE)) goto bad;
+        if (!(nr[P_KIND] >= PK_SOLID && nr[P_KIND] <= PK_CRACKLE && nr[P_KIND] != PK_AVERAGE))
+            goto bad;
         /* every normal but none reads POV-Ray's noise (its turbulence, dents, bumps, ...) */
         if (nr[NR_KIND] != NK_NONE &&
             !(s->has_noise && nr[P_GEN] >= 1 && nr[P_GEN] <= 3 && nr[P_OCTAVES] >= 0 &&
@@ -1947,9 +1988,9 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 if (!(row >= 0 && row < s->npig)) goto bad;
             }
         }
-        if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_AVERAGE)) goto bad;
+        if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_CRACKLE)) goto bad;
         if (pg[P_KIND] == PK_AVERAGE && pg[P_SUBS] == 0.0) goto bad;
-        if ((pg[P_KIND] >= PK_BOZO || pg[P_HASTURB] != 0.0) &&
+        if (((pg[P_KIND] >= PK_BOZO && pg[P_KIND] != PK_AVERAGE) || pg[P_HASTURB] != 0.0) &&
             !(s->has_noise && pg[P_GEN] >= 1 && pg[P_GEN] <= 3 && pg[P_OCTAVES] >= 0 &&
               pg[P_OCTAVES] <= 1e6))
             goto bad;
