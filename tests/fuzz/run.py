@@ -151,7 +151,13 @@ _TALLIES = {"internal": "internal", "hang": "hangs", "nonfinite": "nonfinite", "
 
 
 def campaign(
-    command: str, count: int, seed: int, timeout: float, out: Path | None, budget_s: float
+    command: str,
+    count: int,
+    seed: int,
+    timeout: float,
+    out: Path | None,
+    budget_s: float,
+    progress: int = 0,
 ) -> dict:
     """Run `count` mutated inputs (or until budget_s seconds pass) and tally them."""
     corpus = seeds()
@@ -197,6 +203,11 @@ def campaign(
                     stem = f"{command}-{n:05d}-{res['outcome']}"
                     (out / f"{stem}.pov").write_text(text)
                     (out / f"{stem}.json").write_text(json.dumps(entry, indent=1))
+            if progress and tally["tried"] % progress == 0:  # a long job can be watched
+                bad = len(tally["failures"])
+                took = time.perf_counter() - began
+                print(f"{command}: {tally['tried']} tried, {bad} failing, {took:.0f} s",
+                      file=sys.stderr, flush=True)  # fmt: skip
     finally:
         w.stop()
     tally["seconds"] = time.perf_counter() - began
@@ -212,6 +223,7 @@ def main() -> int:
     p.add_argument("--timeout", type=float, default=60.0, help="seconds before a hang")
     p.add_argument("--budget", type=float, default=1e9, help="seconds per command at most")
     p.add_argument("--out", type=Path, default=None, help="folder for failing inputs")
+    p.add_argument("--progress", type=int, default=0, help="a line on stderr every N inputs")
     args = p.parse_args()
     if args.worker:
         worker()
@@ -220,7 +232,7 @@ def main() -> int:
     for command, count in (("check", args.check), ("render", args.render)):
         if count <= 0:
             continue
-        t = campaign(command, count, args.seed, args.timeout, args.out, args.budget)
+        t = campaign(command, count, args.seed, args.timeout, args.out, args.budget, args.progress)
         fails = t.pop("failures")
         print(json.dumps(t), flush=True)
         for f in fails[:20]:
