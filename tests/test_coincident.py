@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import pytest
 
+from lang import ir
+from lang.eval.coincident import coincident_faces
 from lang.evaluate import compile_source
 
 
@@ -86,3 +88,32 @@ def test_boxes_out_to_infinity_or_flattened_are_left_alone(far):
     text = BOARD.format(board="", camera="") + f"box {{ -1, 1 pigment {{ rgb 1 }} {far} }}\n"
     result = compile_source(text, "scene.pov")
     assert not [d for d in result.diagnostics if d.code.startswith("E0000")]
+
+
+def _boxes(corners) -> tuple[ir.Object, ...]:
+    return tuple(ir.Object(shape=ir.Box(lo, hi)) for lo, hi in corners)
+
+
+def test_faces_in_a_row_are_swept_along_the_row():
+    """The fuzzing job's hang (seed 221, a mutated parallel_lights.pov whose #while ran to
+    the budget): 20,000 boxes alike in x and y, in a row along z. Swept along y, each face
+    met every other (2e8 pairs: 71 s for `check`); along z, its neighbours only."""
+    row = _boxes(((0, 50, z), (40, 50.5, z + 3)) for z in range(0, 8 * 20000, 8))
+    assert coincident_faces(row, most=100_000) == ([], False)  # done within 100,000 looks
+
+
+def test_boxes_stacked_in_one_place_stop_the_search_early():
+    """Every one of them overlaps every other: the search stops after MAX_LOOKS pairs of
+    faces (said as `N+ more pairs`), never minutes."""
+    import time
+
+    one = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    stack = _boxes([one] * 20000)
+    start = time.perf_counter()
+    pairs, stopped = coincident_faces(stack)
+    assert pairs == [] and stopped  # one texture: no pair to name, and not all looked at
+    assert time.perf_counter() - start < 30  # about 1 s; 2e8 pairs were minutes
+    white = ir.Texture(pigment=ir.Pigment(color=ir.WHITE))
+    two = (ir.Object(shape=ir.Box(*one), texture=white), *stack)
+    pairs, stopped = coincident_faces(two, most=50_000)
+    assert stopped and pairs and all(first is two[0] for first, _, _, _ in pairs)

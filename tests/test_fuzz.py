@@ -85,3 +85,22 @@ def test_text_read_as_tokens_in_a_loop_keeps_to_the_budget(name, mutations):
     assert took < 20, took  # about 2 s now; each ran for minutes before
     codes = {d.code for d in r.diagnostics}
     assert "E0238" in codes and not codes & {"E0000", "E0200"}, codes
+
+
+def test_a_loop_with_a_broken_condition_checks_within_seconds():
+    """The fuzzing job's hang at seed 221 (input 313): parallel_lights.pov with `94041,`
+    swapped into its #while's condition. The loop, read as far as it parses, runs to check's
+    budget (its E0238 follows from the syntax error, so only that is said) and leaves 166,666
+    boxes in a row along z; the coincident-faces search then swept them along y, where each
+    met every other: 71 s. Along z now, about 7 s in all (most of it the loop)."""
+    name = "lights/parallel_lights.pov"
+    if name not in _SEEDS:
+        pytest.skip(f"POV-Ray's example {name} is not installed here")
+    src = mutate(_SEEDS[name], [("nest", 1068991255), ("insert", 1719578806), ("swap", 1955093676)])
+    assert "#while (I 94041, < 20)" in src
+    start = time.perf_counter()
+    r = compile_source(src, "/tmp/fuzz.pov", allow_file_io=False, budget=CHECK)
+    took = time.perf_counter() - start
+    assert took < 30, took
+    codes = [d.code for d in r.diagnostics]
+    assert codes == ["E0002"], codes

@@ -22,9 +22,12 @@ from lang.transforms import apply_point
 # Faces closer than this (relative to the boxes' size) are in the same plane, and overlaps
 # thinner than it are edges touching, not shared area.
 COINCIDENT_REL = 1e-9
-# Boxes compared at most, and pairs reported at most (a warning names the first).
+# Boxes compared at most, pairs reported at most (a warning names the first), and pairs of
+# faces looked at at most: boxes stacked in one place (a loop that never moves its box) all
+# overlap, and each meets every other (20,000 of them: 2e8 pairs, minutes).
 MAX_BOXES = 20000
 MAX_PAIRS = 1000
+MAX_LOOKS = 1_000_000
 
 AXES = "xyz"
 
@@ -62,13 +65,26 @@ def _look(tex: ir.Texture) -> ir.Texture:
     return tex
 
 
+def _sweep_axis(boxes: list, members: list[int], a: int, b: int) -> int:
+    """Of a plane's two axes, the one to sweep along: where the faces overlap fewest others
+    (their extents' sum over the span they cover). Faces in a row along z, all alike in y,
+    swept along y would each meet every other."""
+    crowd = []
+    for k in (a, b):
+        lo = min(boxes[n][1][k] for n in members)
+        hi = max(boxes[n][2][k] for n in members)
+        crowd.append(sum(boxes[n][2][k] - boxes[n][1][k] for n in members) / ((hi - lo) or 1.0))
+    return a if crowd[0] <= crowd[1] else b
+
+
 def coincident_faces(
-    objects: tuple[ir.Object, ...], eye: ir.Vec3 | None = None
-) -> list[tuple[ir.Object, ir.Object, str, float]]:
+    objects: tuple[ir.Object, ...], eye: ir.Vec3 | None = None, most: int = MAX_LOOKS
+) -> tuple[list[tuple[ir.Object, ir.Object, str, float]], bool]:
     """(first, second, axis, coordinate) for each pair of boxes with a shared face area
     facing the same way, in different textures; `first` comes first in the scene. With
     `eye` (the camera's location), only faces that look toward it: the others show at most
-    in reflections."""
+    in reflections. And whether the search stopped before the end (MAX_PAIRS found, or
+    `most` pairs of faces looked at)."""
     boxes = []
     for obj in _leaves(objects):
         box = _world_box(obj)
@@ -78,7 +94,7 @@ def coincident_faces(
             if len(boxes) >= MAX_BOXES:
                 break
     if len(boxes) < 2:
-        return []
+        return [], False
     size = max(max(abs(v) for v in lo + hi) for _, lo, hi in boxes) or 1.0
     eps = COINCIDENT_REL * size
     looks = [_look(obj.texture) for obj, _, _ in boxes]
@@ -96,18 +112,23 @@ def coincident_faces(
         if eye is not None and (eye[k] <= plane if side else eye[k] >= plane):
             continue  # the face looks away from the camera
         a, b = [j for j in range(3) if j != k]
+        if _sweep_axis(boxes, members, a, b) == b:
+            a, b = b, a
         # a sweep along axis a: each face meets only those whose extent along a overlaps
         members.sort(key=lambda n: boxes[n][1][a])
         active: list[int] = []
         for i in members:
             oi, loi, hii = boxes[i]
             active = [j for j in active if boxes[j][2][a] - loi[a] > eps]
+            most -= len(active)
+            if most < 0:
+                return found, True
             for j in active:
                 oj, loj, hij = boxes[j]
                 if min(hii[b], hij[b]) - max(loi[b], loj[b]) > eps and looks[i] != looks[j]:
                     first, second = (oj, oi) if j < i else (oi, oj)
                     found.append((first, second, AXES[k], hii[k] if side else loi[k]))
                     if len(found) >= MAX_PAIRS:
-                        return found
+                        return found, True
             active.append(i)
-    return found
+    return found, False

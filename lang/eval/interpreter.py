@@ -52,7 +52,7 @@ from lang.eval import (
 from lang.eval.budget import RENDER, Budget, Exceeded, Meter
 from lang.eval.builders import BUILDERS
 from lang.eval.camera import CameraError
-from lang.eval.coincident import MAX_PAIRS, coincident_faces
+from lang.eval.coincident import coincident_faces
 from lang.eval.edits import Edits
 from lang.eval.elements import (
     LIST_KINDS,
@@ -380,14 +380,14 @@ class Interpreter:
     def _warn_coincident(self, scene: ir.Scene) -> None:
         """Boxes whose faces coincide in different textures: POV-Ray's pick between the two
         varies from pixel to pixel, strala's does not (lang.eval.coincident)."""
-        pairs = coincident_faces(scene.objects, scene.camera.location)
+        pairs, stopped = coincident_faces(scene.objects, scene.camera.location)
         if not pairs:
             return
         first, second, axis, coord = pairs[0]
         span = first.span or second.span
         if span is None:
             return
-        plus = "+" if len(pairs) >= MAX_PAIRS else ""  # the search stops there
+        plus = "+" if stopped else ""  # the search stopped before the end
         more = f" (and {len(pairs) - 1}{plus} more pairs)" if len(pairs) > 1 else ""
         self.sink.warning(
             "W0315",
