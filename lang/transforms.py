@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from lang.ir import IDENTITY, Matrix
+from lang.ir import FAR_LIMIT, IDENTITY, Matrix
 
 # Below this a matrix counts as singular (POV-Ray warns about a zero scale component and
 # substitutes a tiny value; we report it instead of dividing by zero).
@@ -125,6 +125,23 @@ def determinant3(m: Matrix) -> float:
         - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
     )
+
+
+def out_of_reach(m: Matrix) -> str | None:
+    """Why an object with this transform cannot be traced in float64 (it is not finite,
+    flattens the object, takes it beyond FAR_LIMIT or shrinks it below its inverse), None
+    when it can: distances to it are squared, and squared again, on the way to a pixel."""
+    if not all(math.isfinite(v) for row in m[:3] for v in row):
+        return "its transform is not finite (a value in it overflowed)"
+    det = abs(determinant3(m))
+    if det == 0:
+        return "its transform is singular (a zero scale?)"
+    reach = max(abs(v) for row in m[:3] for v in row)
+    if reach > FAR_LIMIT:
+        return f"its transform takes it {reach:.3g} units out, beyond {FAR_LIMIT:.0e}"
+    if det < FAR_LIMIT**-3:
+        return f"its transform shrinks it by {det ** (1 / 3):.3g}, below {1 / FAR_LIMIT:.0e}"
+    return None
 
 
 def inverse(m: Matrix) -> Matrix:

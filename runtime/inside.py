@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from lang import ir
+from lang.transforms import out_of_reach
 from runtime import notices, prims, shapes
 from runtime import transform as tf
 from runtime.heightfield import height_field_mesh
@@ -44,23 +45,12 @@ FAR_LIMIT = ir.FAR_LIMIT
 
 
 def singular(obj: ir.Object) -> str | None:
-    """Why the object's transform cannot be traced (it flattens the object, is not finite,
-    or takes it out of float64's reach), None when it can. The caller skips the object and
-    says so, at the object's line."""
-    if obj.transform == ir.IDENTITY:  # most objects; no numpy for them (1000s of spheres)
+    """Why the object's transform cannot be traced (lang.transforms.out_of_reach), None when
+    it can. The caller skips the object and says so, at the object's line; the scene's own
+    objects were already checked (and left out) by the evaluator, W0324."""
+    if obj.transform == ir.IDENTITY:  # most objects: nothing to compute (1000s of spheres)
         return None
-    m = tf.as_matrix(obj.transform)
-    if not np.all(np.isfinite(m)):
-        return "its transform is not finite (a value in it overflowed)"
-    det = abs(np.linalg.det(m[:3, :3]))
-    if det == 0:
-        return "its transform is singular (a zero scale?)"
-    reach = float(np.max(np.abs(m[:3])))
-    if reach > FAR_LIMIT:
-        return f"its transform takes it {reach:.3g} units out, beyond {FAR_LIMIT:.0e}"
-    if det < FAR_LIMIT**-3:
-        return f"its transform shrinks it by {det ** (1 / 3):.3g}, below {1 / FAR_LIMIT:.0e}"
-    return None
+    return out_of_reach(obj.transform)
 
 
 def inside_node(

@@ -61,8 +61,9 @@ from lang.eval.elements import (
     Quiet,
     Statement,
 )
+from lang.eval.reach import lights_in_reach, objects_in_reach
 from lang.eval.resolve import ObjectResolver
-from lang.eval.scene import lights_in_reach, settings_at_top
+from lang.eval.scene import settings_at_top
 from lang.ir_ops import (
     collect_lights,
     pattern_defaults_in,
@@ -364,7 +365,7 @@ class Interpreter:
         scene = ir.Scene(
             camera=self.camera if self.camera is not None else ir.Camera(),
             lights=lights_in_reach(self, self.lights),
-            objects=tuple(self.objects),
+            objects=objects_in_reach(self, self.objects),
             settings=settings,
             background=self.background,
             sky_sphere=self.sky_sphere,

@@ -130,35 +130,6 @@ def _b_light(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Light:
     return light
 
 
-def lights_in_reach(it: BuildContext, lights: list[ir.Light]) -> tuple[ir.Light, ...]:
-    """The scene's lights but those placed out of float64's reach (a position, or a spot's,
-    cylinder's or parallel light's point_at, beyond ir.FAR_LIMIT or not finite), each said
-    at its line (W0323). No light arrives from such a place (POV-Ray's direction to it
-    overflows: its image has no light from it either); the render carried the overflow on,
-    to numpy's RuntimeWarnings and a radiosity solve of infinities."""
-    kept = []
-    for light in lights:
-        why = _out_of_reach(light)
-        if why is None or light.span is None:
-            kept.append(light)
-            continue
-        it.sink.warning("W0323", f"this light_source is left out: {why}", light.span)
-    return tuple(kept)
-
-
-def _out_of_reach(light: ir.Light) -> str | None:
-    places = [("its position", light.position)]
-    if light.kind != "point":
-        places.append(("its point_at", light.point_at))
-    for what, place in places:
-        if not all(map(math.isfinite, place)):
-            return f"{what} is not finite (a value overflowed)"
-        reach = max(map(abs, place))
-        if reach > ir.FAR_LIMIT:
-            return f"{what} is {reach:.3g} units out, beyond {ir.FAR_LIMIT:.0e}"
-    return None
-
-
 def _b_looks_like(it: BuildContext, g: Grouped, node: syntax.Block) -> _LooksLike:
     objs = [args[0] for name, args, _ in g.items if name == "object"]
     if len(objs) != 1:
