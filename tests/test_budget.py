@@ -119,3 +119,35 @@ def test_a_cancelled_evaluation_stops_at_its_next_step():
     with pytest.raises(budget.Cancelled):
         it.run("#declare I = 0;\n#while (I < 100000)\n  #declare I = I + 1;\n#end\n", "c.pov")
     assert steps == 100  # the step at which it was set raised
+
+
+def test_a_file_name_is_looked_up_once_per_file_naming_it(monkeypatch):
+    """The fuzzing job's second hang at seed 221 (input 1713): macro4.pov with nested
+    `#for (I, 0, 999999)` loops before its text object. Each text looked its font up on
+    disk again (a stat and a realpath per folder searched: about a millisecond, at one
+    step of the budget), 71,000 times in check's budget: 62 s. Now once, and a look-up that
+    reaches the disk costs FIND_STEPS."""
+    from lang import paths
+    from lang.eval import interpreter
+
+    calls = []
+    real = paths.find
+    monkeypatch.setattr(paths, "find", lambda *a, **k: calls.append(a[0]) or real(*a, **k))
+    src = '#for (I, 0, 499)\n  text { ttf "timrom.ttf" "x", 0.1, 0 }\n#end\n'
+    r = compile_source(src, "/tmp/t.pov", allow_file_io=False, budget=budget.CHECK)
+    errors = [d for d in r.diagnostics if d.severity is Severity.ERROR]
+    assert len(r.scene.objects) == 500 and not errors, errors
+    assert calls == ["timrom.ttf"]
+    assert interpreter.FIND_STEPS >= 10
+
+
+def test_a_file_the_scene_writes_is_found_after_a_miss(tmp_path):
+    """A name looked for in vain is looked for again once the scene has written a file."""
+    src = (
+        '#include "made.inc"\n'  # not there yet: E0220
+        '#fopen F "made.inc" write\n#write (F, "#declare R = 2;\\n")\n#fclose F\n'
+        '#include "made.inc"\nsphere { 0, R }\n'
+    )
+    r = compile_source(src, str(tmp_path / "s.pov"))
+    assert [(d.code, d.span.line) for d in r.diagnostics] == [("E0220", 1)], r.diagnostics
+    assert r.scene.objects[0].shape.radius == 2.0

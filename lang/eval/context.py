@@ -73,6 +73,10 @@ class BuildContext(Protocol):
 
     def depends_outside(self, why: str) -> None: ...
 
+    def wrote(self, path: str) -> None:
+        """The scene wrote the file `path` (what was looked up may be found elsewhere now)."""
+        ...
+
     # symbols
     def lookup(self, name: str) -> tuple[bool, Any]: ...
 

@@ -140,6 +140,7 @@ def flush(it: BuildContext, h: FileHandle) -> None:
         h.mode = "closed"
         try:
             Path(h.path).write_text("".join(h.lines))
+            it.wrote(h.path)
         except OSError as e:
             where = h.span or Span(it.main_file, 1, 1, 1, 1)
             it.sink.error("E0260", f"cannot write `{h.path}`: {e.strerror}", where)

@@ -92,6 +92,10 @@ MAX_LOOP_ITERATIONS = 1_000_000
 MAX_MACRO_DEPTH = 200
 MAX_INCLUDE_DEPTH = 64
 RECURSION_LIMIT = 30_000
+# What a look-up of a file name on disk costs of the budget, in steps: about a millisecond
+# (a stat and a realpath per folder searched), fifty statements' worth. A font looked up by
+# each text object of a runaway loop, at one step each, kept `check` for a minute.
+FIND_STEPS = 50
 
 
 @dataclass
@@ -243,6 +247,8 @@ class Interpreter:
         # every path an #include probed: the digest of the text read there, None for a miss
         self.probed: dict[str, str | None] = {}
         self._digests: dict[str, str] = {}  # resolved include path -> digest of its text
+        # (name, the file naming it) -> what _find found, until the scene writes a file
+        self._found: dict[tuple[str, str], tuple[str, str] | None] = {}
         self.printed: list[str] = []  # `#debug` text written to stderr
         # expressions compiled on first evaluation (lang.eval.expressions.compiled), by node
         self._compiled: dict[int, expressions.Compiled] = {}
@@ -838,14 +844,24 @@ class Interpreter:
     def _find(self, name: str) -> tuple[str, str] | None:
         """(the path probed, the resolved path) of the file `name` names: in the current
         file's folder, the library paths, the stdlib (lang.paths). The misses are kept in
-        `probed` (lang.scene_store follows them)."""
+        `probed` (lang.scene_store follows them). Each name is looked for once per file
+        naming it (a font named by every text object of a loop), until a file is written."""
+        key = (name, self.file_stack[-1] if self.file_stack else "")
+        if key in self._found:
+            return self._found[key]
+        self.meter.step(FIND_STEPS)
         try:
             found = paths.find(
                 name, self._folder(), self.library_paths, self.probed, self._scene_folder()
             )
         except OSError:  # a name the system cannot look up (too long): not found
-            return None
-        return None if found is None else (found.probed, found.path)
+            found = None
+        got = self._found[key] = None if found is None else (found.probed, found.path)
+        return got
+
+    def wrote(self, path: str) -> None:
+        """The scene wrote the file `path`: a name looked for before may be found now."""
+        self._found.clear()
 
     def _folder(self) -> Path:
         """The folder of the file being read, where its includes are looked for first."""
