@@ -6,7 +6,10 @@ errors, hangs, non-finite pixels, leaked file text, peak memory and the slowest 
 Not part of the default test run (tests/test_fuzz.py is its short version). Each input runs
 in a worker process under a memory limit; a worker that does not answer within the timeout
 is killed and the input counted as a hang. Failing inputs are written to --out (a folder) so
-that each can be replayed: `python -m runtime.cli check FILE`."""
+that each can be replayed: `python -m runtime.cli check FILE`; so are the renders whose
+non-finite pixels were repaired (counted apart: a defined image, with the render's warning).
+Both commands draw the same sequence from --seed: the renders are the first inputs checked,
+cut to their first 20,000 characters."""
 
 from __future__ import annotations
 
@@ -196,13 +199,15 @@ def campaign(
                 tally["slowest_s"], tally["slowest"] = res["seconds"], f"{name} {muts}"
             if key is not None:
                 tally[key] += 1
+                tally["failures"].append({"seed": name, "mutations": muts, **res})
+            if (key is not None or res.get("repaired")) and out is not None:
+                # a repaired image (non-finite pixels made black or the brightest value, with
+                # the render's warning) is kept too, to be looked at: not a failure
                 entry = {"seed": name, "mutations": muts, **res}
-                tally["failures"].append(entry)
-                if out is not None:
-                    out.mkdir(parents=True, exist_ok=True)
-                    stem = f"{command}-{n:05d}-{res['outcome']}"
-                    (out / f"{stem}.pov").write_text(text)
-                    (out / f"{stem}.json").write_text(json.dumps(entry, indent=1))
+                out.mkdir(parents=True, exist_ok=True)
+                stem = f"{command}-{n:05d}-{res['outcome'] if key else 'repaired'}"
+                (out / f"{stem}.pov").write_text(text)
+                (out / f"{stem}.json").write_text(json.dumps(entry, indent=1))
             if progress and tally["tried"] % progress == 0:  # a long job can be watched
                 bad = len(tally["failures"])
                 took = time.perf_counter() - began
