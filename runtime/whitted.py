@@ -13,8 +13,8 @@ What it covers (`reasons` lists what stops a scene): perspective and orthographi
 without focal blur; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials
 (quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
 kernel/sweep.h), transformed or not, inverse or not, and their CSG (union, intersection,
-difference, merge, nested), any number of them through the tracer's box tree; no
-clipped_by, meshes or other shapes.
+difference, merge, nested), any number of them through the tracer's box tree, clipped by
+any of them (trace.ClipNode); no meshes or other shapes.
 Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker,
 gradient, onion, spherical, cylindrical, planar, boxed, radial or one of POV-Ray's noise
 patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on its three noise
@@ -63,7 +63,7 @@ from runtime.lights import MAX_SHADOW_CROSSINGS
 from runtime.prims.polynomial import PolyPrim
 from runtime.prims.prism import PrismPrim, Sweep
 from runtime.prims.text import TextPrim
-from runtime.trace import CsgNode, Leaf
+from runtime.trace import ClipNode, CsgNode, Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
     from runtime import _whitted
@@ -108,6 +108,8 @@ F_DIST, F_COL, F_TYPE, F_UP, F_OFFSET, F_ALT, F_HASTURB, F_TURB = 0, 1, 6, 7, 10
 F_OCTAVES, F_OMEGA, F_LAMBDA, F_TDEPTH = 16, 17, 18, 19
 N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO, N_HI = 0, 1, 2, 3, 4, 5, 8, 11
 OPS = {"union": 0, "intersection": 1, "difference": 2, "merge": 3}
+# clipped_by: the first child's crossings inside every other child (trace.ClipNode)
+OP_CLIP = 4
 O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
 O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL, O_INTERIOR = 8, 20, 44, 45, 46, 49
 # POV-Ray's faked caustics (lights.CAUSTICS_SCALE times `caustics`: the exponent)
@@ -665,12 +667,21 @@ def _uncovered(node) -> set[str]:
         if type(node.prim) in KINDS:
             return set()
         return {f"shape {type(node.prim).__name__.removesuffix('Prim').lower()}"}
+    if isinstance(node, ClipNode):
+        return set().union(*(_uncovered(c) for c in _kids(node)))
     if not isinstance(node, CsgNode):
-        return {"clipped_by"} if hasattr(node, "children") else {"triangle geometry in CSG"}
+        return {"triangle geometry in CSG"}
     out = set() if node.op in OPS else {f"CSG {node.op}"}
     for child in node.children:
         out |= _uncovered(child)
     return out
+
+
+def _kids(node) -> list:
+    """A node's children as the kernel walks them: a clip's object, then its clips."""
+    if isinstance(node, ClipNode):
+        return [node.inner, *node.clips]
+    return list(node.children)
 
 
 def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:
@@ -683,7 +694,7 @@ def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:
     k = 0
     while k < len(order):
         node = order[k]
-        for c in () if isinstance(node, Leaf) else node.children:
+        for c in () if isinstance(node, Leaf) else _kids(node):
             index[id(c)] = len(order)
             order.append(c)
         k += 1
@@ -691,8 +702,12 @@ def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:
     for node in order:
         if not isinstance(node, Leaf):
             firsts[id(node)] = len(children)
-            children.extend(index[id(c)] for c in node.children)
+            children.extend(index[id(c)] for c in _kids(node))
     return order, children, firsts
+
+
+def _index(leaf: Leaf) -> int:
+    return leaf.index
 
 
 def _table(rows: list, width: int) -> np.ndarray:
@@ -759,8 +774,13 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     objs = prepared.objects
     s = scene.settings
     nodes, children, firsts = _nodes(list(tracer.nodes))
-    leaves = sorted((n for n in nodes if isinstance(n, Leaf)), key=lambda n: n.index)
+    leaves = sorted((n for n in nodes if isinstance(n, Leaf) and n.index >= 0), key=_index)
     assert [n.index for n in leaves] == list(range(len(objs))), "one leaf per object"
+    # clipping shapes (no object: never hit) get object rows after the objects', for their
+    # inside tests
+    n_real = len(leaves)
+    leaves += [n for n in nodes if isinstance(n, Leaf) and n.index < 0]
+    row_of = {id(leaf): k for k, leaf in enumerate(leaves)}
     n_obj, n_light = len(leaves), len(scene.lights)
     # a texture's first layer is its row (objects point there); the layers below it get
     # rows after all the textures', chained by T_NEXT
@@ -860,14 +880,18 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     rows[:, O_KIND] = [KINDS[type(leaf.prim)] for leaf in leaves]
     rows[:, O_IDENT] = [leaf.identity for leaf in leaves]
     rows[:, O_FLIP] = [leaf.inverse for leaf in leaves]
-    rows[:, O_SIZE] = tracer.sizes[:n_obj]
-    rows[:, O_TEX] = ctx.obj_tex
+    rows[:, O_SIZE] = [leaf.size for leaf in leaves]
+    rows[:n_real, O_SIZE] = tracer.sizes[:n_real]
+    real = rows[:n_real]  # the clips' rows keep texture 0, no flags, the default interior
+    real[:, O_TEX] = ctx.obj_tex
     for flag, bit in FLAG_BITS.items():
         if tracer.flags.get(flag) is not None:
-            rows[:, O_FLAGS] += bit * np.asarray(tracer.flags[flag], dtype=bool)
-    rows[:, O_DOUBLE] = ctx.double_illuminate
-    rows[:, O_IOR] = ctx.ior
-    rows[:, O_INTERIOR] = ctx.interior_id  # runtime.interiors: told apart by identity
+            real[:, O_FLAGS] += bit * np.asarray(tracer.flags[flag], dtype=bool)
+    real[:, O_DOUBLE] = ctx.double_illuminate
+    rows[:, O_IOR] = 1.0
+    real[:, O_IOR] = ctx.ior
+    rows[:, O_INTERIOR] = -1.0
+    real[:, O_INTERIOR] = ctx.interior_id  # runtime.interiors: told apart by identity
     # Untransformed leaves (most of a big scene) share one matrix row: only the others are
     # written one by one.
     rows[:, O_MINV : O_MINV + 12] = _IDENTITY_ROWS
@@ -908,8 +932,8 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     for it in (o.interior for o in objs):
         if id(it) not in fades:
             fades[id(it)] = (it.fade_power, it.fade_distance, *it.fade_color)
-    rows[:, O_FADEPOW : O_FADECOL + 3] = _table([fades[id(o.interior)] for o in objs], 5)
-    rows[:, O_CAUSTICS] = [lights.CAUSTICS_SCALE * o.interior.caustics for o in objs]
+    real[:, O_FADEPOW : O_FADECOL + 3] = _table([fades[id(o.interior)] for o in objs], 5)
+    real[:, O_CAUSTICS] = [lights.CAUSTICS_SCALE * o.interior.caustics for o in objs]
     start = HDR + n_obj * OBJ
     trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
     start += n_tex * TEX
@@ -956,12 +980,15 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     nrows[:, N_HI : N_HI + 3] = _table([node.hi for node in nodes], 3)
     is_leaf = [isinstance(node, Leaf) for node in nodes]
     nrows[:, N_LEAF] = [
-        node.index if leaf else 0 for node, leaf in zip(nodes, is_leaf, strict=True)
+        row_of[id(node)] if leaf else 0 for node, leaf in zip(nodes, is_leaf, strict=True)
     ]
     for k in (k for k, leaf in enumerate(is_leaf) if not leaf):  # N_KIND 0 for leaves
         node, r = nodes[k], nrows[k]
-        r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
-        r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(node.children)
+        if isinstance(node, ClipNode):
+            r[N_KIND], r[N_OP], r[N_INV] = 1, OP_CLIP, 0
+        else:
+            r[N_KIND], r[N_OP], r[N_INV] = 1, OPS[node.op], node.inverse
+        r[N_FIRST], r[N_COUNT] = firsts[id(node)], len(_kids(node))
     h[H_MAPS], h[H_NMAPS] = maps_at, len(maps)
     h[H_FOGS], h[H_NFOG], h[H_FOGMAX] = fogs_at, len(fogs), fog.MAX_FOG_DISTANCE
     frows = buf[fogs_at : fogs_at + FOG * len(fogs)].reshape(len(fogs), FOG)

@@ -408,6 +408,50 @@ def test_pigment_maps_match_numpy(monkeypatch):
     _assert_identical(_scene(PIGMENT_MAPS), 96, 72, 0.3, monkeypatch)
 
 
+CLIPPED = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 3, -9> look_at <0, 0.5, 0> angle 55 }
+light_source { <-4, 9, -6>, rgb 1 }
+plane { y, -1 pigment { checker rgb 1 rgb 0.3 } clipped_by { sphere { 0, 4 } } }
+sphere { <-3, 0.5, 0>, 1 pigment { rgb <1, 0.3, 0.2> } clipped_by { plane { y, 0.6 } } }
+sphere { <-1, 0.5, 0>, 1 pigment { rgbf <0.6, 1, 0.7, 0.7> } interior { ior 1.4 }
+  clipped_by { box { <-1.6, -0.2, -0.6>, <-0.2, 1.6, 2> } }
+  clipped_by { sphere { <-1, 1, -0.5>, 1.1 inverse } } }
+difference { box { <0.2, -0.5, -0.8>, <1.8, 1.5, 0.8> } cylinder { <1, -1, 0>, <1, 2, 0>, 0.5 }
+  pigment { rgb <0.3, 0.5, 1> } clipped_by { sphere { <1, 0.5, 0>, 1.1 } } }
+torus { 0.8, 0.3 rotate x * 70 translate <3, 0.5, 0> pigment { rgb 0.9 }
+  finish { reflection 0.3 }
+  clipped_by { intersection { plane { x, 3.2 } plane { -z, 0.3 } } } }
+prism { linear_sweep linear_spline 0, 1, 4, <0, 0>, <1, 0>, <0.5, 1>, <0, 0>
+  translate <-2, 1.5, 1.5> pigment { rgb <1, 1, 0> }
+  clipped_by { sphere { <-1.5, 2, 1.8>, 0.6 } } bounded_by { clipped_by } }
+"""
+
+
+def _without_blocks(text: str, word: str) -> str:
+    """text without its `word { … }` blocks (braces balanced)."""
+    while (at := text.find(word + " {")) >= 0:
+        depth, k = 0, text.index("{", at)
+        while True:
+            depth += {"{": 1, "}": -1}.get(text[k], 0)
+            k += 1
+            if depth == 0:
+                break
+        text = text[:at] + text[k:]
+    return text
+
+
+def test_clipped_objects_match_numpy(monkeypatch):
+    """clipped_by: by shapes, inverse ones, several, a CSG, on CSG, transparent, a plane
+    clipped to a disc; only the clipped object's crossings inside every clip count."""
+    _assert_identical(_scene(CLIPPED), 96, 72, 0.3, monkeypatch)
+    unclipped = _without_blocks(CLIPPED.replace("bounded_by { clipped_by }", ""), "clipped_by")
+    assert "clipped_by" not in unclipped
+    a, b = render_scene(_scene(CLIPPED), 32, 24), render_scene(_scene(unclipped), 32, 24)
+    assert np.abs(a - b).max(axis=2).mean() > 0.05
+
+
 CRACKLE = """
 #version 3.7;
 global_settings { assumed_gamma 1 }
@@ -698,7 +742,10 @@ def _csg(draw, depth=2, counter=None):
     op = draw(st.sampled_from(["union", "intersection", "difference", "merge"]))
     kids = " ".join(draw(_csg(depth - 1, counter)) for _ in range(draw(st.integers(2, 3))))
     inv = " inverse" if draw(st.integers(0, 5)) == 0 else ""
-    return f"{op} {{ {kids}{inv} }}"
+    node = f"{op} {{ {kids}{inv} }}"
+    if draw(st.integers(0, 4)) == 0:  # clipped by another part or CSG
+        node = f"object {{ {node} clipped_by {{ {draw(_csg(depth - 1, counter))} }} }}"
+    return node
 
 
 @settings(
@@ -857,7 +904,10 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
 @pytest.mark.parametrize(
     ("text", "reason"),
     [
-        ("sphere { 0, 1 clipped_by { plane { y, 0 } } }", "clipped_by"),
+        (
+            "sphere { 0, 1 clipped_by { superellipsoid { <0.5, 0.5> } } }",
+            "shape superellipsoid",
+        ),
         (
             "difference { sphere { 0, 1 } lathe { linear_spline 3, <0, 0>, <1, 1>, <0, 2> } }",
             "shape lathe",

@@ -95,7 +95,8 @@ enum { N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO = 8, N_HI = 11 };
 enum { NK_LEAF, NK_CSG };
 /* the box tree over the bounded roots (trace.BoxTree): a row per tree node */
 enum { B_LO, B_HI = 3, B_LEFT = 6, B_RIGHT, B_FIRST, B_COUNT, B_AXIS };
-enum { OP_UNION, OP_INTERSECTION, OP_DIFFERENCE, OP_MERGE };
+/* OP_CLIP: clipped_by, the first child's crossings inside every other child (trace.ClipNode) */
+enum { OP_UNION, OP_INTERSECTION, OP_DIFFERENCE, OP_MERGE, OP_CLIP };
 enum { SKIP_NONE = 0, SKIP_NO_IMAGE = 1, SKIP_NO_REFLECTION = 2, SKIP_NO_SHADOW = 4 };
 
 /* ---- tolerances: runtime/tolerances.py and runtime/shading.py send theirs in the header
@@ -624,9 +625,16 @@ static int node_inside(const Scene *s, int node, const double *p, int inverted) 
         return prim_inside(s, ob, p, (int)ob[O_FLIP] ^ inverted);
     }
     int op = (int)nd[N_OP], inv = (int)nd[N_INV] ^ inverted;
+    const double *kids = s->child + (size_t)nd[N_FIRST];
+    if (op == OP_CLIP) { /* inside the object and every clip; inverted: outside either */
+        int clipped = 1;
+        for (int j = 1; j < (int)nd[N_COUNT] && clipped; j++)
+            clipped = node_inside(s, (int)kids[j], p, 0);
+        int in = node_inside(s, (int)kids[0], p, inverted);
+        return inverted ? in || !clipped : in && clipped;
+    }
     int all_of = op == OP_INTERSECTION || op == OP_DIFFERENCE;
     if (inv) all_of = !all_of;
-    const double *kids = s->child + (size_t)nd[N_FIRST];
     for (int j = 0; j < (int)nd[N_COUNT]; j++) {
         int flag = op == OP_DIFFERENCE && j > 0;
         int in = node_inside(s, (int)kids[j], p, flag ^ inv);
@@ -665,6 +673,18 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
     }
     int op = (int)nd[N_OP], count = (int)nd[N_COUNT], n = 0;
     const double *kids = s->child + (size_t)nd[N_FIRST];
+    if (op == OP_CLIP) { /* the object's crossings inside every clip (never hit themselves) */
+        int m = node_crossings(s, (int)kids[0], o, d, inv, tlo, thi, out, cap);
+        if (m < 0) return -1;
+        for (int c = 0; c < m; c++) {
+            Cross x = out[c];
+            double p[3] = {o[0] + x.t * d[0], o[1] + x.t * d[1], o[2] + x.t * d[2]};
+            int ok = 1;
+            for (int j = 1; j < count && ok; j++) ok = node_inside(s, (int)kids[j], p, 0);
+            if (ok) out[n++] = x;
+        }
+        return n;
+    }
     for (int i = 0; i < count; i++) {
         /* A shape whose box the segment misses has no crossings there: skipping it changes
          * nothing (the others' inside tests are point tests), and a CSG of many parts no
@@ -1875,6 +1895,7 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         } else {
             if (!(nd[N_FIRST] >= 0 && nd[N_COUNT] >= 1 && nd[N_FIRST] + nd[N_COUNT] <= s->nchild))
                 goto bad;
+            if (!(nd[N_OP] >= OP_UNION && nd[N_OP] <= OP_CLIP)) goto bad;
             /* children come after their parent: the recursion always ends */
             for (int j = 0; j < (int)nd[N_COUNT]; j++) {
                 double c = s->child[(size_t)nd[N_FIRST] + j];
