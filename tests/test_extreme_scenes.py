@@ -50,3 +50,15 @@ def test_an_include_name_too_long_for_the_system_is_not_found(tmp_path):
 
     r = compile_source(f'#include "{"a" * 300}.inc"\n', str(tmp_path / "t.pov"))
     assert [d.code for d in r.diagnostics if d.severity == "error"] == ["E0220"]
+
+
+def test_an_undefined_max_trace_level_outside_global_settings_is_a_located_error():
+    # found by the fuzzing job: the statement outside global_settings (POV-Ray's old
+    # form) was read before any statement's error recovery, and 0/0 was an internal error
+    from lang.evaluate import compile_source
+
+    for text in ("max_trace_level 0/0\nsphere { 0, 1 }\n",
+                 "global_settings { max_trace_level 0/0 }\nsphere { 0, 1 }\n"):  # fmt: skip
+        r = compile_source(text, "t.pov")
+        errs = [d for d in r.diagnostics if d.severity == "error"]
+        assert [e.code for e in errs] == ["E0203"] and errs[0].span.line == 1

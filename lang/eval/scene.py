@@ -13,6 +13,7 @@ from lang import (
     transforms,
 )
 from lang.builtins import as_vec
+from lang.diagnostics import SceneError
 from lang.eval.camera import CameraBuilder, legal_blur_value, transform_camera
 from lang.eval.context import BuildContext, Builder
 from lang.eval.elements import (
@@ -294,6 +295,13 @@ MAX_TRACE_LEVEL = 256
 
 def trace_level(it: BuildContext, v: float, span) -> int:
     """A max_trace_level as POV-Ray's parser keeps it: truncated, at least 1, at most 256."""
+    if not math.isfinite(v):
+        raise it.error(
+            "E0203",
+            "`max_trace_level` is infinite or undefined",
+            span,
+            "a value overflowed (past about 1.8e308) or is 0/0; check the arithmetic",
+        )
     level = max(1, int(v))
     if level > MAX_TRACE_LEVEL:
         it.sink.warning(
@@ -359,7 +367,10 @@ def settings_at_top(it: BuildContext, els: list) -> list:
                     el.span,
                     "move it into `global_settings { }`",
                 )
-                it.settings["max_trace_level"] = trace_level(it, nxt.value, nxt.span)
+                try:
+                    it.settings["max_trace_level"] = trace_level(it, nxt.value, nxt.span)
+                except SceneError as e:  # outside any statement's own recovery
+                    it.sink.items.append(e.diagnostic)
                 i += 2
                 continue
         out.append(el)
