@@ -15,18 +15,20 @@ without focal blur; spheres, planes, boxes, discs, cylinders, cones, tori and po
 kernel/sweep.h), transformed or not, inverse or not, and their CSG (union, intersection,
 difference, merge, nested), any number of them through the tracer's box tree, clipped by
 any of them (trace.ClipNode); no meshes or other shapes.
-Textures of up to MAX_LAYERS layers (not patterned) whose pigments are solid, checker,
-gradient, onion, spherical, cylindrical, planar, boxed, radial or one of POV-Ray's noise
-patterns (bozo, spotted, bumps, granite, marble, wood, wrinkles, agate, on its three noise
-generators, and crackle), with a colour map of any length or a pigment map (checkers, maps
-and averages of such pigments, nested up to PIGMENT_DEPTH), a wave and turbulence (no
-warps); normals (bumps, dents, wrinkles, ripples, waves and the slope of those patterns,
-with turbulence and a slope map; no normal_map or warps), one per layer; every finish item
-(crand, diffuse_back, fresnel reflection, irid included) but a negative metallic. Point
-lights and spotlights (fade included, no area lights); interiors with ior, fade and faked
-caustics, no media; a background colour and sky_sphere layers of those pigments (either
-version's rules for their filter and transmit); fog (constant, ground, turbulent,
-several); no media, rainbow or radiosity.
+Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map,
+average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
+pigments are solid, checker, gradient, onion, spherical, cylindrical, planar, boxed,
+radial or one of POV-Ray's noise patterns (bozo, spotted, bumps, granite, marble, wood,
+wrinkles, agate, on its three noise generators, and crackle), with a colour map of any
+length or a pigment map (checkers, maps and averages of such pigments, nested up to
+PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkles,
+ripples, waves and the slope of those patterns, with turbulence and a slope map; no
+normal_map or warps), one per layer; every finish item (crand, diffuse_back, fresnel
+reflection, irid included) but a negative metallic. Point lights and spotlights (fade
+included, no area lights); interiors with ior, fade and faked caustics, no media; a
+background colour and sky_sphere layers of those pigments (either version's rules for
+their filter and transmit); fog (constant, ground, turbulent, several); no media, rainbow
+or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -125,6 +127,9 @@ T_CRAND, T_DBACK, T_FRESNEL, T_IRID, T_BACKLIT = 49, 50, 51, 52, 55
 # T_NRM: the layer's normal row (-1: none); T_BUMPY (a texture's first row): some layer has
 # one, so lights are tested from both sides (lights.light_colours)
 T_NRM, T_BUMPY = 56, 57
+# a patterned texture: T_PIG names its pattern row, whose entries name texture rows
+T_PAT = 58
+SUBS_PIGMENTS, SUBS_TEXTURES = 1, 2
 L_KIND, L_POS, L_COL, L_SHADOWLESS, L_FADEPOW, L_FADEDIST = 0, 1, 4, 7, 8, 9
 L_AXIS, L_TIGHT, L_COSR, L_COSF = 10, 13, 14, 15
 P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
@@ -311,11 +316,14 @@ def _colour_map(pig: ir.Pigment):
     return pig.color_map or patterns.DEFAULT_MAPS.get(pig.pattern, patterns.DEFAULT_MAP)
 
 
-def _texture_reasons(tex: ir.Texture) -> list[str]:
-    if context.is_patterned(tex):
-        return ["patterned texture"]
+def _texture_reasons(tex: ir.Texture, depth: int = 0) -> list[str]:
     if uvmap.uses_uv(tex):
         return ["uv_mapping"]
+    if context.is_patterned(tex):
+        out = _patterned_reasons(tex, depth)
+        if depth == 0 and not out and most_layers(tex) > MAX_LAYERS:
+            return [f"a patterned texture showing more than {MAX_LAYERS} layers at a point"]
+        return out
     layers = context.texture_layers(tex)
     if len(layers) > MAX_LAYERS:
         return [f"more than {MAX_LAYERS} texture layers"]
@@ -330,6 +338,37 @@ def _texture_reasons(tex: ir.Texture) -> list[str]:
         if f.metallic < 0:
             out.append("negative metallic")
     return out
+
+
+def _patterned_reasons(tex: ir.Texture, depth: int) -> list[str]:
+    assert tex.pattern is not None  # context.is_patterned
+    pat = tex.pattern
+    kind = pat.pattern
+    if depth >= PIGMENT_DEPTH:
+        return [f"patterned textures nested deeper than {PIGMENT_DEPTH}"]
+    if kind not in PIGMENT_KINDS or kind == "solid":
+        return [f"texture pattern {kind}"]
+    if pat.params.get("warps"):
+        return [f"warped {kind} texture"]
+    if _needs_noise(pat) and patterns.noise_generator(pat.params) not in (1, 2, 3):
+        return [f"noise_generator {pat.params.get('noise_generator')}"]
+    if pat.params.get("wave", "ramp_wave") not in WAVES:
+        return [f"wave {pat.params.get('wave')}"]
+    return [r for _, sub in tex.map for r in _texture_reasons(sub, depth + 1)]
+
+
+def most_layers(tex: ir.Texture) -> int:
+    """The most layers a texture shows at one point: a list pattern's one entry, a map's
+    two neighbours, an average's every entry (the kernel shades each shown layer)."""
+    if not context.is_patterned(tex):
+        return len(context.texture_layers(tex))
+    assert tex.pattern is not None
+    each = [most_layers(sub) for _, sub in tex.map]
+    if tex.pattern.pattern == "average":
+        return sum(each)
+    if tex.pattern.pattern in patterns.LIST_PATTERNS:
+        return max(each)
+    return max([*each, *(a + b for a, b in zip(each, each[1:], strict=False))])
 
 
 def _camera_in_matter(prepared, camera: ir.Camera) -> bool:
@@ -487,7 +526,7 @@ def pack_pigment(
         row[P_N] = len(entries)
         maps.extend([float(key), *map(float, colour)] for key, colour in entries)
         return
-    row[P_SUBS] = 1.0
+    row[P_SUBS] = SUBS_PIGMENTS
     # (an average's keys are its entries' weights)
     keys = [0.0, 1.0] if pig.pattern == "checker" else [k for k, _ in pig.pigment_map]
     row[P_N] = len(subs)
@@ -498,6 +537,23 @@ def pack_pigment(
     if pig.pattern != "checker" and patterns.turb_params(pig.params)[0] is not None:
         row[P_MAPAT] = 1.0  # patterns.map_points: back through the transform (no warps here)
         row[P_FWD : P_FWD + 12] = _inv_rows(pig.transform)
+
+
+def _pattern_of(tex: ir.Texture) -> ir.Pigment:
+    assert tex.pattern is not None  # context.is_patterned
+    return tex.pattern
+
+
+def pack_texture_pattern(
+    tex: ir.Texture, row: np.ndarray, maps: list[list[float]], rows_of: dict[int, int]
+) -> None:
+    """A patterned texture's pattern row: the pattern, and its map's entries (key, the row
+    of the texture: `rows_of` by id, as make_context interned them)."""
+    pat = _pattern_of(tex)
+    row[P_KIND] = PIGMENT_KINDS[pat.pattern]
+    _pack_pattern(pat.pattern, pat.params, pat.transform, row)
+    row[P_SUBS], row[P_N], row[P_MAP] = SUBS_TEXTURES, len(tex.map), len(maps)
+    maps.extend([float(k), float(rows_of[id(sub)]), 0.0, 0.0, 0.0, 0.0] for k, sub in tex.map)
 
 
 def pack_normal(nrm: ir.Normal, keep: bool, row: np.ndarray, maps: list[list[float]]) -> None:
@@ -784,11 +840,15 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     n_obj, n_light = len(leaves), len(scene.lights)
     # a texture's first layer is its row (objects point there); the layers below it get
     # rows after all the textures', chained by T_NEXT
-    layer_rows = [list(layers) for layers in ctx.textures]
+    # (a patterned texture's row names its pattern and textures: it has no layers)
+    layer_rows = [[] if t in ctx.tree else list(ls) for t, ls in enumerate(ctx.textures)]
     below = [layer for layers in layer_rows for layer in layers[1:]]
     n_tex = len(ctx.textures) + len(below)
     sky = list(reversed(scene.sky_sphere or ()))  # evaluated innermost first, as integrate.sky
-    tops = [layers[0].pigment for layers in layer_rows] + [t.pigment for t in below]
+    tops = [
+        _pattern_of(ctx.tree[t]) if t in ctx.tree else layers[0].pigment
+        for t, layers in enumerate(layer_rows)
+    ] + [t.pigment for t in below]
     # the pigments inside pigments after the textures' (the sky's stay last, kernel's rule)
     inner = _inner_pigments(tops + sky)
     n_pig = n_tex + len(inner) + len(sky)
@@ -805,7 +865,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     fogs = list(fog.scene_fogs(scene))
     films = [layer.finish.irid for layers in layer_rows for layer in layers]
     # the layers' normals, in the order of the layer rows (`rows_of` below)
-    layered = [layers[0] for layers in layer_rows] + below
+    layered = [layers[0] for layers in layer_rows if layers] + below
     bumped = [layer for layer in layered if layer.normal is not None]
     noisy = (
         bool(bumped)
@@ -818,8 +878,11 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     pig_rows = np.zeros((n_pig, PIG))
     maps: list[list[float]] = []
     pig_row_of = {id(pig): k for k, pig in enumerate(pigs)}
-    for pig, row in zip(pigs, pig_rows, strict=True):
-        pack_pigment(pig, row, maps, pig_row_of)
+    for k, (pig, row) in enumerate(zip(pigs, pig_rows, strict=True)):
+        if k in ctx.tree:  # a patterned texture's row: its pattern, its textures' rows
+            pack_texture_pattern(ctx.tree[k], row, maps, ctx.leaf_id)
+        else:
+            pack_pigment(pig, row, maps, pig_row_of)
     nrm_rows = np.zeros((len(bumped), NRM))
     for layer, row in zip(bumped, nrm_rows, strict=True):
         assert layer.normal is not None  # bumped holds the layers with one
@@ -952,6 +1015,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         trows[t, T_TRANS], trows[t, T_LIT] = ctx.transmits[t], ctx.lit[t]
         trows[t, T_BACKLIT] = ctx.back_lit[t]
         trows[t, T_BUMPY] = ctx.bumpy[t]
+        if t in ctx.tree:
+            trows[t, T_PAT], trows[t, T_PIG], trows[t, T_NEXT], trows[t, T_NRM] = 1, t, -1, -1
+            continue
         chain = [t, *range(extra, extra + len(layers) - 1)]
         extra += len(layers) - 1
         for k, row in enumerate(chain):

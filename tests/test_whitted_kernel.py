@@ -452,6 +452,46 @@ def test_clipped_objects_match_numpy(monkeypatch):
     assert np.abs(a - b).max(axis=2).mean() > 0.05
 
 
+PATTERNED_TEXTURES = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 3, -9> look_at <0, 0.5, 0> angle 55 }
+light_source { <-4, 9, -6>, rgb 1 }
+light_source { <4, 5, -3>, rgb 0.4 }
+#declare Shiny = texture { pigment { rgb <0.9, 0.8, 0.2> } finish { phong 0.8 reflection 0.3 } }
+#declare Bumpy = texture { pigment { rgb <0.2, 0.4, 0.9> } normal { bumps 0.6 scale 0.2 } }
+#declare Layered = texture { Bumpy }
+  texture { pigment { rgbt <1, 0, 0, 0.7> } finish { phong 1 } }
+#declare Glass = texture { pigment { rgbf <0.9, 1, 0.9, 0.8> } finish { reflection 0.1 } }
+plane { y, -1 texture { checker texture { Shiny } texture { Bumpy } } }
+sphere { <-3, 0.5, 0>, 1 texture { gradient y texture_map { [0 Shiny] [0.5 Bumpy] [1 Glass] }
+  scale 0.7 } interior { ior 1.3 } }
+sphere { <-1, 0.5, 0>, 1 texture { average texture_map { [1 Shiny] [2 Layered] [1 Glass] } } }
+sphere { <1, 0.5, 0>, 1 texture { bozo turbulence 0.3 texture_map { [0.3 Glass]
+  [0.7 checker texture { Shiny } texture { pigment { rgb 1 } } scale 0.3] } scale 0.5 }
+  interior { ior 1.5 } }
+box { <2.2, -1, -0.8>, <3.8, 1.5, 0.8> texture { crackle texture_map { [0 Bumpy]
+  [0.1 Shiny] } scale 0.4 } }
+"""
+
+
+def test_patterned_textures_match_numpy(monkeypatch):
+    """Checker textures, texture_map, average, nested, turbulent, of layered, bumpy,
+    reflective and transparent textures: each shown texture shaded whole, then blended."""
+    _assert_identical(_scene(PATTERNED_TEXTURES), 96, 72, 0.3, monkeypatch)
+
+
+def test_a_patterned_texture_showing_too_many_layers_says_why():
+    layer = "texture { pigment { rgbt <1, 0, 0, 0.5> } }"
+    # each texture within the limit, the two averaged past it
+    half = f"texture {{ pigment {{ rgb 1 }} }} {layer * (whitted.MAX_LAYERS // 2)}"
+    scene = _scene("camera { location -5*z look_at 0 } light_source { <1, 5, -5>, rgb 1 }"
+                   f"#declare T = {half} sphere {{ 0, 1 texture {{ average texture_map"
+                   " { [1 T] [1 T] } } }")  # fmt: skip
+    found = whitted.reasons(prepare(scene, 16, 12), scene.camera)
+    assert any("layers at a point" in r for r in found), found
+
+
 CRACKLE = """
 #version 3.7;
 global_settings { assumed_gamma 1 }
@@ -999,6 +1039,11 @@ def test_a_damaged_scene_array_is_refused_not_traced():
             tile(bad)
     with pytest.raises(ValueError):
         tile(good[:10])
+    # a texture row that says it is patterned while its row names a pigment
+    bad = good.copy()
+    bad[whitted.HDR + int(good[whitted.H_NOBJ]) * whitted.OBJ + whitted.T_PAT] = 1.0
+    with pytest.raises(ValueError, match="scene"):
+        tile(bad)
     # a pigment map entry naming a pigment row that is not there
     mapped = _scene(PIGMENT_MAPS)
     prepared = prepare(mapped, 8, 6)

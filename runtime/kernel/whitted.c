@@ -58,7 +58,10 @@ enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV 
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
        T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT, T_CRAND, T_DBACK, T_FRESNEL,
-       T_IRID, T_BACKLIT = T_IRID + 3, T_NRM, T_BUMPY };
+       T_IRID, T_BACKLIT = T_IRID + 3, T_NRM, T_BUMPY, T_PAT };
+/* T_PAT: a patterned texture (checker, texture_map, average of textures): T_PIG names its
+ * pattern row, whose entries (P_SUBS == SUBS_TEXTURES) name texture rows */
+enum { SUBS_NONE, SUBS_PIGMENTS, SUBS_TEXTURES };
 enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS,
        L_TIGHT = 13, L_COSR, L_COSF };
 
@@ -1279,6 +1282,72 @@ static inline double cubic_spline(double low, double high, double pos) {
     return (3.0 - 2.0 * t) * t * t;
 }
 
+/* A patterned texture resolved at p into the plain textures it shows, with their shares
+ * (context.resolve_textures): a list pattern's entry, a map's two around the value, an
+ * average's all by weight; at most MAX_LAYERS, appended from *n. */
+static void resolve_texture(const Scene *s, int row, const double *p, double share, int depth,
+                            int *rows, double *w, int *n) {
+    const double *tx = s->tex + (size_t)row * TEX;
+    if (tx[T_PAT] == 0.0) {
+        if (*n < MAX_LAYERS) rows[*n] = row, w[(*n)++] = share;
+        return;
+    }
+    if (depth >= PIGMENT_DEPTH) return;
+    const double *pg = s->pig + (size_t)tx[T_PIG] * PIG;
+    const double *map = s->map + 6 * (size_t)pg[P_MAP];
+    int k = (int)pg[P_N], kind = (int)pg[P_KIND];
+    if (kind == PK_AVERAGE) { /* patterns.entry_weights: keys / their sum */
+        double total = 0.0;
+        for (int i = 0; i < k; i++) total += map[6 * i];
+        if (total == 0.0) total = 1.0;
+        for (int i = 0; i < k; i++) {
+            double wi = map[6 * i] / total;
+            if (wi > 0.0) resolve_texture(s, (int)map[6 * i + 1], p, share * wi, depth + 1, rows, w, n);
+        }
+        return;
+    }
+    double q[3];
+    pattern_point(s, pg, p, q);
+    double v = pattern_value(s, pg, q);
+    if (kind == PK_CHECKER) { /* a list pattern: the entry its value names */
+        int i = (int)v < 0 ? 0 : ((int)v > k - 1 ? k - 1 : (int)v);
+        resolve_texture(s, (int)map[6 * i + 1], p, share, depth + 1, rows, w, n);
+        return;
+    }
+    int lo, hi;
+    double frac = blend(map, k, v, &lo, &hi);
+    if (lo == hi) {
+        double wi = (1.0 - frac) + frac;
+        if (wi > 0.0) resolve_texture(s, (int)map[6 * lo + 1], p, share * wi, depth + 1, rows, w, n);
+        return;
+    }
+    if (1.0 - frac > 0.0)
+        resolve_texture(s, (int)map[6 * lo + 1], p, share * (1.0 - frac), depth + 1, rows, w, n);
+    if (frac > 0.0) resolve_texture(s, (int)map[6 * hi + 1], p, share * frac, depth + 1, rows, w, n);
+}
+
+/* What a plain texture's layers let through toward a light (lights.shadow_filter), t
+ * multiplied by it: each layer's filter and transmit, brightened by faked caustics,
+ * 1 + |N.L|^exponent about the layer's normal turned against the ray (`against`). */
+static void layers_through(const Scene *s, const double *tx, const double *pt,
+                           const double *against, double caustics, const double *ldir,
+                           double *t) {
+    const double *ly = tx;
+    for (int k = 0; ly && k < MAX_LAYERS; k++) {
+        double c[5];
+        pigment(s, texture_pigment(s, ly), pt, c);
+        for (int i = 0; i < 3; i++) t[i] *= c[3] * c[i] + c[4];
+        if (caustics != 0.0) {
+            double ln[3];
+            if (ly[T_NRM] >= 0) perturb(s, s->nrm + (size_t)ly[T_NRM] * NRM, pt, against, ln);
+            else memcpy(ln, against, sizeof ln);
+            double f = 1.0 + pow(fabs(dot(ln, ldir)), caustics);
+            for (int i = 0; i < 3; i++) t[i] *= f;
+        }
+        ly = ly[T_NEXT] < 0 ? NULL : s->tex + (size_t)ly[T_NEXT] * TEX;
+    }
+}
+
 /* Light let through from p toward a light at distance `dist` (integrate.shadow_filter); cls:
  * the shadow ray's class for the view masks (-1: none). */
 static void shadow_filter(Scene *s, const double *p, const double *ldir, double dist,
@@ -1305,23 +1374,22 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
         }
         hit_normal(s, o, ldir, &h, n);
         int leaving = dot(n, ldir) > 0;
-        /* what every layer lets through (lights.shadow_filter), brightened by faked
-         * caustics: 1 + |N.L|^exponent about the layer's normal, turned against the ray */
-        double t[3] = {1.0, 1.0, 1.0}, caustics = ob[O_CAUSTICS], against[3];
+        double t[3] = {1.0, 1.0, 1.0}, against[3];
         for (int i = 0; i < 3; i++) against[i] = leaving ? -n[i] : n[i];
-        const double *ly = tx;
-        for (int k = 0; ly && k < MAX_LAYERS; k++) {
-            double c[5];
-            pigment(s, texture_pigment(s, ly), pt, c);
-            for (int i = 0; i < 3; i++) t[i] *= c[3] * c[i] + c[4];
-            if (caustics != 0.0) {
-                double ln[3];
-                if (ly[T_NRM] >= 0) perturb(s, s->nrm + (size_t)ly[T_NRM] * NRM, pt, against, ln);
-                else memcpy(ln, against, sizeof ln);
-                double f = 1.0 + pow(fabs(dot(ln, ldir)), caustics);
-                for (int i = 0; i < 3; i++) t[i] *= f;
+        if (tx[T_PAT] != 0.0) { /* the shares of the textures shown there that let light by */
+            int rows[MAX_LAYERS], nleaf = 0;
+            double share[MAX_LAYERS];
+            resolve_texture(s, (int)ob[O_TEX], pt, 1.0, 0, rows, share, &nleaf);
+            t[0] = t[1] = t[2] = 0.0;
+            for (int k = 0; k < nleaf; k++) {
+                const double *lt = s->tex + (size_t)rows[k] * TEX;
+                if (!(int)lt[T_TRANS]) continue;
+                double tk[3] = {1.0, 1.0, 1.0};
+                layers_through(s, lt, pt, against, ob[O_CAUSTICS], ldir, tk);
+                for (int i = 0; i < 3; i++) t[i] += share[k] * tk[i];
             }
-            ly = ly[T_NEXT] < 0 ? NULL : s->tex + (size_t)ly[T_NEXT] * TEX;
+        } else {
+            layers_through(s, tx, pt, against, ob[O_CAUSTICS], ldir, t);
         }
         double big = 0.0;
         for (int i = 0; i < 3; i++) {
@@ -1581,6 +1649,68 @@ static void reflect_dir(const double *d, const double *nl, const double *raw, do
 /* The colour of a hit (integrate.shade_texture): the texture's layers from the top, each
  * lit and seen through the filter of those above it; each layer's reflection and the light
  * through them all traced after. */
+/* A reflected ray to trace, after the transmitted one; `top`: about the top layer's normal
+ * (total internal reflection replaces those) */
+typedef struct {
+    double refl[3], weight, ex, dir[3];
+    int top;
+} Mirror;
+
+/* A plain texture's layers at a hit (integrate.shade_texture): each lit and seen through
+ * the filter of those above (added to out), what they let through (fil), their reflections
+ * appended to m (at most MAX_LAYERS), the top layer's normal (top). */
+static void shade_layers(Scene *s, const double *tx, const double *p, const double *d,
+                         const double *n, const double *ob, double weight, int level,
+                         int leaving, int dbl, const LightAt *la, const Inside *in,
+                         double *rel_ior, double *out, double *fil, double *top, Mirror *m,
+                         int *nm) {
+    double trans = 1.0;
+    const double *ly = tx;
+    for (int k = 0; ly && k < MAX_LAYERS; k++) {
+        if (!(trans > s->bailout)) break;
+        double col[5], acc[3], refl[3], wfac = 0.0, bumped[3];
+        const double *nl = n; /* the layer's normal */
+        if (ly[T_NRM] >= 0) {
+            perturb(s, s->nrm + (size_t)ly[T_NRM] * NRM, p, n, bumped);
+            nl = bumped;
+        }
+        if (k == 0) memcpy(top, nl, 3 * sizeof(double));
+        pigment(s, texture_pigment(s, ly), p, col);
+        double op = opacity(col, s->legacy);
+        layer_light(s, ly, col, op, p, d, nl, dbl, la, acc);
+        for (int i = 0; i < 3; i++) out[i] += acc[i] * fil[i];
+        if (ly[T_FRESNEL] != 0.0 && *rel_ior != *rel_ior)
+            *rel_ior = fresnel_ior(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving && level != 1);
+        int reflects = layer_reflection(s, ly, col, d, nl, *rel_ior, refl, &wfac);
+        if (reflects && *nm < MAX_LAYERS) {
+            double big = fabs(refl[0]);
+            if (fabs(refl[1]) > big) big = fabs(refl[1]);
+            if (fabs(refl[2]) > big) big = fabs(refl[2]);
+            if (big > 0) {
+                double *rd = m[*nm].dir;
+                reflect_dir(d, nl, n, rd);
+                if (ly[T_IRID] > 0) { /* the film tints the reflection too */
+                    double f[3];
+                    iridescence(s, ly, nl, d, rd, p, f);
+                    for (int i = 0; i < 3; i++) refl[i] = refl[i] * f[i];
+                }
+                m[*nm].top = fabs(nl[0] - top[0]) <= EPSILON && fabs(nl[1] - top[1]) <= EPSILON &&
+                             fabs(nl[2] - top[2]) <= EPSILON;
+                memcpy(m[*nm].refl, refl, sizeof refl);
+                m[*nm].weight = weight * trans * wfac;
+                m[(*nm)++].ex = ly[T_REXP];
+            }
+        }
+        for (int i = 0; i < 3; i++) {
+            fil[i] *= col[3] * col[i] + col[4];
+            if ((int)ly[T_CONSERVE] && reflects) fil[i] *= (1.0 - refl[i]) < 1.0 ? 1.0 - refl[i] : 1.0;
+        }
+        trans = fabs(dot(fil, GREY));
+        if (trans > 1.0) trans = 1.0;
+        ly = ly[T_NEXT] < 0 ? NULL : s->tex + (size_t)ly[T_NEXT] * TEX;
+    }
+}
+
 static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
                   int level, int skip, int cls, const Inside *in, double *out) {
     const double *ob = s->obj + (size_t)h->obj * OBJ;
@@ -1599,58 +1729,32 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
     int any_side = (int)tx[T_BACKLIT] || (int)tx[T_BUMPY];
     for (int l = 0; l < s->nlight; l++)
         light_at(s, s->light + (size_t)l * LIT, l, p, n, lit, dbl, any_side, cls, la + l);
-    /* the reflected rays to trace, after the transmitted one; `top`: about the top layer's
-     * normal (total internal reflection replaces those) */
-    struct {
-        double refl[3], weight, ex, dir[3];
-        int top;
-    } mirrored[MAX_LAYERS];
+    Mirror mirrored[MAX_LAYERS];
     int nmirrored = 0;
-    double fil[3] = {1.0, 1.0, 1.0}, trans = 1.0, top[3] = {n[0], n[1], n[2]};
-    const double *ly = tx;
-    for (int k = 0; ly && k < MAX_LAYERS; k++) {
-        if (!(trans > s->bailout)) break;
-        double col[5], acc[3], refl[3], wfac = 0.0, bumped[3];
-        const double *nl = n; /* the layer's normal */
-        if (ly[T_NRM] >= 0) {
-            perturb(s, s->nrm + (size_t)ly[T_NRM] * NRM, p, n, bumped);
-            nl = bumped;
-        }
-        if (k == 0) memcpy(top, nl, sizeof top);
-        pigment(s, texture_pigment(s, ly), p, col);
-        double op = opacity(col, s->legacy);
-        layer_light(s, ly, col, op, p, d, nl, dbl, la, acc);
-        for (int i = 0; i < 3; i++) out[i] += acc[i] * fil[i];
-        if (ly[T_FRESNEL] != 0.0 && rel_ior != rel_ior)
-            rel_ior = fresnel_ior(in, (int)ob[O_INTERIOR], ob[O_IOR], leaving && level != 1);
-        int reflects = layer_reflection(s, ly, col, d, nl, rel_ior, refl, &wfac);
-        if (reflects) {
-            double big = fabs(refl[0]);
-            if (fabs(refl[1]) > big) big = fabs(refl[1]);
-            if (fabs(refl[2]) > big) big = fabs(refl[2]);
-            if (big > 0) {
-                double *rd = mirrored[nmirrored].dir;
-                reflect_dir(d, nl, n, rd);
-                if (ly[T_IRID] > 0) { /* the film tints the reflection too */
-                    double f[3];
-                    iridescence(s, ly, nl, d, rd, p, f);
-                    for (int i = 0; i < 3; i++) refl[i] = refl[i] * f[i];
-                }
-                mirrored[nmirrored].top = fabs(nl[0] - top[0]) <= EPSILON &&
-                                          fabs(nl[1] - top[1]) <= EPSILON &&
-                                          fabs(nl[2] - top[2]) <= EPSILON;
-                memcpy(mirrored[nmirrored].refl, refl, sizeof refl);
-                mirrored[nmirrored].weight = weight * trans * wfac;
-                mirrored[nmirrored++].ex = ly[T_REXP];
+    double fil[3] = {1.0, 1.0, 1.0}, top[3] = {n[0], n[1], n[2]};
+    if (tx[T_PAT] == 0.0) {
+        shade_layers(s, tx, p, d, n, ob, weight, level, leaving, dbl, la, in, &rel_ior, out, fil,
+                     top, mirrored, &nmirrored);
+    } else {
+        /* each texture shown there shaded whole, then added up by share: colour, filter
+         * and reflections (POV-Ray blends a texture_map's fully lit textures); the light
+         * goes through about the smooth normal */
+        int rows[MAX_LAYERS], nleaf = 0;
+        double share[MAX_LAYERS], other[3];
+        resolve_texture(s, (int)ob[O_TEX], p, 1.0, 0, rows, share, &nleaf);
+        fil[0] = fil[1] = fil[2] = 0.0;
+        for (int k = 0; k < nleaf; k++) {
+            double res[3] = {0.0, 0.0, 0.0}, fk[3] = {1.0, 1.0, 1.0};
+            int first = nmirrored;
+            shade_layers(s, s->tex + (size_t)rows[k] * TEX, p, d, n, ob, weight * share[k], level,
+                         leaving, dbl, la, in, &rel_ior, res, fk, other, mirrored, &nmirrored);
+            for (int i = 0; i < 3; i++) {
+                out[i] += share[k] * res[i];
+                fil[i] += share[k] * fk[i];
             }
+            for (int m = first; m < nmirrored; m++)
+                for (int i = 0; i < 3; i++) mirrored[m].refl[i] *= share[k];
         }
-        for (int i = 0; i < 3; i++) {
-            fil[i] *= col[3] * col[i] + col[4];
-            if ((int)ly[T_CONSERVE] && reflects) fil[i] *= (1.0 - refl[i]) < 1.0 ? 1.0 - refl[i] : 1.0;
-        }
-        trans = fabs(dot(fil, GREY));
-        if (trans > 1.0) trans = 1.0;
-        ly = ly[T_NEXT] < 0 ? NULL : s->tex + (size_t)ly[T_NEXT] * TEX;
     }
     if (la != on_stack) free(la);
     /* total internal reflection carries the mirrored light itself, so the layers'
@@ -1911,6 +2015,9 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     for (int i = 0; i < s->ntex; i++) {
         double g = s->tex[(size_t)i * TEX + T_PIG];
         if (!(g >= 0 && g < s->npig)) goto bad;
+        /* a patterned texture's row names a pattern of textures, a layer's a pigment */
+        int textures = s->pig[(size_t)g * PIG + P_SUBS] == SUBS_TEXTURES;
+        if (textures != (s->tex[(size_t)i * TEX + T_PAT] != 0.0)) goto bad;
         /* a layer's next layer comes after it: the walk over them always ends */
         double next = s->tex[(size_t)i * TEX + T_NEXT];
         if (!(next == -1 || (next > i && next < s->ntex))) goto bad;
@@ -2002,11 +2109,20 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         const double *pg = s->pig + (size_t)i * PIG;
         double n = pg[P_N];
         if (!(n >= 1 && pg[P_MAP] >= 0 && pg[P_MAP] + n <= nmaps)) goto bad;
-        if (pg[P_SUBS] != 0.0) {
+        if (!(pg[P_SUBS] >= SUBS_NONE && pg[P_SUBS] <= SUBS_TEXTURES)) goto bad;
+        if (pg[P_SUBS] == SUBS_PIGMENTS) {
             if (pg[P_KIND] == PK_CHECKER && n < 2) goto bad;
             for (int e = 0; e < (int)n; e++) {
                 double row = s->map[6 * ((size_t)pg[P_MAP] + e) + 1];
                 if (!(row >= 0 && row < s->npig)) goto bad;
+                if (s->pig[(size_t)row * PIG + P_SUBS] == SUBS_TEXTURES) goto bad;
+            }
+        }
+        if (pg[P_SUBS] == SUBS_TEXTURES) { /* a patterned texture's pattern and textures */
+            if (pg[P_KIND] == PK_SOLID || i >= s->npig - s->nsky) goto bad;
+            for (int e = 0; e < (int)n; e++) {
+                double row = s->map[6 * ((size_t)pg[P_MAP] + e) + 1];
+                if (!(row >= 0 && row < s->ntex)) goto bad;
             }
         }
         if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_CRACKLE)) goto bad;
