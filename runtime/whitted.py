@@ -25,10 +25,10 @@ PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkle
 ripples, waves and the slope of those patterns, with turbulence and a slope map; no
 normal_map or warps), one per layer; every finish item (crand, diffuse_back, fresnel
 reflection, irid included) but a negative metallic. Point lights and spotlights (fade
-included, no area lights); interiors with ior, fade and faked caustics, no media; a
-background colour and sky_sphere layers of those pigments (either version's rules for
-their filter and transmit); fog (constant, ground, turbulent, several); no media, rainbow
-or radiosity.
+included), area lights of either (adaptive, circular, orient; jitter is not sampled, as in
+lights.shadow); interiors with ior, fade and faked caustics, no media; a background colour
+and sky_sphere layers of those pigments (either version's rules for their filter and
+transmit); fog (constant, ground, turbulent, several); no media, rainbow or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -73,7 +73,7 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 112, 64, 64, 24, 56, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 112, 64, 64, 32, 56, 6, 16, 1024
 # a normal row: a pattern row (PIG values, no colour map), then NR_KIND on
 NRM = PIG + 32
 # pigments inside pigments (maps, checkers) deeper than this render through numpy
@@ -132,6 +132,8 @@ T_PAT = 58
 SUBS_PIGMENTS, SUBS_TEXTURES = 1, 2
 L_KIND, L_POS, L_COL, L_SHADOWLESS, L_FADEPOW, L_FADEDIST = 0, 1, 4, 7, 8, 9
 L_AXIS, L_TIGHT, L_COSR, L_COSF = 10, 13, 14, 15
+# an area light: its grid, adaptive level, orient and circular flags, axes
+L_AREA, L_N1, L_N2, L_ADAPTIVE, L_ORIENT, L_CIRCULAR, L_A1, L_A2 = 16, 17, 18, 19, 20, 21, 22, 25
 P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
     0,
     1,
@@ -441,8 +443,6 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     for light in scene.lights:
         if light.kind not in ("point", "spotlight"):
             out.append(f"{light.kind} light")
-        if light.area is not None and light.area.size1 * light.area.size2 > 1:
-            out.append("area light")
         if light.projected_through is not None:
             out.append("projected_through")
     return sorted(set(out))
@@ -1072,6 +1072,11 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             r[L_TIGHT] = light.tightness
             r[L_COSR] = math.cos(math.radians(light.radius))
             r[L_COSF] = math.cos(math.radians(light.falloff))
+        area = light.area
+        if area is not None and area.size1 * area.size2 > 1:  # else a point (lights.shadow)
+            r[L_AREA], r[L_N1], r[L_N2] = 1, max(1, area.size1), max(1, area.size2)
+            r[L_ADAPTIVE], r[L_ORIENT], r[L_CIRCULAR] = area.adaptive, area.orient, area.circular
+            r[L_A1 : L_A1 + 3], r[L_A2 : L_A2 + 3] = area.axis1, area.axis2
     return buf
 
 

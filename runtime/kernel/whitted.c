@@ -28,7 +28,7 @@
 #define TEX 64
 /* a texture of more layers renders through numpy (whitted.py MAX_LAYERS) */
 #define MAX_LAYERS 16
-#define LIT 24
+#define LIT 32
 #define PIG 56
 /* a normal: a pattern row (PIG values), then its own (NR_ below) */
 #define NRM (PIG + 32)
@@ -62,8 +62,11 @@ enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
 /* T_PAT: a patterned texture (checker, texture_map, average of textures): T_PIG names its
  * pattern row, whose entries (P_SUBS == SUBS_TEXTURES) name texture rows */
 enum { SUBS_NONE, SUBS_PIGMENTS, SUBS_TEXTURES };
+/* an area light (L_AREA): its grid (L_N1 x L_N2), adaptive level, orient and circular
+ * flags and axes */
 enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS,
-       L_TIGHT = 13, L_COSR, L_COSF };
+       L_TIGHT = 13, L_COSR, L_COSF, L_AREA, L_N1, L_N2, L_ADAPTIVE, L_ORIENT, L_CIRCULAR,
+       L_A1, L_A2 = L_A1 + 3 };
 
 /* P_MAP: where the colour map's P_N entries (6 values each: key, rgbft) start in the map
  * table; then the turbulence (vector, octaves, omega, lambda, on), the noise generator and
@@ -145,6 +148,13 @@ typedef struct {
 
 static inline double dot(const double *a, const double *b) {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* numpy's cross, component by component */
+static inline void cross3(const double *a, const double *b, double *out) {
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
 static inline void affine(const double *m, const double *p, double *out) {
@@ -1474,6 +1484,101 @@ typedef struct {
 
 #define LIGHTS_ON_STACK 16
 
+/* An area light's sub-lights as lights.shadow samples them: the four corners of a region of
+ * the grid, split into quarters (sharing their middle row and column) while the level is
+ * below `adaptive` or two neighbouring corners differ by more than 0.1; a region not split
+ * adds the mean of its corners. Each sub-light is traced once (cache). */
+typedef struct {
+    Scene *s;
+    const double *lt, *p;
+    double ax1[3], ax2[3];
+    int n1, n2;
+    double (*f)[3];
+    unsigned char *done;
+} Area;
+
+static const double *sub_light(Area *a, int u, int v) {
+    int k = u * a->n2 + v;
+    if (a->done[k]) return a->f[k];
+    const double *lt = a->lt;
+    double cu, cv; /* shading.area_offsets */
+    if ((int)lt[L_CIRCULAR] && a->n1 > 1 && a->n2 > 1) {
+        double ju = (double)u / (a->n1 - 1) - 0.5 + 0.001, jv = (double)v / (a->n2 - 1) - 0.5 + 0.001;
+        double scale = (fabs(ju) > fabs(jv) ? fabs(ju) : fabs(jv)) / hypot(ju, jv);
+        cu = ju * scale, cv = jv * scale;
+    } else {
+        cu = a->n1 > 1 ? (double)u / (a->n1 - 1) - 0.5 : 0.0;
+        cv = a->n2 > 1 ? (double)v / (a->n2 - 1) - 0.5 : 0.0;
+    }
+    double c[3], to[3];
+    for (int i = 0; i < 3; i++) {
+        if ((int)lt[L_ORIENT]) c[i] = lt[L_POS + i] + cu * a->ax1[i] + cv * a->ax2[i];
+        else c[i] = lt[L_POS + i] + (cu * a->ax1[i] + cv * a->ax2[i]);
+        to[i] = c[i] - a->p[i];
+    }
+    double depth = sqrt(dot(to, to)), dd = depth > 0 ? depth : 1.0;
+    for (int i = 0; i < 3; i++) to[i] /= dd;
+    /* no view-mask class: the masks know the light's centre only */
+    shadow_filter(a->s, a->p, to, depth, -1, a->f[k]);
+    a->done[k] = 1;
+    return a->f[k];
+}
+
+static void area_region(Area *a, int u1, int v1, int u2, int v2, int level, double weight,
+                        double *out) {
+    const double *c[4] = {sub_light(a, u1, v1), sub_light(a, u2, v1), sub_light(a, u1, v2),
+                          sub_light(a, u2, v2)};
+    int divisible = u2 - u1 > 1 || v2 - v1 > 1;
+    int differ = level < (int)a->lt[L_ADAPTIVE];
+    static const int pairs[4][2] = {{0, 1}, {1, 3}, {3, 2}, {2, 0}};
+    for (int k = 0; k < 4 && !differ; k++) {
+        const double *x = c[pairs[k][0]], *y = c[pairs[k][1]];
+        differ = fabs(x[0] - y[0]) + fabs(x[1] - y[1]) + fabs(x[2] - y[2]) > 0.1;
+    }
+    if (!(divisible && differ)) {
+        for (int i = 0; i < 3; i++) out[i] += (weight / 4.0) * (c[0][i] + c[1][i] + c[2][i] + c[3][i]);
+        return;
+    }
+    double mu = (u1 + u2) / 2.0, mv = (v1 + v2) / 2.0;
+    int lo_u = (int)floor(mu), hi_u = (int)ceil(mu), lo_v = (int)floor(mv), hi_v = (int)ceil(mv);
+    area_region(a, u1, v1, lo_u, lo_v, level + 1, weight / 4.0, out);
+    area_region(a, hi_u, v1, u2, lo_v, level + 1, weight / 4.0, out);
+    area_region(a, u1, hi_v, lo_u, v2, level + 1, weight / 4.0, out);
+    area_region(a, hi_u, hi_v, u2, v2, level + 1, weight / 4.0, out);
+}
+
+/* The share of an area light reaching p (lights.shadow); ld: the unit way to its centre. */
+static void area_shadow(Scene *s, const double *lt, const double *p, const double *ld,
+                        double *f) {
+    Area a = {.s = s, .lt = lt, .p = p, .n1 = (int)lt[L_N1], .n2 = (int)lt[L_N2]};
+    size_t k = (size_t)a.n1 * (size_t)a.n2;
+    a.f = malloc(k * sizeof *a.f);
+    a.done = calloc(k, 1);
+    f[0] = f[1] = f[2] = 0.0;
+    if (a.f == NULL || a.done == NULL) {
+        free(a.f), free(a.done);
+        return;
+    }
+    if ((int)lt[L_ORIENT]) { /* shading.area_centres: axes square to the way to the light */
+        const double *a1 = lt + L_A1;
+        double length = sqrt(dot(a1, a1));
+        int vertical = fabs(fabs(ld[2]) - 1.0) < 0.01;
+        double helper[3] = {0.0, vertical ? 1.0 : 0.0, vertical ? 0.0 : 1.0};
+        cross3(ld, helper, a.ax1);
+        double n1 = sqrt(dot(a.ax1, a.ax1));
+        for (int i = 0; i < 3; i++) a.ax1[i] /= n1;
+        cross3(ld, a.ax1, a.ax2);
+        double n2 = sqrt(dot(a.ax2, a.ax2));
+        for (int i = 0; i < 3; i++) a.ax2[i] /= n2;
+        for (int i = 0; i < 3; i++) a.ax1[i] *= length, a.ax2[i] *= length;
+    } else {
+        memcpy(a.ax1, lt + L_A1, sizeof a.ax1);
+        memcpy(a.ax2, lt + L_A2, sizeof a.ax2);
+    }
+    area_region(&a, 0, 0, a.n1 - 1, a.n2 - 1, 0, 1.0, f);
+    free(a.f), free(a.done);
+}
+
 static void light_at(Scene *s, const double *lt, int l, const double *p, const double *n,
                      int lit, int dbl, int back_lit, int cls, LightAt *la) {
     double *ld = la->ld;
@@ -1505,7 +1610,8 @@ static void light_at(Scene *s, const double *lt, int l, const double *p, const d
         double f[3];
         /* from a camera ray's hit, the shadow ray stays inside the view's half spaces that
          * hold the light: its own class */
-        shadow_filter(s, p, ld, depth, cls == 0 ? 1 + l : -1, f);
+        if ((int)lt[L_AREA]) area_shadow(s, lt, p, ld, f);
+        else shadow_filter(s, p, ld, depth, cls == 0 ? 1 + l : -1, f);
         la->lc[0] *= f[0], la->lc[1] *= f[1], la->lc[2] *= f[2];
     }
 }
@@ -2006,6 +2112,12 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 if (!(c > i && c < s->nnode)) goto bad;
             }
         }
+    }
+    for (int l = 0; l < s->nlight; l++) { /* an area light's grid fits what it allocates */
+        const double *lt = s->light + (size_t)l * LIT;
+        if ((int)lt[L_AREA] && !(lt[L_N1] >= 1 && lt[L_N2] >= 1 && lt[L_N1] * lt[L_N2] <= 1e6 &&
+                                 lt[L_ADAPTIVE] >= 0 && lt[L_ADAPTIVE] <= 1e6))
+            goto bad;
     }
     /* indices between the tables are checked once here, so tracing never reads outside */
     for (int i = 0; i < s->nobj; i++) {
