@@ -319,6 +319,8 @@ def view_planes(camera: ir.Camera, width: int, height: int) -> list[tuple[np.nda
     up = np.asarray(camera.up, dtype=np.float64)
     if camera.normal is not None or camera.mesh is not None:
         return []  # a camera normal bends rays out of the view's pyramid; a mesh has none
+    if camera.kind not in ("perspective", "orthographic"):
+        return []  # the other projections' rays leave the pyramid (a fisheye's go sideways)
     gx = 0.5 + VIEW_GROW_PIXELS / max(width, 1)
     gy = 0.5 + VIEW_GROW_PIXELS / max(height, 1)
     out = []

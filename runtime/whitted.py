@@ -9,9 +9,11 @@ numpy, unchanged. tests/test_whitted_kernel.py holds the two to the same images.
 module is the kernel's only importer: `kernel_built`, `kernel_layout` and `trace_packed`
 are the way to it from elsewhere.
 
-What it covers (`reasons` lists what stops a scene): perspective and orthographic cameras
-without focal blur; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials
-(quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
+What it covers (`reasons` lists what stops a scene): every camera projection POV-Ray 3.7
+has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, cylinder
+1-4, spherical; camera.py's formulas) without focal blur, a camera normal or a mesh
+camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (quadric,
+cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
 kernel/sweep.h), transformed or not, inverse or not, and their CSG (union, intersection,
 difference, merge, nested), any number of them through the tracer's box tree, clipped by
 any of them (trace.ClipNode); no meshes or other shapes.
@@ -73,7 +75,7 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 112, 64, 64, 32, 56, 6, 16, 1024
+HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 128, 64, 64, 32, 56, 6, 16, 1024
 # a normal row: a pattern row (PIG values, no colour map), then NR_KIND on
 NRM = PIG + 32
 # pigments inside pigments (maps, checkers) deeper than this render through numpy
@@ -89,6 +91,21 @@ H_NPIG, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM, H_MASK = ra
 H_NLOOSE = 48
 # the camera rays' interior list (runtime.containers): its length, the ids, their iors
 H_CAMIN = 56
+# the projection (camera.py's) and what the others read: the angle in radians, the cylinder
+# type, the spherical angles, the lengths of right and up, the unit right, up and
+# direction, tan(135 degrees) for omnimax
+CAMERAS = {
+    "perspective": 0,
+    "orthographic": 1,
+    "fisheye": 2,
+    "omnimax": 3,
+    "panoramic": 4,
+    "ultra_wide_angle": 5,
+    "cylinder": 6,
+    "spherical": 7,
+}
+H_CAMANGLE, H_CAMCYL, H_CAMH, H_CAMV, H_CAMLR, H_CAMLU = range(112, 118)
+H_CAMRN, H_CAMUN, H_CAMDN, H_CAMTAN = 118, 121, 124, 127
 # where POV-Ray's noise tables start in the packed array (0: not packed, no pigment needs them)
 H_NOISE = 76
 # the colour maps' table (MAP_ENTRY values an entry: key, rgbft): where it starts, its entries
@@ -376,8 +393,9 @@ def most_layers(tex: ir.Texture) -> int:
 def _camera_in_matter(prepared, camera: ir.Camera) -> bool:
     """Whether an orthographic camera starts inside an object whose interior bends or fades
     light: the kernel gives every camera ray the list of the objects holding the camera's
-    location (runtime.containers), and an orthographic camera's rays start elsewhere."""
-    if camera.kind != "orthographic":
+    location (runtime.containers), and an orthographic camera's rays start elsewhere (so
+    do a cylinder camera's of types 3 and 4, along its axis)."""
+    if camera.kind != "orthographic" and not (camera.kind == "cylinder" and camera.cylinder > 2):
         return False
     at = np.asarray(camera.location, dtype=np.float64)[None, :]
     for leaves, _ in containers.holding(prepared, at):
@@ -395,7 +413,7 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     out: list[str] = []
     if not kernel_built():
         out.append("the compiled kernel is not built")
-    if camera.kind not in ("perspective", "orthographic") or camera.mesh is not None:
+    if camera.kind not in CAMERAS or camera.mesh is not None:
         out.append(f"{camera.kind} camera")
     if camera.aperture != 0.0 and camera.blur_samples > 0:
         out.append("focal blur")
@@ -822,6 +840,22 @@ def _inv_rows(m) -> np.ndarray:
 _IDENTITY_ROWS = _inv_rows(np.eye(4))
 
 
+def _pack_camera(camera: ir.Camera, h: np.ndarray) -> None:
+    """The projection and what it reads, computed as camera.py computes them."""
+    h[H_CAMKIND] = CAMERAS.get(camera.kind, 0)
+    h[H_CAMANGLE] = np.radians(90.0 if camera.angle is None else camera.angle)
+    h[H_CAMCYL] = camera.cylinder or 1
+    turn = 360.0 if camera.angle is None else camera.angle
+    h[H_CAMH] = np.radians(turn)
+    h[H_CAMV] = np.radians(camera.v_angle if camera.v_angle is not None else turn / 2.0)
+    h[H_CAMLR] = np.linalg.norm(np.asarray(camera.right, dtype=np.float64))
+    h[H_CAMLU] = np.linalg.norm(np.asarray(camera.up, dtype=np.float64))
+    h[H_CAMRN : H_CAMRN + 3] = tf.normalize(camera.right)
+    h[H_CAMUN : H_CAMUN + 3] = tf.normalize(camera.up)
+    h[H_CAMDN : H_CAMDN + 3] = tf.normalize(camera.direction)
+    h[H_CAMTAN] = np.tan(np.radians(135.0))
+
+
 def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     """The scene as the kernel reads it (see the layout above)."""
     prepared = ctx.prepared
@@ -917,7 +951,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     h[H_BG : H_BG + 3] = ctx.background
     h[H_LEGACY] = ctx.legacy_opacity
     h[H_ANYTRANS] = bool(ctx.transmits.any())
-    h[H_CAMKIND] = 1 if camera.kind == "orthographic" else 0
+    _pack_camera(camera, h)
     h[H_WIDTH], h[H_HEIGHT] = width, height
     for at, v in ((H_LOC, camera.location), (H_DIR, camera.direction)):
         h[at : at + 3] = v

@@ -22,7 +22,7 @@
 #include <string.h>
 
 /* ---- layout of the packed scene (keep in step with runtime/whitted.py) ---- */
-#define HDR 112
+#define HDR 128
 #define FOG 20
 #define OBJ 64
 #define TEX 64
@@ -49,6 +49,14 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
        H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
        H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM,
        H_SWEEPS = 96, H_NSWEEP, H_SWEEP_TOL };
+/* the camera's projection (H_CAMKIND) and what the other projections read (camera.py):
+ * the angle in radians, the cylinder type, the spherical angles, the lengths of right and
+ * up, the unit right, up and direction, tan(135 degrees) for omnimax */
+enum { CAM_PERSPECTIVE, CAM_ORTHOGRAPHIC, CAM_FISHEYE, CAM_OMNIMAX, CAM_PANORAMIC, CAM_ULTRA_WIDE,
+       CAM_CYLINDER, CAM_SPHERICAL };
+enum { H_CAMANGLE = 112, H_CAMCYL, H_CAMH, H_CAMV, H_CAMLR, H_CAMLU, H_CAMRN, H_CAMUN = H_CAMRN + 3,
+       H_CAMDN = H_CAMUN + 3, H_CAMTAN = H_CAMDN + 3 };
+
 /* a fog: distance, rgbft, type, unit up, offset, alt, turbulence (on, vector, octaves, omega,
  * lambda, depth) */
 enum { F_DIST, F_COL, F_TYPE = 6, F_UP, F_OFFSET = 10, F_ALT, F_HASTURB, F_TURB, F_OCTAVES = 16,
@@ -2250,20 +2258,106 @@ bad:
     return -1;
 }
 
+/* The screen point's angle around the centre, as POV-Ray takes it (camera._polar_angle) */
+static double polar_angle(double x0, double y0, double rad) {
+    double q = y0 / (rad == 0 ? 1.0 : rad);
+    double phi = asin(q < -1.0 ? -1.0 : (q > 1.0 ? 1.0 : q));
+    return rad == 0 ? 0.0 : (x0 < 0 ? M_PI - phi : phi);
+}
+
+/* Rodrigues (camera._rotate): v turned by `angle` about the unit axis */
+static void rotate_about(const double *v, const double *axis, double angle, double *out) {
+    double c = cos(angle), sn = sin(angle), x[3], along = dot(v, axis);
+    cross3(axis, v, x);
+    for (int k = 0; k < 3; k++) out[k] = v[k] * c + x[k] * sn + axis[k] * along * (1.0 - c);
+}
+
+/* A camera ray through screen point (sx, sy) by the projection's formulas (camera.py,
+ * POV-Ray 3.7's); 0 where the projection traces none (outside a fisheye's circle). */
+static int camera_ray(const double *h, double sx, double sy, double *o, double *d) {
+    const double *loc = h + H_LOC, *dir = h + H_DIR, *right = h + H_RIGHT, *up = h + H_UP;
+    const double *rn = h + H_CAMRN, *un = h + H_CAMUN, *dn = h + H_CAMDN;
+    double angle = h[H_CAMANGLE];
+    int traced = 1;
+    memcpy(o, loc, 3 * sizeof(double));
+    switch ((int)h[H_CAMKIND]) {
+    case CAM_ORTHOGRAPHIC:
+        for (int k = 0; k < 3; k++) o[k] = loc[k] + sx * right[k] + sy * up[k], d[k] = dir[k];
+        break;
+    case CAM_FISHEYE: {
+        double x0 = 2.0 * sx * h[H_CAMLR], y0 = 2.0 * sy * h[H_CAMLU], rad = hypot(x0, y0);
+        double phi = polar_angle(x0, y0, rad), theta = rad * angle / 2.0;
+        double a = cos(phi) * sin(theta), b = sin(phi) * sin(theta), c = cos(theta);
+        for (int k = 0; k < 3; k++) d[k] = a * rn[k] + b * un[k] + c * dn[k];
+        traced = rad <= 1.0;
+        break;
+    }
+    case CAM_OMNIMAX: {
+        double aspect = h[H_CAMLR] / h[H_CAMLU], x0 = 2.0 * sx, y0 = 2.0 * sy;
+        if (aspect > 1.0) {
+            if (aspect > 1.283458) {
+                x0 = x0 * aspect / 1.283458;
+                y0 = (y0 - 1.0) / 1.283458 + 1.0;
+            } else {
+                y0 = (y0 - 1.0) / aspect + 1.0;
+            }
+        } else {
+            y0 = y0 / aspect;
+        }
+        double rad = hypot(x0, y0), phi = polar_angle(x0, y0, rad);
+        double theta = 1.411269 * rad - 0.09439 * pow(rad, 3.0) + 0.25674 * pow(rad, 5.0);
+        double sp = sin(phi), st = sin(theta), ct = cos(theta), a = cos(phi) * st, b = sp * st;
+        for (int k = 0; k < 3; k++) d[k] = a * rn[k] + b * un[k] + ct * dn[k];
+        traced = rad <= 1.0 && !(sp * st < h[H_CAMTAN] * ct);
+        break;
+    }
+    case CAM_PANORAMIC: {
+        double lon = (0.5 - sx) * M_PI, lat = M_PI * sy;
+        double ty = fabs(M_PI / 2 - fabs(lat)) < 1e-10 ? (lat > 0 ? 1e30 : (lat < 0 ? -1e30 : 0.0))
+                                                     : tan(lat);
+        double a = cos(lon), c = sin(lon);
+        for (int k = 0; k < 3; k++) d[k] = a * right[k] + ty * up[k] + c * dir[k];
+        break;
+    }
+    case CAM_ULTRA_WIDE: {
+        double aspect = h[H_CAMLU] / h[H_CAMLR], x0 = sx * angle, y0 = sy * angle * aspect;
+        double a = sin(x0), b = sin(y0), c = cos(x0) * cos(y0);
+        for (int k = 0; k < 3; k++) d[k] = a * rn[k] + b * un[k] + c * dn[k];
+        break;
+    }
+    case CAM_CYLINDER: { /* 1 and 3 about up, 2 and 4 about right; 3 and 4 move the origin */
+        int kind = (int)h[H_CAMCYL], around_up = kind == 1 || kind == 3;
+        const double *side = around_up ? rn : un, *axis = around_up ? un : rn;
+        double s_side = around_up ? sx : sy, s_axis = around_up ? sy : sx;
+        double length = around_up ? h[H_CAMLU] : h[H_CAMLR], theta = s_side * angle;
+        double a = sin(theta), c = cos(theta), off = s_axis * length;
+        for (int k = 0; k < 3; k++) {
+            d[k] = a * side[k] + c * dn[k];
+            if (kind <= 2) d[k] = d[k] + off * axis[k];
+            else o[k] = loc[k] + off * axis[k];
+        }
+        break;
+    }
+    case CAM_SPHERICAL: {
+        double lat = sy * h[H_CAMV], lon = sx * h[H_CAMH], v1[3];
+        rotate_about(dir, rn, -lat, v1);
+        rotate_about(v1, un, lon, d);
+        break;
+    }
+    default:
+        for (int k = 0; k < 3; k++) d[k] = dir[k] + sx * right[k] + sy * up[k];
+    }
+    return traced;
+}
+
 /* The colour of the camera ray through continuous pixel coordinates (x, y). */
 static void trace_pixel(Scene *s, double x, double y, double *out) {
     const double *h = s->h;
     double sx = x / h[H_WIDTH] - 0.5, sy = 0.5 - y / h[H_HEIGHT];
-    const double *loc = h + H_LOC, *dir = h + H_DIR, *right = h + H_RIGHT, *up = h + H_UP;
     double o[3], d[3];
-    for (int k = 0; k < 3; k++) {
-        if ((int)h[H_CAMKIND] == 1) { /* orthographic */
-            o[k] = loc[k] + sx * right[k] + sy * up[k];
-            d[k] = dir[k];
-        } else {
-            o[k] = loc[k];
-            d[k] = dir[k] + sx * right[k] + sy * up[k];
-        }
+    if (!camera_ray(h, sx, sy, o, d)) { /* black, as POV-Ray */
+        out[0] = out[1] = out[2] = 0.0;
+        return;
     }
     double len = sqrt(dot(d, d));
     d[0] /= len, d[1] /= len, d[2] /= len;
