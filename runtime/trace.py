@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from runtime import shapes
+from runtime import csg_bounds, shapes
 from runtime import tolerances as tol
 from runtime import transform as tf
 
@@ -280,6 +280,8 @@ class CsgNode:
             self.lo, self.hi = np.full(3, -np.inf), np.full(3, np.inf)
         elif op == "intersection":
             self.lo, self.hi = los.max(axis=0), his.min(axis=0)
+            if not _finite_box(self.lo, self.hi):  # planes and quadrics bound one another
+                self.lo, self.hi = csg_bounds.intersection_box(children, self.lo, self.hi)
             # a child's crossing lies in its own box and in the others' insides
             tight = tight and (len(children) == 1 or all(boxed))
             boxed = [all(boxed)]
