@@ -64,12 +64,13 @@ def _plain(layers: list[ir.Texture]) -> bool:
 
 
 def _solid_key(tex: ir.Texture, finishes: _Finishes) -> tuple | None:
-    """What a one-layer texture with a solid pigment shades by (None for other textures,
-    which are told apart by identity)."""
+    """What a one-layer texture with a solid pigment shades by: its colour and finish (a
+    solid colour is the same wherever its transform puts it: a fractal of 100,000 moved
+    spheres shades as one texture). None for other textures, told apart by identity."""
     if not ir.plain_solid(tex):
         return None
     number = finishes.number(tex.finish)
-    return None if number is None else (tex.pigment.color, tex.pigment.transform, number)
+    return None if number is None else (tex.pigment.color, number)
 
 
 class _Finishes:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -346,6 +347,15 @@ class _Builder:
             leaf = Leaf(shapes.primitive_for(shape), None, index)
             self.sizes[index] = leaf.size
             return leaf
+        if type(shape) is ir.Sphere and not (obj.inverse or obj.clipped_by) and shape.radius:
+            placed = similar_sphere(shape, obj.transform)
+            if placed is not None:
+                # moved, turned and scaled alike: still a sphere, as POV-Ray keeps one
+                # (Sphere::Scale), and traced without a matrix
+                index = self.add_leaf_object(obj, flags)
+                leaf = Leaf(shapes.SpherePrim(*placed), None, index)
+                self.sizes[index] = leaf.size
+                return leaf
         if isinstance(shape, ir.Unsupported):
             return None
         if isinstance(shape, ir.SphereSweep):
@@ -441,6 +451,38 @@ class _Builder:
 
     def clip_node(self, obj: ir.Object):
         return inside_node(obj, self.warn_once, compile_xyz)
+
+
+# How far from a similarity (a turn and one scale for all axes) a sphere's transform may be
+# and still make a sphere of it: relative, in the squared lengths of its axes.
+SIMILAR_REL = 1e-12
+
+
+def similar_sphere(shape: ir.Sphere, m: ir.Matrix) -> tuple[tuple, float] | None:
+    """(centre, radius) of a sphere under m when m moves, turns and scales it alike on
+    every axis (and leaves it within the traced world), else None. In plain floats: a
+    fractal of 100,000 spheres spent seconds on numpy per sphere."""
+    (a, b, c, tx), (d, e, f, ty), (g, h, i, tz) = m[0], m[1], m[2]
+    if m[3] != (0.0, 0.0, 0.0, 1.0):
+        return None
+    s2 = a * a + d * d + g * g
+    near = SIMILAR_REL * s2
+    if not (
+        0.0 < s2 < math.inf
+        and abs(b * b + e * e + h * h - s2) <= near
+        and abs(c * c + f * f + i * i - s2) <= near
+        and abs(a * b + d * e + g * h) <= near
+        and abs(a * c + d * f + g * i) <= near
+        and abs(b * c + e * f + h * i) <= near
+    ):
+        return None
+    x, y, z = shape.center
+    centre = (a * x + b * y + c * z + tx, d * x + e * y + f * z + ty, g * x + h * y + i * z + tz)
+    radius = abs(shape.radius) * math.sqrt(s2)
+    reach = max(abs(v) for v in centre) + radius
+    if not (reach < ir.FAR_LIMIT and radius > 1.0 / ir.FAR_LIMIT):
+        return None  # left to the checks below (out of reach, shrunk away)
+    return centre, radius
 
 
 def prepare(scene: ir.Scene, width: int, height: int, cull: bool = True) -> Prepared:
