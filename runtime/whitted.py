@@ -14,9 +14,9 @@ has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, c
 1-4, spherical; camera.py's formulas) without focal blur, a camera normal or a mesh
 camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (quadric,
 cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
-kernel/sweep.h), transformed or not, inverse or not, and their CSG (union, intersection,
-difference, merge, nested), any number of them through the tracer's box tree, clipped by
-any of them (trace.ClipNode); no meshes or other shapes.
+kernel/sweep.h), polygons, transformed or not, inverse or not, and their CSG (union,
+intersection, difference, merge, nested), any number of them through the tracer's box
+tree, clipped by any of them (trace.ClipNode); no meshes or other shapes.
 Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map,
 average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
 pigments are solid, checker, gradient, onion, spherical, cylindrical, planar, boxed,
@@ -229,6 +229,7 @@ KINDS = {
     PolyPrim: 6,
     PrismPrim: 7,
     TextPrim: 7,
+    shapes.PolygonPrim: 8,
 }
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
@@ -822,6 +823,11 @@ def _prim_row(prim, terms: list[list[float]], sweeps: list[np.ndarray]) -> list[
     elif isinstance(prim, PolyPrim):
         row = [len(terms), len(prim.c), prim.degree, prim.inside_eps, prim.size]
         terms.extend(map(list, zip(prim.i, prim.j, prim.k, prim.c, strict=True)))
+    elif isinstance(prim, shapes.PolygonPrim):
+        # its projected edges go to the sweeps' table, a flat table of curves
+        at = sum(len(rows) for rows in sweeps)
+        sweeps.append(prim.e2.reshape(-1).astype(np.float64))
+        row = [*prim.n.tolist(), prim.D, *prim.keep, at, len(prim.e2), float(prim.degenerate)]
     elif isinstance(prim, Sweep):
         at = sum(len(rows) for rows in sweeps)
         sweeps.append(_sweep_rows(prim))
@@ -931,7 +937,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         SWEEP_GROUP * len(leaf.prim.groups) + SWEEP_SEGMENT * len(leaf.prim.all)
         for leaf in leaves
         if isinstance(leaf.prim, Sweep)
-    )
+    ) + sum(4 * len(leaf.prim.e2) for leaf in leaves if isinstance(leaf.prim, shapes.PolygonPrim))
     buf = np.zeros(sweeps_at + n_sweep + len(tables))
     buf[nrms_at : nrms_at + NRM * len(bumped)] = nrm_rows.ravel()
     h = buf[:HDR]

@@ -553,6 +553,30 @@ def test_every_projection_matches_numpy(projection, monkeypatch):
     _assert_identical(_scene(text), 48, 36, 0.3, monkeypatch)
 
 
+POLYGONS = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 3, -9> look_at <0, 0.5, 0> angle 55 }
+light_source { <-4, 9, -6>, rgb 1 }
+plane { y, -1 pigment { checker rgb 1 rgb 0.3 } }
+polygon { 5, <-4, -1, 0>, <-2, -1, 0>, <-2, 2, 0>, <-3, 2.5, 0>, <-4, 2, 0>
+  pigment { rgb <1, 0.3, 0.2> } }
+polygon { 10, <0, 0, 0>, <2, 0, 0>, <2, 2, 0>, <0, 2, 0>, <0, 0, 0>,
+  <0.5, 0.5, 0>, <1.5, 0.5, 0>, <1.5, 1.5, 0>, <0.5, 1.5, 0>, <0.5, 0.5, 0>
+  pigment { rgbf <0.5, 1, 0.6, 0.6> } rotate y * 30 translate <-1, 0, 1> }
+polygon { 4, <0, 0>, <1, 0>, <0.5, 1.5>, <0, 0> pigment { rgb 0.9 } finish { reflection 0.4 }
+  scale 1.5 rotate <-60, 20, 0> translate <2.5, 0, 0> }
+union { sphere { <3, 1, 2.5>, 0.6 } polygon { 4, <2, 0, 2>, <4, 0, 2>, <3, 2, 2>, <2, 0, 2> }
+  pigment { rgb <0.2, 0.4, 1> } }
+"""
+
+
+def test_polygons_match_numpy(monkeypatch):
+    """Polygons (shapes.PolygonPrim: the plane, then the even-odd test of the projected
+    edges): concave, with a hole, transparent, turned, reflective, in a union."""
+    _assert_identical(_scene(POLYGONS), 96, 72, 0.3, monkeypatch)
+
+
 CRACKLE = """
 #version 3.7;
 global_settings { assumed_gamma 1 }

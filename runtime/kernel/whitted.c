@@ -96,13 +96,17 @@ enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = 
        NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES };
 enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE };
 
-enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP };
+enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON };
 /* a polynomial's parameters: its terms in the terms table, their count, its degree, its
  * inside tolerance, its size (polynomial.PolyPrim) */
 enum { Y_TERMS, Y_NTERMS, Y_DEGREE, Y_INSIDE, Y_SIZE };
 /* a disc's parameters: centre, unit normal, radius^2, hole radius^2; a cone's (shapes.ConePrim,
  * canonical frame: axis +z from 0 to 1): the object-to-canonical rows, r0, r1, open */
 enum { D_C, D_N = 3, D_R2 = 6, D_H2 };
+/* a polygon (shapes.PolygonPrim): unit normal, D of its plane, the two axes it is projected
+ * on, where its edges (ax, ay, bx, by each, projected) start in the sweeps' table, their
+ * number, degenerate */
+enum { PG_N, PG_D = 3, PG_K0, PG_K1, PG_AT, PG_COUNT, PG_DEGEN };
 enum { C_FRAME_INV, C_R0 = 12, C_R1, C_OPEN };
 /* the node table: leaves (an object) and CSG operations over child nodes */
 enum { N_KIND, N_OP, N_INV, N_LEAF, N_FIRST, N_COUNT, N_LO = 8, N_HI = 11 };
@@ -472,6 +476,23 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
         return poly_crossings(s, p, o, d, t, face);
     case K_SWEEP:
         return sweep_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
+    case K_POLYGON: { /* the plane, then even-odd crossings of the projected edges */
+        double denom = -dot(d, p + PG_N);
+        double t0 = fabs(denom) > PARALLEL_EPS ? (dot(o, p + PG_N) + p[PG_D]) / denom : INFINITY;
+        face[0] = 0;
+        t[0] = INFINITY;
+        if (isfinite(t0) && p[PG_DEGEN] == 0.0) {
+            int k0 = (int)p[PG_K0], k1 = (int)p[PG_K1], odd = 0;
+            double px = o[k0] + t0 * d[k0], py = o[k1] + t0 * d[k1];
+            const double *e = s->sweeps + (size_t)p[PG_AT];
+            for (int i = 0; i < (int)p[PG_COUNT]; i++, e += 4) {
+                if ((e[1] > py) != (e[3] > py) && px < e[0] + (py - e[1]) * (e[2] - e[0]) / (e[3] - e[1]))
+                    odd ^= 1;
+            }
+            if (odd) t[0] = t0;
+        }
+        return 1;
+    }
     default: { /* box */
         const double *lo = p, *hi = p + 3;
         double n_ax[3], f_ax[3];
@@ -515,6 +536,9 @@ static void object_normal(const Scene *s, const double *ob, const double *po, in
         break;
     case K_DISC:
         n[0] = p[D_N], n[1] = p[D_N + 1], n[2] = p[D_N + 2];
+        break;
+    case K_POLYGON:
+        n[0] = p[PG_N], n[1] = p[PG_N + 1], n[2] = p[PG_N + 2];
         break;
     case K_CONE: {
         const double *m = p + C_FRAME_INV;
@@ -625,6 +649,8 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
         int in = sweep_inside(&s->swt, s->sweeps, q, p);
         return outside ? !in : in;
     }
+    case K_POLYGON: /* flat: no inside, nor has its inverse (as POV-Ray) */
+        return 0;
     case K_TORUS: { /* distance to the core circle, surface included (as POV-Ray) */
         double rho = hypot(p[0], p[2]) - q[0];
         int in = p[1] * p[1] + rho * rho <= q[1] * q[1];
@@ -2186,6 +2212,12 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     if (!(stl[1] >= 0 && stl[1] <= 100)) goto bad;
     for (int i = 0; i < s->nobj; i++) {
         const double *ob = s->obj + (size_t)i * OBJ, *q = ob + O_PRIM;
+        if ((int)ob[O_KIND] == K_POLYGON) {
+            if (!(q[PG_AT] >= 0 && q[PG_COUNT] >= 0 && q[PG_AT] + 4 * q[PG_COUNT] <= nsweep &&
+                  q[PG_K0] >= 0 && q[PG_K0] <= 2 && q[PG_K1] >= 0 && q[PG_K1] <= 2))
+                goto bad;
+            continue;
+        }
         if ((int)ob[O_KIND] != K_SWEEP) continue;
         if (!(q[SW_AT] >= 0 && q[SW_NGROUP] >= 0 && q[SW_NSEG] >= 0 &&
               q[SW_AT] + SG * q[SW_NGROUP] + SS * q[SW_NSEG] <= nsweep))
