@@ -6,9 +6,12 @@ surfaces will."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from lang import ir
+from runtime import whitted
 
 
 class RuntimeQueries:
@@ -24,8 +27,16 @@ class RuntimeQueries:
         length = float(np.linalg.norm(d))
         if not np.isfinite(length) or length == 0.0:
             return None
-        tracer = self._tracer(obj)
-        hits = tracer.closest(np.asarray([origin], dtype=np.float64), (d / length)[None, :])
+        tracer, buf = self._tracer(obj)
+        o = np.asarray(origin, dtype=np.float64)
+        unit = d / length
+        if buf is not None:  # the compiled kernel: a walk of 100,000 trace() calls
+            found = whitted.first_hit(buf, o, unit)
+            if found is None:
+                return None
+            t, normal = found
+            return tuple(float(v) for v in o + t * unit), normal
+        hits = tracer.closest(o[None, :], unit[None, :])
         if not hits.hit[0]:
             return None
         point = tuple(float(v) for v in hits.point[0])
@@ -59,11 +70,36 @@ class RuntimeQueries:
         v = dturbulence(np.asarray([point], dtype=np.float64), octaves, omega, lam)[0]
         return float(v[0]), float(v[1]), float(v[2])
 
+    def compiled(self, obj: ir.Object) -> bool:
+        """Does trace() on obj go through the compiled kernel?"""
+        return self._tracer(obj)[1] is not None
+
     def _tracer(self, obj: ir.Object):
+        """The object's tracer, and its packed scene for the compiled kernel (None where
+        the kernel cannot trace it): the object bare, its textures plain, which trace()
+        does not read."""
         from runtime.prepare import prepare
 
         key = id(obj)
         if key not in self._tracers:
             scene = ir.Scene(camera=ir.Camera(), objects=(obj,))
-            self._tracers[key] = (obj, prepare(scene, 1, 1, cull=False).tracer)
+            prepared = prepare(scene, 1, 1, cull=False)
+            bare = prepare(ir.Scene(camera=ir.Camera(), objects=(_bare(obj),)), 1, 1, cull=False)
+            self._tracers[key] = (obj, (prepared.tracer, whitted.probe(bare)))
         return self._tracers[key][1]
+
+
+def _bare(obj: ir.Object) -> ir.Object:
+    """obj and all it holds with plain textures and no light groups: its geometry alone."""
+    shape = obj.shape
+    if isinstance(shape, ir.CSG):
+        shape = replace(shape, children=tuple(_bare(c) for c in shape.children))
+    return replace(
+        obj,
+        shape=shape,
+        texture=ir.Texture(),
+        interior_texture=None,
+        local_lights=(),
+        global_lights=True,
+        clipped_by=tuple(_bare(c) for c in obj.clipped_by),
+    )

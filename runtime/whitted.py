@@ -6,8 +6,9 @@ spheres and planes (the seed scene spent 1.7 s there at 1280x960, profiled). The
 traces the same rays depth first, one at a time, with the same formulas and tolerances, and
 is used only when a scene has nothing it does not know; anything else renders through
 numpy, unchanged. tests/test_whitted_kernel.py holds the two to the same images. This
-module is the kernel's only importer: `kernel_built`, `kernel_layout` and `trace_packed`
-are the way to it from elsewhere.
+module is the kernel's only importer: `kernel_built`, `kernel_layout`, `trace_packed`
+and (for the scene language's trace()) `probe` and `first_hit` are the way to it from
+elsewhere.
 
 What it covers (`reasons` lists what stops a scene): every camera projection POV-Ray 3.7
 has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, cylinder
@@ -1118,6 +1119,26 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             r[L_ADAPTIVE], r[L_ORIENT], r[L_CIRCULAR] = area.adaptive, area.orient, area.circular
             r[L_A1 : L_A1 + 3], r[L_A2 : L_A2 + 3] = area.axis1, area.axis2
     return buf
+
+
+def probe(prepared) -> np.ndarray | None:
+    """A packed scene to ask `first_hit` of (the scene language's trace() on one object),
+    or None where the kernel cannot trace its shapes (their textures are not asked of)."""
+    from runtime import integrate
+
+    camera = ir.Camera()
+    if not available() or reasons(prepared, camera):
+        return None
+    return pack(integrate.make_context(prepared), camera, 1, 1)
+
+
+def first_hit(buf: np.ndarray, origin, direction) -> tuple[float, tuple] | None:
+    """(t, unit normal) of the nearest surface along the ray (direction a unit vector), as
+    trace.Tracer.closest gives them, or None."""
+    assert _whitted is not None  # probe() returned a buffer
+    ox, oy, oz = (float(v) for v in origin)
+    dx, dy, dz = (float(v) for v in direction)
+    return _whitted.first_hit(buf, (ox, oy, oz), (dx, dy, dz))
 
 
 class Kernel:

@@ -8,8 +8,11 @@ import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from conftest import ROOT, povray_debug
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from lang.evaluate import compile_source
 from runtime.queries import RuntimeQueries
@@ -197,3 +200,60 @@ def test_a_walk_by_trace_is_said_to_drift_from_povray(text, warned):
         if "from next to its last hit" in d.message
     ]
     assert [(d.span.line, d.span.col) for d in found] == ([(6, 16)] if warned else [])
+
+
+_PARTS = [
+    "sphere { <0.2, 0, 0>, 1 scale <1, 2, 1> }",
+    "box { -1, <1, 0.5, 2> rotate 30*y }",
+    "cylinder { -y, y, 0.6 }",
+    "cone { -x, 1, x, 0.2 open }",
+    "torus { 1, 0.3 rotate 40*x }",
+    "plane { y, -0.5 }",
+    "quadric { <1, -1, 1>, <0, 0, 0>, <0, 0, 0>, -0.5 }",
+]
+_OPS = ["union", "intersection", "difference", "merge"]
+
+
+@settings(
+    max_examples=40,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
+@given(
+    # distinct parts: a surface twice makes CSG's inside tests a coin toss on it
+    parts=st.lists(st.sampled_from(_PARTS), min_size=1, max_size=3, unique=True),
+    op=st.sampled_from(_OPS),
+    inverse=st.booleans(),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_trace_by_the_compiled_kernel_answers_as_the_tracer(parts, op, inverse, seed, monkeypatch):
+    """trace() goes through the compiled kernel where it can trace the object (a walk of
+    100,000 calls took 52 s through numpy, 10 s now): the same points and normals."""
+    from lang import ir
+    from runtime import api, whitted
+
+    inv = " inverse" if inverse else ""
+    # each part moved by its own small step: coincident faces (a box's and a cylinder's
+    # cap at y = -1) make inside tests a coin toss on them
+    moved = " ".join(
+        f"object {{ {p} translate <{0.013 * k}, {0.007 * k}, {0.011 * k}> }}"
+        for k, p in enumerate(parts, 1)
+    )
+    text = f"#declare O = {op} {{ {moved}{inv} rotate <10, 20, 30> }}\nobject {{ O }}"
+    obj = api.compile_string(text).scene.objects[0]
+    assert isinstance(obj, ir.Object)
+    fast = RuntimeQueries()
+    monkeypatch.setenv(whitted.ENV, "numpy")
+    slow = RuntimeQueries()
+    assert not slow.compiled(obj)
+    monkeypatch.delenv(whitted.ENV)
+    assert fast.compiled(obj)
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        o = rng.uniform(-4, 4, 3)
+        d = rng.uniform(-0.5, 0.5, 3) - o
+        a, b = fast.trace(obj, tuple(o), tuple(d)), slow.trace(obj, tuple(o), tuple(d))
+        assert (a is None) == (b is None)
+        if a is not None and b is not None:
+            assert np.allclose(a[0], b[0], rtol=1e-9, atol=1e-9)
+            assert np.allclose(a[1], b[1], rtol=1e-7, atol=1e-7)

@@ -2522,7 +2522,36 @@ static PyObject *layout(PyObject *self, PyObject *noargs) {
                          "bvh_stack", BVH_STACK, "fog", FOG, "max_layers", MAX_LAYERS);
 }
 
+/* The nearest surface along one ray (queries.trace, the scene language's trace()): (t,
+ * normal) or None, the normal as Tracer.closest gives it (unit, before the viewer turn). */
+static PyObject *first_hit(PyObject *self, PyObject *args) {
+    PyObject *scene_o;
+    double o[3], d[3];
+    if (!PyArg_ParseTuple(args, "O(ddd)(ddd)", &scene_o, &o[0], &o[1], &o[2], &d[0], &d[1], &d[2]))
+        return NULL;
+    Py_buffer sb;
+    if (checked_buffer(scene_o, &sb, HDR, 8, 0, "scene")) return NULL;
+    Scene s;
+    if (scene_from(&sb, &s)) {
+        PyBuffer_Release(&sb);
+        return NULL;
+    }
+    Hit h = {.t = INFINITY, .obj = -1};
+    PyObject *out;
+    if (closest(&s, o, d, INFINITY, SKIP_NONE, -1, &h)) {
+        double n[3];
+        hit_normal(&s, o, d, &h, n);
+        out = Py_BuildValue("d(ddd)", h.t, n[0], n[1], n[2]);
+    } else {
+        out = Py_NewRef(Py_None);
+    }
+    PyBuffer_Release(&sb);
+    return out;
+}
+
 static PyMethodDef methods[] = {
+    {"first_hit", first_hit, METH_VARARGS,
+     "first_hit(scene, origin, direction) -> (t, normal) of the nearest surface, or None."},
     {"render_tile", render_tile, METH_VARARGS,
      "render_tile(scene, x0, y0, x1, y1, threshold, metric_power, depth, out) -> (rays, "
      "shadow_rays, supersampled): one tile's colours, anti-aliased (threshold < 0: not)."},
