@@ -407,6 +407,11 @@ class _Builder:
         if why:
             self.warn_once(f"a {type(shape).__name__.lower()} is skipped: {why}", obj.span)
             return None
+        matrix = object_matrix(obj)
+        if matrix is not None and isinstance(shape, ir.Polygon):
+            # a polygon stays one, its points moved (a snowflake's 17,000 polygons)
+            points = np.asarray(shape.points, dtype=np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+            shape, matrix = ir.Polygon(tuple(map(tuple, points.tolist()))), None
         try:
             prim = prims.primitive_for(shape, compile_xyz)
         except ValueError as exc:  # unreadable data behind a shape (a broken font file)
@@ -420,7 +425,7 @@ class _Builder:
             # ones clipped away
             prim.first_only = False
         index = self.add_leaf_object(obj, flags)
-        leaf = Leaf(prim, object_matrix(obj), index, inverse=obj.inverse)
+        leaf = Leaf(prim, matrix, index, inverse=obj.inverse)
         self.sizes[index] = leaf.size
         return self.clipped(obj, leaf)
 

@@ -805,7 +805,22 @@ def _sweep_rows(prim: Sweep) -> np.ndarray:
     return np.concatenate([_table(groups, SWEEP_GROUP).ravel(), segs.ravel()])
 
 
-def _prim_row(prim, terms: list[list[float]], sweeps: list[np.ndarray]) -> list[float]:
+class _Curves:
+    """The parts of the sweeps' table, and where the next starts (summing the parts' lengths
+    for each of 17,000 polygons was most of a scene's packing)."""
+
+    def __init__(self) -> None:
+        self.parts: list[np.ndarray] = []
+        self.size = 0
+
+    def add(self, rows: np.ndarray) -> int:
+        at = self.size
+        self.parts.append(rows)
+        self.size += len(rows)
+        return at
+
+
+def _prim_row(prim, terms: list[list[float]], sweeps: _Curves) -> list[float]:
     """A primitive's parameters (PRIM_SLOTS of them): plane normal and distance, box
     corners, disc centre, normal, radius^2 and hole^2, cone/cylinder canonical frame (object
     to canonical rows), radii and openness; a polynomial's terms and a sweep's curves go to
@@ -826,12 +841,10 @@ def _prim_row(prim, terms: list[list[float]], sweeps: list[np.ndarray]) -> list[
         terms.extend(map(list, zip(prim.i, prim.j, prim.k, prim.c, strict=True)))
     elif isinstance(prim, shapes.PolygonPrim):
         # its projected edges go to the sweeps' table, a flat table of curves
-        at = sum(len(rows) for rows in sweeps)
-        sweeps.append(prim.e2.reshape(-1).astype(np.float64))
+        at = sweeps.add(prim.e2.reshape(-1).astype(np.float64))
         row = [*prim.n.tolist(), prim.D, *prim.keep, at, len(prim.e2), float(prim.degenerate)]
     elif isinstance(prim, Sweep):
-        at = sum(len(rows) for rows in sweeps)
-        sweeps.append(_sweep_rows(prim))
+        at = sweeps.add(_sweep_rows(prim))
         row = [at, len(prim.groups), len(prim.all), prim.h1, prim.h2, *prim.axes]
         row += [prim.conic, prim.open, prim.size, *prim.lo, *prim.hi, prim.degenerate]
     else:
@@ -1010,7 +1023,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         rows[spheres, O_PRIM + 3] = [leaves[k].prim.r for k in spheres]
     others = [k for k, leaf in enumerate(leaves) if type(leaf.prim) is not shapes.SpherePrim]
     terms: list[list[float]] = []
-    sweeps: list[np.ndarray] = []
+    sweeps = _Curves()
     if others:
         rows[others, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
             [_prim_row(leaves[k].prim, terms, sweeps) for k in others], PRIM_SLOTS
@@ -1024,8 +1037,8 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         tol.SPLINE_PARAM_EPS,
         tol.SWEEP_SIDE_REL,
     )
-    if sweeps:
-        buf[sweeps_at : sweeps_at + n_sweep] = np.concatenate(sweeps)
+    if sweeps.parts:
+        buf[sweeps_at : sweeps_at + n_sweep] = np.concatenate(sweeps.parts)
     h[H_POLY_REACH], h[H_POLY_LEAD], h[H_ROOT_ITER] = (
         tol.POLY_REACH,
         tol.POLY_LEAD_REL,

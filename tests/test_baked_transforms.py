@@ -1,7 +1,8 @@
-"""A sphere moved, turned and scaled alike on every axis stays a sphere (prepare's
-similar_sphere, as POV-Ray's Sphere::Scale keeps one): traced without a matrix, with the
-same crossings as through the matrix; other transforms keep the matrix. And equal solid
-colours moved apart shade as one texture."""
+"""Shapes whose transform prepare bakes into them, traced without a matrix with the same
+crossings as through it: a sphere moved, turned and scaled alike on every axis stays a
+sphere (similar_sphere, as POV-Ray's Sphere::Scale keeps one; other transforms keep the
+matrix), a polygon's points move. And equal solid colours moved apart shade as one
+texture."""
 
 from __future__ import annotations
 
@@ -74,3 +75,35 @@ def test_a_fractal_of_moved_spheres_traces_plain_spheres_with_one_texture():
     leaves = prepared.tracer.nodes
     assert len(leaves) == 27 and all(leaf.identity for leaf in leaves)
     assert len(integrate.make_context(prepared).textures) == 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    scale=st.tuples(*[st.floats(0.2, 5)] * 3),
+    turn=st.tuples(*[st.floats(-180, 180)] * 3),
+    move=_vec,
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_a_moved_polygon_has_the_crossings_of_its_matrix(scale, turn, move, seed):
+    from runtime.shapes import PolygonPrim
+
+    # a square with a square hole, then a triangle: two sub-polygons
+    points = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0), (0, 0, 0), (0.5, 0.5, 0),
+              (1.5, 0.5, 0), (1, 1.5, 0), (0.5, 0.5, 0)]  # fmt: skip
+    text = f"polygon {{ {len(points)}, " + ", ".join(f"<{x}, {y}, {z}>" for x, y, z in points)
+    text += f" scale <{scale[0]}, {scale[1]}, {scale[2]}> rotate <{turn[0]}, {turn[1]}, {turn[2]}>"
+    text += f" translate <{move[0]}, {move[1]}, {move[2]}> }}"
+    scene = api.compile_string("camera { location -9*z look_at 0 }" + text).scene
+    leaf = prepare(scene, 16, 12).tracer.nodes[0]
+    assert leaf.identity
+    m = np.asarray(scene.objects[0].transform, dtype=np.float64)
+    moved = Leaf(PolygonPrim(points), m, 0)
+    rng = np.random.default_rng(seed)
+    centre = m[:3, :3] @ np.array([1.0, 1.0, 0.0]) + m[:3, 3]
+    o = centre + rng.uniform(-20, 20, size=(400, 3))
+    d = centre + rng.uniform(-3, 3, size=(400, 3)) * np.array(scale) - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    a, b = leaf.crossings(o, d).t[:, 0], moved.crossings(o, d).t[:, 0]
+    assert (np.isfinite(a) == np.isfinite(b)).mean() > 0.99  # rays along an edge may differ
+    both = np.isfinite(a) & np.isfinite(b)
+    assert np.allclose(a[both], b[both], rtol=1e-9, atol=1e-9)
