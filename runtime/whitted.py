@@ -1129,7 +1129,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         area = light.area
         if area is not None and area.size1 * area.size2 > 1:  # else a point (lights.shadow)
             r[L_AREA], r[L_N1], r[L_N2] = 1, max(1, area.size1), max(1, area.size2)
-            r[L_ADAPTIVE], r[L_ORIENT], r[L_CIRCULAR] = area.adaptive, area.orient, area.circular
+            # past the grid's depth a level changes nothing (a region of one cell is not split)
+            level = min(max(area.adaptive, 0), 64)
+            r[L_ADAPTIVE], r[L_ORIENT], r[L_CIRCULAR] = level, area.orient, area.circular
             r[L_A1 : L_A1 + 3], r[L_A2 : L_A2 + 3] = area.axis1, area.axis2
     return buf
 

@@ -520,6 +520,16 @@ def test_area_lights_match_numpy(monkeypatch):
     _assert_identical(_scene(AREA_LIGHTS), 96, 72, 0.3, monkeypatch)
 
 
+def test_an_adaptive_level_past_the_grid_renders_as_the_grid_allows(monkeypatch):
+    """A level of 2^31 (a users' typo, or a fuzzer's) splits no further than 9x9 cells can:
+    the kernel traces it, as numpy does, and the image is adaptive 4's."""
+    deep = AREA_LIGHTS.replace("9, 9 adaptive 2", "9, 9 adaptive 2147483648")
+    assert whitted.reasons(prepare(_scene(deep), 16, 12), _scene(deep).camera) == []
+    _assert_identical(_scene(deep), 48, 36, 0.0, monkeypatch)
+    four = render_scene(_scene(AREA_LIGHTS.replace("9, 9 adaptive 2", "9, 9 adaptive 4")), 48, 36)
+    assert np.array_equal(render_scene(_scene(deep), 48, 36), four)
+
+
 PROJECTED = """
 #version 3.7; global_settings { assumed_gamma 1 }
 light_source { <-4, 9, -6>, rgb 1 }
