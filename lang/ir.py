@@ -755,6 +755,10 @@ class MeshCamera:
     smooth: bool = False  # distribution 3: interpolate the vertex normals
 
 
+# the most samples an area light's grid may have (the renderers keep them per point)
+AREA_SAMPLES = 1_000_000
+
+
 @dataclass(frozen=True)
 class AreaLight:
     axis1: Vec3

@@ -465,6 +465,9 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
             out.append(f"{light.kind} light")
         if light.projected_through is not None:
             out.append("projected_through")
+        area = light.area
+        if area is not None and area.size1 * area.size2 > ir.AREA_SAMPLES:
+            out.append("an area light of more than 1,000,000 samples")
     return sorted(set(out))
 
 

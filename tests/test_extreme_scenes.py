@@ -1,6 +1,6 @@
 """Values far outside what a scene means give a located error or a warning and a finite
 render, never an internal error: a focal blur of 1e30 samples, a radiosity scene with a box
-1e300 long."""
+1e300 long, an area light of 10^10 samples."""
 
 from __future__ import annotations
 
@@ -62,3 +62,16 @@ def test_an_undefined_max_trace_level_outside_global_settings_is_a_located_error
         r = compile_source(text, "t.pov")
         errs = [d for d in r.diagnostics if d.severity == "error"]
         assert [e.code for e in errs] == ["E0203"] and errs[0].span.line == 1
+
+
+def test_an_area_light_of_more_samples_than_memory_holds_is_a_located_error():
+    from lang.evaluate import compile_source
+
+    for size in ("100000, 100000", "2147483648, 2"):
+        text = f"sphere {{ 0, 1 }}\nlight_source {{ 0, 1 area_light x, z, {size} adaptive 1 }}\n"
+        r = compile_source(text, "t.pov")
+        errs = [d for d in r.diagnostics if d.severity == "error"]
+        assert [(e.code, e.span.line) for e in errs] == [("E0238", 2)], errs
+        assert "at most 1,000,000" in errs[0].message
+    ok = compile_source("light_source { 0, 1 area_light x, z, 1000, 1000 }\n", "t.pov")
+    assert not [d for d in ok.diagnostics if d.severity == "error"]

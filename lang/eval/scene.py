@@ -99,6 +99,15 @@ def _b_light(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Light:
             fields[name] = bool(args[0]) if args and args[0] is not None else True
         elif name == "area_light":
             area.update(axis1=args[0], axis2=args[1], size1=args[2], size2=args[3])
+            if args[2] * args[3] > ir.AREA_SAMPLES:
+                # the grid's samples are kept per point: 10^10 of them is memory no machine has
+                raise it.error(
+                    "E0238",
+                    f"an area light of {args[2]:g} × {args[3]:g} samples: "
+                    f"at most {ir.AREA_SAMPLES:,} in all",
+                    _span,
+                    "a soft shadow is smooth with 17 × 17 or fewer; `adaptive` samples fewer",
+                )
         elif name == "adaptive":
             area["adaptive"] = int(args[0])
         elif name == "jitter":
