@@ -17,7 +17,11 @@ camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (q
 cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
 kernel/sweep.h), polygons, transformed or not, inverse or not, and their CSG (union,
 intersection, difference, merge, nested), any number of them through the tracer's box
-tree, clipped by any of them (trace.ClipNode); no meshes or other shapes.
+tree, clipped by any of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh,
+mesh2, height fields, bicubic patches: each in float64 through the triangles' own box tree,
+as triangles.TriangleSet refines Embree's float32 hits; not in CSG, nor the tessellations
+of nurbs and subdivision surfaces, whose shadow rays start on the curved surface); no other
+shapes.
 Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map,
 average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
 pigments are solid, checker, gradient, onion, spherical, cylindrical, planar, boxed,
@@ -44,6 +48,7 @@ from __future__ import annotations
 
 import math
 import os
+import weakref
 
 import numpy as np
 
@@ -68,7 +73,7 @@ from runtime.lights import MAX_SHADOW_CROSSINGS
 from runtime.prims.polynomial import PolyPrim
 from runtime.prims.prism import PrismPrim, Sweep
 from runtime.prims.text import TextPrim
-from runtime.trace import ClipNode, CsgNode, Leaf
+from runtime.trace import BoxTree, ClipNode, CsgNode, Leaf
 
 try:  # the extension is optional: without a compiler the numpy path renders everything
     from runtime import _whitted
@@ -120,6 +125,12 @@ H_NRMS, H_NNRM = 88, 89
 # the sweeps' table (kernel/sweep.h: groups, then segments, per sweep), its length, and the
 # tolerances of their root finding (spline2d)
 H_SWEEPS, H_NSWEEP, H_SWEEP_TOL = 96, 97, 98
+# the triangles' table (TRI values each), their box tree (BVH rows) and its leaves' triangles
+H_TRIS, H_NTRI, H_TBVH, H_NTBVH, H_TITEMS, H_NTITEM = range(90, 96)
+# a triangle: first vertex, edges, unit geometric normal, vertex normals (NaN: flat), its
+# object, texture row and the object's size (triangles.TriangleSet's, world space)
+TRI = 24
+TR_V0, TR_E1, TR_E2, TR_NG, TR_VN, TR_OBJ, TR_TEX, TR_SIZE = 0, 3, 6, 9, 12, 21, 22, 23
 SWEEP_GROUP, SWEEP_SEGMENT = 6, 13
 POLY_TERM = 4
 # a polynomial of a higher degree renders through numpy (kernel/poly.h POLY_MAX_DEGREE)
@@ -232,6 +243,9 @@ KINDS = {
     TextPrim: 7,
     shapes.PolygonPrim: 8,
 }
+# an object made of triangles (a mesh, mesh2, triangle, height field): met through the
+# triangles' box tree, never as a primitive
+K_MESH = 9
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
 # The packed scene is ~400 bytes an object; past this many the numpy path (and its memory
@@ -288,6 +302,7 @@ def layout() -> dict[str, int]:
         "bvh_stack": BVH_STACK,
         "fog": FOG,
         "max_layers": MAX_LAYERS,
+        "triangle": TRI,
     }
 
 
@@ -432,7 +447,7 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append("rainbow")
     tracer = prepared.tracer
     if tracer.triangles is not None:
-        out.append("meshes")
+        out.extend(_triangle_reasons(prepared))
     if len(tracer.nodes) > MAX_OBJECTS:
         out.append(f"more than {MAX_OBJECTS} objects")
     if _tree_depth(tracer) >= BVH_STACK - 2:
@@ -632,15 +647,17 @@ def _noise_tables() -> np.ndarray:
 
 
 def _tree_depth(tracer) -> int:
-    tree = tracer.tree
-    if tree is None:
-        return 1
+    return 1 if tracer.tree is None else _depth(tracer.tree)
+
+
+def _depth(tree: BoxTree) -> int:
     depth, stack = 0, [(0, 1)]
     while stack:
         k, level = stack.pop()
         depth = max(depth, level)
-        if tree.kids[k] is not None:
-            stack.extend((c, level + 1) for c in tree.kids[k])
+        kids = tree.kids[k]
+        if kids is not None:
+            stack.extend((c, level + 1) for c in kids)
     return depth
 
 
@@ -656,6 +673,11 @@ def box_tree(tracer) -> tuple[np.ndarray, list[int]]:
         hi = np.max([tracer.nodes[i].hi for i in bounded], axis=0)
         row = np.concatenate([lo, hi, [-1, -1, 0, len(bounded), 0]])
         return row[None, :], list(bounded)
+    return _tree_rows(tree, bounded)
+
+
+def _tree_rows(tree: BoxTree, ids) -> tuple[np.ndarray, list[int]]:
+    """A box tree as BVH rows, and its leaves' items (as `ids`, one run per leaf)."""
     m = len(tree.lo)
     rows = np.zeros((m, BVH))
     lo, hi = np.array(tree.lo).reshape(m, 3), np.array(tree.hi).reshape(m, 3)
@@ -668,7 +690,7 @@ def box_tree(tracer) -> tuple[np.ndarray, list[int]]:
     rows[leaves, 6:8] = -1
     rows[leaves, 8] = np.cumsum(counts) - counts
     rows[leaves, 9] = counts
-    items = np.asarray(bounded, dtype=np.int64)[np.concatenate(runs)].tolist()
+    items = np.asarray(ids, dtype=np.int64)[np.concatenate(runs)].tolist()
     if len(inner):
         kids = np.array([tree.kids[k] for k in inner], dtype=np.int64).reshape(-1, 2)
         left, right = kids[:, 0], kids[:, 1]
@@ -681,6 +703,69 @@ def box_tree(tracer) -> tuple[np.ndarray, list[int]]:
         rows[inner, 7] = np.where(swap, left, right)
         rows[inner, 10] = axis
     return rows, items
+
+
+# the triangles' box trees, built once per triangle set (reasons asks for their depth, pack
+# for their rows)
+_TRIANGLE_TREES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _triangles_kept(triangles) -> np.ndarray:
+    """The triangles the kernel traces: not degenerate (they are never hit: the numpy path
+    leaves them out of Embree's scene too), of objects not traced as solids of CSG."""
+    keep = np.linalg.norm(np.cross(triangles.e1, triangles.e2), axis=1) > 0
+    if triangles.solid:
+        keep &= ~np.isin(triangles.leaf_of, list(triangles.solid))
+    return np.nonzero(keep)[0]
+
+
+def _triangle_tree(triangles) -> tuple[BoxTree | None, np.ndarray, int]:
+    """The box tree over the kept triangles (None: there are none), their indices and the
+    tree's depth."""
+    if triangles not in _TRIANGLE_TREES:
+        ids = _triangles_kept(triangles)
+        tree, depth = None, 0
+        if len(ids):
+            tri = triangles.tri[ids]
+            tree = BoxTree(tri.min(axis=1), tri.max(axis=1))
+            depth = _depth(tree)
+        _TRIANGLE_TREES[triangles] = (tree, ids, depth)
+    return _TRIANGLE_TREES[triangles]
+
+
+def _triangle_reasons(prepared) -> list[str]:
+    triangles = prepared.tracer.triangles
+    curved = getattr(prepared, "curved", None)
+    out = []
+    if curved is not None and curved.any():
+        # their shadow rays start on the curved surface (triangles.terminator_points)
+        out.append("meshes tessellated from curved surfaces")
+    if len(triangles.tri) > MAX_OBJECTS:
+        out.append(f"more than {MAX_OBJECTS} triangles")
+        return out
+    if _triangle_tree(triangles)[2] >= BVH_STACK - 2:
+        out.append("a triangles' box tree deeper than the kernel's stack")
+    return out
+
+
+def _pack_triangles(ctx) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """(triangle rows, their box tree's rows, its leaves' triangles) of the scene."""
+    triangles = ctx.tracer.triangles
+    tree, ids, _ = (None, None, 0) if triangles is None else _triangle_tree(triangles)
+    if tree is None or ids is None:
+        return np.zeros((0, TRI)), np.zeros((0, BVH)), []
+    rows = np.empty((len(ids), TRI))
+    t = triangles
+    rows[:, TR_V0 : TR_V0 + 3] = t.v0[ids]
+    rows[:, TR_E1 : TR_E1 + 3] = t.e1[ids]
+    rows[:, TR_E2 : TR_E2 + 3] = t.e2[ids]
+    rows[:, TR_NG : TR_NG + 3] = t.ng[ids]
+    rows[:, TR_VN : TR_VN + 9] = t.vn[ids].reshape(-1, 9)  # NaN rows: flat triangles
+    rows[:, TR_OBJ] = t.leaf_of[ids]
+    rows[:, TR_TEX] = ctx.texture_of(t.leaf_of[ids].astype(np.int64), t.local[ids])
+    rows[:, TR_SIZE] = t.tri_size[ids]
+    bvh, items = _tree_rows(tree, np.arange(len(ids)))
+    return rows, bvh, items
 
 
 # A box counts as outside a half space only beyond this share of its distance from the
@@ -785,8 +870,19 @@ def _nodes(roots: list) -> tuple[list, list[int], dict[int, int]]:
     return order, children, firsts
 
 
-def _index(leaf: Leaf) -> int:
+def _index(leaf) -> int:
     return leaf.index
+
+
+class _MeshRow:
+    """The object row of an object made of triangles: untransformed (its triangles are in
+    world space), no primitive."""
+
+    prim = None
+    identity, inverse = True, False
+
+    def __init__(self, index: int, size: float):
+        self.index, self.size = index, float(size)
 
 
 def _table(rows: list, width: int) -> np.ndarray:
@@ -887,7 +983,10 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     objs = prepared.objects
     s = scene.settings
     nodes, children, firsts = _nodes(list(tracer.nodes))
-    leaves = sorted((n for n in nodes if isinstance(n, Leaf) and n.index >= 0), key=_index)
+    leaves: list = [n for n in nodes if isinstance(n, Leaf) and n.index >= 0]
+    if tracer.triangles is not None:  # objects of triangles get a row, for what they share
+        leaves += [_MeshRow(i, tracer.sizes[i]) for i in tracer.triangles.first]
+    leaves.sort(key=_index)
     assert [n.index for n in leaves] == list(range(len(objs))), "one leaf per object"
     # clipping shapes (no object: never hit) get object rows after the objects', for their
     # inside tests
@@ -955,9 +1054,18 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         for leaf in leaves
         if isinstance(leaf.prim, Sweep)
     ) + sum(4 * len(leaf.prim.e2) for leaf in leaves if isinstance(leaf.prim, shapes.PolygonPrim))
-    buf = np.zeros(sweeps_at + n_sweep + len(tables))
-    buf[nrms_at : nrms_at + NRM * len(bumped)] = nrm_rows.ravel()
+    tri_rows, tri_bvh, tri_items = _pack_triangles(ctx)
+    tris_at = sweeps_at + n_sweep
+    tbvh_at = tris_at + TRI * len(tri_rows)
+    titems_at = tbvh_at + BVH * len(tri_bvh)
+    buf = np.zeros(titems_at + len(tri_items) + len(tables))
     h = buf[:HDR]
+    h[H_TRIS], h[H_NTRI], h[H_TBVH], h[H_NTBVH] = tris_at, len(tri_rows), tbvh_at, len(tri_bvh)
+    h[H_TITEMS], h[H_NTITEM] = titems_at, len(tri_items)
+    buf[tris_at:tbvh_at] = tri_rows.ravel()
+    buf[tbvh_at:titems_at] = tri_bvh.ravel()
+    buf[titems_at : titems_at + len(tri_items)] = tri_items
+    buf[nrms_at : nrms_at + NRM * len(bumped)] = nrm_rows.ravel()
     h[H_NRMS], h[H_NNRM] = nrms_at, len(bumped)
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
@@ -997,7 +1105,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     # Whole columns at once: a scene may have thousands of objects, and a numpy assignment
     # per field and object cost more than tracing the hidden ones.
     rows = buf[HDR : HDR + n_obj * OBJ].reshape(n_obj, OBJ)
-    rows[:, O_KIND] = [KINDS[type(leaf.prim)] for leaf in leaves]
+    rows[:, O_KIND] = [KINDS.get(type(leaf.prim), K_MESH) for leaf in leaves]
     rows[:, O_IDENT] = [leaf.identity for leaf in leaves]
     rows[:, O_FLIP] = [leaf.inverse for leaf in leaves]
     rows[:, O_SIZE] = [leaf.size for leaf in leaves]
@@ -1024,7 +1132,8 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     if spheres:
         rows[spheres, O_PRIM : O_PRIM + 3] = [leaves[k].prim.c for k in spheres]
         rows[spheres, O_PRIM + 3] = [leaves[k].prim.r for k in spheres]
-    others = [k for k, leaf in enumerate(leaves) if type(leaf.prim) is not shapes.SpherePrim]
+    others = [k for k, leaf in enumerate(leaves) if type(leaf.prim) in KINDS]
+    others = [k for k in others if type(leaves[k].prim) is not shapes.SpherePrim]
     terms: list[list[float]] = []
     sweeps = _Curves()
     if others:

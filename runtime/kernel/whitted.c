@@ -48,7 +48,8 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
        H_TOL = 28, H_NPIG = 39, H_NSKY, H_NNODE, H_NROOT, H_NCHILD, H_NUNB, H_NBVH, H_NITEM,
        H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
        H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM,
-       H_SWEEPS = 96, H_NSWEEP, H_SWEEP_TOL };
+       H_TRIS = 90, H_NTRI, H_TBVH, H_NTBVH, H_TITEMS, H_NTITEM, H_SWEEPS = 96, H_NSWEEP,
+       H_SWEEP_TOL };
 /* the camera's projection (H_CAMKIND) and what the other projections read (camera.py):
  * the angle in radians, the cylinder type, the spherical angles, the lengths of right and
  * up, the unit right, up and direction, tan(135 degrees) for omnimax */
@@ -96,7 +97,12 @@ enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = 
        NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES };
 enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE };
 
-enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON };
+enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON, K_MESH };
+/* a triangle (runtime/triangles.py TriangleSet, world space): its first vertex, edges, unit
+ * geometric normal, vertex normals (NaN: flat), object, texture row, the object's size (the
+ * self-hit floor's); K_MESH objects own triangles and are met only through their box tree */
+#define TRI 24
+enum { TR_V0, TR_E1 = 3, TR_E2 = 6, TR_NG = 9, TR_VN = 12, TR_OBJ = 21, TR_TEX, TR_SIZE };
 /* a polynomial's parameters: its terms in the terms table, their count, its degree, its
  * inside tolerance, its size (polynomial.PolyPrim) */
 enum { Y_TERMS, Y_NTERMS, Y_DEGREE, Y_INSIDE, Y_SIZE };
@@ -146,6 +152,8 @@ typedef struct {
     const double *map;          /* the colour maps' entries */
     const double *fog;          /* the fogs, FOG values each */
     const double *terms;        /* the polynomials' terms, POLY_TERM values each */
+    const double *tri, *tbvh, *titem; /* the triangles, their box tree, its leaves' triangles */
+    int ntri, ntbvh, ntitem;
     int has_noise, nfog, mwidth, nnrm;
     int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nloose, nbvh, nitem, maxlevel,
         legacy, anytrans;
@@ -156,6 +164,7 @@ typedef struct {
 typedef struct {
     double t;
     int obj, face, flip;
+    int tri; /* the triangle hit (-1: the object's own surface) */
 } Hit;
 
 static inline double dot(const double *a, const double *b) {
@@ -843,6 +852,55 @@ static int gather_hit(Scene *s, const Cross *buf, int n, double tmin, double lim
     return 0;
 }
 
+/* Barycentric weights (u of vertex 1, v of vertex 2) of p in a triangle's plane
+ * (shapes.barycentric). */
+static void tri_weights(const double *tr, const double *p, double *u, double *v) {
+    const double *e1 = tr + TR_E1, *e2 = tr + TR_E2;
+    double w[3] = {p[0] - tr[0], p[1] - tr[1], p[2] - tr[2]};
+    double d00 = dot(e1, e1), d01 = dot(e1, e2), d11 = dot(e2, e2);
+    double d20 = dot(w, e1), d21 = dot(w, e2), den = d00 * d11 - d01 * d01;
+    *u = (d11 * d20 - d01 * d21) / den;
+    *v = (d00 * d21 - d01 * d20) / den;
+}
+
+/* The nearest triangle in (its floor, h->t) through their box tree, in float64 as the numpy
+ * path refines Embree's hits (triangles.TriangleSet: the distance to the plane, the object's
+ * self-hit floor); 1 when `any` and one was found. */
+static int triangle_hits(Scene *s, const double *o, const double *d, const double *inv,
+                         double tmin, int skip, int any, Hit *h) {
+    int stack[BVH_STACK], top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const double *b = s->tbvh + (size_t)stack[--top] * BVH;
+        if (!slab_finite(s, b + B_LO, b + B_HI, o, inv, tmin, h->t)) continue;
+        if (b[B_LEFT] >= 0) {
+            int axis_near_left = d[(int)b[B_AXIS]] >= 0;
+            if (top + 2 > BVH_STACK) continue; /* deeper than any tree whitted.py packs */
+            stack[top++] = (int)(axis_near_left ? b[B_RIGHT] : b[B_LEFT]);
+            stack[top++] = (int)(axis_near_left ? b[B_LEFT] : b[B_RIGHT]);
+            continue;
+        }
+        for (int k = 0; k < (int)b[B_COUNT]; k++) {
+            int i = (int)s->titem[(size_t)b[B_FIRST] + k];
+            const double *tr = s->tri + (size_t)i * TRI;
+            int obj = (int)tr[TR_OBJ];
+            if (skip & (int)s->obj[(size_t)obj * OBJ + O_FLAGS]) continue;
+            const double *ng = tr + TR_NG;
+            double w[3] = {tr[0] - o[0], tr[1] - o[1], tr[2] - o[2]};
+            double t = dot(w, ng) / dot(d, ng);
+            double floor = OBJECT_REL * tr[TR_SIZE];
+            if (tmin > floor) floor = tmin;
+            if (!(t > floor && t < h->t)) continue;
+            double p[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]}, u, v;
+            tri_weights(tr, p, &u, &v);
+            if (!(u >= 0.0 && v >= 0.0 && u + v <= 1.0)) continue;
+            h->t = t, h->obj = obj, h->tri = i, h->face = 0, h->flip = 0;
+            if (any) return 1;
+        }
+    }
+    return 0;
+}
+
 /* Closest crossing in (floor, tmax) over all objects not flagged `skip`; 0 when none.
  * any: stop at the first one (shadow rays). Unbounded roots (planes) first: their hits
  * shorten the ray before the box tree is walked, as in trace.Tracer; the loose roots
@@ -853,6 +911,7 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
     double tmin = default_tmin(s, o);
     h->t = tmax;
     h->obj = -1;
+    h->tri = -1;
     Cross buf[MAX_CROSS];
     double inv[3] = {1.0 / d[0], 1.0 / d[1], 1.0 / d[2]}; /* inf for 0, as numpy's */
     for (int u = 0; u < s->nunb; u++)
@@ -889,6 +948,8 @@ static int find_hit(Scene *s, const double *o, const double *d, double tmax, int
     double cull = h->t;
     for (int u = 0; u < s->nloose; u++)
         if (test_root(s, (int)s->loose[u], o, d, inv, tmin, cull, skip, any, h, buf)) return 1;
+    /* last, so that a triangle's hit is the only kind that can replace another after it */
+    if (s->ntbvh > 0 && triangle_hits(s, o, d, inv, tmin, skip, any, h)) return 1;
     return h->obj >= 0;
 }
 
@@ -904,6 +965,18 @@ static inline int occluded(Scene *s, const double *o, const double *d, double tm
 
 /* Unit world normal at the hit (before the viewer turn), flipped for inverse objects. */
 static void hit_normal(Scene *s, const double *o, const double *d, const Hit *h, double *n) {
+    if (h->tri >= 0) { /* the geometric normal, or the vertex normals' (triangles._record) */
+        const double *tr = s->tri + (size_t)h->tri * TRI, *vn = tr + TR_VN;
+        if (isnan(vn[0])) {
+            n[0] = tr[TR_NG], n[1] = tr[TR_NG + 1], n[2] = tr[TR_NG + 2];
+            return;
+        }
+        double p[3] = {o[0] + h->t * d[0], o[1] + h->t * d[1], o[2] + h->t * d[2]}, u, v;
+        tri_weights(tr, p, &u, &v);
+        for (int i = 0; i < 3; i++) n[i] = (1.0 - u - v) * vn[i] + u * vn[3 + i] + v * vn[6 + i];
+        normalize3(n);
+        return;
+    }
     const double *ob = s->obj + (size_t)h->obj * OBJ;
     double po[3], on[3];
     if ((int)ob[O_IDENT]) {
@@ -1394,6 +1467,13 @@ static void layers_through(const Scene *s, const double *tx, const double *pt,
 
 /* Light let through from p toward a light at distance `dist` (integrate.shadow_filter); cls:
  * the shadow ray's class for the view masks (-1: none). */
+/* The texture row shown at a hit: a triangle's own (a mesh's per-face textures), else the
+ * object's (context.texture_of). */
+static inline int hit_texture(const Scene *s, const Hit *h) {
+    if (h->tri >= 0) return (int)s->tri[(size_t)h->tri * TRI + TR_TEX];
+    return (int)s->obj[(size_t)h->obj * OBJ + O_TEX];
+}
+
 static void shadow_filter(Scene *s, const double *p, const double *ldir, double dist,
                           int cls, double *mult) {
     double tol = 1e-6 * dist;
@@ -1409,7 +1489,7 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
         Hit h;
         if (!closest(s, o, ldir, remaining, SKIP_NO_SHADOW, cls, &h)) return;
         const double *ob = s->obj + (size_t)h.obj * OBJ;
-        const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
+        const double *tx = s->tex + (size_t)hit_texture(s, &h) * TEX;
         double pt[3], n[3];
         for (int i = 0; i < 3; i++) pt[i] = o[i] + h.t * ldir[i];
         if (!(int)tx[T_TRANS]) {
@@ -1423,7 +1503,7 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
         if (tx[T_PAT] != 0.0) { /* the shares of the textures shown there that let light by */
             int rows[MAX_LAYERS], nleaf = 0;
             double share[MAX_LAYERS];
-            resolve_texture(s, (int)ob[O_TEX], pt, 1.0, 0, rows, share, &nleaf);
+            resolve_texture(s, hit_texture(s, &h), pt, 1.0, 0, rows, share, &nleaf);
             t[0] = t[1] = t[2] = 0.0;
             for (int k = 0; k < nleaf; k++) {
                 const double *lt = s->tex + (size_t)rows[k] * TEX;
@@ -1854,7 +1934,7 @@ static void shade_layers(Scene *s, const double *tx, const double *p, const doub
 static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
                   int level, int skip, int cls, const Inside *in, double *out) {
     const double *ob = s->obj + (size_t)h->obj * OBJ;
-    const double *tx = s->tex + (size_t)ob[O_TEX] * TEX;
+    const double *tx = s->tex + (size_t)hit_texture(s, h) * TEX;
     double p[3], n[3];
     for (int i = 0; i < 3; i++) p[i] = o[i] + h->t * d[i];
     hit_normal(s, o, d, h, n);
@@ -1881,7 +1961,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
          * goes through about the smooth normal */
         int rows[MAX_LAYERS], nleaf = 0;
         double share[MAX_LAYERS], other[3];
-        resolve_texture(s, (int)ob[O_TEX], p, 1.0, 0, rows, share, &nleaf);
+        resolve_texture(s, hit_texture(s, h), p, 1.0, 0, rows, share, &nleaf);
         fil[0] = fil[1] = fil[2] = 0.0;
         for (int k = 0; k < nleaf; k++) {
             double res[3] = {0.0, 0.0, 0.0}, fk[3] = {1.0, 1.0, 1.0};
@@ -2231,6 +2311,35 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 goto bad;
         }
     }
+    double tris = h[H_TRIS], ntri = h[H_NTRI], tbvh = h[H_TBVH], ntbvh = h[H_NTBVH];
+    double titems = h[H_TITEMS], ntitem = h[H_NTITEM];
+    if (!(ntri >= 0 && ntri < 1e9 && ntbvh >= 0 && ntbvh < 1e9 && ntitem >= 0 && ntitem < 1e9))
+        goto bad;
+    if (ntbvh > 0 && !(tris >= need && tris + TRI * ntri <= sb->len / 8 && tbvh >= need &&
+                       tbvh + BVH * ntbvh <= sb->len / 8 && titems >= need &&
+                       titems + ntitem <= sb->len / 8))
+        goto bad;
+    s->ntri = (int)ntri, s->ntbvh = (int)ntbvh, s->ntitem = (int)ntitem;
+    s->tri = h + (size_t)tris, s->tbvh = h + (size_t)tbvh, s->titem = h + (size_t)titems;
+    for (int i = 0; i < s->ntbvh; i++) {
+        const double *b = s->tbvh + (size_t)i * BVH;
+        for (int k = 0; k < 6; k++)
+            if (!isfinite(b[B_LO + k])) goto bad;
+        if (b[B_LEFT] < 0) {
+            if (!(b[B_FIRST] >= 0 && b[B_COUNT] >= 0 && b[B_FIRST] + b[B_COUNT] <= s->ntitem))
+                goto bad;
+        } else if (!(b[B_LEFT] > i && b[B_LEFT] < s->ntbvh && b[B_RIGHT] > i &&
+                     b[B_RIGHT] < s->ntbvh && b[B_AXIS] >= 0 && b[B_AXIS] < 3)) {
+            goto bad;
+        }
+    }
+    for (int i = 0; i < s->ntitem; i++)
+        if (!(s->titem[i] >= 0 && s->titem[i] < s->ntri)) goto bad;
+    for (int i = 0; i < s->ntri; i++) {
+        const double *tr = s->tri + (size_t)i * TRI;
+        if (!(tr[TR_OBJ] >= 0 && tr[TR_OBJ] < s->nobj && tr[TR_TEX] >= 0 && tr[TR_TEX] < s->ntex))
+            goto bad;
+    }
     double at = h[H_NOISE];
     if (at != 0.0) {
         if (!(at >= need && at + NOISE_LEN <= sb->len / 8)) goto bad;
@@ -2515,11 +2624,12 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 }
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
-    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR,
+    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR,
                          "object", OBJ, "texture", TEX, "light", LIT, "pigment", PIG,
                          "normal", NRM,
                          "map_entry", 6, "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
-                         "bvh_stack", BVH_STACK, "fog", FOG, "max_layers", MAX_LAYERS);
+                         "bvh_stack", BVH_STACK, "fog", FOG, "max_layers", MAX_LAYERS,
+                         "triangle", TRI);
 }
 
 /* The nearest surface along one ray (queries.trace, the scene language's trace()): (t,
@@ -2536,7 +2646,7 @@ static PyObject *first_hit(PyObject *self, PyObject *args) {
         PyBuffer_Release(&sb);
         return NULL;
     }
-    Hit h = {.t = INFINITY, .obj = -1};
+    Hit h = {.t = INFINITY, .obj = -1, .tri = -1};
     PyObject *out;
     if (closest(&s, o, d, INFINITY, SKIP_NONE, -1, &h)) {
         double n[3];
