@@ -414,9 +414,12 @@ def shade(
             [d[src] for d in lights.direction], [c[src] for c in lights.colour]
         )
         sub_secondary = Secondary()
-        # the textures' transmitted rays leave by the raw normal (each has its own top)
-        res, fl, _ = _shade_groups(ctx, sub, sub_lights, sub_secondary, level[src])
-        top = raw
+        # a patterned texture's transmitted rays leave by the raw normal (each of its
+        # textures has its own top); a plain texture's in the same wave by its own top
+        res, fl, sub_top = _shade_groups(ctx, sub, sub_lights, sub_secondary, level[src])
+        top = raw.copy()
+        alone = ~ctx.patterned[tex][src]
+        top[src[alone]] = sub_top[alone]
         result = np.zeros((n, 3))
         fil = np.zeros((n, 3))
         np.add.at(result, src, w[:, None] * res)

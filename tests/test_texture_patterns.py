@@ -145,3 +145,27 @@ def test_texture_patterns_render_like_povray(name, tmp_path):
     assert not any("not supported" in m for m in messages), messages
     err, off = image_errors(ours, ref)
     assert err < 0.02 and off < 0.01, (err, off)
+
+
+def test_a_plain_textures_rays_are_the_same_beside_a_patterned_texture(monkeypatch):
+    """A bumpy glass in the same wave as a patterned texture refracts about its own bumpy
+    normal: a checker of two equal textures elsewhere in view changes no pixel (numpy
+    path; the glass once refracted about the smooth normal when such a texture was hit)."""
+    from runtime import api, whitted
+    from runtime.render import render_scene
+
+    glass = (
+        HEAD + "plane { y, -1 pigment { checker rgb 1 rgb 0.1 } }\n"
+        "disc { <0, 0.5, 0>, <0, 1, -0.3>, 1.5 pigment { rgbf <1, 0.3, 0.3, 0.9> }\n"
+        "  normal { onion 0.75 frequency 3 sine_wave } interior { ior 1.45 } }\n"
+    )
+    plain = "texture { pigment { rgb <0.2, 0.5, 0.9> } }"
+    twice = f"texture {{ checker {plain} {plain} scale 0.2 }}"
+    monkeypatch.setenv(whitted.ENV, "numpy")
+
+    def image(texture: str):
+        scene = api.compile_string(glass + f"sphere {{ <2.5, 0, 1>, 0.7 {texture} }}").scene
+        return render_scene(scene, 64, 48)
+
+    alone, beside = image(plain), image(twice)
+    assert np.abs(alone - beside).max() < 1e-12
