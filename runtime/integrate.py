@@ -418,6 +418,7 @@ def shade(
         # textures has its own top); a plain texture's in the same wave by its own top
         res, fl, sub_top = _shade_groups(ctx, sub, sub_lights, sub_secondary, level[src])
         top = raw.copy()
+        assert ctx.patterned is not None  # resolve_textures found patterned hits
         alone = ~ctx.patterned[tex][src]
         top[src[alone]] = sub_top[alone]
         result = np.zeros((n, 3))

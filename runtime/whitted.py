@@ -24,12 +24,13 @@ of nurbs and subdivision surfaces, whose shadow rays start on the curved surface
 shapes.
 Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map,
 average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
-pigments are solid, checker, gradient, onion, spherical, cylindrical, planar, boxed,
-radial or one of POV-Ray's noise patterns (bozo, spotted, bumps, granite, marble, wood,
-wrinkles, agate, on its three noise generators, and crackle), with a colour map of any
+pigments are solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical,
+planar, boxed, radial, leopard, spiral1, spiral2, ripples, waves, quilted or one of
+POV-Ray's noise patterns (bozo, spotted, bumps, dents, granite, marble, wood, wrinkles,
+agate, on its three noise generators, and crackle), with a colour map of any
 length or a pigment map (checkers, maps and averages of such pigments, nested up to
 PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkles,
-ripples, waves and the slope of those patterns, with turbulence and a slope map; no
+ripples, waves, quilted and the slope of those patterns, with turbulence and a slope map; no
 normal_map or warps), one per layer; every finish item (crand, diffuse_back, fresnel
 reflection, irid included) but a negative metallic. Point lights and spotlights (fade
 included), area lights of either (adaptive, circular, orient; jitter is not sampled, as in
@@ -186,6 +187,11 @@ P_MAPAT = P_FWD + 12
 # crackle (patterns.crackle): form (3), metric, the offset's term, solid
 P_FORM = P_MAPAT + 1
 P_METRIC, P_OFFSET, P_SOLID = P_FORM + 3, P_FORM + 4, P_FORM + 5
+# ripples and waves: their wave sources in the map table (frequency, x, y, z), how many
+P_WAVES, P_NWAVES = P_SOLID + 1, P_SOLID + 2
+# where crackle's slots are, other patterns keep theirs: a brick's size and mortar, a
+# spiral's arms, quilted's control points
+P_BRICK, P_MORTAR, P_ARMS, P_CONTROL = P_FORM, P_METRIC, P_OFFSET, P_FORM
 PIGMENT_KINDS = {
     "solid": 0,
     "checker": 1,
@@ -206,10 +212,21 @@ PIGMENT_KINDS = {
     "agate": 14,
     "average": 15,
     "crackle": 16,
+    "hexagon": 17,
+    "brick": 18,
+    "leopard": 19,
+    "spiral1": 20,
+    "spiral2": 21,
+    "ripples": 22,
+    "waves": 23,
+    "dents": 24,
+    "quilted": 25,
 }
+# the kernel's list patterns: the value names the entry shown
+LIST_KINDS = frozenset({"checker", "hexagon", "brick"})
 NOISE_KINDS = frozenset(
     k for k, v in PIGMENT_KINDS.items() if PIGMENT_KINDS["bozo"] <= v <= PIGMENT_KINDS["agate"]
-) | {"crackle"}
+) | {"crackle", "dents"}
 # A normal: its kind (NR_KIND), then (patterns.perturb_normal) depth, accuracy,
 # no_bump_scale, whether it has a linear part, that part and its inverse (3x3 each), its
 # wave sources in the map table (ripples and waves: frequency, x, y, z) and its slope map
@@ -219,7 +236,15 @@ NR_LININV = NR_LIN + 9
 NR_WAVES, NR_NWAVES, NR_SLOPES, NR_NSLOPES = range(NR_LININV + 9, NR_LININV + 13)
 # bumps, dents, wrinkles, ripples and waves perturb the normal their own way; the other
 # patterns the kernel knows by their slope (patterns._slope)
-NORMAL_KINDS = {"none": 0, "bumps": 1, "dents": 2, "wrinkles": 3, "ripples": 4, "waves": 5}
+NORMAL_KINDS = {
+    "none": 0,
+    "bumps": 1,
+    "dents": 2,
+    "wrinkles": 3,
+    "ripples": 4,
+    "waves": 5,
+    "quilted": 7,
+}
 NK_SLOPE = 6
 # (an average normal blends its entries' normals: not a slope)
 SLOPE_KINDS = frozenset(k for k in PIGMENT_KINDS if k not in ("solid", "average", *NORMAL_KINDS))
@@ -318,8 +343,8 @@ def _pigment_reasons(pig: ir.Pigment, depth: int = 0) -> list[str]:
         return [f"warped {kind}"]
     if _needs_noise(pig) and patterns.noise_generator(pig.params) not in (1, 2, 3):
         return [f"noise_generator {pig.params.get('noise_generator')}"]
-    if kind == "checker":
-        if len(pig.list) == 1:
+    if kind in LIST_KINDS:
+        if kind == "checker" and len(pig.list) == 1:
             return ["checker of one pigment"]
         return [r for sub in pig.list for r in _pigment_reasons(sub, depth + 1)]
     if kind == "average" and not pig.pigment_map:
@@ -488,7 +513,7 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
 
 def _subs(pig: ir.Pigment) -> list[ir.Pigment]:
     """The pigments inside a pigment (its pigment map's, a checker's of patterned ones)."""
-    if pig.pattern == "checker" and any(sub.pattern != "solid" for sub in pig.list):
+    if pig.pattern in LIST_KINDS and any(sub.pattern != "solid" for sub in pig.list):
         return list(pig.list)
     return [sub for _, sub in pig.pigment_map]
 
@@ -515,16 +540,16 @@ def _entries(pig: ir.Pigment) -> list:
     """The (key, rgbft) entries the kernel blends: a solid's one colour, a checker's two."""
     if pig.pattern == "solid":
         return [(0.0, pig.color)]
-    if pig.pattern == "checker":
-        subs = pig.list or tuple(ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS["checker"])
-        return [(0.0, subs[0].color), (1.0, subs[1].color)]
+    if pig.pattern in LIST_KINDS:
+        subs = pig.list or tuple(ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS[pig.pattern])
+        return [(float(k), sub.color) for k, sub in enumerate(subs)]
     return list(_colour_map(pig))
 
 
 def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
     """A pattern row's pattern: pattern-space transform, orientation, wave, turbulence and
     noise generator (a pigment's or a normal's)."""
-    if kind not in ("solid", "checker"):
+    if kind != "solid" and kind not in LIST_KINDS:
         row[P_ORIENT : P_ORIENT + 3] = prm.get("orientation", (1.0, 0.0, 0.0))
         row[P_FREQ] = float(prm.get("frequency", 1.0))
         row[P_PHASE] = float(prm.get("phase", 0.0))
@@ -545,6 +570,14 @@ def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
         # the term patterns.crackle adds to each distance (in the metric's power)
         row[P_OFFSET] = (offset * offset if metric == 2.0 else offset**metric) if offset else 0.0
         row[P_SOLID] = 1.0 if prm.get("solid") else 0.0
+    elif kind == "brick":
+        size = prm.get("brick_size", (8.0, 3.0, 4.5))
+        row[P_BRICK : P_BRICK + 3] = np.broadcast_to(np.asarray(size, float), (3,))
+        row[P_MORTAR] = float(prm.get("mortar", 0.5))
+    elif kind in ("spiral1", "spiral2"):
+        row[P_ARMS] = float(prm.get("arms", 1.0))
+    elif kind == "quilted":
+        row[P_CONTROL : P_CONTROL + 2] = prm.get("control0", 1.0), prm.get("control1", 1.0)
     row[P_AGATE] = float(prm.get("agate_turb", 1.0))
     inv = tf.cached_inverse(transform)
     row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
@@ -557,6 +590,7 @@ def pack_pigment(
     colours), or the rows of the pigments inside it (`rows_of`, by id)."""
     row[P_KIND] = PIGMENT_KINDS[pig.pattern]
     _pack_pattern(pig.pattern, pig.params, pig.transform, row)
+    _pack_wave_sources(pig.pattern, pig.params, row, maps)
     subs = _subs(pig)
     row[P_MAP] = len(maps)
     if not subs:
@@ -566,13 +600,14 @@ def pack_pigment(
         return
     row[P_SUBS] = SUBS_PIGMENTS
     # (an average's keys are its entries' weights)
-    keys = [0.0, 1.0] if pig.pattern == "checker" else [k for k, _ in pig.pigment_map]
+    listed = pig.pattern in LIST_KINDS
+    keys = list(range(len(subs))) if listed else [k for k, _ in pig.pigment_map]
     row[P_N] = len(subs)
     maps.extend(
         [float(k), float(rows_of[id(sub)]), 0.0, 0.0, 0.0, 0.0]
         for k, sub in zip(keys, subs, strict=True)
     )
-    if pig.pattern != "checker" and patterns.turb_params(pig.params)[0] is not None:
+    if not listed and patterns.turb_params(pig.params)[0] is not None:
         row[P_MAPAT] = 1.0  # patterns.map_points: back through the transform (no warps here)
         row[P_FWD : P_FWD + 12] = _inv_rows(pig.transform)
 
@@ -590,6 +625,7 @@ def pack_texture_pattern(
     pat = _pattern_of(tex)
     row[P_KIND] = PIGMENT_KINDS[pat.pattern]
     _pack_pattern(pat.pattern, pat.params, pat.transform, row)
+    _pack_wave_sources(pat.pattern, pat.params, row, maps)
     row[P_SUBS], row[P_N], row[P_MAP] = SUBS_TEXTURES, len(tex.map), len(maps)
     maps.extend([float(k), float(rows_of[id(sub)]), 0.0, 0.0, 0.0, 0.0] for k, sub in tex.map)
 
@@ -612,15 +648,27 @@ def pack_normal(nrm: ir.Normal, keep: bool, row: np.ndarray, maps: list[list[flo
         row[NR_LIN : NR_LIN + 9] = np.ravel(lin)
         row[NR_LININV : NR_LININV + 9] = np.ravel(np.linalg.inv(lin))
     if kind in ("ripples", "waves"):
-        sources, freqs = patterns.wave_tables(patterns.wave_count(prm))
-        row[NR_WAVES], row[NR_NWAVES] = len(maps), len(freqs)
-        maps.extend(
-            [float(f), *map(float, src), 0.0, 0.0] for src, f in zip(sources, freqs, strict=True)
-        )
+        row[NR_WAVES], row[NR_NWAVES] = _wave_sources(prm, maps)
     slopes = prm.get("slope_map")
     if slope and slopes:
         row[NR_SLOPES], row[NR_NSLOPES] = len(maps), len(slopes)
         maps.extend([float(key), float(hs[0]), float(hs[1]), 0.0, 0.0, 0.0] for key, hs in slopes)
+
+
+def _wave_sources(prm: dict, maps: list[list[float]]) -> tuple[int, int]:
+    """POV-Ray's wave sources (patterns.wave_tables) into the map table (frequency, x, y,
+    z each): where they start, how many."""
+    sources, freqs = patterns.wave_tables(patterns.wave_count(prm))
+    at = len(maps)
+    maps.extend(
+        [float(f), *map(float, src), 0.0, 0.0] for src, f in zip(sources, freqs, strict=True)
+    )
+    return at, len(freqs)
+
+
+def _pack_wave_sources(kind: str, prm: dict, row: np.ndarray, maps: list[list[float]]) -> None:
+    if kind in ("ripples", "waves"):  # the pigments'
+        row[P_WAVES], row[P_NWAVES] = _wave_sources(prm, maps)
 
 
 def pack_fog(f: ir.Fog, row: np.ndarray) -> None:

@@ -26,6 +26,14 @@ SCENE = "camera { location -5*z look_at 0 } light_source { <5, 5, -5> rgb 1 }\n"
 BALLS = "#for (I, 0, 400) sphere { <mod(I, 20) - 10, div(I, 20) - 10, 5>, 0.5 } #end\n"
 
 
+def _default_signals() -> None:
+    """In the child: the signals' default handling, as a terminal gives it. A test run
+    started in the background (`nohup … &`) has SIGINT and SIGHUP ignored, which strala
+    keeps (what nohup asks for), and these tests would see no signal at all."""
+    for sig in (signal.SIGINT, signal.SIGHUP, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def _start(*args: str, cwd: Path) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen(
@@ -36,6 +44,7 @@ def _start(*args: str, cwd: Path) -> subprocess.Popen:
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_default_signals,
     )
 
 
@@ -117,6 +126,7 @@ def test_a_signal_during_a_cluster_render_stops_the_workers_and_leaves_no_file(
          "-o", "out.png", "--cluster", "local:2", "--frames", "1..500"],
         cwd=tmp_path, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=_default_signals,
     )  # fmt: skip
     try:
         deadline = time.perf_counter() + 120

@@ -588,6 +588,41 @@ def test_meshes_match_numpy(monkeypatch):
     _assert_mostly_same(fast, slow, 0.003)
 
 
+LIST_AND_WAVE_PATTERNS = """
+#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 4, -9> look_at <0, 0.5, 0> angle 60 }
+light_source { <-4, 9, -6>, rgb 1 }
+plane { y, -1 pigment { hexagon rgb <1,0.2,0.2>, rgb 0.9, rgb <0.2,0.3,1> scale 0.6 } }
+box { <-4.5, -1, 3>, <4.5, 3, 3.5> pigment { brick rgb 0.7, rgb <0.7, 0.3, 0.2> brick_size
+  <0.9, 0.35, 0.6> mortar 0.06 } normal { brick 0.4 brick_size <0.9, 0.35, 0.6> mortar 0.06 } }
+sphere { <-3, 0.5, 0>, 1 pigment { leopard color_map { [0 rgb 1] [0.4 rgb <0.8,0.6,0.1>] [1
+  rgb 0] } scale 0.1 } }
+sphere { <-1, 0.5, 0>, 1 pigment { spiral1 5 color_map { [0 rgb 1] [1 rgb <0.1,0.3,0.8>] }
+  turbulence 0.3 scale 0.5 } }
+sphere { <1, 0.5, 0>, 1 pigment { spiral2 3 color_map { [0 rgb 1] [1 rgb <0.1,0.8,0.3>] }
+  scale 0.5 } normal { spiral1 3 0.5 scale 0.3 } }
+sphere { <3, 0.5, 0>, 1 pigment { ripples color_map { [0 rgb 1] [1 rgb 0] } scale 0.3 } }
+sphere { <-2, 2.5, 1>, 0.8 pigment { waves color_map { [0 rgb <1,1,0>] [1 rgb 0] }
+  scale 0.3 } normal { quilted 0.6 scale 0.3 } }
+sphere { <0, 2.5, 1>, 0.8 pigment { dents color_map { [0 rgb 1] [1 rgb <1,0,0>] }
+  scale 0.3 } normal { hexagon 0.5 scale 0.2 } }
+sphere { <2, 2.5, 1>, 0.8 pigment { quilted control0 0.3 control1 0.8 color_map { [0 rgb 0]
+  [1 rgb <0.3,1,1>] } scale 0.3 } normal { leopard 0.8 scale 0.05 } }
+sphere { <0, -0.5, -2.5>, 0.5 pigment { hexagon pigment { checker rgb 1 rgb 0 scale 0.1 },
+  pigment { gradient x }, pigment { rgb <0,1,0> } scale 0.3 } }
+sphere { <1.5, -0.5, -2.5>, 0.5 texture { brick texture { pigment { rgb 1 }
+  }, texture { pigment { rgb <1, 0, 0> } finish { phong 1 } } brick_size 0.3 mortar 0.05 } }
+"""
+
+
+def test_list_and_wave_patterns_match_numpy(monkeypatch):
+    """hexagon and brick (colours, pigments, textures, as normals), leopard, spiral1 and
+    spiral2 (built-in turbulence, as a normal), ripples, waves, dents, quilted (pigment and
+    its own normal)."""
+    _assert_identical(_scene(LIST_AND_WAVE_PATTERNS), 96, 72, 0.3, monkeypatch)
+
+
 PROJECTED = """
 #version 3.7; global_settings { assumed_gamma 1 }
 light_source { <-4, 9, -6>, rgb 1 }
@@ -1110,10 +1145,10 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
             "sphere { 0, 1 } fog { distance 5 rgb 1 } light_source { 9, 1 media_attenuation }",
             "media_attenuation",
         ),
-        ("sphere { 0, 1 } sky_sphere { pigment { hexagon } }", "hexagon"),
+        ("sphere { 0, 1 } sky_sphere { pigment { cells } }", "cells"),
         ("sphere { 0, 1 pigment { gradient y warp { turbulence 0.5 } } }", "warped"),
-        ("sphere { 0, 1 pigment { leopard } }", "leopard"),
-        ("sphere { 0, 1 normal { quilted 0.5 } }", "normal pattern quilted"),
+        ("sphere { 0, 1 pigment { mandel 20 } }", "mandel"),
+        ("sphere { 0, 1 normal { cells 0.5 } }", "normal pattern cells"),
         (
             "sphere { 0, 1 normal { gradient x normal_map { [0 bumps 1] [1 dents 1] } } }",
             "normal_map",

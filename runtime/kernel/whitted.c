@@ -84,10 +84,29 @@ enum { L_KIND, L_POS, L_COL = 4, L_SHADOWLESS = 7, L_FADEPOW, L_FADEDIST, L_AXIS
  * taken back through the forward transform P_FWD (patterns.map_points: its turbulence). */
 enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP,
        P_TURB, P_OCTAVES = P_TURB + 3, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE, P_SUBS,
-       P_FWD, P_MAPAT = P_FWD + 12, P_FORM, P_METRIC = P_FORM + 3, P_OFFSET, P_SOLID };
+       P_FWD, P_MAPAT = P_FWD + 12, P_FORM, P_METRIC = P_FORM + 3, P_OFFSET, P_SOLID, P_WAVES,
+       P_NWAVES };
+/* the slots other patterns read where crackle's are: a brick's size and mortar, a spiral's
+ * arms, quilted's control points; ripples and waves (P_WAVES, P_NWAVES): their wave sources
+ * in the map table (frequency, x, y, z) */
+enum { P_BRICK = P_FORM, P_MORTAR = P_METRIC, P_ARMS = P_OFFSET, P_CONTROL = P_FORM };
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
        PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE,
-       PK_AVERAGE, PK_CRACKLE };
+       PK_AVERAGE, PK_CRACKLE, PK_HEXAGON, PK_BRICK, PK_LEOPARD, PK_SPIRAL1, PK_SPIRAL2,
+       PK_RIPPLES, PK_WAVES, PK_DENTS, PK_QUILTED, PK_LAST = PK_QUILTED };
+/* the list patterns: their value is the entry shown (0, 1, 2), no wave */
+static inline int list_kind(int kind) {
+    return kind == PK_CHECKER || kind == PK_HEXAGON || kind == PK_BRICK;
+}
+/* the patterns that read POV-Ray's noise whatever their turbulence */
+static inline int noise_kind(int kind) {
+    return (kind >= PK_BOZO && kind <= PK_AGATE) || kind == PK_CRACKLE || kind == PK_DENTS;
+}
+/* the patterns whose turbulence is part of the pattern, not a warp of the point */
+static inline int builtin_turbulence(int kind) {
+    return kind == PK_MARBLE || kind == PK_WOOD || kind == PK_AGATE || kind == PK_SPIRAL1 ||
+           kind == PK_SPIRAL2;
+}
 enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
 /* a normal row after its pattern part: kind, depth, accuracy, no_bump_scale, whether it has
  * a linear part, the linear part and its inverse (3x3 row-major), its wave sources in the
@@ -95,7 +114,7 @@ enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
  * slope) */
 enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = NR_LIN + 9,
        NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES };
-enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE };
+enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE, NK_QUILTED };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON, K_MESH };
 /* a triangle (runtime/triangles.py TriangleSet, world space): its first vertex, edges, unit
@@ -1117,6 +1136,88 @@ static double crackle(const Noise *nz, const double *pg, const double *q) {
     return clip01(v);
 }
 
+/* Hexagons of side 1 in the x-z plane (patterns.hexagon): the nearest lattice centre by
+ * cube rounding (to even, as numpy's round), its colour of three. */
+static double hexagon(const double *q) {
+    double cx = (2.0 / 3.0) * q[0], cz = -q[0] / 3.0 + q[2] / sqrt(3.0), cy = -cx - cz;
+    double rx = nearbyint(cx), ry = nearbyint(cy), rz = nearbyint(cz);
+    double dx = fabs(rx - cx), dy = fabs(ry - cy), dz = fabs(rz - cz);
+    int fix_x = dx > dy && dx > dz, fix_y = !fix_x && dy > dz;
+    if (fix_x) rx = -ry - rz;
+    if (fix_y) ry = -rx - rz;
+    if (!fix_x && !fix_y) rz = -rx - ry;
+    double m = fmod(2.0 * rx + rz, 3.0);
+    if (m < 0.0) m += 3.0;
+    return (double)(long long)m;
+}
+
+static inline double frac_of(double v) { return v - floor(v); }
+
+/* 0 mortar, 1 brick (patterns.brick): courses along y, joints shifted half a brick in the
+ * odd ones */
+static double brick(const Scene *s, const double *pg, const double *q) {
+    const double *size = pg + P_BRICK;
+    double mortar = pg[P_MORTAR], r[3];
+    for (int a = 0; a < 3; a++) r[a] = (q[a] + (CHECKER_OFFSET + mortar)) / size[a];
+    int bed = frac_of(r[1]) <= mortar / size[1];
+    int odd = frac_of(0.5 * r[1]) > 0.5;
+    int end_x = (odd ? frac_of(r[0] + 0.5) : frac_of(r[0])) <= mortar / size[0];
+    int face_z = (odd ? frac_of(r[2]) : frac_of(r[2] + 0.5)) <= mortar / size[2];
+    return (bed || end_x || face_z) ? 0.0 : 1.0;
+}
+
+static inline double triangle_of(double v) {
+    double f = v - floor(v);
+    return f < 0.5 ? 2.0 * f : 2.0 - 2.0 * f;
+}
+
+/* patterns._spiral_arg: z + distance from the z axis + arms * angle / 2 pi + the built-in
+ * turbulence; the distance to *rad when asked */
+static double spiral(const Scene *s, const double *pg, const double *q, double *rad_out) {
+    double x = q[0], y = q[1], z = q[2], rad = hypot(x, y), phi = 0.0;
+    if (rad != 0.0) {
+        double ratio = y / (rad > 0 ? rad : 1.0);
+        ratio = ratio < -1.0 ? -1.0 : (ratio > 1.0 ? 1.0 : ratio);
+        double a = asin(ratio);
+        phi = x < 0 ? 1.5 * M_PI - a : 0.5 * M_PI + a;
+    }
+    double turb = 0.0;
+    if (pg[P_HASTURB] != 0.0)
+        turb = pg[P_TURB] * turbulence_at(&s->noise, q, (int)pg[P_OCTAVES], pg[P_OMEGA],
+                                          pg[P_LAMBDA], (int)pg[P_GEN]);
+    if (rad_out) *rad_out = rad;
+    return z + rad + pg[P_ARMS] * phi / (2.0 * M_PI) + turb;
+}
+
+/* ripples and waves as pigments (patterns.ripples, patterns.waves): sines of the distance
+ * to POV-Ray's wave sources, averaged */
+static double wave_sources(const Scene *s, const double *pg, const double *q, int waves) {
+    int count = (int)pg[P_NWAVES];
+    const double *w = s->map + 6 * (size_t)pg[P_WAVES];
+    double total = 0.0;
+    for (int i = 0; i < count; i++, w += 6) {
+        double d[3] = {q[0] - w[1], q[1] - w[2], q[2] - w[3]};
+        double len = sqrt(dot(d, d));
+        if (waves) {
+            if (len == 0.0) len = 1.0;
+            total += cycloidal(len * w[0]) / w[0];
+        } else {
+            total += cycloidal(len);
+        }
+    }
+    return waves ? 0.2 * (2.5 + total / count) : 0.5 + total / (2.0 * count);
+}
+
+/* quilted's offset from the unit cube's centre, scaled by the cubic of its length
+ * (patterns._quilt_offset) */
+static void quilt_offset(const double *pg, const double *q, double *out) {
+    double c0 = pg[P_CONTROL], c1 = pg[P_CONTROL + 1], v[3];
+    for (int a = 0; a < 3; a++) v[a] = q[a] - floor(q[a]) - 0.5;
+    double t = sqrt(dot(v, v)), it = 1.0 - t;
+    double k = (pow(t, 3.0) + 3.0 * t * it * it * c0 + 3.0 * t * t * it * c1) * 1.154700538;
+    for (int a = 0; a < 3; a++) out[a] = v[a] * k;
+}
+
 /* A pattern's value at a pattern-space point q, turbulence warp already applied, after its
  * wave (patterns._pattern_value for the kinds packed; a checker's is its entry, 0 or 1). */
 static double pattern_value(const Scene *s, const double *pg, const double *q) {
@@ -1127,6 +1228,28 @@ static double pattern_value(const Scene *s, const double *pg, const double *q) {
         double sum = floor(q[0] + CHECKER_OFFSET) + floor(q[1] + CHECKER_OFFSET) +
                      floor(q[2] + CHECKER_OFFSET);
         return (double)(((long long)sum) & 1);
+    }
+    case PK_HEXAGON: return hexagon(q);
+    case PK_BRICK: return brick(s, pg, q);
+    case PK_LEOPARD: {
+        double m = (sin(q[0]) + sin(q[1]) + sin(q[2])) / 3.0;
+        v = m * m;
+        break;
+    }
+    case PK_SPIRAL1: v = spiral(s, pg, q, NULL); break;
+    case PK_SPIRAL2: {
+        double rad, arg = spiral(s, pg, q, &rad);
+        v = triangle_of(rad) + triangle_of(arg);
+        break;
+    }
+    case PK_RIPPLES:
+    case PK_WAVES: v = wave_sources(s, pg, q, kind == PK_WAVES); break;
+    case PK_DENTS: v = pow(noise_at(&s->noise, q, (int)pg[P_GEN]), 3.0); break;
+    case PK_QUILTED: {
+        double off[3];
+        quilt_offset(pg, q, off);
+        v = (fabs(off[0]) + fabs(off[1]) + fabs(off[2])) / 3.0;
+        break;
     }
     case PK_GRADIENT: v = dot(q, pg + P_ORIENT); break;
     case PK_ONION: v = fmod(sqrt(dot(q, q)), 1.0); break;
@@ -1157,7 +1280,7 @@ static double pattern_value(const Scene *s, const double *pg, const double *q) {
 static void pattern_point(const Scene *s, const double *pg, const double *p, double *q) {
     affine(pg + P_INV, p, q);
     int kind = (int)pg[P_KIND];
-    if (pg[P_HASTURB] != 0.0 && kind != PK_MARBLE && kind != PK_WOOD && kind != PK_AGATE) {
+    if (pg[P_HASTURB] != 0.0 && !builtin_turbulence(kind)) {
         double dt[3]; /* patterns.turbulence_warp */
         dturbulence_at(&s->noise, q, (int)pg[P_OCTAVES], pg[P_OMEGA], pg[P_LAMBDA], dt);
         for (int a = 0; a < 3; a++) q[a] = q[a] + dt[a] * pg[P_TURB + a];
@@ -1209,8 +1332,9 @@ static void pigment_in(const Scene *s, const double *pg, const double *p, double
         return;
     }
     double v = pattern_value(s, pg, q);
-    if (kind == PK_CHECKER) {
-        const double *e = map + (v != 0.0 ? 6 : 0);
+    if (list_kind(kind)) { /* the entry the value names (patterns._select clips it) */
+        int i = (int)v, n = (int)pg[P_N];
+        const double *e = map + 6 * (i < n - 1 ? i : n - 1);
         if (subs) pigment_in(s, s->pig + (size_t)e[1] * PIG, p, out, depth + 1);
         else memcpy(out, e + 1, 5 * sizeof(double));
         return;
@@ -1289,7 +1413,7 @@ static void perturb(const Scene *s, const double *nr, const double *p, const dou
     }
     const Noise *nz = &s->noise;
     int pk = (int)nr[P_KIND];
-    int builtin = kind == NK_SLOPE && (pk == PK_MARBLE || pk == PK_WOOD || pk == PK_AGATE);
+    int builtin = kind == NK_SLOPE && builtin_turbulence(pk);
     if (nr[P_HASTURB] != 0.0 && !builtin) {
         double dt[3]; /* patterns.turbulence_warp */
         dturbulence_at(nz, q, (int)nr[P_OCTAVES], nr[P_OMEGA], nr[P_LAMBDA], dt);
@@ -1318,6 +1442,12 @@ static void perturb(const Scene *s, const double *nr, const double *p, const dou
             scale *= 2.0;
         }
         for (int a = 0; a < 3; a++) n[a] = n[a] + amount * total[a];
+        break;
+    }
+    case NK_QUILTED: { /* the offset is added, not differentiated (normal.cpp's quilted) */
+        double off[3];
+        quilt_offset(nr, q, off);
+        for (int a = 0; a < 3; a++) n[a] = n[a] + amount * off[a];
         break;
     }
     case NK_RIPPLES:
@@ -1426,7 +1556,7 @@ static void resolve_texture(const Scene *s, int row, const double *p, double sha
     double q[3];
     pattern_point(s, pg, p, q);
     double v = pattern_value(s, pg, q);
-    if (kind == PK_CHECKER) { /* a list pattern: the entry its value names */
+    if (list_kind(kind)) { /* a list pattern: the entry its value names */
         int i = (int)v < 0 ? 0 : ((int)v > k - 1 ? k - 1 : (int)v);
         resolve_texture(s, (int)map[6 * i + 1], p, share, depth + 1, rows, w, n);
         return;
@@ -2351,8 +2481,8 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if (s->fog[(size_t)f * FOG + F_HASTURB] != 0.0 && !s->has_noise) goto bad;
     for (int i = 0; i < s->nnrm; i++) {
         const double *nr = s->nrm + (size_t)i * NRM;
-        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_SLOPE)) goto bad;
-        if (!(nr[P_KIND] >= PK_SOLID && nr[P_KIND] <= PK_CRACKLE && nr[P_KIND] != PK_AVERAGE))
+        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_QUILTED)) goto bad;
+        if (!(nr[P_KIND] >= PK_SOLID && nr[P_KIND] <= PK_LAST && nr[P_KIND] != PK_AVERAGE))
             goto bad;
         /* every normal but none reads POV-Ray's noise (its turbulence, dents, bumps, ...) */
         if (nr[NR_KIND] != NK_NONE &&
@@ -2386,9 +2516,12 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 if (!(row >= 0 && row < s->ntex)) goto bad;
             }
         }
-        if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_CRACKLE)) goto bad;
+        if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_LAST)) goto bad;
         if (pg[P_KIND] == PK_AVERAGE && pg[P_SUBS] == 0.0) goto bad;
-        if (((pg[P_KIND] >= PK_BOZO && pg[P_KIND] != PK_AVERAGE) || pg[P_HASTURB] != 0.0) &&
+        if ((pg[P_KIND] == PK_RIPPLES || pg[P_KIND] == PK_WAVES) &&
+            !(pg[P_NWAVES] >= 1 && pg[P_WAVES] >= 0 && pg[P_WAVES] + pg[P_NWAVES] <= nmaps))
+            goto bad;
+        if ((noise_kind((int)pg[P_KIND]) || pg[P_HASTURB] != 0.0) &&
             !(s->has_noise && pg[P_GEN] >= 1 && pg[P_GEN] <= 3 && pg[P_OCTAVES] >= 0 &&
               pg[P_OCTAVES] <= 1e6))
             goto bad;
