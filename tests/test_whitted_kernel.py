@@ -1252,6 +1252,22 @@ def test_a_damaged_scene_array_is_refused_not_traced():
         tile(bad)
     with pytest.raises(ValueError):
         whitted.trace_packed(good, 0, 0, 0, 0, -1.0, 0.4, 3, out)
+    # the triangles' tables: each one's place is checked whatever the others' counts say
+    meshed = _scene(MESHES)
+    good = whitted.pack(integrate.make_context(prepare(meshed, 8, 6)), meshed.camera, 8, 6)
+    tile(good)
+    n_tri, tris_at = int(good[whitted.H_NTRI]), int(good[whitted.H_TRIS])
+    tri_obj = tris_at + whitted.TR_OBJ
+    for changes in ({whitted.H_NTBVH: 0.0, whitted.H_TRIS: len(good) + 10.0},
+                    {whitted.H_NTBVH: 0.0, whitted.H_NTRI: 1e8},
+                    {whitted.H_NTITEM: 1e8}, {tri_obj: 1e6}, {tri_obj: -1.0},
+                    {tris_at + whitted.TR_TEX: 1e6}):  # fmt: skip
+        bad = good.copy()
+        for where, value in changes.items():
+            bad[where] = value
+        with pytest.raises(ValueError, match="scene"):
+            tile(bad)
+    assert n_tri > 800  # the mesh scene's grid is in the tables
 
 
 # ------------------------------------------------------------------ view masks

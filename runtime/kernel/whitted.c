@@ -2270,6 +2270,30 @@ static void trace(Scene *s, const double *o, const double *d, double weight, int
     if (s->nfog) apply_fogs(s, h.t, o, d, out);
 }
 
+/* Every one of the n indices in [0, bound). */
+static int indices_below(const double *v, int n, int bound) {
+    for (int i = 0; i < n; i++)
+        if (!(v[i] >= 0 && v[i] < bound)) return 0;
+    return 1;
+}
+
+/* A box tree's n rows (whitted.py box_tree): finite boxes, leaves' runs inside the nitem
+ * items, children after their parent (the walk always ends) and a split axis. */
+static int box_tree_valid(const double *bvh, int n, int nitem) {
+    for (int i = 0; i < n; i++) {
+        const double *b = bvh + (size_t)i * BVH;
+        for (int k = 0; k < 6; k++)
+            if (!isfinite(b[B_LO + k])) return 0;
+        if (b[B_LEFT] < 0) {
+            if (!(b[B_FIRST] >= 0 && b[B_COUNT] >= 0 && b[B_FIRST] + b[B_COUNT] <= nitem)) return 0;
+        } else if (!(b[B_LEFT] > i && b[B_LEFT] < n && b[B_RIGHT] > i && b[B_RIGHT] < n &&
+                     b[B_AXIS] >= 0 && b[B_AXIS] < 3)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* The Scene view of a packed array; -1 with an exception set when it is too short. */
 static int scene_from(const Py_buffer *sb, Scene *s) {
     const double *h = sb->buf;
@@ -2324,24 +2348,10 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     if (masked)
         for (int c = 0; c < s->mwidth; c++)
             if (!(s->start[c] >= -1 && s->start[c] < s->nbvh)) goto bad;
-    for (int i = 0; i < s->nunb; i++)
-        if (!(s->unb[i] >= 0 && s->unb[i] < s->nroot)) goto bad;
-    for (int i = 0; i < s->nloose; i++)
-        if (!(s->loose[i] >= 0 && s->loose[i] < s->nroot)) goto bad;
-    for (int i = 0; i < s->nitem; i++)
-        if (!(s->item[i] >= 0 && s->item[i] < s->nroot)) goto bad;
-    for (int i = 0; i < s->nbvh; i++) {
-        const double *b = s->bvh + (size_t)i * BVH;
-        for (int k = 0; k < 6; k++)
-            if (!isfinite(b[B_LO + k])) goto bad;
-        if (b[B_LEFT] < 0) {
-            if (!(b[B_FIRST] >= 0 && b[B_COUNT] >= 0 && b[B_FIRST] + b[B_COUNT] <= s->nitem))
-                goto bad;
-        } else if (!(b[B_LEFT] > i && b[B_LEFT] < s->nbvh && b[B_RIGHT] > i &&
-                     b[B_RIGHT] < s->nbvh && b[B_AXIS] >= 0 && b[B_AXIS] < 3)) {
-            goto bad;
-        }
-    }
+    if (!indices_below(s->unb, s->nunb, s->nroot) ||
+        !indices_below(s->loose, s->nloose, s->nroot) ||
+        !indices_below(s->item, s->nitem, s->nroot) || !box_tree_valid(s->bvh, s->nbvh, s->nitem))
+        goto bad;
     for (int i = 0; i < s->nnode; i++) {
         const double *nd = s->node + (size_t)i * NODE;
         if ((int)nd[N_KIND] == NK_LEAF) {
@@ -2445,26 +2455,16 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     double titems = h[H_TITEMS], ntitem = h[H_NTITEM];
     if (!(ntri >= 0 && ntri < 1e9 && ntbvh >= 0 && ntbvh < 1e9 && ntitem >= 0 && ntitem < 1e9))
         goto bad;
-    if (ntbvh > 0 && !(tris >= need && tris + TRI * ntri <= sb->len / 8 && tbvh >= need &&
-                       tbvh + BVH * ntbvh <= sb->len / 8 && titems >= need &&
-                       titems + ntitem <= sb->len / 8))
+    double end = (double)(sb->len / 8);
+    if ((ntri > 0 && !(tris >= need && tris + TRI * ntri <= end)) ||
+        (ntbvh > 0 && !(tbvh >= need && tbvh + BVH * ntbvh <= end)) ||
+        (ntitem > 0 && !(titems >= need && titems + ntitem <= end)))
         goto bad;
     s->ntri = (int)ntri, s->ntbvh = (int)ntbvh, s->ntitem = (int)ntitem;
     s->tri = h + (size_t)tris, s->tbvh = h + (size_t)tbvh, s->titem = h + (size_t)titems;
-    for (int i = 0; i < s->ntbvh; i++) {
-        const double *b = s->tbvh + (size_t)i * BVH;
-        for (int k = 0; k < 6; k++)
-            if (!isfinite(b[B_LO + k])) goto bad;
-        if (b[B_LEFT] < 0) {
-            if (!(b[B_FIRST] >= 0 && b[B_COUNT] >= 0 && b[B_FIRST] + b[B_COUNT] <= s->ntitem))
-                goto bad;
-        } else if (!(b[B_LEFT] > i && b[B_LEFT] < s->ntbvh && b[B_RIGHT] > i &&
-                     b[B_RIGHT] < s->ntbvh && b[B_AXIS] >= 0 && b[B_AXIS] < 3)) {
-            goto bad;
-        }
-    }
-    for (int i = 0; i < s->ntitem; i++)
-        if (!(s->titem[i] >= 0 && s->titem[i] < s->ntri)) goto bad;
+    if (!box_tree_valid(s->tbvh, s->ntbvh, s->ntitem) ||
+        !indices_below(s->titem, s->ntitem, s->ntri))
+        goto bad;
     for (int i = 0; i < s->ntri; i++) {
         const double *tr = s->tri + (size_t)i * TRI;
         if (!(tr[TR_OBJ] >= 0 && tr[TR_OBJ] < s->nobj && tr[TR_TEX] >= 0 && tr[TR_TEX] < s->ntex))
