@@ -115,7 +115,10 @@ class TriangleSet:
         self.v0 = self.tri[:, 0]
         self.e1 = self.tri[:, 1] - self.tri[:, 0]
         self.e2 = self.tri[:, 2] - self.tri[:, 0]
-        self.ng = tf.normalize(np.cross(self.e1, self.e2))
+        across = np.cross(self.e1, self.e2)
+        self.ng = tf.normalize(across)
+        # degenerate (zero-area) triangles can never be hit: no tracer is given them
+        self.hittable = np.linalg.norm(across, axis=1) > 0
         if signs:
             self.ng *= np.concatenate(signs)[:, None]
         flat = self.tri.reshape(-1, 3)
@@ -140,8 +143,7 @@ class TriangleSet:
             left_out = tuple(sorted(set(left_out) | self.solid))
         with self._lock:
             if left_out not in self.scenes:
-                # Degenerate (zero-area) triangles can never be hit: leave them out.
-                keep = np.linalg.norm(np.cross(self.e1, self.e2), axis=1) > 0
+                keep = self.hittable.copy()
                 if left_out:
                     keep &= ~np.isin(self.leaf_of, left_out)
                 ids = np.nonzero(keep)[0].astype(np.int64)

@@ -537,7 +537,8 @@ def _inner_pigments(tops: list[ir.Pigment]) -> list[ir.Pigment]:
 
 
 def _entries(pig: ir.Pigment) -> list:
-    """The (key, rgbft) entries the kernel blends: a solid's one colour, a checker's two."""
+    """The (key, rgbft) entries the kernel blends: a solid's one colour, a list pattern's
+    colours (keys 0, 1, 2 ...)."""
     if pig.pattern == "solid":
         return [(0.0, pig.color)]
     if pig.pattern in LIST_KINDS:
@@ -759,11 +760,11 @@ _TRIANGLE_TREES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _triangles_kept(triangles) -> np.ndarray:
-    """The triangles the kernel traces: not degenerate (they are never hit: the numpy path
-    leaves them out of Embree's scene too), of objects not traced as solids of CSG."""
-    keep = np.linalg.norm(np.cross(triangles.e1, triangles.e2), axis=1) > 0
+    """The triangles the kernel traces: the hittable ones (as in Embree's scenes) of objects
+    not traced as solids of CSG."""
+    keep = triangles.hittable
     if triangles.solid:
-        keep &= ~np.isin(triangles.leaf_of, list(triangles.solid))
+        keep = keep & ~np.isin(triangles.leaf_of, list(triangles.solid))
     return np.nonzero(keep)[0]
 
 
@@ -798,12 +799,11 @@ def _triangle_reasons(prepared) -> list[str]:
 
 def _pack_triangles(ctx) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """(triangle rows, their box tree's rows, its leaves' triangles) of the scene."""
-    triangles = ctx.tracer.triangles
-    tree, ids, _ = (None, None, 0) if triangles is None else _triangle_tree(triangles)
+    t = ctx.tracer.triangles
+    tree, ids, _ = (None, None, 0) if t is None else _triangle_tree(t)
     if tree is None or ids is None:
         return np.zeros((0, TRI)), np.zeros((0, BVH)), []
     rows = np.empty((len(ids), TRI))
-    t = triangles
     rows[:, TR_V0 : TR_V0 + 3] = t.v0[ids]
     rows[:, TR_E1 : TR_E1 + 3] = t.e1[ids]
     rows[:, TR_E2 : TR_E2 + 3] = t.e2[ids]
@@ -1180,8 +1180,11 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     if spheres:
         rows[spheres, O_PRIM : O_PRIM + 3] = [leaves[k].prim.c for k in spheres]
         rows[spheres, O_PRIM + 3] = [leaves[k].prim.r for k in spheres]
-    others = [k for k, leaf in enumerate(leaves) if type(leaf.prim) in KINDS]
-    others = [k for k in others if type(leaves[k].prim) is not shapes.SpherePrim]
+    others = [
+        k
+        for k, leaf in enumerate(leaves)
+        if type(leaf.prim) in KINDS and type(leaf.prim) is not shapes.SpherePrim
+    ]
     terms: list[list[float]] = []
     sweeps = _Curves()
     if others:
