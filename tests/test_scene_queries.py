@@ -214,6 +214,31 @@ _PARTS = [
 _OPS = ["union", "intersection", "difference", "merge"]
 
 
+def _kernel_and_tracer(obj, monkeypatch):
+    """Queries answered by the compiled kernel, and by the numpy tracer, for `obj`."""
+    from runtime import whitted
+
+    fast = RuntimeQueries()
+    monkeypatch.setenv(whitted.ENV, "numpy")
+    slow = RuntimeQueries()
+    assert not slow.compiled(obj)
+    monkeypatch.delenv(whitted.ENV)
+    assert fast.compiled(obj)
+    return fast, slow
+
+
+def _assert_same_trace(fast, slow, obj, o, d) -> int:
+    """Both answer trace() alike along o + t d: the same point and normal, or both miss;
+    1 for a hit."""
+    a, b = fast.trace(obj, tuple(o), tuple(d)), slow.trace(obj, tuple(o), tuple(d))
+    assert (a is None) == (b is None)
+    if a is None or b is None:
+        return 0
+    assert np.allclose(a[0], b[0], rtol=1e-9, atol=1e-9)
+    assert np.allclose(a[1], b[1], rtol=1e-7, atol=1e-7)
+    return 1
+
+
 @settings(
     max_examples=40,
     deadline=None,
@@ -230,7 +255,7 @@ def test_trace_by_the_compiled_kernel_answers_as_the_tracer(parts, op, inverse, 
     """trace() goes through the compiled kernel where it can trace the object (a walk of
     100,000 calls took 52 s through numpy, 10 s now): the same points and normals."""
     from lang import ir
-    from runtime import api, whitted
+    from runtime import api
 
     inv = " inverse" if inverse else ""
     # each part moved by its own small step: coincident faces (a box's and a cylinder's
@@ -242,28 +267,19 @@ def test_trace_by_the_compiled_kernel_answers_as_the_tracer(parts, op, inverse, 
     text = f"#declare O = {op} {{ {moved}{inv} rotate <10, 20, 30> }}\nobject {{ O }}"
     obj = api.compile_string(text).scene.objects[0]
     assert isinstance(obj, ir.Object)
-    fast = RuntimeQueries()
-    monkeypatch.setenv(whitted.ENV, "numpy")
-    slow = RuntimeQueries()
-    assert not slow.compiled(obj)
-    monkeypatch.delenv(whitted.ENV)
-    assert fast.compiled(obj)
+    fast, slow = _kernel_and_tracer(obj, monkeypatch)
     rng = np.random.default_rng(seed)
     for _ in range(60):
         o = rng.uniform(-4, 4, 3)
         d = rng.uniform(-0.5, 0.5, 3) - o
-        a, b = fast.trace(obj, tuple(o), tuple(d)), slow.trace(obj, tuple(o), tuple(d))
-        assert (a is None) == (b is None)
-        if a is not None and b is not None:
-            assert np.allclose(a[0], b[0], rtol=1e-9, atol=1e-9)
-            assert np.allclose(a[1], b[1], rtol=1e-7, atol=1e-7)
+        _assert_same_trace(fast, slow, obj, o, d)
 
 
 def test_trace_of_a_mesh_by_the_compiled_kernel_answers_as_the_tracer(monkeypatch):
     """A smooth, mirrored mesh of 512 triangles: trace() through the kernel's triangle box
     tree gives the points and interpolated normals the numpy path (Embree, refined) does."""
     from lang import ir
-    from runtime import api, whitted
+    from runtime import api
 
     text = """#declare N = 16;
 #declare O = mesh2 {
@@ -282,21 +298,11 @@ def test_trace_of_a_mesh_by_the_compiled_kernel_answers_as_the_tracer(monkeypatc
 object { O }"""
     obj = api.compile_string(text).scene.objects[0]
     assert isinstance(obj, ir.Object)
-    fast = RuntimeQueries()
-    monkeypatch.setenv(whitted.ENV, "numpy")
-    slow = RuntimeQueries()
-    assert not slow.compiled(obj)
-    monkeypatch.delenv(whitted.ENV)
-    assert fast.compiled(obj)
+    fast, slow = _kernel_and_tracer(obj, monkeypatch)
     rng = np.random.default_rng(7)
     hits = 0
     for _ in range(400):
         o = rng.uniform(-4, 4, 3)
         d = rng.uniform(-0.8, 0.8, 3) - o
-        a, b = fast.trace(obj, tuple(o), tuple(d)), slow.trace(obj, tuple(o), tuple(d))
-        assert (a is None) == (b is None)
-        if a is not None and b is not None:
-            hits += 1
-            assert np.allclose(a[0], b[0], rtol=1e-9, atol=1e-9)
-            assert np.allclose(a[1], b[1], rtol=1e-7, atol=1e-7)
+        hits += _assert_same_trace(fast, slow, obj, o, d)
     assert hits > 100
