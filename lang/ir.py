@@ -755,6 +755,9 @@ class MeshCamera:
     smooth: bool = False  # distribution 3: interpolate the vertex normals
 
 
+# mandel and julia take exponents 2 to this (POV-Ray's kFractalMaxExponent; others are 2)
+FRACTAL_MAX_EXPONENT = 33
+
 # the most samples an area light's grid may have (the renderers keep them per point)
 AREA_SAMPLES = 1_000_000
 

@@ -7,37 +7,83 @@ type and its factor), "magnet" (1 or 2) and "magnet_form" ("mandel" or "julia").
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from lang import ir
 
-def _fractal_value(params: dict, c: np.ndarray, z: np.ndarray) -> np.ndarray:
+
+def _fractal_value(params: dict, c: tuple, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """POV-Ray's mandel and julia patterns: z -> z^exponent + c, up to `iterations` steps,
     a point escaping when |z|² > 4 after step `col` (from 0) coloured by its `exterior`
     type (default 1: col / iterations), one that never does by its `interior` type
-    (default 0: the factor, 1), as fractal_exterior_color and fractal_interior_color."""
+    (default 0: the factor, 1), as fractal_exterior_color and fractal_interior_color. The
+    powers are POV-Ray's real arithmetic in its order (exponents 2 to 4 written out, the
+    higher ones by binomial sums), so points on the set's edge round as its do."""
     it_max = int(params.get("iterations", 30))
-    power = int(params.get("exponent", 2) or 2)
-    ext_type, efactor = _fractal_colouring(params.get("exterior"), 1)
-    int_type, ifactor = _fractal_colouring(params.get("interior"), 0)
-    n = len(c)
+    power = exponent(params)
+    ext_type, efactor = colouring(params.get("exterior"), 1)
+    int_type, ifactor = colouring(params.get("interior"), 0)
+    cr, ci = c
+    n = len(a)
     out = np.zeros(n)
-    alive = np.ones(n, dtype=bool)
-    mind2 = np.abs(z) ** 2
+    rows = np.arange(n)
+    a2, b2 = a * a, b * b
+    mind2 = a2 + b2
     for col in range(it_max):
-        z = np.where(alive, z**power + c, z)
-        d2 = z.real * z.real + z.imag * z.imag
-        mind2 = np.where(alive, np.minimum(mind2, d2), mind2)
-        escaped = alive & (d2 > 4.0)
+        a, b = _power(power, a, b, a2, b2)
+        a, b = a + cr, b + ci
+        a2, b2 = a * a, b * b
+        d2 = a2 + b2
+        mind2 = np.where(d2 < mind2, d2, mind2)
+        escaped = d2 > 4.0
         if escaped.any():
-            out[escaped] = _exterior(ext_type, efactor, col, it_max, z[escaped])
-            alive &= ~escaped
-        if not alive.any():
-            return out
-    out[alive] = _interior(int_type, ifactor, z[alive], mind2[alive])
+            out[rows[escaped]] = _exterior(ext_type, efactor, col, it_max, a[escaped], b[escaped])
+            keep = ~escaped
+            live = (rows, a, b, a2, b2, mind2, cr, ci)
+            rows, a, b, a2, b2, mind2, cr, ci = (
+                v[keep] if isinstance(v, np.ndarray) else v for v in live
+            )
+            if not len(rows):
+                return out
+    out[rows] = _interior(int_type, ifactor, a, b, mind2)
     return out
 
 
-def _fractal_colouring(given, default_type: int) -> tuple[int, float]:
+def exponent(params: dict) -> int:
+    """A mandel or julia exponent: 2 to MAX_EXPONENT (the evaluator warns of others)."""
+    n = int(params.get("exponent", 2) or 2)
+    return n if 2 <= n <= ir.FRACTAL_MAX_EXPONENT else 2
+
+
+def _power(n: int, a, b, a2, b2):
+    """(a + bi)^n, as POV-Ray's Mandel2/3/4 and MandelX patterns compute it."""
+    if n == 2:
+        return a2 - b2, 2.0 * a * b
+    if n == 3:
+        return a2 * a - 3.0 * a * b2, 3.0 * a2 * b - b2 * b
+    if n == 4:
+        return a2 * a2 - 6.0 * a2 * b2 + b2 * b2, 4.0 * (a2 * a * b - a * b2 * b)
+    with np.errstate(all="ignore"):
+        re = np.power(a, float(n))
+        im = np.zeros_like(a)
+        for k in range(1, n + 1):
+            # C(n, k) i^k: the real part takes the even k, the imaginary the odd
+            term = _signed_binomial(n, k) * np.power(a, float(n - k)) * np.power(b, float(k))
+            if k % 2:
+                im = im + term
+            else:
+                re = re + term
+    return re, im
+
+
+def _signed_binomial(n: int, k: int) -> float:
+    return float(math.comb(n, k) * (-1 if k & 2 else 1))
+
+
+def colouring(given, default_type: int) -> tuple[int, float]:
+    """An exterior or interior colouring as (type, factor): a type alone has factor 1."""
     if given is None:
         return default_type, 1.0
     if isinstance(given, tuple):
@@ -45,49 +91,47 @@ def _fractal_colouring(given, default_type: int) -> tuple[int, float]:
     return int(given), 1.0
 
 
-def _exterior(kind: int, f: float, col: int, it_max: int, z: np.ndarray) -> np.ndarray:
+def _exterior(kind: int, f: float, col: int, it_max: int, a, b) -> np.ndarray:
     if kind == 1:
-        return np.full(len(z), col / it_max)
+        return np.full(len(a), col / it_max)
     if kind == 6:
-        return np.sqrt(z.real * z.real + z.imag * z.imag) * f
+        return np.sqrt(a * a + b * b) * f
     if kind == 7 and int(f) > 0:
-        return np.full(len(z), (col % int(f)) / f)
-    if kind == 8 and f != 0:
-        return np.full(len(z), (col % int(1 + f)) / f)
-    return _coloured(kind, f, z)
+        return np.full(len(a), (col % int(f)) / f)
+    if kind == 8 and f != 0 and int(1 + f) != 0:
+        return np.full(len(a), (col % int(1 + f)) / f)
+    return _coloured(kind, f, a, b)
 
 
-def _interior(kind: int, f: float, z: np.ndarray, mind2: np.ndarray) -> np.ndarray:
+def _interior(kind: int, f: float, a, b, mind2: np.ndarray) -> np.ndarray:
     if kind == 1:
         return np.sqrt(mind2) * f
     if kind == 6:
-        return z.real * z.real + z.imag * z.imag * f  # POV-Ray's precedence, kept
-    return _coloured(kind, f, z)
+        return a * a + b * b * f  # POV-Ray's precedence, kept
+    return _coloured(kind, f, a, b)
 
 
-def _coloured(kind: int, f: float, z: np.ndarray) -> np.ndarray:
+def _coloured(kind: int, f: float, a, b) -> np.ndarray:
     """The colourings exterior and interior share: 0 the factor, 2-5 the last z's real or
     imaginary part (squared for 4 and 5) times it; another type gives 0."""
-    a, b = z.real, z.imag
     if kind == 0:
-        return np.full(len(z), f)
+        return np.full(len(a), f)
     if kind in (2, 3):
         return (a if kind == 2 else b) * f
     if kind in (4, 5):
         v = a if kind == 4 else b
         return v * v * f
-    return np.zeros(len(z))
+    return np.zeros(len(a))
 
 
 def mandel(p: np.ndarray, params: dict) -> np.ndarray:
-    c = p[:, 0] + 1j * p[:, 1]
-    return _fractal_value(params, c, c.copy())
+    a, b = p[:, 0].copy(), p[:, 1].copy()
+    return _fractal_value(params, (a.copy(), b.copy()), a, b)
 
 
 def julia(p: np.ndarray, params: dict) -> np.ndarray:
     k = params.get("complex", (0.353, 0.288))
-    c = np.full(len(p), complex(float(k[0]), float(k[1])))
-    return _fractal_value(params, c, p[:, 0] + 1j * p[:, 1])
+    return _fractal_value(params, (float(k[0]), float(k[1])), p[:, 0].copy(), p[:, 1].copy())
 
 
 # A magnet point escapes when |z|² passes this, or is caught when z comes this close
@@ -105,8 +149,8 @@ def magnet(p: np.ndarray, params: dict) -> np.ndarray:
     the smallest |z|² starts at 10000 in the mandel form. The arithmetic is written out
     in real and imaginary parts in POV-Ray's order, so chaotic points round as its do."""
     it_max = int(params.get("iterations", 30))
-    ext_type, efactor = _fractal_colouring(params.get("exterior"), 1)
-    int_type, ifactor = _fractal_colouring(params.get("interior"), 0)
+    ext_type, efactor = colouring(params.get("exterior"), 1)
+    int_type, ifactor = colouring(params.get("interior"), 0)
     n = len(p)
     if params.get("magnet_form") == "julia":
         k = params.get("complex", (0.0, 0.0))
@@ -129,13 +173,13 @@ def magnet(p: np.ndarray, params: dict) -> np.ndarray:
             mind2 = np.where(d2 < mind2, d2, mind2)  # a nan never replaces the minimum
             done = (d2 > MAGNET_ESCAPE) | ((a - 1.0) * (a - 1.0) + b2 < MAGNET_CATCH)
             if done.any():
-                out[rows[done]] = _exterior(ext_type, efactor, col, it_max, (a + 1j * b)[done])
+                out[rows[done]] = _exterior(ext_type, efactor, col, it_max, a[done], b[done])
                 keep = ~done
                 live = (rows, a, b, a2, b2, mind2, cr, ci)
                 rows, a, b, a2, b2, mind2, cr, ci = (v[keep] for v in live)
                 if not len(rows):
                     return out
-        out[rows] = _interior(int_type, ifactor, a + 1j * b, mind2)
+        out[rows] = _interior(int_type, ifactor, a, b, mind2)
     return out
 
 

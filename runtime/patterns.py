@@ -1124,14 +1124,21 @@ def _map(
             )
             out[rows] += w[:, None] * col
         return out
-    kind = pigment.pattern
-    if kind == "mandel" and int(pigment.params.get("exponent", 2) or 2) != 2:
-        kind = "mandel3"  # POV-Ray's default map is the type MANDEL_PATTERN's alone
-    cmap = pigment.color_map or DEFAULT_MAPS.get(kind, DEFAULT_MAP)
+    cmap = colour_map(pigment)
     keys = np.array([k for k, _ in cmap], dtype=np.float64)
     cols = np.array([c for _, c in cmap], dtype=np.float64)
     lo, hi, frac = blend_indices(keys, value)
     return cols[lo] * (1.0 - frac[:, None]) + cols[hi] * frac[:, None]
+
+
+def colour_map(pigment: ir.Pigment) -> tuple[tuple[float, ir.Color], ...]:
+    """The colour map a pattern blends: its own, or POV-Ray's default for its kind."""
+    if pigment.color_map:
+        return tuple(pigment.color_map)
+    kind = pigment.pattern
+    if kind == "mandel" and int(pigment.params.get("exponent", 2) or 2) != 2:
+        kind = "mandel3"  # POV-Ray's default map is the type MANDEL_PATTERN's alone
+    return DEFAULT_MAPS.get(kind, DEFAULT_MAP)
 
 
 def blend_indices(keys: np.ndarray, value: np.ndarray):

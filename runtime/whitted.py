@@ -25,7 +25,8 @@ shapes.
 Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map,
 average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
 pigments are solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical,
-planar, boxed, radial, leopard, spiral1, spiral2, ripples, waves, quilted or one of
+planar, boxed, radial, leopard, spiral1, spiral2, ripples, waves, quilted, the fractals
+(mandel and julia to exponent 4, magnet) or one of
 POV-Ray's noise patterns (bozo, spotted, bumps, dents, granite, marble, wood, wrinkles,
 agate, on its three noise generators, and crackle), with a colour map of any
 length or a pigment map (checkers, maps and averages of such pigments, nested up to
@@ -59,6 +60,7 @@ from runtime import (
     containers,
     context,
     fog,
+    fractal_patterns,
     interiors,
     lights,
     noise,
@@ -192,6 +194,20 @@ P_WAVES, P_NWAVES = P_SOLID + 1, P_SOLID + 2
 # where crackle's slots are, other patterns keep theirs: a brick's size and mortar, a
 # spiral's arms, quilted's control points
 P_BRICK, P_MORTAR, P_ARMS, P_CONTROL = P_FORM, P_METRIC, P_OFFSET, P_FORM
+# the fractals (runtime.fractal_patterns) from P_FORM on: iterations, exponent, the julia
+# constant, the exterior and interior colourings (type, factor), the magnet type (0: mandel
+# or julia) and form (1: julia)
+P_ITER, P_POWER, P_CONST, P_EXT, P_INT, P_MAGNET, P_MFORM = (
+    P_FORM,
+    P_FORM + 1,
+    P_FORM + 2,
+    P_FORM + 4,
+    P_FORM + 6,
+    P_FORM + 8,
+    P_FORM + 9,
+)
+# the kernel has POV-Ray's written-out powers up to this; higher ones render through numpy
+FRACTAL_KERNEL_POWER = 4
 PIGMENT_KINDS = {
     "solid": 0,
     "checker": 1,
@@ -221,6 +237,9 @@ PIGMENT_KINDS = {
     "waves": 23,
     "dents": 24,
     "quilted": 25,
+    "mandel": 26,
+    "julia": 27,
+    "magnet": 28,
 }
 # the kernel's list patterns: the value names the entry shown
 LIST_KINDS = frozenset({"checker", "hexagon", "brick"})
@@ -351,6 +370,8 @@ def _pigment_reasons(pig: ir.Pigment, depth: int = 0) -> list[str]:
         return ["average without a pigment_map"]
     if pig.params.get("wave", "ramp_wave") not in WAVES:
         return [f"wave {pig.params.get('wave')}"]
+    if not _fractal_power_packed(kind, pig.params):
+        return [f"{kind} exponent {pig.params.get('exponent')}"]
     return [r for _, sub in pig.pigment_map for r in _pigment_reasons(sub, depth + 1)]
 
 
@@ -366,15 +387,18 @@ def _normal_reasons(nrm: ir.Normal) -> list[str]:
         return [f"noise_generator {prm.get('noise_generator')}"]
     if kind in SLOPE_KINDS and prm.get("wave", "ramp_wave") not in WAVES:
         return [f"wave {prm.get('wave')}"]
+    if not _fractal_power_packed(kind, prm):
+        return [f"{kind} exponent {prm.get('exponent')}"]
     return []
+
+
+def _fractal_power_packed(kind: str, prm: dict) -> bool:
+    """Whether a mandel or julia exponent is one the kernel has (not the binomial sums)."""
+    return kind not in ("mandel", "julia") or fractal_patterns.exponent(prm) <= FRACTAL_KERNEL_POWER
 
 
 def _needs_noise(pig: ir.Pigment) -> bool:
     return pig.pattern in NOISE_KINDS or patterns.turb_params(pig.params)[0] is not None
-
-
-def _colour_map(pig: ir.Pigment):
-    return pig.color_map or patterns.DEFAULT_MAPS.get(pig.pattern, patterns.DEFAULT_MAP)
 
 
 def _texture_reasons(tex: ir.Texture, depth: int = 0) -> list[str]:
@@ -544,7 +568,7 @@ def _entries(pig: ir.Pigment) -> list:
     if pig.pattern in LIST_KINDS:
         subs = pig.list or tuple(ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS[pig.pattern])
         return [(float(k), sub.color) for k, sub in enumerate(subs)]
-    return list(_colour_map(pig))
+    return list(patterns.colour_map(pig))
 
 
 def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
@@ -579,9 +603,25 @@ def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
         row[P_ARMS] = float(prm.get("arms", 1.0))
     elif kind == "quilted":
         row[P_CONTROL : P_CONTROL + 2] = prm.get("control0", 1.0), prm.get("control1", 1.0)
+    elif kind in ("mandel", "julia", "magnet"):
+        _pack_fractal(kind, prm, row)
     row[P_AGATE] = float(prm.get("agate_turb", 1.0))
     inv = tf.cached_inverse(transform)
     row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
+
+
+def _pack_fractal(kind: str, prm: dict, row: np.ndarray) -> None:
+    """A fractal's parameters, read as runtime.fractal_patterns reads them."""
+    magnet = kind == "magnet"
+    row[P_ITER] = int(prm.get("iterations", 30))
+    row[P_POWER] = 2 if magnet else fractal_patterns.exponent(prm)
+    julia_form = kind == "julia" or (magnet and prm.get("magnet_form") == "julia")
+    const = prm.get("complex", (0.0, 0.0) if magnet else (0.353, 0.288))
+    row[P_CONST : P_CONST + 2] = (float(const[0]), float(const[1])) if julia_form else (0, 0)
+    row[P_EXT : P_EXT + 2] = fractal_patterns.colouring(prm.get("exterior"), 1)
+    row[P_INT : P_INT + 2] = fractal_patterns.colouring(prm.get("interior"), 0)
+    row[P_MAGNET] = int(prm.get("magnet", 1)) if magnet else 0
+    row[P_MFORM] = 1.0 if julia_form else 0.0
 
 
 def pack_pigment(

@@ -128,3 +128,18 @@ def povray_debug(scene: Path) -> str:
         cwd=scene.parent,
         timeout=60,
     ).stderr  # fmt: skip
+
+
+def kernel_and_numpy(scene, width: int, height: int, monkeypatch, aa=None):
+    """A compiled scene traced by the compiled kernel (which must cover it) and by the numpy
+    path, its reference: the two working-space images."""
+    from runtime import whitted
+    from runtime.prepare import prepare
+    from runtime.render import render_scene
+
+    assert whitted.reasons(prepare(scene, width, height), scene.camera) == []
+    fast = render_scene(scene, width, height, antialias=aa)
+    monkeypatch.setenv(whitted.ENV, "numpy")
+    slow = render_scene(scene, width, height, antialias=aa)
+    monkeypatch.delenv(whitted.ENV)
+    return fast, slow

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import image_errors, povray_image, strala_image
+from conftest import image_errors, kernel_and_numpy, povray_image, strala_image
 from hypothesis import given
 from hypothesis import strategies as st
 
+from lang.evaluate import compile_source
+from runtime import api, whitted
 from runtime.fractal_patterns import magnet
+from runtime.prepare import prepare
 
 SCENE = """#version 3.7;
 global_settings {{ assumed_gamma 1 }}
@@ -33,6 +36,9 @@ PATTERNS = [
     "scale 2 translate x",
     "magnet 2 julia <-0.2, 0.5>, 50 exterior 6, 0.02 interior 0, 0.7 scale 2",
     "magnet 1 mandel 80 exterior 8, 7 interior 4, 0.5 scale 2 translate 1.5*x",
+    # past exponent 4 POV-Ray sums binomial terms (the numpy path alone)
+    "julia <0.4, 0.3>, 40 exponent 6 interior 1, 1 scale 0.9",
+    "mandel 30 exponent 7 exterior 6, 0.2 scale 0.9",
 ]
 
 
@@ -72,6 +78,36 @@ def test_fractal_normals_render_like_povray(tmp_path, normal):
     assert rmse < 0.01 and off < 0.005, (rmse, off)
 
 
+@pytest.mark.parametrize("item", [*(f"pigment {{ {p} }}" for p in PATTERNS),
+    *(f"pigment {{ rgb 0.8 }} normal {{ {n} }}" for n in NORMALS)])  # fmt: skip
+def test_the_kernel_renders_fractals_as_the_numpy_path(item, monkeypatch):
+    """Every fractal through the compiled kernel, pixel for pixel as the numpy path (both
+    in POV-Ray's real arithmetic and order); exponents past 4 stay on the numpy path."""
+    text = NORMAL_SCENE.format(normal="@").replace("pigment { rgb 0.8 } normal { @ }", item)
+    scene = api.compile_string(text).scene
+    if "exponent 6" in item or "exponent 7" in item:
+        found = whitted.reasons(prepare(scene, 48, 36), scene.camera)
+        assert found and all("exponent" in r for r in found), found
+        return
+    fast, slow = kernel_and_numpy(scene, 96, 72, monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+
+
+@pytest.mark.parametrize("exponent", [1, 34, 100])
+def test_an_exponent_povray_has_no_formula_for_is_2_with_a_warning(exponent):
+    """POV-Ray's parser: 'Invalid mandel pattern exponent found. Supported exponents are 2
+    to 33. Using default exponent 2.'"""
+    text = NORMAL_SCENE.format(normal=f"mandel 30 0.5 exponent {exponent}")
+    result = compile_source(text, "scene.pov")
+    warned = [d for d in result.diagnostics if "Supported exponents are 2 to 33" in d.message]
+    assert len(warned) == 1 and warned[0].span.line == 5
+    plain = api.compile_string(NORMAL_SCENE.format(normal="mandel 30 0.5")).scene
+    ours = api.compile_string(text).scene
+    assert np.array_equal(
+        api.render(ours, width=32, height=24), api.render(plain, width=32, height=24)
+    )
+
+
 @pytest.mark.parametrize(
     "pattern, message",
     [
@@ -81,8 +117,6 @@ def test_fractal_normals_render_like_povray(tmp_path, normal):
     ],
 )
 def test_magnet_misuse_is_an_error_as_in_povray(pattern, message):
-    from lang.evaluate import compile_source
-
     result = compile_source(f"plane {{ z, 0 pigment {{ {pattern} }} }}", "scene.pov")
     assert any(message in d.message and d.severity == "error" for d in result.diagnostics)
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import kernel_and_numpy
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -24,12 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _both(scene, width, height, aa=None, monkeypatch=None):
-    assert whitted.reasons(prepare(scene, width, height), scene.camera) == []
-    fast = render_scene(scene, width, height, antialias=aa)
-    monkeypatch.setenv(whitted.ENV, "numpy")
-    slow = render_scene(scene, width, height, antialias=aa)
-    monkeypatch.delenv(whitted.ENV)
-    return fast, slow
+    return kernel_and_numpy(scene, width, height, monkeypatch, aa=aa)
 
 
 def _assert_identical(scene, width, height, aa, monkeypatch):
@@ -1148,7 +1144,7 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
         ),
         ("sphere { 0, 1 } sky_sphere { pigment { cells } }", "cells"),
         ("sphere { 0, 1 pigment { gradient y warp { turbulence 0.5 } } }", "warped"),
-        ("sphere { 0, 1 pigment { mandel 20 } }", "mandel"),
+        ("sphere { 0, 1 pigment { mandel 20 exponent 5 } }", "mandel exponent 5"),
         ("sphere { 0, 1 normal { cells 0.5 } }", "normal pattern cells"),
         (
             "sphere { 0, 1 normal { gradient x normal_map { [0 bumps 1] [1 dents 1] } } }",

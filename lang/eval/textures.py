@@ -251,8 +251,24 @@ def _magnet_form(it, params: dict[str, Any], name: str, args: list[Any], span: S
 _TILINGS_RENDERED = 10
 
 
+def _check_fractal_exponent(it, pattern: str, value: Any, span: Span) -> None:
+    """POV-Ray's parser renders an exponent it has no formula for as 2, with a warning."""
+    try:
+        n = int(as_float(value))
+    except (EvalError, OverflowError, ValueError):
+        return
+    if not 2 <= n <= ir.FRACTAL_MAX_EXPONENT:
+        it.sink.warning(
+            "W0313",
+            f"Invalid {pattern} pattern exponent found. Supported exponents are 2 to "
+            f"{ir.FRACTAL_MAX_EXPONENT}. Using default exponent 2.",
+            span,
+        )
+
+
 def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span: Span) -> bool:
-    """Pattern keywords and their modifiers, shared by pigment, normal and texture."""
+    """Pattern keywords and their modifiers, shared by pigment, normal and texture (st:
+    "current" is the pattern so far, "pattern" receives a new one)."""
     params = st["params"]
     if name == "pigment_pattern" and args and isinstance(args[0], _PigmentPattern):
         st["pattern"] = name
@@ -303,6 +319,8 @@ def apply_pattern_item(it, st: dict[str, Any], name: str, args: list[Any], span:
                 "E0212", "`exponent` in a magnet pattern", span, "only mandel and julia take one"
             )
         params[name] = (args[0] if len(args) == 1 else tuple(args)) if args else True
+        if name == "exponent" and st.get("current") in ("mandel", "julia") and args:
+            _check_fractal_exponent(it, st["current"], args[0], span)
     elif name in ("quick_color", "quick_colour"):
         pass
     elif name == "function":
@@ -419,6 +437,7 @@ def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment
                 it.unsupported(f"{name} pattern", span)
         else:
             st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            st["current"] = pig.pattern
             if name == "unsupported":
                 it.unsupported(v.keyword, span)
             elif apply_pattern_item(it, st, name, args, span) and st["pattern"]:
@@ -503,6 +522,7 @@ def _normal_items(it: BuildContext, nrm: ir.Normal, items: list) -> ir.Normal:
             _normal_list(params, v)
         else:
             st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            st["current"] = nrm.pattern
             if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
                 nrm = replaced(nrm, pattern=st["pattern"])
                 depth = st.get("depth_arg")
@@ -951,6 +971,7 @@ def _b_texture(it: BuildContext, g: Grouped, node: syntax.Block) -> ir.Texture:
             it.unsupported(v.keyword, span, " in texture")
         else:
             st: dict[str, Any] = {"pattern": None, "params": params, "transform": ir.IDENTITY}
+            st["current"] = None if t.pattern is None else t.pattern.pattern
             if apply_pattern_item(it, st, name, args, span) and st["pattern"]:
                 old = t.pattern or ir.Pigment(span=span)
                 t = replaced(t, pattern=replaced(old, pattern=st["pattern"]))

@@ -90,10 +90,15 @@ enum { P_KIND, P_INV, P_ORIENT = 13, P_FREQ = 16, P_PHASE, P_WAVE, P_WEXP, P_N, 
  * arms, quilted's control points; ripples and waves (P_WAVES, P_NWAVES): their wave sources
  * in the map table (frequency, x, y, z) */
 enum { P_BRICK = P_FORM, P_MORTAR = P_METRIC, P_ARMS = P_OFFSET, P_CONTROL = P_FORM };
+/* the fractals' slots from P_FORM on: iterations, exponent, the julia constant, the exterior
+ * and interior colourings (type, factor), the magnet type and form (1: julia) */
+enum { P_ITER = P_FORM, P_POWER, P_CONST, P_EXT = P_CONST + 2, P_INT = P_EXT + 2,
+       P_MAGNET = P_INT + 2, P_MFORM };
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
        PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE,
        PK_AVERAGE, PK_CRACKLE, PK_HEXAGON, PK_BRICK, PK_LEOPARD, PK_SPIRAL1, PK_SPIRAL2,
-       PK_RIPPLES, PK_WAVES, PK_DENTS, PK_QUILTED, PK_LAST = PK_QUILTED };
+       PK_RIPPLES, PK_WAVES, PK_DENTS, PK_QUILTED, PK_MANDEL, PK_JULIA, PK_MAGNET,
+       PK_LAST = PK_MAGNET };
 /* the list patterns: their value is the entry shown (0, 1, 2), no wave */
 static inline int list_kind(int kind) {
     return kind == PK_CHECKER || kind == PK_HEXAGON || kind == PK_BRICK;
@@ -1218,6 +1223,114 @@ static void quilt_offset(const double *pg, const double *q, double *out) {
     for (int a = 0; a < 3; a++) out[a] = v[a] * k;
 }
 
+/* The fractals (runtime/fractal_patterns.py), in its arithmetic's order. */
+static double fractal_coloured(int kind, double f, double a, double b) {
+    switch (kind) {
+    case 0: return f;
+    case 2: return a * f;
+    case 3: return b * f;
+    case 4: return a * a * f;
+    case 5: return b * b * f;
+    default: return 0.0;
+    }
+}
+
+static inline long long py_mod(long long a, long long n) { /* Python's %: n's sign */
+    long long m = a % n;
+    return (m != 0 && ((m < 0) != (n < 0))) ? m + n : m;
+}
+
+static double fractal_exterior(int kind, double f, int col, int it_max, double a, double b) {
+    if (kind == 1) return (double)col / it_max;
+    if (kind == 6) return sqrt(a * a + b * b) * f;
+    if (kind == 7 && (long long)f > 0) return (double)py_mod(col, (long long)f) / f;
+    if (kind == 8 && f != 0.0) {
+        long long n = (long long)(1.0 + f);
+        return n == 0 ? 0.0 : (double)py_mod(col, n) / f;
+    }
+    return fractal_coloured(kind, f, a, b);
+}
+
+static double fractal_interior(int kind, double f, double a, double b, double mind2) {
+    if (kind == 1) return sqrt(mind2) * f;
+    if (kind == 6) return a * a + b * b * f; /* POV-Ray's precedence, kept */
+    return fractal_coloured(kind, f, a, b);
+}
+
+/* (a + bi)^n as POV-Ray's Mandel2/3/4 patterns write it out (a2, b2: the squares) */
+static void fractal_power(int n, double a, double b, double a2, double b2, double *ra,
+                          double *rb) {
+    if (n == 3) {
+        *ra = a2 * a - 3.0 * a * b2, *rb = 3.0 * a2 * b - b2 * b;
+    } else if (n == 4) {
+        *ra = a2 * a2 - 6.0 * a2 * b2 + b2 * b2, *rb = 4.0 * (a2 * a * b - a * b2 * b);
+    } else {
+        *ra = a2 - b2, *rb = 2.0 * a * b;
+    }
+}
+
+/* a fractal row's exponent and iterations are ones the loops below take */
+static int fractal_row_valid(const double *pg) {
+    int kind = (int)pg[P_KIND];
+    if (kind != PK_MANDEL && kind != PK_JULIA && kind != PK_MAGNET) return 1;
+    if (!(pg[P_ITER] >= -2147483648.0 && pg[P_ITER] <= 2147483647.0)) return 0;
+    return kind == PK_MAGNET || (pg[P_POWER] >= 2 && pg[P_POWER] <= 4);
+}
+
+/* mandel (c the point, z from it) and julia (c the constant): z -> z^n + c, escaping past
+ * |z|^2 = 4 */
+static double escape_fractal(const double *pg, const double *q, int julia) {
+    int it_max = (int)pg[P_ITER], power = (int)pg[P_POWER];
+    double cr = julia ? pg[P_CONST] : q[0], ci = julia ? pg[P_CONST + 1] : q[1];
+    double a = q[0], b = q[1], a2 = a * a, b2 = b * b, mind2 = a2 + b2;
+    for (int col = 0; col < it_max; col++) {
+        fractal_power(power, a, b, a2, b2, &a, &b);
+        a = a + cr, b = b + ci;
+        a2 = a * a, b2 = b * b;
+        double d2 = a2 + b2;
+        if (d2 < mind2) mind2 = d2;
+        if (d2 > 4.0) return fractal_exterior((int)pg[P_EXT], pg[P_EXT + 1], col, it_max, a, b);
+    }
+    return fractal_interior((int)pg[P_INT], pg[P_INT + 1], a, b, mind2);
+}
+
+/* a magnet point escapes past |z|^2 = 1e4 or is caught within 1e-4 (squared) of 1 */
+static double magnet_fractal(const double *pg, const double *q) {
+    int it_max = (int)pg[P_ITER], type2 = (int)pg[P_MAGNET] == 2;
+    double cr, ci, a, b, mind2;
+    if (pg[P_MFORM] != 0.0) {
+        cr = pg[P_CONST], ci = pg[P_CONST + 1], a = q[0], b = q[1];
+        mind2 = a * a + b * b;
+    } else {
+        cr = q[0], ci = q[1], a = 0.0, b = 0.0;
+        mind2 = 10000.0;
+    }
+    double a2 = a * a, b2 = b * b;
+    for (int col = 0; col < it_max; col++) {
+        double nr, ni, dr, di;
+        if (type2) {
+            double c1r = cr - 1, c2r = cr - 2;
+            double c12r = c1r * c2r - ci * ci, c12i = (c1r + c2r) * ci;
+            nr = a2 * a - 3 * a * b2 + 3 * (a * c1r - b * ci) + c12r;
+            ni = 3 * a2 * b - b2 * b + 3 * (a * ci + b * c1r) + c12i;
+            dr = 3 * (a2 - b2) + 3 * (a * c2r - b * ci) + c12r + 1;
+            di = 6 * a * b + 3 * (a * ci + b * c2r) + c12i;
+        } else {
+            nr = a2 - b2 + cr - 1, ni = 2 * a * b + ci;
+            dr = 2 * a + cr - 2, di = 2 * b + ci;
+        }
+        double den = dr * dr + di * di;
+        double qa = (nr * dr + ni * di) / den, qb = (ni * dr - nr * di) / den;
+        a = qa * qa - qb * qb, b = 2 * qa * qb;
+        a2 = a * a, b2 = b * b;
+        double d2 = a2 + b2;
+        if (d2 < mind2) mind2 = d2; /* a nan never replaces the minimum */
+        if (d2 > 10000.0 || (a - 1.0) * (a - 1.0) + b2 < 1.0 / 10000.0)
+            return fractal_exterior((int)pg[P_EXT], pg[P_EXT + 1], col, it_max, a, b);
+    }
+    return fractal_interior((int)pg[P_INT], pg[P_INT + 1], a, b, mind2);
+}
+
 /* A pattern's value at a pattern-space point q, turbulence warp already applied, after its
  * wave (patterns._pattern_value for the kinds packed; a checker's is its entry, 0 or 1). */
 static double pattern_value(const Scene *s, const double *pg, const double *q) {
@@ -1251,6 +1364,9 @@ static double pattern_value(const Scene *s, const double *pg, const double *q) {
         v = (fabs(off[0]) + fabs(off[1]) + fabs(off[2])) / 3.0;
         break;
     }
+    case PK_MANDEL:
+    case PK_JULIA: v = escape_fractal(pg, q, kind == PK_JULIA); break;
+    case PK_MAGNET: v = magnet_fractal(pg, q); break;
     case PK_GRADIENT: v = dot(q, pg + P_ORIENT); break;
     case PK_ONION: v = fmod(sqrt(dot(q, q)), 1.0); break;
     case PK_SPHERICAL: v = clip01(1.0 - sqrt(dot(q, q))); break;
@@ -2484,6 +2600,7 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_QUILTED)) goto bad;
         if (!(nr[P_KIND] >= PK_SOLID && nr[P_KIND] <= PK_LAST && nr[P_KIND] != PK_AVERAGE))
             goto bad;
+        if (!fractal_row_valid(nr)) goto bad;
         /* every normal but none reads POV-Ray's noise (its turbulence, dents, bumps, ...) */
         if (nr[NR_KIND] != NK_NONE &&
             !(s->has_noise && nr[P_GEN] >= 1 && nr[P_GEN] <= 3 && nr[P_OCTAVES] >= 0 &&
@@ -2518,6 +2635,7 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         }
         if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_LAST)) goto bad;
         if (pg[P_KIND] == PK_AVERAGE && pg[P_SUBS] == 0.0) goto bad;
+        if (!fractal_row_valid(pg)) goto bad;
         if ((pg[P_KIND] == PK_RIPPLES || pg[P_KIND] == PK_WAVES) &&
             !(pg[P_NWAVES] >= 1 && pg[P_WAVES] >= 0 && pg[P_WAVES] + pg[P_NWAVES] <= nmaps))
             goto bad;
