@@ -21,10 +21,9 @@ def _fractal_value(params: dict, c: tuple, a: np.ndarray, b: np.ndarray) -> np.n
     (default 0: the factor, 1), as fractal_exterior_color and fractal_interior_color. The
     powers are POV-Ray's real arithmetic in its order (exponents 2 to 4 written out, the
     higher ones by binomial sums), so points on the set's edge round as its do."""
-    it_max = int(params.get("iterations", 30))
+    it_max = iterations(params)
     power = exponent(params)
-    ext_type, efactor = colouring(params.get("exterior"), 1)
-    int_type, ifactor = colouring(params.get("interior"), 0)
+    (ext_type, efactor), (int_type, ifactor) = colourings(params)
     cr, ci = c
     n = len(a)
     out = np.zeros(n)
@@ -49,6 +48,26 @@ def _fractal_value(params: dict, c: tuple, a: np.ndarray, b: np.ndarray) -> np.n
                 return out
     out[rows] = _interior(int_type, ifactor, a, b, mind2)
     return out
+
+
+# POV-Ray's defaults: the iterations, julia's constant (the magnet's julia form: 0)
+ITERATIONS = 30
+JULIA_CONSTANT = (0.353, 0.288)
+
+
+def iterations(params: dict) -> int:
+    return int(params.get("iterations", ITERATIONS))
+
+
+def constant(params: dict, magnet: bool) -> tuple[float, float]:
+    """The julia form's constant c."""
+    k = params.get("complex", (0.0, 0.0) if magnet else JULIA_CONSTANT)
+    return float(k[0]), float(k[1])
+
+
+def colourings(params: dict) -> tuple[tuple[int, float], tuple[int, float]]:
+    """The exterior and interior colourings (type, factor), POV-Ray's defaults 1 and 0."""
+    return _colouring(params.get("exterior"), 1), _colouring(params.get("interior"), 0)
 
 
 def exponent(params: dict) -> int:
@@ -82,7 +101,7 @@ def _signed_binomial(n: int, k: int) -> float:
     return float(math.comb(n, k) * (-1 if k & 2 else 1))
 
 
-def colouring(given, default_type: int) -> tuple[int, float]:
+def _colouring(given, default_type: int) -> tuple[int, float]:
     """An exterior or interior colouring as (type, factor): a type alone has factor 1."""
     if given is None:
         return default_type, 1.0
@@ -125,13 +144,13 @@ def _coloured(kind: int, f: float, a, b) -> np.ndarray:
 
 
 def mandel(p: np.ndarray, params: dict) -> np.ndarray:
-    a, b = p[:, 0].copy(), p[:, 1].copy()
-    return _fractal_value(params, (a.copy(), b.copy()), a, b)
+    # the loop makes new arrays of a and b, so the point's columns are read, not written
+    a, b = p[:, 0], p[:, 1]
+    return _fractal_value(params, (a, b), a, b)
 
 
 def julia(p: np.ndarray, params: dict) -> np.ndarray:
-    k = params.get("complex", (0.353, 0.288))
-    return _fractal_value(params, (float(k[0]), float(k[1])), p[:, 0].copy(), p[:, 1].copy())
+    return _fractal_value(params, constant(params, False), p[:, 0], p[:, 1])
 
 
 # A magnet point escapes when |z|² passes this, or is caught when z comes this close
@@ -148,13 +167,12 @@ def magnet(p: np.ndarray, params: dict) -> np.ndarray:
     the exterior colouring, one that does neither in `iterations` steps the interior one;
     the smallest |z|² starts at 10000 in the mandel form. The arithmetic is written out
     in real and imaginary parts in POV-Ray's order, so chaotic points round as its do."""
-    it_max = int(params.get("iterations", 30))
-    ext_type, efactor = colouring(params.get("exterior"), 1)
-    int_type, ifactor = colouring(params.get("interior"), 0)
+    it_max = iterations(params)
+    (ext_type, efactor), (int_type, ifactor) = colourings(params)
     n = len(p)
     if params.get("magnet_form") == "julia":
-        k = params.get("complex", (0.0, 0.0))
-        cr, ci = np.full(n, float(k[0])), np.full(n, float(k[1]))
+        k = constant(params, True)
+        cr, ci = np.full(n, k[0]), np.full(n, k[1])
         a, b = p[:, 0].copy(), p[:, 1].copy()
         mind2 = a * a + b * b
     else:

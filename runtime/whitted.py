@@ -613,13 +613,12 @@ def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
 def _pack_fractal(kind: str, prm: dict, row: np.ndarray) -> None:
     """A fractal's parameters, read as runtime.fractal_patterns reads them."""
     magnet = kind == "magnet"
-    row[P_ITER] = int(prm.get("iterations", 30))
+    row[P_ITER] = fractal_patterns.iterations(prm)
     row[P_POWER] = 2 if magnet else fractal_patterns.exponent(prm)
     julia_form = kind == "julia" or (magnet and prm.get("magnet_form") == "julia")
-    const = prm.get("complex", (0.0, 0.0) if magnet else (0.353, 0.288))
-    row[P_CONST : P_CONST + 2] = (float(const[0]), float(const[1])) if julia_form else (0, 0)
-    row[P_EXT : P_EXT + 2] = fractal_patterns.colouring(prm.get("exterior"), 1)
-    row[P_INT : P_INT + 2] = fractal_patterns.colouring(prm.get("interior"), 0)
+    if julia_form:
+        row[P_CONST : P_CONST + 2] = fractal_patterns.constant(prm, magnet)
+    row[P_EXT : P_EXT + 2], row[P_INT : P_INT + 2] = fractal_patterns.colourings(prm)
     row[P_MAGNET] = int(prm.get("magnet", 1)) if magnet else 0
     row[P_MFORM] = 1.0 if julia_form else 0.0
 
