@@ -41,6 +41,7 @@ from lang import ir
 from runtime import bump_map, notices
 from runtime import transform as tf
 from runtime.density import density_file
+from runtime.fractal_patterns import exponent as fractal_exponent
 from runtime.fractal_patterns import julia, magnet, mandel
 from runtime.material_map import material_index
 from runtime.noise import (
@@ -1136,7 +1137,7 @@ def colour_map(pigment: ir.Pigment) -> tuple[tuple[float, ir.Color], ...]:
     if pigment.color_map:
         return tuple(pigment.color_map)
     kind = pigment.pattern
-    if kind == "mandel" and int(pigment.params.get("exponent", 2) or 2) != 2:
+    if kind == "mandel" and fractal_exponent(pigment.params) != 2:
         kind = "mandel3"  # POV-Ray's default map is the type MANDEL_PATTERN's alone
     return DEFAULT_MAPS.get(kind, DEFAULT_MAP)
 

@@ -106,6 +106,13 @@ def test_an_exponent_povray_has_no_formula_for_is_2_with_a_warning(exponent):
     assert np.array_equal(
         api.render(ours, width=32, height=24), api.render(plain, width=32, height=24)
     )
+    # the colours too: POV-Ray's mandel of exponent 2, whose default colour map is its own
+    coloured = SCENE.format(pattern=f"mandel 30 exponent {exponent}")
+    ours = api.compile_string(coloured).scene
+    plain = api.compile_string(SCENE.format(pattern="mandel 30")).scene
+    assert np.array_equal(
+        api.render(ours, width=32, height=24), api.render(plain, width=32, height=24)
+    )
 
 
 @pytest.mark.parametrize(
