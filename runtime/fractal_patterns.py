@@ -20,7 +20,8 @@ def _fractal_value(params: dict, c: tuple, a: np.ndarray, b: np.ndarray) -> np.n
     type (default 1: col / iterations), one that never does by its `interior` type
     (default 0: the factor, 1), as fractal_exterior_color and fractal_interior_color. The
     powers are POV-Ray's real arithmetic in its order (exponents 2 to 4 written out, the
-    higher ones by binomial sums), so points on the set's edge round as its do."""
+    higher ones by binomial sums): the kernel's too, and no numpy complex product (which
+    fuses multiply-adds on some CPUs), so the image does not depend on the CPU."""
     it_max = iterations(params)
     power = exponent(params)
     (ext_type, efactor), (int_type, ifactor) = colourings(params)
