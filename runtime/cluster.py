@@ -7,8 +7,10 @@
 The scene travels as a `runtime.bundle.Bundle` (its files, or its IR) scattered once to
 the workers; a worker writes it to disk once per content hash and keeps the last compiled
 frames, so the tiles of a frame compile it once per worker. A task returns the pixels of
-its tile in the working colour space; the client assembles a frame's tiles and the caller
-writes the image (atomically: runtime.image). The pixels do not depend on the tiling
+its tile in the working colour space; the client assembles a frame's tiles, or hands
+them to the caller as they come (`assemble=False`: the command line writes each band of
+rows to the file as it can, runtime.image.Bands, so a huge image is never whole in the
+client's memory; the file is renamed into place once complete). The pixels do not depend on the tiling
 (anti-aliasing compares first-ray colours, random sequences are hashed from the ray:
 runtime.ray_random; a tile's radiosity pretrace covers the whole image), so a tiled image
 is bit-identical to one traced whole. A scene error is a task's result (its diagnostics,
@@ -103,7 +105,8 @@ class TaskResult:
 
 @dataclass
 class Outcome:
-    """A finished frame: the assembled image (None when it failed) and what was said."""
+    """A finished frame: the assembled image (None when it failed, or when the caller took
+    the tiles as they came: `run(..., assemble=False)`) and what was said."""
 
     image: np.ndarray | None
     settings: ir.Settings | None
@@ -111,10 +114,7 @@ class Outcome:
     error: str = ""  # an internal failure (not the scene's), one line
     seconds: float = 0.0  # task time on the workers, summed
     notices: list[str] = field(default_factory=list)  # the tiles' warnings, each once
-
-    @property
-    def ok(self) -> bool:
-        return self.image is not None
+    ok: bool = False  # every tile rendered
 
 
 # ------------------------------------------------------------------ the client
@@ -199,11 +199,15 @@ def run(
     tiles: int = 1,
     progress: Callable[[float, float], None] | None = None,
     on_tile: Callable[[Frame, TaskResult], None] | None = None,
+    assemble: bool = True,
 ) -> Iterator[tuple[Frame, Outcome]]:
     """Render `frames` (each in `tiles` tasks) on the client's cluster; yields each frame
     with its outcome as soon as its last tile is in, in the order they finish.
     on_tile(frame, result) is called with each tile's pixels as they come in (the display
-    window's feed)."""
+    window's feed, the bands of a file written as they come: image.Bands).
+    assemble=False: the outcomes hold no image and the client keeps no tile's pixels
+    after on_tile (a huge image is never whole in its memory). The tasks are queued in
+    frame and band order, so bands come in about in order."""
     if not frames:
         return
     full = options.region or (0, 0, options.width, options.height)
@@ -211,13 +215,14 @@ def run(
     shipped = client.scatter(scene, broadcast=True, hash=False)
     job = uuid.uuid4().hex[:8]
     owner: dict[Hashable, tuple[int, int]] = {}  # future key -> (frame index, tile index)
-    futures = []
+    futures: list[distributed.Future] = []
     for fi, frame in enumerate(frames):
         for ti, rect in enumerate(rects):
             name = f"strala-{job}-frame{frame.number if frame.number is not None else 0}"
             fut = client.submit(
-                render_task, shipped, options, frame, rect, key=f"{name}-tile{ti}", pure=False
-            )
+                render_task, shipped, options, frame, rect, key=f"{name}-tile{ti}",
+                pure=False, priority=-len(futures),  # the scheduler runs higher first
+            )  # fmt: skip
             owner[fut.key] = (fi, ti)
             futures.append(fut)
     total = len(futures)
@@ -252,11 +257,13 @@ def run(
             yield frames[fi], failed[fi]
             continue
         got = parts.setdefault(fi, {})
-        got[ti] = result
         if on_tile:
             on_tile(frames[fi], result)
+        if not assemble:
+            result.pixels = None  # the caller has them
+        got[ti] = result
         if len(got) == len(rects):
-            yield frames[fi], _assemble(options, got)
+            yield frames[fi], _assemble(options, got, assemble)
             del parts[fi]
 
 
@@ -267,9 +274,10 @@ def _cancel_frame(futures, owner, fi: int) -> None:
             f.cancel()
 
 
-def _assemble(options: Options, parts: dict[int, TaskResult]) -> Outcome:
-    """A frame's image from its tiles (black outside a partial render's region)."""
-    image = np.zeros((options.height, options.width, 3), dtype=np.float32)
+def _assemble(options: Options, parts: dict[int, TaskResult], image: bool = True) -> Outcome:
+    """A frame's outcome from its tiles; with `image`, its image (black outside a partial
+    render's region)."""
+    whole = np.zeros((options.height, options.width, 3), dtype=np.float32) if image else None
     diagnostics: list[Diagnostic] = []
     notices: dict[str, None] = {}  # in order, each once (tiles meet the same problems)
     seconds = 0.0
@@ -277,13 +285,14 @@ def _assemble(options: Options, parts: dict[int, TaskResult]) -> Outcome:
     for ti in sorted(parts):
         r = parts[ti]
         x0, y0, x1, y1 = r.tile
-        image[y0:y1, x0:x1] = r.pixels
+        if whole is not None:
+            whole[y0:y1, x0:x1] = r.pixels
         settings = r.settings
         seconds += r.seconds
         notices.update(dict.fromkeys(r.notices))
         if ti == 0:  # every tile compiled the same scene: its warnings once
             diagnostics = r.diagnostics
-    return Outcome(image, settings, diagnostics, seconds=seconds, notices=list(notices))
+    return Outcome(whole, settings, diagnostics, seconds=seconds, notices=list(notices), ok=True)
 
 
 # ------------------------------------------------------------------ the worker

@@ -2,8 +2,9 @@
 
 The client compiles the first frame once, to learn which files the scene reads (they travel
 to the workers in a bundle: runtime.bundle), then runtime.cluster renders every frame,
-tile by tile, on the workers; each frame is written as soon as its last tile is in, under
-the name a local render gives it. A frame whose scene has errors is reported with its
+tile by tile, on the workers; each frame's file is written band by band as its tiles come
+in (only the bands that came out of order are held: image.Bands) and renamed into place
+when its last tile is in, under the name a local render gives it. A frame whose scene has errors is reported with its
 diagnostics and the others go on (exit 1 at the end); `--resume` leaves out the frames
 already written at this size.
 """
@@ -89,6 +90,9 @@ def run(
         return 1
     status = 0
     written = 0
+    # each frame's file, written band by band as the tiles come in (image.Bands: only the
+    # bands that came out of order are held), renamed into place when complete
+    files: dict[cluster.Frame, image.Bands] = {}
     try:
         workers = len(client.scheduler_info().get("workers", {}))
         if not args.quiet:
@@ -99,12 +103,28 @@ def run(
         said: set[Diagnostic] = set()
         noticed: set[str] = set()  # the workers' warnings said so far
         shown = None if window is None else display.Frames(window, width, height)
+        unwritable: dict[cluster.Frame, str] = {}  # the frames whose file failed: why
+        rows = None if region is None else (region[1], region[3])
 
         def on_tile(frame, result) -> None:
-            assert shown is not None
-            where = Path(frame.output)
-            what = frame.label or "rendering"
-            shown.tile(frame, what, where, result.tile, result.pixels, result.settings)
+            if shown is not None:
+                where = Path(frame.output)
+                what = frame.label or "rendering"
+                shown.tile(frame, what, where, result.tile, result.pixels, result.settings)
+            if frame in unwritable:
+                return
+            try:
+                with writing or nullcontext():
+                    out = files.get(frame)
+                    if out is None:
+                        out = image.Bands(
+                            frame.output, width, height, result.settings, args.bits, rows
+                        )
+                        files[frame] = out.__enter__()
+                    out.add(result.tile[1], result.tile[0], result.pixels)
+            except OSError as exc:
+                unwritable[frame] = str(exc)
+                _close(files.pop(frame, None))
 
         with Progress(label, enabled=False if args.quiet else None, tick=0.5) as bar:
 
@@ -120,8 +140,10 @@ def run(
                 frames,
                 tiles=tiles,
                 progress=progress,
-                on_tile=None if shown is None else on_tile,
+                on_tile=on_tile,
+                assemble=False,
             ):
+                out = files.pop(frame, None)
                 new = [d for d in outcome.diagnostics if d not in said]
                 said.update(new)
                 if new or not outcome.ok:
@@ -133,26 +155,32 @@ def run(
                     _clear(bar)
                     print("\n".join(lines), file=sys.stderr)
                 if not outcome.ok:
+                    _close(out)
                     if shown is not None:
                         shown.ended(frame)
                     why = outcome.error or "the scene has errors"
                     print(f"strala: {frame.label or 'the image'} failed: {why}", file=sys.stderr)
                     status = 1
                     continue
-                assert outcome.image is not None and outcome.settings is not None
                 try:
+                    if frame in unwritable:
+                        raise OSError(unwritable.pop(frame))
+                    assert out is not None and out.done
                     with writing or nullcontext():
-                        image.save_render(frame.output, outcome.image, outcome.settings, args.bits)
+                        out.commit()
                 except OSError as exc:
                     _clear(bar)
                     print(f"strala: error: {exc}", file=sys.stderr)
                     status = 1
                     continue
                 finally:
+                    _close(out)
                     if shown is not None:
                         shown.ended(frame)
                 written += 1
     except BaseException as exc:  # a stop or a failure: the cluster is left at once
+        for out in files.values():  # no file is left of the frames not complete
+            _close(out)
         connection.__exit__(type(exc), exc, exc.__traceback__)
         raise
     connection.__exit__(None, None, None)
@@ -206,6 +234,12 @@ def _bundle(args: argparse.Namespace, first, size: tuple[int, int]) -> bundles.B
         d.severity is Severity.ERROR for d in result.diagnostics
     )
     return bundles.of_files(args.file, result.files, result.scene if ok else None, libraries)
+
+
+def _close(out: image.Bands | None) -> None:
+    """A frame's file given up (after its commit: nothing to do)."""
+    if out is not None:
+        out.__exit__(None, None, None)
 
 
 def _clear(bar: Progress) -> None:

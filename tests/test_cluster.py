@@ -367,3 +367,37 @@ def test_declares_and_read_restrictions_hold_on_the_cluster(client, tmp_path, ca
         code, err = _render(["render", str(folder / "r.pov"), "-o", str(out), *size, *where],
                             capsys)  # fmt: skip
         assert code == 1 and "o.inc" in err and not out.exists(), (where, err)
+
+
+def test_a_tiled_image_streams_to_its_file_in_bounded_memory(client, tmp_path, capsys):
+    """The client writes each band of rows as it comes in (image.Bands) and never holds the
+    image: in 24 bands, its peak of traced memory (numpy's arrays included) for an image
+    four times as tall grows by a few of the larger bands (those that came out of order,
+    the one being received and converted), where assembling the image whole grew by all
+    of it; the files are the local render's, byte for byte, and nothing else is left."""
+    import tracemalloc
+
+    scene = tmp_path / "tall.pov"
+    scene.write_text(BLUR.replace("aperture 0.4 blur_samples 8", ""))
+    w, tiles = 240, 24
+    peaks = {}
+    for h in (600, 2400):
+        size = ["-W", str(w), "-H", str(h), "-q"]
+        local, tiled = tmp_path / f"l{h}.png", tmp_path / f"c{h}.png"
+        code, err = _render(["render", str(scene), "-o", str(local), *size], capsys)
+        assert code == 0, err
+        argv = ["render", str(scene), "-o", str(tiled), *size, "--tiles", str(tiles),
+                "--cluster", client.scheduler.address]  # fmt: skip
+        _render(argv, capsys)  # the first job's imports and caches are not the image's
+        tracemalloc.start()
+        try:
+            code, err = _render(argv, capsys)
+            peaks[h] = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert code == 0, err
+        assert tiled.read_bytes() == local.read_bytes()
+    band = w * (2400 // tiles) * 3 * 4  # the larger image's band, float32 working values
+    grown = peaks[2400] - peaks[600]
+    assert grown < 8 * band, (peaks, band, f"the whole image: {tiles * band}")
+    assert _leftovers(tmp_path) == []
