@@ -171,8 +171,9 @@ def render(
     with linear=True, linear light, unclipped (what an EXR holds). The size defaults to the
     compiled scene's, else 320x240; `clock` and `library_paths` apply to a path only.
     region=(left, top, right, bottom) renders part of the image (the rest stays black).
-    client: a dask.distributed.Client to render on, in `tiles` bands of rows (the radiosity
-    cache is then each worker's own).
+    client: a dask.distributed.Client to render on, in `tiles` bands of rows (a radiosity
+    solution is then computed once, by one worker, and shipped to the others; the
+    radiosity_cache folder is not read).
     display: show the image as it renders in the notebook cell running this (an IPython
     display handle updated per tile; runtime.notebook); elsewhere a warning says so."""
     from runtime import color
@@ -207,7 +208,7 @@ def render(
             if source is None
             else bundle.of_files(source, scene.files, scene, libraries)
         )
-        frame = cluster.Frame(None, clock)
+        frame = cluster.Frame(None, clock, radiosity=scene.settings.radiosity is not None)
         return next(_on_client(client, shipped, opts, [frame], tiles, linear))
     if tiles != 1:
         raise ValueError("tiles are tasks of a cluster: give client= too")

@@ -401,3 +401,54 @@ def test_a_tiled_image_streams_to_its_file_in_bounded_memory(client, tmp_path, c
     grown = peaks[2400] - peaks[600]
     assert grown < 8 * band, (peaks, band, f"the whole image: {tiles * band}")
     assert _leftovers(tmp_path) == []
+
+
+RADIOSITY = """#version 3.7;
+global_settings { assumed_gamma 1 radiosity { count 20 max_patches 200 } }
+camera { location <clock * 0.6 - 0.3, 1.2, -3.5> look_at <0, 0.6, 0> }
+light_source { <2, 4, -2> color rgb 1 }
+plane { y, 0 pigment { rgb <0.8, 0.8, 0.7> } }
+box { <-1.5, 0, 1>, <1.5, 2, 1.2> pigment { rgb <0.9, 0.2, 0.2> } }
+sphere { <0, 0.6, 0>, 0.6 pigment { rgb 0.9 } }
+"""
+
+
+def test_a_radiosity_solution_is_solved_once_and_shipped_to_every_tile(client, tmp_path):
+    """Two workers, six bands of one frame: one solution, computed by one task and shipped
+    to every tile (none solves it itself), and the pixels are the local render's bit for
+    bit. Then three frames of a walkthrough (the camera moves with the clock, the solution
+    does not): the workers have the solution already and solve nothing; and once the
+    scene changes, one solution for the three frames."""
+    path = tmp_path / "rad.pov"
+    path.write_text(RADIOSITY)
+    w, h = 24, 18
+    r = compile_file(str(path), image_width=w, image_height=h, clock=0.5, queries=RuntimeQueries)
+    assert r.scene is not None and r.scene.settings.radiosity is not None
+    shipped = bundle.of_files(path, r.files, r.scene, ())
+    opts = cluster.Options(w, h, aa=0.3)
+    frame = cluster.Frame(None, 0.5, radiosity=True)
+    tiles: list[cluster.TaskResult] = []
+    got = dict(cluster.run(client, shipped, opts, [frame], tiles=6,
+                           on_tile=lambda _, t: tiles.append(t)))[frame]  # fmt: skip
+    assert got.ok, (got.error, got.diagnostics)
+    assert got.radiosity_solves == 1
+    assert len(tiles) == 6 and all(t.radiosity_solves == 0 for t in tiles)
+    assert len({t.solution.key for t in tiles if t.solution is not None}) == 1
+    assert all(t.solution is not None and t.solution.solved for t in tiles)
+    assert np.array_equal(got.image, render_scene(r.scene, w, h, antialias=0.3))
+
+    walk = [cluster.Frame(n, (n - 1) / 2, radiosity=True) for n in (1, 2, 3)]
+    outcomes = dict(cluster.run(client, shipped, opts, walk, tiles=4))
+    assert all(o.ok for o in outcomes.values())
+    assert sum(o.radiosity_solves for o in outcomes.values()) == 0  # the workers had it
+    path.write_text(RADIOSITY.replace("rgb 0.9 }", "rgb 0.8 }"))  # another solution
+    r2 = compile_file(str(path), image_width=w, image_height=h, queries=RuntimeQueries)
+    assert r2.scene is not None
+    shipped = bundle.of_files(path, r2.files, r2.scene, ())
+    outcomes = dict(cluster.run(client, shipped, opts, walk, tiles=4))
+    assert sum(o.radiosity_solves for o in outcomes.values()) == 1
+    for f in walk:
+        again = compile_file(str(path), image_width=w, image_height=h, clock=f.clock,
+                             queries=RuntimeQueries).scene  # fmt: skip
+        assert again is not None
+        assert np.array_equal(outcomes[f].image, render_scene(again, w, h, antialias=0.3)), f
