@@ -25,7 +25,7 @@ pytest.importorskip("distributed")
 from conftest import run_cli  # noqa: E402
 
 from lang.diagnostics import Diagnostic, Severity, Span  # noqa: E402
-from lang.evaluate import compile_file  # noqa: E402
+from lang.evaluate import animation_values, compile_file  # noqa: E402
 from runtime import api, bundle, cli, cluster  # noqa: E402
 from runtime.queries import RuntimeQueries  # noqa: E402
 from runtime.render import render_scene  # noqa: E402
@@ -452,3 +452,78 @@ def test_a_radiosity_solution_is_solved_once_and_shipped_to_every_tile(client, t
                              queries=RuntimeQueries).scene  # fmt: skip
         assert again is not None
         assert np.array_equal(outcomes[f].image, render_scene(again, w, h, antialias=0.3)), f
+
+
+# each frame includes a file of its own and maps an image of its own; every frame reads a
+# data file (#fopen/#read)
+PER_FRAME = """#version 3.7;
+global_settings { assumed_gamma 1 }
+#include concat("f", str(frame_number, 0, 0), ".inc")
+#fopen Data "data.txt" read
+#read (Data, Size)
+camera { location <0, 1, -4> look_at <0, 0.5, 0> }
+light_source { <3, 5, -3> color rgb 1 }
+plane { z, 2 pigment { image_map { png concat("m", str(frame_number, 0, 0), ".png") }
+  translate <-0.5, -0.5, 0> scale 6 } }
+sphere { <0, 0.7, 0>, Size pigment { rgb Col } }
+"""
+
+
+def _per_frame_scene(folder: Path) -> Path:
+    from runtime import image
+
+    folder.mkdir()
+    for n, col in ((1, "<1, 0.2, 0.1>"), (2, "<0.1, 1, 0.2>"), (3, "<0.2, 0.1, 1>")):
+        (folder / f"f{n}.inc").write_text(f"#declare Col = {col};\n")
+        ramp = np.zeros((4, 4, 3), np.float32)
+        ramp[..., n - 1] = np.linspace(0.2, 1.0, 16).reshape(4, 4)
+        image.write_pixels(folder / f"m{n}.png", ramp, 8)
+    (folder / "data.txt").write_text("0.55,\n")
+    (folder / "s.pov").write_text(PER_FRAME)
+    return folder / "s.pov"
+
+
+def test_every_frames_files_travel_to_the_workers(client, tmp_path, capsys):
+    """A later frame's include and image map and a data file read by #fopen/#read are in
+    the bundle (the client compiles every frame for its reads): the frames the cluster
+    writes are the local render's files, byte for byte."""
+    scene = _per_frame_scene(tmp_path / "scene")
+    size = ["-W", "16", "-H", "12", "--frames", "1..3"]
+    code, err = _render(["render", str(scene), "-o", str(tmp_path / "l.png"), *size, "-q"],
+                        capsys)  # fmt: skip
+    assert code == 0, err
+    address = client.scheduler.address
+    code, err = _render(["render", str(scene), "-o", str(tmp_path / "c.png"), *size,
+                         "--tiles", "2", "--cluster", address], capsys)  # fmt: skip
+    assert code == 0, err
+    images = [(tmp_path / f"c{n}.png").read_bytes() for n in (1, 2, 3)]
+    assert images == [(tmp_path / f"l{n}.png").read_bytes() for n in (1, 2, 3)]
+    assert len(set(images)) == 3  # each frame has its own include and image
+
+
+def test_the_bundle_alone_carries_the_files(client, tmp_path):
+    """The workers read nothing of the client's folders: with every frame's reads in the
+    bundle, the scene's folder moved away before the job runs, the frames are still the
+    local render's pixels."""
+    scene = _per_frame_scene(tmp_path / "scene")
+    w, h = 16, 12
+    frames, local, read, scenes = [], [], [], []
+    for n in (1, 2, 3):
+        values = animation_values((n - 1) / 2, (1, 3), n)
+        r = compile_file(str(scene), image_width=w, image_height=h, clock=(n - 1) / 2,
+                         animation=values, queries=RuntimeQueries)  # fmt: skip
+        assert r.scene is not None, r.diagnostics
+        read += r.files
+        scenes.append(r.scene)
+        frames.append(cluster.Frame(n, (n - 1) / 2, tuple(values.items())))
+        local.append(render_scene(r.scene, w, h))
+    assert str(tmp_path / "scene" / "data.txt") in read
+    shipped = bundle.of_files(scene, read, scenes, ())
+    names = sorted(Path(f).name for f in shipped.files)
+    assert names == ["data.txt", "f1.inc", "f2.inc", "f3.inc", "m1.png", "m2.png", "m3.png",
+                     "s.pov"]  # fmt: skip
+    (tmp_path / "scene").rename(tmp_path / "gone")
+    got = dict(cluster.run(client, shipped, cluster.Options(w, h), frames, tiles=2))
+    for frame, expected in zip(frames, local, strict=True):
+        assert got[frame].ok, got[frame].diagnostics
+        assert np.array_equal(got[frame].image, expected), frame.number
