@@ -249,7 +249,7 @@ def test_a_frame_with_errors_is_reported_and_the_others_written(client, scenes, 
 
 
 def test_the_python_api_raises_the_scenes_errors(client, scenes):
-    # render_frames sets the clock only (as it does locally): frame 2 is clock 0.5
+    # frame 2 of 1..3 is clock 0.5
     text = BROKEN_INCLUDE.replace("frame_number = 2", "clock = 0.5")
     (scenes / "clocked.inc").write_text(text)
     (scenes / "clocked.pov").write_text(BROKEN.replace("thing.inc", "clocked.inc"))
@@ -527,3 +527,36 @@ def test_the_bundle_alone_carries_the_files(client, tmp_path):
     for frame, expected in zip(frames, local, strict=True):
         assert got[frame].ok, got[frame].diagnostics
         assert np.array_equal(got[frame].image, expected), frame.number
+
+
+# the animation's identifiers in the colour: each frame is another image only if it sees
+# its own values
+IDENTIFIERS = """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 1, -4> look_at <0, 0.5, 0> }
+light_source { <3, 5, -3> color rgb 1 }
+sphere { <0, 0.7, 0>, 0.7 pigment { rgb <frame_number / 10, (final_frame - initial_frame) / 10,
+  clock_delta + clock_on / 4> } }
+"""
+
+
+def test_render_frames_gives_the_scene_the_animations_identifiers(client, tmp_path, capsys):
+    """api.render_frames, here and on a cluster, gives the scene frame_number,
+    initial_frame, final_frame, clock_delta and clock_on as `--frames 2..5` does: the
+    images are the command line's files' values (8 bits, exactly)."""
+    scene = tmp_path / "ids.pov"
+    scene.write_text(IDENTIFIERS)
+    code, err = _render(["render", str(scene), "-o", str(tmp_path / "f.png"), "-W", "12",
+                         "-H", "9", "--frames", "2..5", "-q"], capsys)  # fmt: skip
+    assert code == 0, err
+    local = list(api.render_frames(scene, 2, 5, width=12, height=9))
+    remote = list(api.render_frames(scene, 2, 5, width=12, height=9, client=client, tiles=2))
+    assert [t for t, _ in local] == [t for t, _ in remote] == [0.0, 1 / 3, 2 / 3, 1.0]
+    from runtime import image
+
+    for n, (_, a), (_, b) in zip(range(2, 6), local, remote, strict=True):
+        written = np.rint(image.read_image(tmp_path / f"f{n}.png") * 255)
+        off = np.abs(np.rint(a * 255) - written)
+        assert not off.any(), (n, off.max(), np.count_nonzero(off))
+        assert np.array_equal(a, b), n
+    assert len({a.tobytes() for _, a in local}) == 4  # frame_number differs
