@@ -171,8 +171,9 @@ def render(
     with linear=True, linear light, unclipped (what an EXR holds). The size defaults to the
     compiled scene's, else 320x240; `clock` and `library_paths` apply to a path only.
     region=(left, top, right, bottom) renders part of the image (the rest stays black).
-    client: a dask.distributed.Client to render on, in `tiles` bands of rows (the radiosity
-    cache is then each worker's own).
+    client: a dask.distributed.Client to render on, in `tiles` bands of rows (a radiosity
+    solution is then computed once, by one worker, and shipped to the others; the
+    radiosity_cache folder is not read).
     display: show the image as it renders in the notebook cell running this (an IPython
     display handle updated per tile; runtime.notebook); elsewhere a warning says so."""
     from runtime import color
@@ -207,7 +208,7 @@ def render(
             if source is None
             else bundle.of_files(source, scene.files, scene, libraries)
         )
-        frame = cluster.Frame(None, clock)
+        frame = cluster.Frame(None, clock, radiosity=scene.settings.radiosity is not None)
         return next(_on_client(client, shipped, opts, [frame], tiles, linear))
     if tiles != 1:
         raise ValueError("tiles are tasks of a cluster: give client= too")
@@ -259,20 +260,44 @@ def render_frames(
     **options,
 ) -> Iterator[tuple[float, np.ndarray]]:
     """An animation, frame by frame, as `--frames first..last`: (clock, image) with the
-    clock running from 0 at the first frame to 1 at the last. `options` as for `render`;
-    with client= (and tiles=) the frames are rendered on its cluster, all at once, and
-    yielded in order as they come in."""
+    clock running from 0 at the first frame to 1 at the last, and the scene seeing the
+    animation's identifiers as the command line's frames do (frame_number, initial_frame,
+    final_frame, clock_delta …: lang.animation). `options` as for `render`; with client=
+    (and tiles=) the frames are rendered on its cluster, all at once, and yielded in order
+    as they come in."""
     if last < first:
         raise ValueError(f"the last frame ({last}) comes before the first ({first})")
     if options.get("client") is not None:
         yield from _frames_on_client(path, first, last, width, height, library_paths, options)
         return
-    for frame in range(first, last + 1):
-        t = 0.0 if last == first else (frame - first) / (last - first)
-        compiled = compile_file(
-            path, library_paths=library_paths, clock=t, width=width, height=height
-        )
-        yield t, render(compiled, **options)
+    for n in range(first, last + 1):
+        t, result = _compile_frame(path, library_paths, width, height, first, last, n)
+        yield t, render(_finish(result, (width, height), t), **options)
+
+
+def _frame_values(first: int, last: int, n: int) -> tuple[float, dict[str, float]]:
+    """Frame n's clock and animation identifiers, as `--frames first..last` gives them."""
+    from lang.evaluate import animation_values
+
+    t = 0.0 if last == first else (n - first) / (last - first)
+    return t, animation_values(t, (first, last), n)
+
+
+def _compile_frame(path, library_paths, width: int, height: int, first: int, last: int, n: int):
+    """(clock, compile result) of frame n of first..last."""
+    from lang.evaluate import compile_file as _compile_file
+
+    t, values = _frame_values(first, last, n)
+    result = _compile_file(
+        str(path),
+        paths.library_paths(library_paths),
+        clock=t,
+        image_width=width,
+        image_height=height,
+        animation=values,
+        queries=_queries,
+    )
+    return t, result
 
 
 def _frames_on_client(path, first, last, width, height, library_paths, options):
@@ -288,17 +313,22 @@ def _frames_on_client(path, first, last, width, height, library_paths, options):
     if set(options) - known:
         raise TypeError(f"not an option on a cluster: {', '.join(sorted(set(options) - known))}")
     opts = cluster.Options(width, height, **options)
-    clocks = [
-        0.0 if last == first else (n - first) / (last - first) for n in range(first, last + 1)
-    ]
-    from lang.evaluate import compile_file as _compile_file
-
-    libraries = paths.library_paths(library_paths)
-    probe = _compile_file(
-        str(path), libraries, clock=0.0, image_width=width, image_height=height, queries=_queries
-    )
-    shipped = bundle.of_files(path, probe.files, probe.scene, libraries)
-    frames = [cluster.Frame(n, t) for n, t in zip(range(first, last + 1), clocks, strict=True)]
+    # every frame compiled here once: what each reads travels (a later frame may include
+    # other files), and which have radiosity (solved once for the job)
+    frames, clocks, read, scenes = [], [], [], []
+    for n in range(first, last + 1):
+        t, result = _compile_frame(path, library_paths, width, height, first, last, n)
+        _, values = _frame_values(first, last, n)
+        read += result.files
+        lit = False
+        if result.scene is not None and not any(
+            d.severity is Severity.ERROR for d in result.diagnostics
+        ):  # a frame with errors: its workers say which
+            scenes.append(result.scene)
+            lit = result.scene.settings.radiosity is not None
+        frames.append(cluster.Frame(n, t, tuple(values.items()), radiosity=lit))
+        clocks.append(t)
+    shipped = bundle.of_files(path, read, scenes, paths.library_paths(library_paths))
     images = _on_client(client, shipped, opts, frames, tiles, linear)
     yield from zip(clocks, images, strict=True)
 

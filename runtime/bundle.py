@@ -1,8 +1,10 @@
 """What a render task on another machine needs: the scene's files, named by a content hash.
 
 Workers share no filesystem with the client. A `Bundle` holds the text of the scene file,
-of every file it included and of every data file its IR names (image maps, height fields,
-fonts, density files), keyed by the client's absolute paths; strala's own stdlib is left
+of every file it included, every data file it read (`#fopen`) and every data file its IR
+names (image maps, height fields, fonts, density files), over all the frames of a job (the
+client compiles each frame to learn them: a later frame may include other files), keyed by
+the client's absolute paths; strala's own stdlib is left
 out (every worker has it). A worker writes the files once per bundle under a folder named
 by the hash (`materialise`), with the client's absolute paths re-rooted there, so the
 scene's relative includes and `-L` folders resolve as on the client; diagnostics are
@@ -62,14 +64,17 @@ def of_scene(scene: ir.Scene, name: str = "<scene>") -> Bundle:
     return Bundle(name, scene=scene, digest=_digest(name, {}, (), data))
 
 
-def of_files(entry: str | os.PathLike, read: Iterable[str], scene: ir.Scene | None,
+def of_files(entry: str | os.PathLike, read: Iterable[str],
+             scene: ir.Scene | Iterable[ir.Scene] | None,
              libraries: Sequence[str]) -> Bundle:  # fmt: skip
-    """The bundle of the scene file `entry`: the files a compile of it `read`, those its
-    IR `scene` names, and the scene file itself. Files of strala's stdlib stay out."""
+    """The bundle of the scene file `entry`: the files its compiles `read` (includes, data
+    files #fopen read), those its IR `scene` names (image maps, height fields, fonts …;
+    one scene, or every frame's), and the scene file itself. Files of strala's stdlib
+    stay out."""
     main = str(Path(entry).resolve())
     wanted = {main, *(str(Path(f).resolve()) for f in read if not f.startswith("<"))}
-    if scene is not None:
-        wanted |= set(named_files(scene))
+    for one in [scene] if isinstance(scene, ir.Scene) else scene or ():
+        wanted |= set(named_files(one))
     files: dict[str, bytes] = {}
     for name in sorted(wanted):
         path = Path(name)

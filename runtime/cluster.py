@@ -7,14 +7,25 @@
 The scene travels as a `runtime.bundle.Bundle` (its files, or its IR) scattered once to
 the workers; a worker writes it to disk once per content hash and keeps the last compiled
 frames, so the tiles of a frame compile it once per worker. A task returns the pixels of
-its tile in the working colour space; the client assembles a frame's tiles and the caller
-writes the image (atomically: runtime.image). The pixels do not depend on the tiling
-(anti-aliasing compares first-ray colours, random sequences are hashed from the ray:
-runtime.ray_random; a tile's radiosity pretrace covers the whole image), so a tiled image
-is bit-identical to one traced whole. A scene error is a task's result (its diagnostics,
-mapped to the client's paths), not an exception: the other frames go on. A worker that dies
-takes its tasks with it and the scheduler runs them again elsewhere (Dask's
-`distributed.scheduler.allowed-failures`, 3 by default).
+its tile in the working colour space; the client assembles a frame's tiles, or hands
+them to the caller as they come (`assemble=False`: the command line writes each band of
+rows to the file as it can, runtime.image.Bands, so a huge image is never whole in the
+client's memory; the file is renamed into place once complete). The pixels do not depend
+on the tiling (anti-aliasing compares first-ray colours, random sequences are hashed from
+the ray: runtime.ray_random; a tile's radiosity pretrace covers the whole image), so a
+tiled image is bit-identical to one traced whole.
+
+Radiosity is solved once per job: a frame with radiosity first gets its solution's content
+key (a small task: compile and prepare), the first frame of each key a task that solves it
+(or finds it in its machine's cache), and the tiles of every frame with that key take the
+`Solution` (the cache file's bytes) as an argument: Dask carries it to the workers that
+need it, each writes it into its own cache, where the renders find it. The solution does
+not depend on the camera, so a walkthrough is solved once.
+
+A scene error is a task's result (its diagnostics, mapped to the client's paths), not an
+exception: the other frames go on. A worker that dies takes its tasks with it and the
+scheduler runs them again elsewhere (Dask's `distributed.scheduler.allowed-failures`, 3 by
+default).
 
 Dask is an optional dependency (`strala[cluster]`); importing this module needs it.
 """
@@ -22,6 +33,7 @@ Dask is an optional dependency (`strala[cluster]`); importing this module needs 
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import os
 import signal
 import time
@@ -83,6 +95,21 @@ class Frame:
     animation: tuple[tuple[str, float], ...] = ()
     output: str = ""  # the client's file name (never read by a worker)
     label: str = ""
+    # the scene has radiosity: its solution is computed once for the job (a task of its
+    # own) and shipped to the tiles (the caller knows from its own compile of the frame)
+    radiosity: bool = False
+
+
+@dataclass(frozen=True)
+class Solution:
+    """A radiosity solution as it travels between workers: the bytes of its cache file
+    (runtime.radiosity.system), named by its content key; a worker that gets it writes
+    the file into its own cache, where the tiles' renders find it."""
+
+    key: str
+    data: bytes
+    solved: bool  # computed by this job's task (False: the worker's cache had it)
+    seconds: float
 
 
 @dataclass
@@ -99,11 +126,14 @@ class TaskResult:
     # what the renderer said (its warnings, in the client's paths): the client prints
     # them, or not under -q; a worker's own stderr is not the user's
     notices: list[str] = field(default_factory=list)
+    radiosity_solves: int = 0  # radiosity solutions this task's render computed itself
+    solution: Solution | None = None  # the shipped one it used (without its bytes)
 
 
 @dataclass
 class Outcome:
-    """A finished frame: the assembled image (None when it failed) and what was said."""
+    """A finished frame: the assembled image (None when it failed, or when the caller took
+    the tiles as they came: `run(..., assemble=False)`) and what was said."""
 
     image: np.ndarray | None
     settings: ir.Settings | None
@@ -111,10 +141,10 @@ class Outcome:
     error: str = ""  # an internal failure (not the scene's), one line
     seconds: float = 0.0  # task time on the workers, summed
     notices: list[str] = field(default_factory=list)  # the tiles' warnings, each once
-
-    @property
-    def ok(self) -> bool:
-        return self.image is not None
+    ok: bool = False  # every tile rendered
+    # radiosity solutions computed for this frame: 1 for the first frame of a job that
+    # needs a solution no worker had, 0 for the frames that share it
+    radiosity_solves: int = 0
 
 
 # ------------------------------------------------------------------ the client
@@ -199,65 +229,128 @@ def run(
     tiles: int = 1,
     progress: Callable[[float, float], None] | None = None,
     on_tile: Callable[[Frame, TaskResult], None] | None = None,
+    assemble: bool = True,
 ) -> Iterator[tuple[Frame, Outcome]]:
     """Render `frames` (each in `tiles` tasks) on the client's cluster; yields each frame
     with its outcome as soon as its last tile is in, in the order they finish.
     on_tile(frame, result) is called with each tile's pixels as they come in (the display
-    window's feed)."""
+    window's feed, the bands of a file written as they come: image.Bands).
+    assemble=False: the outcomes hold no image and the client keeps no tile's pixels
+    after on_tile (a huge image is never whole in its memory). The tasks are queued in
+    frame and band order, so bands come in about in order."""
     if not frames:
         return
     full = options.region or (0, 0, options.width, options.height)
     rects = tile_rects(full, tiles)
     shipped = client.scatter(scene, broadcast=True, hash=False)
     job = uuid.uuid4().hex[:8]
-    owner: dict[Hashable, tuple[int, int]] = {}  # future key -> (frame index, tile index)
-    futures = []
-    for fi, frame in enumerate(frames):
+    owner: dict[Hashable, tuple[int, int]] = {}  # tile's future key -> (frame, tile index)
+    keyed: dict[Hashable, int] = {}  # radiosity key task's future key -> frame index
+    solves: dict[str, distributed.Future] = {}  # solution key -> the task computing it
+    solver: dict[str, int] = {}  # solution key -> the frame whose solve task it is
+    used: dict[int, str] = {}  # frame index -> the key of the solution its tiles use
+    futures: list[distributed.Future] = []  # the tiles'
+    pending = distributed.as_completed()
+    n = len(frames)
+
+    def name(fi: int) -> str:
+        number = frames[fi].number
+        return f"strala-{job}-frame{number if number is not None else fi}"
+
+    def submit_tiles(fi: int, solution: distributed.Future | None = None) -> None:
         for ti, rect in enumerate(rects):
-            name = f"strala-{job}-frame{frame.number if frame.number is not None else 0}"
             fut = client.submit(
-                render_task, shipped, options, frame, rect, key=f"{name}-tile{ti}", pure=False
-            )
+                render_task, shipped, options, frames[fi], rect, solution,
+                key=f"{name(fi)}-tile{ti}", pure=False,
+                priority=-(fi * len(rects) + ti),  # the scheduler runs higher first
+            )  # fmt: skip
             owner[fut.key] = (fi, ti)
             futures.append(fut)
-    total = len(futures)
+            pending.add(fut)
+
+    for fi, frame in enumerate(frames):
+        if frame.radiosity:  # its solution's key first (before any tile: priority)
+            fut = client.submit(radiosity_key_task, shipped, options, frame,
+                                key=f"{name(fi)}-radiosity-key", pure=False,
+                                priority=2 * n - fi)  # fmt: skip
+            keyed[fut.key] = fi
+            pending.add(fut)
+        else:
+            submit_tiles(fi)
+    total = n * len(rects)
     done = 0
     parts: dict[int, dict[int, TaskResult]] = {}
     failed: dict[int, Outcome] = {}
     if progress:
         progress(0, total)
-    for fut in distributed.as_completed(futures):
-        fi, ti = owner[fut.key]
-        done += 1
-        if progress:
-            progress(done, total)
-        if fi in failed:  # an earlier tile of this frame said it all
-            fut.release()
-            continue
-        try:
-            result: TaskResult = fut.result()
-        except Exception as exc:  # a task that failed outside the scene (KilledWorker …)
-            failed[fi] = Outcome(None, None, error=f"{type(exc).__name__}: {exc}")
-            _cancel_frame(futures, owner, fi)
-            yield frames[fi], failed[fi]
-            continue
-        finally:
-            fut.release()
-        if result.pixels is None:
-            failed[fi] = Outcome(
-                None, result.settings, result.diagnostics, seconds=result.seconds,
-                notices=result.notices,
-            )  # fmt: skip
-            _cancel_frame(futures, owner, fi)
-            yield frames[fi], failed[fi]
-            continue
-        got = parts.setdefault(fi, {})
-        got[ti] = result
-        if on_tile:
-            on_tile(frames[fi], result)
-        if len(got) == len(rects):
-            yield frames[fi], _assemble(options, got)
-            del parts[fi]
+    try:
+        for fut in pending:
+            if fut.key in keyed:
+                fi = keyed.pop(fut.key)
+                try:
+                    key: str | None = fut.result()
+                except Exception as exc:  # outside the scene (KilledWorker …)
+                    failed[fi] = Outcome(None, None, error=f"{type(exc).__name__}: {exc}")
+                    done += len(rects)
+                    if progress:
+                        progress(done, total)
+                    yield frames[fi], failed[fi]
+                    continue
+                finally:
+                    fut.release()
+                if key is None:  # the scene has errors: its tiles say which
+                    submit_tiles(fi)
+                    continue
+                if key not in solves:  # the first frame of this solution: solved once
+                    solves[key] = client.submit(
+                        radiosity_task, shipped, options, frames[fi], key,
+                        key=f"{name(fi)}-radiosity", pure=False, priority=n - fi,
+                    )  # fmt: skip
+                    solver[key] = fi
+                used[fi] = key
+                submit_tiles(fi, solves[key])
+                continue
+            fi, ti = owner[fut.key]
+            done += 1
+            if progress:
+                progress(done, total)
+            if fi in failed:  # an earlier tile of this frame said it all
+                fut.release()
+                continue
+            try:
+                result: TaskResult = fut.result()
+            except Exception as exc:  # a task that failed outside the scene (KilledWorker …)
+                failed[fi] = Outcome(None, None, error=f"{type(exc).__name__}: {exc}")
+                _cancel_frame(futures, owner, fi)
+                yield frames[fi], failed[fi]
+                continue
+            finally:
+                fut.release()
+            if result.pixels is None:
+                failed[fi] = Outcome(
+                    None, result.settings, result.diagnostics, seconds=result.seconds,
+                    notices=result.notices,
+                )  # fmt: skip
+                _cancel_frame(futures, owner, fi)
+                yield frames[fi], failed[fi]
+                continue
+            got = parts.setdefault(fi, {})
+            if on_tile:
+                on_tile(frames[fi], result)
+            if not assemble:
+                result.pixels = None  # the caller has them
+            got[ti] = result
+            if len(got) == len(rects):
+                outcome = _assemble(options, got, assemble)
+                key = used.get(fi)
+                if key is not None and solver[key] == fi:  # its solution was this job's
+                    solution = got[0].solution
+                    outcome.radiosity_solves += int(solution is not None and solution.solved)
+                yield frames[fi], outcome
+                del parts[fi]
+    finally:
+        for f in solves.values():  # the solutions are not wanted on the cluster any more
+            f.release()
 
 
 def _cancel_frame(futures, owner, fi: int) -> None:
@@ -267,23 +360,28 @@ def _cancel_frame(futures, owner, fi: int) -> None:
             f.cancel()
 
 
-def _assemble(options: Options, parts: dict[int, TaskResult]) -> Outcome:
-    """A frame's image from its tiles (black outside a partial render's region)."""
-    image = np.zeros((options.height, options.width, 3), dtype=np.float32)
+def _assemble(options: Options, parts: dict[int, TaskResult], image: bool = True) -> Outcome:
+    """A frame's outcome from its tiles; with `image`, its image (black outside a partial
+    render's region)."""
+    whole = np.zeros((options.height, options.width, 3), dtype=np.float32) if image else None
     diagnostics: list[Diagnostic] = []
     notices: dict[str, None] = {}  # in order, each once (tiles meet the same problems)
     seconds = 0.0
     settings = None
+    solves = 0
     for ti in sorted(parts):
         r = parts[ti]
         x0, y0, x1, y1 = r.tile
-        image[y0:y1, x0:x1] = r.pixels
+        if whole is not None:
+            whole[y0:y1, x0:x1] = r.pixels
         settings = r.settings
         seconds += r.seconds
+        solves += r.radiosity_solves
         notices.update(dict.fromkeys(r.notices))
         if ti == 0:  # every tile compiled the same scene: its warnings once
             diagnostics = r.diagnostics
-    return Outcome(image, settings, diagnostics, seconds=seconds, notices=list(notices))
+    return Outcome(whole, settings, diagnostics, seconds=seconds, notices=list(notices), ok=True,
+                   radiosity_solves=solves)  # fmt: skip
 
 
 # ------------------------------------------------------------------ the worker
@@ -291,33 +389,97 @@ _compiled: OrderedDict[tuple, tuple[ir.Scene | None, list[Diagnostic]]] = Ordere
 
 
 def render_task(
-    scene: bundles.Bundle, options: Options, frame: Frame, tile: tuple[int, int, int, int]
+    scene: bundles.Bundle,
+    options: Options,
+    frame: Frame,
+    tile: tuple[int, int, int, int],
+    solution: Solution | None = None,
 ) -> TaskResult:
     """Run on a worker: the pixels of `tile` of `frame` (or the scene's diagnostics), with
-    what the renderer said on the way (runtime.notices, Python's warnings)."""
+    what the renderer said on the way (runtime.notices, Python's warnings). `solution`:
+    the frame's radiosity solution, computed by radiosity_task."""
     _tune_malloc()
     start = time.perf_counter()
     root = bundles.materialise(scene)
     with notices.recorded() as said, warnings.catch_warnings(record=True) as caught:
-        result = _render_task(scene, root, options, frame, tile, start)
+        result = _render_task(scene, root, options, frame, tile, start, solution)
     said.extend(notices.warning_line(str(w.message)) for w in caught)
     result.notices = list(dict.fromkeys(bundles.client_text(line, root) for line in said))
     return result
 
 
+def _radiosity_cache(root: Path) -> Path:
+    """The worker machine's radiosity cache (solutions by content key: any camera)."""
+    cache = root.parent / "radiosity"
+    cache.mkdir(parents=True, exist_ok=True)
+    return cache
+
+
+def _failed(diagnostics: list[Diagnostic]) -> bool:
+    return any(d.severity is Severity.ERROR for d in diagnostics)
+
+
+def radiosity_key_task(scene: bundles.Bundle, options: Options, frame: Frame) -> str | None:
+    """Run on a worker: the content key of the frame's radiosity solution (None when the
+    scene has errors: its tiles report them). Frames whose keys agree share one solution
+    (a walkthrough: the camera moves, the solution stays)."""
+    from runtime.prepare import prepare
+    from runtime.radiosity import system
+
+    _tune_malloc()
+    root = bundles.materialise(scene)
+    # what is said on the way is the tiles' to say (they meet it again)
+    with notices.recorded(), warnings.catch_warnings(record=True):
+        compiled, diagnostics, _ = _compile(scene, root, options, frame)
+        if compiled is None or _failed(diagnostics) or compiled.settings.radiosity is None:
+            return None
+        try:
+            return system.solution_key(prepare(compiled, options.width, options.height))[0]
+        except SceneError:
+            return None
+
+
+def radiosity_task(scene: bundles.Bundle, options: Options, frame: Frame, key: str) -> Solution:
+    """Run on a worker: the radiosity solution `key` of the frame, from this machine's
+    cache or solved now (once for the job: the client asks for each key once)."""
+    from runtime.prepare import prepare
+    from runtime.radiosity import system
+
+    _tune_malloc()
+    start = time.perf_counter()
+    root = bundles.materialise(scene)
+    path = system.cache_path(_radiosity_cache(root), key)
+    solved = not path.is_file()
+    if solved:
+        with notices.recorded(), warnings.catch_warnings(record=True):
+            compiled, _, _ = _compile(scene, root, options, frame)
+            assert compiled is not None  # its key task compiled it
+            system.compute(prepare(compiled, options.width, options.height),
+                           cache_dir=path.parent)  # fmt: skip
+    return Solution(key, path.read_bytes(), solved, time.perf_counter() - start)
+
+
 def _render_task(
-    scene: bundles.Bundle, root: Path, options: Options, frame: Frame, tile, start: float
-) -> TaskResult:
+    scene: bundles.Bundle, root: Path, options: Options, frame: Frame, tile, start: float,
+    solution: Solution | None,
+) -> TaskResult:  # fmt: skip
     from runtime.render import render_scene
 
     compiled, diagnostics, compile_s = _compile(scene, root, options, frame)
     where = _worker_address()
-    if compiled is None or any(d.severity is Severity.ERROR for d in diagnostics):
+    if compiled is None or _failed(diagnostics):
         return TaskResult(tile, None, None, diagnostics, time.perf_counter() - start, 0.0, where)
     full = options.region or (0, 0, options.width, options.height)
-    # solutions do not depend on the camera: one per scene on each worker's machine
-    cache = root.parent / "radiosity"
-    cache.mkdir(parents=True, exist_ok=True)
+    # solutions do not depend on the camera: one per scene on each worker's machine, the
+    # job's own shipped here (a render finds it in the cache, as a local render would)
+    cache = _radiosity_cache(root)
+    if solution is not None:
+        from runtime.radiosity import system
+
+        path = system.cache_path(cache, solution.key)
+        if not path.is_file():
+            system.store(path, solution.data)
+    stats: dict = {}
     try:
         pixels = render_scene(
             compiled,
@@ -329,6 +491,7 @@ def _render_task(
             region=tile,
             pretrace_region=full,
             radiosity_cache=cache if compiled.settings.radiosity is not None else None,
+            stats=stats,
         )
     except SceneError as exc:
         diag = bundles.client_diagnostic(exc.diagnostic, root)
@@ -337,7 +500,10 @@ def _render_task(
     x0, y0, x1, y1 = tile
     part = np.ascontiguousarray(pixels[y0:y1, x0:x1])
     took = time.perf_counter() - start
-    return TaskResult(tile, part, compiled.settings, diagnostics, took, compile_s, where)
+    solved = int(compiled.settings.radiosity is not None and not stats.get("radiosity_cache_hit"))
+    told = None if solution is None else dataclasses.replace(solution, data=b"")
+    return TaskResult(tile, part, compiled.settings, diagnostics, took, compile_s, where,
+                      radiosity_solves=solved, solution=told)  # fmt: skip
 
 
 def _compile(scene: bundles.Bundle, root: Path, options: Options, frame: Frame):

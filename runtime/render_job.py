@@ -1,9 +1,11 @@
 """`strala render --cluster …` / `--tiles N`: the command line's frames rendered on Dask.
 
-The client compiles the first frame once, to learn which files the scene reads (they travel
-to the workers in a bundle: runtime.bundle), then runtime.cluster renders every frame,
-tile by tile, on the workers; each frame is written as soon as its last tile is in, under
-the name a local render gives it. A frame whose scene has errors is reported with its
+The client compiles each frame once, to learn which files the scene reads (they travel to
+the workers in a bundle: runtime.bundle) and which frames have radiosity (solved once for
+the job), then runtime.cluster renders every frame, tile by tile, on the workers; each
+frame's file is written band by band as its tiles come in (only the bands that came out of
+order are held: image.Bands) and renamed into place when its last tile is in, under the
+name a local render gives it. A frame whose scene has errors is reported with its
 diagnostics and the others go on (exit 1 at the end); `--resume` leaves out the frames
 already written at this size.
 """
@@ -11,6 +13,7 @@ already written at this size.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -68,7 +71,7 @@ def run(
         print(f"{skipped} frame(s) already written, skipped (--resume)", file=sys.stderr)
     if not frames:
         return 0
-    scene = _bundle(args, frames[0], (width, height))
+    scene, frames = _bundle(args, frames, (width, height))
     options = cluster.Options(
         width,
         height,
@@ -89,6 +92,9 @@ def run(
         return 1
     status = 0
     written = 0
+    # each frame's file, written band by band as the tiles come in (image.Bands: only the
+    # bands that came out of order are held), renamed into place when complete
+    files: dict[cluster.Frame, image.Bands] = {}
     try:
         workers = len(client.scheduler_info().get("workers", {}))
         if not args.quiet:
@@ -99,12 +105,28 @@ def run(
         said: set[Diagnostic] = set()
         noticed: set[str] = set()  # the workers' warnings said so far
         shown = None if window is None else display.Frames(window, width, height)
+        unwritable: dict[cluster.Frame, str] = {}  # the frames whose file failed: why
+        rows = None if region is None else (region[1], region[3])
 
         def on_tile(frame, result) -> None:
-            assert shown is not None
-            where = Path(frame.output)
-            what = frame.label or "rendering"
-            shown.tile(frame, what, where, result.tile, result.pixels, result.settings)
+            if shown is not None:
+                where = Path(frame.output)
+                what = frame.label or "rendering"
+                shown.tile(frame, what, where, result.tile, result.pixels, result.settings)
+            if frame in unwritable:
+                return
+            try:
+                with writing or nullcontext():
+                    out = files.get(frame)
+                    if out is None:
+                        out = image.Bands(
+                            frame.output, width, height, result.settings, args.bits, rows
+                        )
+                        files[frame] = out.__enter__()
+                    out.add(result.tile[1], result.tile[0], result.pixels)
+            except OSError as exc:
+                unwritable[frame] = str(exc)
+                _close(files.pop(frame, None))
 
         with Progress(label, enabled=False if args.quiet else None, tick=0.5) as bar:
 
@@ -120,8 +142,10 @@ def run(
                 frames,
                 tiles=tiles,
                 progress=progress,
-                on_tile=None if shown is None else on_tile,
+                on_tile=on_tile,
+                assemble=False,
             ):
+                out = files.pop(frame, None)
                 new = [d for d in outcome.diagnostics if d not in said]
                 said.update(new)
                 if new or not outcome.ok:
@@ -133,26 +157,32 @@ def run(
                     _clear(bar)
                     print("\n".join(lines), file=sys.stderr)
                 if not outcome.ok:
+                    _close(out)
                     if shown is not None:
                         shown.ended(frame)
                     why = outcome.error or "the scene has errors"
                     print(f"strala: {frame.label or 'the image'} failed: {why}", file=sys.stderr)
                     status = 1
                     continue
-                assert outcome.image is not None and outcome.settings is not None
                 try:
+                    if frame in unwritable:
+                        raise OSError(unwritable.pop(frame))
+                    assert out is not None and out.done
                     with writing or nullcontext():
-                        image.save_render(frame.output, outcome.image, outcome.settings, args.bits)
+                        out.commit()
                 except OSError as exc:
                     _clear(bar)
                     print(f"strala: error: {exc}", file=sys.stderr)
                     status = 1
                     continue
                 finally:
+                    _close(out)
                     if shown is not None:
                         shown.ended(frame)
                 written += 1
     except BaseException as exc:  # a stop or a failure: the cluster is left at once
+        for out in files.values():  # no file is left of the frames not complete
+            _close(out)
         connection.__exit__(type(exc), exc, exc.__traceback__)
         raise
     connection.__exit__(None, None, None)
@@ -168,16 +198,22 @@ def run(
     return status
 
 
-def _bundle(args: argparse.Namespace, first, size: tuple[int, int]) -> bundles.Bundle:
-    """What the workers need: a compiled IR as it is, or the scene's files (those the
-    first frame reads and names)."""
+def _bundle(
+    args: argparse.Namespace, frames: list, size: tuple[int, int]
+) -> tuple[bundles.Bundle, list]:
+    """What the workers need: a compiled IR as it is, or the scene's files (those every
+    frame reads and names: the client compiles each frame once, since a frame may include
+    or read files the others do not); and the frames, each marked when its scene has
+    radiosity (solved once for the job: runtime.cluster)."""
     if args.file.lower().endswith(".json"):
         from lang import serialize
 
         try:
-            return bundles.of_scene(serialize.loads(Path(args.file).read_text(encoding="utf-8")))
+            ir_scene = serialize.loads(Path(args.file).read_text(encoding="utf-8"))
         except (OSError, serialize.IRFormatError) as exc:
             raise JobError(f"cannot read {args.file}: {exc}") from None
+        lit = ir_scene.settings.radiosity is not None
+        return bundles.of_scene(ir_scene), [dataclasses.replace(f, radiosity=lit) for f in frames]
     if not Path(args.file).is_file():
         raise JobError(f"no such scene file: {args.file}")
     from lang import read_access
@@ -185,27 +221,45 @@ def _bundle(args: argparse.Namespace, first, size: tuple[int, int]) -> bundles.B
     from runtime.queries import RuntimeQueries
 
     libraries = paths.library_paths(args.library)
-    result = compile_file(
-        args.file,
+    # the files shipped are those these compiles read: only where the render may read
+    reads = read_access.from_povray_conf(
+        read_access.povray_conf(),
+        Path(args.file).resolve().parent,
         libraries,
-        clock=first.clock,
-        image_width=size[0],
-        image_height=size[1],
-        animation=dict(first.animation),
-        queries=RuntimeQueries,
-        declares=dict(getattr(args, "declare", None) or ()),
-        # the files shipped are those this compile read: only where the render may read
-        reads=read_access.from_povray_conf(
-            read_access.povray_conf(),
-            Path(args.file).resolve().parent,
+        getattr(args, "io_restrictions", None),
+    )
+    read: dict[str, None] = {}
+    named: set[str] = set()
+    marked = []
+    for frame in frames:
+        result = compile_file(
+            args.file,
             libraries,
-            getattr(args, "io_restrictions", None),
-        ),
-    )
-    ok = result.scene is not None and not any(
-        d.severity is Severity.ERROR for d in result.diagnostics
-    )
-    return bundles.of_files(args.file, result.files, result.scene if ok else None, libraries)
+            clock=frame.clock,
+            image_width=size[0],
+            image_height=size[1],
+            animation=dict(frame.animation),
+            queries=RuntimeQueries,
+            declares=dict(getattr(args, "declare", None) or ()),
+            reads=reads,
+        )
+        read.update(dict.fromkeys(result.files))
+        compiled = result.scene
+        lit = False
+        # a frame with errors: its workers say which
+        if compiled is not None and not any(
+            d.severity is Severity.ERROR for d in result.diagnostics
+        ):
+            named.update(bundles.named_files(compiled))
+            lit = compiled.settings.radiosity is not None
+        marked.append(dataclasses.replace(frame, radiosity=lit))
+    return bundles.of_files(args.file, [*read, *sorted(named)], None, libraries), marked
+
+
+def _close(out: image.Bands | None) -> None:
+    """A frame's file given up (after its commit: nothing to do)."""
+    if out is not None:
+        out.__exit__(None, None, None)
 
 
 def _clear(bar: Progress) -> None:

@@ -25,7 +25,7 @@ pytest.importorskip("distributed")
 from conftest import run_cli  # noqa: E402
 
 from lang.diagnostics import Diagnostic, Severity, Span  # noqa: E402
-from lang.evaluate import compile_file  # noqa: E402
+from lang.evaluate import animation_values, compile_file  # noqa: E402
 from runtime import api, bundle, cli, cluster  # noqa: E402
 from runtime.queries import RuntimeQueries  # noqa: E402
 from runtime.render import render_scene  # noqa: E402
@@ -249,7 +249,7 @@ def test_a_frame_with_errors_is_reported_and_the_others_written(client, scenes, 
 
 
 def test_the_python_api_raises_the_scenes_errors(client, scenes):
-    # render_frames sets the clock only (as it does locally): frame 2 is clock 0.5
+    # frame 2 of 1..3 is clock 0.5
     text = BROKEN_INCLUDE.replace("frame_number = 2", "clock = 0.5")
     (scenes / "clocked.inc").write_text(text)
     (scenes / "clocked.pov").write_text(BROKEN.replace("thing.inc", "clocked.inc"))
@@ -367,3 +367,196 @@ def test_declares_and_read_restrictions_hold_on_the_cluster(client, tmp_path, ca
         code, err = _render(["render", str(folder / "r.pov"), "-o", str(out), *size, *where],
                             capsys)  # fmt: skip
         assert code == 1 and "o.inc" in err and not out.exists(), (where, err)
+
+
+def test_a_tiled_image_streams_to_its_file_in_bounded_memory(client, tmp_path, capsys):
+    """The client writes each band of rows as it comes in (image.Bands) and never holds the
+    image: in 24 bands, its peak of traced memory (numpy's arrays included) for an image
+    four times as tall grows by a few of the larger bands (those that came out of order,
+    the one being received and converted), where assembling the image whole grew by all
+    of it; the files are the local render's, byte for byte, and nothing else is left."""
+    import tracemalloc
+
+    scene = tmp_path / "tall.pov"
+    scene.write_text(BLUR.replace("aperture 0.4 blur_samples 8", ""))
+    w, tiles = 240, 24
+    peaks = {}
+    for h in (600, 2400):
+        size = ["-W", str(w), "-H", str(h), "-q"]
+        local, tiled = tmp_path / f"l{h}.png", tmp_path / f"c{h}.png"
+        code, err = _render(["render", str(scene), "-o", str(local), *size], capsys)
+        assert code == 0, err
+        argv = ["render", str(scene), "-o", str(tiled), *size, "--tiles", str(tiles),
+                "--cluster", client.scheduler.address]  # fmt: skip
+        _render(argv, capsys)  # the first job's imports and caches are not the image's
+        tracemalloc.start()
+        try:
+            code, err = _render(argv, capsys)
+            peaks[h] = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert code == 0, err
+        assert tiled.read_bytes() == local.read_bytes()
+    band = w * (2400 // tiles) * 3 * 4  # the larger image's band, float32 working values
+    grown = peaks[2400] - peaks[600]
+    assert grown < 8 * band, (peaks, band, f"the whole image: {tiles * band}")
+    assert _leftovers(tmp_path) == []
+
+
+RADIOSITY = """#version 3.7;
+global_settings { assumed_gamma 1 radiosity { count 20 max_patches 200 } }
+camera { location <clock * 0.6 - 0.3, 1.2, -3.5> look_at <0, 0.6, 0> }
+light_source { <2, 4, -2> color rgb 1 }
+plane { y, 0 pigment { rgb <0.8, 0.8, 0.7> } }
+box { <-1.5, 0, 1>, <1.5, 2, 1.2> pigment { rgb <0.9, 0.2, 0.2> } }
+sphere { <0, 0.6, 0>, 0.6 pigment { rgb 0.9 } }
+"""
+
+
+def test_a_radiosity_solution_is_solved_once_and_shipped_to_every_tile(client, tmp_path):
+    """Two workers, six bands of one frame: one solution, computed by one task and shipped
+    to every tile (none solves it itself), and the pixels are the local render's bit for
+    bit. Then three frames of a walkthrough (the camera moves with the clock, the solution
+    does not): the workers have the solution already and solve nothing; and once the
+    scene changes, one solution for the three frames."""
+    path = tmp_path / "rad.pov"
+    path.write_text(RADIOSITY)
+    w, h = 24, 18
+    r = compile_file(str(path), image_width=w, image_height=h, clock=0.5, queries=RuntimeQueries)
+    assert r.scene is not None and r.scene.settings.radiosity is not None
+    shipped = bundle.of_files(path, r.files, r.scene, ())
+    opts = cluster.Options(w, h, aa=0.3)
+    frame = cluster.Frame(None, 0.5, radiosity=True)
+    tiles: list[cluster.TaskResult] = []
+    got = dict(cluster.run(client, shipped, opts, [frame], tiles=6,
+                           on_tile=lambda _, t: tiles.append(t)))[frame]  # fmt: skip
+    assert got.ok, (got.error, got.diagnostics)
+    assert got.radiosity_solves == 1
+    assert len(tiles) == 6 and all(t.radiosity_solves == 0 for t in tiles)
+    assert len({t.solution.key for t in tiles if t.solution is not None}) == 1
+    assert all(t.solution is not None and t.solution.solved for t in tiles)
+    assert np.array_equal(got.image, render_scene(r.scene, w, h, antialias=0.3))
+
+    walk = [cluster.Frame(n, (n - 1) / 2, radiosity=True) for n in (1, 2, 3)]
+    outcomes = dict(cluster.run(client, shipped, opts, walk, tiles=4))
+    assert all(o.ok for o in outcomes.values())
+    assert sum(o.radiosity_solves for o in outcomes.values()) == 0  # the workers had it
+    path.write_text(RADIOSITY.replace("rgb 0.9 }", "rgb 0.8 }"))  # another solution
+    r2 = compile_file(str(path), image_width=w, image_height=h, queries=RuntimeQueries)
+    assert r2.scene is not None
+    shipped = bundle.of_files(path, r2.files, r2.scene, ())
+    outcomes = dict(cluster.run(client, shipped, opts, walk, tiles=4))
+    assert sum(o.radiosity_solves for o in outcomes.values()) == 1
+    for f in walk:
+        again = compile_file(str(path), image_width=w, image_height=h, clock=f.clock,
+                             queries=RuntimeQueries).scene  # fmt: skip
+        assert again is not None
+        assert np.array_equal(outcomes[f].image, render_scene(again, w, h, antialias=0.3)), f
+
+
+# each frame includes a file of its own and maps an image of its own; every frame reads a
+# data file (#fopen/#read)
+PER_FRAME = """#version 3.7;
+global_settings { assumed_gamma 1 }
+#include concat("f", str(frame_number, 0, 0), ".inc")
+#fopen Data "data.txt" read
+#read (Data, Size)
+camera { location <0, 1, -4> look_at <0, 0.5, 0> }
+light_source { <3, 5, -3> color rgb 1 }
+plane { z, 2 pigment { image_map { png concat("m", str(frame_number, 0, 0), ".png") }
+  translate <-0.5, -0.5, 0> scale 6 } }
+sphere { <0, 0.7, 0>, Size pigment { rgb Col } }
+"""
+
+
+def _per_frame_scene(folder: Path) -> Path:
+    from runtime import image
+
+    folder.mkdir()
+    for n, col in ((1, "<1, 0.2, 0.1>"), (2, "<0.1, 1, 0.2>"), (3, "<0.2, 0.1, 1>")):
+        (folder / f"f{n}.inc").write_text(f"#declare Col = {col};\n")
+        ramp = np.zeros((4, 4, 3), np.float32)
+        ramp[..., n - 1] = np.linspace(0.2, 1.0, 16).reshape(4, 4)
+        image.write_pixels(folder / f"m{n}.png", ramp, 8)
+    (folder / "data.txt").write_text("0.55,\n")
+    (folder / "s.pov").write_text(PER_FRAME)
+    return folder / "s.pov"
+
+
+def test_every_frames_files_travel_to_the_workers(client, tmp_path, capsys):
+    """A later frame's include and image map and a data file read by #fopen/#read are in
+    the bundle (the client compiles every frame for its reads): the frames the cluster
+    writes are the local render's files, byte for byte."""
+    scene = _per_frame_scene(tmp_path / "scene")
+    size = ["-W", "16", "-H", "12", "--frames", "1..3"]
+    code, err = _render(["render", str(scene), "-o", str(tmp_path / "l.png"), *size, "-q"],
+                        capsys)  # fmt: skip
+    assert code == 0, err
+    address = client.scheduler.address
+    code, err = _render(["render", str(scene), "-o", str(tmp_path / "c.png"), *size,
+                         "--tiles", "2", "--cluster", address], capsys)  # fmt: skip
+    assert code == 0, err
+    images = [(tmp_path / f"c{n}.png").read_bytes() for n in (1, 2, 3)]
+    assert images == [(tmp_path / f"l{n}.png").read_bytes() for n in (1, 2, 3)]
+    assert len(set(images)) == 3  # each frame has its own include and image
+
+
+def test_the_bundle_alone_carries_the_files(client, tmp_path):
+    """The workers read nothing of the client's folders: with every frame's reads in the
+    bundle, the scene's folder moved away before the job runs, the frames are still the
+    local render's pixels."""
+    scene = _per_frame_scene(tmp_path / "scene")
+    w, h = 16, 12
+    frames, local, read, scenes = [], [], [], []
+    for n in (1, 2, 3):
+        values = animation_values((n - 1) / 2, (1, 3), n)
+        r = compile_file(str(scene), image_width=w, image_height=h, clock=(n - 1) / 2,
+                         animation=values, queries=RuntimeQueries)  # fmt: skip
+        assert r.scene is not None, r.diagnostics
+        read += r.files
+        scenes.append(r.scene)
+        frames.append(cluster.Frame(n, (n - 1) / 2, tuple(values.items())))
+        local.append(render_scene(r.scene, w, h))
+    assert str(tmp_path / "scene" / "data.txt") in read
+    shipped = bundle.of_files(scene, read, scenes, ())
+    names = sorted(Path(f).name for f in shipped.files)
+    assert names == ["data.txt", "f1.inc", "f2.inc", "f3.inc", "m1.png", "m2.png", "m3.png",
+                     "s.pov"]  # fmt: skip
+    (tmp_path / "scene").rename(tmp_path / "gone")
+    got = dict(cluster.run(client, shipped, cluster.Options(w, h), frames, tiles=2))
+    for frame, expected in zip(frames, local, strict=True):
+        assert got[frame].ok, got[frame].diagnostics
+        assert np.array_equal(got[frame].image, expected), frame.number
+
+
+# the animation's identifiers in the colour: each frame is another image only if it sees
+# its own values
+IDENTIFIERS = """#version 3.7;
+global_settings { assumed_gamma 1 }
+camera { location <0, 1, -4> look_at <0, 0.5, 0> }
+light_source { <3, 5, -3> color rgb 1 }
+sphere { <0, 0.7, 0>, 0.7 pigment { rgb <frame_number / 10, (final_frame - initial_frame) / 10,
+  clock_delta + clock_on / 4> } }
+"""
+
+
+def test_render_frames_gives_the_scene_the_animations_identifiers(client, tmp_path, capsys):
+    """api.render_frames, here and on a cluster, gives the scene frame_number,
+    initial_frame, final_frame, clock_delta and clock_on as `--frames 2..5` does: the
+    images are the command line's files' values (8 bits, exactly)."""
+    scene = tmp_path / "ids.pov"
+    scene.write_text(IDENTIFIERS)
+    code, err = _render(["render", str(scene), "-o", str(tmp_path / "f.png"), "-W", "12",
+                         "-H", "9", "--frames", "2..5", "-q"], capsys)  # fmt: skip
+    assert code == 0, err
+    local = list(api.render_frames(scene, 2, 5, width=12, height=9))
+    remote = list(api.render_frames(scene, 2, 5, width=12, height=9, client=client, tiles=2))
+    assert [t for t, _ in local] == [t for t, _ in remote] == [0.0, 1 / 3, 2 / 3, 1.0]
+    from runtime import image
+
+    for n, (_, a), (_, b) in zip(range(2, 6), local, remote, strict=True):
+        written = np.rint(image.read_image(tmp_path / f"f{n}.png") * 255)
+        off = np.abs(np.rint(a * 255) - written)
+        assert not off.any(), (n, off.max(), np.count_nonzero(off))
+        assert np.array_equal(a, b), n
+    assert len({a.tobytes() for _, a in local}) == 4  # frame_number differs

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import example, given
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import runtime
 from lang import ir
-from runtime import color, image
+from runtime import color, image, png
 
 
 def _ramp(h=6, w=5, c=3) -> np.ndarray:
@@ -94,19 +94,18 @@ def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(suffix, tmp_pat
         def open(self, *a):
             return True
 
-        def write_image(self, *a):
+        def write_scanlines(self, *a):
             raise KeyboardInterrupt  # the user pressing ^C mid-write
 
         def close(self):
-            pass
+            return True
 
-    def half_then_interrupt(self, data):  # PNG: half the bytes reach the disk, then ^C
-        with open(self, "wb") as f:
-            f.write(data[: len(data) // 2])
+    def half_then_interrupt(self, data):  # PNG: half the rows reach the disk, then ^C
+        self.out.write(b"\0" * 40)
         raise KeyboardInterrupt
 
     monkeypatch.setattr(oiio.ImageOutput, "create", staticmethod(lambda name: Exploding()))
-    monkeypatch.setattr(Path, "write_bytes", half_then_interrupt)
+    monkeypatch.setattr(png.Encoder, "rows", half_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
         image.write_pixels(target, np.zeros((6, 5, 3)))
     assert target.read_bytes() == before
@@ -184,3 +183,58 @@ def test_8_bit_file_values_are_the_rounded_exact_encoding(gamma, compiled, monke
     else:  # float32 arithmetic: a value a float32 step from a boundary may round across it
         assert np.abs(got.astype(int) - want).max() <= 1
         assert (got != want).mean() < 0.01
+
+
+@pytest.mark.parametrize(
+    "name, bits", [("b.png", 8), ("b.png", 16), ("b.tif", 8), ("b.jpg", 8), ("b.exr", 32),
+                   ("b.exr", 16)]
+)  # fmt: skip
+@settings(max_examples=8, deadline=None)
+@given(data=st.data())
+def test_bands_in_any_order_write_the_file_of_the_whole_image(tmp_path_factory, name, bits,
+                                                              data):  # fmt: skip
+    """image.Bands (a cluster's tiles as they come in): the bands of a region's rows, given
+    in any order, make the file save_render writes of the whole image (black outside the
+    region), byte for byte; a band is held only until the rows before it are in, and no
+    file is there before the commit."""
+    w, h = 9, 14
+    top = data.draw(st.integers(0, 5))
+    bottom = data.draw(st.integers(top + 1, h))
+    left = data.draw(st.integers(0, 4))
+    right = data.draw(st.integers(left + 1, w))
+    inner = st.sets(st.integers(top + 1, bottom - 1), max_size=5)
+    cuts = sorted(data.draw(inner)) if bottom - top > 1 else []
+    edges = [top, *cuts, bottom]
+    order = data.draw(st.permutations(range(len(edges) - 1)))
+    rng = np.random.default_rng(len(edges))
+    working = np.zeros((h, w, 3), np.float32)
+    working[top:bottom, left:right] = rng.random((bottom - top, right - left, 3)) * 1.3
+    settings_ = ir.Settings(assumed_gamma=1.0)
+    folder = tmp_path_factory.mktemp("bands")
+    image.save_render(folder / f"whole{Path(name).suffix}", working, settings_, bits)
+    target = folder / name
+    with image.Bands(target, w, h, settings_, bits, (top, bottom)) as out:
+        held_most, written = 0, set()
+        for i in order:
+            out.add(edges[i], left, working[edges[i] : edges[i + 1], left:right].copy())
+            written.add(i)
+            waiting = len(written) - next(k for k in range(len(edges)) if k not in written)
+            held_most = max(held_most, waiting)
+            assert not target.exists()
+        assert out.done and out.held == {} and out.held_most == held_most
+        out.commit()
+    assert target.read_bytes() == (folder / f"whole{Path(name).suffix}").read_bytes()
+    assert sorted(p.name for p in folder.iterdir()) == sorted([name, f"whole{Path(name).suffix}"])
+
+
+def test_bands_given_up_leave_no_file(tmp_path):
+    with image.Bands(tmp_path / "g.png", 4, 4, ir.Settings(), 8) as out:
+        out.add(0, 0, np.zeros((2, 4, 3), np.float32))
+    assert list(tmp_path.iterdir()) == []
+    with (
+        pytest.raises(ValueError, match="2 of 4 rows"),
+        image.Bands(tmp_path / "g.png", 4, 4, ir.Settings(), 8) as out,
+    ):
+        out.add(0, 0, np.zeros((2, 4, 3), np.float32))
+        out.commit()
+    assert list(tmp_path.iterdir()) == []

@@ -166,6 +166,32 @@ def test_a_signal_during_a_cluster_render_stops_the_workers_and_leaves_no_file(
     assert all(image.size_of(f) == (160, 120) for f in images)
 
 
+def test_a_signal_while_a_tiled_image_streams_to_its_file_leaves_no_file(tmp_path):
+    """A tiled render writes its file band by band as the tiles come in (image.Bands), so
+    the hidden temporary file is there for most of the render: SIGTERM then removes it,
+    and no image is left (a part of one never is)."""
+    pytest.importorskip("distributed")
+    (tmp_path / "b.pov").write_text(
+        SCENE + BALLS.replace("0.5 }", "0.5 finish { reflection 0.5 } }")
+    )
+    p = _start("render", "b.pov", "-W", "300", "-H", "6000", "--aa", "0.01", "-o", "out.png",
+               "--tiles", "200", "--cluster", "local:2", cwd=tmp_path)  # fmt: skip
+    try:
+        deadline = time.perf_counter() + 120
+        while not list(tmp_path.glob(".out.png.*")) and time.perf_counter() < deadline:
+            if p.poll() is not None:
+                break
+            time.sleep(0.02)  # until the first bands are in the file
+        assert list(tmp_path.glob(".out.png.*")), p.communicate()[1] if p.poll() else ""
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 143, err
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["b.pov"]
+
+
 def test_a_stop_whose_unwinding_hangs_ends_after_the_grace_and_kills_the_children(tmp_path):
     """Inside signals.unwinding, a signal raises Stopped; if what it unwinds through hangs
     (here: a handler that sleeps), the process kills the processes it started and ends

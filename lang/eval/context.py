@@ -77,6 +77,10 @@ class BuildContext(Protocol):
         """The scene wrote the file `path` (what was looked up may be found elsewhere now)."""
         ...
 
+    def read_data(self, path: str) -> None:
+        """The scene read the data file `path` (#fopen to read): among the files read."""
+        ...
+
     # symbols
     def lookup(self, name: str) -> tuple[bool, Any]: ...
 

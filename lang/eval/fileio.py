@@ -67,6 +67,7 @@ def file_op(it: BuildContext, node: syntax.FileOp) -> None:
             except OSError as e:
                 raise it.error("E0260", f"cannot open `{name}`: {e.strerror}", node.span) from None
             h.lines = [m.group(0) for m in _READ_TOKEN.finditer(text)]
+            it.read_data(str(path))
         elif h.mode == "append" and path.exists():
             try:
                 h.lines = [path.read_text(errors="replace")]

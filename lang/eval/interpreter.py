@@ -863,6 +863,12 @@ class Interpreter:
         """The scene wrote the file `path`: a name looked for before may be found now."""
         self._found.clear()
 
+    def read_data(self, path: str) -> None:
+        """The scene read the data file `path` (#fopen): it is among the files read (a
+        render elsewhere needs it: runtime.bundle)."""
+        if path not in self.files:
+            self.files.append(path)
+
     def _folder(self) -> Path:
         """The folder of the file being read, where its includes are looked for first."""
         return Path(self.file_stack[-1]).resolve().parent if self.file_stack else Path.cwd()

@@ -31,7 +31,9 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import os
 import pickle
+import secrets
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -887,6 +889,24 @@ def _hash_value(h, v) -> None:
         h.update(repr(v).encode())
 
 
+def solution_key(prepared, opts: Options | None = None) -> tuple[str, Options]:
+    """The content key of a prepared scene's solution (its cache file's name; a cluster's
+    workers share a solution by it) and the options it is computed and displayed with (the
+    scene's own when `opts` is None: the grain warning is said then)."""
+    scene: ir.Scene = prepared.scene
+    if opts is None:
+        r = scene.settings.radiosity or ir.Radiosity()
+        meshed = set(_meshable(prepared))
+        opts = Options.from_ir(r, final_gather=gather_pays(scene, prepared.objects, meshed))
+        warn_grain(scene, prepared.objects, meshed, opts)
+    # The display (flat or Gouraud) reads the solution; it is not part of it.
+    # So is the number of gather rays.
+    display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
+                                  gather_every_point=False,
+                                  cache_rules=ir.Radiosity())  # fmt: skip
+    return content_key(scene, display, eye_cell(prepared)), opts
+
+
 def compute(
     prepared,
     opts: Options | None = None,
@@ -900,18 +920,7 @@ def compute(
     as `room.rad`) keeps the latest solution and is reused while the key matches.
     progress(share) as the work goes (`RoundsAhead`: the share of the rounds' estimated
     cost done)."""
-    scene: ir.Scene = prepared.scene
-    if opts is None:
-        r = scene.settings.radiosity or ir.Radiosity()
-        meshed = set(_meshable(prepared))
-        opts = Options.from_ir(r, final_gather=gather_pays(scene, prepared.objects, meshed))
-        warn_grain(scene, prepared.objects, meshed, opts)
-    # The display (flat or Gouraud) reads the solution; it is not part of it.
-    # So is the number of gather rays.
-    display = dataclasses.replace(opts, flat=False, gather_rays=0, gather_cap=0,
-                                  gather_every_point=False,
-                                  cache_rules=ir.Radiosity())  # fmt: skip
-    key = content_key(scene, display, eye_cell(prepared))
+    key, opts = solution_key(prepared, opts)
     path = None if cache_dir is None else cache_path(Path(cache_dir), key)
     if path is not None and path.is_file():
         try:
@@ -927,13 +936,21 @@ def compute(
     res = _compute(prepared, opts, log, progress)
     _print_warnings(res)
     if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")
-        with tmp.open("wb") as f:
-            kept = dataclasses.replace(res, _field=None, cache=None)
-            pickle.dump({"key": key, "result": kept}, f)
-        tmp.replace(path)  # a reader never sees half a file
+        kept = dataclasses.replace(res, _field=None, cache=None)
+        store(path, pickle.dumps({"key": key, "result": kept}))
     return res
+
+
+def store(path: Path, data: bytes) -> None:
+    """A cache file written whole: a reader never sees half of it (the temporary name is
+    this process's: worker processes of one machine share a cache folder)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+    try:
+        tmp.write_bytes(data)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def cache_path(cache: Path, key: str) -> Path:
