@@ -845,7 +845,7 @@ def frame_jobs(out: Path, clock: float, frames) -> list[tuple[Path, float, str]]
 
 def cmd_render(args: argparse.Namespace) -> int:
     # the window's process first: Tk starts on the core left idle while numpy is imported
-    # and the scene read (its window is shown with the first image, so a command line
+    # and the scene read (its window is shown once the command line is accepted, so one
     # refused below shows none)
     args.window = _open_window(args.file) if args.display else None
     try:
@@ -891,6 +891,8 @@ def _render_command(args: argparse.Namespace) -> int:
         jobs, numbers = [(out, plan.clock(args.frame), label)], [args.frame]
     if (args.cluster is not None or args.tiles is not None) and (to_stdout or args.preview):
         raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
+    if args.window is not None:
+        args.window.show()
     if args.cluster is not None or args.tiles is not None:
         with _silenced(args.quiet):
             return _render_on_cluster(args, jobs, numbers)
@@ -1057,8 +1059,8 @@ class _Stopping:
     def now(self, message: str) -> None:
         from runtime import signals
 
-        with self.lock:
-            signals.stop(message, 130)  # the preview's file goes too (registered there)
+        with self.lock:  # the preview's file goes too (registered there); on a cluster
+            signals.stop_from_thread(message, 130)  # the main thread unwinds: tasks cancelled
 
 
 _STOPPING = _Stopping()

@@ -220,12 +220,30 @@ def run(
             )
             owner[fut.key] = (fi, ti)
             futures.append(fut)
+    if progress:
+        progress(0, len(futures))
+    try:
+        yield from _gathered(futures, owner, frames, options, len(rects), progress, on_tile)
+    except BaseException:  # a stop (or a caller that leaves): the job ends on the cluster
+        _cancel(client, futures)
+        raise
+
+
+def _cancel(client: distributed.Client, futures) -> None:
+    """The job's tasks cancelled on the scheduler: those waiting never run, and a running
+    one stops at its next render tile (render_task asks the worker)."""
+    try:
+        client.cancel([f for f in futures if not f.done()], force=True, reason="strala-stopped")
+    except Exception:  # a client already closing: its futures go with it
+        pass
+
+
+def _gathered(futures, owner, frames, options: Options, tiles: int, progress, on_tile):
+    """run's frames, assembled as their tiles come in."""
     total = len(futures)
     done = 0
     parts: dict[int, dict[int, TaskResult]] = {}
     failed: dict[int, Outcome] = {}
-    if progress:
-        progress(0, total)
     for fut in distributed.as_completed(futures):
         fi, ti = owner[fut.key]
         done += 1
@@ -255,7 +273,7 @@ def run(
         got[ti] = result
         if on_tile:
             on_tile(frames[fi], result)
-        if len(got) == len(rects):
+        if len(got) == tiles:
             yield frames[fi], _assemble(options, got)
             del parts[fi]
 
@@ -317,6 +335,7 @@ def _render_task(
     full = options.region or (0, 0, options.width, options.height)
     # solutions do not depend on the camera: one per scene on each worker's machine
     cache = root.parent / "radiosity"
+    from runtime.render import Cancelled
     cache.mkdir(parents=True, exist_ok=True)
     try:
         pixels = render_scene(
@@ -329,7 +348,10 @@ def _render_task(
             region=tile,
             pretrace_region=full,
             radiosity_cache=cache if compiled.settings.radiosity is not None else None,
+            stop=_cancelled_check(),
         )
+    except Cancelled:  # nobody waits for this result any more
+        return TaskResult(tile, None, None, diagnostics, time.perf_counter() - start, 0.0, where)
     except SceneError as exc:
         diag = bundles.client_diagnostic(exc.diagnostic, root)
         took = time.perf_counter() - start
@@ -401,6 +423,23 @@ def _worker_address() -> str:
         return str(distributed.get_worker().address)
     except ValueError:  # not on a worker (called directly)
         return ""
+
+
+def _cancelled_check() -> Callable[[], bool] | None:
+    """Whether the task running this has been cancelled (the client stopped the job), as
+    the worker's own state says: a thread cannot be stopped from outside, so the render
+    asks before each of its tiles. None off a worker."""
+    try:
+        worker = distributed.get_worker()
+        key = worker.get_current_task()
+    except (ValueError, AttributeError, KeyError):
+        return None
+
+    def cancelled() -> bool:
+        task = worker.state.tasks.get(key)
+        return task is None or task.state in ("cancelled", "released", "forgotten")
+
+    return cancelled
 
 
 def _worker_threads() -> int:

@@ -96,6 +96,10 @@ class Window:
         threading.Thread(target=self._send, name="strala-display-out", daemon=True).start()
 
     # ------------------------------------------------------------------ the render's side
+    def show(self) -> None:
+        """Show the window (started hidden: a command line refused shows none)."""
+        self._put(b"S", b"")
+
     def frame(
         self, width: int, height: int, settings: ir.Settings, label: str, save_to: Path
     ) -> None:

@@ -41,6 +41,10 @@ BLUR_BATCH: int = 1 << 18
 MESH_BATCH: int = 1 << 17
 
 
+class Cancelled(Exception):
+    """render_scene's `stop` said to stop before the last tile was traced."""
+
+
 # CSG nested deeper than this is refused before rendering: the passes over the scene recurse
 # once per level, and Python's frames run out near a thousand (an internal error, not a
 # message). A scene's own nesting, even a recursive macro's tree, stays far below it.
@@ -89,6 +93,7 @@ def render_scene(
     jitter: float | None = None,
     aa_gamma: float = color.AA_GAMMA,
     estimate: bool = False,
+    stop: Callable[[], bool] | None = None,
 ) -> np.ndarray:
     """Render `scene` at width×height; returns (H, W, 3) float32 working-space colours.
 
@@ -111,7 +116,9 @@ def render_scene(
     `global_settings { radiosity {} }` is solved here first (cached in the folder or
     file `radiosity_cache` when given). pretrace_region: the part of the image whose camera
     rays fill the radiosity's irradiance cache (default: region); a tile of a larger image
-    passes the image's own, so every tile reads the same records (runtime.cluster)."""
+    passes the image's own, so every tile reads the same records (runtime.cluster).
+    stop(), asked before each tile on the thread that would trace it, ends the render
+    with Cancelled when it says so (a cluster's cancelled task)."""
     from runtime.prepare import prepare
 
     check_nesting(scene)
@@ -197,6 +204,8 @@ def render_scene(
 
     def run(tile):
         nonlocal nonfinite
+        if stop is not None and stop():
+            raise Cancelled()  # the tiles queued behind it raise too: the pool empties
         # an overflow or undefined value is repaired and counted below, not printed
         seen = None
         if on_first is not None:

@@ -5,6 +5,7 @@ even site-packages, so it starts in tens of milliseconds and imports nothing of 
 reads messages from standard input and answers on standard output, one line each:
 
     in:   kind (1 byte), length (4 bytes, big-endian), payload
+          S  (empty) show the window: the command line is accepted (or F shows it)
           F  {"width", "height", "label"} json: a new image of that size, black
           T  x, y, w, h (4 x uint32) and w*h*3 bytes of 8-bit RGB: a tile to draw (a later
              one at the same place replaces it: a tile's first rays, then the tile refined)
@@ -18,7 +19,7 @@ reads messages from standard input and answers on standard output, one line each
 A process and not a thread of the render's: Tk holds Python's lock while it starts
 (60 ms) and the tiles' drawing would take it from the render's threads too. It is started
 before the scene is read, on the core the parsing leaves idle, and its window stays hidden
-until the first image is announced (a command line refused before that shows none). Each
+until the command line is accepted (one refused shows none). Each
 tile becomes a photo image on a canvas of its own: putting a tile into one big photo took
 half as long again. The tiles that came in are drawn together, DRAW_MS after the first of
 them, so that a tile's first rays refined within that time are never drawn at all.
@@ -124,7 +125,9 @@ class Viewer:
             if kind == b"C":
                 messages = None
                 break
-            if kind == b"F":
+            if kind == b"S":
+                self.show()
+            elif kind == b"F":
                 self.start(json.loads(payload))
             elif kind == b"L":
                 self.set_title(f"{self.name} — {payload.decode()}")
@@ -173,6 +176,9 @@ class Viewer:
         self.canvas.delete("all")
         self.photos.clear()
         self.pending.clear()
+        self.show()
+
+    def show(self) -> None:
         if self.root.state() == "withdrawn":
             self.root.deiconify()
 

@@ -310,3 +310,49 @@ def test_display_outside_a_notebook_warns_and_renders():
     with pytest.warns(RuntimeWarning, match="notebook"):
         got = api.render(EX3, width=16, height=12, display=True)
     assert got.shape == (12, 16, 3)
+
+
+@pytest.mark.xvfb
+def test_closing_the_window_cancels_the_job_on_a_cluster(xscreen, tmp_path, monkeypatch):
+    """A cluster reached by its address (`tcp://…`, not one the render starts): closing the
+    window cancels the job's tasks there, the running one included, not only the client."""
+    pytest.importorskip("distributed")
+    from runtime import bundle, cluster
+
+    screen, name = xscreen
+    monkeypatch.setenv(bundle.BUNDLE_DIR_VARIABLE, str(tmp_path / "bundles"))
+    out = tmp_path / "work" / "stopped.png"
+    out.parent.mkdir()
+    # one task of ~10 s on the one worker: every pixel supersampled 4 x 4, one thread
+    slow = ("-W", "1000", "-H", "750", "--aa", "0", "--aa-depth", "4", "--threads", "1")
+    with cluster.connect("local:1") as client:
+        address = client.scheduler.address
+        assert address.startswith("tcp://")
+
+        def executing() -> int:
+            return sum(client.run(lambda dask_worker: dask_worker.state.executing_count).values())
+
+        args = (str(EX3), "--display", *slow, "--cluster", address, "-o", str(out))
+        proc = _strala(name, *args, cwd=out.parent)
+        try:
+            deadline = time.monotonic() + 60
+            while executing() == 0 and time.monotonic() < deadline:  # the task has begun
+                time.sleep(0.05)
+            assert executing() == 1
+            time.sleep(0.5)  # the render is well into its tiles
+            (win, _), *_ = screen.find("ex3.scene")
+            screen.close_window(win)
+            code, err = _finish(proc)
+            stopped = time.monotonic()
+            while executing() and time.monotonic() < stopped + 20:
+                time.sleep(0.05)
+            left = executing()
+            took = time.monotonic() - stopped
+        finally:
+            proc.kill()
+        assert code == 130, err
+        assert "stopped from the window" in err
+        assert not out.exists() and list(out.parent.iterdir()) == []
+        # the task stopped at its next tile, long before the ~10 s it takes to the end
+        assert left == 0 and took < 3.0, (left, took)
+        assert not client.processing() or not any(client.processing().values())
