@@ -336,6 +336,7 @@ def _render_task(
     # solutions do not depend on the camera: one per scene on each worker's machine
     cache = root.parent / "radiosity"
     from runtime.render import Cancelled
+
     cache.mkdir(parents=True, exist_ok=True)
     try:
         pixels = render_scene(

@@ -84,7 +84,9 @@ def stop_from_thread(message: str, code: int) -> None:
         stop(message, code)
         return
     _asked = (message, code)
-    signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+    main = threading.main_thread().ident
+    assert main is not None  # the main thread is running
+    signal.pthread_kill(main, signal.SIGINT)
 
 
 def _say(message: str) -> None:
