@@ -356,3 +356,62 @@ def test_closing_the_window_cancels_the_job_on_a_cluster(xscreen, tmp_path, monk
         # the task stopped at its next tile, long before the ~10 s it takes to the end
         assert left == 0 and took < 3.0, (left, took)
         assert not client.processing() or not any(client.processing().values())
+
+
+@pytest.mark.xvfb
+def test_a_tile_is_shown_with_its_first_rays_then_refined(xscreen, tmp_path, monkeypatch):
+    """Anti-aliasing refinement shown after: each tile's first rays (the pixels of a render
+    without anti-aliasing) are on screen before the tile is refined, and the window ends
+    on the written PNG's pixels."""
+    import threading
+
+    from runtime import cli, color, display
+
+    screen, name = xscreen
+    monkeypatch.setenv("DISPLAY", name)
+    monkeypatch.setattr(display, "FIRST_DELAY", 0.0)  # shown however fast the refinement
+    w, h = 160, 120
+    scene, _ = cli._compile(str(EX3), [], (w, h), clock=0.0, debug_output=False)
+    assert scene is not None
+    plain = render.render_scene(scene, w, h, threads=1)  # one ray a pixel
+    window = display.Window("refined.pov", lambda: None, lambda why: pytest.fail(why))
+    window.frame(w, h, scene.settings, "rendering", tmp_path / "r.shown.png")
+    window.show()
+    win = screen.wait_for("refined.pov")
+    shown_first: list[tuple[int, int, int, int]] = []
+
+    def first(rect, pixels) -> None:
+        x0, y0, x1, y1 = rect
+        # the first rays, unrefined (float64 here, held as float32 in the image)
+        assert np.array_equal(pixels.astype(np.float32), plain[y0:y1, x0:x1])
+        window.first(rect, pixels)
+        want = color.to_display8(pixels, scene.settings)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:  # the refinement waits until they are shown
+            if np.array_equal(screen.pixels(win)[y0:y1, x0:x1], want):
+                shown_first.append(rect)
+                return
+            time.sleep(0.01)
+
+    got = render.render_scene(
+        scene, w, h, antialias=0.3, threads=1, on_tile=window.tile, on_first=first
+    )
+    tiles = render.tile_order((0, 0, w, h), 1)
+    assert sorted(shown_first) == sorted(tiles)  # every tile, first rays first
+    out = tmp_path / "r.png"
+    image.write_pixels(out, window.file_values(), 8)
+    done = threading.Thread(target=window.finish, args=(True,))  # +P: open until closed
+    done.start()
+    try:
+        screen.wait_title(win, "done", timeout=30)
+        final = screen.pixels(win)
+    finally:
+        screen.close_window(win)
+        done.join(10)
+    assert np.array_equal(final, _png8(out))  # the window ends on the file's pixels
+    # … which are the anti-aliased render's, bit for bit, not the first rays'
+    alone = render.render_scene(scene, w, h, antialias=0.3, threads=2)
+    assert np.array_equal(got, alone)
+    assert np.array_equal(window.file_values(), color.to_display8(alone, scene.settings))
+    refined = np.any(final != color.to_display8(plain, scene.settings), axis=-1)
+    assert refined.sum() > 100  # the refinement did change what was shown first
