@@ -12,6 +12,8 @@ def render_tile(
     metric_power: float,
     depth: int,
     out: np.ndarray,
+    stage: int = 0,
+    first: np.ndarray | None = None,
     /,
 ) -> tuple[int, int, int]: ...
 def layout() -> dict[str, int]: ...

@@ -844,6 +844,21 @@ def frame_jobs(out: Path, clock: float, frames) -> list[tuple[Path, float, str]]
 
 
 def cmd_render(args: argparse.Namespace) -> int:
+    # the window's process first: Tk starts on the core left idle while numpy is imported
+    # and the scene read (its window is shown once the command line is accepted, so one
+    # refused below shows none)
+    args.window = _open_window(args.file) if args.display else None
+    try:
+        status = _render_command(args)
+        if status == 0 and args.window is not None:
+            args.window.finish(pause=args.pause)
+        return status
+    finally:
+        if args.window is not None:
+            args.window.close()
+
+
+def _render_command(args: argparse.Namespace) -> int:
     from runtime import image  # numpy + OpenImageIO: only now
 
     to_stdout = args.output == "-"  # POV-Ray's +O-: the image goes to standard output
@@ -876,19 +891,12 @@ def cmd_render(args: argparse.Namespace) -> int:
         jobs, numbers = [(out, plan.clock(args.frame), label)], [args.frame]
     if (args.cluster is not None or args.tiles is not None) and (to_stdout or args.preview):
         raise UsageError("--cluster and --tiles write image files (no -o -, no --preview)")
-    args.window = _open_window(args.file) if args.display else None
-    try:
-        if args.cluster is not None or args.tiles is not None:
-            with _silenced(args.quiet):
-                status = _render_on_cluster(args, jobs, numbers)
-        else:
-            status = _render_here(args, jobs, numbers, to_stdout, stdout)
-        if status == 0 and args.window is not None:
-            args.window.finish(pause=args.pause)
-        return status
-    finally:
-        if args.window is not None:
-            args.window.close()
+    if args.window is not None:
+        args.window.show()
+    if args.cluster is not None or args.tiles is not None:
+        with _silenced(args.quiet):
+            return _render_on_cluster(args, jobs, numbers)
+    return _render_here(args, jobs, numbers, to_stdout, stdout)
 
 
 # Seconds a stopped cluster render may take to close its cluster (a LocalCluster ends its
@@ -1051,8 +1059,8 @@ class _Stopping:
     def now(self, message: str) -> None:
         from runtime import signals
 
-        with self.lock:
-            signals.stop(message, 130)  # the preview's file goes too (registered there)
+        with self.lock:  # the preview's file goes too (registered there); on a cluster
+            signals.stop_from_thread(message, 130)  # the main thread unwinds: tasks cancelled
 
 
 _STOPPING = _Stopping()
@@ -1125,6 +1133,7 @@ def _render_one(
                     progress=bar if window is None else _both(bar, window.progress),
                     estimate=bar.enabled or window is not None,
                     on_tile=None if window is None else window.tile,
+                    on_first=None if window is None else window.first,
                     region=region,
                     stats=stats,
                     **_radiosity_options(args),

@@ -250,6 +250,7 @@ def run(
     solver: dict[str, int] = {}  # solution key -> the frame whose solve task it is
     used: dict[int, str] = {}  # frame index -> the key of the solution its tiles use
     futures: list[distributed.Future] = []  # the tiles'
+    key_tasks: list[distributed.Future] = []  # the radiosity keys'
     pending = distributed.as_completed()
     n = len(frames)
 
@@ -274,6 +275,7 @@ def run(
                                 key=f"{name(fi)}-radiosity-key", pure=False,
                                 priority=2 * n - fi)  # fmt: skip
             keyed[fut.key] = fi
+            key_tasks.append(fut)
             pending.add(fut)
         else:
             submit_tiles(fi)
@@ -348,9 +350,21 @@ def run(
                     outcome.radiosity_solves += int(solution is not None and solution.solved)
                 yield frames[fi], outcome
                 del parts[fi]
+    except BaseException:  # a stop (or a caller that leaves): the job ends on the cluster
+        _cancel(client, [*futures, *key_tasks, *solves.values()])
+        raise
     finally:
         for f in solves.values():  # the solutions are not wanted on the cluster any more
             f.release()
+
+
+def _cancel(client: distributed.Client, futures) -> None:
+    """The job's tasks cancelled on the scheduler: those waiting never run, and a running
+    one stops at its next render tile (render_task asks the worker)."""
+    try:
+        client.cancel([f for f in futures if not f.done()], force=True, reason="strala-stopped")
+    except Exception:  # a client already closing: its futures go with it
+        pass
 
 
 def _cancel_frame(futures, owner, fi: int) -> None:
@@ -479,6 +493,8 @@ def _render_task(
         path = system.cache_path(cache, solution.key)
         if not path.is_file():
             system.store(path, solution.data)
+    from runtime.render import Cancelled
+
     stats: dict = {}
     try:
         pixels = render_scene(
@@ -492,7 +508,10 @@ def _render_task(
             pretrace_region=full,
             radiosity_cache=cache if compiled.settings.radiosity is not None else None,
             stats=stats,
+            stop=_cancelled_check(),
         )
+    except Cancelled:  # nobody waits for this result any more
+        return TaskResult(tile, None, None, diagnostics, time.perf_counter() - start, 0.0, where)
     except SceneError as exc:
         diag = bundles.client_diagnostic(exc.diagnostic, root)
         took = time.perf_counter() - start
@@ -567,6 +586,23 @@ def _worker_address() -> str:
         return str(distributed.get_worker().address)
     except ValueError:  # not on a worker (called directly)
         return ""
+
+
+def _cancelled_check() -> Callable[[], bool] | None:
+    """Whether the task running this has been cancelled (the client stopped the job), as
+    the worker's own state says: a thread cannot be stopped from outside, so the render
+    asks before each of its tiles. None off a worker."""
+    try:
+        worker = distributed.get_worker()
+        key = worker.get_current_task()
+    except (ValueError, AttributeError, KeyError):
+        return None
+
+    def cancelled() -> bool:
+        task = worker.state.tasks.get(key)
+        return task is None or task.state in ("cancelled", "released", "forgotten")
+
+    return cancelled
 
 
 def _worker_threads() -> int:

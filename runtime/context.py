@@ -6,6 +6,7 @@ makes the context (`make_context`) and shades with it; runtime.lights casts shad
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol
@@ -71,6 +72,7 @@ class TileKernel(Protocol):
         threshold: float | None,
         depth: int,
         gamma: float = ...,
+        first_seen: Callable[[np.ndarray], None] | None = None,
     ) -> tuple[np.ndarray, int]: ...
 
 

@@ -1,11 +1,14 @@
 """The display window (POV-Ray's `+D`): the image on screen as it renders.
 
 The window is a process of its own (runtime.viewer, Tk): a thread here would hold Python's
-lock while Tk starts and while it draws, which the render's threads need. The render
-hands its finished tiles to `Window.tile` on its own thread; they are turned into the
-file's 8-bit values there (`color.to_display8`, compiled and without the lock, so the
-window shows the pixels the PNG holds), kept (for `s`), and sent down a pipe by a thread
-that waits on it, so a slow window never holds up the render.
+lock while Tk starts and while it draws, which the render's threads need. It is started
+before numpy is imported and the scene read, so Tk comes up on the core that leaves idle.
+The render hands its finished tiles to `Window.tile` on its own thread; they are turned
+into the file's 8-bit values there (`color.to_display8`, compiled and without the lock, so
+the window shows the pixels the PNG holds), kept (for `s`), and sent down a pipe by a
+thread that waits on it, so a slow window never holds up the render. A tile's first rays
+(`Window.first`, before anti-aliasing refines them) are held FIRST_DELAY and sent only if
+the tile is not done by then: a fast render converts and draws each pixel once.
 
 Keys: `s` saves what is shown so far (beside the output, SCENE.shown.png), `q` or closing
 the window calls `on_stop` while the render runs (the command line stops as on ^C) and
@@ -14,6 +17,7 @@ closes the window once it is done.
 
 from __future__ import annotations
 
+import collections
 import importlib.util
 import json
 import math
@@ -23,16 +27,21 @@ import struct
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from lang import ir
-from runtime import color
+
+if TYPE_CHECKING:  # numpy is imported once the window's process is started
+    import numpy as np
 
 VERDICT_TIMEOUT = 5.0  # seconds a closing window may take to say whether it could open
 SCREEN_SHARE = 0.9  # an image larger than this share of the screen is shown subsampled
+# Seconds a tile's first rays wait for the tile to be done before they are shown: the
+# refinement of most tiles takes less, and their first rays are then never converted.
+FIRST_DELAY = 0.1
 
 
 def unavailable() -> str | None:
@@ -65,7 +74,9 @@ class Window:
         self.on_problem = on_problem
         self.problem: str | None = None  # why the window could not open, once it tried
         self.screen = (0, 0)
-        self.shown = np.zeros((1, 1, 3), dtype=np.uint8)  # this frame's file values so far
+        self.shown: np.ndarray | None = None  # this frame's file values so far
+        self._done: set[tuple[int, int, int, int]] = set()  # this frame's finished tiles
+        self._lock = threading.Lock()  # `shown` and `_done` between the tiles' threads
         self.settings: ir.Settings | None = None
         self.save_to: Path | None = None
         self._ready = threading.Event()
@@ -74,9 +85,10 @@ class Window:
         self._closing = False
         self._outbox: queue.SimpleQueue = queue.SimpleQueue()
         viewer = Path(__file__).with_name("viewer.py")
-        # -I: the standard library only, not this folder's modules named as some of it
+        # -I: the standard library only, not this folder's modules named as some of it;
+        # -S: not even site-packages (their start-up hooks cost a tenth of Tk's start)
         self._proc = subprocess.Popen(
-            [sys.executable, "-I", str(viewer), name],
+            [sys.executable, "-I", "-S", str(viewer), name],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
         )
@@ -84,31 +96,71 @@ class Window:
         threading.Thread(target=self._send, name="strala-display-out", daemon=True).start()
 
     # ------------------------------------------------------------------ the render's side
+    def show(self) -> None:
+        """Show the window (started hidden: a command line refused shows none)."""
+        self._put(b"S", b"")
+
     def frame(
         self, width: int, height: int, settings: ir.Settings, label: str, save_to: Path
     ) -> None:
         """Start showing a new image (black), of which `label` says what it is."""
-        self.shown = np.zeros((height, width, 3), dtype=np.uint8)
+        import numpy as np
+
+        with self._lock:
+            self.shown = np.zeros((height, width, 3), dtype=np.uint8)
+            self._done = set()
         self.settings, self.save_to = settings, save_to
         self._outbox.put(("frame", self.shown, label))
 
     def tile(self, rect: tuple[int, int, int, int], working: np.ndarray) -> None:
         """A finished tile's working-space colours at rect (x0, y0, x1, y1)."""
-        if self.settings is None:
+        from runtime import color
+
+        if self.settings is None or self.shown is None:
             return
         x0, y0, x1, y1 = rect
-        self.shown[y0:y1, x0:x1] = color.to_display8(working, self.settings)
+        values = color.to_display8(working, self.settings)
+        with self._lock:
+            self._done.add(rect)
+            self.shown[y0:y1, x0:x1] = values
         self._outbox.put(("tile", self.shown, rect))
+
+    def first(self, rect: tuple[int, int, int, int], working: np.ndarray) -> None:
+        """A tile's first-ray colours, before anti-aliasing refines them (the render's
+        on_first, from the thread tracing it): shown if the tile is not done within
+        FIRST_DELAY. `working` is the render's own array, not written again."""
+        if self.settings is not None and self.shown is not None:
+            due = time.monotonic() + FIRST_DELAY
+            self._outbox.put(("first", self.shown, rect, working, due))
+
+    def _first_shown(self, shown: np.ndarray, rect, working: np.ndarray) -> bool:
+        """A held tile's first rays into `shown`, unless the tile is done meanwhile or a
+        new frame has begun (False: nothing to send)."""
+        from runtime import color
+
+        assert self.settings is not None
+        x0, y0, x1, y1 = rect
+        if shown is not self.shown or rect in self._done:
+            return False
+        values = color.to_display8(working, self.settings)
+        with self._lock:
+            if shown is not self.shown or rect in self._done:
+                return False
+            shown[y0:y1, x0:x1] = values
+        return True
 
     def file_values(self) -> np.ndarray:
         """The frame's 8-bit file values (`color.to_display8`), once the render has given
         the window every tile (black where none was: outside a partial render's region);
         what `image.save_render` would compute again for an 8-bit file."""
+        assert self.shown is not None
         return self.shown
 
     def whole(self, working: np.ndarray, label: str) -> None:
         """A whole image at once (a preview pass, already enlarged to the frame's size)."""
-        if self.settings is None:
+        from runtime import color
+
+        if self.settings is None or self.shown is None:
             return
         self.shown[:] = color.to_display8(working, self.settings)
         # as it is now: the final pass' tiles overwrite `shown` before a late window draws
@@ -119,6 +171,8 @@ class Window:
         self._put(b"P", struct.pack(">dd", done, total))
 
     def _message(self, item, step: int) -> tuple[bytes, int]:
+        import numpy as np
+
         """The bytes for the viewer of an item of the outbox, and the frame's step (1 pixel
         shown for step x step of an image larger than the screen)."""
         if isinstance(item, bytes):
@@ -179,10 +233,24 @@ class Window:
         assert pipe is not None
         self._ready.wait()
         step = 1
+        held: collections.deque = collections.deque()  # first rays, by the time they are due
         while True:
-            item = self._outbox.get()
+            now = time.monotonic()
+            if held and held[0][-1] <= now:  # the first rays held longest are due
+                _, shown, rect, working, _ = held.popleft()
+                if not self._first_shown(shown, rect, working):
+                    continue
+                item = ("tile", shown, rect)
+            else:
+                try:
+                    item = self._outbox.get(timeout=held[0][-1] - now if held else None)
+                except queue.Empty:
+                    continue
             if self.problem is not None:
                 continue  # no window: the render goes on, what it hands over is dropped
+            if isinstance(item, tuple) and item[0] == "first":
+                held.append(item)
+                continue
             try:
                 if item is None:
                     pipe.write(_framed(b"C", b""))
@@ -218,7 +286,7 @@ class Window:
         self._closed.set()
 
     def _save(self) -> None:
-        if self.save_to is None:
+        if self.save_to is None or self.shown is None:
             return
         from runtime import image
 

@@ -41,6 +41,10 @@ BLUR_BATCH: int = 1 << 18
 MESH_BATCH: int = 1 << 17
 
 
+class Cancelled(Exception):
+    """render_scene's `stop` said to stop before the last tile was traced."""
+
+
 # CSG nested deeper than this is refused before rendering: the passes over the scene recurse
 # once per level, and Python's frames run out near a thousand (an internal error, not a
 # message). A scene's own nesting, even a recursive macro's tree, stays far below it.
@@ -79,6 +83,7 @@ def render_scene(
     threads: int | None = None,
     progress: Callable[[float, float], None] | None = None,
     on_tile: Callable[[tuple[int, int, int, int], np.ndarray], None] | None = None,
+    on_first: Callable[[tuple[int, int, int, int], np.ndarray], None] | None = None,
     region: tuple[int, int, int, int] | None = None,
     stats: dict | None = None,
     radiosity=None,
@@ -88,6 +93,7 @@ def render_scene(
     jitter: float | None = None,
     aa_gamma: float = color.AA_GAMMA,
     estimate: bool = False,
+    stop: Callable[[], bool] | None = None,
 ) -> np.ndarray:
     """Render `scene` at width×height; returns (H, W, 3) float32 working-space colours.
 
@@ -101,13 +107,18 @@ def render_scene(
     each tile; with radiosity, seconds over its stages (the solve, the pretrace, the tiles:
     progress.Stages), so the time left counts them all.
     on_tile((x0, y0, x1, y1), pixels) too, with the tile's finished working-space colours
-    (the display window's feed: it must not keep the calling thread long). stats, when
+    (the display window's feed: it must not keep the calling thread long). on_first(rect,
+    pixels), with anti-aliasing method 1, is given a tile's first-ray colours before its
+    refinement, on the thread tracing it (what the window shows until the tile is done:
+    the rays are traced anyway). stats, when
     given, receives counters (rays, shadow_rays, supersampled pixels …).
     radiosity: a precomputed `RadiosityResult` to use; otherwise a scene with
     `global_settings { radiosity {} }` is solved here first (cached in the folder or
     file `radiosity_cache` when given). pretrace_region: the part of the image whose camera
     rays fill the radiosity's irradiance cache (default: region); a tile of a larger image
-    passes the image's own, so every tile reads the same records (runtime.cluster)."""
+    passes the image's own, so every tile reads the same records (runtime.cluster).
+    stop(), asked before each tile on the thread that would trace it, ends the render
+    with Cancelled when it says so (a cluster's cancelled task)."""
     from runtime.prepare import prepare
 
     check_nesting(scene)
@@ -193,9 +204,17 @@ def render_scene(
 
     def run(tile):
         nonlocal nonfinite
+        if stop is not None and stop():
+            raise Cancelled()  # the tiles queued behind it raise too: the pool empties
         # an overflow or undefined value is repaired and counted below, not printed
+        seen = None
+        if on_first is not None:
+
+            def seen(first: np.ndarray) -> None:
+                on_first(tile, finite_pixels(first)[0])
+
         with np.errstate(over="ignore", invalid="ignore"):
-            pix, ss = render_tile(ctx, scene.camera, width, height, tile, sampling)
+            pix, ss = render_tile(ctx, scene.camera, width, height, tile, sampling, seen)
         pix, bad = finite_pixels(pix)
         nonfinite += bad
         return tile, (pix, ss)
@@ -377,12 +396,14 @@ def render_tile(
     height: int,
     tile: tuple[int, int, int, int],
     sampling: antialias.Sampling,
+    first_seen: Callable[[np.ndarray], None] | None = None,
 ) -> tuple[np.ndarray, int]:
-    """(h, w, 3) colours of one tile and the number of supersampled pixels."""
+    """(h, w, 3) colours of one tile and the number of supersampled pixels; first_seen is
+    given the tile's first-ray colours before anti-aliasing method 1 refines them."""
     threshold = sampling.threshold if sampling.method else None
     depth = sampling.depth
     if ctx.kernel is not None:
-        return ctx.kernel.render_tile(tile, threshold, depth, sampling.gamma)
+        return ctx.kernel.render_tile(tile, threshold, depth, sampling.gamma, first_seen)
     x0, y0, x1, y1 = tile
 
     def shoot(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
@@ -406,6 +427,8 @@ def render_tile(
     ys, xs = np.mgrid[y0 - 1 : ey1, x0 - 1 : ex1]
     first = shoot(xs.ravel() + 0.5, ys.ravel() + 0.5).reshape(*xs.shape, 3)
     inner = (slice(1, 1 + y1 - y0), slice(1, 1 + x1 - x0))
+    if first_seen is not None:
+        first_seen(first[inner])
     pix, n = antialias.antialias_tile(
         first, ctx.settings, threshold, depth, inner, (xs, ys), shoot, sampling.gamma
     )

@@ -32,6 +32,7 @@ _pending: set[Path] = set()
 _lock = threading.Lock()
 _grace: float | None = None  # inside `unwinding`: the seconds a stop may take to unwind
 _stopping = False  # a signal came and is unwinding
+_asked: tuple[str, int] | None = None  # what `stop_from_thread` asked the signal to say
 
 
 class Stopped(BaseException):
@@ -72,6 +73,20 @@ def stop(message: str, code: int) -> None:
     said (the display window's q uses it too)."""
     _say(message)
     _end(code)
+
+
+def stop_from_thread(message: str, code: int) -> None:
+    """A stop asked from another thread (the display window's q): at once as `stop`, or
+    inside `unwinding` as a signal unwinds the main thread, with this line and code (a
+    cluster's client then cancels its tasks on the way out)."""
+    global _asked
+    if _grace is None or threading.current_thread() is threading.main_thread():
+        stop(message, code)
+        return
+    _asked = (message, code)
+    main = threading.main_thread().ident
+    assert main is not None  # the main thread is running
+    signal.pthread_kill(main, signal.SIGINT)
 
 
 def _say(message: str) -> None:
@@ -120,6 +135,8 @@ def _stop(signum: int, frame) -> None:
     global _stopping
     sig = signal.Signals(signum)
     message, code = _NAMES.get(sig, "stopped"), EXIT_CODES.get(sig, 128 + signum)
+    if _asked is not None and sig == signal.SIGINT:  # sent by stop_from_thread
+        message, code = _asked
     grace = _grace
     if grace is None:
         stop(message, code)

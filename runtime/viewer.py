@@ -1,12 +1,14 @@
 """The display window's own process: a Tk window that draws the tiles it is sent.
 
-Started by runtime.display as `python -I viewer.py NAME` (the standard library only, so
-it starts in tens of milliseconds and imports nothing of strala); it reads messages from
-standard input and answers on standard output, one line each:
+Started by runtime.display as `python -I -S viewer.py NAME` (the standard library only, not
+even site-packages, so it starts in tens of milliseconds and imports nothing of strala); it
+reads messages from standard input and answers on standard output, one line each:
 
     in:   kind (1 byte), length (4 bytes, big-endian), payload
+          S  (empty) show the window: the command line is accepted (or F shows it)
           F  {"width", "height", "label"} json: a new image of that size, black
-          T  x, y, w, h (4 x uint32) and w*h*3 bytes of 8-bit RGB: a tile to draw
+          T  x, y, w, h (4 x uint32) and w*h*3 bytes of 8-bit RGB: a tile to draw (a later
+             one at the same place replaces it: a tile's first rays, then the tile refined)
           L  utf-8 text: the title, once what came before it is drawn (a preview pass)
           P  done, total (2 x float64): the render's progress, for the title
           D  1 byte, pause: the render is done (q and closing now only close)
@@ -15,9 +17,12 @@ standard input and answers on standard output, one line each:
           pressed s) and `stop` (q or the close button before the render is done)
 
 A process and not a thread of the render's: Tk holds Python's lock while it starts
-(60 ms) and the tiles' drawing would take it from the render's threads too. Each tile
-becomes a photo image on a canvas of its own: putting a tile into one big photo took twice
-the time (Tk redraws its whole instance for every put).
+(60 ms) and the tiles' drawing would take it from the render's threads too. It is started
+before the scene is read, on the core the parsing leaves idle, and its window stays hidden
+until the command line is accepted (one refused shows none). Each
+tile becomes a photo image on a canvas of its own: putting a tile into one big photo took
+half as long again. The tiles that came in are drawn together, DRAW_MS after the first of
+them, so that a tile's first rays refined within that time are never drawn at all.
 """
 
 from __future__ import annotations
@@ -30,10 +35,13 @@ import sys
 import threading
 import time
 
-POLL_MS = 50  # how often the window draws the tiles that came in: 20 a second
-# The window's priority below the render's (Unix nice): on a machine whose cores the render
-# fills, the window's drawing waits for the render instead of stretching it.
+DRAW_MS = 100  # tiles that came in are drawn at most this often: 10 a second
+TITLE_MS = 500  # the time left in the title is counted down this often
+# The window's priority below the render's: on a machine whose cores the render fills, the
+# window's drawing waits for the render instead of stretching it (Linux: the idle class,
+# which runs only what the render leaves; elsewhere Unix nice).
 NICE = 10
+READ_SIZE = 1 << 20
 
 
 def _format_seconds(seconds: float) -> str:
@@ -47,18 +55,23 @@ def _format_seconds(seconds: float) -> str:
     return f"{hours}h{minutes:02d}m"
 
 
-def _read(stream, inbox: queue.SimpleQueue) -> None:
-    """The messages on standard input into `inbox`; None at its end."""
-    while True:
-        head = stream.read(5)
-        if len(head) < 5:
-            break
-        kind, length = struct.unpack(">cI", head)
-        payload = stream.read(length)
-        if len(payload) < length:
-            break
-        inbox.put((kind, payload))
-    inbox.put(None)
+class Messages:
+    """The messages in a stream of bytes that comes in pieces."""
+
+    def __init__(self) -> None:
+        self.buffer = bytearray()
+
+    def feed(self, data: bytes) -> list[tuple[bytes, bytes]]:
+        self.buffer += data
+        out, at = [], 0
+        while len(self.buffer) - at >= 5:
+            kind, length = struct.unpack_from(">cI", self.buffer, at)
+            if len(self.buffer) - at - 5 < length:
+                break
+            out.append((kind, bytes(self.buffer[at + 5 : at + 5 + length])))
+            at += 5 + length
+        del self.buffer[:at]
+        return out
 
 
 def _say(line: str) -> None:
@@ -70,18 +83,21 @@ def _say(line: str) -> None:
 
 
 class Viewer:
-    def __init__(self, name: str, root, tkinter, inbox: queue.SimpleQueue):
+    def __init__(self, name: str, root, tkinter):
         self.name = name
         self.root = root
         self.tk = tkinter
-        self.inbox = inbox
-        self.photos: list = []  # the canvas' images: Tk frees a photo nobody holds
+        self.photos: dict[tuple[int, int, int, int], object] = {}  # Tk frees unheld photos
+        self.pending: dict[tuple[int, int, int, int], bytes] = {}  # tiles not drawn yet
+        self.draw_due = False
         self.label = ""
+        self.size = (0, 0)
         self.started = time.monotonic()
         self.progress = (0.0, 0.0)
         self.done = False
         self.pause = False
         self.stopping = False
+        self.ended = False
         self.title = ""
         root.title(name)
         root.resizable(False, False)
@@ -94,48 +110,81 @@ class Viewer:
             root.bind(f"<KeyPress-{key}>", lambda _e: self.close_asked())
         for key in ("s", "S"):
             root.bind(f"<KeyPress-{key}>", lambda _e: _say("save"))
+        root.after(TITLE_MS, self.tick)
 
-    def poll(self) -> None:
-        """Draw what came in since the last poll, then look again in POLL_MS."""
-        while True:
-            try:
-                item = self.inbox.get_nowait()
-            except queue.Empty:
-                break
-            if item is None or item[0] == b"C":
-                self.root.quit()
-                return
-            kind, payload = item
+    def handle(self, messages: list[tuple[bytes, bytes]] | None) -> None:
+        """Messages that came in, in order; None: the input has ended."""
+        for kind, payload in messages or ():
             if kind == b"T":
-                self.draw(payload)
+                self.tile(payload)
+                continue
+            if kind == b"P":  # the title has it at the next draw or tick
+                self.progress = struct.unpack(">dd", payload)
+                continue
+            self.draw()  # what came before is drawn before anything else changes
+            if kind == b"C":
+                messages = None
+                break
+            if kind == b"S":
+                self.show()
             elif kind == b"F":
                 self.start(json.loads(payload))
-            elif kind == b"P":
-                self.progress = struct.unpack(">dd", payload)
             elif kind == b"L":
-                self.root.update_idletasks()  # the pass drawn before its title says so
                 self.set_title(f"{self.name} — {payload.decode()}")
             elif kind == b"D":
                 self.done, self.pause = True, payload == b"\x01"
+                self.update_title()
+        if messages is None and not self.ended:
+            self.ended = True
+            self.root.quit()
+
+    def tile(self, payload: bytes) -> None:
+        x, y, w, h = struct.unpack_from(">IIII", payload)
+        if x == y == 0 and (w, h) == self.size:  # a whole image: what was pending is under it
+            self.pending.clear()
+        self.pending[(x, y, w, h)] = payload
+        if not self.draw_due:
+            self.draw_due = True
+            self.root.after(DRAW_MS, self.draw)
+
+    def draw(self) -> None:
+        """The tiles that came in, drawn (the later of two at one place only)."""
+        self.draw_due = False
+        if not self.pending:
+            return
+        for key, payload in self.pending.items():
+            ppm = b"P6 %d %d 255\n" % key[2:] + payload[16:]
+            photo = self.photos.get(key)
+            if photo is None:
+                photo = self.tk.PhotoImage(master=self.root, data=ppm, format="ppm")
+                self.photos[key] = photo
+                self.canvas.create_image(key[0], key[1], image=photo, anchor="nw")
+            else:  # a tile drawn again (refined): into its photo, no new canvas item
+                self.root.tk.call(photo, "put", ppm, "-format", "ppm")
+        self.pending.clear()
         # drawn before the title changes, so a title never speaks of what is not shown
         self.root.update_idletasks()
         self.update_title()
-        self.root.after(POLL_MS, self.poll)
 
     def start(self, frame: dict) -> None:
         self.label = frame["label"]
+        self.size = (frame["width"], frame["height"])
         self.started = time.monotonic()
         self.progress = (0.0, 0.0)
+        self.done = False
         self.canvas.configure(width=frame["width"], height=frame["height"])
         self.canvas.delete("all")
         self.photos.clear()
+        self.pending.clear()
+        self.show()
 
-    def draw(self, payload: bytes) -> None:
-        x, y, w, h = struct.unpack(">IIII", payload[:16])
-        ppm = b"P6 %d %d 255\n" % (w, h) + payload[16:]
-        photo = self.tk.PhotoImage(master=self.root, data=ppm, format="ppm")
-        self.photos.append(photo)
-        self.canvas.create_image(x, y, image=photo, anchor="nw")
+    def show(self) -> None:
+        if self.root.state() == "withdrawn":
+            self.root.deiconify()
+
+    def tick(self) -> None:
+        self.update_title()
+        self.root.after(TITLE_MS, self.tick)
 
     def update_title(self) -> None:
         if not self.label:
@@ -167,25 +216,76 @@ class Viewer:
             _say("stop")
 
 
+def _listen(viewer: Viewer, tkinter) -> None:
+    """Standard input into `viewer.handle`: woken by Tk when there is input (Unix), or read
+    by a thread and looked at every DRAW_MS (where Tk watches no files: Windows)."""
+    fd = sys.stdin.fileno()  # read as it comes: what is there, no waiting for more
+    messages = Messages()
+    watch = getattr(viewer.root.tk, "createfilehandler", None)
+    if watch is not None:
+
+        def readable(_file, _mask) -> None:
+            try:
+                data = os.read(fd, READ_SIZE)
+            except OSError:
+                data = b""
+            if not data:
+                viewer.root.tk.deletefilehandler(fd)
+            viewer.handle(messages.feed(data) if data else None)
+
+        watch(fd, tkinter.READABLE, readable)
+        return
+    inbox: queue.SimpleQueue = queue.SimpleQueue()
+
+    def read() -> None:
+        while data := os.read(fd, READ_SIZE):
+            inbox.put(data)
+        inbox.put(None)
+
+    def poll() -> None:
+        while True:
+            try:
+                data = inbox.get_nowait()
+            except queue.Empty:
+                break
+            viewer.handle(messages.feed(data) if data is not None else None)
+            if data is None:
+                return
+        viewer.root.after(DRAW_MS, poll)
+
+    threading.Thread(target=read, daemon=True).start()
+    poll()
+
+
+def _lower_priority() -> None:
+    """The window below the render (see NICE); as it is where neither is allowed."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+        return
+    except (AttributeError, OSError):
+        pass
+    try:
+        os.nice(NICE)
+    except (AttributeError, OSError):
+        pass
+
+
 def main(argv: list[str]) -> int:
     name = argv[1] if len(argv) > 1 else "strala"
-    try:  # the window takes the time the render leaves, not the render's
-        os.nice(NICE)
-    except (AttributeError, OSError):  # no nice (Windows) or not allowed: as it is
-        pass
     try:
         import tkinter
 
         root = tkinter.Tk(className="strala")
+        root.withdraw()  # shown with the first image
     except Exception as exc:  # no Tk, a display that refuses us: said in one line
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         _say(f"error {text}")
         return 1
-    inbox: queue.SimpleQueue = queue.SimpleQueue()
-    threading.Thread(target=_read, args=(sys.stdin.buffer, inbox), daemon=True).start()
-    viewer = Viewer(name, root, tkinter, inbox)
+    # Tk started at the normal priority: on a busy machine the idle class would hold it
+    _lower_priority()
+    viewer = Viewer(name, root, tkinter)
+    _listen(viewer, tkinter)
     _say(f"ready {root.winfo_screenwidth()} {root.winfo_screenheight()}")
-    viewer.poll()
     root.mainloop()
     return 0
 

@@ -51,6 +51,7 @@ from __future__ import annotations
 import math
 import os
 import weakref
+from collections.abc import Callable
 
 import numpy as np
 
@@ -320,11 +321,15 @@ def trace_packed(
     power: float,
     depth: int,
     out: np.ndarray,
+    stage: int = 0,
+    first: np.ndarray | None = None,
 ) -> tuple[int, int, int]:
     """Trace one tile of a packed scene (`pack`) into `out` with the compiled kernel:
     (rays, shadow rays, supersampled pixels). The kernel checks the packed tables first and
-    raises ValueError on a damaged one."""
-    return _whitted.render_tile(buf, x0, y0, x1, y1, threshold, power, depth, out)
+    raises ValueError on a damaged one. With anti-aliasing, stage 1 only traces the first
+    rays of the tile and its border into `first` ((h + 1 + b, w + 1 + r, 3) as
+    `runtime.antialias.edge_mask` lays them out), stage 2 only refines them into `out`."""
+    return _whitted.render_tile(buf, x0, y0, x1, y1, threshold, power, depth, out, stage, first)
 
 
 def available() -> bool:
@@ -1363,6 +1368,7 @@ class Kernel:
 
     def __init__(self, ctx, camera: ir.Camera, width: int, height: int):
         self.ctx = ctx
+        self.width, self.height = width, height
         self.buf = pack(ctx, camera, width, height)
 
     def render_tile(
@@ -1371,16 +1377,30 @@ class Kernel:
         threshold: float | None,
         depth: int,
         gamma: float = color.AA_GAMMA,
+        first_seen: Callable[[np.ndarray], None] | None = None,
     ) -> tuple[np.ndarray, int]:
         """(h, w, 3) colours of one tile and its number of supersampled pixels, anti-aliased
-        as `runtime.antialias` does (threshold None: one ray per pixel)."""
+        as `runtime.antialias` does (threshold None: one ray per pixel). first_seen, with
+        anti-aliasing, is given the tile's first-ray colours before they are refined."""
         x0, y0, x1, y1 = tile
         out = np.empty((y1 - y0, x1 - x0, 3))
         power = color.aa_metric_power(self.ctx.settings, gamma)
         thr = -1.0 if threshold is None else float(threshold)
-        rays, shadow_rays, n = trace_packed(
-            self.buf, x0, y0, x1, y1, thr, power, max(1, int(depth)), out
-        )
+        depth = max(1, int(depth))
+        if first_seen is None or threshold is None:
+            rays, shadow_rays, n = trace_packed(self.buf, x0, y0, x1, y1, thr, power, depth, out)
+        else:  # two calls, the same arithmetic: the first rays are shown in between
+            ex1 = x1 + 1 if x1 < self.width else x1
+            ey1 = y1 + 1 if y1 < self.height else y1
+            first = np.empty((ey1 - y0 + 1, ex1 - x0 + 1, 3))
+            rays, shadow_rays, _ = trace_packed(
+                self.buf, x0, y0, x1, y1, thr, power, depth, out, 1, first
+            )
+            first_seen(first[1 : 1 + y1 - y0, 1 : 1 + x1 - x0])
+            more, more_shadow, n = trace_packed(
+                self.buf, x0, y0, x1, y1, thr, power, depth, out, 2, first
+            )
+            rays, shadow_rays = rays + more, shadow_rays + more_shadow
         self.ctx.count("rays", rays)
         self.ctx.count("shadow_rays", shadow_rays)
         return out, n

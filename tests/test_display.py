@@ -310,3 +310,108 @@ def test_display_outside_a_notebook_warns_and_renders():
     with pytest.warns(RuntimeWarning, match="notebook"):
         got = api.render(EX3, width=16, height=12, display=True)
     assert got.shape == (12, 16, 3)
+
+
+@pytest.mark.xvfb
+def test_closing_the_window_cancels_the_job_on_a_cluster(xscreen, tmp_path, monkeypatch):
+    """A cluster reached by its address (`tcp://…`, not one the render starts): closing the
+    window cancels the job's tasks there, the running one included, not only the client."""
+    pytest.importorskip("distributed")
+    from runtime import bundle, cluster
+
+    screen, name = xscreen
+    monkeypatch.setenv(bundle.BUNDLE_DIR_VARIABLE, str(tmp_path / "bundles"))
+    out = tmp_path / "work" / "stopped.png"
+    out.parent.mkdir()
+    # one task of ~10 s on the one worker: every pixel supersampled 4 x 4, one thread
+    slow = ("-W", "1000", "-H", "750", "--aa", "0", "--aa-depth", "4", "--threads", "1")
+    with cluster.connect("local:1") as client:
+        address = client.scheduler.address
+        assert address.startswith("tcp://")
+
+        def executing() -> int:
+            return sum(client.run(lambda dask_worker: dask_worker.state.executing_count).values())
+
+        args = (str(EX3), "--display", *slow, "--cluster", address, "-o", str(out))
+        proc = _strala(name, *args, cwd=out.parent)
+        try:
+            deadline = time.monotonic() + 60
+            while executing() == 0 and time.monotonic() < deadline:  # the task has begun
+                time.sleep(0.05)
+            assert executing() == 1
+            time.sleep(0.5)  # the render is well into its tiles
+            (win, _), *_ = screen.find("ex3.scene")
+            screen.close_window(win)
+            code, err = _finish(proc)
+            stopped = time.monotonic()
+            while executing() and time.monotonic() < stopped + 20:
+                time.sleep(0.05)
+            left = executing()
+            took = time.monotonic() - stopped
+        finally:
+            proc.kill()
+        assert code == 130, err
+        assert "stopped from the window" in err
+        assert not out.exists() and list(out.parent.iterdir()) == []
+        # the task stopped at its next tile, long before the ~10 s it takes to the end
+        assert left == 0 and took < 3.0, (left, took)
+        assert not client.processing() or not any(client.processing().values())
+
+
+@pytest.mark.xvfb
+def test_a_tile_is_shown_with_its_first_rays_then_refined(xscreen, tmp_path, monkeypatch):
+    """Anti-aliasing refinement shown after: each tile's first rays (the pixels of a render
+    without anti-aliasing) are on screen before the tile is refined, and the window ends
+    on the written PNG's pixels."""
+    import threading
+
+    from runtime import cli, color, display
+
+    screen, name = xscreen
+    monkeypatch.setenv("DISPLAY", name)
+    monkeypatch.setattr(display, "FIRST_DELAY", 0.0)  # shown however fast the refinement
+    w, h = 160, 120
+    scene, _ = cli._compile(str(EX3), [], (w, h), clock=0.0, debug_output=False)
+    assert scene is not None
+    plain = render.render_scene(scene, w, h, threads=1)  # one ray a pixel
+    window = display.Window("refined.pov", lambda: None, lambda why: pytest.fail(why))
+    window.frame(w, h, scene.settings, "rendering", tmp_path / "r.shown.png")
+    window.show()
+    win = screen.wait_for("refined.pov")
+    shown_first: list[tuple[int, int, int, int]] = []
+
+    def first(rect, pixels) -> None:
+        x0, y0, x1, y1 = rect
+        # the first rays, unrefined (float64 here, held as float32 in the image)
+        assert np.array_equal(pixels.astype(np.float32), plain[y0:y1, x0:x1])
+        window.first(rect, pixels)
+        want = color.to_display8(pixels, scene.settings)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:  # the refinement waits until they are shown
+            if np.array_equal(screen.pixels(win)[y0:y1, x0:x1], want):
+                shown_first.append(rect)
+                return
+            time.sleep(0.01)
+
+    got = render.render_scene(
+        scene, w, h, antialias=0.3, threads=1, on_tile=window.tile, on_first=first
+    )
+    tiles = render.tile_order((0, 0, w, h), 1)
+    assert sorted(shown_first) == sorted(tiles)  # every tile, first rays first
+    out = tmp_path / "r.png"
+    image.write_pixels(out, window.file_values(), 8)
+    done = threading.Thread(target=window.finish, args=(True,))  # +P: open until closed
+    done.start()
+    try:
+        screen.wait_title(win, "done", timeout=30)
+        final = screen.pixels(win)
+    finally:
+        screen.close_window(win)
+        done.join(10)
+    assert np.array_equal(final, _png8(out))  # the window ends on the file's pixels
+    # … which are the anti-aliased render's, bit for bit, not the first rays'
+    alone = render.render_scene(scene, w, h, antialias=0.3, threads=2)
+    assert np.array_equal(got, alone)
+    assert np.array_equal(window.file_values(), color.to_display8(alone, scene.settings))
+    refined = np.any(final != color.to_display8(plain, scene.settings), axis=-1)
+    assert refined.sum() > 100  # the refinement did change what was shown first

@@ -177,6 +177,17 @@ class Screen:
         seen = [t for _, t in self.find("")]
         raise TimeoutError(f"no window titled {prefix!r}…{contains!r} in {timeout} s; {seen}")
 
+    def wait_title(self, window: int, contains: str, timeout: float = 60.0) -> str:
+        """The title of `window` once it holds `contains`, looked at every 2 ms (a timing
+        is not rounded up to the 50 ms `wait_for` looks at all windows with)."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            title = self.title(window)
+            if title is not None and contains in title:
+                return title
+            time.sleep(0.002)
+        raise TimeoutError(f"the window's title never held {contains!r}: {self.title(window)}")
+
     def size(self, window: int) -> tuple[int, int]:
         root = ctypes.c_ulong()
         x, y = ctypes.c_int(), ctypes.c_int()

@@ -2763,24 +2763,90 @@ static void trace_pixel(Scene *s, double x, double y, double *out) {
     trace(s, o, d, 1.0, 0, SKIP_NO_IMAGE, 0, 0, &held, out);
 }
 
+/* The anti-aliasing of a tile whose first rays are traced (render_tile): the pixels
+ * that differ from a neighbour supersampled into `out`; the count of them. */
+static long long refine_tile(Scene *s, int x0, int y0, int x1, int y1, int ew, int eh,
+                             double threshold, double metric_power, int depth,
+                             const double *first, double *metric, unsigned char *mask,
+                             double *out) {
+    int tw = x1 - x0;
+    long long supersampled = 0;
+    /* the last value and its power per channel: a background or a flat colour repeats
+     * along a row, and the power was a tenth of the render */
+    double last_v[3] = {0.0, 0.0, 0.0}, last_m[3] = {0.0, 0.0, 0.0};
+    for (size_t i = 0; i < (size_t)ew * eh; i++)
+        for (int k = 0; k < 3; k++) {
+            double v = first[3 * i + k];
+            if (v != last_v[k]) {
+                last_v[k] = v;
+                last_m[k] = v > 0 ? pow(v, metric_power) : 0.0;
+            }
+            metric[3 * i + k] = last_m[k];
+        }
+    for (int r = 0; r < eh; r++)
+        for (int c = 0; c < ew; c++) {
+            size_t i = (size_t)r * ew + c;
+            const double *m = metric + 3 * i;
+            if (c > 0) {
+                const double *l = m - 3;
+                if (fabs(m[0] - l[0]) + fabs(m[1] - l[1]) + fabs(m[2] - l[2]) >= threshold)
+                    mask[i] = mask[i - 1] = 1;
+            }
+            if (r > 0) {
+                const double *t = m - 3 * ew;
+                if (fabs(m[0] - t[0]) + fabs(m[1] - t[1]) + fabs(m[2] - t[2]) >= threshold)
+                    mask[i] = mask[i - ew] = 1;
+            }
+        }
+    double step = 1.0 / depth, base = 0.5 - 0.5 * step;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) {
+            size_t i = (size_t)(y - y0 + 1) * ew + (x - x0 + 1);
+            double *dst = out + 3 * ((size_t)(y - y0) * tw + (x - x0));
+            double acc[3] = {first[3 * i], first[3 * i + 1], first[3 * i + 2]};
+            if (mask[i]) {
+                double sum[3] = {0.0, 0.0, 0.0};
+                for (int a = 0; a < depth; a++)
+                    for (int b = 0; b < depth; b++) {
+                        double col[3];
+                        trace_pixel(s, x + 0.5 + (b * step - base), y + 0.5 + (a * step - base),
+                                    col);
+                        sum[0] += col[0], sum[1] += col[1], sum[2] += col[2];
+                    }
+                for (int k = 0; k < 3; k++) acc[k] = (acc[k] + sum[k]) / (depth * depth + 1);
+                supersampled++;
+            }
+            dst[0] = acc[0], dst[1] = acc[1], dst[2] = acc[2];
+        }
+    return supersampled;
+}
+
 /* One tile with POV-Ray's anti-aliasing method 1, as runtime/antialias.py does it: first
  * rays for the tile plus one row above and one column to the left (and one below / to the
  * right where the image goes on), colours compared in the AA metric space (working value
  * clipped at 0, to the power `metric_power`), both pixels of a differing pair supersampled
- * with a depth x depth grid averaged with the first ray. threshold < 0: no anti-aliasing. */
+ * with a depth x depth grid averaged with the first ray. threshold < 0: no anti-aliasing.
+ * stage 1 only traces the first rays into `first` (the extended tile, ew x eh x 3) and
+ * stage 2 only refines them into `out`, so the caller can show a tile's first rays before
+ * its refinement; stage 0 (the default) does both with a buffer of its own. */
 static PyObject *render_tile(PyObject *self, PyObject *args) {
-    PyObject *scene_o, *out_o;
-    int x0, y0, x1, y1, depth;
+    PyObject *scene_o, *out_o, *first_o = Py_None;
+    int x0, y0, x1, y1, depth, stage = 0;
     double threshold, metric_power;
-    if (!PyArg_ParseTuple(args, "OiiiiddiO", &scene_o, &x0, &y0, &x1, &y1, &threshold,
-                          &metric_power, &depth, &out_o))
+    if (!PyArg_ParseTuple(args, "OiiiiddiO|iO", &scene_o, &x0, &y0, &x1, &y1, &threshold,
+                          &metric_power, &depth, &out_o, &stage, &first_o))
         return NULL;
     int tw = x1 - x0, th = y1 - y0;
     if (tw <= 0 || th <= 0 || depth < 1) {
         PyErr_SetString(PyExc_ValueError, "render_tile: empty tile or depth < 1");
         return NULL;
     }
-    Py_buffer sb, ob;
+    if (stage < 0 || stage > 2 || (stage != 0 && (threshold < 0 || first_o == Py_None))) {
+        PyErr_SetString(PyExc_ValueError,
+                        "render_tile: stage 1 or 2 needs a threshold and a first-ray buffer");
+        return NULL;
+    }
+    Py_buffer sb, ob, fb;
     if (checked_buffer(scene_o, &sb, HDR, 8, 0, "scene")) return NULL;
     if (checked_buffer(out_o, &ob, (Py_ssize_t)3 * tw * th, 8, 1, "out")) {
         PyBuffer_Release(&sb);
@@ -2788,6 +2854,16 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
     }
     Scene s;
     if (scene_from(&sb, &s)) {
+        PyBuffer_Release(&ob);
+        PyBuffer_Release(&sb);
+        return NULL;
+    }
+    int width = (int)s.h[H_WIDTH], height = (int)s.h[H_HEIGHT];
+    int ex1 = x1 < width ? x1 + 1 : x1, ey1 = y1 < height ? y1 + 1 : y1;
+    int ew = ex1 - (x0 - 1), eh = ey1 - (y0 - 1);
+    size_t np_ = (size_t)ew * eh;
+    int given = stage != 0;
+    if (given && checked_buffer(first_o, &fb, (Py_ssize_t)(3 * np_), 8, 1, "first")) {
         PyBuffer_Release(&ob);
         PyBuffer_Release(&sb);
         return NULL;
@@ -2801,73 +2877,27 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
             for (int x = x0; x < x1; x++)
                 trace_pixel(&s, x + 0.5, y + 0.5, out + 3 * ((size_t)(y - y0) * tw + (x - x0)));
     } else {
-        int width = (int)s.h[H_WIDTH], height = (int)s.h[H_HEIGHT];
-        int ex1 = x1 < width ? x1 + 1 : x1, ey1 = y1 < height ? y1 + 1 : y1;
-        int ew = ex1 - (x0 - 1), eh = ey1 - (y0 - 1);
-        size_t np_ = (size_t)ew * eh;
-        double *first = malloc(np_ * 3 * sizeof(double));
-        double *metric = malloc(np_ * 3 * sizeof(double));
-        unsigned char *mask = calloc(np_, 1);
-        if (!first || !metric || !mask) {
+        double *first = given ? fb.buf : malloc(np_ * 3 * sizeof(double));
+        double *metric = stage == 1 ? NULL : malloc(np_ * 3 * sizeof(double));
+        unsigned char *mask = stage == 1 ? NULL : calloc(np_, 1);
+        if (!first || (stage != 1 && (!metric || !mask))) {
             failed = 1;
         } else {
-            /* the last value and its power per channel: a background or a flat colour
-             * repeats along a row, and the power was a tenth of the render */
-            double last_v[3] = {0.0, 0.0, 0.0}, last_m[3] = {0.0, 0.0, 0.0};
-            for (int r = 0; r < eh; r++)
-                for (int c = 0; c < ew; c++) {
-                    size_t i = (size_t)r * ew + c;
-                    trace_pixel(&s, x0 - 1 + c + 0.5, y0 - 1 + r + 0.5, first + 3 * i);
-                    for (int k = 0; k < 3; k++) {
-                        double v = first[3 * i + k];
-                        if (v != last_v[k]) {
-                            last_v[k] = v;
-                            last_m[k] = v > 0 ? pow(v, metric_power) : 0.0;
-                        }
-                        metric[3 * i + k] = last_m[k];
-                    }
-                }
-            for (int r = 0; r < eh; r++)
-                for (int c = 0; c < ew; c++) {
-                    size_t i = (size_t)r * ew + c;
-                    const double *m = metric + 3 * i;
-                    if (c > 0) {
-                        const double *l = m - 3;
-                        if (fabs(m[0] - l[0]) + fabs(m[1] - l[1]) + fabs(m[2] - l[2]) >= threshold)
-                            mask[i] = mask[i - 1] = 1;
-                    }
-                    if (r > 0) {
-                        const double *t = m - 3 * ew;
-                        if (fabs(m[0] - t[0]) + fabs(m[1] - t[1]) + fabs(m[2] - t[2]) >= threshold)
-                            mask[i] = mask[i - ew] = 1;
-                    }
-                }
-            double step = 1.0 / depth, base = 0.5 - 0.5 * step;
-            for (int y = y0; y < y1; y++)
-                for (int x = x0; x < x1; x++) {
-                    size_t i = (size_t)(y - y0 + 1) * ew + (x - x0 + 1);
-                    double *dst = out + 3 * ((size_t)(y - y0) * tw + (x - x0));
-                    double acc[3] = {first[3 * i], first[3 * i + 1], first[3 * i + 2]};
-                    if (mask[i]) {
-                        double sum[3] = {0.0, 0.0, 0.0};
-                        for (int a = 0; a < depth; a++)
-                            for (int b = 0; b < depth; b++) {
-                                double col[3];
-                                trace_pixel(&s, x + 0.5 + (b * step - base),
-                                            y + 0.5 + (a * step - base), col);
-                                sum[0] += col[0], sum[1] += col[1], sum[2] += col[2];
-                            }
-                        for (int k = 0; k < 3; k++) acc[k] = (acc[k] + sum[k]) / (depth * depth + 1);
-                        supersampled++;
-                    }
-                    dst[0] = acc[0], dst[1] = acc[1], dst[2] = acc[2];
-                }
+            if (stage != 2)
+                for (int r = 0; r < eh; r++)
+                    for (int c = 0; c < ew; c++)
+                        trace_pixel(&s, x0 - 1 + c + 0.5, y0 - 1 + r + 0.5,
+                                    first + 3 * ((size_t)r * ew + c));
+            if (stage != 1)
+                supersampled = refine_tile(&s, x0, y0, x1, y1, ew, eh, threshold, metric_power,
+                                           depth, first, metric, mask, out);
         }
-        free(first);
+        if (!given) free(first);
         free(metric);
         free(mask);
     }
     Py_END_ALLOW_THREADS
+    if (given) PyBuffer_Release(&fb);
     PyBuffer_Release(&ob);
     PyBuffer_Release(&sb);
     if (failed) return PyErr_NoMemory();
@@ -2914,8 +2944,9 @@ static PyMethodDef methods[] = {
     {"first_hit", first_hit, METH_VARARGS,
      "first_hit(scene, origin, direction) -> (t, normal) of the nearest surface, or None."},
     {"render_tile", render_tile, METH_VARARGS,
-     "render_tile(scene, x0, y0, x1, y1, threshold, metric_power, depth, out) -> (rays, "
-     "shadow_rays, supersampled): one tile's colours, anti-aliased (threshold < 0: not)."},
+     "render_tile(scene, x0, y0, x1, y1, threshold, metric_power, depth, out, stage=0, "
+     "first=None) -> (rays, shadow_rays, supersampled): one tile's colours, anti-aliased "
+     "(threshold < 0: not); stage 1 traces the first rays into `first`, 2 refines them."},
     {"layout", layout, METH_NOARGS, "The packed scene's strides."},
     {NULL, NULL, 0, NULL}};
 
