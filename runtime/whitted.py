@@ -26,7 +26,9 @@ Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_ma
 average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
 pigments are solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical,
 planar, boxed, radial, leopard, spiral1, spiral2, ripples, waves, quilted, the fractals
-(mandel and julia to exponent 4, magnet) or one of
+(mandel and julia to exponent 4, magnet), image_map (every map_type, interpolation,
+once, use_alpha, filter and transmit, palette entries: the numpy path's decoded pixels in a
+table of their own) or one of
 POV-Ray's noise patterns (bozo, spotted, bumps, dents, granite, marble, wood, wrinkles,
 agate, on its three noise generators, and crackle), with a colour map of any
 length or a pigment map (checkers, maps and averages of such pigments, nested up to
@@ -209,6 +211,15 @@ P_ITER, P_POWER, P_CONST, P_EXT, P_INT, P_MAGNET, P_MFORM = (
 )
 # the kernel has POV-Ray's written-out powers up to this; higher ones render through numpy
 FRACTAL_KERNEL_POWER = 4
+# an image_map (patterns.image_map) from P_FORM on: where its pixels start in the images'
+# table, its width, height and channels (4: RGBA; 6: and each pixel's filter and transmit),
+# map_type, bilinear (interpolate 2 or 4), once, use_alpha, every pixel's filter, transmit
+P_IMG, P_IMGW, P_IMGH, P_IMGCH, P_MAPTYPE, P_BILINEAR, P_ONCE, P_ALPHA, P_IMGF, P_IMGT = range(
+    P_FORM, P_FORM + 10
+)
+# the image maps' pixels (the values of a pixel after another's, rows from the top): where
+# they start, how many values
+H_IMAGES, H_NIMAGE = 110, 111
 PIGMENT_KINDS = {
     "solid": 0,
     "checker": 1,
@@ -241,6 +252,7 @@ PIGMENT_KINDS = {
     "mandel": 26,
     "julia": 27,
     "magnet": 28,
+    "image_map": 29,
 }
 # the kernel's list patterns: the value names the entry shown
 LIST_KINDS = frozenset({"checker", "hexagon", "brick"})
@@ -267,7 +279,9 @@ NORMAL_KINDS = {
 }
 NK_SLOPE = 6
 # (an average normal blends its entries' normals: not a slope)
-SLOPE_KINDS = frozenset(k for k in PIGMENT_KINDS if k not in ("solid", "average", *NORMAL_KINDS))
+SLOPE_KINDS = frozenset(
+    k for k in PIGMENT_KINDS if k not in ("solid", "average", "image_map", *NORMAL_KINDS)
+)
 WAVES = {
     "ramp_wave": 0,
     "triangle_wave": 1,
@@ -436,7 +450,7 @@ def _patterned_reasons(tex: ir.Texture, depth: int) -> list[str]:
     kind = pat.pattern
     if depth >= PIGMENT_DEPTH:
         return [f"patterned textures nested deeper than {PIGMENT_DEPTH}"]
-    if kind not in PIGMENT_KINDS or kind == "solid":
+    if kind not in PIGMENT_KINDS or kind in ("solid", "image_map"):
         return [f"texture pattern {kind}"]
     if pat.params.get("warps"):
         return [f"warped {kind} texture"]
@@ -628,12 +642,58 @@ def _pack_fractal(kind: str, prm: dict, row: np.ndarray) -> None:
     row[P_MFORM] = 1.0 if julia_form else 0.0
 
 
+class Images:
+    """The images' table as pack_pigment fills it: each image's pixels once (the numpy
+    path's own arrays, patterns.image_pixels), where each starts."""
+
+    def __init__(self) -> None:
+        self.parts: list[np.ndarray] = []
+        self.size = 0
+        self.at: dict[int, int] = {}
+
+    def add(self, img: np.ndarray) -> int:
+        if id(img) not in self.at:
+            self.at[id(img)] = self.size
+            self.parts.append(img)
+            self.size += img.size
+        return self.at[id(img)]
+
+
+def _pack_image(pig: ir.Pigment, row: np.ndarray, images: Images, gamma: float | None) -> bool:
+    """An image_map's slots (False: no image to be had, it renders black)."""
+    prm = pig.params
+    img = patterns.image_pixels(prm, gamma, pig.span)
+    if img is None:
+        return False
+    row[P_IMG] = images.add(img)
+    row[P_IMGH], row[P_IMGW], row[P_IMGCH] = img.shape
+    row[P_MAPTYPE] = int(prm.get("map_type", 0))
+    row[P_BILINEAR] = int(prm.get("interpolate", 0)) in (2, 4)
+    row[P_ONCE], row[P_ALPHA] = bool(prm.get("once")), bool(prm.get("use_alpha"))
+    row[P_IMGF] = float(prm.get("filter") or 0.0)
+    row[P_IMGT] = float(prm.get("transmit") or 0.0)
+    return True
+
+
 def pack_pigment(
-    pig: ir.Pigment, row: np.ndarray, maps: list[list[float]], rows_of: dict[int, int]
+    pig: ir.Pigment,
+    row: np.ndarray,
+    maps: list[list[float]],
+    rows_of: dict[int, int],
+    images: Images,
+    gamma: float | None,
 ) -> None:
     """One pigment row: kind, pattern and colour map (solid: one entry; checker: its two
-    colours), or the rows of the pigments inside it (`rows_of`, by id)."""
+    colours), or the rows of the pigments inside it (`rows_of`, by id); an image map's
+    pixels go to `images` (decoded for the working `gamma`)."""
     row[P_KIND] = PIGMENT_KINDS[pig.pattern]
+    if pig.pattern == "image_map":
+        row[P_MAP], row[P_N] = len(maps), 1  # no colour map: one entry, for the table's rule
+        maps.append([0.0] * MAP_ENTRY)
+        _pack_pattern(pig.pattern, pig.params, pig.transform, row)
+        if not _pack_image(pig, row, images, gamma):
+            row[P_KIND] = PIGMENT_KINDS["solid"]  # patterns.image_map: black, opaque
+        return
     _pack_pattern(pig.pattern, pig.params, pig.transform, row)
     _pack_wave_sources(pig.pattern, pig.params, row, maps)
     subs = _subs(pig)
@@ -1126,11 +1186,12 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     pig_rows = np.zeros((n_pig, PIG))
     maps: list[list[float]] = []
     pig_row_of = {id(pig): k for k, pig in enumerate(pigs)}
+    images = Images()
     for k, (pig, row) in enumerate(zip(pigs, pig_rows, strict=True)):
         if k in ctx.tree:  # a patterned texture's row: its pattern, its textures' rows
             pack_texture_pattern(ctx.tree[k], row, maps, ctx.leaf_id)
         else:
-            pack_pigment(pig, row, maps, pig_row_of)
+            pack_pigment(pig, row, maps, pig_row_of, images, ctx.gamma)
     nrm_rows = np.zeros((len(bumped), NRM))
     for layer, row in zip(bumped, nrm_rows, strict=True):
         assert layer.normal is not None  # bumped holds the layers with one
@@ -1150,8 +1211,12 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     tris_at = sweeps_at + n_sweep
     tbvh_at = tris_at + TRI * len(tri_rows)
     titems_at = tbvh_at + BVH * len(tri_bvh)
-    buf = np.zeros(titems_at + len(tri_items) + len(tables))
+    images_at = titems_at + len(tri_items)
+    buf = np.zeros(images_at + images.size + len(tables))
     h = buf[:HDR]
+    h[H_IMAGES], h[H_NIMAGE] = images_at, images.size
+    if images.parts:
+        buf[images_at : images_at + images.size] = np.concatenate([a.ravel() for a in images.parts])
     h[H_TRIS], h[H_NTRI], h[H_TBVH], h[H_NTBVH] = tris_at, len(tri_rows), tbvh_at, len(tri_bvh)
     h[H_TITEMS], h[H_NTITEM] = titems_at, len(tri_items)
     buf[tris_at:tbvh_at] = tri_rows.ravel()

@@ -49,7 +49,7 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
        H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
        H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM,
        H_TRIS = 90, H_NTRI, H_TBVH, H_NTBVH, H_TITEMS, H_NTITEM, H_SWEEPS = 96, H_NSWEEP,
-       H_SWEEP_TOL };
+       H_SWEEP_TOL, H_IMAGES = 110, H_NIMAGE };
 /* the camera's projection (H_CAMKIND) and what the other projections read (camera.py):
  * the angle in radians, the cylinder type, the spherical angles, the lengths of right and
  * up, the unit right, up and direction, tan(135 degrees) for omnimax */
@@ -97,8 +97,13 @@ enum { P_ITER = P_FORM, P_POWER, P_CONST, P_EXT = P_CONST + 2, P_INT = P_EXT + 2
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
        PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE,
        PK_AVERAGE, PK_CRACKLE, PK_HEXAGON, PK_BRICK, PK_LEOPARD, PK_SPIRAL1, PK_SPIRAL2,
-       PK_RIPPLES, PK_WAVES, PK_DENTS, PK_QUILTED, PK_MANDEL, PK_JULIA, PK_MAGNET,
-       PK_LAST = PK_MAGNET };
+       PK_RIPPLES, PK_WAVES, PK_DENTS, PK_QUILTED, PK_MANDEL, PK_JULIA, PK_MAGNET, PK_IMAGE,
+       PK_LAST = PK_IMAGE };
+/* an image_map's slots from P_FORM on: where its pixels start in the images' table, its
+ * width, height and channels (4: RGBA; 6: and each pixel's filter and transmit), map_type,
+ * bilinear (interpolate 2 or 4), once, use_alpha, every pixel's filter and transmit */
+enum { P_IMG = P_FORM, P_IMGW, P_IMGH, P_IMGCH, P_MAPTYPE, P_BILINEAR, P_ONCE, P_ALPHA, P_IMGF,
+       P_IMGT };
 /* the list patterns: their value is the entry shown (0, 1, 2), no wave */
 static inline int list_kind(int kind) {
     return kind == PK_CHECKER || kind == PK_HEXAGON || kind == PK_BRICK;
@@ -176,6 +181,7 @@ typedef struct {
     const double *map;          /* the colour maps' entries */
     const double *fog;          /* the fogs, FOG values each */
     const double *terms;        /* the polynomials' terms, POLY_TERM values each */
+    const double *img;          /* the image maps' pixels, row by row from the top */
     const double *tri, *tbvh, *titem; /* the triangles, their box tree, its leaves' triangles */
     int ntri, ntbvh, ntitem;
     int has_noise, nfog, mwidth, nnrm;
@@ -1417,6 +1423,65 @@ static double blend(const double *map, int n, double v, int *lo_out, int *hi_out
     return span > 0 ? (v - map[6 * lo]) / span : 0.0;
 }
 
+/* numpy's float mod (npy_divmod): the sign of the divisor, a zero result signed as it */
+static inline double float_mod(double a, double b) {
+    double m = fmod(a, b);
+    if (m != 0.0) {
+        if ((b < 0) != (m < 0)) m += b;
+    } else m = copysign(0.0, b);
+    return m;
+}
+
+/* An image_map's RGBFT at a pattern-space point (patterns.image_uv, patterns.image_map). */
+static void image_at(const Scene *s, const double *pg, const double *q, double *out) {
+    double x = q[0], y = q[1], z = q[2], u = x, v = y;
+    int type = (int)pg[P_MAPTYPE];
+    if (type == 1 || type == 2 || type == 5) {
+        u = float_mod(atan2(z, x) / (2.0 * M_PI), 1.0);
+        if (type == 2) v = y;
+        else if (type == 5) {
+            double d = hypot(x, z) - 1.0;
+            v = float_mod(-atan2(y, -d) / (2.0 * M_PI), 1.0);
+        } else {
+            double r = sqrt(x * x + y * y + z * z), safe = r > 0 ? r : 1.0, c = y / safe;
+            v = asin(c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c)) / M_PI + 0.5;
+        }
+    }
+    int inside = u >= 0 && u < 1 && v >= 0 && v < 1;
+    u = u - floor(u);
+    v = v - floor(v);
+    long long w = (long long)pg[P_IMGW], h = (long long)pg[P_IMGH], ch = (long long)pg[P_IMGCH];
+    const double *img = s->img + (size_t)pg[P_IMG];
+    double fx = u * (double)w, fy = (1.0 - v) * (double)h, px[6] = {0};
+    if (!(fx == fx && fy == fy)) fx = fy = 0.0; /* a point at infinity: a pixel, not garbage */
+    if (pg[P_BILINEAR] != 0.0) {
+        double x0f = floor(fx - 0.5), y0f = floor(fy - 0.5);
+        double tx = (fx - 0.5) - x0f, ty = (fy - 0.5) - y0f;
+        long long x0 = py_mod((long long)x0f, w), y0 = py_mod((long long)y0f, h);
+        long long x1 = (x0 + 1) % w, y1 = (y0 + 1) % h;
+        const double *a = img + (size_t)(y0 * w + x0) * ch, *b = img + (size_t)(y0 * w + x1) * ch;
+        const double *c = img + (size_t)(y1 * w + x0) * ch, *d = img + (size_t)(y1 * w + x1) * ch;
+        double wa = (1 - tx) * (1 - ty), wb = tx * (1 - ty), wc = (1 - tx) * ty, wd = tx * ty;
+        for (int k = 0; k < ch; k++) px[k] = a[k] * wa + b[k] * wb + c[k] * wc + d[k] * wd;
+    } else {
+        long long xi = (long long)fx, yi = (long long)fy;
+        xi = xi < 0 ? 0 : (xi > w - 1 ? w - 1 : xi);
+        yi = yi < 0 ? 0 : (yi > h - 1 ? h - 1 : yi);
+        memcpy(px, img + (size_t)(yi * w + xi) * ch, (size_t)ch * sizeof(double));
+    }
+    out[0] = px[0], out[1] = px[1], out[2] = px[2];
+    if (ch == 6) out[3] = px[4], out[4] = px[5];
+    else out[3] = pg[P_IMGF], out[4] = pg[P_IMGT];
+    if (pg[P_ALPHA] != 0.0) {
+        double clear = 1.0 - px[3];
+        out[4] = out[4] >= clear ? out[4] : clear; /* np.maximum */
+    }
+    if (pg[P_ONCE] != 0.0 && !inside) {
+        out[0] = out[1] = out[2] = out[3] = 0.0;
+        out[4] = 1.0;
+    }
+}
+
 /* RGBFT colour of a pigment at a point (patterns.evaluate for the kinds packed). */
 static void pigment_in(const Scene *s, const double *pg, const double *p, double *out,
                        int depth) {
@@ -1432,6 +1497,10 @@ static void pigment_in(const Scene *s, const double *pg, const double *p, double
     }
     double q[3];
     pattern_point(s, pg, p, q);
+    if (kind == PK_IMAGE) {
+        image_at(s, pg, q, out);
+        return;
+    }
     if (kind == PK_AVERAGE) { /* patterns.evaluate: the weighted mean of the map's pigments */
         double at[3], e[5], total = 0.0;
         if (pg[P_MAPAT] != 0.0) affine(pg + P_FWD, q, at);
@@ -2537,6 +2606,10 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 goto bad;
         }
     }
+    double images = h[H_IMAGES], nimage = h[H_NIMAGE];
+    if (!(nimage >= 0 && (nimage == 0 || (images >= need && images + nimage <= sb->len / 8))))
+        goto bad;
+    s->img = h + (size_t)images;
     double sweeps = h[H_SWEEPS], nsweep = h[H_NSWEEP];
     if (!(nsweep >= 0 && (nsweep == 0 || (sweeps >= need && sweeps + nsweep <= sb->len / 8))))
         goto bad;
@@ -2635,6 +2708,11 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         }
         if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_LAST)) goto bad;
         if (pg[P_KIND] == PK_AVERAGE && pg[P_SUBS] == 0.0) goto bad;
+        if (pg[P_KIND] == PK_IMAGE &&
+            !(pg[P_SUBS] == SUBS_NONE && pg[P_IMGW] >= 1 && pg[P_IMGH] >= 1 && pg[P_IMGW] < 1e6 &&
+              pg[P_IMGH] < 1e6 && (pg[P_IMGCH] == 4 || pg[P_IMGCH] == 6) && pg[P_IMG] >= 0 &&
+              pg[P_IMG] + pg[P_IMGW] * pg[P_IMGH] * pg[P_IMGCH] <= nimage))
+            goto bad;
         if (!fractal_row_valid(pg)) goto bad;
         if ((pg[P_KIND] == PK_RIPPLES || pg[P_KIND] == PK_WAVES) &&
             !(pg[P_NWAVES] >= 1 && pg[P_WAVES] >= 0 && pg[P_WAVES] + pg[P_NWAVES] <= nmaps))
