@@ -16,6 +16,7 @@ setup(
                 "runtime/kernel/poly.h",
                 "runtime/kernel/slab.h",
                 "runtime/kernel/sweep.h",
+                "runtime/kernel/lathe.h",
             ],
             extra_compile_args=["-O3", "-fno-math-errno"],
             # linked to libm, not left to bind at load time: an unversioned `pow` bound to

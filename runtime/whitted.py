@@ -15,7 +15,7 @@ has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, c
 1-4, spherical; camera.py's formulas) without focal blur, a camera normal or a mesh
 camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (quadric,
 cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
-kernel/sweep.h), polygons, transformed or not, inverse or not, and their CSG (union,
+kernel/sweep.h), lathes (kernel/lathe.h, on the sweeps' segments), polygons, transformed or not, inverse or not, and their CSG (union,
 intersection, difference, merge, nested), any number of them through the tracer's box
 tree, clipped by any of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh,
 mesh2, height fields, bicubic patches: each in float64 through the triangles' own box tree,
@@ -76,6 +76,8 @@ from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
 from runtime.lights import MAX_SHADOW_CROSSINGS
+from runtime.prims import spline2d
+from runtime.prims.lathe import LathePrim
 from runtime.prims.polynomial import PolyPrim
 from runtime.prims.prism import PrismPrim, Sweep
 from runtime.prims.text import TextPrim
@@ -301,6 +303,7 @@ KINDS = {
     PrismPrim: 7,
     TextPrim: 7,
     shapes.PolygonPrim: 8,
+    LathePrim: 12,
 }
 # an object made of triangles (a mesh, mesh2, triangle, height field): met through the
 # triangles' box tree, never as a primitive
@@ -1042,18 +1045,25 @@ def _table(rows: list, width: int) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(len(rows), width)
 
 
+def _segment_rows(c: spline2d.Curve) -> np.ndarray:
+    """A curve's segments for the sweeps' table: each its x and y cubics, exact box and
+    whether its end joins a start (kernel/sweep.h SS values)."""
+    if len(c) == 0:
+        return np.zeros(0)
+    segs = np.concatenate(
+        [c.coef[:, 0], c.coef[:, 1], c.lo, c.hi, c.joined[:, None].astype(np.float64)], axis=1
+    )
+    return segs.ravel()
+
+
 def _sweep_rows(prim: Sweep) -> np.ndarray:
     """A sweep's part of the sweeps' table: per group its box, first segment and count, then
-    per segment its x and y cubics, exact box and whether its end joins a start."""
+    its segments."""
     groups = [
         [*prim.glo[g], *prim.ghi[g], prim.offsets[g], len(curve)]
         for g, curve in enumerate(prim.groups)
     ]
-    c = prim.all
-    segs = np.concatenate(
-        [c.coef[:, 0], c.coef[:, 1], c.lo, c.hi, c.joined[:, None].astype(np.float64)], axis=1
-    )
-    return np.concatenate([_table(groups, SWEEP_GROUP).ravel(), segs.ravel()])
+    return np.concatenate([_table(groups, SWEEP_GROUP).ravel(), _segment_rows(prim.all)])
 
 
 class _Curves:
@@ -1094,6 +1104,11 @@ def _prim_row(prim, terms: list[list[float]], sweeps: _Curves) -> list[float]:
         # its projected edges go to the sweeps' table, a flat table of curves
         at = sweeps.add(prim.e2.reshape(-1).astype(np.float64))
         row = [*prim.n.tolist(), prim.D, *prim.keep, at, len(prim.e2), float(prim.degenerate)]
+    elif isinstance(prim, LathePrim):  # kernel/lathe.h LA_ slots
+        at = sweeps.add(_segment_rows(prim.curve))
+        row = [at, len(prim.curve), *prim.lo, *prim.hi, prim.size]
+        row += [prim.ylo, prim.yhi, prim.degenerate]
+        row += [tol.ROOT_MAX_ITER, tol.LATHE_FLAT_DIR, tol.BOX_PAD_REL, tol.BOX_PAD_ABS]
     elif isinstance(prim, Sweep):
         at = sweeps.add(_sweep_rows(prim))
         row = [at, len(prim.groups), len(prim.all), prim.h1, prim.h2, *prim.axes]
@@ -1207,6 +1222,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         for leaf in leaves
         if isinstance(leaf.prim, Sweep)
     ) + sum(4 * len(leaf.prim.e2) for leaf in leaves if isinstance(leaf.prim, shapes.PolygonPrim))
+    n_sweep += sum(
+        SWEEP_SEGMENT * len(leaf.prim.curve) for leaf in leaves if type(leaf.prim) is LathePrim
+    )
     tri_rows, tri_bvh, tri_items = _pack_triangles(ctx)
     tris_at = sweeps_at + n_sweep
     tbvh_at = tris_at + TRI * len(tri_rows)

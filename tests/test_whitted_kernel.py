@@ -1134,8 +1134,8 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
             "shape superellipsoid",
         ),
         (
-            "difference { sphere { 0, 1 } lathe { linear_spline 3, <0, 0>, <1, 1>, <0, 2> } }",
-            "shape lathe",
+            "difference { sphere { 0, 1 } sor { 4, <0, 0>, <1, 1>, <1, 1.5>, <0, 2> } }",
+            "shape sor",
         ),
         ("sphere { 0, 1 } media { scattering { 1, 0.1 } }", "media"),
         (
