@@ -15,8 +15,9 @@ has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, c
 1-4, spherical; camera.py's formulas) without focal blur, a camera normal or a mesh
 camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (quadric,
 cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
-kernel/sweep.h), lathes (kernel/lathe.h, on the sweeps' segments), polygons, transformed or not, inverse or not, and their CSG (union,
-intersection, difference, merge, nested), any number of them through the tracer's box
+kernel/sweep.h), lathes (kernel/lathe.h, on the sweeps' segments), polygons, transformed
+or not, inverse or not, and their CSG (union, intersection, difference, merge, nested),
+any number of them through the tracer's box
 tree, clipped by any of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh,
 mesh2, height fields, bicubic patches: each in float64 through the triangles' own box tree,
 as triangles.TriangleSet refines Embree's float32 hits; not in CSG, nor the tessellations
