@@ -15,7 +15,7 @@ has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, c
 1-4, spherical; camera.py's formulas) without focal blur, a camera normal or a mesh
 camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (quadric,
 cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
-kernel/sweep.h), lathes (kernel/lathe.h, on the sweeps' segments), polygons, transformed
+kernel/sweep.h), lathes and sors (kernel/lathe.h), polygons, transformed
 or not, inverse or not, and their CSG (union, intersection, difference, merge, nested),
 any number of them through the tracer's box
 tree, clipped by any of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh,
@@ -78,7 +78,7 @@ from runtime import transform as tf
 from runtime.camera import view_planes
 from runtime.lights import MAX_SHADOW_CROSSINGS
 from runtime.prims import spline2d
-from runtime.prims.lathe import LathePrim
+from runtime.prims.lathe import LathePrim, SorPrim
 from runtime.prims.polynomial import PolyPrim
 from runtime.prims.prism import PrismPrim, Sweep
 from runtime.prims.text import TextPrim
@@ -141,6 +141,8 @@ H_TRIS, H_NTRI, H_TBVH, H_NTBVH, H_TITEMS, H_NTITEM = range(90, 96)
 TRI = 24
 TR_V0, TR_E1, TR_E2, TR_NG, TR_VN, TR_OBJ, TR_TEX, TR_SIZE = 0, 3, 6, 9, 12, 21, 22, 23
 SWEEP_GROUP, SWEEP_SEGMENT = 6, 13
+# a sor's segment in the sweeps' table (kernel/lathe.h SR_ values)
+SOR_SEGMENT = 8
 POLY_TERM = 4
 # a polynomial of a higher degree renders through numpy (kernel/poly.h POLY_MAX_DEGREE)
 POLY_MAX_DEGREE = 8
@@ -305,6 +307,7 @@ KINDS = {
     TextPrim: 7,
     shapes.PolygonPrim: 8,
     LathePrim: 12,
+    SorPrim: 13,
 }
 # an object made of triangles (a mesh, mesh2, triangle, height field): met through the
 # triangles' box tree, never as a primitive
@@ -1110,6 +1113,12 @@ def _prim_row(prim, terms: list[list[float]], sweeps: _Curves) -> list[float]:
         row = [at, len(prim.curve), *prim.lo, *prim.hi, prim.size]
         row += [prim.ylo, prim.yhi, prim.degenerate]
         row += [tol.ROOT_MAX_ITER, tol.LATHE_FLAT_DIR, tol.BOX_PAD_REL, tol.BOX_PAD_ABS]
+    elif isinstance(prim, SorPrim):  # kernel/lathe.h SO_ slots
+        segs = np.concatenate([prim.coef, prim.y, prim.rmin[:, None], prim.rmax[:, None]], axis=1)
+        at = sweeps.add(segs.ravel())
+        row = [at, len(prim.coef), *prim.lo, *prim.hi, prim.size, prim.ylo, prim.yhi]
+        row += [prim.open, prim.base_r2, prim.cap_r2, prim.degenerate]
+        row += [tol.SOR_CAP_MIN_R2, tol.BOX_PAD_REL, tol.BOX_PAD_ABS]
     elif isinstance(prim, Sweep):
         at = sweeps.add(_sweep_rows(prim))
         row = [at, len(prim.groups), len(prim.all), prim.h1, prim.h2, *prim.axes]
@@ -1225,6 +1234,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     ) + sum(4 * len(leaf.prim.e2) for leaf in leaves if isinstance(leaf.prim, shapes.PolygonPrim))
     n_sweep += sum(
         SWEEP_SEGMENT * len(leaf.prim.curve) for leaf in leaves if type(leaf.prim) is LathePrim
+    )
+    n_sweep += sum(
+        SOR_SEGMENT * len(leaf.prim.coef) for leaf in leaves if type(leaf.prim) is SorPrim
     )
     tri_rows, tri_bvh, tri_items = _pack_triangles(ctx)
     tris_at = sweeps_at + n_sweep

@@ -1134,8 +1134,8 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
             "shape superellipsoid",
         ),
         (
-            "difference { sphere { 0, 1 } sor { 4, <0, 0>, <1, 1>, <1, 1.5>, <0, 2> } }",
-            "shape sor",
+            "difference { sphere { 0, 1 } julia_fractal { <-0.08, 0, -0.83, -0.03> } }",
+            "shape julia",
         ),
         ("sphere { 0, 1 } media { scattering { 1, 0.1 } }", "media"),
         (

@@ -1,4 +1,4 @@
-/* POV-Ray's lathe for the compiled kernel: runtime/prims/lathe.py LathePrim, formula for
+/* POV-Ray's lathe and sor for the compiled kernel: runtime/prims/lathe.py LathePrim, formula for
  * formula and in its order (the ray recentred and made unit, each segment's bounding shell,
  * the polynomial of twice the spline's degree in u solved by roots_in over LATHE_WINDOW,
  * the joint Newton polish of (u, k), in_window). Included by whitted.c after sweep.h and
@@ -19,13 +19,11 @@ enum { LA_AT, LA_NSEG, LA_LO, LA_HI = LA_LO + 3, LA_SIZE = LA_HI + 3, LA_YLO, LA
 #define LATHE_WLO (-0.2)
 #define LATHE_WHI 1.2
 
-/* lathe._cylinder_pairs for one segment: can the line P + k D (unit D) meet its shell? */
-static int lathe_pair(const SweepTol *tl, const double *prim, const double *sg, const double *P,
-                      const double *D) {
-    double h1 = sg[SS_LO + 1], h2 = sg[SS_HI + 1], xl = sg[SS_LO], xh = sg[SS_HI];
-    double rmax = fabs(xl) > fabs(xh) ? fabs(xl) : fabs(xh);
-    double rmin = (xl <= 0 && xh >= 0) ? 0.0 : (fabs(xl) < fabs(xh) ? fabs(xl) : fabs(xh));
-    double pad = prim[LA_PAD_REL] * (1.0 + fabs(h2 - h1)) + prim[LA_PAD_ABS];
+/* lathe._cylinder_pairs for one segment: can the line P + k D (unit D) meet the shell
+ * rmin..rmax between heights h1..h2? (pad_rel, pad_abs: tolerances.BOX_PAD_*) */
+static int shell_pair(const SweepTol *tl, double pad_rel, double pad_abs, double h1, double h2,
+                      double rmin, double rmax, const double *P, const double *D) {
+    double pad = pad_rel * (1.0 + fabs(h2 - h1)) + pad_abs;
     double Py = P[1], Dy = D[1];
     int flat = fabs(Dy) <= tl->parallel;
     double ka = flat ? -INFINITY : (h1 - pad - Py) / Dy, kb = flat ? INFINITY : (h2 + pad - Py) / Dy;
@@ -46,6 +44,29 @@ static int lathe_pair(const SweepTol *tl, const double *prim, const double *sg, 
     if (v[1] != v[1] || v[2] != v[2]) hi = NAN;
     double rpad = 1.0 + 1e-6;
     return within && lo <= rmax * rmax * rpad + pad && hi >= rmin * rmin / rpad - pad;
+}
+
+/* a lathe segment's shell: its box's heights, the radii its x reaches (LathePrim) */
+static int lathe_pair(const SweepTol *tl, const double *prim, const double *sg, const double *P,
+                      const double *D) {
+    double xl = sg[SS_LO], xh = sg[SS_HI];
+    double rmax = fabs(xl) > fabs(xh) ? fabs(xl) : fabs(xh);
+    double rmin = (xl <= 0 && xh >= 0) ? 0.0 : (fabs(xl) < fabs(xh) ? fabs(xl) : fabs(xh));
+    return shell_pair(tl, prim[LA_PAD_REL], prim[LA_PAD_ABS], sg[SS_LO + 1], sg[SS_HI + 1], rmin,
+                      rmax, P, D);
+}
+
+/* lathe._unit_recentred: the unit direction D, the origin moved to the line's point P
+ * nearest the box's centre; t = t0 + k / dl */
+static void unit_recentred(const double *prim_lo, const double *prim_hi, const double *o,
+                           const double *d, double *P, double *D, double *t0, double *dl_out) {
+    double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), c[3];
+    dl = dl > 0 ? dl : 1.0;
+    for (int j = 0; j < 3; j++) D[j] = d[j] / dl;
+    for (int j = 0; j < 3; j++) c[j] = 0.5 * (prim_lo[j] + prim_hi[j]) - o[j];
+    double k0 = c[0] * D[0] + c[1] * D[1] + c[2] * D[2];
+    for (int j = 0; j < 3; j++) P[j] = o[j] + k0 * D[j];
+    *t0 = k0 / dl, *dl_out = dl;
 }
 
 /* LathePrim._polish for one candidate: 1 when (u, k) settle on the surface */
@@ -81,13 +102,9 @@ static int lathe_crossings(const SweepTol *tl, const double *table, const double
     if ((int)prim[LA_DEGENERATE]) return 0;
     const double *segs = table + (size_t)prim[LA_AT];
     int nseg = (int)prim[LA_NSEG], n = 0, max_iter = (int)prim[LA_ROOT_ITER];
-    double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    dl = dl > 0 ? dl : 1.0;
-    double D[3] = {d[0] / dl, d[1] / dl, d[2] / dl}, c[3], P[3];
-    for (int j = 0; j < 3; j++) c[j] = 0.5 * (prim[LA_LO + j] + prim[LA_HI + j]) - o[j];
-    double k0 = c[0] * D[0] + c[1] * D[1] + c[2] * D[2];
-    for (int j = 0; j < 3; j++) P[j] = o[j] + k0 * D[j];
-    double t0 = k0 / dl, scale = fmax(prim[LA_SIZE], tl->abs_floor);
+    double P[3], D[3], t0, dl;
+    unit_recentred(prim + LA_LO, prim + LA_HI, o, d, P, D, &t0, &dl);
+    double scale = fmax(prim[LA_SIZE], tl->abs_floor);
     double Dy = D[1], r = D[0] * D[0] + D[2] * D[2], m = P[0] * D[0] + P[2] * D[2];
     double rho0 = P[0] * P[0] + P[2] * P[2];
     int flat = fabs(Dy) <= prim[LA_FLAT];
@@ -194,6 +211,90 @@ static void lathe_normal(const SweepTol *tl, const double *table, const double *
         return;
     }
     n[0] = n2[0] * p[0] / rr, n[1] = n2[1], n[2] = n2[0] * p[2] / rr;
+}
+
+/* A sor's primitive slots (runtime/prims/lathe.py SorPrim): its segments in the sweeps'
+ * table (SOR_SEG values each: the cubic of radius squared in y highest power first, the
+ * heights it spans, its least and largest radius), how many, box, size, height range,
+ * open, the caps' radii squared, whether it has no segment, and the tolerances it reads
+ * (SOR_CAP_MIN_R2, BOX_PAD_REL, BOX_PAD_ABS) */
+enum { SO_AT, SO_NSEG, SO_LO, SO_HI = SO_LO + 3, SO_SIZE = SO_HI + 3, SO_YLO, SO_YHI, SO_OPEN,
+       SO_BASE_R2, SO_CAP_R2, SO_DEGENERATE, SO_CAP_MIN, SO_PAD_REL, SO_PAD_ABS };
+enum { SR_A, SR_B, SR_C, SR_D, SR_Y1, SR_Y2, SR_RMIN, SR_RMAX, SOR_SEG };
+
+/* SorPrim.crossings for an object-space ray: the curved surface (face 2), then the caps
+ * (0: base, 1: top); at most cap, the nearest. */
+static int sor_crossings(const SweepTol *tl, const double *table, const double *prim,
+                         const double *o, const double *d, double *t, int *face, int cap) {
+    if ((int)prim[SO_DEGENERATE]) return 0;
+    const double *segs = table + (size_t)prim[SO_AT];
+    int nseg = (int)prim[SO_NSEG], n = 0;
+    double P[3], D[3], t0, dl;
+    unit_recentred(prim + SO_LO, prim + SO_HI, o, d, P, D, &t0, &dl);
+    double py = P[1], dy = D[1], r = D[0] * D[0] + D[2] * D[2];
+    double m = P[0] * D[0] + P[2] * D[2], rho0 = P[0] * P[0] + P[2] * P[2];
+    double s = fmax(prim[SO_SIZE], tl->abs_floor);
+    for (int si = 0; si < nseg; si++) {
+        const double *sg = segs + (size_t)si * SOR_SEG;
+        if (!shell_pair(tl, prim[SO_PAD_REL], prim[SO_PAD_ABS], sg[SR_Y1], sg[SR_Y2], sg[SR_RMIN],
+                        sg[SR_RMAX], P, D))
+            continue;
+        double A = sg[SR_A], B = sg[SR_B], C = sg[SR_C], Dc = sg[SR_D], k3[3];
+        /* f(P_y + k D_y) - |P_xz + k D_xz|^2 as a cubic in k = s kappa */
+        double poly[4] = {A * (dy * dy * dy) * (s * s * s),
+                          (dy * dy * (3 * A * py + B) - r) * (s * s),
+                          (dy * (py * (3 * A * py + 2 * B) + C) - 2 * m) * s,
+                          py * (py * (A * py + B) + C) + Dc - rho0};
+        sp_roots(tl, poly, k3);
+        int last = si == nseg - 1;
+        for (int j = 0; j < 3; j++) {
+            double k = k3[j] * s, hgt = py + k * dy;
+            if (hgt >= sg[SR_Y1] && (hgt < sg[SR_Y2] || (last && hgt <= sg[SR_Y2])) && isfinite(k))
+                sweep_keep(t0 + k / dl, 2, t, face, &n, cap);
+        }
+    }
+    if (!(int)prim[SO_OPEN]) {
+        for (int f = 0; f < 2; f++) {
+            double h = f == 0 ? prim[SO_YLO] : prim[SO_YHI];
+            double r2 = f == 0 ? prim[SO_BASE_R2] : prim[SO_CAP_R2];
+            if (!(r2 > prim[SO_CAP_MIN]) || !(fabs(D[1]) > tl->parallel)) continue;
+            double k = (h - P[1]) / D[1], x = P[0] + k * D[0], z = P[2] + k * D[2];
+            if (x * x + z * z <= r2) sweep_keep(t0 + k / dl, f, t, face, &n, cap);
+        }
+    }
+    return n;
+}
+
+/* SorPrim.segment_of: the first segment whose top is at or above y (clipped) */
+static int sor_segment(const double *segs, int nseg, double y) {
+    int i = 0;
+    while (i < nseg && segs[(size_t)i * SOR_SEG + SR_Y2] < y) i++;
+    return i < nseg ? i : nseg - 1;
+}
+
+static int sor_inside(const double *table, const double *prim, const double *p) {
+    if ((int)prim[SO_DEGENERATE]) return 0;
+    const double *segs = table + (size_t)prim[SO_AT];
+    double y = p[1], rho2 = p[0] * p[0] + p[2] * p[2];
+    const double *sg = segs + (size_t)sor_segment(segs, (int)prim[SO_NSEG], y) * SOR_SEG;
+    double f = sp_polyval(sg + SR_A, 4, y);
+    return y >= prim[SO_YLO] && y <= prim[SO_YHI] && rho2 <= f;
+}
+
+/* SorPrim.normal (not unit): (x, -f'(y) / 2, z) on the surface, the caps along y */
+static void sor_normal(const double *table, const double *prim, const double *p, int face,
+                       double *n) {
+    n[0] = n[1] = n[2] = 0.0;
+    if (face == 0 || face == 1) {
+        n[1] = face == 0 ? -1.0 : 1.0;
+        return;
+    }
+    if ((int)prim[SO_NSEG] == 0) return;
+    const double *segs = table + (size_t)prim[SO_AT];
+    const double *sg = segs + (size_t)sor_segment(segs, (int)prim[SO_NSEG], p[1]) * SOR_SEG;
+    double dc[3] = {sg[SR_A] * 3.0, sg[SR_B] * 2.0, sg[SR_C] * 1.0};
+    double slope = sp_polyval(dc, 3, p[1]);
+    n[0] = p[0], n[1] = -0.5 * slope, n[2] = p[2];
 }
 
 #endif

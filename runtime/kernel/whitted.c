@@ -128,7 +128,7 @@ enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = 
 enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE, NK_QUILTED };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON, K_MESH,
-       K_LATHE = 12 };
+       K_LATHE = 12, K_SOR };
 /* a triangle (runtime/triangles.py TriangleSet, world space): its first vertex, edges, unit
  * geometric normal, vertex normals (NaN: flat), object, texture row, the object's size (the
  * self-hit floor's); K_MESH objects own triangles and are met only through their box tree */
@@ -519,6 +519,8 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
         return sweep_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
     case K_LATHE:
         return lathe_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
+    case K_SOR:
+        return sor_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
     case K_POLYGON: { /* the plane, then even-odd crossings of the projected edges */
         double denom = -dot(d, p + PG_N);
         double t0 = fabs(denom) > PARALLEL_EPS ? (dot(o, p + PG_N) + p[PG_D]) / denom : INFINITY;
@@ -605,6 +607,9 @@ static void object_normal(const Scene *s, const double *ob, const double *po, in
         break;
     case K_LATHE:
         lathe_normal(&s->swt, s->sweeps, p, po, face, n);
+        break;
+    case K_SOR:
+        sor_normal(s->sweeps, p, po, face, n);
         break;
     case K_TORUS: {
         double R2 = p[0] * p[0], sq = dot(po, po) + R2 - p[1] * p[1];
@@ -697,6 +702,10 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
     }
     case K_LATHE: {
         int in = lathe_inside(&s->swt, s->sweeps, q, p);
+        return outside ? !in : in;
+    }
+    case K_SOR: {
+        int in = sor_inside(s->sweeps, q, p);
         return outside ? !in : in;
     }
     case K_POLYGON: /* flat: no inside, nor has its inverse (as POV-Ray) */
@@ -2641,6 +2650,11 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if ((int)ob[O_KIND] == K_LATHE) {
             if (!(q[LA_AT] >= 0 && q[LA_NSEG] >= 0 && q[LA_AT] + SS * q[LA_NSEG] <= nsweep &&
                   q[LA_ROOT_ITER] >= 0 && q[LA_ROOT_ITER] <= 1e4))
+                goto bad;
+            continue;
+        }
+        if ((int)ob[O_KIND] == K_SOR) {
+            if (!(q[SO_AT] >= 0 && q[SO_NSEG] >= 0 && q[SO_AT] + SOR_SEG * q[SO_NSEG] <= nsweep))
                 goto bad;
             continue;
         }

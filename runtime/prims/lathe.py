@@ -259,7 +259,7 @@ class SorPrim:
         self.rmin = np.sqrt(np.maximum(f.min(axis=1), 0.0))
         if self.degenerate:
             self.lo = self.hi = np.zeros(3)
-            self.size = 0.0
+            self.size = self.ylo = self.yhi = self.base_r2 = self.cap_r2 = 0.0
             return
         R = float(self.rmax.max())
         self.ylo, self.yhi = float(self.y[0, 0]), float(self.y[-1, 1])
@@ -290,10 +290,11 @@ class SorPrim:
             # f(P_y + k D_y) - |P_xz + k D_xz|^2 as a cubic in k = s kappa, s the shape's
             # size (the roots that matter then lie within about 1 of 0).
             s = max(self.size, tol.ABS_FLOOR)
+            # (products, not powers: the kernel's lathe.h repeats them)
             poly = np.stack(
                 [
-                    A * dy**3 * s**3,
-                    (dy * dy * (3 * A * py + B) - r) * s**2,
+                    A * (dy * dy * dy) * (s * s * s),
+                    (dy * dy * (3 * A * py + B) - r) * (s * s),
                     (dy * (py * (3 * A * py + 2 * B) + C) - 2 * m) * s,
                     py * (py * (A * py + B) + C) + Dc - rho0,
                 ],
@@ -333,7 +334,7 @@ class SorPrim:
         if self.degenerate:
             return np.zeros(len(p), dtype=bool)
         y = p[:, 1]
-        rho2 = p[:, 0] ** 2 + p[:, 2] ** 2
+        rho2 = p[:, 0] * p[:, 0] + p[:, 2] * p[:, 2]
         f = sp.polyval(self.coef[self.segment_of(y)], y)
         return (y >= self.ylo) & (y <= self.yhi) & (rho2 <= f)
 
