@@ -12,12 +12,12 @@ elsewhere.
 
 What it covers (`reasons` lists what stops a scene): every camera projection POV-Ray 3.7
 has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, cylinder
-1-4, spherical; camera.py's formulas) without focal blur, a camera normal or a mesh
-camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (quadric,
-cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
-kernel/sweep.h), lathes and sors (kernel/lathe.h), polygons, transformed
-or not, inverse or not, and their CSG (union, intersection, difference, merge, nested),
-any number of them through the tracer's box
+1-4, spherical; camera.py's formulas) without focal blur or a mesh camera, and a camera
+normal on the perspective and orthographic ones; spheres, planes, boxes, discs,
+cylinders, cones, tori and polynomials (quadric, cubic, quartic, poly up to degree
+POLY_MAX_DEGREE), prisms and text (sweeps: kernel/sweep.h), lathes and sors
+(kernel/lathe.h), polygons, transformed or not, inverse or not, and their CSG (union,
+intersection, difference, merge, nested), any number of them through the tracer's box
 tree, clipped by any of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh,
 mesh2, height fields, bicubic patches: each in float64 through the triangles' own box tree,
 as triangles.TriangleSet refines Embree's float32 hits; not in CSG, nor the tessellations
@@ -131,6 +131,8 @@ H_FOGS, H_NFOG, H_FOGMAX = 80, 81, 82
 H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER = 83, 84, 85, 86, 87
 # the normals' table (NRM values each) and how many
 H_NRMS, H_NNRM = 88, 89
+# the camera's normal (camera.bend): its row in the normals' table, -1 without one
+H_CAMNRM = 109
 # the sweeps' table (kernel/sweep.h: groups, then segments, per sweep), its length, and the
 # tolerances of their root finding (spline2d)
 H_SWEEPS, H_NSWEEP, H_SWEEP_TOL = 96, 97, 98
@@ -510,7 +512,9 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     if camera.aperture != 0.0 and camera.blur_samples > 0:
         out.append("focal blur")
     if camera.normal is not None:
-        out.append("camera normal")
+        if camera.kind not in ("perspective", "orthographic"):
+            out.append(f"camera normal on a {camera.kind} camera")
+        out.extend(_normal_reasons(camera.normal))
     if scene.settings.radiosity is not None:
         out.append("radiosity")
     if scene.media:
@@ -1200,8 +1204,12 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     # the layers' normals, in the order of the layer rows (`rows_of` below)
     layered = [layers[0] for layers in layer_rows if layers] + below
     bumped = [layer for layer in layered if layer.normal is not None]
+    # the normals' rows: the layers', then the camera's
+    normals = [(layer.normal, layer.no_bump_scale) for layer in bumped]
+    if camera.normal is not None:
+        normals.append((camera.normal, False))
     noisy = (
-        bool(bumped)
+        bool(normals)
         or any(_needs_noise(p) for p in pigs)
         or any(f.turbulence is not None for f in fogs)
         or any(irid is not None and irid[0] > 0 and irid[2] != 0 for irid in films)
@@ -1217,16 +1225,16 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             pack_texture_pattern(ctx.tree[k], row, maps, ctx.leaf_id)
         else:
             pack_pigment(pig, row, maps, pig_row_of, images, ctx.gamma)
-    nrm_rows = np.zeros((len(bumped), NRM))
-    for layer, row in zip(bumped, nrm_rows, strict=True):
-        assert layer.normal is not None  # bumped holds the layers with one
-        pack_normal(layer.normal, layer.no_bump_scale, row, maps)
+    nrm_rows = np.zeros((len(normals), NRM))
+    for (nrm, keep), row in zip(normals, nrm_rows, strict=True):
+        assert nrm is not None  # bumped holds the layers with one
+        pack_normal(nrm, keep, row, maps)
     maps_at = size + len(tail)
     fogs_at = maps_at + MAP_ENTRY * len(maps)
     terms_at = fogs_at + FOG * len(fogs)
     n_terms = sum(len(leaf.prim.c) for leaf in leaves if type(leaf.prim) is PolyPrim)
     nrms_at = terms_at + POLY_TERM * n_terms
-    sweeps_at = nrms_at + NRM * len(bumped)
+    sweeps_at = nrms_at + NRM * len(normals)
     n_sweep = sum(
         SWEEP_GROUP * len(leaf.prim.groups) + SWEEP_SEGMENT * len(leaf.prim.all)
         for leaf in leaves
@@ -1253,8 +1261,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     buf[tris_at:tbvh_at] = tri_rows.ravel()
     buf[tbvh_at:titems_at] = tri_bvh.ravel()
     buf[titems_at : titems_at + len(tri_items)] = tri_items
-    buf[nrms_at : nrms_at + NRM * len(bumped)] = nrm_rows.ravel()
-    h[H_NRMS], h[H_NNRM] = nrms_at, len(bumped)
+    buf[nrms_at : nrms_at + NRM * len(normals)] = nrm_rows.ravel()
+    h[H_NRMS], h[H_NNRM] = nrms_at, len(normals)
+    h[H_CAMNRM] = len(bumped) if camera.normal is not None else -1
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
     h[[H_NUNB, H_NBVH, H_NITEM, H_NLOOSE]] = len(unbounded), len(bvh), len(items), len(loose)

@@ -1158,8 +1158,8 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
             "meshes tessellated from curved surfaces",
         ),
         (
-            "sphere { 0, 1 } camera { location -5*z look_at 0 normal { bumps 0.2 } }",
-            "camera normal",
+            "sphere { 0, 1 } camera { fisheye location -5*z look_at 0 normal { bumps 0.2 } }",
+            "camera normal on a fisheye camera",
         ),
         (
             "sphere { 0, 1 pigment { rgb 1 } interior_texture { pigment { rgb 0 } } }",

@@ -50,7 +50,7 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
        H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
        H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM,
        H_TRIS = 90, H_NTRI, H_TBVH, H_NTBVH, H_TITEMS, H_NTITEM, H_SWEEPS = 96, H_NSWEEP,
-       H_SWEEP_TOL, H_IMAGES = 110, H_NIMAGE };
+       H_SWEEP_TOL, H_CAMNRM = 109, H_IMAGES, H_NIMAGE };
 /* the camera's projection (H_CAMKIND) and what the other projections read (camera.py):
  * the angle in radians, the cylinder type, the spherical angles, the lengths of right and
  * up, the unit right, up and direction, tan(135 degrees) for omnimax */
@@ -187,6 +187,7 @@ typedef struct {
     const double *tri, *tbvh, *titem; /* the triangles, their box tree, its leaves' triangles */
     int ntri, ntbvh, ntitem;
     int has_noise, nfog, mwidth, nnrm;
+    int camnrm; /* the camera's normal row (-1: none) */
     int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nloose, nbvh, nitem, maxlevel,
         legacy, anytrans;
     double bailout;
@@ -2602,6 +2603,9 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         double r = s->tex[(size_t)i * TEX + T_NRM];
         if (!(r == -1 || (r >= 0 && r < s->nnrm))) goto bad;
     }
+    double cam_nrm = h[H_CAMNRM];
+    if (!(cam_nrm == -1 || (cam_nrm >= 0 && cam_nrm < s->nnrm))) goto bad;
+    s->camnrm = (int)cam_nrm;
     double maps = h[H_MAPS], nmaps = h[H_NMAPS];
     if (!(maps >= need && nmaps >= 0 && maps + 6 * nmaps <= sb->len / 8)) goto bad;
     s->map = h + (size_t)maps;
@@ -2862,6 +2866,12 @@ static void trace_pixel(Scene *s, double x, double y, double *out) {
     }
     double len = sqrt(dot(d, d));
     d[0] /= len, d[1] /= len, d[2] /= len;
+    if (s->camnrm >= 0) { /* camera.bend: the pattern at the screen point <sx, sy, 0> */
+        double at[3] = {sx, sy, 0.0}, bent[3];
+        perturb(s, s->nrm + (size_t)s->camnrm * NRM, at, d, bent);
+        len = sqrt(dot(bent, bent));
+        d[0] = bent[0] / len, d[1] = bent[1] / len, d[2] = bent[2] / len;
+    }
     /* the objects holding the camera (runtime/containers.py), as POV-Ray's camera rays */
     Inside held = {0};
     held.n = (int)s->h[H_CAMIN];
