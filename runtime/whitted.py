@@ -23,24 +23,24 @@ mesh2, height fields, bicubic patches: each in float64 through the triangles' ow
 as triangles.TriangleSet refines Embree's float32 hits; not in CSG, nor the tessellations
 of nurbs and subdivision surfaces, whose shadow rays start on the curved surface); no other
 shapes.
-Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map,
-average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
-pigments are solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical,
-planar, boxed, radial, leopard, spiral1, spiral2, ripples, waves, quilted, the fractals
-(mandel and julia to exponent 4, magnet), image_map (every map_type, interpolation,
-once, use_alpha, filter and transmit, palette entries: the numpy path's decoded pixels in a
-table of their own) or one of
-POV-Ray's noise patterns (bozo, spotted, bumps, dents, granite, marble, wood, wrinkles,
-agate, on its three noise generators, and crackle), with a colour map of any
+Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map, average,
+of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose pigments are
+solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical, planar, boxed,
+radial, leopard, spiral1, spiral2, ripples, waves, quilted, the fractals (mandel and julia
+to exponent 4, magnet), image_map (every map_type, interpolation, once, use_alpha, filter
+and transmit, palette entries: the numpy path's decoded pixels in a table of their own) or
+one of POV-Ray's noise patterns (bozo, spotted, bumps, dents, granite, marble, wood,
+wrinkles, agate, on its three noise generators, and crackle), with a colour map of any
 length or a pigment map (checkers, maps and averages of such pigments, nested up to
-PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkles,
-ripples, waves, quilted and the slope of those patterns, with turbulence and a slope map; no
-normal_map or warps), one per layer; every finish item (crand, diffuse_back, fresnel
-reflection, irid included) but a negative metallic. Point lights and spotlights (fade
-included), area lights of either (adaptive, circular, orient; jitter is not sampled, as in
-lights.shadow); interiors with ior, fade and faked caustics, no media; a background colour
-and sky_sphere layers of those pigments (either version's rules for their filter and
-transmit); fog (constant, ground, turbulent, several); no media, rainbow or radiosity.
+PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkles, ripples,
+waves, quilted and the slope of those patterns, with turbulence and a slope map, and
+normal_maps and averages of them, nested; no warps), one per layer; every finish item
+(crand, diffuse_back, fresnel reflection, irid included) but a negative metallic. Point
+lights and spotlights (fade included), area lights of either (adaptive, circular, orient;
+jitter is not sampled, as in lights.shadow); interiors with ior, fade and faked caustics,
+no media; a background colour and sky_sphere layers of those pigments (either version's
+rules for their filter and transmit); fog (constant, ground, turbulent, several); no media,
+rainbow or radiosity.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -273,6 +273,8 @@ NOISE_KINDS = frozenset(
 NR_KIND, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN = range(PIG, PIG + 6)
 NR_LININV = NR_LIN + 9
 NR_WAVES, NR_NWAVES, NR_SLOPES, NR_NSLOPES = range(NR_LININV + 9, NR_LININV + 13)
+# a normal_map's entries in the map table (key, the entry's normal row): how many, where
+NR_NMAP, NR_NMAPAT = NR_NSLOPES + 1, NR_NSLOPES + 2
 # bumps, dents, wrinkles, ripples and waves perturb the normal their own way; the other
 # patterns the kernel knows by their slope (patterns._slope)
 NORMAL_KINDS = {
@@ -285,6 +287,8 @@ NORMAL_KINDS = {
     "quilted": 7,
 }
 NK_SLOPE = 6
+# a normal_map blending its entries by the pattern's value, or averaging them
+NK_MAP, NK_AVERAGE = 8, 9
 # (an average normal blends its entries' normals: not a slope)
 SLOPE_KINDS = frozenset(
     k for k in PIGMENT_KINDS if k not in ("solid", "average", "image_map", *NORMAL_KINDS)
@@ -403,10 +407,23 @@ def _pigment_reasons(pig: ir.Pigment, depth: int = 0) -> list[str]:
     return [r for _, sub in pig.pigment_map for r in _pigment_reasons(sub, depth + 1)]
 
 
-def _normal_reasons(nrm: ir.Normal) -> list[str]:
+def _normal_reasons(nrm: ir.Normal, depth: int = 0) -> list[str]:
     kind, prm = nrm.pattern, nrm.params
-    if prm.get("normal_map"):
-        return ["normal_map"]
+    if depth >= PIGMENT_DEPTH:
+        return [f"normals nested deeper than {PIGMENT_DEPTH}"]
+    nmap = prm.get("normal_map")
+    if nmap:
+        if kind not in PIGMENT_KINDS or kind in ("solid", "image_map"):
+            return [f"normal_map of pattern {kind}"]
+        if prm.get("warps"):
+            return [f"warped {kind} normal"]
+        if patterns.noise_generator(prm) not in (1, 2, 3):
+            return [f"noise_generator {prm.get('noise_generator')}"]
+        if prm.get("wave", "ramp_wave") not in WAVES:
+            return [f"wave {prm.get('wave')}"]
+        if not _fractal_power_packed(kind, prm):
+            return [f"{kind} exponent {prm.get('exponent')}"]
+        return [r for _, sub in nmap for r in _normal_reasons(sub, depth + 1)]
     if kind not in NORMAL_KINDS and kind not in SLOPE_KINDS:
         return [f"normal pattern {kind}"]
     if prm.get("warps"):
@@ -746,15 +763,46 @@ def pack_texture_pattern(
     maps.extend([float(k), float(rows_of[id(sub)]), 0.0, 0.0, 0.0, 0.0] for k, sub in tex.map)
 
 
-def pack_normal(nrm: ir.Normal, keep: bool, row: np.ndarray, maps: list[list[float]]) -> None:
+def normal_rows(tops: list[tuple[ir.Normal, bool]]) -> list[tuple[ir.Normal, bool, list[int]]]:
+    """The normals' rows: these (normal, keep), then the entries of their normal_maps
+    after them (each entry a row of its own with its parent's keep, as patterns passes
+    it on), each with the rows of its entries."""
+    rows: list[tuple[ir.Normal, bool, list[int]]] = [(n, k, []) for n, k in tops]
+    i = 0
+    while i < len(rows):
+        nrm, keep, subs = rows[i]
+        keep = keep or bool(nrm.params.get("no_bump_scale"))
+        for _, sub in nrm.params.get("normal_map") or ():
+            subs.append(len(rows))
+            rows.append((sub, keep, []))
+        i += 1
+    return rows
+
+
+def pack_normal(
+    nrm: ir.Normal,
+    keep: bool,
+    row: np.ndarray,
+    maps: list[list[float]],
+    subs: list[int] | None = None,
+) -> None:
     """One normal row (patterns.perturb_normal's inputs; `keep`: the layer's no_bump_scale):
     its pattern, kind, depth, accuracy, linear part, and its wave sources and slope map
-    as map-table entries."""
+    as map-table entries; a normal_map's entries (key, the row of each: `subs`) there too."""
     kind, prm = nrm.pattern, nrm.params
+    nmap = prm.get("normal_map")
     slope = kind not in NORMAL_KINDS
-    row[P_KIND] = PIGMENT_KINDS[kind] if slope else 0
+    row[P_KIND] = PIGMENT_KINDS[kind] if (slope or nmap) and kind != "average" else 0
     _pack_pattern(kind, prm, nrm.transform, row)
     row[NR_KIND] = NK_SLOPE if slope else NORMAL_KINDS[kind]
+    if nmap:
+        assert subs is not None and len(subs) == len(nmap)  # normal_rows gave them
+        row[NR_KIND] = NK_AVERAGE if kind == "average" else NK_MAP
+        row[NR_NMAP], row[NR_NMAPAT] = len(nmap), len(maps)
+        maps.extend(
+            [float(k), float(r), 0.0, 0.0, 0.0, 0.0] for (k, _), r in zip(nmap, subs, strict=True)
+        )
+        _pack_wave_sources(kind, prm, row, maps)  # ripples' and waves' value
     row[NR_DEPTH] = float(nrm.depth)
     row[NR_ACC] = float(prm.get("accuracy", patterns.NORMAL_DELTA))
     row[NR_KEEP] = keep or bool(prm.get("no_bump_scale"))
@@ -1225,16 +1273,17 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             pack_texture_pattern(ctx.tree[k], row, maps, ctx.leaf_id)
         else:
             pack_pigment(pig, row, maps, pig_row_of, images, ctx.gamma)
-    nrm_rows = np.zeros((len(normals), NRM))
-    for (nrm, keep), row in zip(normals, nrm_rows, strict=True):
+    packed_normals = normal_rows(normals)
+    nrm_rows = np.zeros((len(packed_normals), NRM))
+    for (nrm, keep, subs), row in zip(packed_normals, nrm_rows, strict=True):
         assert nrm is not None  # bumped holds the layers with one
-        pack_normal(nrm, keep, row, maps)
+        pack_normal(nrm, keep, row, maps, subs)
     maps_at = size + len(tail)
     fogs_at = maps_at + MAP_ENTRY * len(maps)
     terms_at = fogs_at + FOG * len(fogs)
     n_terms = sum(len(leaf.prim.c) for leaf in leaves if type(leaf.prim) is PolyPrim)
     nrms_at = terms_at + POLY_TERM * n_terms
-    sweeps_at = nrms_at + NRM * len(normals)
+    sweeps_at = nrms_at + NRM * len(packed_normals)
     n_sweep = sum(
         SWEEP_GROUP * len(leaf.prim.groups) + SWEEP_SEGMENT * len(leaf.prim.all)
         for leaf in leaves
@@ -1261,8 +1310,8 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     buf[tris_at:tbvh_at] = tri_rows.ravel()
     buf[tbvh_at:titems_at] = tri_bvh.ravel()
     buf[titems_at : titems_at + len(tri_items)] = tri_items
-    buf[nrms_at : nrms_at + NRM * len(normals)] = nrm_rows.ravel()
-    h[H_NRMS], h[H_NNRM] = nrms_at, len(normals)
+    buf[nrms_at : nrms_at + NRM * len(packed_normals)] = nrm_rows.ravel()
+    h[H_NRMS], h[H_NNRM] = nrms_at, len(packed_normals)
     h[H_CAMNRM] = len(bumped) if camera.normal is not None else -1
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)

@@ -1149,8 +1149,8 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
         ("sphere { 0, 1 pigment { mandel 20 exponent 5 } }", "mandel exponent 5"),
         ("sphere { 0, 1 normal { cells 0.5 } }", "normal pattern cells"),
         (
-            "sphere { 0, 1 normal { gradient x normal_map { [0 bumps 1] [1 dents 1] } } }",
-            "normal_map",
+            "sphere { 0, 1 normal { cells normal_map { [0 bumps 1] [1 dents 1] } } }",
+            "normal_map of pattern cells",
         ),
         ("sphere { 0, 1 normal { bumps 0.5 warp { turbulence 0.5 } } }", "warped bumps"),
         (

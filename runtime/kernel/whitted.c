@@ -124,8 +124,11 @@ enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
  * map table (frequency, x, y, z: ripples and waves), its slope map there (key, height,
  * slope) */
 enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = NR_LIN + 9,
-       NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES };
-enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE, NK_QUILTED };
+       NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES, NR_NMAP, NR_NMAPAT };
+/* NR_NMAP, NR_NMAPAT: a normal_map's (NK_MAP, NK_AVERAGE) entries in the map table (key,
+ * the entry's normal row), how many and where */
+enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE, NK_QUILTED,
+       NK_MAP, NK_AVERAGE };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON, K_MESH,
        K_LATHE = 12, K_SOR };
@@ -1598,8 +1601,53 @@ static const double PYRAMID[4][3] = {
 
 /* The unit normal after a `normal { … }` at world point p (patterns.perturb_normal, not a
  * normal_map): perturbed in pattern space, taken back to world space. */
+static void perturb_in(const Scene *s, const double *nr, const double *p, const double *nw,
+                       int unit, int depth, double *out);
+
+/* A normal_map (patterns._normal_map) at pattern point q, normal n (pattern space): the
+ * normals of the two entries around the pattern's value, blended by weight; an average's
+ * every entry by its key's share. The entries' rows (map entries: key, row) are unit-less
+ * perturbations (unit 0), as POV-Ray's blend takes them. */
+static void normal_map(const Scene *s, const double *nr, const double *q, const double *n,
+                       int depth, double *acc) {
+    const double *map = s->map + 6 * (size_t)nr[NR_NMAPAT];
+    int count = (int)nr[NR_NMAP];
+    double e[3];
+    acc[0] = acc[1] = acc[2] = 0.0;
+    if (depth >= PIGMENT_DEPTH) { /* deeper than whitted.py packs: unbent */
+        memcpy(acc, n, 3 * sizeof(double));
+        return;
+    }
+    if ((int)nr[NR_KIND] == NK_AVERAGE) {
+        double total = 0.0;
+        for (int i = 0; i < count; i++) total += map[6 * i];
+        if (total == 0.0) total = 1.0;
+        for (int i = 0; i < count; i++) {
+            perturb_in(s, s->nrm + (size_t)map[6 * i + 1] * NRM, q, n, 0, depth + 1, e);
+            double w = map[6 * i] / total;
+            for (int a = 0; a < 3; a++) acc[a] += w * e[a];
+        }
+        return;
+    }
+    int lo, hi;
+    double f = blend(map, count, pattern_value(s, nr, q), &lo, &hi);
+    for (int i = 0; i < count; i++) {
+        if (i != lo && i != hi) continue;
+        double w = (i == lo ? 1.0 - f : 0.0) + (i == hi ? f : 0.0);
+        perturb_in(s, s->nrm + (size_t)map[6 * i + 1] * NRM, q, n, 0, depth + 1, e);
+        for (int a = 0; a < 3; a++) acc[a] += w * e[a];
+    }
+}
+
 static void perturb(const Scene *s, const double *nr, const double *p, const double *nw,
                     double *out) {
+    perturb_in(s, nr, p, nw, 1, 0, out);
+}
+
+/* patterns.perturb_normal; `unit` off (a normal_map's entry): the result is left
+ * unnormalised where no_bump_scale says so. */
+static void perturb_in(const Scene *s, const double *nr, const double *p, const double *nw,
+                       int unit, int depth, double *out) {
     double q[3], n[3];
     affine(nr + P_INV, p, q);
     const double *lin = nr + NR_LIN, *inv = nr + NR_LININV;
@@ -1619,13 +1667,21 @@ static void perturb(const Scene *s, const double *nr, const double *p, const dou
     }
     const Noise *nz = &s->noise;
     int pk = (int)nr[P_KIND];
-    int builtin = kind == NK_SLOPE && builtin_turbulence(pk);
+    int builtin = (kind == NK_SLOPE || kind == NK_MAP) && builtin_turbulence(pk);
     if (nr[P_HASTURB] != 0.0 && !builtin) {
         double dt[3]; /* patterns.turbulence_warp */
         dturbulence_at(nz, q, (int)nr[P_OCTAVES], nr[P_OMEGA], nr[P_LAMBDA], dt);
         for (int a = 0; a < 3; a++) q[a] = q[a] + dt[a] * nr[P_TURB + a];
     }
     switch (kind) {
+    case NK_MAP:
+    case NK_AVERAGE: {
+        double acc[3];
+        normal_map(s, nr, q, n, depth, acc);
+        memcpy(n, acc, sizeof acc);
+        unit = unit || kind != NK_AVERAGE; /* POV-Ray normalises a blend, not an average */
+        break;
+    }
     case NK_BUMPS: {
         double g[3];
         dnoise_at(nz, q, g);
@@ -1688,6 +1744,10 @@ static void perturb(const Scene *s, const double *nr, const double *p, const dou
     if (haslin) {
         double m[3] = {n[0], n[1], n[2]};
         for (int j = 0; j < 3; j++) n[j] = m[0] * inv[j] + m[1] * inv[3 + j] + m[2] * inv[6 + j];
+    }
+    if (nr[NR_KEEP] != 0.0 && !unit) {
+        memcpy(out, n, 3 * sizeof(double));
+        return;
     }
     double len = sqrt(dot(n, n));
     if (len > 0)
@@ -2705,7 +2765,21 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if (s->fog[(size_t)f * FOG + F_HASTURB] != 0.0 && !s->has_noise) goto bad;
     for (int i = 0; i < s->nnrm; i++) {
         const double *nr = s->nrm + (size_t)i * NRM;
-        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_QUILTED)) goto bad;
+        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_AVERAGE)) goto bad;
+        if (nr[NR_KIND] == NK_MAP || nr[NR_KIND] == NK_AVERAGE) {
+            /* a normal_map's entries: rows after its own (the recursion always ends) */
+            if (!(nr[NR_NMAP] >= 1 && nr[NR_NMAPAT] >= 0 && nr[NR_NMAPAT] + nr[NR_NMAP] <= nmaps))
+                goto bad;
+            for (int e = 0; e < (int)nr[NR_NMAP]; e++) {
+                double row = s->map[6 * ((size_t)nr[NR_NMAPAT] + e) + 1];
+                if (!(row > i && row < s->nnrm)) goto bad;
+            }
+            if (nr[NR_KIND] == NK_MAP && (nr[P_KIND] == PK_SOLID || nr[P_KIND] == PK_IMAGE))
+                goto bad;
+            if ((nr[P_KIND] == PK_RIPPLES || nr[P_KIND] == PK_WAVES) &&
+                !(nr[P_NWAVES] >= 1 && nr[P_WAVES] >= 0 && nr[P_WAVES] + nr[P_NWAVES] <= nmaps))
+                goto bad;
+        }
         if (!(nr[P_KIND] >= PK_SOLID && nr[P_KIND] <= PK_LAST && nr[P_KIND] != PK_AVERAGE))
             goto bad;
         if (!fractal_row_valid(nr)) goto bad;
