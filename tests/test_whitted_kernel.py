@@ -17,7 +17,7 @@ from conftest import kernel_and_numpy
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from runtime import api, whitted
+from runtime import api, kernel_patterns, whitted
 from runtime.prepare import prepare
 from runtime.render import render_scene
 
@@ -732,7 +732,7 @@ def test_averages_and_faked_caustics_match_numpy(monkeypatch):
 
 def test_pigments_nested_too_deep_say_why():
     inner = "rgb 1"
-    for _ in range(whitted.PIGMENT_DEPTH + 1):
+    for _ in range(kernel_patterns.PIGMENT_DEPTH + 1):
         inner = f"gradient x pigment_map {{ [0 rgb 0] [1 {inner}] }}"
     scene = _scene("camera { location -5*z look_at 0 } light_source { <1, 5, -5>, rgb 1 }"
                    f"sphere {{ 0, 1 pigment {{ {inner} }} }}")  # fmt: skip
