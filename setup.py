@@ -17,6 +17,7 @@ setup(
                 "runtime/kernel/slab.h",
                 "runtime/kernel/sweep.h",
                 "runtime/kernel/lathe.h",
+                "runtime/kernel/bump_map.h",
             ],
             extra_compile_args=["-O3", "-fno-math-errno"],
             # linked to libm, not left to bind at load time: an unversioned `pow` bound to

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from lang import ir
-from runtime import context, fractal_patterns, patterns, uvmap
+from runtime import bump_map, context, fractal_patterns, patterns, uvmap
 from runtime import transform as tf
 
 PIG, MAP_ENTRY = 56, 6
@@ -130,10 +130,14 @@ NORMAL_KINDS = {
     "ripples": 4,
     "waves": 5,
     "quilted": 7,
+    "bump_map": 10,
 }
 NK_SLOPE = 6
 # a normal_map blending its entries by the pattern's value, or averaging them
 NK_MAP, NK_AVERAGE = 8, 9
+# a bump_map's slots are an image_map's (one channel: heights), its interpolate and
+# use_index where bilinear and use_alpha are
+P_BM_INTERP, P_BM_INDEX = P_BILINEAR, P_ALPHA
 # (an average normal blends its entries' normals: not a slope)
 SLOPE_KINDS = frozenset(
     k for k in PIGMENT_KINDS if k not in ("solid", "average", "image_map", *NORMAL_KINDS)
@@ -453,6 +457,20 @@ def pack_texture_pattern(
     maps.extend([float(k), float(rows_of[id(sub)]), 0.0, 0.0, 0.0, 0.0] for k, sub in tex.map)
 
 
+def _pack_bump_map(prm: dict, row: np.ndarray, images: Images) -> None:
+    """A bump_map's heights (bump_map.height_table; none: width 0, unbumped) and settings."""
+    table = bump_map.height_table(prm)
+    if table is None:
+        return
+    row[P_IMG] = images.add(table)
+    row[P_IMGH], row[P_IMGW] = table.shape
+    row[P_IMGCH] = 1
+    row[P_MAPTYPE] = int(prm.get("map_type", 0))
+    row[P_BM_INTERP] = int(prm.get("interpolate", 0))
+    row[P_ONCE] = bool(prm.get("once"))
+    row[P_BM_INDEX] = bump_map.uses_index(prm)
+
+
 def normal_rows(tops: list[tuple[ir.Normal, bool]]) -> list[tuple[ir.Normal, bool, list[int]]]:
     """The normals' rows: these (normal, keep), then the entries of their normal_maps
     after them (each entry a row of its own with its parent's keep, as patterns passes
@@ -475,16 +493,21 @@ def pack_normal(
     row: np.ndarray,
     maps: list[list[float]],
     subs: list[int] | None = None,
+    images: Images | None = None,
 ) -> None:
     """One normal row (patterns.perturb_normal's inputs; `keep`: the layer's no_bump_scale):
     its pattern, kind, depth, accuracy, linear part, and its wave sources and slope map
-    as map-table entries; a normal_map's entries (key, the row of each: `subs`) there too."""
+    as map-table entries; a normal_map's entries (key, the row of each: `subs`) there too;
+    a bump_map's heights go to `images`."""
     kind, prm = nrm.pattern, nrm.params
     nmap = prm.get("normal_map")
     slope = kind not in NORMAL_KINDS
     row[P_KIND] = PIGMENT_KINDS[kind] if (slope or nmap) and kind != "average" else 0
     _pack_pattern(kind, prm, nrm.transform, row)
     row[NR_KIND] = NK_SLOPE if slope else NORMAL_KINDS[kind]
+    if kind == "bump_map":
+        assert images is not None  # pack gives the images' table
+        _pack_bump_map(prm.get("image", {}), row, images)
     if nmap:
         assert subs is not None and len(subs) == len(nmap)  # normal_rows gave them
         row[NR_KIND] = NK_AVERAGE if kind == "average" else NK_MAP

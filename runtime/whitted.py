@@ -33,14 +33,14 @@ one of POV-Ray's noise patterns (bozo, spotted, bumps, dents, granite, marble, w
 wrinkles, agate, on its three noise generators, and crackle), with a colour map of any
 length or a pigment map (checkers, maps and averages of such pigments, nested up to
 PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkles, ripples,
-waves, quilted and the slope of those patterns, with turbulence and a slope map, and
-normal_maps and averages of them, nested; no warps), one per layer; every finish item
-(crand, diffuse_back, fresnel reflection, irid included) but a negative metallic. Point
-lights and spotlights (fade included), area lights of either (adaptive, circular, orient;
-jitter is not sampled, as in lights.shadow); interiors with ior, fade and faked caustics,
-no media; a background colour and sky_sphere layers of those pigments (either version's
-rules for their filter and transmit); fog (constant, ground, turbulent, several); no media,
-rainbow or radiosity.
+waves, quilted and the slope of those patterns, with turbulence and a slope map,
+normal_maps and averages of them, nested, and bump_map images (kernel/bump_map.h); no
+warps), one per layer; every finish item (crand, diffuse_back, fresnel reflection, irid
+included) but a negative metallic. Point lights and spotlights (fade included), area lights
+of either (adaptive, circular, orient; jitter is not sampled, as in lights.shadow);
+interiors with ior, fade and faked caustics, no media; a background colour and sky_sphere
+layers of those pigments (either version's rules for their filter and transmit); fog
+(constant, ground, turbulent, several); no media, rainbow or radiosity.
 
 Pigment, texture-pattern and normal rows (what they hold, which the kernel renders) are
 runtime.kernel_patterns'; the rest of the layout is here.
@@ -789,7 +789,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     nrm_rows = np.zeros((len(packed_normals), NRM))
     for (nrm, keep, subs), row in zip(packed_normals, nrm_rows, strict=True):
         assert nrm is not None  # bumped holds the layers with one
-        pack_normal(nrm, keep, row, maps, subs)
+        pack_normal(nrm, keep, row, maps, subs, images)
     maps_at = size + len(tail)
     fogs_at = maps_at + MAP_ENTRY * len(maps)
     terms_at = fogs_at + FOG * len(fogs)

@@ -18,6 +18,7 @@
 #include "slab.h"
 #include "sweep.h"
 #include "lathe.h"
+#include "bump_map.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -105,6 +106,9 @@ enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL
  * bilinear (interpolate 2 or 4), once, use_alpha, every pixel's filter and transmit */
 enum { P_IMG = P_FORM, P_IMGW, P_IMGH, P_IMGCH, P_MAPTYPE, P_BILINEAR, P_ONCE, P_ALPHA, P_IMGF,
        P_IMGT };
+/* a bump_map normal's slots are an image's (heights: one channel), with its interpolate
+ * (0, 2, 3, 4) and use_index where bilinear and use_alpha are */
+enum { P_BM_INTERP = P_BILINEAR, P_BM_INDEX = P_ALPHA };
 /* the list patterns: their value is the entry shown (0, 1, 2), no wave */
 static inline int list_kind(int kind) {
     return kind == PK_CHECKER || kind == PK_HEXAGON || kind == PK_BRICK;
@@ -128,7 +132,7 @@ enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = 
 /* NR_NMAP, NR_NMAPAT: a normal_map's (NK_MAP, NK_AVERAGE) entries in the map table (key,
  * the entry's normal row), how many and where */
 enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE, NK_QUILTED,
-       NK_MAP, NK_AVERAGE };
+       NK_MAP, NK_AVERAGE, NK_BUMPMAP };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON, K_MESH,
        K_LATHE = 12, K_SOR };
@@ -1682,6 +1686,13 @@ static void perturb_in(const Scene *s, const double *nr, const double *p, const 
         unit = unit || kind != NK_AVERAGE; /* POV-Ray normalises a blend, not an average */
         break;
     }
+    case NK_BUMPMAP: { /* its heights in the images' table, its settings in P_IMG on */
+        BumpMap b = {s->img + (size_t)nr[P_IMG], (long long)nr[P_IMGW], (long long)nr[P_IMGH],
+                     (int)nr[P_MAPTYPE], (int)nr[P_BM_INTERP], nr[P_ONCE] != 0.0,
+                     nr[P_BM_INDEX] != 0.0};
+        bump_map_perturb(&b, amount, q, n);
+        break;
+    }
     case NK_BUMPS: {
         double g[3];
         dnoise_at(nz, q, g);
@@ -2765,7 +2776,11 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if (s->fog[(size_t)f * FOG + F_HASTURB] != 0.0 && !s->has_noise) goto bad;
     for (int i = 0; i < s->nnrm; i++) {
         const double *nr = s->nrm + (size_t)i * NRM;
-        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_AVERAGE)) goto bad;
+        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_BUMPMAP)) goto bad;
+        if (nr[NR_KIND] == NK_BUMPMAP &&
+            !(nr[P_IMGW] >= 0 && nr[P_IMGH] >= 0 && nr[P_IMGW] < 1e6 && nr[P_IMGH] < 1e6 &&
+              nr[P_IMG] >= 0 && nr[P_IMG] + nr[P_IMGW] * nr[P_IMGH] <= h[H_NIMAGE]))
+            goto bad;
         if (nr[NR_KIND] == NK_MAP || nr[NR_KIND] == NK_AVERAGE) {
             /* a normal_map's entries: rows after its own (the recursion always ends) */
             if (!(nr[NR_NMAP] >= 1 && nr[NR_NMAPAT] >= 0 && nr[NR_NMAPAT] + nr[NR_NMAP] <= nmaps))
