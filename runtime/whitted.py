@@ -36,11 +36,12 @@ PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkle
 waves, quilted and the slope of those patterns, with turbulence and a slope map,
 normal_maps and averages of them, nested, and bump_map images (kernel/bump_map.h); no
 warps), one per layer; every finish item (crand, diffuse_back, fresnel reflection, irid
-included) but a negative metallic. Point lights and spotlights (fade included), area lights
-of either (adaptive, circular, orient; jitter is not sampled, as in lights.shadow);
-interiors with ior, fade and faked caustics, no media; a background colour and sky_sphere
-layers of those pigments (either version's rules for their filter and transmit); fog
-(constant, ground, turbulent, several); no media, rainbow or radiosity.
+included) but a negative metallic. Interior textures (where the ray leaves the object).
+Point lights and spotlights (fade included), area lights of either (adaptive, circular,
+orient; jitter is not sampled, as in lights.shadow); interiors with ior, fade and faked
+caustics, no media; a background colour and sky_sphere layers of those pigments (either
+version's rules for their filter and transmit); fog (constant, ground, turbulent, several);
+no media, rainbow or radiosity.
 
 Pigment, texture-pattern and normal rows (what they hold, which the kernel renders) are
 runtime.kernel_patterns'; the rest of the layout is here.
@@ -170,6 +171,8 @@ O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR = range(8)
 O_MINV, O_PRIM, O_FADEPOW, O_FADEDIST, O_FADECOL, O_INTERIOR = 8, 20, 44, 45, 46, 49
 # POV-Ray's faked caustics (lights.CAUSTICS_SCALE times `caustics`: the exponent)
 O_CAUSTICS = 50
+# the interior_texture's row (-1: none), shown where the raw normal points along the ray
+O_INSIDE_TEX = 51
 PRIM_SLOTS = 24
 T_PIG, T_TRANS, T_LIT, T_AMB, T_EMIS = 0, 23, 24, 25, 28
 T_DIFF, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL = range(31, 38)
@@ -329,8 +332,9 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         out.append("an orthographic camera inside an object with an ior or fading")
     seen: set[tuple[str, int]] = set()
     for obj in prepared.objects:
-        if obj.interior_texture is not None:
-            out.append("interior_texture")
+        if obj.interior_texture is not None and ("inside", id(obj.interior_texture)) not in seen:
+            seen.add(("inside", id(obj.interior_texture)))
+            out.extend(texture_reasons(obj.interior_texture))
         tex = obj.texture
         entry = None if ctx is None else ctx.leaf_id.get(id(tex))
         key = ("entry", entry) if entry is not None else ("object", id(tex))
@@ -924,6 +928,8 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
             fades[id(it)] = (it.fade_power, it.fade_distance, *it.fade_color)
     real[:, O_FADEPOW : O_FADECOL + 3] = _table([fades[id(o.interior)] for o in objs], 5)
     real[:, O_CAUSTICS] = [lights.CAUSTICS_SCALE * o.interior.caustics for o in objs]
+    rows[:, O_INSIDE_TEX] = -1.0
+    real[:, O_INSIDE_TEX] = ctx.obj_inside
     start = HDR + n_obj * OBJ
     trows = buf[start : start + n_tex * TEX].reshape(n_tex, TEX)
     start += n_tex * TEX

@@ -1162,8 +1162,8 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
             "camera normal on a fisheye camera",
         ),
         (
-            "sphere { 0, 1 pigment { rgb 1 } interior_texture { pigment { rgb 0 } } }",
-            "interior_texture",
+            "sphere { 0, 1 pigment { rgb 1 } interior_texture { pigment { cells } } }",
+            "pigment pattern cells",
         ),
     ],
 )

@@ -65,7 +65,10 @@ enum { H_CAMANGLE = 112, H_CAMCYL, H_CAMH, H_CAMV, H_CAMLR, H_CAMLU, H_CAMRN, H_
 enum { F_DIST, F_COL, F_TYPE = 6, F_UP, F_OFFSET = 10, F_ALT, F_HASTURB, F_TURB, F_OCTAVES = 16,
        F_OMEGA, F_LAMBDA, F_TDEPTH };
 enum { O_KIND, O_IDENT, O_FLIP, O_SIZE, O_TEX, O_FLAGS, O_DOUBLE, O_IOR, O_MINV = 8,
-       O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49, O_CAUSTICS };
+       O_PRIM = 20, O_FADEPOW = 44, O_FADEDIST, O_FADECOL, O_INTERIOR = 49, O_CAUSTICS,
+       O_INSIDE_TEX };
+/* O_INSIDE_TEX: the interior_texture's row (-1: none), shown where the raw normal points
+ * along the ray (context.texture_of) */
 enum { T_PIG, T_TRANS = 23, T_LIT, T_AMB, T_EMIS = 28,
        T_DIFF = 31, T_BRIL, T_SPEC, T_ROUGH, T_PHONG, T_PHSIZE, T_METAL, T_RMIN, T_RMAX = 41,
        T_FALLOFF = 44, T_REXP, T_RMETAL, T_CONSERVE, T_NEXT, T_CRAND, T_DBACK, T_FRESNEL,
@@ -1875,10 +1878,13 @@ static void layers_through(const Scene *s, const double *tx, const double *pt,
 /* Light let through from p toward a light at distance `dist` (integrate.shadow_filter); cls:
  * the shadow ray's class for the view masks (-1: none). */
 /* The texture row shown at a hit: a triangle's own (a mesh's per-face textures), else the
- * object's (context.texture_of). */
-static inline int hit_texture(const Scene *s, const Hit *h) {
+ * object's, and where the ray leaves the object (`leaving`) its interior_texture
+ * (context.texture_of). */
+static inline int hit_texture(const Scene *s, const Hit *h, int leaving) {
+    const double *ob = s->obj + (size_t)h->obj * OBJ;
+    if (leaving && ob[O_INSIDE_TEX] >= 0) return (int)ob[O_INSIDE_TEX];
     if (h->tri >= 0) return (int)s->tri[(size_t)h->tri * TRI + TR_TEX];
-    return (int)s->obj[(size_t)h->obj * OBJ + O_TEX];
+    return (int)ob[O_TEX];
 }
 
 static void shadow_filter(Scene *s, const double *p, const double *ldir, double dist,
@@ -1896,21 +1902,29 @@ static void shadow_filter(Scene *s, const double *p, const double *ldir, double 
         Hit h;
         if (!closest(s, o, ldir, remaining, SKIP_NO_SHADOW, cls, &h)) return;
         const double *ob = s->obj + (size_t)h.obj * OBJ;
-        const double *tx = s->tex + (size_t)hit_texture(s, &h) * TEX;
         double pt[3], n[3];
+        int leaving = 0, normal_known = ob[O_INSIDE_TEX] >= 0;
+        if (normal_known) { /* which texture the light crosses */
+            hit_normal(s, o, ldir, &h, n);
+            leaving = dot(n, ldir) > 0;
+        }
+        int texture = hit_texture(s, &h, leaving);
+        const double *tx = s->tex + (size_t)texture * TEX;
         for (int i = 0; i < 3; i++) pt[i] = o[i] + h.t * ldir[i];
         if (!(int)tx[T_TRANS]) {
             mult[0] = mult[1] = mult[2] = 0.0;
             return;
         }
-        hit_normal(s, o, ldir, &h, n);
-        int leaving = dot(n, ldir) > 0;
+        if (!normal_known) {
+            hit_normal(s, o, ldir, &h, n);
+            leaving = dot(n, ldir) > 0;
+        }
         double t[3] = {1.0, 1.0, 1.0}, against[3];
         for (int i = 0; i < 3; i++) against[i] = leaving ? -n[i] : n[i];
         if (tx[T_PAT] != 0.0) { /* the shares of the textures shown there that let light by */
             int rows[MAX_LAYERS], nleaf = 0;
             double share[MAX_LAYERS];
-            resolve_texture(s, hit_texture(s, &h), pt, 1.0, 0, rows, share, &nleaf);
+            resolve_texture(s, texture, pt, 1.0, 0, rows, share, &nleaf);
             t[0] = t[1] = t[2] = 0.0;
             for (int k = 0; k < nleaf; k++) {
                 const double *lt = s->tex + (size_t)rows[k] * TEX;
@@ -2341,11 +2355,11 @@ static void shade_layers(Scene *s, const double *tx, const double *p, const doub
 static void shade(Scene *s, const double *o, const double *d, const Hit *h, double weight,
                   int level, int skip, int cls, const Inside *in, double *out) {
     const double *ob = s->obj + (size_t)h->obj * OBJ;
-    const double *tx = s->tex + (size_t)hit_texture(s, h) * TEX;
     double p[3], n[3];
     for (int i = 0; i < 3; i++) p[i] = o[i] + h->t * d[i];
     hit_normal(s, o, d, h, n);
-    int leaving = dot(n, d) > 0;
+    int leaving = dot(n, d) > 0, texture = hit_texture(s, h, leaving);
+    const double *tx = s->tex + (size_t)texture * TEX;
     if (leaving) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
     out[0] = out[1] = out[2] = 0.0;
     LightAt on_stack[LIGHTS_ON_STACK], *la = on_stack;
@@ -2368,7 +2382,7 @@ static void shade(Scene *s, const double *o, const double *d, const Hit *h, doub
          * goes through about the smooth normal */
         int rows[MAX_LAYERS], nleaf = 0;
         double share[MAX_LAYERS], other[3];
-        resolve_texture(s, hit_texture(s, h), p, 1.0, 0, rows, share, &nleaf);
+        resolve_texture(s, texture, p, 1.0, 0, rows, share, &nleaf);
         fil[0] = fil[1] = fil[2] = 0.0;
         for (int k = 0; k < nleaf; k++) {
             double res[3] = {0.0, 0.0, 0.0}, fk[3] = {1.0, 1.0, 1.0};
@@ -2652,8 +2666,9 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
     }
     /* indices between the tables are checked once here, so tracing never reads outside */
     for (int i = 0; i < s->nobj; i++) {
-        double t = s->obj[(size_t)i * OBJ + O_TEX];
+        double t = s->obj[(size_t)i * OBJ + O_TEX], it = s->obj[(size_t)i * OBJ + O_INSIDE_TEX];
         if (!(t >= 0 && t < s->ntex)) goto bad;
+        if (!(it == -1 || (it >= 0 && it < s->ntex))) goto bad;
     }
     for (int i = 0; i < s->ntex; i++) {
         double g = s->tex[(size_t)i * TEX + T_PIG];
