@@ -665,8 +665,8 @@ def _prim_row(prim, terms: list[list[float]], sweeps: _Curves, blobs: _Curves) -
     """A primitive's parameters (PRIM_SLOTS of them): plane normal and distance, box
     corners, disc centre, normal, radius^2 and hole^2, cone/cylinder canonical frame (object
     to canonical rows), radii and openness; a polynomial's terms, a sweep's curves and a
-    blob's pieces go to their tables (`terms`, `sweeps`, `blobs`). A sphere's (centre and radius) are written by pack,
-    all spheres at once."""
+    blob's pieces go to their tables (`terms`, `sweeps`, `blobs`). A sphere's (centre and
+    radius) are written by pack, all spheres at once."""
     if isinstance(prim, shapes.PlanePrim):
         row = [*prim.n.tolist(), prim.dist]
     elif isinstance(prim, shapes.BoxPrim):
@@ -823,7 +823,9 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     titems_at = tbvh_at + BVH * len(tri_bvh)
     images_at = titems_at + len(tri_items)
     blobs_at = images_at + images.size
-    n_blob = sum(blob.PIECE * len(leaf.prim.s) for leaf in leaves if type(leaf.prim) is blob.BlobPrim)
+    n_blob = sum(
+        blob.PIECE * len(leaf.prim.s) for leaf in leaves if type(leaf.prim) is blob.BlobPrim
+    )
     buf = np.zeros(blobs_at + n_blob + len(tables))
     h = buf[:HDR]
     h[H_IMAGES], h[H_NIMAGE] = images_at, images.size
