@@ -11,6 +11,7 @@ setup(
             "runtime._whitted",
             ["runtime/kernel/whitted.c"],
             depends=[
+                "runtime/kernel/blob.h",
                 "runtime/kernel/buffer.h",
                 "runtime/kernel/noise.h",
                 "runtime/kernel/poly.h",

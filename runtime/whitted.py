@@ -10,18 +10,20 @@ module is the kernel's only importer: `kernel_built`, `kernel_layout`, `trace_pa
 and (for the scene language's trace()) `probe` and `first_hit` are the way to it from
 elsewhere.
 
-What it covers (`reasons` lists what stops a scene): every camera projection POV-Ray 3.7
-has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, cylinder
-1-4, spherical; camera.py's formulas) without focal blur or a mesh camera, and a camera
-normal on the perspective and orthographic ones; spheres, planes, boxes, discs,
-cylinders, cones, tori and polynomials (quadric, cubic, quartic, poly up to degree
-POLY_MAX_DEGREE), prisms and text (sweeps: kernel/sweep.h), lathes and sors
-(kernel/lathe.h), polygons, transformed or not, inverse or not, and their CSG (union,
-intersection, difference, merge, nested), any number of them through the tracer's box
-tree, clipped by any of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh,
-mesh2, height fields, bicubic patches: each in float64 through the triangles' own box tree,
-as triangles.TriangleSet refines Embree's float32 hits; not in CSG, nor the tessellations
-of nurbs and subdivision surfaces, whose shadow rays start on the curved surface); no other
+What it covers (`reasons` lists what stops a scene): every camera projection POV-Ray 3.7 has
+(perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, cylinder 1-4,
+spherical; camera.py's formulas) without focal blur or a mesh camera, and a camera normal on
+the perspective and orthographic ones; spheres, planes, boxes, discs, cylinders, cones, tori
+and polynomials (quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and
+text (sweeps: kernel/sweep.h), lathes and sors (kernel/lathe.h), blobs (kernel/blob.h:
+spherical and cylindrical components, any strengths, every crossing kept; like the numpy
+path, one texture for the whole blob, and sturm changes nothing: the roots are exact
+anyway), polygons, transformed or not, inverse or not, and their CSG (union, intersection,
+difference, merge, nested), any number of them through the tracer's box tree, clipped by any
+of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh, mesh2, height fields,
+bicubic patches: each in float64 through the triangles' own box tree, as
+triangles.TriangleSet refines Embree's float32 hits; not in CSG, nor the tessellations of
+nurbs and subdivision surfaces, whose shadow rays start on the curved surface); no other
 shapes.
 Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map, average,
 of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose pigments are
@@ -96,7 +98,7 @@ from runtime.kernel_patterns import (
     texture_reasons,
 )
 from runtime.lights import MAX_SHADOW_CROSSINGS
-from runtime.prims import spline2d
+from runtime.prims import blob, spline2d
 from runtime.prims.lathe import LathePrim, SorPrim
 from runtime.prims.polynomial import PolyPrim
 from runtime.prims.prism import PrismPrim, Sweep
@@ -158,6 +160,9 @@ TR_V0, TR_E1, TR_E2, TR_NG, TR_VN, TR_OBJ, TR_TEX, TR_SIZE = 0, 3, 6, 9, 12, 21,
 SWEEP_GROUP, SWEEP_SEGMENT = 6, 13
 # a sor's segment in the sweeps' table (kernel/lathe.h SR_ values)
 SOR_SEGMENT = 8
+# the blobs' table (blob.PIECE values a piece: BlobPrim.table), its length, and POV-Ray's
+# inside tolerance of a blob's density
+H_BLOBS, H_NBLOB, H_BLOB_INSIDE = 103, 104, 105
 POLY_TERM = 4
 # a polynomial of a higher degree renders through numpy (kernel/poly.h POLY_MAX_DEGREE)
 POLY_MAX_DEGREE = 8
@@ -206,6 +211,7 @@ KINDS = {
     shapes.PolygonPrim: 8,
     LathePrim: 12,
     SorPrim: 13,
+    blob.BlobPrim: 10,
 }
 # an object made of triangles (a mesh, mesh2, triangle, height field): met through the
 # triangles' box tree, never as a primitive
@@ -271,6 +277,7 @@ def layout() -> dict[str, int]:
         "fog": FOG,
         "max_layers": MAX_LAYERS,
         "triangle": TRI,
+        "blob_piece": blob.PIECE,
     }
 
 
@@ -658,12 +665,12 @@ class _Curves:
         return at
 
 
-def _prim_row(prim, terms: list[list[float]], sweeps: _Curves) -> list[float]:
+def _prim_row(prim, terms: list[list[float]], sweeps: _Curves, blobs: _Curves) -> list[float]:
     """A primitive's parameters (PRIM_SLOTS of them): plane normal and distance, box
     corners, disc centre, normal, radius^2 and hole^2, cone/cylinder canonical frame (object
-    to canonical rows), radii and openness; a polynomial's terms and a sweep's curves go to
-    their tables (`terms`, `sweeps`). A sphere's (centre and radius) are written by pack,
-    all spheres at once."""
+    to canonical rows), radii and openness; a polynomial's terms, a sweep's curves and a
+    blob's pieces go to their tables (`terms`, `sweeps`, `blobs`). A sphere's (centre and
+    radius) are written by pack, all spheres at once."""
     if isinstance(prim, shapes.PlanePrim):
         row = [*prim.n.tolist(), prim.dist]
     elif isinstance(prim, shapes.BoxPrim):
@@ -692,6 +699,9 @@ def _prim_row(prim, terms: list[list[float]], sweeps: _Curves) -> list[float]:
         row = [at, len(prim.coef), *prim.lo, *prim.hi, prim.size, prim.ylo, prim.yhi]
         row += [prim.open, prim.base_r2, prim.cap_r2, prim.degenerate]
         row += [tol.SOR_CAP_MIN_R2, tol.BOX_PAD_REL, tol.BOX_PAD_ABS]
+    elif isinstance(prim, blob.BlobPrim):
+        at = blobs.add(prim.table().ravel())
+        row = [at, len(prim.s), prim.threshold, *prim.centre.tolist()]
     elif isinstance(prim, Sweep):
         at = sweeps.add(_sweep_rows(prim))
         row = [at, len(prim.groups), len(prim.all), prim.h1, prim.h2, *prim.axes]
@@ -816,7 +826,11 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     tbvh_at = tris_at + TRI * len(tri_rows)
     titems_at = tbvh_at + BVH * len(tri_bvh)
     images_at = titems_at + len(tri_items)
-    buf = np.zeros(images_at + images.size + len(tables))
+    blobs_at = images_at + images.size
+    n_blob = sum(
+        blob.PIECE * len(leaf.prim.s) for leaf in leaves if type(leaf.prim) is blob.BlobPrim
+    )
+    buf = np.zeros(blobs_at + n_blob + len(tables))
     h = buf[:HDR]
     h[H_IMAGES], h[H_NIMAGE] = images_at, images.size
     if images.parts:
@@ -900,11 +914,14 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
         if type(leaf.prim) in KINDS and type(leaf.prim) is not shapes.SpherePrim
     ]
     terms: list[list[float]] = []
-    sweeps = _Curves()
+    sweeps, blobs = _Curves(), _Curves()
     if others:
         rows[others, O_PRIM : O_PRIM + PRIM_SLOTS] = _table(
-            [_prim_row(leaves[k].prim, terms, sweeps) for k in others], PRIM_SLOTS
+            [_prim_row(leaves[k].prim, terms, sweeps, blobs) for k in others], PRIM_SLOTS
         )
+    h[H_BLOBS], h[H_NBLOB], h[H_BLOB_INSIDE] = blobs_at, n_blob, tol.BLOB_INSIDE
+    if blobs.parts:
+        buf[blobs_at : blobs_at + n_blob] = np.concatenate(blobs.parts)
     h[H_TERMS], h[H_NTERMS] = terms_at, len(terms)
     h[H_SWEEPS], h[H_NSWEEP] = sweeps_at, n_sweep
     h[H_SWEEP_TOL : H_SWEEP_TOL + 5] = (

@@ -70,8 +70,11 @@ static int cmp_double(const void *x, const void *y) {
 
 /* roots.roots_in: every real root of c (lowest power first, degree n <= POLY_MAX_DEGREE) in
  * [lo, hi] into out (n values, sorted, inf where none): the derivative's roots cut the
- * interval into monotone pieces, a piece holds a root where its ends differ in sign. */
-static void roots_in(const double *c, int n, double lo, double hi, int max_iter, double *out) {
+ * interval into monotone pieces, a piece holds a root where its ends differ in sign. With
+ * `ends`, f_lo and f_hi stand for the values at lo and hi (a caller whose intervals abut
+ * passes one value per shared end, so the signs chain: the blob's). */
+static void roots_in_ends(const double *c, int n, double lo, double hi, int ends, double f_lo,
+                          double f_hi, int max_iter, double *out) {
     for (int k = 0; k < n; k++) out[k] = INFINITY;
     if (n <= 0) return;
     double atol = DBL_EPSILON * (fmax(fabs(lo), fabs(hi)) + (hi - lo));
@@ -83,7 +86,7 @@ static void roots_in(const double *c, int n, double lo, double hi, int max_iter,
     double dc[POLY_MAX_DEGREE], crit[POLY_MAX_DEGREE], pts[POLY_MAX_DEGREE + 1];
     double vals[POLY_MAX_DEGREE + 1];
     for (int k = 1; k <= n; k++) dc[k - 1] = c[k] * (double)k;
-    roots_in(dc, n - 1, lo, hi, max_iter, crit);
+    roots_in_ends(dc, n - 1, lo, hi, 0, 0.0, 0.0, max_iter, crit);
     pts[0] = lo;
     for (int k = 0; k < n - 1; k++) pts[1 + k] = isfinite(crit[k]) ? crit[k] : hi;
     pts[n] = hi;
@@ -91,11 +94,17 @@ static void roots_in(const double *c, int n, double lo, double hi, int max_iter,
         double dv;
         horner(c, n, pts[k], &vals[k], &dv);
     }
+    if (ends) vals[0] = f_lo, vals[n] = f_hi;
     for (int j = 0; j < n; j++) {
         int neg = vals[j] < 0, neg_next = vals[j + 1] < 0;
         if (neg != neg_next) out[j] = bracketed(c, n, pts[j], pts[j + 1], neg, atol, max_iter);
     }
     qsort(out, (size_t)n, sizeof(double), cmp_double);
+}
+
+static inline void roots_in(const double *c, int n, double lo, double hi, int max_iter,
+                            double *out) {
+    roots_in_ends(c, n, lo, hi, 0, 0.0, 0.0, max_iter, out);
 }
 
 /* polynomial._fujiwara: a bound on |root| of c (degree n), 0 when it is constant */

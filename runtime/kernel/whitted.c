@@ -42,7 +42,7 @@
 /* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
 #define MAX_CROSS 1024
 /* crossings of one leaf at most: a sweep's kept ones (a polynomial has its degree, a capped
- * cone 4) */
+ * cone 4); a blob has room for all of its own (leaf_room) */
 #define MAX_LEAF (SWEEP_MAX_CROSS > POLY_MAX_DEGREE ? SWEEP_MAX_CROSS : POLY_MAX_DEGREE)
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
@@ -51,7 +51,8 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
        H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
        H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM,
        H_TRIS = 90, H_NTRI, H_TBVH, H_NTBVH, H_TITEMS, H_NTITEM, H_SWEEPS = 96, H_NSWEEP,
-       H_SWEEP_TOL, H_CAMNRM = 109, H_IMAGES, H_NIMAGE };
+       H_SWEEP_TOL, H_BLOBS = 103, H_NBLOB, H_BLOB_INSIDE, H_CAMNRM = 109, H_IMAGES,
+       H_NIMAGE };
 /* the camera's projection (H_CAMKIND) and what the other projections read (camera.py):
  * the angle in radians, the cylinder type, the spherical angles, the lengths of right and
  * up, the unit right, up and direction, tan(135 degrees) for omnimax */
@@ -138,7 +139,7 @@ enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE,
        NK_MAP, NK_AVERAGE, NK_BUMPMAP };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON, K_MESH,
-       K_LATHE = 12, K_SOR };
+       K_BLOB, K_LATHE = 12, K_SOR };
 /* a triangle (runtime/triangles.py TriangleSet, world space): its first vertex, edges, unit
  * geometric normal, vertex normals (NaN: flat), object, texture row, the object's size (the
  * self-hit floor's); K_MESH objects own triangles and are met only through their box tree */
@@ -185,6 +186,8 @@ typedef struct {
     const double *h, *obj, *tex, *light, *tol, *pig, *node, *child, *unb, *loose, *bvh, *item;
     const double *nrm;    /* the normals, NRM values each */
     const double *sweeps; /* the sweeps' groups and segments (kernel/sweep.h) */
+    const double *blobs;  /* the blobs' pieces (kernel/blob.h) */
+    double blob_inside;   /* tolerances.BLOB_INSIDE */
     SweepTol swt;
     /* per box-tree node: may camera rays (column 0), or shadow rays from their hits toward
      * light l (column 1 + l), meet it (whitted.py view masks); NULL: not packed */
@@ -267,6 +270,9 @@ static void stable_quadratic(double a, double b, double c, double disc, double *
     *lo = t1 < t2 ? t1 : t2;
     *hi = t1 < t2 ? t2 : t1;
 }
+
+/* the blob uses the quadratic above and poly.h's roots */
+#include "blob.h"
 
 /* shapes.ConePrim.crossings: the lateral surface (recentred at the axis midpoint; for a
  * cylinder the discriminant recentred in 2D, as for the sphere) and the two caps. */
@@ -532,6 +538,11 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
         return lathe_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
     case K_SOR:
         return sor_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
+    case K_BLOB: { /* t has room for blob_room crossings (leaf_room) */
+        int n = blob_crossings(s->blobs, p, s->blob_inside, (int)s->h[H_ROOT_ITER], o, d, t);
+        for (int j = 0; j < n; j++) face[j] = 0;
+        return n;
+    }
     case K_POLYGON: { /* the plane, then even-odd crossings of the projected edges */
         double denom = -dot(d, p + PG_N);
         double t0 = fabs(denom) > PARALLEL_EPS ? (dot(o, p + PG_N) + p[PG_D]) / denom : INFINITY;
@@ -622,6 +633,9 @@ static void object_normal(const Scene *s, const double *ob, const double *po, in
     case K_SOR:
         sor_normal(s->sweeps, p, po, face, n);
         break;
+    case K_BLOB:
+        blob_normal(s->blobs, p, po, n);
+        break;
     case K_TORUS: {
         double R2 = p[0] * p[0], sq = dot(po, po) + R2 - p[1] * p[1];
         n[0] = po[0] * sq - 2 * R2 * po[0];
@@ -655,15 +669,44 @@ static inline int object_crossings(const Scene *s, const double *ob, const doubl
     return crossings(s, ob, oo, dd, t, face);
 }
 
+/* How many crossings an object can have along a ray: MAX_LEAF, a blob's all of its own. */
+static inline int leaf_room(const double *ob) {
+    if ((int)ob[O_KIND] != K_BLOB) return MAX_LEAF;
+    int room = blob_room(ob + O_PRIM);
+    return room > MAX_LEAF ? room : MAX_LEAF;
+}
+
+/* Room for one object's crossings: on the stack, or (a large blob) allocated. */
+typedef struct {
+    double tb[MAX_LEAF];
+    int fb[MAX_LEAF];
+    double *t;
+    int *face;
+    void *heap;
+} LeafBuf;
+
+static int leaf_buf(LeafBuf *b, const double *ob) {
+    int room = leaf_room(ob);
+    b->t = b->tb, b->face = b->fb, b->heap = NULL;
+    if (room <= MAX_LEAF) return 1;
+    b->heap = malloc((size_t)room * (sizeof(double) + sizeof(int)));
+    if (b->heap == NULL) return 0;
+    b->t = b->heap;
+    b->face = (int *)(b->t + room);
+    return 1;
+}
+
 /* A leaf's crossings in (tlo, thi), world t. */
 static int leaf_crossings(const Scene *s, int obj, const double *o, const double *d, double tlo,
                           double thi, Cross *out) {
     const double *ob = s->obj + (size_t)obj * OBJ;
-    double t[MAX_LEAF];
-    int face[MAX_LEAF];
-    int k = object_crossings(s, ob, o, d, t, face), n = 0;
+    LeafBuf b;
+    if (!leaf_buf(&b, ob)) return 0;
+    int k = object_crossings(s, ob, o, d, b.t, b.face), n = 0;
     for (int j = 0; j < k; j++)
-        if (t[j] > tlo && t[j] < thi) out[n++] = (Cross){t[j], obj, face[j], (int)ob[O_FLIP]};
+        if (b.t[j] > tlo && b.t[j] < thi)
+            out[n++] = (Cross){b.t[j], obj, b.face[j], (int)ob[O_FLIP]};
+    free(b.heap);
     return n;
 }
 
@@ -717,6 +760,10 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
     }
     case K_SOR: {
         int in = sor_inside(s->sweeps, q, p);
+        return outside ? !in : in;
+    }
+    case K_BLOB: { /* POV-Ray: density above threshold - INSIDE_TOLERANCE */
+        int in = blob_density(s->blobs, q, p) > q[BL_THR] - s->blob_inside;
         return outside ? !in : in;
     }
     case K_POLYGON: /* flat: no inside, nor has its inverse (as POV-Ray) */
@@ -785,7 +832,7 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
                           const double *inv, double tlo, double thi, Cross *out, int cap) {
     const double *nd = s->node + (size_t)node * NODE;
     if ((int)nd[N_KIND] == NK_LEAF) {
-        if (cap < MAX_LEAF) return -1;
+        if (cap < leaf_room(s->obj + (size_t)nd[N_LEAF] * OBJ)) return -1;
         return leaf_crossings(s, (int)nd[N_LEAF], o, d, tlo, thi, out);
     }
     int op = (int)nd[N_OP], count = (int)nd[N_COUNT], n = 0;
@@ -843,13 +890,13 @@ static int node_crossings(const Scene *s, int node, const double *o, const doubl
 static int gather_hit(Scene *s, const Cross *buf, int n, double tmin, double limit, int skip,
                       int any, Hit *h);
 
-/* How many leaves a node holds (room for their crossings, when a ray meets many). */
-static size_t node_leaves(const Scene *s, int node) {
+/* Room for the crossings of a node's leaves (when a ray meets many). */
+static size_t node_room(const Scene *s, int node) {
     const double *nd = s->node + (size_t)node * NODE;
-    if ((int)nd[N_KIND] == NK_LEAF) return 1;
+    if ((int)nd[N_KIND] == NK_LEAF) return (size_t)leaf_room(s->obj + (size_t)nd[N_LEAF] * OBJ);
     size_t n = 0;
     for (int j = 0; j < (int)nd[N_COUNT]; j++)
-        n += node_leaves(s, (int)s->child[(size_t)nd[N_FIRST] + j]);
+        n += node_room(s, (int)s->child[(size_t)nd[N_FIRST] + j]);
     return n;
 }
 
@@ -865,26 +912,27 @@ static int test_root(Scene *s, int r, const double *o, const double *d, const do
         int obj = (int)nd[N_LEAF];
         const double *ob = s->obj + (size_t)obj * OBJ;
         if (skip & (int)ob[O_FLAGS]) return 0;
-        double t[MAX_LEAF];
-        int face[MAX_LEAF];
-        int k = object_crossings(s, ob, o, d, t, face);
+        LeafBuf b;
+        if (!leaf_buf(&b, ob)) return 0;
+        int k = object_crossings(s, ob, o, d, b.t, b.face), found = 0;
         double floor = OBJECT_REL * ob[O_SIZE];
         if (tmin > floor) floor = tmin;
-        for (int j = 0; j < k; j++) {
-            if (t[j] > floor && t[j] < limit) {
-                limit = t[j];
-                h->t = t[j], h->obj = obj, h->face = face[j], h->flip = (int)ob[O_FLIP];
-                if (any) return 1;
+        for (int j = 0; j < k && !found; j++) {
+            if (b.t[j] > floor && b.t[j] < limit) {
+                limit = b.t[j];
+                h->t = b.t[j], h->obj = obj, h->face = b.face[j], h->flip = (int)ob[O_FLIP];
+                found = any;
             }
         }
-        return 0;
+        free(b.heap);
+        return found;
     } else {
         if (!slab(s, nd + N_LO, nd + N_HI, o, inv, tmin, cull)) return 0;
         n = node_crossings(s, r, o, d, inv, tmin, limit, buf, MAX_CROSS);
         if (n < 0) {
             /* a ray through more leaves than the stack buffer holds (a CSG of hundreds of
              * shapes): once more with room for every leaf's crossings */
-            size_t cap = (size_t)MAX_LEAF * node_leaves(s, r) + 4;
+            size_t cap = node_room(s, r) + 4;
             Cross *big = malloc(cap * sizeof(Cross));
             if (big == NULL) return 0;
             n = node_crossings(s, r, o, d, inv, tmin, limit, big, (int)cap);
@@ -2761,6 +2809,19 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 goto bad;
         }
     }
+    double blobs = h[H_BLOBS], nblob = h[H_NBLOB];
+    if (!(nblob >= 0 && nblob < 1e12 && (nblob == 0 || (blobs >= need && blobs + nblob <= sb->len / 8))))
+        goto bad;
+    s->blobs = h + (size_t)blobs;
+    s->blob_inside = h[H_BLOB_INSIDE];
+    for (int i = 0; i < s->nobj; i++) {
+        const double *ob = s->obj + (size_t)i * OBJ, *q = ob + O_PRIM;
+        if ((int)ob[O_KIND] != K_BLOB) continue;
+        /* (at most a million pieces: blob_room stays an int) */
+        if (!(q[BL_AT] >= 0 && q[BL_N] >= 0 && q[BL_N] <= 1e6 &&
+              q[BL_AT] + BLOB_PIECE * q[BL_N] <= nblob))
+            goto bad;
+    }
     double tris = h[H_TRIS], ntri = h[H_NTRI], tbvh = h[H_TBVH], ntbvh = h[H_NTBVH];
     double titems = h[H_TITEMS], ntitem = h[H_NTITEM];
     if (!(ntri >= 0 && ntri < 1e9 && ntbvh >= 0 && ntbvh < 1e9 && ntitem >= 0 && ntitem < 1e9))
@@ -3128,12 +3189,12 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 }
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
-    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR,
+    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR,
                          "object", OBJ, "texture", TEX, "light", LIT, "pigment", PIG,
                          "normal", NRM,
                          "map_entry", 6, "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
                          "bvh_stack", BVH_STACK, "fog", FOG, "max_layers", MAX_LAYERS,
-                         "triangle", TRI);
+                         "triangle", TRI, "blob_piece", BLOB_PIECE);
 }
 
 /* The nearest surface along one ray (queries.trace, the scene language's trace()): (t,

@@ -17,6 +17,11 @@ show no sign change, and otherwise solved exactly by `roots.roots_in`. The signs
 interval ends are taken once, so the crossings always alternate between outside and inside.
 
 Component textures are not used: the whole blob wears the blob's texture.
+
+The compiled kernel (kernel/blob.h) traces blobs from `table()` with the same formulas: so
+that both round alike, sums over a point's three coordinates and over the pieces are taken
+in order (`_apply`, `_dot3`, `_in_order`; numpy's einsum and matmul pick their own order)
+and powers are products.
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ from lang import ir
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.prims import roots
-from runtime.shapes import dot, recentre, stable_quadratic
+from runtime.shapes import stable_quadratic
 
 INF = np.inf
 
@@ -46,6 +51,34 @@ _BERNSTEIN = np.array(
     ],
     dtype=np.float64,
 )
+
+
+# the kernel's row per piece: the 3x4 frame, whether z counts, the cap's shift, the
+# piece's z range, its strength
+PIECE = 17
+
+
+def _apply(w: np.ndarray, p: np.ndarray, offset: bool = True) -> np.ndarray:
+    """(N, P, 3): each piece's affine rows w (P, 3, 4) at points p (N, 3), summed in order
+    (the translation last; without `offset`, the linear part only: a direction)."""
+    out = (
+        w[None, :, :, 0] * p[:, None, None, 0]
+        + w[None, :, :, 1] * p[:, None, None, 1]
+        + w[None, :, :, 2] * p[:, None, None, 2]
+    )
+    return out + w[None, :, :, 3] if offset else out
+
+
+def _dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a . b over the last axis (of 3), summed in order."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def _in_order(x: np.ndarray) -> np.ndarray:
+    """The sum over axis 1, piece after piece (a running sum: numpy's sum pairs them)."""
+    if x.shape[1] == 0:
+        return np.zeros(x.shape[:1] + x.shape[2:])
+    return np.cumsum(x, axis=1)[:, -1]
 
 
 class BlobPrim:
@@ -107,11 +140,17 @@ class BlobPrim:
     def bounds(self):
         return self.lo, self.hi
 
+    def table(self) -> np.ndarray:
+        """(P, PIECE) rows of the pieces for the compiled kernel (kernel/blob.h)."""
+        n = len(self.s)
+        cols = [self.w.reshape(n, 12), self.use_z, self.shift, self.zlo, self.zhi, self.s]
+        return np.column_stack([np.asarray(c, dtype=np.float64).reshape(n, -1) for c in cols])
+
     # ------------------------------------------------------------------ the field
     def _local(self, p: np.ndarray) -> np.ndarray:
         """(N, P, 3) piece-local coordinates of points p, each relative to its piece's
         centre (the cap's centre for the far hemisphere)."""
-        lp = np.einsum("pij,nj->npi", self.w[:, :, :3], p) + self.w[:, :, 3]
+        lp = _apply(self.w, p)
         lp[..., 2] -= self.shift
         return lp
 
@@ -119,7 +158,7 @@ class BlobPrim:
         lp = self._local(p)
         z = lp[..., 2] + self.shift
         lp[..., 2] = np.where(self.use_z, lp[..., 2], 0.0)
-        d2 = np.einsum("npi,npi->np", lp, lp)
+        d2 = _dot3(lp, lp)
         inside = (d2 < 1) & (z >= self.zlo) & (z < self.zhi)
         return lp, np.where(inside, 1 - d2, 0.0)
 
@@ -127,7 +166,7 @@ class BlobPrim:
         out = np.zeros(len(p))
         for sl in self._chunks(len(p), len(self.s)):
             _, w = self._active(p[sl])
-            out[sl] = (w * w) @ self.s
+            out[sl] = _in_order(w * w * self.s)
         return out
 
     def normal(self, p, face):
@@ -136,7 +175,13 @@ class BlobPrim:
         for sl in self._chunks(len(p), len(self.s)):
             lp, w = self._active(p[sl])
             g = (4 * self.s * w)[..., None] * lp
-            out[sl] = np.einsum("npi,pij->nj", g, self.w[:, :, :3])
+            wt = self.w
+            each = (
+                g[..., 0, None] * wt[None, :, 0, :3]
+                + g[..., 1, None] * wt[None, :, 1, :3]
+                + g[..., 2, None] * wt[None, :, 2, :3]
+            )
+            out[sl] = _in_order(each)
         return out
 
     def inside(self, p):
@@ -155,10 +200,14 @@ class BlobPrim:
     def crossings(self, o, d):
         n = len(o)
         parts = []
-        dl = np.sqrt(dot(d, d))
+        dd = _dot3(d, d)
+        dl = np.sqrt(dd)
         good = dl > 0
         du = d / np.where(good, dl, 1.0)[:, None]
-        oc, t0 = recentre(o, d, self.centre)
+        # shapes.recentre, its sums in order
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            t0 = np.where(dd > 0, _dot3(self.centre - o, d) / dd, 0.0)
+        oc = o + t0[:, None] * d
         for sl in self._chunks(n, max(1, 4 * len(self.s))):
             u = self._chunk_crossings(oc[sl], du[sl])
             parts.append(u)
@@ -178,16 +227,14 @@ class BlobPrim:
         if len(self.s) == 0 or n == 0:
             return np.full((n, 1), INF)
         # Each piece's d^2 along the ray: A t^2 + 2 B t + C (local units).
-        lo = np.einsum("pij,nj->npi", self.w[:, :, :3], o) + self.w[:, :, 3]
-        ld = np.einsum("pij,nj->npi", self.w[:, :, :3], d)
+        lo = _apply(self.w, o)
+        ld = _apply(self.w, d, offset=False)
         z0, dz = lo[..., 2].copy(), ld[..., 2].copy()
         lo[..., 2] -= self.shift
         mask = np.where(self.use_z, 1.0, 0.0)
         lo[..., 2] *= mask
         ld[..., 2] *= mask
-        qa = np.einsum("npi,npi->np", ld, ld)
-        qb = np.einsum("npi,npi->np", lo, ld)
-        qc = np.einsum("npi,npi->np", lo, lo)
+        qa, qb, qc = _dot3(ld, ld), _dot3(lo, ld), _dot3(lo, lo)
         t1, t2 = stable_quadratic(qa, qb, qc - 1)
         # a ray along a cylinder's axis: its distance to the axis never changes
         along = qa <= 0
@@ -201,7 +248,8 @@ class BlobPrim:
         zout = np.where(flat, np.where(in_slab, INF, -INF), np.fmax(za, zb))
         tin = np.maximum(t1, zin)
         tout = np.minimum(t2, zout)
-        valid = np.isfinite(t1) & (tin < tout)
+        # (a ray along a cylinder's axis inside it meets the middle piece where the slab is)
+        valid = np.isfinite(tin) & (tin < tout)
         counts = valid.sum(axis=1)
         pmax = int(counts.max())
         if pmax == 0:
@@ -252,7 +300,11 @@ class BlobPrim:
         w = right[ci, cj] - l
         coef = _taylor_shift(sums[ci, cj], l)
         coef[:, 0] -= thr
-        coef *= w[:, None] ** np.arange(5)
+        w2 = w * w
+        coef[:, 1] *= w
+        coef[:, 2] *= w2
+        coef[:, 3] *= w2 * w
+        coef[:, 4] *= w2 * w2
         # Signs at the interval ends, shared between neighbours: a neighbour that is not a
         # candidate (or no neighbour: no piece active) has density below the threshold.
         outside = -1.0 if thr > 0 else -thr
@@ -272,7 +324,9 @@ class BlobPrim:
         f_lo = np.where(prev_cand, coef[:, 0], outside)
         f_hi = np.where(next_cand, f0[ci, np.minimum(nj, k - 1)], outside)
         # Bernstein hull: no sign change in the control values and none at the ends → no root
-        bern = coef @ _BERNSTEIN.T
+        bern = coef[:, :1] * _BERNSTEIN[:, 0]
+        for i in range(1, 5):
+            bern = bern + coef[:, i, None] * _BERNSTEIN[:, i]
         all_pos = (bern > 0).all(1) & (f_lo >= 0) & (f_hi >= 0)
         all_neg = (bern < 0).all(1) & (f_lo < 0) & (f_hi < 0)
         keep = ~(all_pos | all_neg)
