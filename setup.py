@@ -11,10 +11,12 @@ setup(
             "runtime._whitted",
             ["runtime/kernel/whitted.c"],
             depends=[
+                "runtime/kernel/bracket.h",
                 "runtime/kernel/buffer.h",
                 "runtime/kernel/noise.h",
                 "runtime/kernel/poly.h",
                 "runtime/kernel/slab.h",
+                "runtime/kernel/superellipsoid.h",
                 "runtime/kernel/sweep.h",
             ],
             extra_compile_args=["-O3", "-fno-math-errno"],

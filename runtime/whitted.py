@@ -76,6 +76,7 @@ from runtime.camera import view_planes
 from runtime.lights import MAX_SHADOW_CROSSINGS
 from runtime.prims.polynomial import PolyPrim
 from runtime.prims.prism import PrismPrim, Sweep
+from runtime.prims.superellipsoid import SuperellipsoidPrim
 from runtime.prims.text import TextPrim
 from runtime.trace import BoxTree, ClipNode, CsgNode, Leaf
 
@@ -287,10 +288,14 @@ KINDS = {
     PrismPrim: 7,
     TextPrim: 7,
     shapes.PolygonPrim: 8,
+    SuperellipsoidPrim: 10,  # (9: K_MESH)
 }
 # an object made of triangles (a mesh, mesh2, triangle, height field): met through the
 # triangles' box tree, never as a primitive
 K_MESH = 9
+# a superellipsoid searched in more cells (tolerances.SUPERELLIPSOID_CELLS) renders through
+# numpy (kernel/superellipsoid.h SE_MAX_CELLS)
+SUPERELLIPSOID_MAX_CELLS = 32
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
 # The packed scene is ~400 bytes an object; past this many the numpy path (and its memory
@@ -352,6 +357,7 @@ def layout() -> dict[str, int]:
         "fog": FOG,
         "max_layers": MAX_LAYERS,
         "triangle": TRI,
+        "superellipsoid_cells": SUPERELLIPSOID_MAX_CELLS,
     }
 
 
@@ -920,6 +926,9 @@ def _uncovered(node) -> set[str]:
     if isinstance(node, Leaf):
         if type(node.prim) is PolyPrim and node.prim.degree > POLY_MAX_DEGREE:
             return {f"a polynomial of degree above {POLY_MAX_DEGREE}"}
+        cells = tol.SUPERELLIPSOID_CELLS
+        if type(node.prim) is SuperellipsoidPrim and not 1 <= cells <= SUPERELLIPSOID_MAX_CELLS:
+            return {f"superellipsoid cells outside 1-{SUPERELLIPSOID_MAX_CELLS}"}
         if type(node.prim) in KINDS:
             return set()
         return {f"shape {type(node.prim).__name__.removesuffix('Prim').lower()}"}
@@ -1034,6 +1043,10 @@ def _prim_row(prim, terms: list[list[float]], sweeps: _Curves) -> list[float]:
         # its projected edges go to the sweeps' table, a flat table of curves
         at = sweeps.add(prim.e2.reshape(-1).astype(np.float64))
         row = [*prim.n.tolist(), prim.D, *prim.keep, at, len(prim.e2), float(prim.degenerate)]
+    elif isinstance(prim, SuperellipsoidPrim):  # kernel/superellipsoid.h's slots
+        row = [prim.e, prim.n, prim.p, prim.q, float(prim.convex), tol.SUPERELLIPSOID_BOX_PAD]
+        row += [tol.SUPERELLIPSOID_CELLS, tol.SUPERELLIPSOID_INSET, tol.SUPERELLIPSOID_MIN_ITER]
+        row += [tol.SUPERELLIPSOID_INSIDE, tol.ABS_FLOOR, tol.PARALLEL_EPS, tol.ROOT_MAX_ITER]
     elif isinstance(prim, Sweep):
         at = sweeps.add(_sweep_rows(prim))
         row = [at, len(prim.groups), len(prim.all), prim.h1, prim.h2, *prim.axes]
