@@ -10,13 +10,15 @@
 typedef void (*BracketFdf)(const void *ctx, double x, double *f, double *df);
 
 /* A root in [a, b] (either order) where f(a) < 0 is neg_a and f(b) has the other sign;
- * Newton from the end evaluated last, bisection otherwise (roots.bracketed, step for step).
- * Static inline with a constant `fdf` at each call: the compiler inlines f there. */
+ * Newton from the end evaluated last, bisection otherwise (roots.bracketed, step for step;
+ * cusp_ends: no Newton step from a and b themselves). Static inline with a constant `fdf`
+ * at each call: the compiler inlines f there. */
 static inline double bracket_root(BracketFdf fdf, const void *ctx, double a, double b,
-                                  int neg_a, double atol, int max_iter) {
+                                  int neg_a, double atol, int max_iter, int cusp_ends) {
     double fa, dfa, fb, dfb;
     fdf(ctx, a, &fa, &dfa);
     fdf(ctx, b, &fb, &dfb);
+    if (cusp_ends) dfa = dfb = NAN;
     double f_ref = fmin(fabs(fa), fabs(fb));
     int newest_b = fabs(fb) < fabs(fa);
     const double tiny = 4 * DBL_EPSILON;

@@ -41,7 +41,7 @@ static void poly_fdf(const void *ctx, double x, double *f, double *df) {
 static double bracketed(const double *c, int n, double a, double b, int neg_a, double atol,
                         int max_iter) {
     PolyFdf pf = {c, n};
-    return bracket_root(poly_fdf, &pf, a, b, neg_a, atol, max_iter);
+    return bracket_root(poly_fdf, &pf, a, b, neg_a, atol, max_iter, 0);
 }
 
 static int cmp_double(const void *x, const void *y) {

@@ -178,7 +178,7 @@ static int se_chord_crossings(const SeRay *r, double lo, double hi, double *u) {
         int neg = se_value(sp, x) < 0;
         if (c > 0 && neg != neg_prev)
             u[n++] = bracket_root(se_fdf, r, all[c - 1], all[c], neg_prev, sp[SE_ABS_FLOOR],
-                                  (int)sp[SE_ROOT_ITER]);
+                                  (int)sp[SE_ROOT_ITER], 1);
         neg_prev = neg;
     }
     return n;

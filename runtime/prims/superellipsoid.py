@@ -179,7 +179,7 @@ class SuperellipsoidPrim:
                 return root - 1.0, slope
 
             out[ri, ci] = roots.bracketed(
-                fdf, allp[ri, ci], allp[ri, ci + 1], neg[ri, ci], tol.ABS_FLOOR
+                fdf, allp[ri, ci], allp[ri, ci + 1], neg[ri, ci], tol.ABS_FLOOR, cusp_ends=True
             )
         return out
 
