@@ -68,11 +68,13 @@ static void se_gradient(const double *sp, const double *x, double *n) {
     for (int i = 1; i < 3 && top == top; i++) /* numpy's max: a NaN wins */
         if (l[i] > top || l[i] != l[i]) top = l[i];
     if (!isfinite(top)) top = 0.0;
-    int flat = 1;
+    /* a coordinate exactly 0 across which f has a cusp: that axis (see the numpy method) */
+    int cusp[3] = {ax == 0 && p < 1, ay == 0 && p < 1, az == 0 && q < 1};
+    int on_cusp = cusp[0] || cusp[1] || cusp[2], flat = 1;
     for (int i = 0; i < 3; i++) {
         double mag = exp(l[i] - top);
         if (mag != mag) mag = 1.0; /* two infinite logs: share the direction */
-        n[i] = mag * se_sign(x[i]);
+        n[i] = on_cusp ? (double)cusp[i] : mag * se_sign(x[i]);
         if (n[i] != 0) flat = 0;
     }
     if (flat) n[0] = 0.0, n[1] = 0.0, n[2] = 1.0;
@@ -130,37 +132,50 @@ static void se_fdf(const void *ctx, double t, double *f, double *df) {
     *df = root / (q * big) * se_dot(n, r->d);
 }
 
-static void se_sort(double *v, int n) { /* ascending, as numpy's sort */
+/* ascending, tags along; stable (superellipsoid._sorted); tag NULL: none */
+static void se_sort(double *v, int *tag, int n) {
     for (int a = 1; a < n; a++)
         for (int b = a; b > 0 && v[b] < v[b - 1]; b--) {
             double x = v[b];
             v[b] = v[b - 1], v[b - 1] = x;
+            if (tag) {
+                int k = tag[b];
+                tag[b] = tag[b - 1], tag[b - 1] = k;
+            }
         }
 }
 
 /* the planes through the axes the chord is cut along (superellipsoid._PLANES) */
 static const double SE_PLANES[9][3] = {{1, 0, 0}, {0, 1, 0},  {0, 0, 1},  {1, 1, 0}, {1, -1, 0},
                                         {1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}};
+/* the axis each zeroes (superellipsoid._PLANE_AXIS; -1: a diagonal) */
+static const int SE_PLANE_AXIS[9] = {0, 1, 2, -1, -1, -1, -1, -1, -1};
 
 /* SuperellipsoidPrim._chord_crossings: the crossings in [lo, hi] of the unit ray r into u
  * (sorted, as many as returned) */
 static int se_chord_crossings(const SeRay *r, double lo, double hi, double *u) {
     const double *sp = r->sp;
+    /* on[]: the axis of the plane x=0, y=0 or z=0 a cut point lies on, f taken with that
+     * coordinate 0 (-1: none; see the numpy module) */
     double pts[SE_MAX_POINTS], all[2 * SE_MAX_POINTS - 1];
+    int on[2 * SE_MAX_POINTS - 1];
     int k = 0;
     if ((int)sp[SE_CONVEX]) {
-        pts[k++] = lo, pts[k++] = hi;
+        on[k] = -1, pts[k++] = lo;
+        on[k] = -1, pts[k++] = hi;
     } else {
         int cells = (int)sp[SE_CELLS];
         double step = 1.0 / cells; /* np.linspace(0, 1, cells + 1) */
-        for (int i = 0; i <= cells; i++) pts[k++] = lo + (hi - lo) * (i == cells ? 1.0 : i * step);
+        for (int i = 0; i <= cells; i++)
+            on[k] = -1, pts[k++] = lo + (hi - lo) * (i == cells ? 1.0 : i * step);
         for (int j = 0; j < 9; j++) {
             const double *a = SE_PLANES[j];
             double tp = -(r->o[0] * a[0] + r->o[1] * a[1] + r->o[2] * a[2]) /
                         (r->d[0] * a[0] + r->d[1] * a[1] + r->d[2] * a[2]);
-            pts[k++] = tp > lo && tp < hi ? tp : hi;
+            int cut = tp > lo && tp < hi;
+            on[k] = cut ? SE_PLANE_AXIS[j] : -1, pts[k++] = cut ? tp : hi;
         }
-        se_sort(pts, k);
+        se_sort(pts, on, k);
     }
     double inset = sp[SE_INSET] * (hi - lo);
     int m = 0;
@@ -168,13 +183,15 @@ static int se_chord_crossings(const SeRay *r, double lo, double hi, double *u) {
     for (int c = 0; c + 1 < k; c++) {
         double a = pts[c] + inset, b = pts[c + 1] - inset;
         double s_a = se_slope(r, a), s_b = se_slope(r, b);
+        on[m] = -1;
         all[m++] = s_a * s_b < 0 && b > a ? se_extremum(r, a, b, s_a < 0) : hi;
     }
-    se_sort(all, m);
+    se_sort(all, on, m);
     int n = 0, neg_prev = 0;
     for (int c = 0; c < m; c++) {
         double x[3];
         se_at(r, all[c], x);
+        if (on[c] >= 0) x[on[c]] = 0.0;
         int neg = se_value(sp, x) < 0;
         if (c > 0 && neg != neg_prev)
             u[n++] = bracket_root(se_fdf, r, all[c - 1], all[c], neg_prev, sp[SE_ABS_FLOOR],
@@ -217,7 +234,7 @@ static int superellipsoid_crossings(const double *sp, const double *o, const dou
     SeRay r = {sp, oc, du};
     int n = se_chord_crossings(&r, lo, hi, t);
     for (int j = 0; j < n; j++) t[j] = t[j] / dl + t0, face[j] = 0;
-    se_sort(t, n);
+    se_sort(t, NULL, n);
     return n;
 }
 
