@@ -170,7 +170,8 @@ class SuperellipsoidPrim:
         for c in range(k - 1):
             s_a[:, c] = self._slope(o, d, a[:, c])
             s_b[:, c] = self._slope(o, d, b[:, c])
-        turn = (s_a * s_b < 0) & (b > a)
+        with np.errstate(over="ignore"):  # slopes of tiny e, n: the product's sign holds
+            turn = (s_a * s_b < 0) & (b > a)
         mins = np.full((m, k - 1), INF)
         ri, ci = np.nonzero(turn)
         if len(ri):
