@@ -15,13 +15,14 @@ has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, c
 1-4, spherical; camera.py's formulas) without focal blur, a camera normal or a mesh
 camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (quadric,
 cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
-kernel/sweep.h), polygons, transformed or not, inverse or not, and their CSG (union,
-intersection, difference, merge, nested), any number of them through the tracer's box
-tree, clipped by any of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh,
-mesh2, height fields, bicubic patches: each in float64 through the triangles' own box tree,
-as triangles.TriangleSet refines Embree's float32 hits; not in CSG, nor the tessellations
-of nurbs and subdivision surfaces, whose shadow rays start on the curved surface); no other
-shapes.
+kernel/sweep.h), polygons, superellipsoids (any exponents, searched in up to
+SUPERELLIPSOID_MAX_CELLS cells: kernel/superellipsoid.h), transformed or not, inverse or
+not, and their CSG (union, intersection, difference, merge, nested), any number of them
+through the tracer's box tree, clipped by any of them (trace.ClipNode); triangles
+(triangle, smooth_triangle, mesh, mesh2, height fields, bicubic patches: each in float64
+through the triangles' own box tree, as triangles.TriangleSet refines Embree's float32
+hits; not in CSG, nor the tessellations of nurbs and subdivision surfaces, whose shadow rays
+start on the curved surface); no other shapes.
 Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map,
 average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
 pigments are solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical,
