@@ -18,6 +18,8 @@ setup(
                 "runtime/kernel/slab.h",
                 "runtime/kernel/superellipsoid.h",
                 "runtime/kernel/sweep.h",
+                "runtime/kernel/lathe.h",
+                "runtime/kernel/bump_map.h",
             ],
             extra_compile_args=["-O3", "-fno-math-errno"],
             # linked to libm, not left to bind at load time: an unversioned `pow` bound to

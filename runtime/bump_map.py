@@ -9,7 +9,8 @@ unbumped). Three samples, at the point and one pixel down to the left and to the
 or with `use_index` times the palette index of a palette PNG. The normal of the triangle
 through them, in a frame whose y axis is the surface normal, is the new normal.
 `interpolate` 2 (bilinear), 3 (bicubic) and 4 (normalised distance) blend neighbouring
-pixels (and indices, then truncated) as POV-Ray's image lookup does.
+pixels (and indices, then truncated) as POV-Ray's image lookup does. Lengths are written
+out component by component, in the order the compiled kernel repeats (kernel/bump_map.h).
 """
 
 from __future__ import annotations
@@ -32,6 +33,11 @@ GREY = np.array([0.297, 0.589, 0.114])
 _PARALLEL = 1.0e-10
 
 
+def _norm(v: np.ndarray) -> np.ndarray:
+    """(N,) lengths of (N, 3) vectors, summed x, y, z in that order."""
+    return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+
+
 class Heights(NamedTuple):
     """An image's per-pixel grey and red values (H, W) and, for a palette image, its
     indices (material_map reads the red channel, runtime.material_map)."""
@@ -45,10 +51,10 @@ def perturb(params: dict, amount: float, p: np.ndarray, n: np.ndarray) -> np.nda
     """(N,3) normals after the bump_map with image settings `params` (lang's
     params["image"]) and height `amount` (bump_size), at pattern-space points p, for the
     pattern-space normals n. Points off the image (`once`) or unmappable keep n."""
-    heights = image_heights(params)
-    if heights is None:
+    table = height_table(params)
+    if table is None:
         return n
-    h, w = heights.grey.shape
+    h, w = table.shape
     once = bool(params.get("once"))
     x, y, ok = map_pos(p, int(params.get("map_type", 0)), w, h, once)
     out = n.copy()
@@ -57,8 +63,7 @@ def perturb(params: dict, amount: float, p: np.ndarray, n: np.ndarray) -> np.nda
         return out
     x, y = x[rows], y[rows]
     interp = int(params.get("interpolate", 0))
-    use_index = bool(params.get("use_index")) and heights.indices is not None
-    table = heights.indices if use_index and heights.indices is not None else heights.grey
+    use_index = uses_index(params)
     # the samples: at the point, then one pixel on (y grows downward) to either side
     x2 = _wrap_once(x - 1.0, w)
     y2 = _wrap_once(y + 1.0, h)
@@ -71,9 +76,25 @@ def perturb(params: dict, amount: float, p: np.ndarray, n: np.ndarray) -> np.nda
     xp = np.stack([np.ones_like(h1), h1 - h2, -np.ones_like(h1)], axis=1)
     yp = np.stack([2.0 * np.ones_like(h1), h3 - h2, np.zeros_like(h1)], axis=1)
     bump = np.cross(yp, xp)
-    bump /= np.linalg.norm(bump, axis=1, keepdims=True)
+    bump /= _norm(bump)[:, None]
     out[rows] = in_frame(n[rows], bump)
     return out
+
+
+def height_table(params: dict) -> np.ndarray | None:
+    """(H, W) the heights a bump_map reads: the palette indices with `use_index` (of a
+    palette image), else the grey values; None without an image. Read by perturb and the
+    kernel's packing (runtime.kernel_patterns)."""
+    heights = image_heights(params)
+    if heights is None:
+        return None
+    return heights.indices if uses_index(params) else heights.grey
+
+
+def uses_index(params: dict) -> bool:
+    """Whether the bump_map's heights are palette indices (use_index, of a palette image)."""
+    heights = image_heights(params)
+    return bool(params.get("use_index")) and heights is not None and heights.indices is not None
 
 
 def in_frame(n: np.ndarray, bump: np.ndarray) -> np.ndarray:
@@ -81,7 +102,7 @@ def in_frame(n: np.ndarray, bump: np.ndarray) -> np.ndarray:
     z component enters negated, as POV-Ray adds it."""
     yp = n
     xp = np.cross(yp, np.array([0.0, 1.0, 0.0]))
-    length = np.linalg.norm(xp, axis=1)
+    length = _norm(xp)
     flat = length < _PARALLEL
     if flat.any():
         up = np.abs(n[flat, 1] - 1.0) < _PARALLEL
@@ -91,7 +112,7 @@ def in_frame(n: np.ndarray, bump: np.ndarray) -> np.ndarray:
         length = np.where(flat, 1.0, length)
     xp = xp / length[:, None]
     zp = np.cross(xp, yp)
-    zp /= np.linalg.norm(zp, axis=1, keepdims=True)
+    zp /= _norm(zp)[:, None]
     return bump[:, :1] * xp + bump[:, 1:2] * yp - bump[:, 2:3] * zp
 
 
@@ -122,7 +143,7 @@ def map_pos(p: np.ndarray, map_type: int, w: int, h: int, once: bool):
     ok = np.ones(len(p), dtype=bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         if map_type == 1:  # spherical
-            r = np.linalg.norm(p, axis=1)
+            r = _norm(p)
             ok &= r > 0
             rs = np.where(r > 0, r, 1.0)
             v = 0.5 + np.arcsin(np.clip(y / rs, -1.0, 1.0)) / math.pi
@@ -134,7 +155,7 @@ def map_pos(p: np.ndarray, map_type: int, w: int, h: int, once: bool):
             if once:
                 ok &= (y >= 0.0) & (y <= 1.0)
             v = np.fmod(y * h, float(h))
-            r = np.linalg.norm(p, axis=1)
+            r = _norm(p)
             rs = np.where(r > 0, r, 1.0)
             ring = np.hypot(x / rs, z / rs)
             ok &= (r > 0) & (ring > 0)

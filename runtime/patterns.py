@@ -632,28 +632,21 @@ def _with_palette_entries(
     return np.concatenate([img, ft], axis=2)
 
 
-def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np.ndarray:
-    """(N,5) colours of an `image_map` pigment at pattern-space points; `span` (the
-    pigment's source) is named when the image cannot be had."""
-    n = len(p)
+def image_pixels(params: dict, gamma: float | None, span=None) -> np.ndarray | None:
+    """An `image_map`'s pixels, (H, W, 4) RGBA in the working colour space, or (H, W, 6)
+    with each pixel's filter and transmit when palette entries set them; None (with a
+    warning naming `span`, the pigment's source) when the image cannot be had: it renders
+    black. Read by the numpy path (image_map) and the kernel's packing (runtime.whitted)."""
     path = params.get("path")
     if not path:
         _warn(f"image `{params.get('file')}` was not found: rendering it black", span)
-        return np.zeros((n, 5))
+        return None
     file_gamma = params.get("gamma")
     try:
         img = _load_image(str(path), None if file_gamma is None else float(file_gamma), gamma)
     except OSError as e:
         _warn(f"image `{path}` could not be read ({e}): rendering it black", span)
-        return np.zeros((n, 5))
-    h, w = img.shape[:2]
-    u, v = image_uv(p, int(params.get("map_type", 0)))
-    inside = (u >= 0) & (u < 1) & (v >= 0) & (v < 1)
-    u = u - np.floor(u)
-    v = v - np.floor(v)
-    # Image row 0 is the top (v = 1).
-    fx = u * w
-    fy = (1.0 - v) * h
+        return None
     entries = tuple(
         (c, e) for c, k in enumerate(("filter", "transmit")) for e in params.get(f"{k}_entries", ())
     )
@@ -665,6 +658,24 @@ def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np
             _warn("image_map filter/transmit of a palette entry needs a palette PNG: ignored", span)
         else:
             img = with_entries
+    return img
+
+
+def image_map(params: dict, p: np.ndarray, gamma: float | None, span=None) -> np.ndarray:
+    """(N,5) colours of an `image_map` pigment at pattern-space points; `span` (the
+    pigment's source) is named when the image cannot be had."""
+    n = len(p)
+    img = image_pixels(params, gamma, span)
+    if img is None:
+        return np.zeros((n, 5))
+    h, w = img.shape[:2]
+    u, v = image_uv(p, int(params.get("map_type", 0)))
+    inside = (u >= 0) & (u < 1) & (v >= 0) & (v < 1)
+    u = u - np.floor(u)
+    v = v - np.floor(v)
+    # Image row 0 is the top (v = 1).
+    fx = u * w
+    fy = (1.0 - v) * h
     if int(params.get("interpolate", 0)) in (2, 4):
         x0f = np.floor(fx - 0.5)
         y0f = np.floor(fy - 0.5)

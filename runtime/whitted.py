@@ -12,10 +12,11 @@ elsewhere.
 
 What it covers (`reasons` lists what stops a scene): every camera projection POV-Ray 3.7
 has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, cylinder
-1-4, spherical; camera.py's formulas) without focal blur, a camera normal or a mesh
-camera; spheres, planes, boxes, discs, cylinders, cones, tori and polynomials (quadric,
-cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and text (sweeps:
-kernel/sweep.h), polygons, superellipsoids (any exponents, searched in up to
+1-4, spherical; camera.py's formulas) without focal blur or a mesh camera, and a camera
+normal on the perspective and orthographic ones; spheres, planes, boxes, discs,
+cylinders, cones, tori and polynomials (quadric, cubic, quartic, poly up to degree
+POLY_MAX_DEGREE), prisms and text (sweeps: kernel/sweep.h), lathes and sors
+(kernel/lathe.h), polygons, superellipsoids (any exponents, searched in up to
 SUPERELLIPSOID_MAX_CELLS cells: kernel/superellipsoid.h), transformed or not, inverse or
 not, and their CSG (union, intersection, difference, merge, nested), any number of them
 through the tracer's box tree, clipped by any of them (trace.ClipNode); triangles
@@ -23,22 +24,27 @@ through the tracer's box tree, clipped by any of them (trace.ClipNode); triangle
 through the triangles' own box tree, as triangles.TriangleSet refines Embree's float32
 hits; not in CSG, nor the tessellations of nurbs and subdivision surfaces, whose shadow rays
 start on the curved surface); no other shapes.
-Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map,
-average, of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose
-pigments are solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical,
-planar, boxed, radial, leopard, spiral1, spiral2, ripples, waves, quilted, the fractals
-(mandel and julia to exponent 4, magnet) or one of
-POV-Ray's noise patterns (bozo, spotted, bumps, dents, granite, marble, wood, wrinkles,
-agate, on its three noise generators, and crackle), with a colour map of any
+Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map, average,
+of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose pigments are
+solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical, planar, boxed,
+radial, leopard, spiral1, spiral2, ripples, waves, quilted, the fractals (mandel and julia
+to exponent 4, magnet), image_map (every map_type, interpolation, once, use_alpha, filter
+and transmit, palette entries: the numpy path's decoded pixels in a table of their own) or
+one of POV-Ray's noise patterns (bozo, spotted, bumps, dents, granite, marble, wood,
+wrinkles, agate, on its three noise generators, and crackle), with a colour map of any
 length or a pigment map (checkers, maps and averages of such pigments, nested up to
-PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkles,
-ripples, waves, quilted and the slope of those patterns, with turbulence and a slope map; no
-normal_map or warps), one per layer; every finish item (crand, diffuse_back, fresnel
-reflection, irid included) but a negative metallic. Point lights and spotlights (fade
-included), area lights of either (adaptive, circular, orient; jitter is not sampled, as in
-lights.shadow); interiors with ior, fade and faked caustics, no media; a background colour
-and sky_sphere layers of those pigments (either version's rules for their filter and
-transmit); fog (constant, ground, turbulent, several); no media, rainbow or radiosity.
+PIGMENT_DEPTH), a wave and turbulence (no warps); normals (bumps, dents, wrinkles, ripples,
+waves, quilted and the slope of those patterns, with turbulence and a slope map,
+normal_maps and averages of them, nested, and bump_map images (kernel/bump_map.h); no
+warps), one per layer; every finish item (crand, diffuse_back, fresnel reflection, irid
+included) but a negative metallic. Point lights and spotlights (fade included), area lights
+of either (adaptive, circular, orient; jitter is not sampled, as in lights.shadow);
+interiors with ior, fade and faked caustics, no media; a background colour and sky_sphere
+layers of those pigments (either version's rules for their filter and transmit); fog
+(constant, ground, turbulent, several); no media, rainbow or radiosity.
+
+Pigment, texture-pattern and normal rows (what they hold, which the kernel renders) are
+runtime.kernel_patterns'; the rest of the layout is here.
 
 The scene goes to C as one float64 array: a header, then one row per object, texture,
 light, pigment and node, the child lists, the unbounded and the loose roots (CSG whose box
@@ -60,21 +66,38 @@ from lang import ir
 from runtime import (
     color,
     containers,
-    context,
     fog,
-    fractal_patterns,
     interiors,
     lights,
     noise,
     patterns,
     shading,
     shapes,
-    uvmap,
 )
 from runtime import tolerances as tol
 from runtime import transform as tf
 from runtime.camera import view_planes
+from runtime.kernel_patterns import (
+    MAP_ENTRY,
+    MAX_LAYERS,
+    NRM,
+    PIG,
+    Images,
+    inner_pigments,
+    inv_rows,
+    needs_noise,
+    normal_reasons,
+    normal_rows,
+    pack_normal,
+    pack_pigment,
+    pack_texture_pattern,
+    pattern_of,
+    pigment_reasons,
+    texture_reasons,
+)
 from runtime.lights import MAX_SHADOW_CROSSINGS
+from runtime.prims import spline2d
+from runtime.prims.lathe import LathePrim, SorPrim
 from runtime.prims.polynomial import PolyPrim
 from runtime.prims.prism import PrismPrim, Sweep
 from runtime.prims.superellipsoid import SuperellipsoidPrim
@@ -87,14 +110,8 @@ except ImportError:  # pragma: no cover - depends on the build
     _whitted = None  # type: ignore[assignment]  # typed by the import: module or None
 
 # Packed layout: header, then one row per object, texture and light (float64).
-HDR, OBJ, TEX, LIT, PIG, MAP_ENTRY, NODE, MAX_CROSS = 128, 64, 64, 32, 56, 6, 16, 1024
-# a normal row: a pattern row (PIG values, no colour map), then NR_KIND on
-NRM = PIG + 32
-# pigments inside pigments (maps, checkers) deeper than this render through numpy
-PIGMENT_DEPTH = 32
+HDR, OBJ, TEX, LIT, NODE, MAX_CROSS = 128, 64, 64, 32, 16, 1024
 FOG = 20
-# a texture of more layers renders through numpy (kernel/whitted.c MAX_LAYERS)
-MAX_LAYERS = 16
 BVH, BVH_STACK = 11, 128
 H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB = 0, 1, 2, 3, 4, 5
 H_BG, H_LEGACY, H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT = 8, 11, 12, 13, 14, 15
@@ -128,6 +145,8 @@ H_FOGS, H_NFOG, H_FOGMAX = 80, 81, 82
 H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER = 83, 84, 85, 86, 87
 # the normals' table (NRM values each) and how many
 H_NRMS, H_NNRM = 88, 89
+# the camera's normal (camera.bend): its row in the normals' table, -1 without one
+H_CAMNRM = 109
 # the sweeps' table (kernel/sweep.h: groups, then segments, per sweep), its length, and the
 # tolerances of their root finding (spline2d)
 H_SWEEPS, H_NSWEEP, H_SWEEP_TOL = 96, 97, 98
@@ -138,6 +157,8 @@ H_TRIS, H_NTRI, H_TBVH, H_NTBVH, H_TITEMS, H_NTITEM = range(90, 96)
 TRI = 24
 TR_V0, TR_E1, TR_E2, TR_NG, TR_VN, TR_OBJ, TR_TEX, TR_SIZE = 0, 3, 6, 9, 12, 21, 22, 23
 SWEEP_GROUP, SWEEP_SEGMENT = 6, 13
+# a sor's segment in the sweeps' table (kernel/lathe.h SR_ values)
+SOR_SEGMENT = 8
 POLY_TERM = 4
 # a polynomial of a higher degree renders through numpy (kernel/poly.h POLY_MAX_DEGREE)
 POLY_MAX_DEGREE = 8
@@ -164,120 +185,13 @@ T_CRAND, T_DBACK, T_FRESNEL, T_IRID, T_BACKLIT = 49, 50, 51, 52, 55
 T_NRM, T_BUMPY = 56, 57
 # a patterned texture: T_PIG names its pattern row, whose entries name texture rows
 T_PAT = 58
-SUBS_PIGMENTS, SUBS_TEXTURES = 1, 2
 L_KIND, L_POS, L_COL, L_SHADOWLESS, L_FADEPOW, L_FADEDIST = 0, 1, 4, 7, 8, 9
 L_AXIS, L_TIGHT, L_COSR, L_COSF = 10, 13, 14, 15
 # an area light: its grid, adaptive level, orient and circular flags, axes
 L_AREA, L_N1, L_N2, L_ADAPTIVE, L_ORIENT, L_CIRCULAR, L_A1, L_A2 = 16, 17, 18, 19, 20, 21, 22, 25
-P_KIND, P_INV, P_ORIENT, P_FREQ, P_PHASE, P_WAVE, P_WEXP, P_N, P_MAP = (
-    0,
-    1,
-    13,
-    16,
-    17,
-    18,
-    19,
-    20,
-    21,
-)
-# P_MAP: the first of the colour map's P_N entries in the map table; then the turbulence
-# (vector, octaves, omega, lambda, on), the noise generator and agate_turb
-P_TURB = P_MAP + 1
-P_OCTAVES, P_OMEGA, P_LAMBDA, P_HASTURB, P_GEN, P_AGATE = range(P_TURB + 3, P_TURB + 9)
-# P_SUBS: the entries name pigment rows (a pigment map, a checker of pigments), evaluated at
-# the world point or (P_MAPAT) at the pattern point taken back through P_FWD, the forward
-# transform (patterns.map_points)
-P_SUBS, P_FWD = P_AGATE + 1, P_AGATE + 2
-P_MAPAT = P_FWD + 12
-# crackle (patterns.crackle): form (3), metric, the offset's term, solid
-P_FORM = P_MAPAT + 1
-P_METRIC, P_OFFSET, P_SOLID = P_FORM + 3, P_FORM + 4, P_FORM + 5
-# ripples and waves: their wave sources in the map table (frequency, x, y, z), how many
-P_WAVES, P_NWAVES = P_SOLID + 1, P_SOLID + 2
-# where crackle's slots are, other patterns keep theirs: a brick's size and mortar, a
-# spiral's arms, quilted's control points
-P_BRICK, P_MORTAR, P_ARMS, P_CONTROL = P_FORM, P_METRIC, P_OFFSET, P_FORM
-# the fractals (runtime.fractal_patterns) from P_FORM on: iterations, exponent, the julia
-# constant, the exterior and interior colourings (type, factor), the magnet type (0: mandel
-# or julia) and form (1: julia)
-P_ITER, P_POWER, P_CONST, P_EXT, P_INT, P_MAGNET, P_MFORM = (
-    P_FORM,
-    P_FORM + 1,
-    P_FORM + 2,
-    P_FORM + 4,
-    P_FORM + 6,
-    P_FORM + 8,
-    P_FORM + 9,
-)
-# the kernel has POV-Ray's written-out powers up to this; higher ones render through numpy
-FRACTAL_KERNEL_POWER = 4
-PIGMENT_KINDS = {
-    "solid": 0,
-    "checker": 1,
-    "gradient": 2,
-    "onion": 3,
-    "spherical": 4,
-    "cylindrical": 5,
-    "planar": 6,
-    "boxed": 7,
-    "radial": 8,
-    "bozo": 9,
-    "spotted": 9,
-    "bumps": 9,
-    "granite": 10,
-    "marble": 11,
-    "wood": 12,
-    "wrinkles": 13,
-    "agate": 14,
-    "average": 15,
-    "crackle": 16,
-    "hexagon": 17,
-    "brick": 18,
-    "leopard": 19,
-    "spiral1": 20,
-    "spiral2": 21,
-    "ripples": 22,
-    "waves": 23,
-    "dents": 24,
-    "quilted": 25,
-    "mandel": 26,
-    "julia": 27,
-    "magnet": 28,
-}
-# the kernel's list patterns: the value names the entry shown
-LIST_KINDS = frozenset({"checker", "hexagon", "brick"})
-NOISE_KINDS = frozenset(
-    k for k, v in PIGMENT_KINDS.items() if PIGMENT_KINDS["bozo"] <= v <= PIGMENT_KINDS["agate"]
-) | {"crackle", "dents"}
-# A normal: its kind (NR_KIND), then (patterns.perturb_normal) depth, accuracy,
-# no_bump_scale, whether it has a linear part, that part and its inverse (3x3 each), its
-# wave sources in the map table (ripples and waves: frequency, x, y, z) and its slope map
-# there (key, height, slope)
-NR_KIND, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN = range(PIG, PIG + 6)
-NR_LININV = NR_LIN + 9
-NR_WAVES, NR_NWAVES, NR_SLOPES, NR_NSLOPES = range(NR_LININV + 9, NR_LININV + 13)
-# bumps, dents, wrinkles, ripples and waves perturb the normal their own way; the other
-# patterns the kernel knows by their slope (patterns._slope)
-NORMAL_KINDS = {
-    "none": 0,
-    "bumps": 1,
-    "dents": 2,
-    "wrinkles": 3,
-    "ripples": 4,
-    "waves": 5,
-    "quilted": 7,
-}
-NK_SLOPE = 6
-# (an average normal blends its entries' normals: not a slope)
-SLOPE_KINDS = frozenset(k for k in PIGMENT_KINDS if k not in ("solid", "average", *NORMAL_KINDS))
-WAVES = {
-    "ramp_wave": 0,
-    "triangle_wave": 1,
-    "sine_wave": 2,
-    "scallop_wave": 3,
-    "cubic_wave": 4,
-    "poly_wave": 5,
-}
+# the image maps' pixels (the values of a pixel after another's, rows from the top): where
+# they start, how many values
+H_IMAGES, H_NIMAGE = 110, 111
 KINDS = {
     shapes.SpherePrim: 0,
     shapes.PlanePrim: 1,
@@ -290,6 +204,8 @@ KINDS = {
     TextPrim: 7,
     shapes.PolygonPrim: 8,
     SuperellipsoidPrim: 10,  # (9: K_MESH)
+    LathePrim: 12,
+    SorPrim: 13,
 }
 # an object made of triangles (a mesh, mesh2, triangle, height field): met through the
 # triangles' box tree, never as a primitive
@@ -362,112 +278,6 @@ def layout() -> dict[str, int]:
     }
 
 
-def _pigment_reasons(pig: ir.Pigment, depth: int = 0) -> list[str]:
-    kind = pig.pattern
-    if depth >= PIGMENT_DEPTH:
-        return [f"pigments nested deeper than {PIGMENT_DEPTH}"]
-    if kind not in PIGMENT_KINDS:
-        return [f"pigment pattern {kind}"]
-    if kind == "solid":
-        return []
-    if pig.params.get("warps"):
-        return [f"warped {kind}"]
-    if _needs_noise(pig) and patterns.noise_generator(pig.params) not in (1, 2, 3):
-        return [f"noise_generator {pig.params.get('noise_generator')}"]
-    if kind in LIST_KINDS:
-        if kind == "checker" and len(pig.list) == 1:
-            return ["checker of one pigment"]
-        return [r for sub in pig.list for r in _pigment_reasons(sub, depth + 1)]
-    if kind == "average" and not pig.pigment_map:
-        return ["average without a pigment_map"]
-    if pig.params.get("wave", "ramp_wave") not in WAVES:
-        return [f"wave {pig.params.get('wave')}"]
-    if not _fractal_power_packed(kind, pig.params):
-        return [f"{kind} exponent {pig.params.get('exponent')}"]
-    return [r for _, sub in pig.pigment_map for r in _pigment_reasons(sub, depth + 1)]
-
-
-def _normal_reasons(nrm: ir.Normal) -> list[str]:
-    kind, prm = nrm.pattern, nrm.params
-    if prm.get("normal_map"):
-        return ["normal_map"]
-    if kind not in NORMAL_KINDS and kind not in SLOPE_KINDS:
-        return [f"normal pattern {kind}"]
-    if prm.get("warps"):
-        return [f"warped {kind} normal"]
-    if patterns.noise_generator(prm) not in (1, 2, 3):
-        return [f"noise_generator {prm.get('noise_generator')}"]
-    if kind in SLOPE_KINDS and prm.get("wave", "ramp_wave") not in WAVES:
-        return [f"wave {prm.get('wave')}"]
-    if not _fractal_power_packed(kind, prm):
-        return [f"{kind} exponent {prm.get('exponent')}"]
-    return []
-
-
-def _fractal_power_packed(kind: str, prm: dict) -> bool:
-    """Whether a mandel or julia exponent is one the kernel has (not the binomial sums)."""
-    return kind not in ("mandel", "julia") or fractal_patterns.exponent(prm) <= FRACTAL_KERNEL_POWER
-
-
-def _needs_noise(pig: ir.Pigment) -> bool:
-    return pig.pattern in NOISE_KINDS or patterns.turb_params(pig.params)[0] is not None
-
-
-def _texture_reasons(tex: ir.Texture, depth: int = 0) -> list[str]:
-    if uvmap.uses_uv(tex):
-        return ["uv_mapping"]
-    if context.is_patterned(tex):
-        out = _patterned_reasons(tex, depth)
-        if depth == 0 and not out and most_layers(tex) > MAX_LAYERS:
-            return [f"a patterned texture showing more than {MAX_LAYERS} layers at a point"]
-        return out
-    layers = context.texture_layers(tex)
-    if len(layers) > MAX_LAYERS:
-        return [f"more than {MAX_LAYERS} texture layers"]
-    out = []
-    for layer in layers:
-        if context.is_patterned(layer) or (layer is not tex and layer.layers):
-            out.append("patterned texture")
-        f = layer.finish
-        out.extend(_pigment_reasons(layer.pigment))
-        if layer.normal is not None:
-            out.extend(_normal_reasons(layer.normal))
-        if f.metallic < 0:
-            out.append("negative metallic")
-    return out
-
-
-def _patterned_reasons(tex: ir.Texture, depth: int) -> list[str]:
-    assert tex.pattern is not None  # context.is_patterned
-    pat = tex.pattern
-    kind = pat.pattern
-    if depth >= PIGMENT_DEPTH:
-        return [f"patterned textures nested deeper than {PIGMENT_DEPTH}"]
-    if kind not in PIGMENT_KINDS or kind == "solid":
-        return [f"texture pattern {kind}"]
-    if pat.params.get("warps"):
-        return [f"warped {kind} texture"]
-    if _needs_noise(pat) and patterns.noise_generator(pat.params) not in (1, 2, 3):
-        return [f"noise_generator {pat.params.get('noise_generator')}"]
-    if pat.params.get("wave", "ramp_wave") not in WAVES:
-        return [f"wave {pat.params.get('wave')}"]
-    return [r for _, sub in tex.map for r in _texture_reasons(sub, depth + 1)]
-
-
-def most_layers(tex: ir.Texture) -> int:
-    """The most layers a texture shows at one point: a list pattern's one entry, a map's
-    two neighbours, an average's every entry (the kernel shades each shown layer)."""
-    if not context.is_patterned(tex):
-        return len(context.texture_layers(tex))
-    assert tex.pattern is not None
-    each = [most_layers(sub) for _, sub in tex.map]
-    if tex.pattern.pattern == "average":
-        return sum(each)
-    if tex.pattern.pattern in patterns.LIST_PATTERNS:
-        return max(each)
-    return max([*each, *(a + b for a, b in zip(each, each[1:], strict=False))])
-
-
 def _camera_in_matter(prepared, camera: ir.Camera) -> bool:
     """Whether an orthographic camera starts inside an object whose interior bends or fades
     light: the kernel gives every camera ray the list of the objects holding the camera's
@@ -496,7 +306,9 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
     if camera.aperture != 0.0 and camera.blur_samples > 0:
         out.append("focal blur")
     if camera.normal is not None:
-        out.append("camera normal")
+        if camera.kind not in ("perspective", "orthographic"):
+            out.append(f"camera normal on a {camera.kind} camera")
+        out.extend(normal_reasons(camera.normal))
     if scene.settings.radiosity is not None:
         out.append("radiosity")
     if scene.media:
@@ -531,9 +343,9 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         key = ("entry", entry) if entry is not None else ("object", id(tex))
         if key not in seen:
             seen.add(key)
-            out.extend(_texture_reasons(tex))
+            out.extend(texture_reasons(tex))
     for pig in scene.sky_sphere or ():
-        out.extend(_pigment_reasons(pig))
+        out.extend(pigment_reasons(pig))
     if any(r is not None for r in getattr(prepared, "receivers", ())):
         out.append("light groups")
     for light in scene.lights:
@@ -545,182 +357,6 @@ def reasons(prepared, camera: ir.Camera, ctx=None) -> list[str]:
         if area is not None and area.size1 * area.size2 > ir.AREA_SAMPLES:
             out.append("an area light of more than 1,000,000 samples")
     return sorted(set(out))
-
-
-def _subs(pig: ir.Pigment) -> list[ir.Pigment]:
-    """The pigments inside a pigment (its pigment map's, a checker's of patterned ones)."""
-    if pig.pattern in LIST_KINDS and any(sub.pattern != "solid" for sub in pig.list):
-        return list(pig.list)
-    return [sub for _, sub in pig.pigment_map]
-
-
-def _inner_pigments(tops: list[ir.Pigment]) -> list[ir.Pigment]:
-    """Every pigment inside these, each once, breadth first (their rows follow the
-    textures'); deeper than PIGMENT_DEPTH is refused by the reasons."""
-    seen = {id(p) for p in tops}
-    out: list[ir.Pigment] = []
-    level = tops
-    for _ in range(PIGMENT_DEPTH):
-        nxt = []
-        for pig in level:
-            for sub in _subs(pig):
-                if id(sub) not in seen:
-                    seen.add(id(sub))
-                    nxt.append(sub)
-        out.extend(nxt)
-        level = nxt
-    return out
-
-
-def _entries(pig: ir.Pigment) -> list:
-    """The (key, rgbft) entries the kernel blends: a solid's one colour, a list pattern's
-    colours (keys 0, 1, 2 ...)."""
-    if pig.pattern == "solid":
-        return [(0.0, pig.color)]
-    if pig.pattern in LIST_KINDS:
-        subs = pig.list or tuple(ir.Pigment(color=c) for c in patterns.DEFAULT_LISTS[pig.pattern])
-        return [(float(k), sub.color) for k, sub in enumerate(subs)]
-    return list(patterns.colour_map(pig))
-
-
-def _pack_pattern(kind: str, prm: dict, transform, row: np.ndarray) -> None:
-    """A pattern row's pattern: pattern-space transform, orientation, wave, turbulence and
-    noise generator (a pigment's or a normal's)."""
-    if kind != "solid" and kind not in LIST_KINDS:
-        row[P_ORIENT : P_ORIENT + 3] = prm.get("orientation", (1.0, 0.0, 0.0))
-        row[P_FREQ] = float(prm.get("frequency", 1.0))
-        row[P_PHASE] = float(prm.get("phase", 0.0))
-        default = "triangle_wave" if kind in patterns.TRIANGLE_BY_DEFAULT else "ramp_wave"
-        row[P_WAVE] = WAVES.get(prm.get("wave", default), 0)  # checked by the reasons
-        row[P_WEXP] = float(prm.get("wave_exponent", prm.get("exponent", 1.0)))
-    vec, octaves, omega, lam = patterns.turb_params(prm)
-    row[P_TURB : P_TURB + 3] = (0.0, 0.0, 0.0) if vec is None else vec
-    row[P_OCTAVES], row[P_OMEGA], row[P_LAMBDA] = octaves, omega, lam
-    row[P_HASTURB] = vec is not None
-    row[P_GEN] = patterns.noise_generator(prm)
-    if kind == "crackle":
-        form = np.broadcast_to(np.asarray(prm.get("form", (-1.0, 1.0, 0.0)), float), (3,))
-        metric = float(prm.get("metric", 2.0))
-        offset = float(prm.get("offset", 0.0))
-        row[P_FORM : P_FORM + 3] = form
-        row[P_METRIC] = metric
-        # the term patterns.crackle adds to each distance (in the metric's power)
-        row[P_OFFSET] = (offset * offset if metric == 2.0 else offset**metric) if offset else 0.0
-        row[P_SOLID] = 1.0 if prm.get("solid") else 0.0
-    elif kind == "brick":
-        size = prm.get("brick_size", (8.0, 3.0, 4.5))
-        row[P_BRICK : P_BRICK + 3] = np.broadcast_to(np.asarray(size, float), (3,))
-        row[P_MORTAR] = float(prm.get("mortar", 0.5))
-    elif kind in ("spiral1", "spiral2"):
-        row[P_ARMS] = float(prm.get("arms", 1.0))
-    elif kind == "quilted":
-        row[P_CONTROL : P_CONTROL + 2] = prm.get("control0", 1.0), prm.get("control1", 1.0)
-    elif kind in ("mandel", "julia", "magnet"):
-        _pack_fractal(kind, prm, row)
-    row[P_AGATE] = float(prm.get("agate_turb", 1.0))
-    inv = tf.cached_inverse(transform)
-    row[P_INV : P_INV + 12] = _inv_rows(np.eye(4) if inv is None else inv)
-
-
-def _pack_fractal(kind: str, prm: dict, row: np.ndarray) -> None:
-    """A fractal's parameters, read as runtime.fractal_patterns reads them."""
-    magnet = kind == "magnet"
-    row[P_ITER] = fractal_patterns.iterations(prm)
-    row[P_POWER] = 2 if magnet else fractal_patterns.exponent(prm)
-    julia_form = kind == "julia" or (magnet and prm.get("magnet_form") == "julia")
-    if julia_form:
-        row[P_CONST : P_CONST + 2] = fractal_patterns.constant(prm, magnet)
-    row[P_EXT : P_EXT + 2], row[P_INT : P_INT + 2] = fractal_patterns.colourings(prm)
-    row[P_MAGNET] = int(prm.get("magnet", 1)) if magnet else 0
-    row[P_MFORM] = 1.0 if julia_form else 0.0
-
-
-def pack_pigment(
-    pig: ir.Pigment, row: np.ndarray, maps: list[list[float]], rows_of: dict[int, int]
-) -> None:
-    """One pigment row: kind, pattern and colour map (solid: one entry; checker: its two
-    colours), or the rows of the pigments inside it (`rows_of`, by id)."""
-    row[P_KIND] = PIGMENT_KINDS[pig.pattern]
-    _pack_pattern(pig.pattern, pig.params, pig.transform, row)
-    _pack_wave_sources(pig.pattern, pig.params, row, maps)
-    subs = _subs(pig)
-    row[P_MAP] = len(maps)
-    if not subs:
-        entries = _entries(pig)
-        row[P_N] = len(entries)
-        maps.extend([float(key), *map(float, colour)] for key, colour in entries)
-        return
-    row[P_SUBS] = SUBS_PIGMENTS
-    # (an average's keys are its entries' weights)
-    listed = pig.pattern in LIST_KINDS
-    keys = list(range(len(subs))) if listed else [k for k, _ in pig.pigment_map]
-    row[P_N] = len(subs)
-    maps.extend(
-        [float(k), float(rows_of[id(sub)]), 0.0, 0.0, 0.0, 0.0]
-        for k, sub in zip(keys, subs, strict=True)
-    )
-    if not listed and patterns.turb_params(pig.params)[0] is not None:
-        row[P_MAPAT] = 1.0  # patterns.map_points: back through the transform (no warps here)
-        row[P_FWD : P_FWD + 12] = _inv_rows(pig.transform)
-
-
-def _pattern_of(tex: ir.Texture) -> ir.Pigment:
-    assert tex.pattern is not None  # context.is_patterned
-    return tex.pattern
-
-
-def pack_texture_pattern(
-    tex: ir.Texture, row: np.ndarray, maps: list[list[float]], rows_of: dict[int, int]
-) -> None:
-    """A patterned texture's pattern row: the pattern, and its map's entries (key, the row
-    of the texture: `rows_of` by id, as make_context interned them)."""
-    pat = _pattern_of(tex)
-    row[P_KIND] = PIGMENT_KINDS[pat.pattern]
-    _pack_pattern(pat.pattern, pat.params, pat.transform, row)
-    _pack_wave_sources(pat.pattern, pat.params, row, maps)
-    row[P_SUBS], row[P_N], row[P_MAP] = SUBS_TEXTURES, len(tex.map), len(maps)
-    maps.extend([float(k), float(rows_of[id(sub)]), 0.0, 0.0, 0.0, 0.0] for k, sub in tex.map)
-
-
-def pack_normal(nrm: ir.Normal, keep: bool, row: np.ndarray, maps: list[list[float]]) -> None:
-    """One normal row (patterns.perturb_normal's inputs; `keep`: the layer's no_bump_scale):
-    its pattern, kind, depth, accuracy, linear part, and its wave sources and slope map
-    as map-table entries."""
-    kind, prm = nrm.pattern, nrm.params
-    slope = kind not in NORMAL_KINDS
-    row[P_KIND] = PIGMENT_KINDS[kind] if slope else 0
-    _pack_pattern(kind, prm, nrm.transform, row)
-    row[NR_KIND] = NK_SLOPE if slope else NORMAL_KINDS[kind]
-    row[NR_DEPTH] = float(nrm.depth)
-    row[NR_ACC] = float(prm.get("accuracy", patterns.NORMAL_DELTA))
-    row[NR_KEEP] = keep or bool(prm.get("no_bump_scale"))
-    lin = patterns.pattern_linear(nrm)
-    if lin is not None:
-        row[NR_HASLIN] = 1.0
-        row[NR_LIN : NR_LIN + 9] = np.ravel(lin)
-        row[NR_LININV : NR_LININV + 9] = np.ravel(np.linalg.inv(lin))
-    if kind in ("ripples", "waves"):
-        row[NR_WAVES], row[NR_NWAVES] = _wave_sources(prm, maps)
-    slopes = prm.get("slope_map")
-    if slope and slopes:
-        row[NR_SLOPES], row[NR_NSLOPES] = len(maps), len(slopes)
-        maps.extend([float(key), float(hs[0]), float(hs[1]), 0.0, 0.0, 0.0] for key, hs in slopes)
-
-
-def _wave_sources(prm: dict, maps: list[list[float]]) -> tuple[int, int]:
-    """POV-Ray's wave sources (patterns.wave_tables) into the map table (frequency, x, y,
-    z each): where they start, how many."""
-    sources, freqs = patterns.wave_tables(patterns.wave_count(prm))
-    at = len(maps)
-    maps.extend(
-        [float(f), *map(float, src), 0.0, 0.0] for src, f in zip(sources, freqs, strict=True)
-    )
-    return at, len(freqs)
-
-
-def _pack_wave_sources(kind: str, prm: dict, row: np.ndarray, maps: list[list[float]]) -> None:
-    if kind in ("ripples", "waves"):  # the pigments'
-        row[P_WAVES], row[P_NWAVES] = _wave_sources(prm, maps)
 
 
 def pack_fog(f: ir.Fog, row: np.ndarray) -> None:
@@ -992,18 +628,25 @@ def _table(rows: list, width: int) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(len(rows), width)
 
 
+def _segment_rows(c: spline2d.Curve) -> np.ndarray:
+    """A curve's segments for the sweeps' table: each its x and y cubics, exact box and
+    whether its end joins a start (kernel/sweep.h SS values)."""
+    if len(c) == 0:
+        return np.zeros(0)
+    segs = np.concatenate(
+        [c.coef[:, 0], c.coef[:, 1], c.lo, c.hi, c.joined[:, None].astype(np.float64)], axis=1
+    )
+    return segs.ravel()
+
+
 def _sweep_rows(prim: Sweep) -> np.ndarray:
     """A sweep's part of the sweeps' table: per group its box, first segment and count, then
-    per segment its x and y cubics, exact box and whether its end joins a start."""
+    its segments."""
     groups = [
         [*prim.glo[g], *prim.ghi[g], prim.offsets[g], len(curve)]
         for g, curve in enumerate(prim.groups)
     ]
-    c = prim.all
-    segs = np.concatenate(
-        [c.coef[:, 0], c.coef[:, 1], c.lo, c.hi, c.joined[:, None].astype(np.float64)], axis=1
-    )
-    return np.concatenate([_table(groups, SWEEP_GROUP).ravel(), segs.ravel()])
+    return np.concatenate([_table(groups, SWEEP_GROUP).ravel(), _segment_rows(prim.all)])
 
 
 class _Curves:
@@ -1048,6 +691,17 @@ def _prim_row(prim, terms: list[list[float]], sweeps: _Curves) -> list[float]:
         row = [prim.e, prim.n, prim.p, prim.q, float(prim.convex), tol.SUPERELLIPSOID_BOX_PAD]
         row += [tol.SUPERELLIPSOID_CELLS, tol.SUPERELLIPSOID_INSET, tol.SUPERELLIPSOID_MIN_ITER]
         row += [tol.SUPERELLIPSOID_INSIDE, tol.ABS_FLOOR, tol.PARALLEL_EPS, tol.ROOT_MAX_ITER]
+    elif isinstance(prim, LathePrim):  # kernel/lathe.h LA_ slots
+        at = sweeps.add(_segment_rows(prim.curve))
+        row = [at, len(prim.curve), *prim.lo, *prim.hi, prim.size]
+        row += [prim.ylo, prim.yhi, prim.degenerate]
+        row += [tol.ROOT_MAX_ITER, tol.LATHE_FLAT_DIR, tol.BOX_PAD_REL, tol.BOX_PAD_ABS]
+    elif isinstance(prim, SorPrim):  # kernel/lathe.h SO_ slots
+        segs = np.concatenate([prim.coef, prim.y, prim.rmin[:, None], prim.rmax[:, None]], axis=1)
+        at = sweeps.add(segs.ravel())
+        row = [at, len(prim.coef), *prim.lo, *prim.hi, prim.size, prim.ylo, prim.yhi]
+        row += [prim.open, prim.base_r2, prim.cap_r2, prim.degenerate]
+        row += [tol.SOR_CAP_MIN_R2, tol.BOX_PAD_REL, tol.BOX_PAD_ABS]
     elif isinstance(prim, Sweep):
         at = sweeps.add(_sweep_rows(prim))
         row = [at, len(prim.groups), len(prim.all), prim.h1, prim.h2, *prim.axes]
@@ -1057,12 +711,7 @@ def _prim_row(prim, terms: list[list[float]], sweeps: _Curves) -> list[float]:
     return row + [0.0] * (PRIM_SLOTS - len(row))
 
 
-def _inv_rows(m) -> np.ndarray:
-    """The 3x4 rows of an affine matrix, for the kernel."""
-    return np.asarray(m, dtype=np.float64).reshape(4, 4)[:3, :].ravel()
-
-
-_IDENTITY_ROWS = _inv_rows(np.eye(4))
+_IDENTITY_ROWS = inv_rows(np.eye(4))
 
 
 def _pack_camera(camera: ir.Camera, h: np.ndarray) -> None:
@@ -1108,11 +757,11 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     n_tex = len(ctx.textures) + len(below)
     sky = list(reversed(scene.sky_sphere or ()))  # evaluated innermost first, as integrate.sky
     tops = [
-        _pattern_of(ctx.tree[t]) if t in ctx.tree else layers[0].pigment
+        pattern_of(ctx.tree[t]) if t in ctx.tree else layers[0].pigment
         for t, layers in enumerate(layer_rows)
     ] + [t.pigment for t in below]
     # the pigments inside pigments after the textures' (the sky's stay last, kernel's rule)
-    inner = _inner_pigments(tops + sky)
+    inner = inner_pigments(tops + sky)
     n_pig = n_tex + len(inner) + len(sky)
     n_node = len(nodes)
     bvh, items = box_tree(tracer)
@@ -1129,9 +778,13 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     # the layers' normals, in the order of the layer rows (`rows_of` below)
     layered = [layers[0] for layers in layer_rows if layers] + below
     bumped = [layer for layer in layered if layer.normal is not None]
+    # the normals' rows: the layers', then the camera's
+    normals = [(layer.normal, layer.no_bump_scale) for layer in bumped]
+    if camera.normal is not None:
+        normals.append((camera.normal, False))
     noisy = (
-        bool(bumped)
-        or any(_needs_noise(p) for p in pigs)
+        bool(normals)
+        or any(needs_noise(p) for p in pigs)
         or any(f.turbulence is not None for f in fogs)
         or any(irid is not None and irid[0] > 0 and irid[2] != 0 for irid in films)
     )
@@ -1140,39 +793,52 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     pig_rows = np.zeros((n_pig, PIG))
     maps: list[list[float]] = []
     pig_row_of = {id(pig): k for k, pig in enumerate(pigs)}
+    images = Images()
     for k, (pig, row) in enumerate(zip(pigs, pig_rows, strict=True)):
         if k in ctx.tree:  # a patterned texture's row: its pattern, its textures' rows
             pack_texture_pattern(ctx.tree[k], row, maps, ctx.leaf_id)
         else:
-            pack_pigment(pig, row, maps, pig_row_of)
-    nrm_rows = np.zeros((len(bumped), NRM))
-    for layer, row in zip(bumped, nrm_rows, strict=True):
-        assert layer.normal is not None  # bumped holds the layers with one
-        pack_normal(layer.normal, layer.no_bump_scale, row, maps)
+            pack_pigment(pig, row, maps, pig_row_of, images, ctx.gamma)
+    packed_normals = normal_rows(normals)
+    nrm_rows = np.zeros((len(packed_normals), NRM))
+    for (nrm, keep, subs), row in zip(packed_normals, nrm_rows, strict=True):
+        assert nrm is not None  # bumped holds the layers with one
+        pack_normal(nrm, keep, row, maps, subs, images)
     maps_at = size + len(tail)
     fogs_at = maps_at + MAP_ENTRY * len(maps)
     terms_at = fogs_at + FOG * len(fogs)
     n_terms = sum(len(leaf.prim.c) for leaf in leaves if type(leaf.prim) is PolyPrim)
     nrms_at = terms_at + POLY_TERM * n_terms
-    sweeps_at = nrms_at + NRM * len(bumped)
+    sweeps_at = nrms_at + NRM * len(packed_normals)
     n_sweep = sum(
         SWEEP_GROUP * len(leaf.prim.groups) + SWEEP_SEGMENT * len(leaf.prim.all)
         for leaf in leaves
         if isinstance(leaf.prim, Sweep)
     ) + sum(4 * len(leaf.prim.e2) for leaf in leaves if isinstance(leaf.prim, shapes.PolygonPrim))
+    n_sweep += sum(
+        SWEEP_SEGMENT * len(leaf.prim.curve) for leaf in leaves if type(leaf.prim) is LathePrim
+    )
+    n_sweep += sum(
+        SOR_SEGMENT * len(leaf.prim.coef) for leaf in leaves if type(leaf.prim) is SorPrim
+    )
     tri_rows, tri_bvh, tri_items = _pack_triangles(ctx)
     tris_at = sweeps_at + n_sweep
     tbvh_at = tris_at + TRI * len(tri_rows)
     titems_at = tbvh_at + BVH * len(tri_bvh)
-    buf = np.zeros(titems_at + len(tri_items) + len(tables))
+    images_at = titems_at + len(tri_items)
+    buf = np.zeros(images_at + images.size + len(tables))
     h = buf[:HDR]
+    h[H_IMAGES], h[H_NIMAGE] = images_at, images.size
+    if images.parts:
+        buf[images_at : images_at + images.size] = np.concatenate([a.ravel() for a in images.parts])
     h[H_TRIS], h[H_NTRI], h[H_TBVH], h[H_NTBVH] = tris_at, len(tri_rows), tbvh_at, len(tri_bvh)
     h[H_TITEMS], h[H_NTITEM] = titems_at, len(tri_items)
     buf[tris_at:tbvh_at] = tri_rows.ravel()
     buf[tbvh_at:titems_at] = tri_bvh.ravel()
     buf[titems_at : titems_at + len(tri_items)] = tri_items
-    buf[nrms_at : nrms_at + NRM * len(bumped)] = nrm_rows.ravel()
-    h[H_NRMS], h[H_NNRM] = nrms_at, len(bumped)
+    buf[nrms_at : nrms_at + NRM * len(packed_normals)] = nrm_rows.ravel()
+    h[H_NRMS], h[H_NNRM] = nrms_at, len(packed_normals)
+    h[H_CAMNRM] = len(bumped) if camera.normal is not None else -1
     h[[H_NOBJ, H_NTEX, H_NLIGHT, H_NPIG, H_NSKY]] = n_obj, n_tex, n_light, n_pig, len(sky)
     h[[H_NNODE, H_NROOT, H_NCHILD]] = n_node, len(tracer.nodes), len(children)
     h[[H_NUNB, H_NBVH, H_NITEM, H_NLOOSE]] = len(unbounded), len(bvh), len(items), len(loose)
@@ -1231,7 +897,7 @@ def pack(ctx, camera: ir.Camera, width: int, height: int) -> np.ndarray:
     rows[:, O_MINV : O_MINV + 12] = _IDENTITY_ROWS
     for k, leaf in enumerate(leaves):
         if not leaf.identity:
-            rows[k, O_MINV : O_MINV + 12] = _inv_rows(leaf.m_inv)
+            rows[k, O_MINV : O_MINV + 12] = inv_rows(leaf.m_inv)
     # spheres, the bulk of a large scene, in one gather (centre, radius); the other shapes
     # row by row
     spheres = [k for k, leaf in enumerate(leaves) if type(leaf.prim) is shapes.SpherePrim]

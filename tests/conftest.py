@@ -143,3 +143,26 @@ def kernel_and_numpy(scene, width: int, height: int, monkeypatch, aa=None):
     slow = render_scene(scene, width, height, antialias=aa)
     monkeypatch.delenv(whitted.ENV)
     return fast, slow
+
+
+def write_palette_png(path: Path, index, palette: bytes) -> None:
+    """An 8-bit palette PNG (which image libraries do not write) of these indices (2-D
+    array) and this palette (RGB triples), for the tests of palette entries."""
+    import struct
+    import zlib
+
+    import numpy as np
+
+    h, w = index.shape
+    raw = b"".join(b"\x00" + bytes(row) for row in np.asarray(index).astype(np.uint8))
+
+    def chunk(tag: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
+
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 3, 0, 0, 0))
+        + chunk(b"PLTE", palette)
+        + chunk(b"IDAT", zlib.compress(raw))
+        + chunk(b"IEND", b"")
+    )

@@ -3,13 +3,11 @@ POV-Ray renders them, and the pieces of runtime.bump_map on their own."""
 
 from __future__ import annotations
 
-import struct
-import zlib
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import image_errors, povray_image, strala_image
+from conftest import image_errors, povray_image, strala_image, write_palette_png
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -37,20 +35,8 @@ def _write_grey_png(path: Path, values: np.ndarray) -> None:
 def _write_palette_png(path: Path, index: np.ndarray) -> None:
     """An 8-bit palette PNG whose colours do not follow the indices (so grey and index
     heights differ)."""
-    h, w = index.shape
     palette = b"".join(bytes(((i * 97) % 256, (i * 31) % 256, 255 - i)) for i in range(256))
-    raw = b"".join(b"\x00" + bytes(row) for row in index.astype(np.uint8))
-
-    def chunk(tag: bytes, body: bytes) -> bytes:
-        return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body))
-
-    path.write_bytes(
-        b"\x89PNG\r\n\x1a\n"
-        + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 3, 0, 0, 0))
-        + chunk(b"PLTE", palette)
-        + chunk(b"IDAT", zlib.compress(raw))
-        + chunk(b"IEND", b"")
-    )
+    write_palette_png(path, index, palette)
 
 
 HEAD = """#version 3.7;

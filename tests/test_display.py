@@ -365,14 +365,13 @@ def test_a_tile_is_shown_with_its_first_rays_then_refined(xscreen, tmp_path, mon
     on the written PNG's pixels."""
     import threading
 
-    from runtime import cli, color, display
+    from runtime import api, color, display
 
     screen, name = xscreen
     monkeypatch.setenv("DISPLAY", name)
     monkeypatch.setattr(display, "FIRST_DELAY", 0.0)  # shown however fast the refinement
     w, h = 160, 120
-    scene, _ = cli._compile(str(EX3), [], (w, h), clock=0.0, debug_output=False)
-    assert scene is not None
+    scene = api.compile_file(EX3, width=w, height=h).scene
     plain = render.render_scene(scene, w, h, threads=1)  # one ray a pixel
     window = display.Window("refined.pov", lambda: None, lambda why: pytest.fail(why))
     window.frame(w, h, scene.settings, "rendering", tmp_path / "r.shown.png")

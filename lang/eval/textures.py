@@ -394,8 +394,11 @@ def _pigment_items(it: BuildContext, pig: ir.Pigment, items: list) -> ir.Pigment
     for name, args, span in items:
         v: Any = args[0] if args else None
         if name == "pigment":
+            uv = params.get("uv_mapping")
             pig = replaced(v, span=pig.span)
             params = dict(v.params)
+            if uv:  # `uv_mapping image_map { … }`: the image's pattern is uv-mapped
+                params["uv_mapping"] = True
         elif name == "uv_mapping":
             # POV-Ray parses the rest of the block as a new pigment (from the default one)
             # that is evaluated at the surface's <u, v, 0>

@@ -18,6 +18,8 @@
 #include "slab.h"
 #include "superellipsoid.h"
 #include "sweep.h"
+#include "lathe.h"
+#include "bump_map.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -51,7 +53,7 @@ enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGAC
        H_MASK, H_NLOOSE, H_CAMIN = 56, H_NOISE = 76, H_MAPS, H_NMAPS, H_FOGS = 80, H_NFOG, H_FOGMAX,
        H_TERMS, H_NTERMS, H_POLY_REACH, H_POLY_LEAD, H_ROOT_ITER, H_NRMS, H_NNRM,
        H_TRIS = 90, H_NTRI, H_TBVH, H_NTBVH, H_TITEMS, H_NTITEM, H_SWEEPS = 96, H_NSWEEP,
-       H_SWEEP_TOL };
+       H_SWEEP_TOL, H_CAMNRM = 109, H_IMAGES, H_NIMAGE };
 /* the camera's projection (H_CAMKIND) and what the other projections read (camera.py):
  * the angle in radians, the cylinder type, the spherical angles, the lengths of right and
  * up, the unit right, up and direction, tan(135 degrees) for omnimax */
@@ -99,8 +101,16 @@ enum { P_ITER = P_FORM, P_POWER, P_CONST, P_EXT = P_CONST + 2, P_INT = P_EXT + 2
 enum { PK_SOLID, PK_CHECKER, PK_GRADIENT, PK_ONION, PK_SPHERICAL, PK_CYLINDRICAL, PK_PLANAR,
        PK_BOXED, PK_RADIAL, PK_BOZO, PK_GRANITE, PK_MARBLE, PK_WOOD, PK_WRINKLES, PK_AGATE,
        PK_AVERAGE, PK_CRACKLE, PK_HEXAGON, PK_BRICK, PK_LEOPARD, PK_SPIRAL1, PK_SPIRAL2,
-       PK_RIPPLES, PK_WAVES, PK_DENTS, PK_QUILTED, PK_MANDEL, PK_JULIA, PK_MAGNET,
-       PK_LAST = PK_MAGNET };
+       PK_RIPPLES, PK_WAVES, PK_DENTS, PK_QUILTED, PK_MANDEL, PK_JULIA, PK_MAGNET, PK_IMAGE,
+       PK_LAST = PK_IMAGE };
+/* an image_map's slots from P_FORM on: where its pixels start in the images' table, its
+ * width, height and channels (4: RGBA; 6: and each pixel's filter and transmit), map_type,
+ * bilinear (interpolate 2 or 4), once, use_alpha, every pixel's filter and transmit */
+enum { P_IMG = P_FORM, P_IMGW, P_IMGH, P_IMGCH, P_MAPTYPE, P_BILINEAR, P_ONCE, P_ALPHA, P_IMGF,
+       P_IMGT };
+/* a bump_map normal's slots are an image's (heights: one channel), with its interpolate
+ * (0, 2, 3, 4) and use_index where bilinear and use_alpha are */
+enum { P_BM_INTERP = P_BILINEAR, P_BM_INDEX = P_ALPHA };
 /* the list patterns: their value is the entry shown (0, 1, 2), no wave */
 static inline int list_kind(int kind) {
     return kind == PK_CHECKER || kind == PK_HEXAGON || kind == PK_BRICK;
@@ -120,11 +130,14 @@ enum { W_RAMP, W_TRIANGLE, W_SINE, W_SCALLOP, W_CUBIC, W_POLY };
  * map table (frequency, x, y, z: ripples and waves), its slope map there (key, height,
  * slope) */
 enum { NR_KIND = PIG, NR_DEPTH, NR_ACC, NR_KEEP, NR_HASLIN, NR_LIN, NR_LININV = NR_LIN + 9,
-       NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES };
-enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE, NK_QUILTED };
+       NR_WAVES = NR_LININV + 9, NR_NWAVES, NR_SLOPES, NR_NSLOPES, NR_NMAP, NR_NMAPAT };
+/* NR_NMAP, NR_NMAPAT: a normal_map's (NK_MAP, NK_AVERAGE) entries in the map table (key,
+ * the entry's normal row), how many and where */
+enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE, NK_QUILTED,
+       NK_MAP, NK_AVERAGE, NK_BUMPMAP };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON, K_MESH,
-       K_SUPERELLIPSOID };
+       K_SUPERELLIPSOID, K_LATHE = 12, K_SOR };
 /* a triangle (runtime/triangles.py TriangleSet, world space): its first vertex, edges, unit
  * geometric normal, vertex normals (NaN: flat), object, texture row, the object's size (the
  * self-hit floor's); K_MESH objects own triangles and are met only through their box tree */
@@ -179,9 +192,11 @@ typedef struct {
     const double *map;          /* the colour maps' entries */
     const double *fog;          /* the fogs, FOG values each */
     const double *terms;        /* the polynomials' terms, POLY_TERM values each */
+    const double *img;          /* the image maps' pixels, row by row from the top */
     const double *tri, *tbvh, *titem; /* the triangles, their box tree, its leaves' triangles */
     int ntri, ntbvh, ntitem;
     int has_noise, nfog, mwidth, nnrm;
+    int camnrm; /* the camera's normal row (-1: none) */
     int nobj, ntex, nlight, npig, nsky, nnode, nroot, nchild, nunb, nloose, nbvh, nitem, maxlevel,
         legacy, anytrans;
     double bailout;
@@ -512,6 +527,10 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
         return poly_crossings(s, p, o, d, t, face);
     case K_SWEEP:
         return sweep_crossings(&s->swt, s->sweeps, p, o, d, t, face, SWEEP_MAX_CROSS);
+    case K_LATHE:
+        return lathe_crossings(&s->swt, s->sweeps, p, o, d, t, face, SWEEP_MAX_CROSS);
+    case K_SOR:
+        return sor_crossings(&s->swt, s->sweeps, p, o, d, t, face, SWEEP_MAX_CROSS);
     case K_SUPERELLIPSOID:
         return superellipsoid_crossings(p, o, d, t, face);
     case K_POLYGON: { /* the plane, then even-odd crossings of the projected edges */
@@ -597,6 +616,12 @@ static void object_normal(const Scene *s, const double *ob, const double *po, in
     }
     case K_SWEEP:
         sweep_normal(&s->swt, s->sweeps, p, po, face, n);
+        break;
+    case K_LATHE:
+        lathe_normal(&s->swt, s->sweeps, p, po, face, n);
+        break;
+    case K_SOR:
+        sor_normal(s->sweeps, p, po, face, n);
         break;
     case K_SUPERELLIPSOID:
         se_gradient(p, po, n);
@@ -688,6 +713,14 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
     }
     case K_SWEEP: {
         int in = sweep_inside(&s->swt, s->sweeps, q, p);
+        return outside ? !in : in;
+    }
+    case K_LATHE: {
+        int in = lathe_inside(&s->swt, s->sweeps, q, p);
+        return outside ? !in : in;
+    }
+    case K_SOR: {
+        int in = sor_inside(s->sweeps, q, p);
         return outside ? !in : in;
     }
     case K_POLYGON: /* flat: no inside, nor has its inverse (as POV-Ray) */
@@ -1429,6 +1462,65 @@ static double blend(const double *map, int n, double v, int *lo_out, int *hi_out
     return span > 0 ? (v - map[6 * lo]) / span : 0.0;
 }
 
+/* numpy's float mod (npy_divmod): the sign of the divisor, a zero result signed as it */
+static inline double float_mod(double a, double b) {
+    double m = fmod(a, b);
+    if (m != 0.0) {
+        if ((b < 0) != (m < 0)) m += b;
+    } else m = copysign(0.0, b);
+    return m;
+}
+
+/* An image_map's RGBFT at a pattern-space point (patterns.image_uv, patterns.image_map). */
+static void image_at(const Scene *s, const double *pg, const double *q, double *out) {
+    double x = q[0], y = q[1], z = q[2], u = x, v = y;
+    int type = (int)pg[P_MAPTYPE];
+    if (type == 1 || type == 2 || type == 5) {
+        u = float_mod(atan2(z, x) / (2.0 * M_PI), 1.0);
+        if (type == 2) v = y;
+        else if (type == 5) {
+            double d = hypot(x, z) - 1.0;
+            v = float_mod(-atan2(y, -d) / (2.0 * M_PI), 1.0);
+        } else {
+            double r = sqrt(x * x + y * y + z * z), safe = r > 0 ? r : 1.0, c = y / safe;
+            v = asin(c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c)) / M_PI + 0.5;
+        }
+    }
+    int inside = u >= 0 && u < 1 && v >= 0 && v < 1;
+    u = u - floor(u);
+    v = v - floor(v);
+    long long w = (long long)pg[P_IMGW], h = (long long)pg[P_IMGH], ch = (long long)pg[P_IMGCH];
+    const double *img = s->img + (size_t)pg[P_IMG];
+    double fx = u * (double)w, fy = (1.0 - v) * (double)h, px[6] = {0};
+    if (!(fx == fx && fy == fy)) fx = fy = 0.0; /* a point at infinity: a pixel, not garbage */
+    if (pg[P_BILINEAR] != 0.0) {
+        double x0f = floor(fx - 0.5), y0f = floor(fy - 0.5);
+        double tx = (fx - 0.5) - x0f, ty = (fy - 0.5) - y0f;
+        long long x0 = py_mod((long long)x0f, w), y0 = py_mod((long long)y0f, h);
+        long long x1 = (x0 + 1) % w, y1 = (y0 + 1) % h;
+        const double *a = img + (size_t)(y0 * w + x0) * ch, *b = img + (size_t)(y0 * w + x1) * ch;
+        const double *c = img + (size_t)(y1 * w + x0) * ch, *d = img + (size_t)(y1 * w + x1) * ch;
+        double wa = (1 - tx) * (1 - ty), wb = tx * (1 - ty), wc = (1 - tx) * ty, wd = tx * ty;
+        for (int k = 0; k < ch; k++) px[k] = a[k] * wa + b[k] * wb + c[k] * wc + d[k] * wd;
+    } else {
+        long long xi = (long long)fx, yi = (long long)fy;
+        xi = xi < 0 ? 0 : (xi > w - 1 ? w - 1 : xi);
+        yi = yi < 0 ? 0 : (yi > h - 1 ? h - 1 : yi);
+        memcpy(px, img + (size_t)(yi * w + xi) * ch, (size_t)ch * sizeof(double));
+    }
+    out[0] = px[0], out[1] = px[1], out[2] = px[2];
+    if (ch == 6) out[3] = px[4], out[4] = px[5];
+    else out[3] = pg[P_IMGF], out[4] = pg[P_IMGT];
+    if (pg[P_ALPHA] != 0.0) {
+        double clear = 1.0 - px[3];
+        out[4] = out[4] >= clear ? out[4] : clear; /* np.maximum */
+    }
+    if (pg[P_ONCE] != 0.0 && !inside) {
+        out[0] = out[1] = out[2] = out[3] = 0.0;
+        out[4] = 1.0;
+    }
+}
+
 /* RGBFT colour of a pigment at a point (patterns.evaluate for the kinds packed). */
 static void pigment_in(const Scene *s, const double *pg, const double *p, double *out,
                        int depth) {
@@ -1444,6 +1536,10 @@ static void pigment_in(const Scene *s, const double *pg, const double *p, double
     }
     double q[3];
     pattern_point(s, pg, p, q);
+    if (kind == PK_IMAGE) {
+        image_at(s, pg, q, out);
+        return;
+    }
     if (kind == PK_AVERAGE) { /* patterns.evaluate: the weighted mean of the map's pigments */
         double at[3], e[5], total = 0.0;
         if (pg[P_MAPAT] != 0.0) affine(pg + P_FWD, q, at);
@@ -1520,8 +1616,53 @@ static const double PYRAMID[4][3] = {
 
 /* The unit normal after a `normal { … }` at world point p (patterns.perturb_normal, not a
  * normal_map): perturbed in pattern space, taken back to world space. */
+static void perturb_in(const Scene *s, const double *nr, const double *p, const double *nw,
+                       int unit, int depth, double *out);
+
+/* A normal_map (patterns._normal_map) at pattern point q, normal n (pattern space): the
+ * normals of the two entries around the pattern's value, blended by weight; an average's
+ * every entry by its key's share. The entries' rows (map entries: key, row) are unit-less
+ * perturbations (unit 0), as POV-Ray's blend takes them. */
+static void normal_map(const Scene *s, const double *nr, const double *q, const double *n,
+                       int depth, double *acc) {
+    const double *map = s->map + 6 * (size_t)nr[NR_NMAPAT];
+    int count = (int)nr[NR_NMAP];
+    double e[3];
+    acc[0] = acc[1] = acc[2] = 0.0;
+    if (depth >= PIGMENT_DEPTH) { /* deeper than whitted.py packs: unbent */
+        memcpy(acc, n, 3 * sizeof(double));
+        return;
+    }
+    if ((int)nr[NR_KIND] == NK_AVERAGE) {
+        double total = 0.0;
+        for (int i = 0; i < count; i++) total += map[6 * i];
+        if (total == 0.0) total = 1.0;
+        for (int i = 0; i < count; i++) {
+            perturb_in(s, s->nrm + (size_t)map[6 * i + 1] * NRM, q, n, 0, depth + 1, e);
+            double w = map[6 * i] / total;
+            for (int a = 0; a < 3; a++) acc[a] += w * e[a];
+        }
+        return;
+    }
+    int lo, hi;
+    double f = blend(map, count, pattern_value(s, nr, q), &lo, &hi);
+    for (int i = 0; i < count; i++) {
+        if (i != lo && i != hi) continue;
+        double w = (i == lo ? 1.0 - f : 0.0) + (i == hi ? f : 0.0);
+        perturb_in(s, s->nrm + (size_t)map[6 * i + 1] * NRM, q, n, 0, depth + 1, e);
+        for (int a = 0; a < 3; a++) acc[a] += w * e[a];
+    }
+}
+
 static void perturb(const Scene *s, const double *nr, const double *p, const double *nw,
                     double *out) {
+    perturb_in(s, nr, p, nw, 1, 0, out);
+}
+
+/* patterns.perturb_normal; `unit` off (a normal_map's entry): the result is left
+ * unnormalised where no_bump_scale says so. */
+static void perturb_in(const Scene *s, const double *nr, const double *p, const double *nw,
+                       int unit, int depth, double *out) {
     double q[3], n[3];
     affine(nr + P_INV, p, q);
     const double *lin = nr + NR_LIN, *inv = nr + NR_LININV;
@@ -1541,13 +1682,28 @@ static void perturb(const Scene *s, const double *nr, const double *p, const dou
     }
     const Noise *nz = &s->noise;
     int pk = (int)nr[P_KIND];
-    int builtin = kind == NK_SLOPE && builtin_turbulence(pk);
+    int builtin = (kind == NK_SLOPE || kind == NK_MAP) && builtin_turbulence(pk);
     if (nr[P_HASTURB] != 0.0 && !builtin) {
         double dt[3]; /* patterns.turbulence_warp */
         dturbulence_at(nz, q, (int)nr[P_OCTAVES], nr[P_OMEGA], nr[P_LAMBDA], dt);
         for (int a = 0; a < 3; a++) q[a] = q[a] + dt[a] * nr[P_TURB + a];
     }
     switch (kind) {
+    case NK_MAP:
+    case NK_AVERAGE: {
+        double acc[3];
+        normal_map(s, nr, q, n, depth, acc);
+        memcpy(n, acc, sizeof acc);
+        unit = unit || kind != NK_AVERAGE; /* POV-Ray normalises a blend, not an average */
+        break;
+    }
+    case NK_BUMPMAP: { /* its heights in the images' table, its settings in P_IMG on */
+        BumpMap b = {s->img + (size_t)nr[P_IMG], (long long)nr[P_IMGW], (long long)nr[P_IMGH],
+                     (int)nr[P_MAPTYPE], (int)nr[P_BM_INTERP], nr[P_ONCE] != 0.0,
+                     nr[P_BM_INDEX] != 0.0};
+        bump_map_perturb(&b, amount, q, n);
+        break;
+    }
     case NK_BUMPS: {
         double g[3];
         dnoise_at(nz, q, g);
@@ -1610,6 +1766,10 @@ static void perturb(const Scene *s, const double *nr, const double *p, const dou
     if (haslin) {
         double m[3] = {n[0], n[1], n[2]};
         for (int j = 0; j < 3; j++) n[j] = m[0] * inv[j] + m[1] * inv[3 + j] + m[2] * inv[6 + j];
+    }
+    if (nr[NR_KEEP] != 0.0 && !unit) {
+        memcpy(out, n, 3 * sizeof(double));
+        return;
     }
     double len = sqrt(dot(n, n));
     if (len > 0)
@@ -2525,6 +2685,9 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         double r = s->tex[(size_t)i * TEX + T_NRM];
         if (!(r == -1 || (r >= 0 && r < s->nnrm))) goto bad;
     }
+    double cam_nrm = h[H_CAMNRM];
+    if (!(cam_nrm == -1 || (cam_nrm >= 0 && cam_nrm < s->nnrm))) goto bad;
+    s->camnrm = (int)cam_nrm;
     double maps = h[H_MAPS], nmaps = h[H_NMAPS];
     if (!(maps >= need && nmaps >= 0 && maps + 6 * nmaps <= sb->len / 8)) goto bad;
     s->map = h + (size_t)maps;
@@ -2549,6 +2712,10 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 goto bad;
         }
     }
+    double images = h[H_IMAGES], nimage = h[H_NIMAGE];
+    if (!(nimage >= 0 && (nimage == 0 || (images >= need && images + nimage <= sb->len / 8))))
+        goto bad;
+    s->img = h + (size_t)images;
     double sweeps = h[H_SWEEPS], nsweep = h[H_NSWEEP];
     if (!(nsweep >= 0 && (nsweep == 0 || (sweeps >= need && sweeps + nsweep <= sb->len / 8))))
         goto bad;
@@ -2563,6 +2730,17 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if ((int)ob[O_KIND] == K_POLYGON) {
             if (!(q[PG_AT] >= 0 && q[PG_COUNT] >= 0 && q[PG_AT] + 4 * q[PG_COUNT] <= nsweep &&
                   q[PG_K0] >= 0 && q[PG_K0] <= 2 && q[PG_K1] >= 0 && q[PG_K1] <= 2))
+                goto bad;
+            continue;
+        }
+        if ((int)ob[O_KIND] == K_LATHE) {
+            if (!(q[LA_AT] >= 0 && q[LA_NSEG] >= 0 && q[LA_AT] + SS * q[LA_NSEG] <= nsweep &&
+                  q[LA_ROOT_ITER] >= 0 && q[LA_ROOT_ITER] <= 1e4))
+                goto bad;
+            continue;
+        }
+        if ((int)ob[O_KIND] == K_SOR) {
+            if (!(q[SO_AT] >= 0 && q[SO_NSEG] >= 0 && q[SO_AT] + SOR_SEG * q[SO_NSEG] <= nsweep))
                 goto bad;
             continue;
         }
@@ -2615,7 +2793,25 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         if (s->fog[(size_t)f * FOG + F_HASTURB] != 0.0 && !s->has_noise) goto bad;
     for (int i = 0; i < s->nnrm; i++) {
         const double *nr = s->nrm + (size_t)i * NRM;
-        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_QUILTED)) goto bad;
+        if (!(nr[NR_KIND] >= NK_NONE && nr[NR_KIND] <= NK_BUMPMAP)) goto bad;
+        if (nr[NR_KIND] == NK_BUMPMAP &&
+            !(nr[P_IMGW] >= 0 && nr[P_IMGH] >= 0 && nr[P_IMGW] < 1e6 && nr[P_IMGH] < 1e6 &&
+              nr[P_IMG] >= 0 && nr[P_IMG] + nr[P_IMGW] * nr[P_IMGH] <= h[H_NIMAGE]))
+            goto bad;
+        if (nr[NR_KIND] == NK_MAP || nr[NR_KIND] == NK_AVERAGE) {
+            /* a normal_map's entries: rows after its own (the recursion always ends) */
+            if (!(nr[NR_NMAP] >= 1 && nr[NR_NMAPAT] >= 0 && nr[NR_NMAPAT] + nr[NR_NMAP] <= nmaps))
+                goto bad;
+            for (int e = 0; e < (int)nr[NR_NMAP]; e++) {
+                double row = s->map[6 * ((size_t)nr[NR_NMAPAT] + e) + 1];
+                if (!(row > i && row < s->nnrm)) goto bad;
+            }
+            if (nr[NR_KIND] == NK_MAP && (nr[P_KIND] == PK_SOLID || nr[P_KIND] == PK_IMAGE))
+                goto bad;
+            if ((nr[P_KIND] == PK_RIPPLES || nr[P_KIND] == PK_WAVES) &&
+                !(nr[P_NWAVES] >= 1 && nr[P_WAVES] >= 0 && nr[P_WAVES] + nr[P_NWAVES] <= nmaps))
+                goto bad;
+        }
         if (!(nr[P_KIND] >= PK_SOLID && nr[P_KIND] <= PK_LAST && nr[P_KIND] != PK_AVERAGE))
             goto bad;
         if (!fractal_row_valid(nr)) goto bad;
@@ -2653,6 +2849,11 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
         }
         if (!(pg[P_KIND] >= PK_SOLID && pg[P_KIND] <= PK_LAST)) goto bad;
         if (pg[P_KIND] == PK_AVERAGE && pg[P_SUBS] == 0.0) goto bad;
+        if (pg[P_KIND] == PK_IMAGE &&
+            !(pg[P_SUBS] == SUBS_NONE && pg[P_IMGW] >= 1 && pg[P_IMGH] >= 1 && pg[P_IMGW] < 1e6 &&
+              pg[P_IMGH] < 1e6 && (pg[P_IMGCH] == 4 || pg[P_IMGCH] == 6) && pg[P_IMG] >= 0 &&
+              pg[P_IMG] + pg[P_IMGW] * pg[P_IMGH] * pg[P_IMGCH] <= nimage))
+            goto bad;
         if (!fractal_row_valid(pg)) goto bad;
         if ((pg[P_KIND] == PK_RIPPLES || pg[P_KIND] == PK_WAVES) &&
             !(pg[P_NWAVES] >= 1 && pg[P_WAVES] >= 0 && pg[P_WAVES] + pg[P_NWAVES] <= nmaps))
@@ -2771,6 +2972,12 @@ static void trace_pixel(Scene *s, double x, double y, double *out) {
     }
     double len = sqrt(dot(d, d));
     d[0] /= len, d[1] /= len, d[2] /= len;
+    if (s->camnrm >= 0) { /* camera.bend: the pattern at the screen point <sx, sy, 0> */
+        double at[3] = {sx, sy, 0.0}, bent[3];
+        perturb(s, s->nrm + (size_t)s->camnrm * NRM, at, d, bent);
+        len = sqrt(dot(bent, bent));
+        d[0] = bent[0] / len, d[1] = bent[1] / len, d[2] = bent[2] / len;
+    }
     /* the objects holding the camera (runtime/containers.py), as POV-Ray's camera rays */
     Inside held = {0};
     held.n = (int)s->h[H_CAMIN];

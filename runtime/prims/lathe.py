@@ -4,7 +4,9 @@
 Lathe: on segment (X(u), Y(u)) the ray P + k D meets the surface where
 |P_xz + k D_xz|^2 = X(u)^2 and P_y + k D_y = Y(u); eliminating k leaves a polynomial in u of
 twice the spline's degree, solved for every ray and every segment whose bounding cylinder
-the ray passes, then (u, k) are Newton-polished together on the two equations.
+the ray passes (every root of u in -0.2..1.2, by roots.roots_in), then (u, k) are
+Newton-polished together on the two equations. The arithmetic is written out column by
+column, in the order the compiled kernel (kernel/lathe.h) repeats.
 Sor: x^2 + z^2 = f(y) with f cubic on each segment is a cubic in k.
 """
 
@@ -14,20 +16,24 @@ import numpy as np
 
 from lang import ir
 from runtime import tolerances as tol
+from runtime.prims import roots
 from runtime.prims import spline2d as sp
 
 # Lathe face id = segment index mod LATHE_MOD (an int8 holds no segment index); normal()
 # finds the segment among those matching.
 LATHE_MOD = 127
+# the segment parameters whose roots are polished (past the ends: kept by in_window or not)
+LATHE_WINDOW = (-0.2, 1.2)
 
 
 def _unit_recentred(o, d, centre):
     """Unit directions, origins moved to the point of the line nearest `centre`, and the
     map back: t = t0 + k / |d|."""
-    dl = np.linalg.norm(d, axis=1)
+    dl = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
     dl = np.where(dl > 0, dl, 1.0)
     D = d / dl[:, None]
-    k0 = np.einsum("ij,ij->i", centre - o, D)
+    c = centre - o
+    k0 = c[:, 0] * D[:, 0] + c[:, 1] * D[:, 1] + c[:, 2] * D[:, 2]
     P = o + k0[:, None] * D
     return P, D, k0 / dl, dl
 
@@ -68,7 +74,7 @@ class LathePrim:
         self.degenerate = len(c) == 0
         if self.degenerate:
             self.lo = self.hi = np.zeros(3)
-            self.size = 0.0
+            self.size = self.ylo = self.yhi = 0.0
             return
         xl, xh = c.lo[:, 0], c.hi[:, 0]
         self.rmax = np.maximum(np.abs(xl), np.abs(xh))
@@ -112,7 +118,10 @@ class LathePrim:
             poly[:, 3:] += 2 * (Dy[g] * m[g])[:, None] * Wg
             poly -= (Dy[g] ** 2)[:, None] * sp.polymul(X[g], X[g])
             poly[:, 6] += Dy[g] ** 2 * rho0[g]
-            ug = sp.real_roots(poly, refine=False)  # _polish refines u and k together
+            # every root near the segment (_polish refines u and k together)
+            ends = np.broadcast_to(np.array(LATHE_WINDOW), (len(g), 2))
+            ug = roots.roots_in(poly[:, ::-1], ends[:, 0], ends[:, 1])
+            ug = np.where(np.isfinite(ug), ug, np.nan)
             u[g] = ug
             k[g] = sp.polyval(Wg[:, None, :], np.nan_to_num(ug)) / Dy[g, None]
         h = np.nonzero(flat)[0]
@@ -128,7 +137,8 @@ class LathePrim:
             u[h] = np.concatenate([uh, uh], axis=1)
         # Polish only the candidates near the segment (most columns are empty); the margin
         # keeps the roots an eigenvalue near a double root misplaces.
-        pi, ci = np.nonzero(np.isfinite(u) & np.isfinite(k) & (u > -0.2) & (u < 1.2))
+        lo, hi = LATHE_WINDOW
+        pi, ci = np.nonzero(np.isfinite(u) & np.isfinite(k) & (u > lo) & (u < hi))
         uq, kq = self._polish(cf[pi], Pr[pi], Dr[pi], u[pi, ci], k[pi, ci])
         ok = sp.in_window(uq, self.curve.joined[si[pi]]) & np.isfinite(kq)
         t = np.where(ok, t0[ri[pi]] + kq / dl[ri[pi]], np.inf)
@@ -249,7 +259,7 @@ class SorPrim:
         self.rmin = np.sqrt(np.maximum(f.min(axis=1), 0.0))
         if self.degenerate:
             self.lo = self.hi = np.zeros(3)
-            self.size = 0.0
+            self.size = self.ylo = self.yhi = self.base_r2 = self.cap_r2 = 0.0
             return
         R = float(self.rmax.max())
         self.ylo, self.yhi = float(self.y[0, 0]), float(self.y[-1, 1])
@@ -280,10 +290,11 @@ class SorPrim:
             # f(P_y + k D_y) - |P_xz + k D_xz|^2 as a cubic in k = s kappa, s the shape's
             # size (the roots that matter then lie within about 1 of 0).
             s = max(self.size, tol.ABS_FLOOR)
+            # (products, not powers: the kernel's lathe.h repeats them)
             poly = np.stack(
                 [
-                    A * dy**3 * s**3,
-                    (dy * dy * (3 * A * py + B) - r) * s**2,
+                    A * (dy * dy * dy) * (s * s * s),
+                    (dy * dy * (3 * A * py + B) - r) * (s * s),
                     (dy * (py * (3 * A * py + 2 * B) + C) - 2 * m) * s,
                     py * (py * (A * py + B) + C) + Dc - rho0,
                 ],
@@ -323,7 +334,7 @@ class SorPrim:
         if self.degenerate:
             return np.zeros(len(p), dtype=bool)
         y = p[:, 1]
-        rho2 = p[:, 0] ** 2 + p[:, 2] ** 2
+        rho2 = p[:, 0] * p[:, 0] + p[:, 2] * p[:, 2]
         f = sp.polyval(self.coef[self.segment_of(y)], y)
         return (y >= self.ylo) & (y <= self.yhi) & (rho2 <= f)
 
