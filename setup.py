@@ -12,10 +12,12 @@ setup(
             ["runtime/kernel/whitted.c"],
             depends=[
                 "runtime/kernel/blob.h",
+                "runtime/kernel/bracket.h",
                 "runtime/kernel/buffer.h",
                 "runtime/kernel/noise.h",
                 "runtime/kernel/poly.h",
                 "runtime/kernel/slab.h",
+                "runtime/kernel/superellipsoid.h",
                 "runtime/kernel/sweep.h",
                 "runtime/kernel/lathe.h",
                 "runtime/kernel/bump_map.h",

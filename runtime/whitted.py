@@ -10,21 +10,22 @@ module is the kernel's only importer: `kernel_built`, `kernel_layout`, `trace_pa
 and (for the scene language's trace()) `probe` and `first_hit` are the way to it from
 elsewhere.
 
-What it covers (`reasons` lists what stops a scene): every camera projection POV-Ray 3.7 has
-(perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, cylinder 1-4,
-spherical; camera.py's formulas) without focal blur or a mesh camera, and a camera normal on
-the perspective and orthographic ones; spheres, planes, boxes, discs, cylinders, cones, tori
-and polynomials (quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE), prisms and
-text (sweeps: kernel/sweep.h), lathes and sors (kernel/lathe.h), blobs (kernel/blob.h:
-spherical and cylindrical components, any strengths, every crossing kept; like the numpy
-path, one texture for the whole blob, and sturm changes nothing: the roots are exact
-anyway), polygons, transformed or not, inverse or not, and their CSG (union, intersection,
-difference, merge, nested), any number of them through the tracer's box tree, clipped by any
-of them (trace.ClipNode); triangles (triangle, smooth_triangle, mesh, mesh2, height fields,
-bicubic patches: each in float64 through the triangles' own box tree, as
-triangles.TriangleSet refines Embree's float32 hits; not in CSG, nor the tessellations of
-nurbs and subdivision surfaces, whose shadow rays start on the curved surface); no other
-shapes.
+What it covers (`reasons` lists what stops a scene): every camera projection POV-Ray 3.7
+has (perspective, orthographic, fisheye, omnimax, panoramic, ultra_wide_angle, cylinder
+1-4, spherical; camera.py's formulas) without focal blur or a mesh camera, and a camera
+normal on the perspective and orthographic ones; spheres, planes, boxes, discs, cylinders,
+cones, tori and polynomials (quadric, cubic, quartic, poly up to degree POLY_MAX_DEGREE),
+prisms and text (sweeps: kernel/sweep.h), lathes and sors (kernel/lathe.h), blobs
+(kernel/blob.h: spherical and cylindrical components, any strengths, every crossing kept;
+like the numpy path, one texture for the whole blob, and sturm changes nothing: the roots
+are exact anyway), polygons, superellipsoids (any exponents, searched in up to
+SUPERELLIPSOID_MAX_CELLS cells: kernel/superellipsoid.h), transformed or not, inverse or
+not, and their CSG (union, intersection, difference, merge, nested), any number of them
+through the tracer's box tree, clipped by any of them (trace.ClipNode); triangles
+(triangle, smooth_triangle, mesh, mesh2, height fields, bicubic patches: each in float64
+through the triangles' own box tree, as triangles.TriangleSet refines Embree's float32
+hits; not in CSG, nor the tessellations of nurbs and subdivision surfaces, whose shadow
+rays start on the curved surface); no other shapes.
 Textures of up to MAX_LAYERS layers, and patterned textures (checker, texture_map, average,
 of those patterns, nested, showing up to MAX_LAYERS layers at a point), whose pigments are
 solid, checker, hexagon, brick, gradient, onion, spherical, cylindrical, planar, boxed,
@@ -102,6 +103,7 @@ from runtime.prims import blob, spline2d
 from runtime.prims.lathe import LathePrim, SorPrim
 from runtime.prims.polynomial import PolyPrim
 from runtime.prims.prism import PrismPrim, Sweep
+from runtime.prims.superellipsoid import SuperellipsoidPrim
 from runtime.prims.text import TextPrim
 from runtime.trace import BoxTree, ClipNode, CsgNode, Leaf
 
@@ -209,6 +211,7 @@ KINDS = {
     PrismPrim: 7,
     TextPrim: 7,
     shapes.PolygonPrim: 8,
+    SuperellipsoidPrim: 11,  # (9: K_MESH)
     LathePrim: 12,
     SorPrim: 13,
     blob.BlobPrim: 10,
@@ -216,6 +219,9 @@ KINDS = {
 # an object made of triangles (a mesh, mesh2, triangle, height field): met through the
 # triangles' box tree, never as a primitive
 K_MESH = 9
+# a superellipsoid searched in more cells (tolerances.SUPERELLIPSOID_CELLS) renders through
+# numpy (kernel/superellipsoid.h SE_MAX_CELLS)
+SUPERELLIPSOID_MAX_CELLS = 32
 FLAG_BITS = {"no_image": 1, "no_reflection": 2, "no_shadow": 4}
 
 # The packed scene is ~400 bytes an object; past this many the numpy path (and its memory
@@ -278,6 +284,7 @@ def layout() -> dict[str, int]:
         "max_layers": MAX_LAYERS,
         "triangle": TRI,
         "blob_piece": blob.PIECE,
+        "superellipsoid_cells": SUPERELLIPSOID_MAX_CELLS,
     }
 
 
@@ -567,6 +574,9 @@ def _uncovered(node) -> set[str]:
     if isinstance(node, Leaf):
         if type(node.prim) is PolyPrim and node.prim.degree > POLY_MAX_DEGREE:
             return {f"a polynomial of degree above {POLY_MAX_DEGREE}"}
+        cells = tol.SUPERELLIPSOID_CELLS
+        if type(node.prim) is SuperellipsoidPrim and not 1 <= cells <= SUPERELLIPSOID_MAX_CELLS:
+            return {f"superellipsoid cells outside 1-{SUPERELLIPSOID_MAX_CELLS}"}
         if type(node.prim) in KINDS:
             return set()
         return {f"shape {type(node.prim).__name__.removesuffix('Prim').lower()}"}
@@ -688,6 +698,10 @@ def _prim_row(prim, terms: list[list[float]], sweeps: _Curves, blobs: _Curves) -
         # its projected edges go to the sweeps' table, a flat table of curves
         at = sweeps.add(prim.e2.reshape(-1).astype(np.float64))
         row = [*prim.n.tolist(), prim.D, *prim.keep, at, len(prim.e2), float(prim.degenerate)]
+    elif isinstance(prim, SuperellipsoidPrim):  # kernel/superellipsoid.h's slots
+        row = [prim.e, prim.n, prim.p, prim.q, float(prim.convex), tol.SUPERELLIPSOID_BOX_PAD]
+        row += [tol.SUPERELLIPSOID_CELLS, tol.SUPERELLIPSOID_INSET, tol.SUPERELLIPSOID_MIN_ITER]
+        row += [tol.SUPERELLIPSOID_INSIDE, tol.ABS_FLOOR, tol.PARALLEL_EPS, tol.ROOT_MAX_ITER]
     elif isinstance(prim, LathePrim):  # kernel/lathe.h LA_ slots
         at = sweeps.add(_segment_rows(prim.curve))
         row = [at, len(prim.curve), *prim.lo, *prim.hi, prim.size]

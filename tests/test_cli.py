@@ -706,12 +706,13 @@ def test_stats_say_how_the_image_was_traced(tmp_path, capsys):
     assert rays >= 16 * 12  # a camera ray a pixel at least
     scene = tmp_path / "soft.scene"
     scene.write_text(
-        "camera { location -5*z look_at 0 } superellipsoid { <0.5, 0.5> pigment { rgb 1 } }\n"
+        "camera { location -5*z look_at 0 } isosurface { function { x*x + y*y + z*z - 1 }"
+        " pigment { rgb 1 } }\n"
         "light_source { <2, 4, -3>, rgb 1 }\n"
     )
     assert cli.main(["render", str(scene), "-W", "8", "-H", "6", "-o", str(out),
                      "--stats", "-q"]) == 0  # fmt: skip
-    assert "traced by numpy (shape superellipsoid)" in capsys.readouterr().err
+    assert "traced by numpy (shape isosurface)" in capsys.readouterr().err
     # spheres under an opaque floor are left out, and the stats say how many
     scene.write_text(
         "camera { location <0, 1, -5> look_at 0 } light_source { <2, 4, -3>, rgb 1 }\n"

@@ -491,10 +491,10 @@ def test_superellipsoid_cells_catch_what_a_single_cell_misses(monkeypatch):
 
 
 def test_superellipsoid_inset_reads_the_slope_beside_a_cusp(monkeypatch):
-    """SUPERELLIPSOID_INSET: e = n = 3 is concave between its axis planes, so a ray that
+    """SUPERELLIPSOID_INSET: e = n = 2.5 is concave between its axis planes, so a ray that
     leaves and re-enters between two of them needs the slope just inside the piece, not
     at the cusp on its end (with no inset, crossings are lost)."""
-    prim = SuperellipsoidPrim(ir.Superellipsoid(3.0, 3.0))
+    prim = SuperellipsoidPrim(ir.Superellipsoid(2.5, 2.5))
     o, d = random_rays(12, 3000, aim=0.6)
     with_inset = int(np.isfinite(prim.crossings(o, d)[0]).sum())
     monkeypatch.setattr(prim_tol(), "SUPERELLIPSOID_INSET", 0.0)

@@ -1132,8 +1132,8 @@ def test_random_scenes_match_numpy(objects, lx, lz, monkeypatch):
     ("text", "reason"),
     [
         (
-            "sphere { 0, 1 clipped_by { superellipsoid { <0.5, 0.5> } } }",
-            "shape superellipsoid",
+            "sphere { 0, 1 clipped_by { isosurface { function { x*x + y*y + z*z - 1 } } } }",
+            "shape isosurface",
         ),
         (
             "difference { sphere { 0, 1 } julia_fractal { <-0.08, 0, -0.83, -0.03> } }",

@@ -4,6 +4,7 @@
 #ifndef STRALA_POLY_H
 #define STRALA_POLY_H
 
+#include "bracket.h"
 #include <float.h>
 #include <math.h>
 
@@ -26,41 +27,21 @@ static inline void horner(const double *c, int n, double x, double *p, double *d
     *p = v, *dp = dv;
 }
 
-/* roots.bracketed for one problem: a root in [a, b] (either order) where f(a) < 0 is neg_a
- * and f(b) has the other sign; Newton from the end evaluated last, bisection otherwise. */
+typedef struct {
+    const double *c;
+    int n;
+} PolyFdf;
+
+static void poly_fdf(const void *ctx, double x, double *f, double *df) {
+    const PolyFdf *pf = ctx;
+    horner(pf->c, pf->n, x, f, df);
+}
+
+/* roots.bracketed for one polynomial (bracket.h) */
 static double bracketed(const double *c, int n, double a, double b, int neg_a, double atol,
                         int max_iter) {
-    double fa, dfa, fb, dfb;
-    horner(c, n, a, &fa, &dfa);
-    horner(c, n, b, &fb, &dfb);
-    double f_ref = fmin(fabs(fa), fabs(fb));
-    int newest_b = fabs(fb) < fabs(fa);
-    const double tiny = 4 * DBL_EPSILON;
-    for (int it = 0; it < max_iter; it++) {
-        double lo = a < b ? a : b, hi = a < b ? b : a;
-        double eps = tiny * fmax(fabs(lo), fabs(hi)) + atol;
-        double da = fa / dfa, db = fb / dfb, na = a - da, nb = b - db;
-        int ok_a = isfinite(na) && na >= lo && na <= hi;
-        int ok_b = isfinite(nb) && nb >= lo && nb <= hi;
-        int use_b = ok_b && (!ok_a || newest_b);
-        double step = use_b ? fabs(db) : fabs(da);
-        int newton = (ok_a || ok_b) && it > 0;
-        if (it % 4 == 3) {
-            double f_now = fmin(fabs(fa), fabs(fb));
-            newton = newton && !(f_now > 0.5 * f_ref);
-            f_ref = f_now;
-        }
-        double x = newton ? (use_b ? nb : na) : 0.5 * (lo + hi);
-        if (fa == 0 || fb == 0 || hi - lo <= eps || (newton && step <= eps))
-            return fa == 0 ? a : (fb == 0 ? b : x);
-        double f, df;
-        horner(c, n, x, &f, &df);
-        int same = (f < 0) == neg_a;
-        if (same) a = x, fa = f, dfa = df;
-        else b = x, fb = f, dfb = df;
-        newest_b = !same;
-    }
-    return 0.5 * (a + b);
+    PolyFdf pf = {c, n};
+    return bracket_root(poly_fdf, &pf, a, b, neg_a, atol, max_iter, 0);
 }
 
 static int cmp_double(const void *x, const void *y) {

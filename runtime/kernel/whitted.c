@@ -16,6 +16,7 @@
 #include "noise.h"
 #include "poly.h"
 #include "slab.h"
+#include "superellipsoid.h"
 #include "sweep.h"
 #include "lathe.h"
 #include "bump_map.h"
@@ -41,9 +42,10 @@
 #define BVH_STACK 128
 /* crossings gathered for one CSG tree along one ray (whitted.py caps its leaves at half) */
 #define MAX_CROSS 1024
-/* crossings of one leaf at most: a sweep's kept ones (a polynomial has its degree, a capped
- * cone 4); a blob has room for all of its own (leaf_room) */
-#define MAX_LEAF (SWEEP_MAX_CROSS > POLY_MAX_DEGREE ? SWEEP_MAX_CROSS : POLY_MAX_DEGREE)
+/* crossings of one leaf at most: a superellipsoid's, a sweep's kept ones (a polynomial has
+ * its degree, a capped cone 4); a blob has room for all of its own (leaf_room) */
+#define MAX_OF(a, b) ((a) > (b) ? (a) : (b))
+#define MAX_LEAF MAX_OF(SE_MAX_CROSS, MAX_OF(SWEEP_MAX_CROSS, POLY_MAX_DEGREE))
 
 enum { H_NOBJ, H_NTEX, H_NLIGHT, H_MAXLEVEL, H_BAILOUT, H_AMB, H_BG = 8, H_LEGACY = 11,
        H_ANYTRANS, H_CAMKIND, H_WIDTH, H_HEIGHT, H_LOC, H_DIR = 19, H_RIGHT = 22, H_UP = 25,
@@ -139,7 +141,7 @@ enum { NK_NONE, NK_BUMPS, NK_DENTS, NK_WRINKLES, NK_RIPPLES, NK_WAVES, NK_SLOPE,
        NK_MAP, NK_AVERAGE, NK_BUMPMAP };
 
 enum { K_SPHERE, K_PLANE, K_BOX, K_DISC, K_CONE, K_TORUS, K_POLY, K_SWEEP, K_POLYGON, K_MESH,
-       K_BLOB, K_LATHE = 12, K_SOR };
+       K_BLOB, K_SUPERELLIPSOID, K_LATHE = 12, K_SOR };
 /* a triangle (runtime/triangles.py TriangleSet, world space): its first vertex, edges, unit
  * geometric normal, vertex normals (NaN: flat), object, texture row, the object's size (the
  * self-hit floor's); K_MESH objects own triangles and are met only through their box tree */
@@ -533,16 +535,18 @@ static int crossings(const Scene *s, const double *ob, const double *o, const do
     case K_POLY:
         return poly_crossings(s, p, o, d, t, face);
     case K_SWEEP:
-        return sweep_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
+        return sweep_crossings(&s->swt, s->sweeps, p, o, d, t, face, SWEEP_MAX_CROSS);
     case K_LATHE:
-        return lathe_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
+        return lathe_crossings(&s->swt, s->sweeps, p, o, d, t, face, SWEEP_MAX_CROSS);
     case K_SOR:
-        return sor_crossings(&s->swt, s->sweeps, p, o, d, t, face, MAX_LEAF);
+        return sor_crossings(&s->swt, s->sweeps, p, o, d, t, face, SWEEP_MAX_CROSS);
     case K_BLOB: { /* t has room for blob_room crossings (leaf_room) */
         int n = blob_crossings(s->blobs, p, s->blob_inside, (int)s->h[H_ROOT_ITER], o, d, t);
         for (int j = 0; j < n; j++) face[j] = 0;
         return n;
     }
+    case K_SUPERELLIPSOID:
+        return superellipsoid_crossings(p, o, d, t, face);
     case K_POLYGON: { /* the plane, then even-odd crossings of the projected edges */
         double denom = -dot(d, p + PG_N);
         double t0 = fabs(denom) > PARALLEL_EPS ? (dot(o, p + PG_N) + p[PG_D]) / denom : INFINITY;
@@ -635,6 +639,9 @@ static void object_normal(const Scene *s, const double *ob, const double *po, in
         break;
     case K_BLOB:
         blob_normal(s->blobs, p, po, n);
+        break;
+    case K_SUPERELLIPSOID:
+        se_gradient(p, po, n);
         break;
     case K_TORUS: {
         double R2 = p[0] * p[0], sq = dot(po, po) + R2 - p[1] * p[1];
@@ -768,6 +775,10 @@ static int prim_inside(const Scene *s, const double *ob, const double *p, int ou
     }
     case K_POLYGON: /* flat: no inside, nor has its inverse (as POV-Ray) */
         return 0;
+    case K_SUPERELLIPSOID: {
+        int in = superellipsoid_inside(q, p);
+        return outside ? !in : in;
+    }
     case K_TORUS: { /* distance to the core circle, surface included (as POV-Ray) */
         double rho = hypot(p[0], p[2]) - q[0];
         int in = p[1] * p[1] + rho * rho <= q[1] * q[1];
@@ -2796,6 +2807,12 @@ static int scene_from(const Py_buffer *sb, Scene *s) {
                 goto bad;
             continue;
         }
+        if ((int)ob[O_KIND] == K_SUPERELLIPSOID) { /* its buffers hold this many cells */
+            if (!(q[SE_CELLS] >= 1 && q[SE_CELLS] <= SE_MAX_CELLS && q[SE_MIN_ITER] >= 0 &&
+                  q[SE_MIN_ITER] <= 1e4 && q[SE_ROOT_ITER] >= 0 && q[SE_ROOT_ITER] <= 1e4))
+                goto bad;
+            continue;
+        }
         if ((int)ob[O_KIND] != K_SWEEP) continue;
         if (!(q[SW_AT] >= 0 && q[SW_NGROUP] >= 0 && q[SW_NSEG] >= 0 &&
               q[SW_AT] + SG * q[SW_NGROUP] + SS * q[SW_NSEG] <= nsweep))
@@ -3189,12 +3206,14 @@ static PyObject *render_tile(PyObject *self, PyObject *args) {
 }
 
 static PyObject *layout(PyObject *self, PyObject *noargs) {
-    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}", "header", HDR,
+    return Py_BuildValue("{s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:i}",
+                         "header", HDR,
                          "object", OBJ, "texture", TEX, "light", LIT, "pigment", PIG,
                          "normal", NRM,
                          "map_entry", 6, "node", NODE, "max_crossings", MAX_CROSS, "bvh", BVH,
                          "bvh_stack", BVH_STACK, "fog", FOG, "max_layers", MAX_LAYERS,
-                         "triangle", TRI, "blob_piece", BLOB_PIECE);
+                         "triangle", TRI, "blob_piece", BLOB_PIECE, "superellipsoid_cells",
+                         SE_MAX_CELLS);
 }
 
 /* The nearest surface along one ray (queries.trace, the scene language's trace()): (t,

@@ -27,7 +27,9 @@ INF = np.inf
 Fdf = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
-def bracketed(fdf: Fdf, a: np.ndarray, b: np.ndarray, neg_a: np.ndarray, atol) -> np.ndarray:
+def bracketed(
+    fdf: Fdf, a: np.ndarray, b: np.ndarray, neg_a: np.ndarray, atol, cusp_ends: bool = False
+) -> np.ndarray:
     """A root of each problem i in the bracket [a_i, b_i] (either order), where f(a_i) < 0
     is `neg_a[i]` and f(b_i) has the other sign. `atol` (scalar or per problem) is the
     absolute accuracy wanted near x = 0; elsewhere the result is good to a few ulps.
@@ -35,7 +37,12 @@ def bracketed(fdf: Fdf, a: np.ndarray, b: np.ndarray, neg_a: np.ndarray, atol) -
     Newton steps are taken from the end of the current bracket evaluated last, or from the
     other end when that one overshoots (from the side where f curves away from the root
     Newton never overshoots); bisection otherwise, and whenever four steps have not halved the
-    smaller |f| at the ends (so a flat stretch of f cannot make Newton crawl)."""
+    smaller |f| at the ends (so a flat stretch of f cannot make Newton crawl).
+
+    `cusp_ends`: the ends may be cusps of f, where its slope is unbounded (a superellipsoid's
+    chord cut at its axis planes): no Newton step is taken from them, only from the points
+    the search evaluates. A step from a cusp is ~0 wherever the root is, and would be taken
+    for convergence there."""
     a = np.asarray(a, dtype=np.float64).copy()
     b = np.asarray(b, dtype=np.float64).copy()
     n = len(a)
@@ -44,6 +51,8 @@ def bracketed(fdf: Fdf, a: np.ndarray, b: np.ndarray, neg_a: np.ndarray, atol) -
     rows = np.arange(n)
     fa, dfa = fdf(rows, a)
     fb, dfb = fdf(rows, b)
+    if cusp_ends:
+        dfa, dfb = np.full(n, np.nan), np.full(n, np.nan)
     out = 0.5 * (a + b)
     f_ref = np.minimum(np.abs(fa), np.abs(fb))
     newest_b = np.abs(fb) < np.abs(fa)  # the end last evaluated: Newton from it first

@@ -11,7 +11,9 @@ There is no closed form along a ray, so the ray is clipped to the box and f is s
   planes x=0, y=0, z=0, x=±y, x=±z, y=±z (where f has cusps and creases, as POV-Ray cuts it)
   and into `SUPERELLIPSOID_CELLS` equal cells; an extremum inside a cell (f' changes sign
   between just inside its ends) is found as above and splits it (a minimum may dip inside,
-  a maximum rise outside between two inside stretches).
+  a maximum rise outside between two inside stretches). f at a cut point on x=0, y=0 or z=0
+  is taken on the plane itself: there f has the membranes of the pinched shapes, thinner
+  than rounding for large e or n, which a point computed in floats would meet by chance.
 
 Crossings are then the sign changes between the sorted points, refined by Newton/bisection
 (`roots.bracketed`) to float64 precision. f is evaluated in POV-Ray's stable form
@@ -45,6 +47,8 @@ _PLANES = np.array(
     ],
     dtype=np.float64,
 )
+# the axis each plane zeroes (-1: a diagonal plane, on which f has no cusp)
+_PLANE_AXIS = np.array([0, 1, 2, -1, -1, -1, -1, -1, -1])
 
 
 class SuperellipsoidPrim:
@@ -75,7 +79,11 @@ class SuperellipsoidPrim:
     def gradient(self, p: np.ndarray) -> np.ndarray:
         """The direction of grad f, scaled so its largest component is 1 (its length blows
         up at the cusps of e, n > 2 and vanishes at flat spots of tiny e, n). A coordinate
-        that is exactly 0 contributes 0 (f is symmetric there)."""
+        that is exactly 0 contributes 0 (f is symmetric there), unless f has a cusp across
+        that plane (x and y for e > 2, z for n > 2): grad f is infinite there from either
+        side, and the direction is that axis (+: the side is unknown on the plane; shading
+        turns the normal to the viewer). Near the plane it is that axis already, and a
+        membrane's hit lands on either side of it or on it, as rounding has it."""
         x, y, z = p[..., 0], p[..., 1], p[..., 2]
         ax, ay, az = np.abs(x), np.abs(y), np.abs(z)
         g = self._g(ax, ay)
@@ -95,6 +103,11 @@ class SuperellipsoidPrim:
             # two infinite logs (a cusp on an edge): share the direction between them
             mag = np.where(np.isnan(mag), 1.0, mag)
             n = mag * np.sign(p)
+        pinched = self.p < 1, self.p < 1, self.q < 1
+        cusp = np.stack([(a == 0) & c for a, c in zip((ax, ay, az), pinched, strict=True)], -1)
+        on_cusp = np.any(cusp, axis=-1, keepdims=True)
+        if np.any(on_cusp):
+            n = np.where(on_cusp, cusp.astype(np.float64), n)
         flat = ~np.any(n != 0, axis=-1)
         if np.any(flat):
             n = np.where(flat[..., None], np.array([0.0, 0.0, 1.0]), n)
@@ -125,16 +138,26 @@ class SuperellipsoidPrim:
 
     def _chord_crossings(self, o, d, lo, hi) -> np.ndarray:
         m = len(o)
+        # on_plane: the axis (0, 1, 2) of the plane x=0, y=0 or z=0 a cut point lies on (-1:
+        # none); f is taken there with that coordinate 0. Computed in floats the point is off
+        # the plane by rounding, and the membranes a pinched shape has there (as thin as
+        # 1e-40 for e = 50: f is negative on the plane itself) would be hit by chance.
         if self.convex:
             pts = np.stack([lo, hi], axis=1)
+            on_plane = np.full((m, 2), -1)
         else:
             cells = tol.SUPERELLIPSOID_CELLS
             frac = np.linspace(0.0, 1.0, cells + 1)
             even = lo[:, None] + (hi - lo)[:, None] * frac
             with np.errstate(divide="ignore", invalid="ignore"):
                 tp = -(o @ _PLANES.T) / (d @ _PLANES.T)
-            tp = np.where((tp > lo[:, None]) & (tp < hi[:, None]), tp, hi[:, None])
-            pts = np.sort(np.concatenate([even, tp], axis=1), axis=1)
+            cut = (tp > lo[:, None]) & (tp < hi[:, None])
+            tp = np.where(cut, tp, hi[:, None])
+            axes = np.where(cut, _PLANE_AXIS, -1)
+            pts, on_plane = _sorted(
+                np.concatenate([even, tp], axis=1),
+                np.concatenate([np.full((m, cells + 1), -1), axes], axis=1),
+            )
         # an extremum inside a cell (the slope changes sign) splits it: a minimum may dip
         # inside, a maximum (pinched shapes are concave between the axis planes) may rise
         # outside between two inside stretches
@@ -147,18 +170,23 @@ class SuperellipsoidPrim:
         for c in range(k - 1):
             s_a[:, c] = self._slope(o, d, a[:, c])
             s_b[:, c] = self._slope(o, d, b[:, c])
-        turn = (s_a * s_b < 0) & (b > a)
+        with np.errstate(over="ignore"):  # slopes of tiny e, n: the product's sign holds
+            turn = (s_a * s_b < 0) & (b > a)
         mins = np.full((m, k - 1), INF)
         ri, ci = np.nonzero(turn)
         if len(ri):
             ext = self._extremum(o[ri], d[ri], a[ri, ci], b[ri, ci], s_a[ri, ci] < 0)
             mins[ri, ci] = ext
-        allp = np.sort(
-            np.concatenate([pts, np.where(np.isfinite(mins), mins, hi[:, None])], axis=1), axis=1
+        allp, on_plane = _sorted(
+            np.concatenate([pts, np.where(np.isfinite(mins), mins, hi[:, None])], axis=1),
+            np.concatenate([on_plane, np.full(mins.shape, -1)], axis=1),
         )
         vals = np.empty_like(allp)
         for c in range(allp.shape[1]):
-            vals[:, c] = self.value(o + allp[:, c, None] * d)
+            p = o + allp[:, c, None] * d
+            rows = np.nonzero(on_plane[:, c] >= 0)[0]
+            p[rows, on_plane[rows, c]] = 0.0
+            vals[:, c] = self.value(p)
         neg = vals < 0
         change = neg[:, :-1] != neg[:, 1:]
         out = np.full((m, allp.shape[1] - 1), INF)
@@ -179,7 +207,7 @@ class SuperellipsoidPrim:
                 return root - 1.0, slope
 
             out[ri, ci] = roots.bracketed(
-                fdf, allp[ri, ci], allp[ri, ci + 1], neg[ri, ci], tol.ABS_FLOOR
+                fdf, allp[ri, ci], allp[ri, ci + 1], neg[ri, ci], tol.ABS_FLOOR, cusp_ends=True
             )
         return out
 
@@ -214,6 +242,12 @@ class SuperellipsoidPrim:
 
     def outside(self, p):
         return ~self.inside(p)
+
+
+def _sorted(t: np.ndarray, tags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each row of t ascending, its tags along (stable: equal values keep their order)."""
+    order = np.argsort(t, axis=1, kind="stable")
+    return np.take_along_axis(t, order, axis=1), np.take_along_axis(tags, order, axis=1)
 
 
 def _box_chord(o: np.ndarray, d: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
