@@ -130,6 +130,28 @@ def povray_debug(scene: Path) -> str:
     ).stderr  # fmt: skip
 
 
+# an image's mapping types (0 planar, 1 spherical, 2 cylindrical, 5 torus) and a shape
+# each is made for: the shape's opening text (its block left open) and a pattern placement
+MAPPED_SHAPES = {
+    0: ("box { <-1, -1, -0.1>, <1, 1, 0.1>", "translate <-0.5, -0.5, 0> scale 2"),
+    1: ("sphere { 0, 1.2", "rotate y*20"),
+    2: ("cylinder { -y, y, 1", "translate -0.5*y scale 2"),
+    5: ("torus { 1, 0.4 rotate x*-40", "rotate y*30"),
+}
+
+
+def same_on_kernel_and_numpy(text: str, monkeypatch, width: int = 64, height: int = 48):
+    """A scene's working-space image, asserted the same (every channel within 1e-9) from
+    the compiled kernel, which must cover it, and from the numpy path."""
+    import numpy as np
+
+    from runtime import api
+
+    fast, slow = kernel_and_numpy(api.compile_string(text).scene, width, height, monkeypatch)
+    assert np.abs(fast - slow).max() < 1e-9
+    return fast
+
+
 def kernel_and_numpy(scene, width: int, height: int, monkeypatch, aa=None):
     """A compiled scene traced by the compiled kernel (which must cover it) and by the numpy
     path, its reference: the two working-space images."""

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import kernel_and_numpy, write_palette_png
+from conftest import MAPPED_SHAPES, kernel_and_numpy, same_on_kernel_and_numpy, write_palette_png
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -22,12 +22,7 @@ light_source {{ <-3, 5, -4>, rgb 1 }}
   normal {{ bump_map {{ {file} {extra} }} bump_size {size} {moves} }}
   finish {{ phong 0.6 }} }} }}
 """
-SHAPES = {
-    0: ("box { <-1, -1, -0.1>, <1, 1, 0.1>", "translate <-0.5, -0.5, 0> scale 2"),
-    1: ("sphere { 0, 1.2", "rotate y*20"),
-    2: ("cylinder { -y, y, 1", "translate -0.5*y scale 2"),
-    5: ("torus { 1, 0.4 rotate x*-40", "rotate y*30"),
-}
+SHAPES = MAPPED_SHAPES
 
 
 def _write_heights(path, w=24, h=16) -> None:
@@ -50,21 +45,14 @@ def _scene(folder, map_type, extra="", size=2.0, keep="", file="heights.png"):
     )  # fmt: skip
 
 
-def _same(text: str, monkeypatch, w=64, h=48) -> np.ndarray:
-    scene = api.compile_string(text).scene
-    fast, slow = kernel_and_numpy(scene, w, h, monkeypatch)
-    assert np.abs(fast - slow).max() < 1e-9
-    return fast
-
-
 @pytest.mark.parametrize("map_type", sorted(SHAPES))
 @pytest.mark.parametrize(
     "extra", ["", "interpolate 2", "interpolate 3", "interpolate 4", "once", "once interpolate 2"]
 )
 def test_every_mapping_renders_as_the_numpy_path(tmp_path, monkeypatch, map_type, extra):
     _write_heights(tmp_path / "heights.png")
-    bumped = _same(_scene(tmp_path, map_type, extra), monkeypatch)
-    flat = _same(_scene(tmp_path, map_type, extra, size=0.0), monkeypatch)
+    bumped = same_on_kernel_and_numpy(_scene(tmp_path, map_type, extra), monkeypatch)
+    flat = same_on_kernel_and_numpy(_scene(tmp_path, map_type, extra, size=0.0), monkeypatch)
     assert np.abs(bumped - flat).max() > 0.02  # the map bends the shading
 
 
@@ -72,12 +60,12 @@ def test_every_mapping_renders_as_the_numpy_path(tmp_path, monkeypatch, map_type
 def test_palette_indices_render_as_the_numpy_path(tmp_path, monkeypatch, extra):
     x, y = np.meshgrid(np.arange(16), np.arange(8))
     write_palette_png(tmp_path / "pal.png", (x * 7 + y * 3) % 16, bytes(range(0, 240, 5)))
-    _same(_scene(tmp_path, 0, extra, size=0.3, file="pal.png"), monkeypatch)
+    same_on_kernel_and_numpy(_scene(tmp_path, 0, extra, size=0.3, file="pal.png"), monkeypatch)
 
 
 def test_no_bump_scale_and_in_a_normal_map(tmp_path, monkeypatch):
     _write_heights(tmp_path / "heights.png")
-    _same(_scene(tmp_path, 1, keep="no_bump_scale"), monkeypatch)
+    same_on_kernel_and_numpy(_scene(tmp_path, 1, keep="no_bump_scale"), monkeypatch)
     text = (
         _scene(tmp_path, 1)
         .replace(
@@ -86,7 +74,7 @@ def test_no_bump_scale_and_in_a_normal_map(tmp_path, monkeypatch):
         )
         .replace("bump_size 2.0 rotate y*20 }", "bump_size 2.0 rotate y*20] } }")
     )
-    _same(text, monkeypatch)
+    same_on_kernel_and_numpy(text, monkeypatch)
 
 
 def test_an_image_gone_after_the_compile_leaves_it_unbumped(tmp_path, monkeypatch):
@@ -118,4 +106,4 @@ def test_any_placement_renders_as_the_numpy_path(
         moves="rotate <{}, {}, {}> scale {}".format(*angles, scale),
     )  # fmt: skip
     with pytest.MonkeyPatch.context() as mp:
-        _same(text, mp, 40, 30)
+        same_on_kernel_and_numpy(text, mp, 40, 30)

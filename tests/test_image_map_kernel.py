@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import kernel_and_numpy, write_palette_png
+from conftest import MAPPED_SHAPES, kernel_and_numpy, same_on_kernel_and_numpy, write_palette_png
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -23,12 +23,7 @@ background {{ rgb <0.2, 0.3, 0.9> }}
 plane {{ y, -1.2 pigment {{ checker rgb 1 rgb 0.3 }} }}
 {shape} pigment {{ image_map {{ {file} {extra} }} {moves} }} }}
 """
-SHAPES = {
-    0: ("box { <-1, -1, -0.1>, <1, 1, 0.1>", "translate <-0.5, -0.5, 0> scale 2"),
-    1: ("sphere { 0, 1.2", "rotate y*20"),
-    2: ("cylinder { -y, y, 1", "translate -0.5*y scale 2"),
-    5: ("torus { 1, 0.4 rotate x*-40", "rotate y*30"),
-}
+SHAPES = MAPPED_SHAPES
 
 
 def _write_rgba(path, w=24, h=12) -> None:
@@ -48,13 +43,6 @@ def _palette(path) -> None:
     write_palette_png(path, (x // 2 + 8 * (y // 4)) % 16, bytes(range(0, 240, 5)))
 
 
-def _same(text: str, monkeypatch, w=64, h=48) -> np.ndarray:
-    scene = api.compile_string(text).scene
-    fast, slow = kernel_and_numpy(scene, w, h, monkeypatch)
-    assert np.abs(fast - slow).max() < 1e-9
-    return fast
-
-
 @pytest.mark.parametrize("map_type", sorted(SHAPES))
 @pytest.mark.parametrize(
     "extra",
@@ -69,7 +57,7 @@ def test_every_mapping_renders_as_the_numpy_path(tmp_path, monkeypatch, map_type
         gamma=1, shape=shape, file=f'png "cells.png" map_type {map_type}', extra=extra,
         moves=moves,
     )  # fmt: skip
-    image = _same(text, monkeypatch)
+    image = same_on_kernel_and_numpy(text, monkeypatch)
     assert image.std() > 0.05  # the picture is there, not a blank
 
 
@@ -80,7 +68,7 @@ def test_palette_entries_render_as_the_numpy_path(tmp_path, monkeypatch, items):
     monkeypatch.chdir(tmp_path)
     shape, moves = SHAPES[0]
     text = SCENE.format(gamma=1, shape=shape, file='png "pal.png"', extra=items, moves=moves)
-    _same(text, monkeypatch)
+    same_on_kernel_and_numpy(text, monkeypatch)
 
 
 @pytest.mark.parametrize("version, gamma", [("3.7", 2.2), ("3.7", 1.0), ("3.6", 1.0)])
@@ -93,7 +81,7 @@ def test_gamma_as_the_numpy_path(tmp_path, monkeypatch, version, gamma):
         gamma=gamma, shape=shape, file='png "cells.png" map_type 1 gamma 1.8', extra="",
         moves=moves,
     ).replace("#version 3.7", f"#version {version}")  # fmt: skip
-    _same(text, monkeypatch)
+    same_on_kernel_and_numpy(text, monkeypatch)
 
 
 def test_in_a_pigment_map_with_turbulence_and_in_the_sky(tmp_path, monkeypatch):
@@ -109,7 +97,7 @@ sphere { <0, 1, 0>, 1.1
     [0.3 image_map { png "cells.png" map_type 1 } rotate y*40]
     [0.7 rgb <1, 0.5, 0>] } } }
 """
-    _same(text, monkeypatch)
+    same_on_kernel_and_numpy(text, monkeypatch)
 
 
 def test_an_image_gone_after_the_compile_is_black_on_both(tmp_path, monkeypatch):
@@ -159,4 +147,4 @@ def test_any_placement_renders_as_the_numpy_path(
         extra="interpolate 2" if bilinear else "", moves=moves,
     )  # fmt: skip
     with pytest.MonkeyPatch.context() as mp:
-        _same(text, mp, 40, 30)
+        same_on_kernel_and_numpy(text, mp, 40, 30)

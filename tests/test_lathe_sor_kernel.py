@@ -7,13 +7,10 @@ in its order)."""
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
-from conftest import kernel_and_numpy
+from conftest import same_on_kernel_and_numpy
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from runtime import api
 
 HEAD = """#version 3.7;
 global_settings { assumed_gamma 1 }
@@ -35,13 +32,6 @@ PROFILES = {
 }
 
 
-def _same(text: str, monkeypatch, w=64, h=48) -> np.ndarray:
-    scene = api.compile_string(text).scene
-    fast, slow = kernel_and_numpy(scene, w, h, monkeypatch)
-    assert np.abs(fast - slow).max() < 1e-9
-    return fast
-
-
 def _lathe(kind: str, extra: str = "") -> str:
     return f"lathe {{ {kind} {PROFILES[kind]} {extra} pigment {{ rgb <1, 0.6, 0.2> }} }}"
 
@@ -49,7 +39,7 @@ def _lathe(kind: str, extra: str = "") -> str:
 @pytest.mark.parametrize("camera", [PERSPECTIVE, SIDE_ON])
 @pytest.mark.parametrize("kind", sorted(PROFILES))
 def test_every_spline_renders_as_the_numpy_path(monkeypatch, kind, camera):
-    image = _same(HEAD % camera + _lathe(kind, "rotate z*15"), monkeypatch)
+    image = same_on_kernel_and_numpy(HEAD % camera + _lathe(kind, "rotate z*15"), monkeypatch)
     assert image.std() > 0.05  # the lathe is in the picture
 
 
@@ -66,14 +56,14 @@ def test_every_spline_renders_as_the_numpy_path(monkeypatch, kind, camera):
 )
 def test_in_csg_clipped_and_transformed_as_the_numpy_path(monkeypatch, item):
     text = HEAD % PERSPECTIVE + item % _lathe("cubic_spline")
-    _same(text, monkeypatch)
+    same_on_kernel_and_numpy(text, monkeypatch)
 
 
 def test_glass_lathe_as_the_numpy_path(monkeypatch):
     """Refraction through it: the inside test and the crossings from within."""
     glass = "pigment { rgbf <1, 1, 1, 0.9> } finish { reflection 0.1 } interior { ior 1.5 }"
     text = HEAD % PERSPECTIVE + f"lathe {{ bezier_spline {PROFILES['bezier_spline']} {glass} }}"
-    _same(text, monkeypatch)
+    same_on_kernel_and_numpy(text, monkeypatch)
 
 
 @settings(max_examples=20, deadline=None)
@@ -90,7 +80,7 @@ def test_any_profile_renders_as_the_numpy_path(kind, points, tilt):
         f"lathe {{ {kind} {n}, {body} rotate x*{tilt} pigment {{ rgb <1, 0.6, 0.2> }} }}"
     )
     with pytest.MonkeyPatch.context() as mp:
-        _same(text, mp, 40, 30)
+        same_on_kernel_and_numpy(text, mp, 40, 30)
 
 
 SOR = "sor { 7, <0, -1.2>, <0.6, -1>, <1.0, -0.5>, <0.4, 0.2>, <0.8, 0.9>, <0.5, 1.3>, <0.2, 1.5>"
@@ -100,7 +90,7 @@ SOR = "sor { 7, <0, -1.2>, <0.6, -1>, <1.0, -0.5>, <0.4, 0.2>, <0.8, 0.9>, <0.5,
 @pytest.mark.parametrize("extra", ["", "open", "sturm", "inverse", "open rotate x*-35 scale 1.2"])
 def test_sor_renders_as_the_numpy_path(monkeypatch, camera, extra):
     text = HEAD % camera + f"{SOR} {extra} pigment {{ rgb <0.3, 0.7, 1> }} }}"
-    _same(text, monkeypatch)
+    same_on_kernel_and_numpy(text, monkeypatch)
 
 
 def test_sor_in_csg_and_glass_as_the_numpy_path(monkeypatch):
@@ -109,7 +99,7 @@ def test_sor_in_csg_and_glass_as_the_numpy_path(monkeypatch):
         f"difference {{ {SOR} }} sphere {{ <0.5, 0.5, -0.5>, 0.6 }} pigment {{ rgb 1 }} }}"
         f"{SOR} {glass} translate x*1.5 }}"
     )
-    _same(text, monkeypatch)
+    same_on_kernel_and_numpy(text, monkeypatch)
 
 
 @settings(max_examples=15, deadline=None)
@@ -126,4 +116,4 @@ def test_any_sor_renders_as_the_numpy_path(radii, tilt, is_open):
         " pigment { rgb <0.3, 0.7, 1> } }"
     )
     with pytest.MonkeyPatch.context() as mp:
-        _same(text, mp, 40, 30)
+        same_on_kernel_and_numpy(text, mp, 40, 30)

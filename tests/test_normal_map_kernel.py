@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import kernel_and_numpy
+from conftest import kernel_and_numpy, same_on_kernel_and_numpy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -36,18 +36,11 @@ MAPS = {
 }
 
 
-def _same(text: str, monkeypatch, w=64, h=48) -> np.ndarray:
-    scene = api.compile_string(text).scene
-    fast, slow = kernel_and_numpy(scene, w, h, monkeypatch)
-    assert np.abs(fast - slow).max() < 1e-9
-    return fast
-
-
 @pytest.mark.parametrize("keep", ["", "no_bump_scale"])
 @pytest.mark.parametrize("case", sorted(MAPS))
 def test_normal_maps_render_as_the_numpy_path(monkeypatch, case, keep):
     text = SCENE.format(plane="bumps 0.2 scale 0.3", keep=keep, normal=MAPS[case])
-    bent = _same(text, monkeypatch)
+    bent = same_on_kernel_and_numpy(text, monkeypatch)
     smooth = SCENE.format(plane="bumps 0.2 scale 0.3", keep=keep, normal="bumps 0")
     plain = api.compile_string(smooth).scene
     ref, _ = kernel_and_numpy(plain, 64, 48, monkeypatch)
@@ -66,4 +59,4 @@ def test_any_normal_map_renders_as_the_numpy_path(keys, kinds, parent, scale):
     entries = " ".join(f"[{k} {kind} scale 0.2]" for k, kind in zip(keys, kinds, strict=False))
     normal = f"{parent} normal_map {{ {entries} }} scale {scale}"
     with pytest.MonkeyPatch.context() as mp:
-        _same(SCENE.format(plane="", keep="", normal=normal), mp, 40, 30)
+        same_on_kernel_and_numpy(SCENE.format(plane="", keep="", normal=normal), mp, 40, 30)

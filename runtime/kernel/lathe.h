@@ -175,24 +175,8 @@ static void lathe_normal(const SweepTol *tl, const double *table, const double *
     n[0] = n[1] = n[2] = 0.0;
     if (nseg == 0) return;
     double q[2] = {hypot(p[0], p[2]), p[1]};
-    int best_seg = -1;
-    double best_t = 0.0, best = INFINITY;
-    for (int c = face % LATHE_MOD; c < nseg; c += LATHE_MOD) {
-        const double *sg = segs + (size_t)c * SS;
-        double ts[8];
-        for (int a = 0; a < 2; a++) {
-            const double *cf = sg + (a ? SS_Y : SS_X);
-            double pc[4] = {cf[0], cf[1], cf[2], cf[3] - q[a]};
-            sp_roots(tl, pc, ts + 3 * a);
-        }
-        ts[6] = 0.0, ts[7] = 1.0;
-        for (int j = 0; j < 8; j++) {
-            double tt = sp_clip01(ts[j]);
-            double dx = sp_polyval(sg + SS_X, 4, tt) - q[0], dy = sp_polyval(sg + SS_Y, 4, tt) - q[1];
-            double dist = dx * dx + dy * dy;
-            if (dist < best) best = dist, best_seg = c, best_t = tt;
-        }
-    }
+    double best_t;
+    int best_seg = sp_locate(tl, segs, face % LATHE_MOD, nseg, LATHE_MOD, q, &best_t);
     if (best_seg < 0) best_seg = face % LATHE_MOD < nseg ? face % LATHE_MOD : 0, best_t = 0.0;
     const double *sg = segs + (size_t)best_seg * SS;
     double dx[3] = {sg[SS_X] * 3.0, sg[SS_X + 1] * 2.0, sg[SS_X + 2] * 1.0};

@@ -269,6 +269,33 @@ static int sweep_crossings(const SweepTol *tl, const double *table, const double
     return n;
 }
 
+/* spline2d.locate: the segment (among first, first + step, ... below nseg) and parameter
+ * (*t_out) of the curve point nearest q, over the roots of x(t) = qx, y(t) = qy and the
+ * ends; -1 when every distance is nan */
+static int sp_locate(const SweepTol *tl, const double *segs, int first, int nseg, int step,
+                     const double *q, double *t_out) {
+    int best_seg = -1;
+    double best_t = 0.0, best = INFINITY;
+    for (int c = first; c < nseg; c += step) {
+        const double *sg = segs + (size_t)c * SS;
+        double ts[8];
+        for (int a = 0; a < 2; a++) {
+            const double *cf = sg + (a ? SS_Y : SS_X);
+            double pc[4] = {cf[0], cf[1], cf[2], cf[3] - q[a]};
+            sp_roots(tl, pc, ts + 3 * a);
+        }
+        ts[6] = 0.0, ts[7] = 1.0;
+        for (int j = 0; j < 8; j++) {
+            double tt = sp_clip01(ts[j]);
+            double dx = sp_polyval(sg + SS_X, 4, tt) - q[0], dy = sp_polyval(sg + SS_Y, 4, tt) - q[1];
+            double dist = dx * dx + dy * dy;
+            if (dist < best) best = dist, best_seg = c, best_t = tt;
+        }
+    }
+    *t_out = best_t;
+    return best_seg;
+}
+
 /* Sweep.normal at an object-space surface point (not unit): caps along w; a wall's
  * segment found again by spline2d.locate among those of its face id, turned outward. */
 static void sweep_normal(const SweepTol *tl, const double *table, const double *prim,
@@ -289,25 +316,8 @@ static void sweep_normal(const SweepTol *tl, const double *table, const double *
         double w = fabs(uvw[2]) > tl->parallel ? uvw[2] : 1.0;
         q[0] = q[0] / w, q[1] = q[1] / w;
     }
-    /* spline2d.locate: the nearest curve point over the candidates' roots and ends */
-    int best_seg = -1;
-    double best_t = 0.0, best = INFINITY;
-    for (int c = face - 2; c < v.nseg; c += SWEEP_WALL_MOD) {
-        const double *sg = v.segs + (size_t)c * SS;
-        double ts[8];
-        for (int a = 0; a < 2; a++) {
-            const double *cf = sg + (a ? SS_Y : SS_X);
-            double pc[4] = {cf[0], cf[1], cf[2], cf[3] - q[a]};
-            sp_roots(tl, pc, ts + 3 * a);
-        }
-        ts[6] = 0.0, ts[7] = 1.0;
-        for (int j = 0; j < 8; j++) {
-            double tt = sp_clip01(ts[j]);
-            double dx = sp_polyval(sg + SS_X, 4, tt) - q[0], dy = sp_polyval(sg + SS_Y, 4, tt) - q[1];
-            double dist = dx * dx + dy * dy;
-            if (dist < best) best = dist, best_seg = c, best_t = tt;
-        }
-    }
+    double best_t;
+    int best_seg = sp_locate(tl, v.segs, face - 2, v.nseg, SWEEP_WALL_MOD, q, &best_t);
     if (best_seg < 0) best_seg = face - 2, best_t = 0.0; /* every distance nan */
     const double *sg = v.segs + (size_t)best_seg * SS;
     double dx[3] = {sg[SS_X] * 3.0, sg[SS_X + 1] * 2.0, sg[SS_X + 2] * 1.0};
