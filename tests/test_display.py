@@ -323,8 +323,9 @@ def test_closing_the_window_cancels_the_job_on_a_cluster(xscreen, tmp_path, monk
     monkeypatch.setenv(bundle.BUNDLE_DIR_VARIABLE, str(tmp_path / "bundles"))
     out = tmp_path / "work" / "stopped.png"
     out.parent.mkdir()
-    # one task of ~10 s on the one worker: every pixel supersampled 4 x 4, one thread
-    slow = ("-W", "1000", "-H", "750", "--aa", "0", "--aa-depth", "4", "--threads", "1")
+    # one task of ~13 s on the one worker (every pixel supersampled 4 x 4, one thread): at
+    # 1000x750 it took 3.3 s, and on busy cores it ended before the window's stop reached it
+    slow = ("-W", "2000", "-H", "1500", "--aa", "0", "--aa-depth", "4", "--threads", "1")
     with cluster.connect("local:1") as client:
         address = client.scheduler.address
         assert address.startswith("tcp://")
