@@ -21,7 +21,7 @@ command line prints them; warnings stay readable on the compiled scene.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -133,18 +133,33 @@ def compile_file(
 ) -> Compiled:
     """Evaluate a scene file (.pov, .scene, .inc); a file that cannot be read is a
     `CompileError` like any other."""
+    result = _evaluate(path, library_paths, width, height, clock, debug_output=debug_output)
+    return _finish(result, (width, height), clock)
+
+
+def _evaluate(
+    path,
+    library_paths,
+    width: int,
+    height: int,
+    clock: float,
+    animation: Mapping[str, float] | None = None,
+    debug_output: bool = False,
+):
+    """lang's compile of a scene file at this image size and clock (and an animation's
+    values), with strala's library paths and queries."""
     from lang.evaluate import compile_file as _compile_file
 
-    result = _compile_file(
+    return _compile_file(
         str(path),
         paths.library_paths(library_paths),
         clock=clock,
         image_width=width,
         image_height=height,
-        debug_to_stderr=debug_output,
         queries=_queries,
+        animation=animation,
+        debug_to_stderr=debug_output,
     )
-    return _finish(result, (width, height), clock)
 
 
 def render(
@@ -285,19 +300,8 @@ def _frame_values(first: int, last: int, n: int) -> tuple[float, dict[str, float
 
 def _compile_frame(path, library_paths, width: int, height: int, first: int, last: int, n: int):
     """(clock, compile result) of frame n of first..last."""
-    from lang.evaluate import compile_file as _compile_file
-
     t, values = _frame_values(first, last, n)
-    result = _compile_file(
-        str(path),
-        paths.library_paths(library_paths),
-        clock=t,
-        image_width=width,
-        image_height=height,
-        animation=values,
-        queries=_queries,
-    )
-    return t, result
+    return t, _evaluate(path, library_paths, width, height, t, animation=values)
 
 
 def _frames_on_client(path, first, last, width, height, library_paths, options):
